@@ -1,0 +1,45 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Scene buffers shared by every pass. Each struct mirrors a numpy dtype in
+// hybrid_engine/scene_data.py (MATERIAL_DTYPE) or hybrid_engine/gpu_scene.py (LIGHT_DTYPE,
+// SHADOW_SLOT_DTYPE); the byte sizes are asserted on the Python side.
+
+// struct Material                                           // total: 48 bytes
+//   vec4 base_color_refl;  rgb = linear base colour, a = reflectivity (mirror lobe weight)
+//   vec4 emission_trans;   rgb = emitted radiance,   a = transmission (glass lobe weight)
+//   vec4 params;           x = IOR, y = thickness (paper §3.4), zw unused
+struct Material {
+    vec4 base_color_refl;
+    vec4 emission_trans;
+    vec4 params;
+};
+
+// struct Light                                              // total: 64 bytes
+//   vec4 position;   xyz = world position, w = radius (soft size, informational)
+//   vec4 direction;  xyz = unit direction the light points to, w = cos(spot half angle)
+//   vec4 color;      rgb = colour * power (W, or W/m^2 for sun), w = spot blend
+//   ivec4 info;      x = kind (0 point, 1 sun, 2 spot, 3 area), y = first shadow slot
+//                    (-1 = no shadow), z = shadow slot count, w unused
+struct Light {
+    vec4 position;
+    vec4 direction;
+    vec4 color;
+    ivec4 info;
+};
+
+// struct ShadowSlot                                         // total: 96 bytes
+//   mat4 view_proj;  world -> light clip space of this slot
+//   ivec4 rect;      x, y = texel origin in the shadow atlas, z = size in texels, w unused
+//   vec4 texel;      x = world size of one texel (orthographic) or its size per unit of
+//                    distance from the light (perspective), y = 1 for perspective slots
+struct ShadowSlot {
+    mat4 view_proj;
+    ivec4 rect;
+    vec4 texel;
+};
+
+#define LIGHT_POINT 0
+#define LIGHT_SUN 1
+#define LIGHT_SPOT 2
+#define LIGHT_AREA 3
+
+const float PI = 3.14159265358979;

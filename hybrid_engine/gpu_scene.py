@@ -1,0 +1,142 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Scene data on the GPU: vertex buffer, material and light buffers.
+
+Buffers are persistent and grow-only: a frame whose data fits reuses last frame's buffer
+objects and only writes into them, which matters in the viewport where every redraw
+re-uploads deformed geometry (paper §3.3: the BVH is rebuilt every frame so that any
+deformation works, so the triangles must be re-sent every frame too).
+
+Non-finite input never reaches the rasterizer: a triangle with a NaN/inf corner is collapsed
+to a point (zero area, no fragments), and non-finite normals are zeroed so that the
+G-buffer pass substitutes the geometric normal.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .scene_data import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, Lights, SceneData
+
+VERTEX_LAYOUT = (("3f", "in_pos", 12), ("3f", "in_normal", 12), ("2f", "in_uv", 8), ("1i", "in_material", 4))
+VERTEX_DTYPE = np.dtype(
+    [("pos", np.float32, 3), ("normal", np.float32, 3), ("uv", np.float32, 2), ("material", np.int32)]
+)
+assert VERTEX_DTYPE.itemsize == 36
+
+# struct Light (gpu_shaders/include/scene_layout.glsl)              // total: 64 bytes
+LIGHT_DTYPE = np.dtype(
+    [("position", np.float32, 4), ("direction", np.float32, 4), ("color", np.float32, 4), ("info", np.int32, 4)]
+)
+assert LIGHT_DTYPE.itemsize == 64
+
+
+def vertex_binding(program, buffer) -> tuple:
+    """The moderngl vertex-array binding for ``program``: attributes the program does not use
+    (the GLSL compiler drops them) are skipped as padding."""
+    fmt, names = [], []
+    for code, name, size in VERTEX_LAYOUT:
+        if name in program:
+            fmt.append(code)
+            names.append(name)
+        else:
+            fmt.append(f"{size}x")
+    return (buffer, " ".join(fmt), *names)
+
+
+def pack_vertices(scene: SceneData) -> np.ndarray:
+    """Interleave the triangle soup into VERTEX_DTYPE rows, three per triangle."""
+    geo = scene.geometry
+    n = geo.triangle_count
+    verts = np.zeros(n * 3, VERTEX_DTYPE)
+    if n == 0:
+        return verts
+    tris = geo.triangles
+    finite = np.isfinite(tris).all(axis=(1, 2))
+    pos = np.where(finite[:, None, None], tris, 0.0)
+    normals = np.where(np.isfinite(geo.normals), geo.normals, 0.0)
+    verts["pos"] = pos.reshape(-1, 3)
+    verts["normal"] = normals.reshape(-1, 3)
+    if geo.uvs is not None:
+        verts["uv"] = np.where(np.isfinite(geo.uvs), geo.uvs, 0.0).reshape(-1, 2)
+    verts["material"] = np.repeat(geo.material_ids, 3)
+    return verts
+
+
+def pack_lights(lights: Lights, shadow_slots: list[tuple[int, int]] | None = None) -> np.ndarray:
+    """std430 rows of ``struct Light``; ``shadow_slots[i] = (first, count)`` or (-1, 0)."""
+    out = np.zeros(max(len(lights), 1), LIGHT_DTYPE)  # never a zero-sized buffer
+    count = len(lights)
+    if count == 0:
+        return out
+    direction = lights.direction.astype(np.float64)
+    length = np.linalg.norm(direction, axis=1, keepdims=True)
+    direction = np.where(length > 0, direction / np.where(length > 0, length, 1), [0.0, 0.0, -1.0])
+    half = np.clip(lights.spot_size.astype(np.float64) * 0.5, 0.0, np.pi / 2)
+    out["position"][:count, :3] = lights.position
+    out["position"][:count, 3] = lights.radius
+    out["direction"][:count, :3] = direction
+    out["direction"][:count, 3] = np.where(lights.kind == LIGHT_SPOT, np.cos(half), -1.0)
+    out["color"][:count, :3] = np.nan_to_num(lights.color, nan=0.0, posinf=0.0, neginf=0.0)
+    out["color"][:count, 3] = np.clip(lights.spot_blend, 0.0, 1.0)
+    out["info"][:count, 0] = lights.kind
+    slots = shadow_slots or [(-1, 0)] * count
+    out["info"][:count, 1] = [s[0] for s in slots]
+    out["info"][:count, 2] = [s[1] for s in slots]
+    return out
+
+
+def needs_cube_shadow(kind: int) -> bool:
+    """Point and area lights shine in all directions of a hemisphere or more: six slots."""
+    return kind in (LIGHT_POINT, LIGHT_AREA)
+
+
+class GrowBuffer:
+    """A GL buffer that is reallocated only when the data outgrows it."""
+
+    def __init__(self, ctx, initial_bytes: int = 256) -> None:
+        self.ctx = ctx
+        self.buffer = ctx.buffer(reserve=max(16, initial_bytes))
+        self.used = 0
+
+    def write(self, data: np.ndarray | bytes) -> bool:
+        """Upload; returns True when the buffer object was replaced (dependent VAOs must be
+        rebuilt)."""
+        raw = data.tobytes() if isinstance(data, np.ndarray) else bytes(data)
+        replaced = False
+        if len(raw) > self.buffer.size:
+            new_size = max(len(raw), int(self.buffer.size * 1.5))
+            self.buffer.release()
+            self.buffer = self.ctx.buffer(reserve=new_size)
+            replaced = True
+        if raw:
+            self.buffer.write(raw)
+        self.used = len(raw)
+        return replaced
+
+    def release(self) -> None:
+        self.buffer.release()
+
+
+class GPUScene:
+    """The scene's buffers on the shared context, reused from frame to frame."""
+
+    def __init__(self, ctx) -> None:
+        self.ctx = ctx
+        self.vertices = GrowBuffer(ctx, 36 * 3)
+        self.materials = GrowBuffer(ctx, 48)
+        self.lights = GrowBuffer(ctx, 64)
+        self.generation = 0  # bumps when the vertex buffer object changes
+        self.vertex_count = 0
+
+    def upload(self, scene: SceneData) -> None:
+        verts = pack_vertices(scene)
+        if self.vertices.write(verts):
+            self.generation += 1
+        self.vertex_count = len(verts)
+        self.materials.write(scene.materials.packed())
+
+    def upload_lights(self, lights: Lights, shadow_slots: list[tuple[int, int]]) -> None:
+        self.lights.write(pack_lights(lights, shadow_slots))
+
+    def release(self) -> None:
+        for buf in (self.vertices, self.materials, self.lights):
+            buf.release()

@@ -1,0 +1,319 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Rasterization passes: primary G-buffer, shadow maps and deferred shading.
+
+Paper §3.1 (primary visibility into a G-buffer whose normal alpha holds the material
+index) and §3.5 (deferred shading with shadow maps). These passes are the whole of RASTER
+mode and the first two steps of every other mode; the G-buffer cube map of §3.2 reuses the
+G-buffer pass with six face cameras.
+
+All GL objects are created once and resized only when the image size or shadow resolution
+changes; programs come from the shader loader's per-context cache.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import gl_context, shader_loader
+from .camera import (
+    Camera,
+    cube_face_views,
+    look_at,
+    orthographic_matrix,
+    perspective_matrix,
+    view_from_world,
+)
+from .frustum import draw_ranges, visible_objects
+from .gpu_scene import GPUScene, needs_cube_shadow, vertex_binding
+from .scene_data import LIGHT_SPOT, LIGHT_SUN, SceneData, Sky
+from .settings import RenderSettings
+
+# struct ShadowSlot (gpu_shaders/include/scene_layout.glsl)           // total: 80 bytes
+SHADOW_SLOT_DTYPE = np.dtype([("view_proj", np.float32, (4, 4)), ("rect", np.int32, 4), ("texel", np.float32, 4)])
+assert SHADOW_SLOT_DTYPE.itemsize == 96
+
+# Spots wider than this get a cube shadow: a single perspective map degenerates near 180°.
+MAX_SPOT_SHADOW_FOV = math.radians(150.0)
+
+
+def gl_matrix(m: np.ndarray) -> bytes:
+    """Row-major numpy matrix → column-major float32 bytes for a GLSL mat4."""
+    return np.ascontiguousarray(np.asarray(m, np.float32).T).tobytes()
+
+
+@dataclass
+class SceneBounds:
+    """Finite bounds of all geometry, used to fit shadow frusta."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+
+    @property
+    def empty(self) -> bool:
+        return not (np.isfinite(self.lo).all() and (self.lo <= self.hi).all())
+
+    @property
+    def center(self) -> np.ndarray:
+        return (self.lo + self.hi) * 0.5
+
+    @property
+    def radius(self) -> float:
+        return float(max(np.linalg.norm(self.hi - self.lo) * 0.5, 1e-3))
+
+    @classmethod
+    def of(cls, scene: SceneData) -> "SceneBounds":
+        b = scene.geometry.object_bounds.astype(np.float64)
+        valid = np.isfinite(b).all(axis=(1, 2)) & (b[:, 0] <= b[:, 1]).all(axis=1) if len(b) else np.zeros(0, bool)
+        if not valid.any():
+            return cls(np.full(3, np.inf), np.full(3, -np.inf))
+        return cls(b[valid, 0].min(axis=0), b[valid, 1].max(axis=0))
+
+
+@dataclass
+class ShadowView:
+    """One shadow slot: its view-projection and the angular or world size of its frustum
+    (full width at unit distance for perspective slots, full world width for orthographic)."""
+
+    view_proj: np.ndarray
+    extent: float
+    perspective: bool
+
+
+def shadow_views(scene: SceneData, bounds: SceneBounds) -> tuple[list[ShadowView], list[tuple[int, int]]]:
+    """Every shadow slot's view and each light's (first, count) slots.
+
+    Sun: an orthographic map fitted around the scene's bounding sphere. Spot: a perspective
+    map covering the cone. Point and area (and very wide spots): six 90° cube faces.
+    """
+    lights = scene.lights
+    matrices: list[ShadowView] = []
+    per_light: list[tuple[int, int]] = []
+    if bounds.empty:
+        return matrices, [(-1, 0)] * len(lights)
+    center, radius = bounds.center, bounds.radius
+    for i in range(len(lights)):
+        kind = int(lights.kind[i])
+        if not lights.cast_shadow[i] or not np.isfinite(lights.position[i]).all():
+            per_light.append((-1, 0))
+            continue
+        pos = lights.position[i].astype(np.float64)
+        direction = lights.direction[i].astype(np.float64)
+        norm = np.linalg.norm(direction)
+        direction = direction / norm if norm > 0 else np.array([0.0, 0.0, -1.0])
+        first = len(matrices)
+        if kind == LIGHT_SUN:
+            eye = center - direction * radius * 2.0
+            view = view_from_world(look_at(eye, center))
+            proj = orthographic_matrix(radius, radius, radius * 0.5, radius * 3.5)
+            matrices.append(ShadowView(proj @ view, 2.0 * radius, False))
+        else:
+            far = float(np.linalg.norm(pos - center) + radius) * 1.01
+            near = max(far * 1e-4, 1e-3)
+            spot_fov = float(lights.spot_size[i])
+            if kind == LIGHT_SPOT and spot_fov <= MAX_SPOT_SHADOW_FOV:
+                view = view_from_world(look_at(pos, pos + direction))
+                fov = spot_fov * 1.02
+                matrices.append(ShadowView(perspective_matrix(fov, 1.0, near, far) @ view, 2.0 * math.tan(fov / 2), True))
+            else:
+                assert needs_cube_shadow(kind) or kind == LIGHT_SPOT
+                proj = perspective_matrix(math.radians(90.0), 1.0, near, far)
+                matrices.extend(ShadowView(proj @ v, 2.0, True) for v in cube_face_views(pos))
+        per_light.append((first, len(matrices) - first))
+    return matrices, per_light
+
+
+def _release_all(objects) -> None:
+    gl_context.park_framebuffer()  # never delete the bound framebuffer
+    for obj in objects:
+        if obj is not None:
+            obj.release()
+
+
+class RasterPasses:
+    """G-buffer, shadow-map and deferred-shading passes on the shared context."""
+
+    def __init__(self, ctx) -> None:
+        self.ctx = ctx
+        self.gbuffer_prog = shader_loader.program(
+            ctx, vertex="raster/gbuffer.vert.glsl", fragment="raster/gbuffer.frag.glsl"
+        )
+        self.shadow_prog = shader_loader.program(
+            ctx, vertex="raster/shadow_depth.vert.glsl", fragment="raster/shadow_depth.frag.glsl"
+        )
+        self.shade_prog = shader_loader.compute(ctx, "raster/deferred_shade.comp.glsl")
+        self._size: tuple[int, int] | None = None
+        self._gbuffer_vao = None
+        self._shadow_vao = None
+        self._vao_generation = -1
+        self._shadow_atlas = None
+        self._shadow_fbo = None
+        self._atlas_size: tuple[int, int] | None = None
+        self._slot_buffer = ctx.buffer(reserve=SHADOW_SLOT_DTYPE.itemsize)
+        self._sky_texture = None
+        self._sky_key = None
+        self._dummy_env = ctx.texture((1, 1), 3, dtype="f4")
+        self.depth = self.normal_material = self.albedo = self.output = self.fbo = None
+
+    # -- resources -------------------------------------------------------------------------
+    def _ensure_targets(self, width: int, height: int) -> None:
+        if self._size == (width, height):
+            return
+        old = (self.fbo, self.depth, self.normal_material, self.albedo, self.output)
+        ctx = self.ctx
+        self.depth = ctx.depth_texture((width, height))
+        self.normal_material = ctx.texture((width, height), 4, dtype="f4")
+        self.albedo = ctx.texture((width, height), 4, dtype="f2")
+        self.output = ctx.texture((width, height), 4, dtype="f4")
+        for tex in (self.depth, self.normal_material, self.albedo, self.output):
+            tex.filter = (ctx.NEAREST, ctx.NEAREST)
+        self.fbo = ctx.framebuffer(color_attachments=[self.normal_material, self.albedo], depth_attachment=self.depth)
+        _release_all(old)
+        self._size = (width, height)
+
+    def _ensure_vaos(self, gpu: GPUScene) -> None:
+        if self._vao_generation == gpu.generation and self._gbuffer_vao is not None:
+            return
+        for vao in (self._gbuffer_vao, self._shadow_vao):
+            if vao is not None:
+                vao.release()
+        buf = gpu.vertices.buffer
+        self._gbuffer_vao = self.ctx.vertex_array(self.gbuffer_prog, [vertex_binding(self.gbuffer_prog, buf)])
+        self._shadow_vao = self.ctx.vertex_array(self.shadow_prog, [vertex_binding(self.shadow_prog, buf)])
+        self._vao_generation = gpu.generation
+
+    def _ensure_atlas(self, slots: int, resolution: int) -> int:
+        """Allocate the shadow atlas for ``slots`` square maps; returns the slot size, reduced
+        (documented fallback) when the atlas would exceed the driver's texture size."""
+        cols = max(1, math.ceil(math.sqrt(slots)))
+        rows = max(1, math.ceil(slots / cols))
+        max_size = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 8192))
+        res = min(resolution, max_size // cols, max_size // rows)
+        size = (cols * res, rows * res)
+        if self._atlas_size != size:
+            old = (self._shadow_fbo, self._shadow_atlas)
+            self._shadow_atlas = self.ctx.depth_texture(size)
+            self._shadow_atlas.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
+            self._shadow_atlas.compare_func = ""
+            self._shadow_fbo = self.ctx.framebuffer(depth_attachment=self._shadow_atlas)
+            _release_all(old)
+            self._atlas_size = size
+        self._atlas_cols = cols
+        return res
+
+    def _upload_sky(self, sky: Sky) -> None:
+        env = sky.environment
+        key = None if env is None else (env.shape, id(env))
+        if key == self._sky_key:
+            return
+        if self._sky_texture is not None:
+            self._sky_texture.release()
+            self._sky_texture = None
+        if env is not None:
+            h, w = env.shape[:2]
+            tex = self.ctx.texture((w, h), 3, np.ascontiguousarray(env, np.float32).tobytes(), dtype="f4")
+            tex.repeat_x, tex.repeat_y = True, False
+            tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+            self._sky_texture = tex
+        self._sky_key = key
+
+    # -- passes ----------------------------------------------------------------------------
+    def draw_world(self, vao, view_proj: np.ndarray, scene: SceneData) -> int:
+        """Draw the objects whose bounds touch the frustum; returns triangles submitted."""
+        geo = scene.geometry
+        mask = visible_objects(view_proj, geo.object_bounds)
+        submitted = 0
+        for first, count in draw_ranges(mask, geo.object_ranges):
+            vao.render(self.ctx.TRIANGLES, vertices=count * 3, first=first * 3)
+            submitted += count
+        return submitted
+
+    def gbuffer(self, gpu: GPUScene, scene: SceneData, camera: Camera) -> int:
+        """Rasterize primary visibility (§3.1); returns the triangles submitted."""
+        ctx = self.ctx
+        self._ensure_targets(int(camera.width), int(camera.height))
+        self._ensure_vaos(gpu)
+        self.fbo.use()
+        self.fbo.viewport = (0, 0, int(camera.width), int(camera.height))
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.disable(ctx.CULL_FACE)  # Blender shades both sides of a face
+        view_proj = camera.view_projection()
+        self.gbuffer_prog["u_view_proj"].write(gl_matrix(view_proj))
+        gpu.materials.buffer.bind_to_storage_buffer(0)
+        return self.draw_world(self._gbuffer_vao, view_proj, scene)
+
+    def shadows(self, gpu: GPUScene, scene: SceneData, settings: RenderSettings) -> list[tuple[int, int]]:
+        """Render every light's shadow slots into the atlas (§3.5)."""
+        ctx = self.ctx
+        matrices, per_light = shadow_views(scene, SceneBounds.of(scene))
+        slots = np.zeros(max(len(matrices), 1), SHADOW_SLOT_DTYPE)
+        if matrices:
+            self._ensure_vaos(gpu)
+            res = self._ensure_atlas(len(matrices), int(settings.shadow_resolution))
+            self._shadow_fbo.use()
+            self._shadow_fbo.viewport = (0, 0, *self._atlas_size)
+            self._shadow_fbo.clear(depth=1.0)
+            ctx.enable(ctx.DEPTH_TEST)
+            ctx.disable(ctx.CULL_FACE)
+            for i, view in enumerate(matrices):
+                x, y = (i % self._atlas_cols) * res, (i // self._atlas_cols) * res
+                self._shadow_fbo.viewport = (x, y, res, res)
+                self.shadow_prog["u_view_proj"].write(gl_matrix(view.view_proj))
+                self.draw_world(self._shadow_vao, view.view_proj, scene)
+                slots[i]["view_proj"] = np.asarray(view.view_proj, np.float32).T  # column-major for GLSL
+                slots[i]["rect"] = (x, y, res, 0)
+                slots[i]["texel"] = (view.extent / res, float(view.perspective), 0.0, 0.0)
+        elif self._shadow_atlas is None:
+            self._ensure_atlas(1, 1)  # keep a valid texture bound for the shading pass
+        self._slot_buffer.orphan(slots.nbytes)
+        self._slot_buffer.write(slots.tobytes())
+        return per_light
+
+    def shade(self, gpu: GPUScene, scene: SceneData, camera: Camera, settings: RenderSettings) -> None:
+        """Deferred shading of the primary G-buffer into ``self.output``."""
+        prog = self.shade_prog
+        width, height = int(camera.width), int(camera.height)
+        self._upload_sky(scene.sky)
+        gpu.materials.buffer.bind_to_storage_buffer(0)
+        gpu.lights.buffer.bind_to_storage_buffer(1)
+        self._slot_buffer.bind_to_storage_buffer(2)
+        units = {"u_depth": self.depth, "u_normal_material": self.normal_material, "u_albedo": self.albedo,
+                 "u_shadow_atlas": self._shadow_atlas, "u_sky_env": self._sky_texture or self._dummy_env}
+        for unit, (name, tex) in enumerate(units.items()):
+            tex.use(location=unit)
+            if name in prog:
+                prog[name].value = unit
+        self.output.bind_to_image(0, read=False, write=True)
+        inv_vp = np.linalg.inv(camera.view_projection())
+        values = {
+            "u_inv_view_proj": gl_matrix(inv_vp),
+            "u_camera_position": tuple(camera.position.astype(float)),
+            "u_camera_forward": tuple(camera.forward.astype(float)),
+            "u_orthographic": int(camera.projection == "ORTHO"),
+            "u_size": (width, height),
+            "u_light_count": len(scene.lights),
+            "u_shadow_bias": float(settings.shadow_bias),
+            "u_sky_color": tuple(scene.sky.color),
+            "u_sky_strength": float(scene.sky.strength),
+            "u_sky_has_env": int(self._sky_texture is not None),
+        }
+        for name, value in values.items():
+            if name not in prog:
+                continue
+            if isinstance(value, bytes):
+                prog[name].write(value)
+            else:
+                prog[name].value = value
+        prog.run(math.ceil(width / 8), math.ceil(height / 8), 1)
+
+    def read_output(self) -> np.ndarray:
+        """The shaded image as (H, W, 4) float32, row 0 at the bottom."""
+        w, h = self._size
+        return np.frombuffer(self.output.read(), np.float32).reshape(h, w, 4).copy()
+
+    def release(self) -> None:
+        _release_all((self.fbo, self.depth, self.normal_material, self.albedo, self.output, self._gbuffer_vao,
+                      self._shadow_vao, self._shadow_fbo, self._shadow_atlas, self._slot_buffer,
+                      self._sky_texture, self._dummy_env))

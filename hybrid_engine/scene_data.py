@@ -1,0 +1,320 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Plain-array scene description: what the renderer core consumes.
+
+The Blender adapter turns a depsgraph into these dataclasses; tests and benchmarks build
+them directly. Everything is world space, float32/int32 numpy, with triangles grouped by
+object so that the near-cube culling (paper §3.3) can test an object's AABB first and only
+then its triangles.
+
+Units follow Blender: metres, light power in watts (point/spot/area) and irradiance in W/m²
+(sun), colours linear Rec.709.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+# Light kinds (std430 int in the light buffer)
+LIGHT_POINT, LIGHT_SUN, LIGHT_SPOT, LIGHT_AREA = 0, 1, 2, 3
+LIGHT_KINDS = {"POINT": LIGHT_POINT, "SUN": LIGHT_SUN, "SPOT": LIGHT_SPOT, "AREA": LIGHT_AREA}
+
+
+class SceneDataError(ValueError):
+    """Scene arrays are malformed (wrong shape, dtype or inconsistent counts)."""
+
+
+def _as(array, dtype, shape_tail: tuple[int, ...], name: str) -> np.ndarray:
+    arr = np.ascontiguousarray(np.asarray(array, dtype=dtype))
+    if arr.ndim != 1 + len(shape_tail) or tuple(arr.shape[1:]) != shape_tail:
+        want = "(N, " + ", ".join(map(str, shape_tail)) + ")" if shape_tail else "(N,)"
+        raise SceneDataError(f"{name} must have shape {want}, got {arr.shape}")
+    return arr
+
+
+@dataclass
+class Geometry:
+    """World-space triangles of all visible objects, grouped by object.
+
+    ``triangles[i]`` holds the three corners of triangle i; ``normals[i]`` the three shading
+    normals (smooth, flat or custom split normals, already in world space); ``uvs`` is
+    optional. ``object_ranges[k] = (first, count)`` are the triangles of object k and
+    ``object_bounds[k] = (min, max)`` its AABB (NaN corners excluded).
+    """
+
+    triangles: np.ndarray  # (N, 3, 3) float32
+    normals: np.ndarray  # (N, 3, 3) float32
+    material_ids: np.ndarray  # (N,) int32, index into MaterialTable
+    object_ranges: np.ndarray  # (K, 2) int32
+    object_bounds: np.ndarray  # (K, 2, 3) float32
+    object_names: list[str] = field(default_factory=list)
+    uvs: np.ndarray | None = None  # (N, 3, 2) float32
+
+    def __post_init__(self) -> None:
+        self.triangles = _as(self.triangles, np.float32, (3, 3), "triangles")
+        self.normals = _as(self.normals, np.float32, (3, 3), "normals")
+        self.material_ids = _as(self.material_ids, np.int32, (), "material_ids")
+        self.object_ranges = _as(self.object_ranges, np.int32, (2,), "object_ranges")
+        self.object_bounds = _as(self.object_bounds, np.float32, (2, 3), "object_bounds")
+        n = len(self.triangles)
+        if len(self.normals) != n or len(self.material_ids) != n:
+            raise SceneDataError(
+                f"triangles ({n}), normals ({len(self.normals)}) and material_ids "
+                f"({len(self.material_ids)}) must have the same length"
+            )
+        if self.uvs is not None:
+            self.uvs = _as(self.uvs, np.float32, (3, 2), "uvs")
+            if len(self.uvs) != n:
+                raise SceneDataError(f"uvs has {len(self.uvs)} rows, triangles {n}")
+        if len(self.object_ranges) != len(self.object_bounds):
+            raise SceneDataError("object_ranges and object_bounds must have one row per object")
+        if len(self.object_ranges):
+            ends = self.object_ranges[:, 0].astype(np.int64) + self.object_ranges[:, 1]
+            if (self.object_ranges < 0).any() or ends.max() > n:
+                raise SceneDataError("object_ranges point outside the triangle array")
+
+    @property
+    def triangle_count(self) -> int:
+        return int(len(self.triangles))
+
+    @classmethod
+    def empty(cls) -> "Geometry":
+        return cls(
+            triangles=np.zeros((0, 3, 3), np.float32),
+            normals=np.zeros((0, 3, 3), np.float32),
+            material_ids=np.zeros(0, np.int32),
+            object_ranges=np.zeros((0, 2), np.int32),
+            object_bounds=np.zeros((0, 2, 3), np.float32),
+        )
+
+    @classmethod
+    def from_objects(
+        cls,
+        objects: list[tuple[np.ndarray, np.ndarray | None, np.ndarray | int]],
+        names: list[str] | None = None,
+    ) -> "Geometry":
+        """Concatenate per-object (triangles, normals or None for flat, material ids)."""
+        if not objects:
+            return cls.empty()
+        tris, norms, mats, ranges, bounds = [], [], [], [], []
+        start = 0
+        for obj_tris, obj_normals, obj_mats in objects:
+            t = np.asarray(obj_tris, np.float32).reshape(-1, 3, 3)
+            nrm = flat_normals(t) if obj_normals is None else np.asarray(obj_normals, np.float32)
+            m = np.broadcast_to(np.asarray(obj_mats, np.int32), (len(t),))
+            tris.append(t)
+            norms.append(nrm.reshape(-1, 3, 3))
+            mats.append(m)
+            ranges.append((start, len(t)))
+            bounds.append(finite_bounds(t))
+            start += len(t)
+        return cls(
+            triangles=np.concatenate(tris),
+            normals=np.concatenate(norms),
+            material_ids=np.concatenate(mats),
+            object_ranges=np.array(ranges, np.int32).reshape(-1, 2),
+            object_bounds=np.array(bounds, np.float32).reshape(-1, 2, 3),
+            object_names=list(names) if names else [f"object_{i}" for i in range(len(objects))],
+        )
+
+
+def flat_normals(triangles: np.ndarray) -> np.ndarray:
+    """Per-corner normals equal to each face normal; zero-area faces get +Z (documented
+    fallback so that shading never divides by zero)."""
+    t = np.asarray(triangles, np.float32).reshape(-1, 3, 3)
+    with np.errstate(invalid="ignore", over="ignore"):
+        n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        ok = np.isfinite(length) & (length > 0)
+        n = np.where(ok, n / np.where(ok, length, 1), np.array([0, 0, 1], np.float32))
+    return np.repeat(n[:, None, :], 3, axis=1).astype(np.float32)
+
+
+def finite_bounds(triangles: np.ndarray) -> np.ndarray:
+    """AABB over the finite vertices; an object with none gets an inverted (empty) box."""
+    pts = np.asarray(triangles, np.float32).reshape(-1, 3)
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    if len(pts) == 0:
+        return np.array([[np.inf] * 3, [-np.inf] * 3], np.float32)
+    return np.stack([pts.min(axis=0), pts.max(axis=0)]).astype(np.float32)
+
+
+@dataclass
+class MaterialTable:
+    """Per-material parameters, derived from Blender's Principled BSDF (see DESIGN.md).
+
+    ``reflectivity`` is the weight of the mirror lobe (metallic with zero roughness), tinted
+    by ``base_color``; ``transmission`` the weight of the clear-glass lobe of index ``ior``;
+    what remains is diffuse. ``thickness`` is the paper's per-material thickness (§3.4):
+    0 thin, 1 solid to the cube map's far plane.
+    """
+
+    base_color: np.ndarray  # (M, 3) float32, linear
+    emission: np.ndarray  # (M, 3) float32, radiance added (colour * strength)
+    reflectivity: np.ndarray  # (M,) float32 in [0, 1]
+    transmission: np.ndarray  # (M,) float32 in [0, 1]
+    ior: np.ndarray  # (M,) float32 >= 1
+    thickness: np.ndarray  # (M,) float32 in [0, 1]
+    names: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.base_color = _as(self.base_color, np.float32, (3,), "base_color")
+        m = len(self.base_color)
+        self.emission = _as(self.emission, np.float32, (3,), "emission")
+        for name in ("reflectivity", "transmission", "ior", "thickness"):
+            setattr(self, name, _as(getattr(self, name), np.float32, (), name))
+        for name in ("emission", "reflectivity", "transmission", "ior", "thickness"):
+            if len(getattr(self, name)) != m:
+                raise SceneDataError(f"material {name} has {len(getattr(self, name))} rows, expected {m}")
+        if not self.names:
+            self.names = [f"material_{i}" for i in range(m)]
+
+    def __len__(self) -> int:
+        return int(len(self.base_color))
+
+    @classmethod
+    def default(cls) -> "MaterialTable":
+        """One grey diffuse material (Blender's default surface, base colour 0.8)."""
+        return cls.from_rows([dict(name="default")])
+
+    @classmethod
+    def from_rows(cls, rows: list[dict]) -> "MaterialTable":
+        """Build from dicts with keys base_color, emission, reflectivity, transmission, ior,
+        thickness, name (all optional)."""
+        get = lambda key, default: [r.get(key, default) for r in rows]  # noqa: E731
+        return cls(
+            base_color=np.array(get("base_color", (0.8, 0.8, 0.8)), np.float32).reshape(-1, 3),
+            emission=np.array(get("emission", (0.0, 0.0, 0.0)), np.float32).reshape(-1, 3),
+            reflectivity=np.array(get("reflectivity", 0.0), np.float32),
+            transmission=np.array(get("transmission", 0.0), np.float32),
+            ior=np.array(get("ior", 1.45), np.float32),
+            thickness=np.array(get("thickness", 0.5), np.float32),
+            names=[str(n) for n in get("name", "material")],
+        )
+
+    def packed(self) -> np.ndarray:
+        """std430 rows of ``struct Material`` (gpu_shaders/include/scene_layout.glsl)."""
+        out = np.zeros(len(self), MATERIAL_DTYPE)
+        out["base_color"][:, :3] = self.base_color
+        out["base_color"][:, 3] = self.reflectivity
+        out["emission"][:, :3] = self.emission
+        out["emission"][:, 3] = self.transmission
+        out["params"][:, 0] = self.ior
+        out["params"][:, 1] = self.thickness
+        return out
+
+
+# struct Material { vec4 base_color_refl; vec4 emission_trans; vec4 params; }  // total: 48 bytes
+MATERIAL_DTYPE = np.dtype(
+    [("base_color", np.float32, 4), ("emission", np.float32, 4), ("params", np.float32, 4)]
+)
+assert MATERIAL_DTYPE.itemsize == 48
+
+
+@dataclass
+class Lights:
+    """Punctual lights in Blender's units.
+
+    ``power`` is watts for point/spot/area (Blender's "Power") and W/m² for sun ("Strength"),
+    already multiplied into ``color``. ``direction`` is where the light points (sun, spot,
+    area: the light's -Z axis). ``radius`` is the soft-shadow size (unused by hard shadow
+    maps but kept for the report); ``spot_size`` is the full cone angle in radians and
+    ``spot_blend`` Blender's blend factor. Area lights are approximated as spot-like emitters
+    with a cosine falloff over the hemisphere (documented approximation).
+    """
+
+    kind: np.ndarray  # (L,) int32, LIGHT_*
+    position: np.ndarray  # (L, 3) float32
+    direction: np.ndarray  # (L, 3) float32, unit
+    color: np.ndarray  # (L, 3) float32, colour * power
+    radius: np.ndarray  # (L,) float32
+    spot_size: np.ndarray  # (L,) float32, radians
+    spot_blend: np.ndarray  # (L,) float32
+    cast_shadow: np.ndarray  # (L,) bool
+    names: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.kind = _as(self.kind, np.int32, (), "kind")
+        n = len(self.kind)
+        self.position = _as(self.position, np.float32, (3,), "position")
+        self.direction = _as(self.direction, np.float32, (3,), "direction")
+        self.color = _as(self.color, np.float32, (3,), "color")
+        self.radius = _as(self.radius, np.float32, (), "radius")
+        self.spot_size = _as(self.spot_size, np.float32, (), "spot_size")
+        self.spot_blend = _as(self.spot_blend, np.float32, (), "spot_blend")
+        self.cast_shadow = _as(self.cast_shadow, bool, (), "cast_shadow")
+        for name in ("position", "direction", "color", "radius", "spot_size", "spot_blend", "cast_shadow"):
+            if len(getattr(self, name)) != n:
+                raise SceneDataError(f"light {name} has {len(getattr(self, name))} rows, expected {n}")
+        if ((self.kind < 0) | (self.kind > LIGHT_AREA)).any():
+            raise SceneDataError("light kind must be one of LIGHT_POINT/SUN/SPOT/AREA")
+        if not self.names:
+            self.names = [f"light_{i}" for i in range(n)]
+
+    def __len__(self) -> int:
+        return int(len(self.kind))
+
+    @classmethod
+    def empty(cls) -> "Lights":
+        return cls.from_rows([])
+
+    @classmethod
+    def from_rows(cls, rows: list[dict]) -> "Lights":
+        """Build from dicts: kind ('POINT'|'SUN'|'SPOT'|'AREA' or int), position, direction,
+        color (already times power), radius, spot_size, spot_blend, cast_shadow, name."""
+        def kind_of(value):
+            return LIGHT_KINDS[value] if isinstance(value, str) else int(value)
+
+        return cls(
+            kind=np.array([kind_of(r.get("kind", "POINT")) for r in rows], np.int32),
+            position=np.array([r.get("position", (0, 0, 0)) for r in rows], np.float32).reshape(-1, 3),
+            direction=np.array([r.get("direction", (0, 0, -1)) for r in rows], np.float32).reshape(-1, 3),
+            color=np.array([r.get("color", (1, 1, 1)) for r in rows], np.float32).reshape(-1, 3),
+            radius=np.array([r.get("radius", 0.0) for r in rows], np.float32),
+            spot_size=np.array([r.get("spot_size", np.pi / 4) for r in rows], np.float32),
+            spot_blend=np.array([r.get("spot_blend", 0.15) for r in rows], np.float32),
+            cast_shadow=np.array([r.get("cast_shadow", True) for r in rows], bool),
+            names=[str(r.get("name", f"light_{i}")) for i, r in enumerate(rows)],
+        )
+
+
+@dataclass
+class Sky:
+    """The World background: a constant colour, or an equirectangular environment image
+    (Blender's convention: u = 0.5 - atan2(dir.y, dir.x) / 2π, v = 0.5 + atan2(dir.z, hypot(x, y)) / π),
+    scaled by ``strength``."""
+
+    color: tuple[float, float, float] = (0.05, 0.05, 0.05)
+    strength: float = 1.0
+    environment: np.ndarray | None = None  # (H, W, 3) float32 linear, row 0 = bottom (v = 0)
+
+    def __post_init__(self) -> None:
+        c = np.asarray(self.color, np.float32).reshape(-1)
+        if c.shape != (3,) or not np.isfinite(c).all():
+            raise SceneDataError(f"sky color must be 3 finite floats, got {self.color!r}")
+        self.color = tuple(float(x) for x in c)
+        if self.environment is not None:
+            env = np.ascontiguousarray(np.asarray(self.environment, np.float32))
+            if env.ndim != 3 or env.shape[2] not in (3, 4) or env.shape[0] < 1 or env.shape[1] < 1:
+                raise SceneDataError(f"environment must be (H, W, 3|4), got {env.shape}")
+            self.environment = np.nan_to_num(env[:, :, :3], nan=0.0, posinf=0.0, neginf=0.0)
+
+
+@dataclass
+class SceneData:
+    """Everything one frame needs besides the camera and the settings."""
+
+    geometry: Geometry
+    materials: MaterialTable
+    lights: Lights = field(default_factory=Lights.empty)
+    sky: Sky = field(default_factory=Sky)
+
+    def __post_init__(self) -> None:
+        if len(self.materials) == 0:
+            raise SceneDataError("the material table needs at least one material (index 0 is the fallback)")
+        ids = self.geometry.material_ids
+        if len(ids) and (ids.min() < 0 or ids.max() >= len(self.materials)):
+            # Documented fallback: out-of-range slots (empty material slots) use material 0.
+            self.geometry.material_ids = np.where(
+                (ids >= 0) & (ids < len(self.materials)), ids, 0
+            ).astype(np.int32)

@@ -1,0 +1,85 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Render settings as a frozen, comparable dataclass.
+
+Comparing this frame's settings with the last decides what must be rebuilt (cube-map
+targets when the face resolution changes, nothing when only max_depth changes). Each
+field's documentation in ``FIELD_DOCS`` is reused verbatim as the Blender UI tooltip, and
+``FIELD_LIMITS`` as the property's min/max, so the core and the UI cannot disagree.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+MODES = ("HYBRID", "FULL_BVH", "PROVENANCE", "RASTER")
+
+MODE_DOCS = {
+    "HYBRID": "The paper's method: BVH near the camera, G-buffer cube map beyond it",
+    "FULL_BVH": "One BVH over the whole scene, no cube map: the ground truth the hybrid approximates",
+    "PROVENANCE": "Reflective and refractive pixels coloured by where their first secondary ray "
+    "started: BVH blue, cube map red (paper Figure 4)",
+    "RASTER": "Primary visibility only: deferred shading with shadow maps, no secondary rays",
+}
+
+FIELD_DOCS = {
+    "mode": "What the engine renders",
+    "near_size": "Half-size of the near cube around the camera (scene units): geometry inside is "
+    "ray traced through a per-frame BVH, geometry outside is ray marched in the cube map",
+    "max_depth": "Maximum number of secondary bounces (reflections and refractions) per pixel",
+    "cube_resolution": "Resolution of each of the six G-buffer cube-map faces, in pixels",
+    "cube_far": "Far plane of the cube-map faces (scene units); rays that pass it see the sky",
+    "n_min": "Fewest ray-march samples per cube-map face, for rays facing the face straight on",
+    "n_max": "Most ray-march samples per cube-map face, for rays grazing the face",
+    "shadow_resolution": "Resolution of each shadow map, in pixels",
+    "shadow_bias": "Depth bias of shadow-map tests, in scene units, against shadow acne",
+    "viewport_scale": "Fraction of the viewport's resolution that is rendered (lower is faster)",
+}
+
+FIELD_LIMITS = {
+    "near_size": (0.01, 1.0e5),
+    "max_depth": (0, 16),
+    "cube_resolution": (16, 4096),
+    "cube_far": (0.1, 1.0e7),
+    "n_min": (1, 1024),
+    "n_max": (1, 4096),
+    "shadow_resolution": (64, 8192),
+    "shadow_bias": (0.0, 10.0),
+    "viewport_scale": (0.1, 1.0),
+}
+
+
+class SettingsError(ValueError):
+    """A setting is outside its documented range."""
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    mode: str = "HYBRID"
+    near_size: float = 5.0
+    max_depth: int = 4
+    cube_resolution: int = 512
+    cube_far: float = 1000.0
+    n_min: int = 16
+    n_max: int = 64
+    shadow_resolution: int = 1024
+    shadow_bias: float = 0.02
+    viewport_scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise SettingsError(f"mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        for f in fields(self):
+            if f.name not in FIELD_LIMITS:
+                continue
+            value = getattr(self, f.name)
+            lo, hi = FIELD_LIMITS[f.name]
+            if isinstance(value, float) and not math.isfinite(value):
+                raise SettingsError(f"{f.name} must be finite, got {value}")
+            if not lo <= value <= hi:
+                raise SettingsError(f"{f.name} must lie in [{lo}, {hi}], got {value}")
+        if self.n_min > self.n_max:
+            raise SettingsError(f"n_min ({self.n_min}) must not exceed n_max ({self.n_max})")
+        if self.cube_far <= self.near_size:
+            raise SettingsError(
+                f"cube_far ({self.cube_far}) must lie beyond the near cube (near_size {self.near_size})"
+            )

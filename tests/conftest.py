@@ -1,0 +1,77 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Shared fixtures: the one place a GL context is made, fixed seeds, the add-on loader."""
+from __future__ import annotations
+
+import importlib.util
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+SHARED_SCENES = REPO_ROOT.parent / "shared" / "scenes"
+FAILURE_DIR = REPO_ROOT / "tests" / "_failures"
+
+for _path in (REPO_ROOT, REPO_ROOT / "tests"):  # core package and test helpers importable
+    if str(_path) not in sys.path:
+        sys.path.insert(0, str(_path))
+
+os.environ.setdefault("HYBRID_RT_DEBUG", "1")  # GL error checks after every pass in tests
+
+
+@pytest.fixture(scope="session")
+def gl():
+    """The process-wide moderngl context (created once)."""
+    from hybrid_engine import gl_context
+
+    return gl_context.get_context()
+
+
+@pytest.fixture
+def ctx(gl):
+    """The shared context, with the GL error flag checked before and after the test."""
+    assert gl.error == "GL_NO_ERROR", "a previous test left a GL error behind"
+    yield gl
+    assert gl.error == "GL_NO_ERROR", "this test left a GL error behind"
+
+
+@pytest.fixture
+def rng():
+    """A fixed-seed generator: random inputs are reproducible."""
+    return np.random.default_rng(20140101)
+
+
+def load_addon():
+    """Import the repository root as the add-on package ``hybrid_rt`` (as Blender would)."""
+    if "hybrid_rt" in sys.modules:
+        return sys.modules["hybrid_rt"]
+    spec = importlib.util.spec_from_file_location(
+        "hybrid_rt", REPO_ROOT / "__init__.py", submodule_search_locations=[str(REPO_ROOT)]
+    )
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["hybrid_rt"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture
+def addon():
+    """The add-on registered in a factory-fresh Blender session; unregistered afterwards."""
+    import bpy
+    bpy.ops.wm.read_factory_settings(use_empty=False)
+    module = load_addon()
+    module.register()
+    try:
+        yield module
+    finally:
+        module.unregister()
+
+
+def save_failure_images(name: str, **images: np.ndarray) -> Path:
+    """Write images of a failing comparison where a developer can look at them."""
+    FAILURE_DIR.mkdir(parents=True, exist_ok=True)
+    for key, img in images.items():
+        np.save(FAILURE_DIR / f"{name}_{key}.npy", img)
+    return FAILURE_DIR

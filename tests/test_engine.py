@@ -1,0 +1,128 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The HYBRID_RT RenderEngine through Blender's own render path (bpy.ops.render.render).
+
+Cycles, rendering the same scene in the same process, is the independent oracle for light
+units and camera framing: a Lambertian plane lit by a sun or a point light must come out
+with the same radiance from both engines.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+# Cycles is a Monte Carlo renderer; with 64 samples of direct light on a plane its noise is
+# well below this. Our own error is float precision.
+CYCLES_RTOL = 0.02
+
+
+def _diffuse_material(bpy, color):
+    mat = bpy.data.materials.new("diffuse")
+    mat.use_nodes = True
+    bsdf = mat.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (*color, 1.0)
+    bsdf.inputs["Roughness"].default_value = 1.0
+    bsdf.inputs["Specular IOR Level"].default_value = 0.0
+    return mat
+
+
+def build_plane_scene(bpy, light_kind="SUN", energy=2.0, size=16):
+    """A white-ish plane filling an orthographic top view, lit by one light, black world."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=40)
+    bpy.context.object.data.materials.append(_diffuse_material(bpy, (0.8, 0.6, 0.4)))
+    light = bpy.data.lights.new("light", light_kind)
+    light.energy = energy
+    if light_kind != "SUN":
+        light.shadow_soft_size = 0.0
+    light_obj = bpy.data.objects.new("light", light)
+    light_obj.location = (0.0, 0.0, 3.0)
+    scene.collection.objects.link(light_obj)
+    cam = bpy.data.cameras.new("cam")
+    cam.type = "ORTHO"
+    cam.ortho_scale = 1.0
+    cam_obj = bpy.data.objects.new("cam", cam)
+    cam_obj.location = (0.0, 0.0, 1.0)
+    scene.collection.objects.link(cam_obj)
+    scene.camera = cam_obj
+    world = bpy.data.worlds.new("world")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    scene.world = world
+    scene.render.resolution_x = scene.render.resolution_y = size
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    return scene
+
+
+def render_exr(bpy, scene, path):
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.filepath = str(path)
+    bpy.ops.render.render(write_still=True)
+    image = bpy.data.images.load(str(path))
+    try:
+        w, h = image.size
+        pixels = np.empty(w * h * 4, np.float32)
+        image.pixels.foreach_get(pixels)
+        return pixels.reshape(h, w, 4)
+    finally:
+        bpy.data.images.remove(image)
+
+
+@pytest.mark.parametrize("light_kind,energy", [("SUN", 2.0), ("POINT", 300.0)])
+def test_raster_render_matches_cycles_radiance_of_a_lit_plane(addon, tmp_path, light_kind, energy):
+    import bpy
+
+    scene = build_plane_scene(bpy, light_kind, energy)
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 64
+    scene.cycles.device = "CPU"
+    cycles = render_exr(bpy, scene, tmp_path / "cycles.exr")
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.mode = "RASTER"
+    ours = render_exr(bpy, scene, tmp_path / "ours.exr")
+    assert ours.shape == cycles.shape == (16, 16, 4)
+    np.testing.assert_allclose(ours[2:-2, 2:-2, :3].mean(axis=(0, 1)), cycles[2:-2, 2:-2, :3].mean(axis=(0, 1)),
+                               rtol=CYCLES_RTOL)
+    # Point light: the falloff across the image must match too, not just the mean. Cycles'
+    # pixel filter darkens its outermost pixels, so compare the interior.
+    inner = (slice(2, -2), slice(2, -2), 0)
+    np.testing.assert_allclose(ours[inner], cycles[inner], rtol=CYCLES_RTOL * 3)
+
+
+def test_render_reports_stats_and_keeps_the_frame_result(addon, tmp_path):
+    import bpy
+
+    scene = build_plane_scene(bpy, "SUN", 1.0, size=8)
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.mode = "RASTER"
+    render_exr(bpy, scene, tmp_path / "frame.exr")
+    frame = addon.blender_adapter.engine.last_frame
+    assert frame is not None and frame.mode == "RASTER"
+    assert {"extract", "upload", "primary_raster", "shade", "readback"} <= set(frame.passes)
+    assert frame.counts["triangles_total"] == 2
+
+
+def test_unavailable_mode_falls_back_to_raster_with_a_warning(addon, tmp_path):
+    import bpy
+
+    scene = build_plane_scene(bpy, "SUN", 1.0, size=8)
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.mode = "HYBRID"
+    image = render_exr(bpy, scene, tmp_path / "fallback.exr")
+    frame = addon.blender_adapter.engine.last_frame
+    assert frame.mode in ("RASTER", "HYBRID")
+    assert image[..., 0].mean() > 0.1
+
+
+def test_a_failing_frame_is_reported_and_leaves_the_scene_untouched(addon, tmp_path):
+    import bpy
+
+    scene = build_plane_scene(bpy, "SUN", 1.0, size=8)
+    scene.render.engine = "HYBRID_RT"
+    scene.camera = None  # no camera: a clear error, no crash
+    before = [tuple(v.co) for v in bpy.data.objects["Plane"].data.vertices]
+    scene.render.filepath = str(tmp_path / "nocam.png")
+    with pytest.raises(RuntimeError, match="[Cc]amera"):
+        bpy.ops.render.render(write_still=True)
+    assert [tuple(v.co) for v in bpy.data.objects["Plane"].data.vertices] == before

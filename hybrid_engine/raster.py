@@ -131,6 +131,55 @@ def _release_all(objects) -> None:
             obj.release()
 
 
+@dataclass(frozen=True)
+class RasterView:
+    """What a G-buffer pass needs of a camera: the primary camera or a cube-map face."""
+
+    view_proj: np.ndarray
+    position: np.ndarray
+    forward: np.ndarray
+    orthographic: bool
+    width: int
+    height: int
+
+    @classmethod
+    def from_camera(cls, camera: Camera) -> "RasterView":
+        return cls(camera.view_projection(), camera.position, camera.forward,
+                   camera.projection == "ORTHO", int(camera.width), int(camera.height))
+
+
+class GBufferTargets:
+    """A G-buffer (depth, normal + material, albedo) and its shaded colour, W x H texels.
+
+    The primary camera owns one; the cube map owns one six faces wide (an atlas: face i
+    covers texels [i * res, (i + 1) * res) in x), so that a single set of textures holds the
+    paper's six per-face G-buffers (§3.2).
+    """
+
+    def __init__(self, ctx, width: int, height: int) -> None:
+        self.size = (int(width), int(height))
+        self.depth = ctx.depth_texture(self.size)
+        self.normal_material = ctx.texture(self.size, 4, dtype="f4")
+        self.albedo = ctx.texture(self.size, 4, dtype="f2")
+        self.color = ctx.texture(self.size, 4, dtype="f4")
+        for tex in (self.depth, self.normal_material, self.albedo, self.color):
+            tex.filter = (ctx.NEAREST, ctx.NEAREST)
+        self.fbo = ctx.framebuffer(color_attachments=[self.normal_material, self.albedo], depth_attachment=self.depth)
+
+    def clear(self) -> None:
+        self.fbo.use()
+        self.fbo.viewport = (0, 0, *self.size)
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+
+    def read_color(self) -> np.ndarray:
+        """The shaded colour as (H, W, 4) float32, row 0 at the bottom."""
+        w, h = self.size
+        return np.frombuffer(self.color.read(), np.float32).reshape(h, w, 4).copy()
+
+    def release(self) -> None:
+        _release_all((self.fbo, self.depth, self.normal_material, self.albedo, self.color))
+
+
 class RasterPasses:
     """G-buffer, shadow-map and deferred-shading passes on the shared context."""
 
@@ -154,23 +203,16 @@ class RasterPasses:
         self._sky_texture = None
         self._sky_key = None
         self._dummy_env = ctx.texture((1, 1), 3, dtype="f4")
-        self.depth = self.normal_material = self.albedo = self.output = self.fbo = None
+        self.primary: GBufferTargets | None = None
 
     # -- resources -------------------------------------------------------------------------
-    def _ensure_targets(self, width: int, height: int) -> None:
-        if self._size == (width, height):
-            return
-        old = (self.fbo, self.depth, self.normal_material, self.albedo, self.output)
-        ctx = self.ctx
-        self.depth = ctx.depth_texture((width, height))
-        self.normal_material = ctx.texture((width, height), 4, dtype="f4")
-        self.albedo = ctx.texture((width, height), 4, dtype="f2")
-        self.output = ctx.texture((width, height), 4, dtype="f4")
-        for tex in (self.depth, self.normal_material, self.albedo, self.output):
-            tex.filter = (ctx.NEAREST, ctx.NEAREST)
-        self.fbo = ctx.framebuffer(color_attachments=[self.normal_material, self.albedo], depth_attachment=self.depth)
-        _release_all(old)
-        self._size = (width, height)
+    def primary_targets(self, width: int, height: int) -> GBufferTargets:
+        """The primary camera's G-buffer, reallocated only when the image size changes."""
+        if self.primary is None or self.primary.size != (width, height):
+            old, self.primary = self.primary, GBufferTargets(self.ctx, width, height)
+            if old is not None:
+                old.release()
+        return self.primary
 
     def _ensure_vaos(self, gpu: GPUScene) -> None:
         if self._vao_generation == gpu.generation and self._gbuffer_vao is not None:
@@ -229,20 +271,19 @@ class RasterPasses:
             submitted += count
         return submitted
 
-    def gbuffer(self, gpu: GPUScene, scene: SceneData, camera: Camera) -> int:
-        """Rasterize primary visibility (§3.1); returns the triangles submitted."""
+    def gbuffer(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
+                origin: tuple[int, int] = (0, 0)) -> int:
+        """Rasterize ``view`` into the region of ``targets`` at ``origin`` (§3.1); returns the
+        triangles submitted after per-object frustum culling. The caller clears targets."""
         ctx = self.ctx
-        self._ensure_targets(int(camera.width), int(camera.height))
         self._ensure_vaos(gpu)
-        self.fbo.use()
-        self.fbo.viewport = (0, 0, int(camera.width), int(camera.height))
-        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        targets.fbo.use()
+        targets.fbo.viewport = (int(origin[0]), int(origin[1]), view.width, view.height)
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE)  # Blender shades both sides of a face
-        view_proj = camera.view_projection()
-        self.gbuffer_prog["u_view_proj"].write(gl_matrix(view_proj))
+        self.gbuffer_prog["u_view_proj"].write(gl_matrix(view.view_proj))
         gpu.materials.buffer.bind_to_storage_buffer(0)
-        return self.draw_world(self._gbuffer_vao, view_proj, scene)
+        return self.draw_world(self._gbuffer_vao, view.view_proj, scene)
 
     def shadows(self, gpu: GPUScene, scene: SceneData, settings: RenderSettings) -> list[tuple[int, int]]:
         """Render every light's shadow slots into the atlas (§3.5)."""
@@ -271,28 +312,28 @@ class RasterPasses:
         self._slot_buffer.write(slots.tobytes())
         return per_light
 
-    def shade(self, gpu: GPUScene, scene: SceneData, camera: Camera, settings: RenderSettings) -> None:
-        """Deferred shading of the primary G-buffer into ``self.output``."""
+    def shade(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
+              settings: RenderSettings, origin: tuple[int, int] = (0, 0)) -> None:
+        """Deferred shading of the G-buffer region at ``origin`` into ``targets.color``."""
         prog = self.shade_prog
-        width, height = int(camera.width), int(camera.height)
         self._upload_sky(scene.sky)
         gpu.materials.buffer.bind_to_storage_buffer(0)
         gpu.lights.buffer.bind_to_storage_buffer(1)
         self._slot_buffer.bind_to_storage_buffer(2)
-        units = {"u_depth": self.depth, "u_normal_material": self.normal_material, "u_albedo": self.albedo,
+        units = {"u_depth": targets.depth, "u_normal_material": targets.normal_material, "u_albedo": targets.albedo,
                  "u_shadow_atlas": self._shadow_atlas, "u_sky_env": self._sky_texture or self._dummy_env}
         for unit, (name, tex) in enumerate(units.items()):
             tex.use(location=unit)
             if name in prog:
                 prog[name].value = unit
-        self.output.bind_to_image(0, read=False, write=True)
-        inv_vp = np.linalg.inv(camera.view_projection())
+        targets.color.bind_to_image(0, read=False, write=True)
         values = {
-            "u_inv_view_proj": gl_matrix(inv_vp),
-            "u_camera_position": tuple(camera.position.astype(float)),
-            "u_camera_forward": tuple(camera.forward.astype(float)),
-            "u_orthographic": int(camera.projection == "ORTHO"),
-            "u_size": (width, height),
+            "u_inv_view_proj": gl_matrix(np.linalg.inv(view.view_proj)),
+            "u_camera_position": tuple(np.asarray(view.position, float)),
+            "u_camera_forward": tuple(np.asarray(view.forward, float)),
+            "u_orthographic": int(view.orthographic),
+            "u_size": (view.width, view.height),
+            "u_origin": (int(origin[0]), int(origin[1])),
             "u_light_count": len(scene.lights),
             "u_shadow_bias": float(settings.shadow_bias),
             "u_sky_color": tuple(scene.sky.color),
@@ -306,14 +347,11 @@ class RasterPasses:
                 prog[name].write(value)
             else:
                 prog[name].value = value
-        prog.run(math.ceil(width / 8), math.ceil(height / 8), 1)
-
-    def read_output(self) -> np.ndarray:
-        """The shaded image as (H, W, 4) float32, row 0 at the bottom."""
-        w, h = self._size
-        return np.frombuffer(self.output.read(), np.float32).reshape(h, w, 4).copy()
+        prog.run(math.ceil(view.width / 8), math.ceil(view.height / 8), 1)
 
     def release(self) -> None:
-        _release_all((self.fbo, self.depth, self.normal_material, self.albedo, self.output, self._gbuffer_vao,
+        if self.primary is not None:
+            self.primary.release()
+        _release_all((self._gbuffer_vao,
                       self._shadow_vao, self._shadow_fbo, self._shadow_atlas, self._slot_buffer,
                       self._sky_texture, self._dummy_env))

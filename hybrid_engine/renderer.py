@@ -18,7 +18,7 @@ import numpy as np
 from . import gl_context
 from .camera import Camera
 from .gpu_scene import GPUScene
-from .raster import RasterPasses
+from .raster import RasterPasses, RasterView
 from .scene_data import SceneData
 from .settings import RenderSettings
 from .timing import PassTimer
@@ -96,14 +96,17 @@ class Renderer:
             per_light = self.raster.shadows(self.gpu_scene, scene, settings)
             self.gpu_scene.upload_lights(scene.lights, per_light)
         step("primary_raster")
+        view = RasterView.from_camera(camera)
         with timer.measure("primary_raster"):
-            submitted = self.raster.gbuffer(self.gpu_scene, scene, camera)
+            targets = self.raster.primary_targets(view.width, view.height)
+            targets.clear()
+            submitted = self.raster.gbuffer(self.gpu_scene, scene, view, targets)
         step("shade")
         with timer.measure("shade"):
-            self.raster.shade(self.gpu_scene, scene, camera, settings)
+            self.raster.shade(self.gpu_scene, scene, view, targets, settings)
         step("readback")
         with timer.measure("readback"):
-            image = self.raster.read_output()
+            image = targets.read_color()
         if gl_context.debug_checks_enabled():
             gl_context.check_error(f"{settings.mode} frame")
         if progress is not None:

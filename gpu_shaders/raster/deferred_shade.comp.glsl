@@ -25,7 +25,8 @@ uniform mat4 u_inv_view_proj;
 uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
 uniform int u_orthographic;
-uniform ivec2 u_size;
+uniform ivec2 u_size;    // size of the view being shaded
+uniform ivec2 u_origin;  // its texel origin inside the G-buffer (cube-map faces share an atlas)
 
 vec3 unproject(vec2 ndc_xy, float ndc_z) {
     vec4 world = u_inv_view_proj * vec4(ndc_xy, ndc_z, 1.0);
@@ -43,10 +44,11 @@ float fresnel_dielectric(float cos_i, float eta) {
 }
 
 void main() {
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
-    if (any(greaterThanEqual(pixel, u_size))) return;
+    ivec2 local = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(local, u_size))) return;
+    ivec2 pixel = u_origin + local;
 
-    vec2 ndc_xy = (vec2(pixel) + 0.5) / vec2(u_size) * 2.0 - 1.0;
+    vec2 ndc_xy = (vec2(local) + 0.5) / vec2(u_size) * 2.0 - 1.0;
     vec3 near_point = unproject(ndc_xy, -1.0);
     vec3 view_dir = u_orthographic != 0 ? u_camera_forward : normalize(near_point - u_camera_position);
 

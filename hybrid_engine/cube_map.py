@@ -1,0 +1,104 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The G-buffer cube map of paper §3.2.
+
+Six G-buffers (depth, shaded colour, normal + material index) rendered from the camera
+position every frame. Each face camera has a field of view of 90.2° rather than 90°, so
+that a ray lying in one of the diagonal planes between two faces always belongs to at least
+one face (paper Figure 3). Each face's near plane lies at ``near_size``: the six near
+planes are the faces of the *near cube*, the boundary between BVH traversal inside and
+image-based ray marching outside, and geometry inside the near cube is clipped away here.
+
+The faces share one atlas, face i occupying texels [i * res, (i + 1) * res) in x, in the
+order +X, -X, +Y, -Y, +Z, -Z. Because all faces share the centre, the face-to-face
+matrices M_j M_i^-1 that the marcher uses to switch faces (§3.4) do not depend on the
+camera position and are computed once per (near, far).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .camera import CUBE_FACE_DIRECTIONS, cube_face_views, perspective_matrix
+from .gpu_scene import GPUScene
+from .raster import GBufferTargets, RasterPasses, RasterView
+from .scene_data import SceneData
+from .settings import RenderSettings
+
+CUBE_FACE_FOV = math.radians(90.2)  # paper §3.2, Figure 3
+FACE_NAMES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
+
+
+@dataclass(frozen=True)
+class CubeFaces:
+    """The six face cameras of one frame."""
+
+    center: np.ndarray  # (3,)
+    near: float
+    far: float
+    view_proj: np.ndarray  # (6, 4, 4) world -> clip
+    inv_view_proj: np.ndarray  # (6, 4, 4)
+    face_to_face: np.ndarray  # (6, 6, 4, 4): clip of face i -> clip of face j
+
+    @classmethod
+    def at(cls, center, near: float, far: float) -> "CubeFaces":
+        c = np.asarray(center, np.float64)
+        proj = perspective_matrix(CUBE_FACE_FOV, 1.0, near, far)
+        vp = np.stack([proj @ v for v in cube_face_views(c)])
+        inv = np.linalg.inv(vp)
+        f2f = np.einsum("jab,ibc->ijac", vp, inv)
+        return cls(c, float(near), float(far), vp, inv, f2f)
+
+    def views(self, resolution: int) -> list[RasterView]:
+        return [
+            RasterView(self.view_proj[i], self.center, CUBE_FACE_DIRECTIONS[i], False, resolution, resolution)
+            for i in range(6)
+        ]
+
+
+def face_of_direction(direction: np.ndarray) -> np.ndarray:
+    """The face whose axis is the major axis of each direction (the first face that
+    contains it; the 0.1° overlap means neighbours contain it too)."""
+    d = np.asarray(direction, np.float64).reshape(-1, 3)
+    axis = np.argmax(np.abs(d), axis=1)
+    negative = d[np.arange(len(d)), axis] < 0
+    return axis * 2 + negative
+
+
+class CubeMapPass:
+    """Renders the six face G-buffers into one atlas and shades them (colour with shadows)."""
+
+    def __init__(self, ctx, raster: RasterPasses) -> None:
+        self.ctx = ctx
+        self.raster = raster
+        self.targets: GBufferTargets | None = None
+        self.faces: CubeFaces | None = None
+
+    def _ensure_targets(self, resolution: int) -> GBufferTargets:
+        size = (6 * resolution, resolution)
+        if self.targets is None or self.targets.size != size:
+            old, self.targets = self.targets, GBufferTargets(self.ctx, *size)
+            if old is not None:
+                old.release()
+        return self.targets
+
+    def render(self, gpu: GPUScene, scene: SceneData, center, settings: RenderSettings) -> int:
+        """Rasterize and shade all six faces; returns the triangles submitted (after
+        per-face object culling, which also drops objects wholly inside the near cube)."""
+        res = int(settings.cube_resolution)
+        targets = self._ensure_targets(res)
+        self.faces = CubeFaces.at(center, settings.near_size, settings.cube_far)
+        targets.clear()
+        submitted = 0
+        views = self.faces.views(res)
+        for i, view in enumerate(views):
+            submitted += self.raster.gbuffer(gpu, scene, view, targets, origin=(i * res, 0))
+        for i, view in enumerate(views):
+            self.raster.shade(gpu, scene, view, targets, settings, origin=(i * res, 0))
+        return submitted
+
+    def release(self) -> None:
+        if self.targets is not None:
+            self.targets.release()
+            self.targets = None

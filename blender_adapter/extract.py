@@ -1,0 +1,588 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Depsgraph → ``hybrid_engine.SceneData`` and ``Camera``.
+
+The renderer core takes plain world-space arrays; this module is the one place that reads
+Blender data to build them. It walks ``depsgraph.object_instances`` so that everything the
+depsgraph evaluated is seen the way Blender's own engines see it: modifiers, shape keys,
+armatures, geometry-nodes and collection instances, curves/text/metaballs that evaluate to
+meshes. Hidden objects never reach us (the depsgraph filters by the render or viewport
+visibility of its mode).
+
+Speed matters because the viewport re-extracts on every geometry change and the per-frame
+LBVH (paper §3.3) is rebuilt from these arrays: all per-element work is ``foreach_get`` into
+numpy through Blender's raw attribute arrays plus vectorised gathers, never a Python loop over
+vertices or triangles. Local mesh data is read once per evaluated mesh datablock and reused
+by all its instances. Nothing here writes to Blender data.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..hybrid_engine.camera import Camera, CameraError
+from ..hybrid_engine.materials import DEFAULT_THICKNESS, principled_to_params
+from ..hybrid_engine.scene_data import Geometry, Lights, MaterialTable, SceneData, Sky
+
+log = logging.getLogger(__name__)
+
+# Object types whose evaluated geometry becomes a mesh through Object.to_mesh().
+_CONVERTIBLE_TYPES = frozenset({"CURVE", "SURFACE", "FONT", "META"})
+_LIGHT_TYPES = frozenset({"POINT", "SUN", "SPOT", "AREA"})
+
+# Blender's default world colour when a scene has no World (DNA_world_defaults.h).
+DEFAULT_WORLD_COLOR = (0.05, 0.05, 0.05)
+# Lens Blender uses when the scene camera is not a camera object (BKE_camera_params_from_object).
+NON_CAMERA_LENS = 35.0
+
+# Triangulation: corner triangles whose split we cannot reproduce for certain are read from
+# Blender one by one; past this many it is cheaper to read all of them with one foreach_get.
+_EXACT_READ_LIMIT = 4096
+# A quad is clearly convex (Blender keeps its 0-2 split) when the cosine between the two
+# half-triangle normals, as in Blender's is_quad_flip_v3_first_third_fast, is below this.
+_QUAD_CONVEX_COS = -0.1
+
+
+# ---------------------------------------------------------------------------------------
+# Materials
+# ---------------------------------------------------------------------------------------
+def _socket_value(node, name: str, default):
+    """Default value of an input socket (links are not followed: textures use the default)."""
+    socket = node.inputs.get(name)
+    if socket is None or not hasattr(socket, "default_value"):
+        return default
+    value = socket.default_value
+    return tuple(value) if hasattr(value, "__len__") else float(value)
+
+
+def _surface_node(node_tree):
+    """The shader node linked to the active output's Surface input (reroutes skipped)."""
+    if node_tree is None:
+        return None
+    output = node_tree.get_output_node("EEVEE")
+    if output is None:
+        return None
+    socket = output.inputs.get("Surface")
+    while socket is not None and socket.is_linked:
+        node = socket.links[0].from_node
+        if node.type != "REROUTE":
+            return node
+        socket = node.inputs[0]
+    return None
+
+
+def material_inputs(material) -> dict:
+    """Keyword arguments of ``principled_to_params`` read from a Blender material.
+
+    Principled BSDF inputs are read directly; a lone Diffuse, Glossy, Glass or Emission
+    shader is read as the Principled BSDF it is a special case of; anything else (or a
+    material without a node tree) falls back to the viewport display values
+    ``diffuse_color``/``metallic``/``roughness``.
+    """
+    thickness = getattr(getattr(material, "hybrid_rt", None), "thickness", DEFAULT_THICKNESS)
+    node = _surface_node(getattr(material, "node_tree", None))
+    kind = node.type if node is not None else None
+    if kind == "BSDF_PRINCIPLED":
+        return dict(
+            base_color=_socket_value(node, "Base Color", (0.8, 0.8, 0.8)),
+            metallic=_socket_value(node, "Metallic", 0.0),
+            roughness=_socket_value(node, "Roughness", 0.5),
+            transmission=_socket_value(node, "Transmission Weight", 0.0),
+            ior=_socket_value(node, "IOR", 1.5),
+            emission=_socket_value(node, "Emission Color", (0.0, 0.0, 0.0)),
+            emission_strength=_socket_value(node, "Emission Strength", 0.0),
+            thickness=thickness,
+        )
+    color = _socket_value(node, "Color", (0.8, 0.8, 0.8)) if node is not None else None
+    if kind == "BSDF_DIFFUSE":
+        return dict(base_color=color, roughness=1.0, thickness=thickness)
+    if kind in ("BSDF_GLOSSY", "BSDF_ANISOTROPIC"):
+        return dict(base_color=color, metallic=1.0, roughness=_socket_value(node, "Roughness", 0.5),
+                    thickness=thickness)
+    if kind == "BSDF_GLASS":
+        return dict(base_color=color, transmission=1.0, roughness=_socket_value(node, "Roughness", 0.0),
+                    ior=_socket_value(node, "IOR", 1.5), thickness=thickness)
+    if kind == "EMISSION":
+        return dict(base_color=(0.0, 0.0, 0.0), emission=color,
+                    emission_strength=_socket_value(node, "Strength", 1.0), thickness=thickness)
+    return dict(
+        base_color=tuple(material.diffuse_color),
+        metallic=float(material.metallic),
+        roughness=float(material.roughness),
+        thickness=thickness,
+    )
+
+
+def material_params(material) -> dict:
+    """One ``MaterialTable`` row for a Blender material (shared by the extractor and the
+    material panel, so the panel shows exactly what is rendered)."""
+    row = principled_to_params(**material_inputs(material))
+    row["name"] = material.name
+    return row
+
+
+class _MaterialTableBuilder:
+    """Global material table; index 0 is the fallback for empty or missing slots."""
+
+    def __init__(self) -> None:
+        self.rows = [dict(name="fallback")]
+        self._index: dict[int, int] = {}
+
+    def index_of(self, material) -> int:
+        if material is None:
+            return 0
+        original = material.original
+        key = original.as_pointer()
+        if key not in self._index:
+            self._index[key] = len(self.rows)
+            self.rows.append(material_params(original))
+        return self._index[key]
+
+    def table(self) -> MaterialTable:
+        return MaterialTable.from_rows(self.rows)
+
+
+def _slot_lookup(obj, mesh, materials: _MaterialTableBuilder) -> np.ndarray:
+    """Global material id per material slot of this object (object-linked slots included)."""
+    slots = obj.material_slots
+    if len(slots):
+        mats = [slot.material for slot in slots]
+    else:  # temporary instance objects may carry their materials on the mesh only
+        mats = list(mesh.materials)
+    return np.array([materials.index_of(m) for m in mats] or [0], np.int32)
+
+
+# ---------------------------------------------------------------------------------------
+# Meshes
+# ---------------------------------------------------------------------------------------
+@dataclass
+class _MeshData:
+    """Local-space data of one evaluated mesh, read once and shared by its instances."""
+
+    positions: np.ndarray  # (V, 3) float32
+    tri_vertices: np.ndarray  # (N*3,) int32 vertex index per triangle corner
+    normals: np.ndarray  # (D, 3) float32 unit, on the mesh's normal domain
+    tri_normal_index: np.ndarray  # (N*3,) int32 index into normals per triangle corner
+    slots: np.ndarray  # (N,) int32 material slot per triangle
+    uvs: np.ndarray | None  # (N*3, 2) float32
+    all_vertices_used: bool  # bounds may be taken over all vertices
+
+    @property
+    def triangle_count(self) -> int:
+        return len(self.slots)
+
+
+def _read(collection, attr: str, count: int, width: int, dtype) -> np.ndarray:
+    out = np.empty(count * width, dtype)
+    collection.foreach_get(attr, out)
+    return out.reshape(count, width) if width > 1 else out
+
+
+def _attribute(mesh, name: str, domain: str, data_type: str):
+    attribute = mesh.attributes.get(name)
+    if attribute is not None and attribute.domain == domain and attribute.data_type == data_type:
+        return attribute
+    return None
+
+
+def _triangle_corners(mesh, positions: np.ndarray, corner_verts: np.ndarray,
+                      tri_faces: np.ndarray) -> np.ndarray:
+    """Corner index of each triangle corner, (N, 3), identical to ``mesh.loop_triangles``.
+
+    Reading ``loop_triangles`` costs ~90 ns per triangle (no raw array behind it), most of
+    the extraction budget. Instead the triangulation is reproduced from the raw face index
+    of each triangle: faces own contiguous corner ranges in order, so each face's size is its
+    triangle count + 2. Triangles are taken as they are; quads are split 0-2 unless Blender
+    flips them to 1-3 (``mesh_tessellate.cc``: concave or degenerate quads). Blender has two
+    flip tests (with and without the face normal); with the quad's normal ∝ a - b (a, b the
+    half-triangle normals below) both keep the split whenever a·b < 0, so a clearly convex
+    quad (a·b < -0.1 |a||b|) is safe from rounding either way. N-gons (polyfill + beautify)
+    and unclear quads are read from Blender exactly.
+    """
+    n_tris, n_faces = len(tri_faces), len(mesh.polygons)
+    sizes = (np.bincount(tri_faces, minlength=n_faces) + 2).astype(np.int32)
+    if int(sizes.sum(dtype=np.int64)) != len(corner_verts):  # not the layout we rely on
+        return _read(mesh.loop_triangles, "loops", n_tris, 3, np.int32)
+    starts = np.zeros(n_faces, np.int32)
+    np.cumsum(sizes[:-1], out=starts[1:])
+    # Face f's triangles start at starts[f] - 2 f (each face of s corners has s - 2 triangles).
+    face_first_tri = starts - 2 * np.arange(n_faces, dtype=np.int32)
+    start = np.take(starts, tri_faces)
+    local = np.arange(n_tris, dtype=np.int32) - np.take(face_first_tri, tri_faces)
+    corners = np.empty((n_tris, 3), np.int32)
+    corners[:, 0] = start
+    np.add(start, local + 1, out=corners[:, 1])
+    np.add(corners[:, 1], 1, out=corners[:, 2])
+    tri_size = np.take(sizes, tri_faces)
+    uncertain = tri_size > 4
+    quad_first = np.flatnonzero((tri_size == 4) & (local == 0))
+    if len(quad_first):
+        # Blender's is_quad_flip_v3_first_third_fast: the quad keeps its 0-2 split when the
+        # normals of (v0,v1,v2) and (v0,v3,v2) point opposite ways (a convex quad).
+        s = np.take(start, quad_first)
+        v0, v1, v2, v3 = (np.take(positions, np.take(corner_verts, s + k), axis=0) for k in range(4))
+        d2 = v2 - v0
+        cross_a = np.cross(v1 - v0, d2)
+        cross_b = np.cross(v3 - v0, d2)
+        dot = np.einsum("ij,ij->i", cross_a, cross_b)
+        norms = np.einsum("ij,ij->i", cross_a, cross_a) * np.einsum("ij,ij->i", cross_b, cross_b)
+        with np.errstate(invalid="ignore", over="ignore"):
+            clear = (dot < 0) & (dot * dot > _QUAD_CONVEX_COS**2 * norms)
+        unclear = quad_first[~clear]
+        uncertain[unclear] = True
+        uncertain[unclear + 1] = True
+    exact = np.flatnonzero(uncertain)
+    if len(exact) > _EXACT_READ_LIMIT:
+        return _read(mesh.loop_triangles, "loops", n_tris, 3, np.int32)
+    loop_triangles = mesh.loop_triangles
+    for k in exact.tolist():  # few: only n-gons and concave/degenerate quads
+        corners[k] = loop_triangles[k].loops
+    return corners
+
+
+def _sanitize_normals(normals: np.ndarray) -> np.ndarray:
+    """Unit normals; zero or non-finite ones (degenerate faces) become +Z, the same
+    documented fallback as ``scene_data.flat_normals``."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        length = np.sqrt(np.einsum("ij,ij->i", normals, normals))
+        ok = np.isfinite(length) & (length > 0)
+        if ok.all():
+            return normals / length[:, None]
+        out = np.zeros_like(normals)
+        out[:, 2] = 1
+        out[ok] = normals[ok] / length[ok, None]
+    return out
+
+
+def _read_mesh(mesh) -> _MeshData | None:
+    """Local-space triangles of an evaluated mesh, or None when it has no faces."""
+    tri_faces_collection = mesh.loop_triangle_polygons
+    n_tris = len(tri_faces_collection)
+    if n_tris == 0:
+        return None
+    n_verts, n_corners, n_faces = len(mesh.vertices), len(mesh.loops), len(mesh.polygons)
+    tri_faces = _read(tri_faces_collection, "value", n_tris, 1, np.int32)
+
+    position_attr = _attribute(mesh, "position", "POINT", "FLOAT_VECTOR")
+    positions = _read(position_attr.data if position_attr else mesh.vertices,
+                      "vector" if position_attr else "co", n_verts, 3, np.float32)
+    corner_attr = _attribute(mesh, ".corner_vert", "CORNER", "INT")
+    corner_verts = _read(corner_attr.data if corner_attr else mesh.loops,
+                         "value" if corner_attr else "vertex_index", n_corners, 1, np.int32)
+    corners = _triangle_corners(mesh, positions, corner_verts, tri_faces).reshape(-1)
+    tri_vertices = np.take(corner_verts, corners)
+
+    # Shading normals on the domain Blender stores them (smooth: vertex, flat: face,
+    # sharp edges / custom split normals: corner); equal to mesh.corner_normals but cheaper.
+    domain = mesh.normals_domain
+    if domain == "POINT":
+        normals = _read(mesh.vertex_normals, "vector", n_verts, 3, np.float32)
+        normal_index = tri_vertices
+    elif domain == "FACE":
+        normals = _read(mesh.polygon_normals, "vector", n_faces, 3, np.float32)
+        normal_index = np.repeat(tri_faces, 3)
+    else:
+        normals = _read(mesh.corner_normals, "vector", n_corners, 3, np.float32)
+        normal_index = corners
+
+    material_attr = _attribute(mesh, "material_index", "FACE", "INT")
+    if material_attr is not None:
+        slots = np.take(_read(material_attr.data, "value", n_faces, 1, np.int32), tri_faces)
+    else:
+        slots = np.zeros(n_tris, np.int32)
+
+    uvs = None
+    uv_layer = next((layer for layer in mesh.uv_layers if layer.active_render), None)
+    if uv_layer is not None:
+        uvs = np.take(_read(uv_layer.uv, "vector", n_corners, 2, np.float32), corners, axis=0)
+
+    used = np.zeros(n_verts, bool)
+    used[corner_verts] = True  # every corner of a face belongs to one of its triangles
+    return _MeshData(
+        positions=positions,
+        tri_vertices=tri_vertices.astype(np.int32, copy=False),
+        normals=_sanitize_normals(normals),
+        tri_normal_index=normal_index.astype(np.int32, copy=False),
+        slots=slots,
+        uvs=uvs,
+        all_vertices_used=bool(used.all()),
+    )
+
+
+def _normal_matrix(linear: np.ndarray) -> np.ndarray:
+    """Inverse-transpose of the 3x3 part, up to a positive scale: the cofactor matrix
+    (columns a1×a2, a2×a0, a0×a1) times sign(det). Defined even for singular matrices
+    (flattened objects), where the inverse is not."""
+    a0, a1, a2 = linear[:, 0], linear[:, 1], linear[:, 2]
+    cofactor = np.stack([np.cross(a1, a2), np.cross(a2, a0), np.cross(a0, a1)], axis=1)
+    return cofactor * (-1.0 if np.linalg.det(linear) < 0 else 1.0)
+
+
+@dataclass
+class _ObjectArrays:
+    name: str
+    triangles: np.ndarray  # (n, 3, 3)
+    normals: np.ndarray  # (n, 3, 3)
+    material_ids: np.ndarray  # (n,)
+    uvs: np.ndarray | None  # (n, 3, 2)
+    bounds: np.ndarray  # (2, 3)
+
+
+def _instance_arrays(name: str, data: _MeshData, matrix: np.ndarray, slot_ids: np.ndarray) -> _ObjectArrays | None:
+    """World-space triangles of one instance of a mesh."""
+    linear = matrix[:3, :3].astype(np.float64)
+    with np.errstate(invalid="ignore", over="ignore"):  # non-finite vertices are handled below
+        world = (data.positions @ linear.T.astype(np.float32)) + matrix[:3, 3].astype(np.float32)
+    is_identity = np.array_equal(matrix, np.eye(4))
+    if is_identity:
+        normals = data.normals
+    else:
+        normals = _sanitize_normals(data.normals @ _normal_matrix(linear).T.astype(np.float32))
+
+    tri_vertices, normal_index, uvs = data.tri_vertices, data.tri_normal_index, data.uvs
+    n = data.triangle_count
+    if np.linalg.det(linear) < 0:
+        # A mirroring transform reverses the winding; swap corners 1 and 2 so the
+        # counter-clockwise order still agrees with the (correctly transformed) normals.
+        swap = np.array([0, 2, 1])
+        tri_vertices = tri_vertices.reshape(n, 3)[:, swap].reshape(-1)
+        normal_index = normal_index.reshape(n, 3)[:, swap].reshape(-1)
+        uvs = uvs.reshape(n, 3, 2)[:, swap].reshape(-1, 2) if uvs is not None else None
+
+    slots = data.slots
+    material_ids = slot_ids[np.minimum(slots, len(slot_ids) - 1)]
+    if (slots >= len(slot_ids)).any() or (slots < 0).any():  # missing slots: fallback material 0
+        material_ids = np.where((slots >= 0) & (slots < len(slot_ids)), material_ids, 0)
+
+    finite_vertices = np.isfinite(world).all(axis=1)
+    keep = None
+    if not finite_vertices.all():
+        # Documented fallback: triangles with a NaN/inf corner cannot be rasterized or put in
+        # a BVH; they are dropped (with a warning), the rest of the object renders.
+        keep = finite_vertices[tri_vertices].reshape(n, 3).all(axis=1)
+        log.warning("%s: %d triangle(s) with non-finite vertices skipped", name, int(n - keep.sum()))
+        if not keep.any():
+            return None
+
+    triangles = np.take(world, tri_vertices, axis=0).reshape(n, 3, 3)
+    tri_normals = np.take(normals, normal_index, axis=0).reshape(n, 3, 3)
+    tri_uvs = uvs.reshape(n, 3, 2) if uvs is not None else None
+    if keep is not None:
+        triangles, tri_normals, material_ids = triangles[keep], tri_normals[keep], material_ids[keep]
+        tri_uvs = tri_uvs[keep] if tri_uvs is not None else None
+        pts = triangles.reshape(-1, 3)
+    elif data.all_vertices_used:
+        pts = world
+    else:
+        pts = triangles.reshape(-1, 3)
+    bounds = np.array([[pts[:, k].min() for k in range(3)], [pts[:, k].max() for k in range(3)]], np.float32)
+    return _ObjectArrays(name, triangles, tri_normals, material_ids.astype(np.int32, copy=False), tri_uvs, bounds)
+
+
+def _concat(arrays: list[np.ndarray]) -> np.ndarray:
+    return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
+
+
+def _geometry(objects: list[_ObjectArrays]) -> Geometry:
+    if not objects:
+        return Geometry.empty()
+    counts = np.array([len(o.triangles) for o in objects], np.int64)
+    firsts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    uvs = None
+    if any(o.uvs is not None for o in objects):  # objects without a UV map get (0, 0)
+        uvs = _concat([o.uvs if o.uvs is not None else np.zeros((len(o.triangles), 3, 2), np.float32)
+                       for o in objects])
+    return Geometry(
+        triangles=_concat([o.triangles for o in objects]),
+        normals=_concat([o.normals for o in objects]),
+        material_ids=_concat([o.material_ids for o in objects]),
+        object_ranges=np.stack([firsts, counts], axis=1).astype(np.int32),
+        object_bounds=np.stack([o.bounds for o in objects]),
+        object_names=[o.name for o in objects],
+        uvs=uvs,
+    )
+
+
+# ---------------------------------------------------------------------------------------
+# Lights and world
+# ---------------------------------------------------------------------------------------
+def _light_row(name: str, light, matrix: np.ndarray) -> dict:
+    forward = -matrix[:3, 2]
+    length = float(np.linalg.norm(forward))
+    direction = forward / length if length > 0 else np.array([0.0, 0.0, -1.0])
+    return dict(
+        kind=light.type,
+        position=matrix[:3, 3],
+        direction=direction,
+        color=np.asarray(light.color, np.float32) * float(light.energy),
+        radius=float(getattr(light, "shadow_soft_size", 0.0)),
+        spot_size=float(getattr(light, "spot_size", np.pi / 4)),
+        spot_blend=float(getattr(light, "spot_blend", 0.15)),
+        cast_shadow=bool(getattr(light, "use_shadow", True)),
+        name=name,
+    )
+
+
+def _srgb_to_linear(values: np.ndarray) -> np.ndarray:
+    return np.where(values <= 0.04045, values / 12.92, ((values + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+def _environment_pixels(image) -> np.ndarray | None:
+    """(H, W, 3) linear float32 pixels of an environment image (row 0 = bottom), or None."""
+    width, height = (int(v) for v in image.size)
+    channels = int(image.channels)
+    if width < 1 or height < 1 or channels < 3:
+        log.warning("environment image %r has no usable pixels (%dx%d, %d channels); "
+                    "using the background colour", image.name, width, height, channels)
+        return None
+    pixels = np.empty(width * height * channels, np.float32)
+    image.pixels.foreach_get(pixels)
+    rgb = pixels.reshape(height, width, channels)[:, :, :3]
+    # Byte images come back in their own colour space; float images are scene linear.
+    if not image.is_float and image.colorspace_settings.name.lower() in ("srgb", "srgb display"):
+        rgb = _srgb_to_linear(rgb)
+    return np.ascontiguousarray(rgb)
+
+
+def extract_sky(world) -> Sky:
+    """The World background: Background node colour and strength, or an equirectangular
+    Environment Texture linked to its Color; ``world.color`` when there is no Background
+    node; Blender's default dark grey when the scene has no World."""
+    if world is None:
+        return Sky(color=DEFAULT_WORLD_COLOR, strength=1.0)
+    node = _surface_node(world.node_tree)
+    if node is None or node.type != "BACKGROUND":
+        return Sky(color=tuple(world.color), strength=1.0)
+    color = _socket_value(node, "Color", (0.05, 0.05, 0.05, 1.0))[:3]
+    strength = float(_socket_value(node, "Strength", 1.0))
+    environment = None
+    color_socket = node.inputs.get("Color")
+    if color_socket is not None and color_socket.is_linked:
+        source = color_socket.links[0].from_node
+        if source.type == "TEX_ENVIRONMENT" and source.image is not None:
+            if source.projection == "EQUIRECTANGULAR":
+                environment = _environment_pixels(source.image)
+            else:
+                log.warning("environment projection %s is not supported; using the background "
+                            "colour", source.projection)
+    return Sky(color=color, strength=strength, environment=environment)
+
+
+# ---------------------------------------------------------------------------------------
+# Scene
+# ---------------------------------------------------------------------------------------
+def _matrix(instance_or_object) -> np.ndarray:
+    return np.array(instance_or_object.matrix_world, np.float64)
+
+
+def extract_scene(depsgraph) -> SceneData:
+    """Everything visible in the evaluated depsgraph as plain arrays (see module docstring).
+
+    Objects without faces contribute nothing; triangles with non-finite vertices are
+    skipped with a warning; empty material slots use material 0 (the grey fallback).
+    """
+    materials = _MaterialTableBuilder()
+    objects: list[_ObjectArrays] = []
+    light_rows: list[dict] = []
+    mesh_cache: dict[int, _MeshData | None] = {}
+    producers: set[int] = set()  # originals whose geometry arrived as mesh instances
+    convertible = []  # (original object, matrix, name) of curves/text/metaballs
+
+    def add_mesh(name: str, obj, mesh, matrix: np.ndarray, data: _MeshData | None) -> None:
+        if data is None:
+            return
+        arrays = _instance_arrays(name, data, matrix, _slot_lookup(obj, mesh, materials))
+        if arrays is not None:
+            objects.append(arrays)
+
+    for instance in depsgraph.object_instances:
+        if not instance.show_self:
+            continue
+        obj = instance.object  # only valid during this iteration step
+        kind = obj.type
+        if instance.is_instance:
+            name = f"{instance.parent.name}/{obj.name}" if instance.parent else obj.name
+        else:
+            name = obj.name
+        if kind == "MESH":
+            mesh = obj.data
+            key = mesh.as_pointer()
+            if key not in mesh_cache:
+                mesh_cache[key] = _read_mesh(mesh)
+            add_mesh(name, obj, mesh, _matrix(instance), mesh_cache[key])
+            if instance.is_instance and instance.parent is not None:
+                producers.add(instance.parent.original.as_pointer())
+        elif kind == "LIGHT" and obj.data.type in _LIGHT_TYPES:
+            light_rows.append(_light_row(name, obj.data, _matrix(instance)))
+        elif kind in _CONVERTIBLE_TYPES and not instance.is_instance:
+            convertible.append((obj.original, _matrix(instance), name))
+
+    # Curves, text and metaballs usually evaluate to mesh instances (handled above); those
+    # that did not are converted here. to_mesh() data is temporary and released at once.
+    for original, matrix, name in convertible:
+        if original.as_pointer() in producers:
+            continue
+        evaluated = original.evaluated_get(depsgraph)
+        try:
+            mesh = evaluated.to_mesh()
+        except RuntimeError as error:
+            log.warning("%s: cannot convert to a mesh (%s); skipped", name, error)
+            continue
+        try:
+            if mesh is not None:
+                add_mesh(name, evaluated, mesh, matrix, _read_mesh(mesh))
+        finally:
+            evaluated.to_mesh_clear()
+
+    return SceneData(
+        geometry=_geometry(objects),
+        materials=materials.table(),
+        lights=Lights.from_rows(light_rows),
+        sky=extract_sky(depsgraph.scene.world),
+    )
+
+
+def camera_from_scene(scene, depsgraph=None) -> Camera:
+    """The scene camera (evaluated when a depsgraph is given) and the render resolution.
+
+    Raises ``CameraError`` when the scene has no camera or uses a panoramic one.
+    """
+    camera_object = scene.camera
+    if camera_object is None:
+        raise CameraError(f"scene {scene.name!r} has no active camera: set one in Scene "
+                          "Properties > Camera")
+    if depsgraph is not None:
+        camera_object = camera_object.evaluated_get(depsgraph)
+    render = scene.render
+    scale = render.resolution_percentage / 100.0
+    width = max(int(render.resolution_x * scale), 1)
+    height = max(int(render.resolution_y * scale), 1)
+    common = dict(
+        matrix_world=_matrix(camera_object),
+        width=width,
+        height=height,
+        pixel_aspect_x=float(render.pixel_aspect_x),
+        pixel_aspect_y=float(render.pixel_aspect_y),
+    )
+    if camera_object.type != "CAMERA":  # Blender renders from any object, with default optics
+        return Camera(lens=NON_CAMERA_LENS, **common)
+    data = camera_object.data
+    if data.type not in ("PERSP", "ORTHO"):
+        raise CameraError(
+            f"camera {camera_object.name!r} is {data.type}: Hybrid RT renders perspective and "
+            "orthographic cameras only"
+        )
+    return Camera(
+        projection=data.type,
+        lens=float(data.lens),
+        sensor_width=float(data.sensor_width),
+        sensor_height=float(data.sensor_height),
+        sensor_fit=data.sensor_fit,
+        shift_x=float(data.shift_x),
+        shift_y=float(data.shift_y),
+        clip_start=float(data.clip_start),
+        clip_end=float(data.clip_end),
+        ortho_scale=float(data.ortho_scale),
+        **common,
+    )

@@ -1,0 +1,157 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Blender properties: ``scene.hybrid_rt`` (engine settings) and ``material.hybrid_rt``.
+
+The scene settings are *generated* from ``hybrid_engine.settings``: one Blender property
+per ``RenderSettings`` field, with the dataclass default, ``FIELD_LIMITS`` as min/max and
+``FIELD_DOCS`` as the tooltip. Adding a field to the core therefore adds it to the UI, and
+the two cannot disagree on a default or a range. ``settings_from_scene`` turns the stored
+values back into the frozen dataclass the renderer compares from frame to frame.
+
+Everything here is stored in the .blend as ID properties of the scene and the material.
+"""
+from __future__ import annotations
+
+from dataclasses import MISSING, fields
+
+import bpy
+import numpy as np
+
+from ..hybrid_engine.materials import DEFAULT_THICKNESS
+from ..hybrid_engine.settings import FIELD_DOCS, FIELD_LIMITS, MODE_DOCS, MODES, RenderSettings
+
+# Blender display details the core does not know about (units and sliders).
+_FLOAT_SUBTYPES = {
+    "near_size": "DISTANCE",
+    "cube_far": "DISTANCE",
+    "shadow_bias": "DISTANCE",
+    "viewport_scale": "FACTOR",
+}
+_LABELS = {
+    "mode": "Mode",
+    "near_size": "Near Size",
+    "max_depth": "Max Depth",
+    "cube_resolution": "Face Resolution",
+    "cube_far": "Far Clip",
+    "n_min": "Min Samples",
+    "n_max": "Max Samples",
+    "shadow_resolution": "Resolution",
+    "shadow_bias": "Bias",
+    "viewport_scale": "Resolution Scale",
+}
+
+THICKNESS_DOC = (
+    "How far behind its visible surface this material extends, as seen by rays marched "
+    "through the cube map (paper section 3.4). 0: infinitely thin, a ray that passes behind "
+    "the stored surface goes on past it; 1: solid all the way to the cube map's far plane, "
+    "any ray behind the surface hits it"
+)
+
+
+def _keep_n_min_below_n_max(settings, _context) -> None:
+    # Like Blender's frame range: raising the minimum pushes the maximum along.
+    if settings.n_min > settings.n_max:
+        settings.n_max = settings.n_min
+
+
+def _keep_n_max_above_n_min(settings, _context) -> None:
+    if settings.n_max < settings.n_min:
+        settings.n_min = settings.n_max
+
+
+_UPDATES = {"n_min": _keep_n_min_below_n_max, "n_max": _keep_n_max_above_n_min}
+
+
+def _property_for(name: str, default):
+    """One bpy property definition for a RenderSettings field."""
+    label = _LABELS.get(name, name.replace("_", " ").title())
+    doc = FIELD_DOCS[name]
+    if name == "mode":
+        items = [(mode, mode.replace("_", " ").title(), MODE_DOCS[mode]) for mode in MODES]
+        return bpy.props.EnumProperty(name=label, description=doc, items=items, default=default)
+    lo, hi = FIELD_LIMITS[name]
+    extra = {}
+    if name in _UPDATES:
+        extra["update"] = _UPDATES[name]
+    if isinstance(default, bool):
+        return bpy.props.BoolProperty(name=label, description=doc, default=default)
+    if isinstance(default, int):
+        return bpy.props.IntProperty(
+            name=label, description=doc, default=default, min=int(lo), max=int(hi), **extra
+        )
+    if isinstance(default, float):
+        return bpy.props.FloatProperty(
+            name=label, description=doc, default=default, min=float(lo), max=float(hi),
+            subtype=_FLOAT_SUBTYPES.get(name, "NONE"), precision=3, **extra,
+        )
+    raise TypeError(f"RenderSettings.{name}: no Blender property for {type(default).__name__}")
+
+
+def _scene_annotations() -> dict:
+    annotations = {}
+    for f in fields(RenderSettings):
+        if f.default is MISSING:
+            raise TypeError(f"RenderSettings.{f.name} needs a default to become a Blender property")
+        annotations[f.name] = _property_for(f.name, f.default)
+    return annotations
+
+
+HybridRTSceneSettings = type(
+    "HybridRTSceneSettings",
+    (bpy.types.PropertyGroup,),
+    {
+        "__doc__": "Hybrid RT render settings (one property per hybrid_engine RenderSettings field)",
+        "__annotations__": _scene_annotations(),
+    },
+)
+
+
+class HybridRTMaterialSettings(bpy.types.PropertyGroup):
+    """Per-material Hybrid RT settings."""
+
+    thickness: bpy.props.FloatProperty(
+        name="Thickness",
+        description=THICKNESS_DOC,
+        default=DEFAULT_THICKNESS,
+        min=0.0,
+        max=1.0,
+        subtype="FACTOR",
+    )
+
+
+_CLASSES = (HybridRTSceneSettings, HybridRTMaterialSettings)
+_POINTERS = ((bpy.types.Scene, HybridRTSceneSettings), (bpy.types.Material, HybridRTMaterialSettings))
+
+
+def settings_from_scene(scene) -> RenderSettings:
+    """The scene's stored settings as the core's frozen dataclass.
+
+    Raises ``hybrid_engine.settings.SettingsError`` with the field's name when the stored
+    values are inconsistent (e.g. a cube-map far plane inside the near cube).
+    """
+    stored = scene.hybrid_rt
+    values = {}
+    for f in fields(RenderSettings):
+        value = getattr(stored, f.name)
+        if isinstance(value, float):
+            # Blender keeps floats as float32: take the shortest decimal that round-trips it,
+            # so an untouched 0.02 reads back as 0.02 and compares equal to the core default
+            # (the renderer decides what to rebuild by comparing settings).
+            value = float(np.format_float_positional(np.float32(value)))
+        values[f.name] = value
+    return RenderSettings(**values)
+
+
+def register() -> None:
+    for cls in _CLASSES:
+        bpy.utils.register_class(cls)
+    for owner, group in _POINTERS:
+        owner.hybrid_rt = bpy.props.PointerProperty(type=group, name="Hybrid RT")
+
+
+def unregister() -> None:
+    for owner, _group in reversed(_POINTERS):
+        if hasattr(owner, "hybrid_rt"):
+            del owner.hybrid_rt
+    for cls in reversed(_CLASSES):
+        if cls.is_registered:
+            bpy.utils.unregister_class(cls)

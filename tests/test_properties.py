@@ -1,0 +1,129 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Blender properties and panels: generated from the core's tables, stored in the .blend,
+and removed without a trace on unregister."""
+from __future__ import annotations
+
+from dataclasses import fields
+
+import bpy
+import pytest
+
+from hybrid_engine.settings import FIELD_DOCS, FIELD_LIMITS, MODES, RenderSettings
+
+FLOAT32_TOLERANCE = 1e-6  # Blender stores float properties as float32
+
+
+def _rna(struct_type, name):
+    return struct_type.bl_rna.properties[name]
+
+
+def test_every_render_settings_field_is_a_scene_property_with_core_default_limits_and_tooltip(addon):
+    group = type(bpy.context.scene.hybrid_rt)
+    defaults = RenderSettings()
+    for f in fields(RenderSettings):
+        prop = _rna(group, f.name)
+        assert prop.description == FIELD_DOCS[f.name]
+        if f.name == "mode":
+            assert [item.identifier for item in prop.enum_items] == list(MODES)
+            assert prop.default == "HYBRID"
+            continue
+        assert prop.default == pytest.approx(getattr(defaults, f.name), rel=FLOAT32_TOLERANCE)
+        lo, hi = FIELD_LIMITS[f.name]
+        assert prop.hard_min == pytest.approx(lo, rel=FLOAT32_TOLERANCE)
+        assert prop.hard_max == pytest.approx(hi, rel=FLOAT32_TOLERANCE)
+
+
+def test_settings_from_scene_returns_the_stored_values(addon):
+    settings_from_scene = addon.blender_adapter.properties.settings_from_scene
+    scene = bpy.context.scene
+    assert settings_from_scene(scene) == type(settings_from_scene(scene))()  # defaults
+    stored = scene.hybrid_rt
+    stored.mode, stored.near_size, stored.max_depth = "FULL_BVH", 2.5, 7
+    stored.cube_resolution, stored.n_min, stored.n_max = 256, 8, 32
+    got = settings_from_scene(scene)
+    assert (got.mode, got.near_size, got.max_depth) == ("FULL_BVH", 2.5, 7)
+    assert (got.cube_resolution, got.n_min, got.n_max) == (256, 8, 32)
+
+
+def test_inconsistent_stored_settings_raise_a_clear_error(addon):
+    scene = bpy.context.scene
+    scene.hybrid_rt.near_size = 50.0
+    scene.hybrid_rt.cube_far = 10.0
+    with pytest.raises(ValueError, match="cube_far"):
+        addon.blender_adapter.properties.settings_from_scene(scene)
+
+
+def test_raising_n_min_above_n_max_pushes_n_max_and_back(addon):
+    stored = bpy.context.scene.hybrid_rt
+    stored.n_max = 40
+    stored.n_min = 100
+    assert stored.n_max == 100
+    stored.n_max = 10
+    assert stored.n_min == 10
+
+
+def test_material_thickness_is_a_factor_from_zero_to_one_defaulting_to_a_half(addon):
+    prop = _rna(type(bpy.data.materials.new("m").hybrid_rt), "thickness")
+    assert (prop.hard_min, prop.hard_max, prop.default, prop.subtype) == (0.0, 1.0, 0.5, "FACTOR")
+    assert "thin" in prop.description and "far plane" in prop.description
+
+
+def test_properties_survive_saving_and_reloading_the_blend(addon, tmp_path):
+    scene = bpy.context.scene
+    scene.hybrid_rt.mode = "PROVENANCE"
+    scene.hybrid_rt.near_size = 3.25
+    scene.hybrid_rt.cube_resolution = 128
+    material = bpy.data.materials.new("Thick")
+    material.use_fake_user = True
+    material.hybrid_rt.thickness = 0.875
+    path = tmp_path / "settings.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    assert bpy.context.scene.hybrid_rt.mode == "HYBRID"  # really a fresh session
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    scene = bpy.context.scene
+    assert scene.hybrid_rt.mode == "PROVENANCE"
+    assert scene.hybrid_rt.near_size == pytest.approx(3.25)
+    assert scene.hybrid_rt.cube_resolution == 128
+    assert bpy.data.materials["Thick"].hybrid_rt.thickness == pytest.approx(0.875)
+
+
+def test_repeated_register_unregister_leaves_nothing_behind(addon):
+    panels = addon.ui.panels
+    patched = panels.compatible_panels()
+    assert patched, "no standard panel was made compatible"
+    for _ in range(3):
+        addon.unregister()
+        assert not hasattr(bpy.types.Scene, "hybrid_rt")
+        assert not hasattr(bpy.types.Material, "hybrid_rt")
+        assert not addon.blender_adapter.properties.HybridRTSceneSettings.is_registered
+        assert not addon.blender_adapter.properties.HybridRTMaterialSettings.is_registered
+        assert not panels.RENDER_PT_hybrid_rt.is_registered
+        assert not any("HYBRID_RT" in p.COMPAT_ENGINES for p in patched)
+        addon.register()
+        assert hasattr(bpy.types.Scene, "hybrid_rt")
+        assert all("HYBRID_RT" in p.COMPAT_ENGINES for p in patched)
+
+
+def test_standard_panels_that_apply_are_enabled_and_eevee_specific_ones_are_not(addon):
+    for name in ("RENDER_PT_format", "RENDER_PT_output", "RENDER_PT_color_management",
+                 "EEVEE_MATERIAL_PT_surface", "EEVEE_WORLD_PT_surface", "DATA_PT_EEVEE_light",
+                 "DATA_PT_camera", "DATA_PT_lens"):
+        assert "HYBRID_RT" in getattr(bpy.types, name).COMPAT_ENGINES, name
+    for name in ("RENDER_PT_eevee_sampling", "DATA_PT_camera_dof", "VIEWLAYER_PT_layer_passes",
+                 "DATA_PT_lightprobe_bake", "EEVEE_MATERIAL_PT_settings"):
+        assert "HYBRID_RT" not in getattr(bpy.types, name).COMPAT_ENGINES, name
+
+
+def test_own_panels_show_only_for_this_engine(addon):
+    panels = addon.ui.panels
+
+    class FakeContext:
+        engine = "BLENDER_EEVEE"
+        material = bpy.data.materials.new("m")
+
+    assert not panels.RENDER_PT_hybrid_rt.poll(FakeContext)
+    assert not panels.MATERIAL_PT_hybrid_rt.poll(FakeContext)
+    FakeContext.engine = "HYBRID_RT"
+    assert panels.RENDER_PT_hybrid_rt.poll(FakeContext)
+    assert panels.MATERIAL_PT_hybrid_rt.poll(FakeContext)

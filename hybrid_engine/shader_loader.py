@@ -21,6 +21,9 @@ from typing import Mapping
 
 SHADER_ROOT = Path(__file__).resolve().parent.parent / "gpu_shaders"
 GLSL_VERSION = "#version 430 core"
+# Each file's lines are numbered from string_no * LINE_STRIDE: some drivers (Mesa) report
+# source-string 0 for errors on identifiers, so the line number alone must tell the file.
+LINE_STRIDE = 100_000
 
 _INCLUDE_RE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
 # Mesa: "0:12(3): error: ..."; NVIDIA: "0(12) : error C1008: ..."; generic "ERROR: 0:12: ...".
@@ -43,6 +46,8 @@ class ShaderSource:
     files: list[str] = field(default_factory=list)  # index = GLSL source-string number
 
     def locate(self, string_no: int, line: int) -> str:
+        if line >= LINE_STRIDE:  # the line number carries the file (see LINE_STRIDE)
+            string_no, line = divmod(line, LINE_STRIDE)
         if 0 <= string_no < len(self.files):
             return f"{self.files[string_no]}:{line}"
         return f"<string {string_no}>:{line}"
@@ -81,7 +86,7 @@ def assemble(name: str, defines: Mapping[str, object] | None = None) -> ShaderSo
         included.add(path)
         string_no = len(src.files)
         src.files.append(path.relative_to(SHADER_ROOT).as_posix())
-        out.append(f"#line 1 {string_no}")
+        out.append(f"#line {string_no * LINE_STRIDE + 1} {string_no}")
         for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
             if line.lstrip().startswith("#version"):
                 out.append("")  # the loader owns the version line
@@ -92,7 +97,7 @@ def assemble(name: str, defines: Mapping[str, object] | None = None) -> ShaderSo
                 if not target.startswith("include/") and "/" not in target:
                     target = "include/" + target
                 emit(target, (*stack, path))
-                out.append(f"#line {lineno + 1} {string_no}")
+                out.append(f"#line {string_no * LINE_STRIDE + lineno + 1} {string_no}")
                 continue
             out.append(line)
 

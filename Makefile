@@ -1,0 +1,49 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+# Hybrid RT: quick start is `make demo` and `make test`; both set up .venv on first use.
+
+SHELL := /bin/bash
+.SHELLFLAGS := -eu -o pipefail -c
+.DEFAULT_GOAL := help
+
+PYTHON_VENV := .venv/bin/python
+PYTEST_ARGS ?=
+
+.PHONY: help setup demo test bench package clean distclean
+
+help:
+	@echo "make demo       render the default scene with Hybrid RT to out/demo.png"
+	@echo "make test       run the test suite"
+	@echo "make bench      run the benchmark, results in out/bench.json"
+	@echo "make package    build the installable extension zip into dist/"
+	@echo "make clean      remove build outputs (dist/, wheels/, out/, caches)"
+	@echo "make distclean  clean, and remove the virtual environment .venv"
+
+# System libraries, Python 3.11, .venv and the pinned requirements (quick when all present).
+setup:
+	@bash scripts/bootstrap.sh
+
+demo: setup
+	@mkdir -p out
+	$(PYTHON_VENV) scripts/demo.py
+
+# pytest's exit status is also written to $PYTEST_STATUS_FILE when set (.ci/run reads it to
+# tell "no tests collected" (5) from failures).
+test: setup
+	@status=0; $(PYTHON_VENV) -m pytest tests -q --durations=15 $(PYTEST_ARGS) || status=$$?; \
+	if [ -n "$${PYTEST_STATUS_FILE:-}" ]; then echo $$status > "$$PYTEST_STATUS_FILE"; fi; \
+	if [ $$status -eq 5 ]; then echo "make test: pytest collected no tests (exit status 5)" >&2; fi; \
+	exit $$status
+
+bench: setup
+	@mkdir -p out
+	$(PYTHON_VENV) -m hybrid_engine.bench --json out/bench.json
+
+package: setup
+	$(PYTHON_VENV) scripts/build_extension.py
+
+clean:
+	rm -rf dist wheels out build tests/_failures .pytest_cache
+	find . -path ./.venv -prune -o -name __pycache__ -type d -prune -exec rm -rf {} +
+
+distclean: clean
+	rm -rf .venv

@@ -1,0 +1,299 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The project's written layout rules, checked.
+
+* ``hybrid_engine`` is a renderer core that works without Blender: importing it (and every
+  module in it) in a fresh interpreter never loads ``bpy`` or ``gpu``.
+* The import order is hybrid_engine < blender_adapter < operators < ui < root ``__init__``:
+  a package never imports a later one, and inside the add-on only relative imports are
+  used, so it works under whatever name Blender installs it (``bl_ext.<repo>.hybrid_rt``).
+* Every entry shader in ``gpu_shaders/`` compiles through the shader loader.
+"""
+from __future__ import annotations
+
+import ast
+import json
+import os
+import re
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from conftest import REPO_ROOT
+
+# Earlier packages may be imported by later ones, never the other way round.
+IMPORT_ORDER = ("hybrid_engine", "blender_adapter", "operators", "ui")
+ROOT_MODULE = "__init__"
+# Modules that exist only inside Blender: the core must run without any of them.
+BLENDER_ONLY_MODULES = frozenset({
+    "bpy", "gpu", "gpu_extras", "bgl", "blf", "bmesh", "bpy_extras", "bpy_types", "mathutils",
+    "aud", "idprop", "imbuf", "bl_math", "bl_ui", "bl_operators", "addon_utils", "freestyle",
+})
+# The add-on's own top-level names: importing them absolutely would break once installed.
+OWN_TOP_LEVEL = frozenset({*IMPORT_ORDER, "hybrid_rt", "gpu_shaders"})
+
+
+# ---------------------------------------------------------------------------------------------
+# (a) The core imports without Blender.
+
+IMPORT_EVERY_CORE_MODULE = textwrap.dedent(
+    """
+    import importlib, json, pkgutil, sys
+    import hybrid_engine
+    after_package = sorted(m for m in ("bpy", "gpu") if m in sys.modules)
+    names = [info.name for info in pkgutil.walk_packages(hybrid_engine.__path__, "hybrid_engine.")]
+    for name in names:
+        importlib.import_module(name)
+    print(json.dumps({
+        "after_package": after_package,
+        "after_all": sorted(m for m in ("bpy", "gpu") if m in sys.modules),
+        "modules": names,
+    }))
+    """
+)
+
+
+def run_fresh_interpreter(code: str, extra_path: Path | None = None, env_extra=None):
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    if extra_path is not None:
+        env["PYTHONPATH"] = str(extra_path)
+    env.update(env_extra or {})
+    return subprocess.run(
+        [sys.executable, "-c", code], cwd=REPO_ROOT, env=env, capture_output=True, text=True,
+        timeout=120,
+    )
+
+
+def test_core_imports_in_a_fresh_interpreter_without_loading_bpy_or_gpu():
+    """``import hybrid_engine`` and every submodule of it, then check sys.modules."""
+    result = run_fresh_interpreter(IMPORT_EVERY_CORE_MODULE)
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout.strip().splitlines()[-1])
+    assert report["modules"], "found no modules under hybrid_engine"
+    assert report["after_package"] == []
+    assert report["after_all"] == []
+
+
+def test_core_imports_with_a_failing_bpy_on_the_path(tmp_path):
+    """A ``bpy``/``gpu`` that fails and records every attempt to import it.
+
+    An import of Blender hidden in a ``try: import bpy / except ImportError`` would pass the
+    sys.modules check above; the attempt log catches it.
+    """
+    attempts = tmp_path / "attempts.log"
+    fake_dir = tmp_path / "fake_blender"
+    fake_dir.mkdir()
+    for name in ("bpy", "gpu"):
+        (fake_dir / f"{name}.py").write_text(
+            "import os\n"
+            "with open(os.environ['FAKE_BLENDER_LOG'], 'a') as log:\n"
+            f"    log.write('{name}\\n')\n"
+            f"raise ImportError('fake {name}: the core must not import Blender modules')\n"
+        )
+    result = run_fresh_interpreter(
+        IMPORT_EVERY_CORE_MODULE, extra_path=fake_dir, env_extra={"FAKE_BLENDER_LOG": str(attempts)}
+    )
+    assert result.returncode == 0, result.stderr
+    assert not attempts.exists(), f"attempted imports: {attempts.read_text().split()}"
+
+
+# ---------------------------------------------------------------------------------------------
+# (b) The import order, by AST.
+
+def python_files() -> list[Path]:
+    files = [REPO_ROOT / "__init__.py"]
+    for package in IMPORT_ORDER:
+        files.extend(sorted((REPO_ROOT / package).rglob("*.py")))
+    return [f for f in files if "__pycache__" not in f.parts]
+
+
+def module_parts(path: Path) -> list[str]:
+    """Dotted parts of a file's module inside the add-on (root __init__.py -> [])."""
+    rel = path.relative_to(REPO_ROOT).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return parts
+
+
+def layer_of(parts: list[str]) -> int:
+    """0..3 for the packages in IMPORT_ORDER, 4 for the root module."""
+    return IMPORT_ORDER.index(parts[0]) if parts else len(IMPORT_ORDER)
+
+
+def import_violations(path: Path, source: str | None = None) -> list[str]:
+    """Every import in ``path`` that breaks the layout rules, as ``file:line: reason``."""
+    source = path.read_text(encoding="utf-8") if source is None else source
+    tree = ast.parse(source, filename=str(path))
+    rel = path.relative_to(REPO_ROOT).as_posix()
+    parts = module_parts(path)
+    layer = layer_of(parts)
+    is_package = path.name == "__init__.py"
+    problems = []
+
+    def check_target(target: list[str], lineno: int, text: str) -> None:
+        # target: add-on-relative parts of an imported module ([] is the root package).
+        if target and target[0] not in IMPORT_ORDER:
+            problems.append(f"{rel}:{lineno}: {text!r} imports {target[0]!r}, which has no place in the import order")
+            return
+        target_layer = layer_of(target)
+        if target_layer > layer:
+            who = target[0] if target else "the root package"
+            problems.append(f"{rel}:{lineno}: {text!r} imports {who}, which comes later in the import order")
+
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                top = alias.name.split(".")[0]
+                if top in OWN_TOP_LEVEL:
+                    problems.append(f"{rel}:{node.lineno}: absolute import of the add-on's own {alias.name!r}")
+                if layer == 0 and top in BLENDER_ONLY_MODULES:
+                    problems.append(f"{rel}:{node.lineno}: the core imports Blender module {alias.name!r}")
+        elif isinstance(node, ast.ImportFrom):
+            text = "from " + "." * node.level + (node.module or "") + " import ..."
+            if node.level == 0:
+                top = (node.module or "").split(".")[0]
+                if top in OWN_TOP_LEVEL:
+                    problems.append(f"{rel}:{node.lineno}: absolute import of the add-on's own {node.module!r}")
+                if layer == 0 and top in BLENDER_ONLY_MODULES:
+                    problems.append(f"{rel}:{node.lineno}: the core imports Blender module {node.module!r}")
+                continue
+            # Resolve the relative import against this file's package.
+            package = parts if is_package else parts[:-1]
+            up = node.level - 1
+            if up > len(package):
+                problems.append(f"{rel}:{node.lineno}: {text!r} climbs above the add-on root")
+                continue
+            base = package[: len(package) - up] if up else package
+            target = base + (node.module.split(".") if node.module else [])
+            if target:
+                check_target(target, node.lineno, text)
+            else:  # "from .. import x": each name is a module of the root package
+                for alias in node.names:
+                    check_target([alias.name], node.lineno, text)
+    return problems
+
+
+def test_import_order_and_relative_imports():
+    files = python_files()
+    assert any(f.parent.name == "hybrid_engine" for f in files)
+    problems = [p for f in files for p in import_violations(f)]
+    assert problems == [], "\n".join(problems)
+
+
+@pytest.mark.parametrize(
+    ("file", "source", "expected"),
+    [
+        ("hybrid_engine/x.py", "import bpy\n", "Blender module 'bpy'"),
+        ("hybrid_engine/x.py", "def f():\n    from gpu import state\n", "Blender module 'gpu'"),
+        ("hybrid_engine/x.py", "from ..blender_adapter import engine\n", "imports blender_adapter"),
+        ("hybrid_engine/x.py", "from .. import ui\n", "imports ui"),
+        ("blender_adapter/x.py", "from ..operators import y\n", "imports operators"),
+        ("operators/x.py", "from .. import ui\n", "imports ui"),
+        ("operators/x.py", "import hybrid_engine\n", "absolute import"),
+        ("ui/x.py", "from hybrid_engine.settings import MODES\n", "absolute import"),
+        ("ui/x.py", "from ... import anything\n", "climbs above"),
+        ("operators/x.py", "from ..scripts import demo\n", "no place in the import order"),
+    ],
+)
+def test_import_checker_reports_each_kind_of_violation(file, source, expected):
+    """The checker above must be able to fail: each rule, broken once, is reported."""
+    problems = import_violations(REPO_ROOT / file, source)
+    assert any(expected in p for p in problems), problems
+
+
+@pytest.mark.parametrize(
+    ("file", "source"),
+    [
+        ("blender_adapter/x.py", "import bpy\nfrom ..hybrid_engine import settings\n"),
+        ("operators/x.py", "from ..blender_adapter import engine\nfrom .. import hybrid_engine\n"),
+        ("ui/x.py", "from ..operators import y\nfrom . import z\n"),
+        ("__init__.py", "from . import blender_adapter, operators, ui\n"),
+        ("hybrid_engine/x.py", "import numpy\nfrom .settings import MODES\n"),
+    ],
+)
+def test_import_checker_accepts_the_allowed_directions(file, source):
+    assert import_violations(REPO_ROOT / file, source) == []
+
+
+# ---------------------------------------------------------------------------------------------
+# (c) Every entry shader compiles through the loader.
+
+SHADER_ROOT = REPO_ROOT / "gpu_shaders"
+STAGE_SUFFIXES = (".comp.glsl", ".vert.glsl", ".frag.glsl", ".geom.glsl")
+# Entry shaders list the defines the host must inject in their contract header, e.g.
+#   // Host defines: LOCAL_SIZE (remark), TRI_INPUT_BINDING = 0,
+#   //   RADIX_BITS (digit width).
+# (continuation lines are indented). A value given there is used; a define named without one
+# gets 1, which every size, count and binding point accepts, so the whole shader compiles.
+HOST_DEFINES_RE = re.compile(r"^//\s*Host defines:(.*(?:\n//\s\s+.*)*)", re.MULTILINE)
+DEFAULT_DEFINE_VALUE = "1"
+
+
+def entry_shaders() -> list[str]:
+    return sorted(
+        p.relative_to(SHADER_ROOT).as_posix()
+        for p in SHADER_ROOT.rglob("*.glsl")
+        if p.relative_to(SHADER_ROOT).parts[0] != "include"
+    )
+
+
+def host_defines(name: str) -> dict[str, str]:
+    """The defines named on the entry shader's ``// Host defines:`` line."""
+    match = HOST_DEFINES_RE.search((SHADER_ROOT / name).read_text(encoding="utf-8"))
+    if not match:
+        return {}
+    text = re.sub(r"\n//", " ", match.group(1))
+    text = re.sub(r"\([^()]*\)", "", text)  # drop remarks in parentheses
+    defines = {}
+    for item in text.split(","):
+        item_match = re.fullmatch(r"\s*([A-Z][A-Z0-9_]*)\s*(?:=\s*([^\s]+?))?\s*\.?\s*", item)
+        if item_match:
+            defines[item_match.group(1)] = item_match.group(2) or DEFAULT_DEFINE_VALUE
+    return defines
+
+
+def shader_programs() -> list[tuple[str, dict[str, str]]]:
+    """Each program to compile: compute shaders alone, X.vert.glsl with X.frag.glsl (and X.geom.glsl)."""
+    names = entry_shaders()
+    programs = []
+    for name in names:
+        if name.endswith(".comp.glsl"):
+            programs.append((name, {"compute": name}))
+        elif name.endswith(".vert.glsl"):
+            stem = name[: -len(".vert.glsl")]
+            stages = {"vertex": name}
+            for stage, suffix in (("fragment", ".frag.glsl"), ("geometry", ".geom.glsl")):
+                if stem + suffix in names:
+                    stages[stage] = stem + suffix
+            programs.append((stem, stages))
+    return programs
+
+
+def test_every_shader_file_has_a_stage_and_a_program():
+    """Nothing in gpu_shaders/ escapes the compile test below: each file outside include/ is an
+    entry shader named by stage, and every fragment/geometry shader pairs with a vertex shader."""
+    names = entry_shaders()
+    assert names, "gpu_shaders/ holds no entry shaders"
+    covered = {stage_file for _, stages in shader_programs() for stage_file in stages.values()}
+    unnamed = [n for n in names if not n.endswith(STAGE_SUFFIXES)]
+    unpaired = [n for n in names if n.endswith(STAGE_SUFFIXES) and n not in covered]
+    assert unnamed == [], f"entry shaders without a stage suffix {STAGE_SUFFIXES}: {unnamed}"
+    assert unpaired == [], f"shaders without a matching .vert.glsl: {unpaired}"
+
+
+@pytest.mark.parametrize(("label", "stages"), shader_programs(), ids=[p[0] for p in shader_programs()])
+def test_entry_shader_compiles(ctx, label, stages):
+    from hybrid_engine import shader_loader
+
+    defines: dict[str, str] = {}
+    for stage_file in stages.values():
+        defines.update(host_defines(stage_file))
+    if "compute" in stages:
+        program = shader_loader.compute(ctx, stages["compute"], defines=defines or None)
+    else:
+        program = shader_loader.program(ctx, **stages, defines=defines or None)
+    assert program is not None
+    assert ctx.error == "GL_NO_ERROR"

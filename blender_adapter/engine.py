@@ -16,7 +16,7 @@ import bpy
 import numpy as np
 
 from ..hybrid_engine.renderer import FrameResult, RenderCancelled, Renderer, RenderModeUnavailable
-from . import extract, properties
+from . import extract, properties, viewport
 
 _renderer: Renderer | None = None
 last_frame: FrameResult | None = None  # the most recent final render's result (image, passes, counts)
@@ -72,6 +72,9 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
     bl_use_preview = False
     bl_use_shading_nodes_custom = False  # materials are edited with Blender's own nodes
     bl_use_eevee_viewport = True  # Material Preview uses EEVEE
+    # The viewport renders in its own EGL context and uploads the image through ``gpu``;
+    # it needs no Blender GPU context during view_update.
+    bl_use_gpu_context = False
 
     def render(self, depsgraph) -> None:
         try:
@@ -105,10 +108,26 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
         )
 
 
+    # -- viewport (blender_adapter/viewport.py does the work) --------------------------------
+    def view_update(self, context, depsgraph) -> None:
+        try:
+            viewport.view_update(self, context, depsgraph)
+        except Exception as exc:  # noqa: BLE001 - nothing may escape a Blender callback
+            viewport.callback_failed(self, "view_update", exc)
+
+    def view_draw(self, context, depsgraph) -> None:
+        try:
+            viewport.view_draw(self, context, depsgraph)
+        except Exception as exc:  # noqa: BLE001 - nothing may escape a Blender callback
+            viewport.callback_failed(self, "view_draw", exc)
+
+
 def register() -> None:
     bpy.utils.register_class(HybridRTRenderEngine)
+    viewport.register()
 
 
 def unregister() -> None:
+    viewport.unregister()
     release_renderer()
     bpy.utils.unregister_class(HybridRTRenderEngine)

@@ -105,6 +105,12 @@ HybridRTSceneSettings = type(
 )
 
 
+def _tag_material_changed(settings, _context) -> None:
+    # A custom property edit does not by itself reach depsgraph.updates; tag the material so
+    # the viewport re-reads it on the next redraw.
+    settings.id_data.update_tag()
+
+
 class HybridRTMaterialSettings(bpy.types.PropertyGroup):
     """Per-material Hybrid RT settings."""
 
@@ -115,6 +121,7 @@ class HybridRTMaterialSettings(bpy.types.PropertyGroup):
         min=0.0,
         max=1.0,
         subtype="FACTOR",
+        update=_tag_material_changed,
     )
 
 

@@ -1,11 +1,18 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Hybrid RT operators (the timing report operator, ``hybrid_rt.timing_report``, lands here)."""
+"""Hybrid RT operators: ``hybrid_rt.timing_report`` (per-pass timings of a frame range),
+``hybrid_rt.show_near_cube`` (near-cube viewport overlay)."""
 from __future__ import annotations
+
+from . import near_cube_overlay, timing_report
+
+_MODULES = (timing_report, near_cube_overlay)
 
 
 def register() -> None:
-    """Nothing to register yet."""
+    for module in _MODULES:
+        module.register()
 
 
 def unregister() -> None:
-    """Nothing to unregister yet."""
+    for module in reversed(_MODULES):
+        module.unregister()

@@ -12,6 +12,7 @@ from __future__ import annotations
 import bpy
 
 from ..blender_adapter.extract import material_params
+from ..operators import near_cube_overlay
 
 ENGINE_ID = "HYBRID_RT"
 _EEVEE_IDS = frozenset({"BLENDER_EEVEE", "BLENDER_EEVEE_NEXT"})
@@ -91,6 +92,9 @@ class RENDER_PT_hybrid_rt(HybridRTPanel, bpy.types.Panel):
         col.prop(settings, "mode")
         col.prop(settings, "max_depth")
         col.prop(settings, "near_size")
+        col.operator("hybrid_rt.show_near_cube", icon="CUBE", depress=near_cube_overlay.is_enabled())
+        # Per-pass frame times of the scene's frame range (JSON, CSV and a chart).
+        layout.operator("hybrid_rt.timing_report", icon="TIME")
 
 
 class RENDER_PT_hybrid_rt_cube_map(HybridRTPanel, bpy.types.Panel):

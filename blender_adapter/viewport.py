@@ -1,0 +1,316 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The interactive viewport (Rendered shading): Blender-facing glue, kept thin.
+
+``HybridRTRenderEngine.view_update`` and ``view_draw`` forward here. The work is split so
+that everything but the final texture draw runs in tests without a window:
+
+- ``ViewportSession.update(depsgraph)``: what ``view_update`` does. Reads
+  ``depsgraph.updates`` and refreshes the per-object extraction cache (``scene_cache``):
+  only changed geometry is read again, moved objects only get new world arrays.
+- ``ViewportSession.frame(region, settings)``: what ``view_draw`` does up to the draw. Turns
+  the region's matrices into a ``ViewportView`` (``hybrid_engine.viewport_frame``), renders it
+  with the session's ``Renderer`` at ``viewport_scale`` and returns the image, where it goes
+  in the region and the statistics line. It never raises: a failing frame comes back with
+  an error message (printed to the console once) and the next frame is tried afresh.
+- ``_draw_frame``: the only code that needs Blender's ``gpu`` module. It uploads the image
+  as a ``gpu.types.GPUTexture`` and draws it with ``engine.bind_display_space_shader`` so
+  Blender's colour management (view transform, look, exposure) applies, as for its own
+  engines.
+
+The image is rendered by our own OpenGL context (EGL, see ``hybrid_engine.gl_context``),
+read back to numpy and uploaded through ``gpu``; Blender's drawing never shares GL objects
+with it. This readback path therefore works whatever GPU backend Blender itself draws with
+(OpenGL, Vulkan or Metal): ``gpu`` accepts a float buffer on all of them.
+
+State outlives engine instances (Blender creates a new viewport engine when the shading
+mode or the engine changes): sessions live at module level, one per view layer, each with
+its own ``Renderer`` (GL buffers, targets, shaders on the shared context) and scene cache.
+They are freed explicitly by ``release_all()`` on unregister and when a file is loaded,
+never by an engine's ``__del__`` (not called reliably, and possibly on another thread).
+"""
+from __future__ import annotations
+
+import logging
+import time
+import traceback
+from dataclasses import dataclass, replace
+
+import bpy
+import numpy as np
+
+from ..hybrid_engine.gl_context import GLUnavailableError
+from ..hybrid_engine.renderer import RenderModeUnavailable
+from ..hybrid_engine.settings import RenderSettings
+from ..hybrid_engine.viewport_frame import (
+    FrameClock,
+    MessageLatch,
+    RegionInput,
+    plan_frame,
+    stats_line,
+)
+from . import extract, properties
+from .scene_cache import Changes, SceneCache, SyncReport
+
+log = logging.getLogger(__name__)
+
+ERROR_PREFIX = "Hybrid RT viewport"
+
+
+@dataclass
+class ViewportFrame:
+    """One frame for ``view_draw``: ``image`` (H, W, 4) float32 linear, row 0 at the bottom,
+    to be stretched over ``rect`` = (x0, y0, x1, y1) region pixels; ``error`` is set (and
+    ``image`` may be None) when the frame failed; ``stats`` is the line for the header."""
+
+    image: np.ndarray | None
+    rect: tuple[int, int, int, int]
+    stats: str
+    error: str | None = None
+    mode: str = ""
+    counts: dict | None = None
+
+
+class ViewportSession:
+    """Scene cache + renderer of one view layer's viewports (see module docstring)."""
+
+    def __init__(self, renderer_factory=None) -> None:
+        self.cache = SceneCache()
+        self._renderer_factory = renderer_factory
+        self.renderer = None
+        self.clock = FrameClock()
+        self.latch = MessageLatch()
+        self.failed_modes: dict[tuple, str] = {}  # (mode, settings) -> why it fell back
+        self.last_sync: SyncReport | None = None
+        self.frames = 0
+
+    # -- view_update -----------------------------------------------------------------------
+    def update(self, depsgraph, *, full: bool = False) -> SyncReport:
+        """Apply ``depsgraph.updates`` to the cache (``full`` re-reads every mesh)."""
+        report = self.cache.sync(depsgraph, Changes.from_updates(depsgraph.updates), full=full)
+        self.last_sync = report
+        return report
+
+    # -- view_draw -------------------------------------------------------------------------
+    def frame(self, region: RegionInput, settings: RenderSettings) -> ViewportFrame:
+        """Render one frame of ``region`` (never raises; see ``ViewportFrame.error``)."""
+        start = time.perf_counter()
+        rect = (0, 0, int(region.width), int(region.height))
+        try:
+            plan = plan_frame(region, settings.viewport_scale)
+            rect = plan.rect
+            if plan.view is None:
+                return ViewportFrame(None, rect, f"{ERROR_PREFIX} | render border outside the view")
+            result, note = self._render(plan.view, settings)
+        except Exception as exc:  # noqa: BLE001 - a viewport frame must never raise
+            return self._failed(exc, rect)
+        self.latch.clear()  # a later failure is news again
+        self.frames += 1
+        fps = self.clock.tick()
+        frame_ms = (time.perf_counter() - start) * 1e3
+        size = (plan.view.width, plan.view.height)
+        return ViewportFrame(result.image, rect, stats_line(result.mode, frame_ms, fps, result.counts, size, note),
+                             mode=result.mode, counts=dict(result.counts))
+
+    def _render(self, view, settings: RenderSettings):
+        """Render with the scene's mode; a mode this build or this driver cannot render
+        falls back to RASTER, and is not retried until the settings change."""
+        scene = self.cache.scene_data
+        renderer = self._ensure_renderer()
+        key = (settings.mode, settings)
+        if settings.mode != "RASTER" and key not in self.failed_modes:
+            try:
+                return renderer.render(scene, view, settings, timing=False), ""
+            except GLUnavailableError:
+                raise
+            except Exception as exc:  # noqa: BLE001 - RenderModeUnavailable, shader errors: fall back
+                reason = f"{settings.mode} unavailable ({exc}); showing RASTER"
+                self.failed_modes[key] = reason
+                self._tell(reason, exc, unexpected=not isinstance(exc, RenderModeUnavailable))
+        note = self.failed_modes.get(key, "")
+        settings = replace(settings, mode="RASTER")
+        return renderer.render(scene, view, settings, timing=False), note
+
+    def _ensure_renderer(self):
+        if self.renderer is None:
+            if self._renderer_factory is not None:
+                self.renderer = self._renderer_factory()
+            else:
+                from ..hybrid_engine.renderer import Renderer
+
+                self.renderer = Renderer()
+        return self.renderer
+
+    def _failed(self, exc: Exception, rect) -> ViewportFrame:
+        if isinstance(exc, GLUnavailableError):
+            message = f"{ERROR_PREFIX}: {exc}"
+        else:
+            message = f"{ERROR_PREFIX}: {type(exc).__name__}: {exc}"
+        self._tell(message, exc, unexpected=not isinstance(exc, GLUnavailableError))
+        return ViewportFrame(None, rect, message, error=message)
+
+    def _tell(self, message: str, exc: Exception, *, unexpected: bool) -> None:
+        """Print a message (with the traceback of unexpected errors) once, not every redraw."""
+        if self.latch.first_time(message):
+            print(message)
+            if unexpected:
+                traceback.print_exception(exc)
+
+    def release(self) -> None:
+        """Free the session's GL objects (the shared context stays) and its cached arrays."""
+        renderer, self.renderer = self.renderer, None
+        if renderer is not None:
+            renderer.release()
+        self.cache.reset()
+
+
+# ---------------------------------------------------------------------------------------
+# Sessions (module level: they outlive engine instances)
+# ---------------------------------------------------------------------------------------
+_sessions: dict[tuple, ViewportSession] = {}
+
+
+def session_key(depsgraph) -> tuple:
+    return (depsgraph.scene.original.as_pointer(), depsgraph.view_layer.name)
+
+
+def session_for(depsgraph) -> ViewportSession:
+    key = session_key(depsgraph)
+    session = _sessions.get(key)
+    if session is None:
+        session = _sessions[key] = ViewportSession()
+    return session
+
+
+def release_all() -> None:
+    """Free every session (unregister, file load). Errors in one do not keep others alive."""
+    while _sessions:
+        _key, session = _sessions.popitem()
+        try:
+            session.release()
+        except Exception:  # noqa: BLE001 - teardown must finish
+            traceback.print_exc()
+
+
+# ---------------------------------------------------------------------------------------
+# The two engine callbacks (HybridRTRenderEngine forwards here)
+# ---------------------------------------------------------------------------------------
+def view_update(engine, context, depsgraph) -> None:
+    """``RenderEngine.view_update``: sync the cache with this depsgraph's changes."""
+    session = session_for(depsgraph)
+    # A new engine instance may have missed updates consumed by none: read everything once.
+    first = not getattr(engine, "_hybrid_rt_synced", False)
+    session.update(depsgraph, full=first)
+    engine._hybrid_rt_synced = True
+
+
+_callback_latch = MessageLatch()
+
+
+def callback_failed(engine, where: str, exc: Exception) -> None:
+    """An exception reached an engine callback: show it in the header, print it (with its
+    traceback) once rather than on every redraw, and report it to the user once."""
+    message = f"{ERROR_PREFIX} ({where}): {type(exc).__name__}: {exc}"
+    try:
+        engine.update_stats("", message)
+        if _callback_latch.first_time(message):
+            traceback.print_exception(exc)
+            engine.report({"ERROR"}, message)
+    except Exception:  # noqa: BLE001 - reporting itself must not raise into Blender
+        log.exception("could not report a viewport error")
+
+
+def region_input(context, depsgraph) -> RegionInput:
+    """Copy what a frame needs from ``context.region``/``context.region_data`` (thin glue)."""
+    region, rv3d, scene = context.region, context.region_data, depsgraph.scene
+    perspective = rv3d.view_perspective
+    camera = border = None
+    if perspective == "CAMERA" and scene.render.use_border and scene.camera is not None:
+        camera = extract.camera_from_scene(scene, depsgraph)
+        render = scene.render
+        border = ((render.border_min_x, render.border_min_y), (render.border_max_x, render.border_max_y))
+    return RegionInput(
+        view_matrix=np.array(rv3d.view_matrix, np.float64),
+        window_matrix=np.array(rv3d.window_matrix, np.float64),
+        width=int(region.width), height=int(region.height),
+        perspective=perspective, camera=camera, border=border,
+    )
+
+
+def view_draw(engine, context, depsgraph) -> None:
+    """``RenderEngine.view_draw``: render the region's view and draw it."""
+    session = session_for(depsgraph)
+    if not session.cache.synced:  # view_draw before any view_update (e.g. after reload)
+        view_update(engine, context, depsgraph)
+    try:
+        settings = properties.settings_from_scene(depsgraph.scene)
+        region = region_input(context, depsgraph)
+    except Exception as exc:  # noqa: BLE001 - bad settings or camera: show it, keep drawing
+        frame = session._failed(exc, (0, 0, context.region.width, context.region.height))
+    else:
+        frame = session.frame(region, settings)
+    engine.update_stats("", frame.stats)
+    _draw_frame(engine, depsgraph.scene, frame)
+
+
+def _draw_frame(engine, scene, frame: ViewportFrame) -> None:
+    """Upload the frame as a GPU texture and draw it through the display transform; an
+    error is written into the viewport (the only part of a frame tests cannot run)."""
+    import gpu
+    from gpu_extras.presets import draw_texture_2d
+
+    x0, y0, x1, y1 = frame.rect
+    if frame.image is not None:
+        image = np.ascontiguousarray(frame.image, np.float32)
+        height, width = image.shape[:2]
+        pixels = gpu.types.Buffer("FLOAT", width * height * 4, image.ravel())
+        texture = gpu.types.GPUTexture((width, height), format="RGBA16F", data=pixels)
+        gpu.state.blend_set("ALPHA_PREMULT")
+        engine.bind_display_space_shader(scene)
+        try:
+            draw_texture_2d(texture, (x0, y0), x1 - x0, y1 - y0)
+        finally:
+            engine.unbind_display_space_shader()
+            gpu.state.blend_set("NONE")
+    if frame.error:
+        _draw_message(frame.error, x0 + 20, y1 - 40)
+
+
+def _draw_message(text: str, x: int, y: int) -> None:
+    import blf
+
+    font = 0
+    blf.size(font, 14)
+    blf.color(font, 1.0, 0.35, 0.3, 1.0)
+    for line_number, line in enumerate(_wrap(text, 110)[:6]):
+        blf.position(font, x, y - 20 * line_number, 0)
+        blf.draw(font, line)
+
+
+def _wrap(text: str, width: int) -> list[str]:
+    lines, line = [], ""
+    for word in text.split():
+        if line and len(line) + 1 + len(word) > width:
+            lines.append(line)
+            line = word
+        else:
+            line = f"{line} {word}" if line else word
+    return lines + ([line] if line else [])
+
+
+# ---------------------------------------------------------------------------------------
+# Registration: free sessions when another file is loaded
+# ---------------------------------------------------------------------------------------
+@bpy.app.handlers.persistent
+def _on_load_pre(*_args) -> None:
+    release_all()
+
+
+def register() -> None:
+    if _on_load_pre not in bpy.app.handlers.load_pre:
+        bpy.app.handlers.load_pre.append(_on_load_pre)
+
+
+def unregister() -> None:
+    if _on_load_pre in bpy.app.handlers.load_pre:
+        bpy.app.handlers.load_pre.remove(_on_load_pre)
+    release_all()

@@ -1,0 +1,257 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""``bpy.ops.hybrid_rt.timing_report``: render a frame range and write its timing report.
+
+Each frame goes through the same path as F12 (``scene.frame_set``, the evaluated depsgraph,
+``blender_adapter.engine.render_depsgraph``: extraction plus the renderer) without writing
+images; ``hybrid_engine.timing_report`` turns the frames into PREFIX.json, PREFIX.csv and a
+stacked-bar chart PREFIX.png (paper Figure 5). With ``compare_full_bvh`` the range is
+rendered a second time in FULL_BVH mode (PREFIX_full_bvh.*) and PREFIX_compare.png draws
+both frame times (paper Figure 6).
+
+Everything is validated before the first frame is rendered (frame range, output directory,
+camera, settings). The scene's current frame is restored afterwards, also after an error;
+the FULL_BVH run switches ``scene.hybrid_rt.mode`` for its duration only (the engine reads
+its settings from the scene) and puts the user's value back.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+import traceback
+from contextlib import contextmanager
+from dataclasses import asdict, replace
+from typing import Iterator
+
+import bpy
+
+from ..blender_adapter import engine, properties
+from ..hybrid_engine import timing_report
+from ..hybrid_engine.settings import SettingsError
+
+COMPARE_MODE = "FULL_BVH"
+COMPARE_SUFFIX = "_full_bvh"
+COMPARISON_CHART_SUFFIX = "_compare.png"
+
+
+class ModeNotRendered(RuntimeError):
+    """The engine rendered another mode than the one asked for (it is not built yet)."""
+
+
+@contextmanager
+def _scene_mode(scene, mode: str) -> Iterator[None]:
+    """Set ``scene.hybrid_rt.mode`` for the duration of the block, then restore it."""
+    stored = scene.hybrid_rt.mode
+    scene.hybrid_rt.mode = mode
+    try:
+        yield
+    finally:
+        scene.hybrid_rt.mode = stored
+
+
+def default_prefix(scene) -> str:
+    """Next to the .blend when it is saved, in the system's temporary folder otherwise."""
+    name = bpy.path.clean_name(scene.name) or "scene"
+    if bpy.data.filepath:
+        return f"//timing/{name}"
+    return os.path.join(tempfile.gettempdir(), "hybrid_rt_timing", name)
+
+
+def target_fps(scene) -> float:
+    """The scene's frame rate (Output Properties > Frame Rate)."""
+    return scene.render.fps / scene.render.fps_base
+
+
+def scene_info(scene) -> dict:
+    scale = scene.render.resolution_percentage / 100.0
+    return {
+        "name": scene.name,
+        "blend_file": bpy.data.filepath,
+        "resolution": [max(int(scene.render.resolution_x * scale), 1), max(int(scene.render.resolution_y * scale), 1)],
+        "fps": scene.render.fps,
+        "fps_base": scene.render.fps_base,
+        "blender": bpy.app.version_string,
+    }
+
+
+class HYBRID_RT_OT_timing_report(bpy.types.Operator):
+    """Render every frame of a range with Hybrid RT and write per-pass frame times (JSON, CSV) and a chart (PNG)"""
+
+    bl_idname = "hybrid_rt.timing_report"
+    bl_label = "Timing Report"
+    bl_options = {"REGISTER"}  # no undo step: the operator changes no data
+
+    filepath: bpy.props.StringProperty(
+        name="File Prefix",
+        description="Path and file name prefix of the report: PREFIX.json, PREFIX.csv and PREFIX.png "
+        "are written ('//' is the .blend's folder)",
+        subtype="FILE_PATH",
+        options={"PATH_SUPPORTS_BLEND_RELATIVE"},
+        default="",
+    )
+    frame_start: bpy.props.IntProperty(
+        name="Start Frame", description="First frame of the report (default: the scene's start frame)",
+        options={"SKIP_SAVE"}, default=1,
+    )
+    frame_end: bpy.props.IntProperty(
+        name="End Frame", description="Last frame of the report (default: the scene's end frame)",
+        options={"SKIP_SAVE"}, default=250,
+    )
+    compare_full_bvh: bpy.props.BoolProperty(
+        name="Compare with Full BVH",
+        description="Render the range a second time in Full BVH mode and write PREFIX_full_bvh.* and "
+        "a comparison chart PREFIX_compare.png (paper Figure 6)",
+        default=False,
+    )
+    warmup_frames: bpy.props.IntProperty(
+        name="Warm-up Frames",
+        description="Renders of the start frame before the measured ones, left out of the report "
+        "(the first frame compiles shaders and allocates GPU memory)",
+        default=1, min=0, max=timing_report.MAX_WARMUP_FRAMES,
+    )
+    check_existing: bpy.props.BoolProperty(default=False, options={"HIDDEN", "SKIP_SAVE"})
+
+    @classmethod
+    def poll(cls, context) -> bool:
+        return context.scene is not None
+
+    def invoke(self, context, _event):
+        self._fill_defaults(context.scene)
+        context.window_manager.fileselect_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _fill_defaults(self, scene) -> None:
+        if not self.properties.is_property_set("frame_start"):
+            self.frame_start = scene.frame_start
+        if not self.properties.is_property_set("frame_end"):
+            self.frame_end = scene.frame_end
+        if not self.filepath:
+            self.filepath = default_prefix(scene)
+
+    def execute(self, context):
+        scene = context.scene
+        self._fill_defaults(scene)
+        try:
+            prefix, frames, settings = self._validate(scene)
+        except (timing_report.TimingReportError, SettingsError) as exc:
+            self.report({"ERROR"}, f"Timing report: {exc}")
+            return {"CANCELLED"}
+
+        window_manager = context.window_manager
+        if window_manager is not None:
+            window_manager.progress_begin(0, (2 if self.compare_full_bvh else 1) * len(frames))
+        saved_frame, saved_subframe = scene.frame_current, scene.frame_subframe
+        main = _FrameRenderer(context, window_manager, progress_offset=0)
+        compare = _FrameRenderer(context, window_manager, progress_offset=len(frames), expected_mode=COMPARE_MODE)
+        try:
+            report, paths = timing_report.run_timing_report(
+                prefix, frames.start, frames.stop - 1, main.render,
+                requested_mode=settings.mode, settings=asdict(settings), target_fps=target_fps(scene),
+                scene=scene_info(scene), progress=main.progress, warnings=main.warnings,
+                warmup_frames=self.warmup_frames,
+            )
+            written = [paths["json"], paths["csv"], paths["png"]]
+            if self.compare_full_bvh:
+                written += self._compare(scene, prefix, frames, settings, report, compare)
+        except Exception as exc:  # noqa: BLE001 - any failure is reported, the scene restored
+            traceback.print_exc()
+            failed = compare if compare.frame is not None else main
+            where = f" at frame {failed.frame}" if failed.frame is not None else ""
+            self.report({"ERROR"}, f"Timing report failed{where}: {exc}")
+            return {"CANCELLED"}
+        finally:
+            scene.frame_set(saved_frame, subframe=saved_subframe)
+            if window_manager is not None:
+                window_manager.progress_end()
+
+        for message in main.warnings:
+            self.report({"WARNING"}, message)
+        summary = report.summary()
+        self.report(
+            {"INFO"},
+            f"Timing report: {len(report.records)} frames, mean {summary['frame_ms']['mean']:.2f} ms "
+            f"({summary['fps']['mean'] or 0.0:.1f} FPS), written to {', '.join(str(p) for p in written)}",
+        )
+        return {"FINISHED"}
+
+    def _validate(self, scene):
+        """Everything that can fail before the first frame: range, path, camera, settings."""
+        frames = timing_report.validate_frame_range(self.frame_start, self.frame_end)
+        if self.filepath.startswith("//") and not bpy.data.filepath:
+            raise timing_report.OutputPathError(
+                f"{self.filepath!r} is relative to the .blend file, which is not saved yet: save it "
+                "or give an absolute path"
+            )
+        suffixes = ("", COMPARE_SUFFIX) if self.compare_full_bvh else ("",)
+        prefix = timing_report.prepare_output_prefix(bpy.path.abspath(self.filepath), suffixes=suffixes)
+        if scene.camera is None:
+            raise timing_report.TimingReportError(f"scene {scene.name!r} has no active camera")
+        settings = properties.settings_from_scene(scene)
+        return prefix, frames, settings
+
+    def _compare(self, scene, prefix, frames, settings, report, renderer: "_FrameRenderer") -> list:
+        """The same range in FULL_BVH mode, skipped with a warning where that mode is missing."""
+        try:
+            with _scene_mode(scene, COMPARE_MODE):
+                compare_report, compare_paths = timing_report.run_timing_report(
+                    f"{prefix}{COMPARE_SUFFIX}", frames.start, frames.stop - 1, renderer.render,
+                    requested_mode=COMPARE_MODE, settings=asdict(replace(settings, mode=COMPARE_MODE)),
+                    target_fps=report.target_fps, scene=report.scene, progress=renderer.progress,
+                    warnings=renderer.warnings, warmup_frames=self.warmup_frames,
+                )
+        except ModeNotRendered as exc:
+            self.report({"WARNING"}, f"Timing report: skipped the {COMPARE_MODE} comparison: {exc}")
+            renderer.frame = None
+            return []
+        label = "+".join(report.rendered_modes)
+        if label == COMPARE_MODE:
+            label += " (SCENE)"
+        chart = timing_report.write_comparison_chart(
+            {label: report, COMPARE_MODE: compare_report}, f"{prefix}{COMPARISON_CHART_SUFFIX}"
+        )
+        return [compare_paths["json"], compare_paths["csv"], compare_paths["png"], chart]
+
+
+class _FrameRenderer:
+    """Renders one frame of a run through the engine and keeps what the run needs to know:
+    the frame being rendered (for error messages), the engine's warnings (each once), and the
+    progress shown in Blender's window."""
+
+    def __init__(self, context, window_manager, progress_offset: int, expected_mode: str | None = None) -> None:
+        self.context = context
+        self.window_manager = window_manager
+        self.progress_offset = progress_offset
+        self.expected_mode = expected_mode
+        self.frame: int | None = None
+        self.warnings: list[str] = []
+
+    def warn(self, _levels, message: str) -> None:
+        if message not in self.warnings:
+            self.warnings.append(message)
+
+    def render(self, frame: int):
+        self.frame = frame
+        scene = self.context.scene
+        scene.frame_set(frame)
+        result = engine.render_depsgraph(self.context.evaluated_depsgraph_get(), report=self.warn)
+        if self.expected_mode is not None and result.mode != self.expected_mode:
+            raise ModeNotRendered(f"{self.expected_mode} is not available in this build "
+                                  f"(the engine rendered {result.mode} instead)")
+        return result
+
+    def progress(self, done: int, _total: int) -> None:
+        if self.window_manager is not None:
+            self.window_manager.progress_update(self.progress_offset + done)
+
+
+_CLASSES = (HYBRID_RT_OT_timing_report,)
+
+
+def register() -> None:
+    for cls in _CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister() -> None:
+    for cls in reversed(_CLASSES):
+        if cls.is_registered:
+            bpy.utils.unregister_class(cls)

@@ -1,0 +1,447 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Timing reports: hybrid_engine/timing_report.py (core) and ``bpy.ops.hybrid_rt.timing_report``.
+
+The core is tested with frames whose timings are known (fake render callbacks returning
+FrameResults with the tracer's pass names), so statistics, ordering and files can be checked
+against numpy and hand computation. The operator is tested on a small animated Blender scene:
+the files it writes, that the animation really reaches the extracted geometry frame by frame,
+that bad input fails before anything is rendered, and that the user's scene is left as it was.
+"""
+from __future__ import annotations
+
+import csv
+import inspect
+import itertools
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import REPO_ROOT
+from hybrid_engine import chart_png, timing_report
+from hybrid_engine.renderer import FrameResult
+from hybrid_engine.timing import TIMING_SOURCE_WALL
+from hybrid_engine.timing_report import (
+    FrameRangeError, OutputPathError, TimingReportError, ordered_count_names, ordered_pass_names,
+    prepare_output_prefix, run_timing_report, summarize, validate_frame_range,
+)
+
+# Pass times are wall-clock intervals bracketed by ctx.finish(); the frame total also covers
+# the small host work between passes (callbacks, view set-up, GL error checks in tests).
+PASS_SUM_RTOL = 0.10
+# Keyframed x-location per frame of the animated scene (each frame keyed: exact at every frame).
+CUBE_X_PER_FRAME = 2.0
+# Float32 vertex positions of a unit cube moved by a few units.
+POSITION_ATOL = 1e-5
+TINY = (32, 24)
+FRAMES = (1, 5)
+
+
+def fake_result(passes: dict[str, float], counts: dict[str, int] | None = None, mode: str = "HYBRID",
+                extra_ms: float = 0.0) -> FrameResult:
+    return FrameResult(image=np.zeros((1, 1, 4), np.float32), passes=dict(passes), counts=dict(counts or {}),
+                       timing_source=TIMING_SOURCE_WALL, total_ms=sum(passes.values()) + extra_ms, mode=mode)
+
+
+class CountingRenderer:
+    """A render_frame callback with known per-frame timings that counts its calls."""
+
+    def __init__(self, passes_of_frame=None) -> None:
+        self.calls: list[int] = []
+        self.passes_of_frame = passes_of_frame or (lambda frame: {
+            "trace": 3.0 * frame, "extract": 1.0, "cube_map_raster": 2.0, "composite": 0.5,
+        })
+
+    def __call__(self, frame: int) -> FrameResult:
+        self.calls.append(frame)
+        return fake_result(self.passes_of_frame(frame),
+                           {"rays_bounce_10": 7, "rays_bounce_2": 40 + frame, "triangles_total": 100})
+
+
+# ---------------------------------------------------------------------------------------------
+# Core: ordering, statistics, validation, files.
+
+def test_passes_are_ordered_by_pipeline_then_naturally_whatever_order_they_arrive_in():
+    names = ["trace", "zeta_2", "extract", "zeta_10", "cull", "shade", "alpha", "lbvh_build"]
+    expected = ["extract", "cull", "lbvh_build", "shade", "trace", "alpha", "zeta_2", "zeta_10"]
+    for permutation in itertools.islice(itertools.permutations(names), 0, 40320, 997):
+        assert ordered_pass_names(permutation) == expected
+    assert ordered_pass_names(timing_report.PIPELINE_PASSES[::-1]) == list(timing_report.PIPELINE_PASSES)
+
+
+def test_counts_put_triangles_first_then_natural_order():
+    names = ["rays_bounce_10", "lights", "triangles_bvh", "rays_bounce_2", "triangles_total"]
+    assert ordered_count_names(names) == ["triangles_total", "triangles_bvh", "lights", "rays_bounce_2",
+                                          "rays_bounce_10"]
+
+
+def test_summary_statistics_match_hand_computation():
+    totals = [10.0, 20.0, 30.0, 40.0, 100.0]
+    records = [timing_report.FrameRecord.from_result(i, fake_result({"shade": t / 2}, extra_ms=t / 2))
+               for i, t in enumerate(totals)]
+    records[0].passes["trace"] = 4.0  # a pass only one frame ran: its mean is over that frame
+    summary = summarize(records, target_fps=25.0)
+    ms = summary["frame_ms"]
+    assert ms["mean"] == pytest.approx(40.0)
+    assert ms["median"] == pytest.approx(30.0)
+    # Linear interpolation between closest ranks: rank 0.95 * 4 = 3.8 -> 40 + 0.8 * (100 - 40).
+    assert ms["p95"] == pytest.approx(88.0)
+    assert ms["max"] == pytest.approx(100.0) and ms["min"] == pytest.approx(10.0)
+    assert summary["fps"]["mean"] == pytest.approx(25.0)
+    assert summary["fps"]["min"] == pytest.approx(10.0)
+    assert summary["pass_mean_ms"] == pytest.approx({"shade": 20.0, "trace": 4.0})
+    assert summary["target_ms"] == pytest.approx(40.0)
+    assert summary["frames_over_target"] == 1  # 100 ms; 40 ms is on target, not over
+    assert summary["count_mean"]["triangles_bvh"] == 0.0  # absent count -> 0
+
+
+@pytest.mark.parametrize(("start", "end", "message"), [
+    (5, 1, "frame_end must not be smaller"),
+    (0, -1, "is empty"),
+    (1, timing_report.MAX_FRAMES + 1, "at most"),
+    (1.5, 3, "whole frame number"),
+])
+def test_invalid_frame_ranges_are_rejected(start, end, message):
+    with pytest.raises(FrameRangeError, match=message):
+        validate_frame_range(start, end)
+
+
+def test_frame_range_limits_are_inclusive():
+    assert list(validate_frame_range(-2, 2)) == [-2, -1, 0, 1, 2]
+    assert len(validate_frame_range(1, timing_report.MAX_FRAMES)) == timing_report.MAX_FRAMES
+
+
+def test_output_prefix_creates_missing_folders_and_drops_a_report_suffix(tmp_path):
+    base = prepare_output_prefix(tmp_path / "new" / "deeper" / "run.json")
+    assert base == tmp_path / "new" / "deeper" / "run"
+    assert base.parent.is_dir()
+    assert list(base.parent.iterdir()) == []  # the write probe leaves nothing behind
+
+
+@pytest.mark.parametrize("case", ["parent_is_a_file", "prefix_is_a_directory", "json_is_a_directory", "empty"])
+def test_unwritable_output_paths_fail_before_any_frame_is_rendered(tmp_path, case):
+    (tmp_path / "file").write_text("x")
+    (tmp_path / "taken.json").mkdir()
+    prefix = {
+        "parent_is_a_file": tmp_path / "file" / "report",
+        "prefix_is_a_directory": tmp_path,
+        "json_is_a_directory": tmp_path / "taken",
+        "empty": "",
+    }[case]
+    renderer = CountingRenderer()
+    with pytest.raises(OutputPathError) as error:
+        run_timing_report(prefix, 1, 3, renderer)
+    assert str(error.value)  # a message naming the problem
+    assert renderer.calls == []
+
+
+def test_reversed_range_fails_before_any_frame_is_rendered(tmp_path):
+    renderer = CountingRenderer()
+    with pytest.raises(FrameRangeError):
+        run_timing_report(tmp_path / "r", 3, 1, renderer)
+    with pytest.raises(TimingReportError, match="warmup"):
+        run_timing_report(tmp_path / "r", 1, 3, renderer, warmup_frames=-1)
+    assert renderer.calls == []
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_report_files_carry_whatever_passes_and_counts_the_frames_have(tmp_path):
+    """Tracer pass names and per-bounce ray counts (unknown to RASTER) reach JSON and CSV in
+    the documented order; warm-up renders are not recorded."""
+    renderer = CountingRenderer()
+    report, paths = run_timing_report(tmp_path / "out" / "r", 3, 6, renderer, requested_mode="HYBRID",
+                                      settings={"mode": "HYBRID"}, target_fps=30.0, scene={"name": "Test"},
+                                      warmup_frames=2)
+    assert renderer.calls == [3, 3, 3, 4, 5, 6]
+    data = json.loads(paths["json"].read_text())
+    assert [f["frame"] for f in data["frames"]] == [3, 4, 5, 6]
+    assert data["pass_order"] == ["extract", "cube_map_raster", "trace", "composite"]
+    assert list(data["frames"][0]["passes"]) == data["pass_order"]
+    assert data["frames"][1]["passes"]["trace"] == pytest.approx(12.0)
+    assert data["frames"][0]["counts"] == {"triangles_total": 100, "triangles_bvh": 0, "rays_bounce_2": 43,
+                                           "rays_bounce_10": 7}
+    assert data["frames"][0]["triangles_bvh"] == 0 and data["frames"][0]["triangles_total"] == 100
+    assert data["timing_source"] == TIMING_SOURCE_WALL
+    assert data["warmup_frames"] == 2
+    assert data["summary"]["frame_ms"]["mean"] == pytest.approx(np.mean([3.5 + 3 * f for f in range(3, 7)]))
+    assert data["settings"] == {"mode": "HYBRID"}
+    assert {"platform", "cpu_count", "python"} <= set(data["machine"])
+    assert data["gl_renderer"]
+
+    with open(paths["csv"], newline="") as handle:
+        rows = list(csv.reader(handle))
+    assert rows[0] == ["frame", "mode", "total_ms", "extract_ms", "cube_map_raster_ms", "trace_ms",
+                       "composite_ms", "triangles_total", "triangles_bvh", "rays_bounce_2", "rays_bounce_10"]
+    assert [int(row[0]) for row in rows[1:]] == [3, 4, 5, 6]
+    assert float(rows[2][5]) == pytest.approx(12.0)
+
+    image = chart_png.decode_png(paths["png"].read_bytes())
+    assert image.shape == (520, 1000, 3)
+    # Every pass's colour appears in the chart.
+    for color in timing_report.pass_colors(data["pass_order"]):
+        assert np.all(image == np.array(color, np.uint8), axis=-1).any()
+
+
+def test_a_pass_missing_from_a_frame_is_an_empty_csv_cell(tmp_path):
+    renderer = CountingRenderer(lambda frame: {"extract": 1.0, **({"trace": 2.0} if frame == 2 else {})})
+    _, paths = run_timing_report(tmp_path / "r", 1, 2, renderer)
+    with open(paths["csv"], newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert rows[0]["trace_ms"] == "" and float(rows[1]["trace_ms"]) == pytest.approx(2.0)
+
+
+def test_comparison_chart_draws_each_run(tmp_path):
+    fast, _ = run_timing_report(tmp_path / "fast", 1, 4, CountingRenderer(lambda f: {"trace": 5.0}))
+    slow, _ = run_timing_report(tmp_path / "slow", 1, 4, CountingRenderer(lambda f: {"trace": 20.0}))
+    path = timing_report.write_comparison_chart({"HYBRID": fast, "FULL_BVH": slow}, tmp_path / "cmp.png")
+    image = chart_png.decode_png(path.read_bytes())
+    for color in chart_png.PALETTE[:2]:
+        assert np.all(image == np.array(color, np.uint8), axis=-1).sum() > 50
+
+
+# ---------------------------------------------------------------------------------------------
+# The operator, on an animated scene.
+
+def build_animated_scene(bpy):
+    """Blender's default scene (cube, light, camera) at 32x24, RASTER, with the cube's x
+    location keyed at every frame of FRAMES: x = CUBE_X_PER_FRAME * frame."""
+    scene = bpy.context.scene
+    scene.render.engine = "HYBRID_RT"
+    scene.render.resolution_x, scene.render.resolution_y = TINY
+    scene.render.resolution_percentage = 100
+    scene.hybrid_rt.mode = "RASTER"
+    scene.hybrid_rt.shadow_resolution = 64
+    scene.frame_start, scene.frame_end = FRAMES
+    cube = bpy.data.objects["Cube"]
+    for frame in range(FRAMES[0], FRAMES[1] + 1):
+        cube.location.x = CUBE_X_PER_FRAME * frame
+        cube.keyframe_insert("location", index=0, frame=frame)
+    scene.frame_set(3)
+    return scene
+
+
+@pytest.fixture
+def extraction_log(addon, monkeypatch):
+    """Every extraction the engine does: (scene frame, bounds of the cube's triangles)."""
+    import bpy
+
+    extract = addon.blender_adapter.extract
+    original = extract.extract_scene
+    log = []
+
+    def logged(depsgraph):
+        data = original(depsgraph)
+        geometry = data.geometry
+        index = geometry.object_names.index("Cube")
+        first, count = geometry.object_ranges[index]
+        triangles = geometry.triangles[first:first + count].reshape(-1, 3)
+        log.append((bpy.context.scene.frame_current, triangles.min(axis=0), triangles.max(axis=0)))
+        return data
+
+    monkeypatch.setattr(extract, "extract_scene", logged)
+    return log
+
+
+def test_operator_writes_a_row_per_frame_whose_passes_sum_to_the_total(addon, extraction_log, tmp_path):
+    import bpy
+
+    scene = build_animated_scene(bpy)
+    prefix = tmp_path / "report"
+    result = bpy.ops.hybrid_rt.timing_report(filepath=str(prefix), frame_start=1, frame_end=5)
+    assert result == {"FINISHED"}
+
+    data = json.loads((tmp_path / "report.json").read_text())
+    frames = data["frames"]
+    assert [f["frame"] for f in frames] == [1, 2, 3, 4, 5]
+    for frame in frames:
+        assert {"extract", "shade"} <= set(frame["passes"])
+        assert sum(frame["passes"].values()) == pytest.approx(frame["total_ms"], rel=PASS_SUM_RTOL)
+        assert frame["triangles_total"] == 12 and frame["triangles_bvh"] == 0
+    assert data["timing_source"] == TIMING_SOURCE_WALL
+    assert data["requested_mode"] == "RASTER" and data["rendered_modes"] == ["RASTER"]
+    assert data["settings"]["mode"] == "RASTER" and data["settings"]["shadow_resolution"] == 64
+    assert data["summary"]["target_fps"] == pytest.approx(scene.render.fps / scene.render.fps_base)
+    assert data["scene"]["resolution"] == list(TINY)
+    assert data["gl_renderer"] == addon.hybrid_engine.gl_context.renderer_name()
+    assert data["machine"]["cpu_count"] >= 1
+
+    with open(tmp_path / "report.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [int(row["frame"]) for row in rows] == [1, 2, 3, 4, 5]
+    for row, frame in zip(rows, frames):
+        assert float(row["total_ms"]) == pytest.approx(frame["total_ms"], rel=1e-6)
+        assert float(row["extract_ms"]) == pytest.approx(frame["passes"]["extract"], rel=1e-5)
+
+    png = tmp_path / "report.png"
+    decoded = chart_png.decode_png(png.read_bytes())
+    image = bpy.data.images.load(str(png))
+    try:
+        assert tuple(image.size) == (decoded.shape[1], decoded.shape[0])
+        pixels = np.empty(image.size[0] * image.size[1] * image.channels, np.float32)
+        image.pixels.foreach_get(pixels)
+        blender_rgb = pixels.reshape(image.size[1], image.size[0], image.channels)[::-1, :, :3]
+        np.testing.assert_array_equal(np.round(blender_rgb * 255).astype(np.uint8), decoded[..., :3])
+    finally:
+        bpy.data.images.remove(image)
+
+
+def test_animation_reaches_the_extracted_geometry_and_the_scene_frame_is_restored(addon, extraction_log, tmp_path):
+    """The cube's keyed x location moves its extracted triangles frame by frame; the warm-up
+    render is the start frame; the user's current frame and data come back unchanged."""
+    import bpy
+
+    scene = build_animated_scene(bpy)
+    cube = bpy.data.objects["Cube"]
+    before = (scene.frame_current, tuple(cube.location), scene.hybrid_rt.mode)
+    bpy.ops.hybrid_rt.timing_report(filepath=str(tmp_path / "r"), frame_start=2, frame_end=5, warmup_frames=1)
+    assert [entry[0] for entry in extraction_log] == [2, 2, 3, 4, 5]
+    for frame, low, high in extraction_log:
+        centre = (low + high) / 2
+        np.testing.assert_allclose(centre, [CUBE_X_PER_FRAME * frame, 0.0, 0.0], atol=POSITION_ATOL)
+        np.testing.assert_allclose(high - low, [2.0, 2.0, 2.0], atol=POSITION_ATOL)
+    assert (scene.frame_current, tuple(cube.location), scene.hybrid_rt.mode) == before
+
+
+def test_operator_defaults_to_the_scene_frame_range(addon, extraction_log, tmp_path):
+    import bpy
+
+    scene = build_animated_scene(bpy)
+    scene.frame_start, scene.frame_end = 2, 3
+    bpy.ops.hybrid_rt.timing_report(filepath=str(tmp_path / "r"), warmup_frames=0)
+    data = json.loads((tmp_path / "r.json").read_text())
+    assert [f["frame"] for f in data["frames"]] == [2, 3]
+    assert [entry[0] for entry in extraction_log] == [2, 3]
+
+
+@pytest.mark.parametrize(("start", "end", "message"), [
+    (5, 1, "frame_end must not be smaller"),
+    (1, timing_report.MAX_FRAMES + 1, "at most"),
+])
+def test_operator_rejects_a_bad_frame_range_before_rendering(addon, extraction_log, tmp_path, start, end, message):
+    import bpy
+
+    scene = build_animated_scene(bpy)
+    with pytest.raises(RuntimeError, match=message):
+        bpy.ops.hybrid_rt.timing_report(filepath=str(tmp_path / "r"), frame_start=start, frame_end=end)
+    assert extraction_log == []
+    assert list(tmp_path.iterdir()) == []
+    assert scene.frame_current == 3
+
+
+@pytest.mark.parametrize("case", ["under_a_file", "relative_to_an_unsaved_blend"])
+def test_operator_rejects_an_unwritable_path_before_rendering(addon, extraction_log, tmp_path, case):
+    import bpy
+
+    build_animated_scene(bpy)
+    (tmp_path / "file").write_text("x")
+    path = str(tmp_path / "file" / "report") if case == "under_a_file" else "//timing/report"
+    with pytest.raises(RuntimeError, match="cannot create|not saved"):
+        bpy.ops.hybrid_rt.timing_report(filepath=path, frame_start=1, frame_end=2)
+    assert extraction_log == []
+
+
+def test_a_failure_mid_range_is_reported_and_restores_the_frame(addon, monkeypatch, tmp_path):
+    import bpy
+
+    scene = build_animated_scene(bpy)
+    engine = addon.blender_adapter.engine
+    original = engine.render_depsgraph
+
+    def failing(depsgraph, **kwargs):
+        if depsgraph.scene.frame_current == 4:
+            raise RuntimeError("GPU went away")
+        return original(depsgraph, **kwargs)
+
+    monkeypatch.setattr(engine, "render_depsgraph", failing)
+    with pytest.raises(RuntimeError, match="failed at frame 4: GPU went away"):
+        bpy.ops.hybrid_rt.timing_report(filepath=str(tmp_path / "r"), frame_start=1, frame_end=5)
+    assert scene.frame_current == 3
+
+
+def _full_bvh_stand_in(addon, monkeypatch, available: bool):
+    """Make FULL_BVH deterministically unavailable (the engine falls back to RASTER), or
+    available as a stand-in: RASTER passes labelled FULL_BVH plus a 'trace' pass, so the
+    comparison's files can be checked whatever the tracer's state. Returns the modes the
+    scene had at each render."""
+    addon_renderer = addon.hybrid_engine.renderer
+    renderer = addon.blender_adapter.engine.shared_renderer()
+    original = renderer.render
+    modes_seen = []
+
+    def render(scene_data, camera, settings=None, **kwargs):
+        modes_seen.append(settings.mode)
+        if settings.mode != "FULL_BVH":
+            return original(scene_data, camera, settings, **kwargs)
+        if not available:  # the add-on's own class: the one render_depsgraph catches
+            raise addon_renderer.RenderModeUnavailable("FULL_BVH is not built")
+        from dataclasses import replace
+        result = original(scene_data, camera, replace(settings, mode="RASTER"), **kwargs)
+        result.mode = "FULL_BVH"
+        result.passes["trace"] = 1.0
+        return result
+
+    monkeypatch.setattr(renderer, "render", render)
+    return modes_seen
+
+
+def test_full_bvh_comparison_is_skipped_with_a_warning_when_the_mode_is_missing(addon, monkeypatch, tmp_path, capfd):
+    import bpy
+
+    scene = build_animated_scene(bpy)
+    _full_bvh_stand_in(addon, monkeypatch, available=False)
+    result = bpy.ops.hybrid_rt.timing_report(filepath=str(tmp_path / "r"), frame_start=1, frame_end=3,
+                                             compare_full_bvh=True)
+    assert result == {"FINISHED"}
+    assert "skipped the FULL_BVH comparison" in capfd.readouterr().out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.csv", "r.json", "r.png"]
+    assert scene.hybrid_rt.mode == "RASTER"
+
+
+def test_full_bvh_comparison_writes_its_own_report_and_a_comparison_chart(addon, monkeypatch, tmp_path):
+    import bpy
+
+    scene = build_animated_scene(bpy)
+    modes_seen = _full_bvh_stand_in(addon, monkeypatch, available=True)
+    bpy.ops.hybrid_rt.timing_report(filepath=str(tmp_path / "r"), frame_start=1, frame_end=3,
+                                    compare_full_bvh=True, warmup_frames=0)
+    assert modes_seen == ["RASTER"] * 3 + ["FULL_BVH"] * 3
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "r.csv", "r.json", "r.png", "r_compare.png", "r_full_bvh.csv", "r_full_bvh.json", "r_full_bvh.png"]
+    compare = json.loads((tmp_path / "r_full_bvh.json").read_text())
+    assert compare["requested_mode"] == "FULL_BVH" and compare["rendered_modes"] == ["FULL_BVH"]
+    assert compare["settings"]["mode"] == "FULL_BVH"
+    assert [f["frame"] for f in compare["frames"]] == [1, 2, 3]
+    assert chart_png.decode_png((tmp_path / "r_compare.png").read_bytes()).shape == (520, 1000, 3)
+    assert scene.hybrid_rt.mode == "RASTER" and scene.frame_current == 3
+
+
+def test_operator_and_button_are_registered(addon):
+    import bpy
+
+    assert bpy.ops.hybrid_rt.timing_report.idname() == "HYBRID_RT_OT_timing_report"
+    panels = addon.ui.panels
+    source = inspect.getsource(panels.RENDER_PT_hybrid_rt.draw)
+    assert '"hybrid_rt.timing_report"' in source
+
+
+@pytest.mark.slow
+def test_script_writes_a_report_of_a_saved_blend(addon, tmp_path):
+    """scripts/timing_report.py in a fresh interpreter, on a .blend saved from the animated scene."""
+    import bpy
+
+    build_animated_scene(bpy)
+    blend = tmp_path / "animated.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
+    blend_bytes = blend.read_bytes()
+    completed = subprocess.run(
+        [sys.executable, str(REPO_ROOT / "scripts" / "timing_report.py"), "--blend", str(blend),
+         "--prefix", str(tmp_path / "out" / "report"), "--start", "2", "--end", "4"],
+        capture_output=True, text=True, timeout=300,
+    )
+    assert completed.returncode == 0, completed.stdout + completed.stderr
+    assert "3 frames" in completed.stdout
+    data = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert [f["frame"] for f in data["frames"]] == [2, 3, 4]
+    assert blend.read_bytes() == blend_bytes  # the .blend is never saved

@@ -1,0 +1,398 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The viewport's Blender glue (blender_adapter/viewport.py, scene_cache.py) with the real depsgraph.
+
+Background Blender has no window, so ``view_draw``'s final texture draw cannot run here;
+everything before it can. ``depsgraph.updates`` is only filled inside Blender's
+``depsgraph_update_post`` and ``frame_change_post`` handlers, so the tests feed the session
+from those handlers, exactly as ``view_update`` is fed by Blender in a viewport.
+"""
+from __future__ import annotations
+
+import gc
+import os
+
+import numpy as np
+import pytest
+
+from hybrid_engine.camera import look_at
+
+WIDTH, HEIGHT = 24, 16
+# Two renders of an unchanged scene are bit-identical; a real change moves many pixels by far more.
+IMAGE_CHANGE = 1e-3
+# Process RSS may wander by allocator noise between frame 20 and 200; a leak of one 24x16
+# frame's GL objects per frame would exceed this many times over.
+RSS_GROWTH_LIMIT_BYTES = 24 * 2**20
+
+
+@pytest.fixture
+def viewport(addon):
+    """The add-on's viewport module with a session fed by depsgraph handlers."""
+    import bpy
+
+    module = addon.blender_adapter.viewport
+    session = module.ViewportSession()
+    reports = []
+
+    @bpy.app.handlers.persistent  # the tests load factory settings after installing it
+    def on_update(_scene, depsgraph):
+        reports.append(session.update(depsgraph))
+
+    handlers = (bpy.app.handlers.depsgraph_update_post, bpy.app.handlers.frame_change_post)
+    for handler_list in handlers:
+        handler_list.append(on_update)
+    try:
+        yield module, session, reports
+    finally:
+        for handler_list in handlers:
+            if on_update in handler_list:
+                handler_list.remove(on_update)
+        session.release()
+
+
+def _region(bpy, eye=(6.0, -7.0, 5.0), target=(0.0, 0.0, 0.5)):
+    from hybrid_engine.camera import Camera
+    from hybrid_engine.viewport_frame import RegionInput
+
+    camera = Camera(matrix_world=look_at(eye, target), width=WIDTH, height=HEIGHT, lens=35.0)
+    return RegionInput(camera.view_matrix(), camera.projection_matrix(), WIDTH, HEIGHT)
+
+
+def _settings(addon, bpy):
+    return addon.blender_adapter.properties.settings_from_scene(bpy.context.scene)
+
+
+def _sync(bpy):
+    """Let Blender evaluate pending changes (runs the depsgraph_update_post handlers)."""
+    bpy.context.evaluated_depsgraph_get()
+
+
+def _two_object_scene(bpy):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.hybrid_rt.mode = "RASTER"
+    scene.hybrid_rt.shadow_resolution = 128
+    bpy.ops.mesh.primitive_plane_add(size=10)
+    bpy.ops.mesh.primitive_cube_add(location=(0, 0, 1))
+    cube = bpy.context.object
+    material = bpy.data.materials.new("red")
+    material.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.9, 0.1, 0.1, 1)
+    cube.data.materials.append(material)
+    bpy.ops.object.light_add(type="SUN", location=(0, 0, 5))
+    return scene, cube, material
+
+
+def _frame(addon, bpy, session):
+    frame = session.frame(_region(bpy), _settings(addon, bpy))
+    assert frame.error is None, frame.error
+    return frame
+
+
+def test_moving_one_object_re_extracts_only_that_object_and_changes_the_image(addon, viewport):
+    import bpy
+
+    _module, session, reports = viewport
+    _scene, cube, _material = _two_object_scene(bpy)
+    _sync(bpy)
+    assert {name for report in reports for name in report.extracted} == {"Plane", "Cube"}
+    before = _frame(addon, bpy, session).image
+    reports.clear()
+
+    cube.location.x += 1.5
+    _sync(bpy)
+    report = reports[-1]
+    assert report.extracted == []  # no mesh was read again
+    assert report.transformed == ["Cube"] and report.reused == 1  # the plane's arrays were kept
+    after = _frame(addon, bpy, session).image
+    assert np.abs(after - before).max() > IMAGE_CHANGE
+
+    reports.clear()
+    _sync(bpy)  # nothing changed: nothing is redone and the image stays
+    assert not reports or (reports[-1].extracted == [] and reports[-1].transformed == [])
+    np.testing.assert_array_equal(_frame(addon, bpy, session).image, after)
+
+
+def test_editing_a_material_changes_the_next_frame(addon, viewport):
+    """Base colour (a node edit, reported as a Material update) changes the image;
+    thickness (set from a script, which Blender does not report) reaches the next frame's
+    material table."""
+    import bpy
+
+    _module, session, reports = viewport
+    _scene, _cube, material = _two_object_scene(bpy)
+    _sync(bpy)
+    before = _frame(addon, bpy, session).image
+    material.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.1, 0.2, 0.9, 1)
+    _sync(bpy)
+    assert reports[-1].materials_refreshed >= 1 and reports[-1].extracted == []
+    after = _frame(addon, bpy, session).image
+    assert np.abs(after - before).max() > IMAGE_CHANGE
+
+    index = session.cache.scene_data.materials.names.index("red")
+    old_thickness = float(session.cache.scene_data.materials.thickness[index])
+    material.hybrid_rt.thickness = 0.25 if old_thickness != 0.25 else 0.75
+    session.update(bpy.context.evaluated_depsgraph_get())  # what the next view_update does
+    assert session.cache.scene_data.materials.thickness[index] == pytest.approx(material.hybrid_rt.thickness)
+    _frame(addon, bpy, session)
+
+
+def _deformed_scene(bpy):
+    """Three meshes deformed three ways over frames 1..10: an armature, a shape key and a
+    time-dependent modifier (Wave)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.hybrid_rt.mode = "RASTER"
+    scene.hybrid_rt.shadow_resolution = 128
+    scene.frame_start, scene.frame_end = 1, 200
+
+    # Armature: a bone rotating a subdivided column bound with automatic-free vertex groups.
+    bpy.ops.mesh.primitive_cylinder_add(vertices=8, depth=2, location=(-2.5, 0, 1))
+    column = bpy.context.object
+    column.name = "Skinned"
+    group = column.vertex_groups.new(name="Bone")
+    group.add([v.index for v in column.data.vertices if v.co.z > 0], 1.0, "REPLACE")
+    armature_data = bpy.data.armatures.new("Rig")
+    rig = bpy.data.objects.new("Rig", armature_data)
+    scene.collection.objects.link(rig)
+    bpy.context.view_layer.objects.active = rig
+    bpy.ops.object.mode_set(mode="EDIT")
+    bone = armature_data.edit_bones.new("Bone")
+    bone.head, bone.tail = (-2.5, 0, 1), (-2.5, 0, 2)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    column.modifiers.new("Armature", "ARMATURE").object = rig
+    pose_bone = rig.pose.bones["Bone"]
+    pose_bone.rotation_mode = "XYZ"
+    for frame, angle in ((1, 0.0), (200, 6.0)):
+        pose_bone.rotation_euler = (angle, 0, 0)
+        pose_bone.keyframe_insert("rotation_euler", frame=frame)
+
+    # Shape key animated from 0 to 1.
+    bpy.ops.mesh.primitive_cube_add(location=(0, 0, 1))
+    keyed = bpy.context.object
+    keyed.name = "ShapeKeyed"
+    keyed.shape_key_add(name="Basis")
+    key = keyed.shape_key_add(name="Stretch")
+    for point in key.data:
+        point.co.z *= 2.0
+    for frame, value in ((1, 0.0), (200, 1.0)):
+        key.value = value
+        key.keyframe_insert("value", frame=frame)
+
+    # A modifier that depends on time.
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=8, y_subdivisions=8, size=3, location=(2.5, 0, 0.5))
+    waved = bpy.context.object
+    waved.name = "Waved"
+    wave = waved.modifiers.new("Wave", "WAVE")
+    wave.height, wave.width, wave.speed = 0.5, 1.0, 0.1
+
+    bpy.ops.mesh.primitive_plane_add(size=12)
+    bpy.ops.object.light_add(type="SUN", location=(0, 0, 5))
+    scene.frame_set(1)
+    return scene
+
+
+def _object_triangles(session, name):
+    geometry = session.cache.scene_data.geometry
+    k = geometry.object_names.index(name)
+    first, count = geometry.object_ranges[k]
+    return geometry.triangles[first:first + count].copy()
+
+
+DEFORMED = ("Skinned", "ShapeKeyed", "Waved")
+
+
+def test_frame_change_picks_up_armature_shape_key_and_modifier_deformation(addon, viewport):
+    import bpy
+
+    _module, session, reports = viewport
+    scene = _deformed_scene(bpy)
+    _sync(bpy)
+    before = {name: _object_triangles(session, name) for name in DEFORMED}
+    image_before = _frame(addon, bpy, session).image
+    reports.clear()
+
+    scene.frame_set(40)
+    assert reports, "a frame change must reach the session"
+    assert set(DEFORMED) <= set(reports[-1].extracted)
+    assert "Plane" not in reports[-1].extracted  # static geometry stays cached
+    for name in DEFORMED:
+        after = _object_triangles(session, name)
+        assert after.shape == before[name].shape
+        assert np.abs(after - before[name]).max() > 1e-3, f"{name} did not deform"
+    assert np.abs(_frame(addon, bpy, session).image - image_before).max() > IMAGE_CHANGE
+
+
+def _rss_bytes() -> int:
+    with open("/proc/self/statm") as statm:
+        return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def _live_gl_objects() -> int:
+    """moderngl objects that have not been released."""
+    import moderngl
+
+    kinds = (moderngl.Buffer, moderngl.Texture, moderngl.Framebuffer, moderngl.VertexArray,
+             moderngl.Renderbuffer, moderngl.Query)
+    return sum(1 for obj in gc.get_objects()
+               if isinstance(obj, kinds) and type(getattr(obj, "mglo", None)).__name__ != "InvalidObject")
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/statm"), reason="RSS is read from /proc (Linux)")
+def test_two_hundred_frames_of_playback_keep_gl_objects_and_memory_stable(addon, viewport):
+    """Playback: every frame re-extracts the deformed meshes and renders; nothing accumulates."""
+    import bpy
+
+    _module, session, reports = viewport
+    scene = _deformed_scene(bpy)
+    _sync(bpy)
+    region, settings = _region(bpy), _settings(addon, bpy)
+    gl = session._ensure_renderer().ctx
+    marks = {}
+    for frame in range(1, 201):
+        scene.frame_set(frame)
+        result = session.frame(region, settings)
+        assert result.error is None, result.error
+        if frame in (20, 200):
+            gc.collect()
+            probe = gl.buffer(reserve=4)  # GL names are reused: a leak makes them climb
+            marks[frame] = (_live_gl_objects(), _rss_bytes(), probe.glo)
+            probe.release()
+    assert set(DEFORMED) <= set(reports[-1].extracted)
+    (objects_20, rss_20, name_20), (objects_200, rss_200, name_200) = marks[20], marks[200]
+    assert objects_200 == objects_20
+    assert name_200 <= name_20 + 2
+    assert rss_200 - rss_20 < RSS_GROWTH_LIMIT_BYTES, f"RSS grew {(rss_200 - rss_20) / 2**20:.1f} MiB"
+    assert "fps" in result.stats and "tris" in result.stats
+
+
+def test_an_error_inside_a_frame_is_reported_once_and_the_next_frame_renders(addon, viewport, capsys, monkeypatch):
+    import bpy
+
+    _module, session, _reports = viewport
+    _two_object_scene(bpy)
+    _sync(bpy)
+    renderer = session._ensure_renderer()
+    real_render = renderer.render
+    calls = {"n": 0}
+
+    def failing_twice(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] <= 2:
+            raise RuntimeError("simulated driver failure")
+        return real_render(*args, **kwargs)
+
+    monkeypatch.setattr(renderer, "render", failing_twice)
+    first = session.frame(_region(bpy), _settings(addon, bpy))
+    second = session.frame(_region(bpy), _settings(addon, bpy))
+    assert first.error and "simulated driver failure" in first.error and first.image is None
+    assert second.error == first.error
+    assert first.stats == first.error  # the header shows it too
+    assert capsys.readouterr().out.count("simulated driver failure") == 1  # console: once
+    third = session.frame(_region(bpy), _settings(addon, bpy))
+    assert third.error is None and third.image.shape == (HEIGHT, WIDTH, 4)
+
+
+def test_missing_opengl_is_a_clear_message_not_an_exception(addon, capsys):
+    import bpy
+    from hybrid_engine.gl_context import GLUnavailableError
+
+    def no_gl():
+        raise GLUnavailableError("Hybrid RT needs OpenGL 4.3 (compute shaders); the driver offers 3.3")
+
+    module = addon.blender_adapter.viewport
+    session = module.ViewportSession(renderer_factory=no_gl)
+    session.update(bpy.context.evaluated_depsgraph_get())
+    frames = [session.frame(_region(bpy), _settings(addon, bpy)) for _ in range(3)]
+    assert all(f.error and "OpenGL 4.3" in f.error for f in frames)
+    assert capsys.readouterr().out.count("OpenGL 4.3") == 1
+
+
+def test_a_mode_that_cannot_render_falls_back_to_raster_once(addon, viewport, capsys, monkeypatch):
+    """A mode the renderer rejects (not built, or a shader that fails to compile) shows
+    RASTER with a note, and is not retried on every redraw."""
+    import bpy
+    from hybrid_engine.renderer import RenderModeUnavailable
+
+    _module, session, _reports = viewport
+    scene, _cube, _material = _two_object_scene(bpy)
+    scene.hybrid_rt.mode = "HYBRID"
+    _sync(bpy)
+    renderer = session._ensure_renderer()
+    real_render = renderer.render
+    attempts = []
+
+    def raster_only(scene_data, view, settings, **kwargs):
+        attempts.append(settings.mode)
+        if settings.mode != "RASTER":
+            raise RenderModeUnavailable(f"{settings.mode} is not available in this test")
+        return real_render(scene_data, view, settings, **kwargs)
+
+    monkeypatch.setattr(renderer, "render", raster_only)
+    frames = [session.frame(_region(bpy), _settings(addon, bpy)) for _ in range(3)]
+    assert all(f.error is None and f.mode == "RASTER" for f in frames)
+    assert "HYBRID unavailable" in frames[-1].stats
+    assert attempts == ["HYBRID", "RASTER", "RASTER", "RASTER"]
+    assert capsys.readouterr().out.count("HYBRID unavailable") == 1
+
+
+def test_callback_errors_reach_the_header_every_time_and_the_console_once(addon, capsys):
+    module = addon.blender_adapter.viewport
+
+    class FakeEngine:
+        def __init__(self):
+            self.stats, self.reports = [], []
+
+        def update_stats(self, _title, text):
+            self.stats.append(text)
+
+        def report(self, level, text):
+            self.reports.append((level, text))
+
+    engine = FakeEngine()
+    for _ in range(3):
+        module.callback_failed(engine, "view_draw", ValueError("region has no 3D view data"))
+    assert len(engine.stats) == 3 and "region has no 3D view data" in engine.stats[0]
+    assert len(engine.reports) == 1
+    assert capsys.readouterr().err.count("region has no 3D view data") == 1  # one traceback
+
+
+def test_engine_has_viewport_callbacks_and_sessions_are_freed(addon, viewport):
+    import bpy
+
+    module, _session, _reports = viewport
+    engine_class = addon.blender_adapter.engine.HybridRTRenderEngine
+    assert callable(engine_class.view_update) and callable(engine_class.view_draw)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    shared = module.session_for(depsgraph)
+    assert module.session_for(depsgraph) is shared
+    shared.update(depsgraph)
+    shared._ensure_renderer()
+    module.release_all()
+    assert shared.renderer is None and not shared.cache.synced
+    assert module.session_for(depsgraph) is not shared
+
+
+def test_near_cube_overlay_toggles_in_background_and_surrounds_the_eye(addon):
+    import bpy
+    from mathutils import Matrix
+
+    overlay = addon.operators.near_cube_overlay
+    scene = bpy.context.scene
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.near_size = 2.5
+    assert not overlay.is_enabled()
+    assert bpy.ops.hybrid_rt.show_near_cube() == {"FINISHED"} and overlay.is_enabled()
+    assert bpy.ops.hybrid_rt.show_near_cube() == {"FINISHED"} and not overlay.is_enabled()
+
+    # Without a viewport (and in camera view) the cube surrounds the scene camera.
+    edges = overlay.overlay_edges(scene)
+    camera_position = np.array(scene.camera.matrix_world.translation)
+    np.testing.assert_allclose(edges.reshape(-1, 3).mean(axis=0), camera_position, atol=1e-5)
+    np.testing.assert_allclose(np.abs(edges.reshape(-1, 3) - camera_position), 2.5, atol=1e-5)
+
+    class RegionData:  # the two RegionView3D attributes the overlay reads
+        view_perspective = "PERSP"
+        view_matrix = Matrix(look_at((1.0, 2.0, 3.0), (0.0, 0.0, 0.0)).tolist()).inverted()
+
+    edges = overlay.overlay_edges(scene, RegionData())
+    np.testing.assert_allclose(edges.reshape(-1, 3).mean(axis=0), (1.0, 2.0, 3.0), atol=1e-5)
+    overlay.set_enabled(True)  # unregister (fixture teardown) must remove the handler

@@ -1,0 +1,210 @@
+// Closest-hit traversal of the LBVH (paper §3.4: rays inside the near cube are traced against
+// the BVH first), callable from any compute or fragment shader:
+//
+//   bool bvh_closest_hit(vec3 origin, vec3 dir, float tmin, float tmax,
+//                        out float t, out int tri, out vec2 bary);
+//
+// returns true on a hit with t in (tmin, tmax], tri the ORIGINAL triangle index and bary the
+// barycentric (u, v) of vertices 1 and 2 (hit = (1-u-v) v0 + u v1 + v v2). A ray with a
+// non-finite origin or direction misses (t = tmax, tri = -1).
+//
+// Stack-based: each fetched node carries both child boxes (bvh_layout.glsl); leaf children are
+// intersected at once, the nearer inner child is visited next and the farther one pushed.
+// The stack holds at most the tree depth, which is <= 30 Morton bits + 32 index bits of
+// Karras' tie-break, so BVH_STACK_SIZE = 64 cannot overflow.
+//
+// Ray-triangle test: the watertight algorithm of Woop, Benthin and Wald, "Watertight
+// Ray/Triangle Intersection", JCGT 2(1), 2013: shear the triangle into ray space, decide
+// inside/outside from the signs of the 2D edge functions, with a double-precision fallback
+// when an edge function is exactly zero; no ray slips through a shared edge.
+// Ray-box test: slabs with the near/far planes picked by the ray direction's sign (so an empty
+// box, min > max, is never entered) and the far distance widened by 2 ulp-ish (Ize 2013,
+// "Robust BVH Ray Traversal") so a box is never missed by rounding.
+//
+// Host defines (optional): BVH_NODES_BINDING (default 0), BVH_TRIANGLES_BINDING (default 1).
+#ifndef HYBRID_BVH_TRAVERSE_GLSL
+#define HYBRID_BVH_TRAVERSE_GLSL
+
+#include "bvh_layout.glsl"
+#include "float_order.glsl"
+
+#ifndef BVH_NODES_BINDING
+#define BVH_NODES_BINDING 0
+#endif
+#ifndef BVH_TRIANGLES_BINDING
+#define BVH_TRIANGLES_BINDING 1
+#endif
+#define BVH_STACK_SIZE 64
+// 1 + 2 * gamma(3) with gamma(n) = n eps / (1 - n eps), eps = 2^-24 (Ize 2013, pbrt-v3 §3.9).
+#define BVH_BOX_FAR_SCALE 1.0000003576
+
+layout(std430, binding = BVH_NODES_BINDING) readonly buffer BVHNodes {
+    BVHNode bvh_nodes[];
+};
+layout(std430, binding = BVH_TRIANGLES_BINDING) readonly buffer BVHTriangles {
+    BVHTriangle bvh_triangles[];
+};
+
+// Per-ray constants of the watertight test (Woop et al. 2013, §3).
+struct BVHRay {
+    vec3 origin;
+    vec3 inv_dir;
+    bvec3 negative;  // direction sign per axis: picks the near slab plane
+    ivec3 axes;      // kx, ky, kz: kz is the dominant axis, kx/ky keep the winding
+    vec3 shear;      // Sx, Sy, Sz
+};
+
+BVHRay bvh_make_ray(vec3 origin, vec3 dir) {
+    BVHRay ray;
+    ray.origin = origin;
+    // A zero component must not yield NaN in (plane - origin) * inv_dir; use a huge reciprocal
+    // with the component's sign instead of inf.
+    vec3 tiny = mix(vec3(1e-30), vec3(-1e-30), lessThan(dir, vec3(0.0)));
+    vec3 safe = mix(dir, tiny, lessThan(abs(dir), vec3(1e-30)));
+    ray.inv_dir = 1.0 / safe;
+    ray.negative = lessThan(ray.inv_dir, vec3(0.0));
+    vec3 a = abs(dir);
+    int kz = (a.x > a.y) ? ((a.x > a.z) ? 0 : 2) : ((a.y > a.z) ? 1 : 2);
+    int kx = (kz + 1) % 3;
+    int ky = (kx + 1) % 3;
+    if (dir[kz] < 0.0) {
+        int swap = kx;
+        kx = ky;
+        ky = swap;
+    }
+    ray.axes = ivec3(kx, ky, kz);
+    ray.shear = vec3(dir[kx] / dir[kz], dir[ky] / dir[kz], 1.0 / dir[kz]);
+    return ray;
+}
+
+// Entry distance of the ray into [lo, hi] if it overlaps (tmin, tmax), else +inf-ish.
+float bvh_box_entry(BVHRay ray, vec3 lo, vec3 hi, float tmin, float tmax) {
+    vec3 near_plane = mix(lo, hi, ray.negative);
+    vec3 far_plane = mix(hi, lo, ray.negative);
+    vec3 t_near = (near_plane - ray.origin) * ray.inv_dir;
+    vec3 t_far = (far_plane - ray.origin) * ray.inv_dir;
+    float enter = max(max(t_near.x, t_near.y), max(t_near.z, tmin));
+    float leave = min(min(t_far.x, t_far.y), t_far.z) * BVH_BOX_FAR_SCALE;
+    leave = min(leave, tmax);
+    return enter <= leave ? enter : FLOAT_MAX;
+}
+
+vec3 bvh_permute(vec3 v, ivec3 axes) {
+    return vec3(v[axes.x], v[axes.y], v[axes.z]);
+}
+
+// Watertight ray-triangle test (Woop et al. 2013, Fig. 2). Updates t_best/bary on a closer hit.
+bool bvh_intersect_triangle(BVHRay ray, vec3 p0, vec3 p1, vec3 p2, float tmin,
+                            inout float t_best, inout vec2 bary) {
+    vec3 a = bvh_permute(p0 - ray.origin, ray.axes);
+    vec3 b = bvh_permute(p1 - ray.origin, ray.axes);
+    vec3 c = bvh_permute(p2 - ray.origin, ray.axes);
+    float ax = a.x - ray.shear.x * a.z;
+    float ay = a.y - ray.shear.y * a.z;
+    float bx = b.x - ray.shear.x * b.z;
+    float by = b.y - ray.shear.y * b.z;
+    float cx = c.x - ray.shear.x * c.z;
+    float cy = c.y - ray.shear.y * c.z;
+    float u = cx * by - cy * bx;
+    float v = ax * cy - ay * cx;
+    float w = bx * ay - by * ax;
+    if (u == 0.0 || v == 0.0 || w == 0.0) {
+        // An edge function is exactly zero: redo the 2D test in double so that the edge is
+        // owned by exactly one of the triangles sharing it.
+        u = float(double(cx) * double(by) - double(cy) * double(bx));
+        v = float(double(ax) * double(cy) - double(ay) * double(cx));
+        w = float(double(bx) * double(ay) - double(by) * double(ax));
+    }
+    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) {
+        return false;
+    }
+    float det = u + v + w;
+    if (det == 0.0) {
+        return false;
+    }
+    float az = ray.shear.z * a.z;
+    float bz = ray.shear.z * b.z;
+    float cz = ray.shear.z * c.z;
+    float t_scaled = u * az + v * bz + w * cz;
+    // Compare t = t_scaled / det against (tmin, t_best) without dividing.
+    float det_sign = det < 0.0 ? -1.0 : 1.0;
+    float t_signed = t_scaled * det_sign;
+    float det_abs = abs(det);
+    if (t_signed <= tmin * det_abs || t_signed > t_best * det_abs) {
+        return false;
+    }
+    float inv_det = 1.0 / det;
+    t_best = t_scaled * inv_det;
+    bary = vec2(v * inv_det, w * inv_det);
+    return true;
+}
+
+bool bvh_closest_hit(vec3 origin, vec3 dir, float tmin, float tmax,
+                     out float t, out int tri, out vec2 bary) {
+    t = tmax;
+    tri = -1;
+    bary = vec2(0.0);
+    // A ray with a NaN or infinite component has no meaningful hit (and float comparisons
+    // with NaN may be reordered by the compiler): it misses.
+    if (!(all_finite(origin) && all_finite(dir))) {
+        return false;
+    }
+    BVHRay ray = bvh_make_ray(origin, dir);
+    float t_best = tmax;
+    int hit_leaf = -1;
+    vec2 hit_bary = vec2(0.0);
+    int stack[BVH_STACK_SIZE];
+    int stack_size = 0;
+    int node = 0;
+    for (;;) {
+        BVHNode n = bvh_nodes[node];
+        float t_left = bvh_box_entry(ray, bvh_xyz(n.left_min), bvh_xyz(n.left_max), tmin, t_best);
+        float t_right = bvh_box_entry(ray, bvh_xyz(n.right_min), bvh_xyz(n.right_max), tmin,
+                                      t_best);
+        int left = int(n.left_min.w);
+        int right = int(n.left_max.w);
+        // Leaf children: intersect now (one triangle per leaf).
+        if (t_left < FLOAT_MAX && bvh_is_leaf(left)) {
+            BVHTriangle tr = bvh_triangles[~left];
+            if (bvh_intersect_triangle(ray, bvh_xyz(tr.v0), bvh_xyz(tr.v1), bvh_xyz(tr.v2), tmin,
+                                       t_best, hit_bary)) {
+                hit_leaf = ~left;
+            }
+            t_left = FLOAT_MAX;
+        }
+        if (t_right < FLOAT_MAX && bvh_is_leaf(right)) {
+            BVHTriangle tr = bvh_triangles[~right];
+            if (bvh_intersect_triangle(ray, bvh_xyz(tr.v0), bvh_xyz(tr.v1), bvh_xyz(tr.v2), tmin,
+                                       t_best, hit_bary)) {
+                hit_leaf = ~right;
+            }
+            t_right = FLOAT_MAX;
+        }
+        // Inner children: nearer first, the other onto the stack.
+        bool go_left = t_left < FLOAT_MAX;
+        bool go_right = t_right < FLOAT_MAX;
+        if (go_left && go_right) {
+            int near_child = t_left <= t_right ? left : right;
+            int far_child = t_left <= t_right ? right : left;
+            if (stack_size < BVH_STACK_SIZE) {
+                stack[stack_size++] = far_child;
+            }
+            node = near_child;
+        } else if (go_left) {
+            node = left;
+        } else if (go_right) {
+            node = right;
+        } else {
+            if (stack_size == 0) {
+                break;
+            }
+            node = stack[--stack_size];
+        }
+    }
+    t = t_best;
+    bary = hit_bary;
+    tri = hit_leaf >= 0 ? int(bvh_triangles[hit_leaf].v0.w) : -1;
+    return hit_leaf >= 0;
+}
+
+#endif

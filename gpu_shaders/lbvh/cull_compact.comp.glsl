@@ -1,0 +1,41 @@
+// Near-cube culling, step 3: stream compaction. Invocation t writes the indices of chunk t's
+// kept triangles, in order, from its exclusive-prefix offset (scan.comp.glsl), so the output
+// list is sorted by triangle index.
+//
+// Host defines: LOCAL_SIZE.
+// Bindings: 0 keep_flags (read), 1 chunk_offsets (read: uint[T + 1], scanned counts),
+//   2 kept_indices (write: uint[kept]).
+// Uniforms: u_count (N), u_chunk_size, u_num_chunks (T).
+#include "dispatch.glsl"
+
+layout(local_size_x = LOCAL_SIZE) in;
+
+layout(std430, binding = 0) readonly buffer KeepFlags {
+    uint keep_flags[];
+};
+layout(std430, binding = 1) readonly buffer ChunkOffsets {
+    uint chunk_offsets[];
+};
+layout(std430, binding = 2) writeonly buffer KeptIndices {
+    uint kept_indices[];
+};
+
+uniform uint u_count;
+uniform uint u_chunk_size;
+uniform uint u_num_chunks;
+
+void main() {
+    uint chunk = flat_invocation_index();
+    if (chunk >= u_num_chunks) {
+        return;
+    }
+    uint begin = chunk * u_chunk_size;
+    uint end = min(begin + u_chunk_size, u_count);
+    uint target = chunk_offsets[chunk];
+    for (uint i = begin; i < end; ++i) {
+        if (keep_flags[i] != 0u) {
+            kept_indices[target] = i;
+            ++target;
+        }
+    }
+}

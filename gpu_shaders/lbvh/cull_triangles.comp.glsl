@@ -1,0 +1,85 @@
+// Near-cube culling, step 2: per-triangle decision and per-chunk kept counts (paper §3.3: "the
+// second pass performs per triangle culling").
+//
+// Invocation t walks chunk t of the triangles in order. Each triangle takes its object's class
+// (objects are sorted by first triangle, so the object index only moves forward inside a
+// chunk; a binary search finds the chunk's first object). Triangles of straddling objects, and
+// triangles outside every object range, get the exact triangle/box SAT test (tri_box.glsl)
+// against the cube grown by the overlap margin. A 0/1 flag per triangle and the chunk's kept
+// count feed the prefix sum and compaction.
+//
+// Host defines: LOCAL_SIZE, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1 (unused).
+// Bindings: 0 tri_input (read), 2 object_ranges (read: ivec2[K] first, count; sorted by first),
+//   3 object_class (read), 4 keep_flags (write: uint[N]), 5 chunk_counts (write: uint[T]).
+// Uniforms: u_count (N), u_chunk_size, u_num_chunks (T), u_num_objects (K), u_center,
+//   u_half_size.
+#include "dispatch.glsl"
+#include "float_order.glsl"
+#include "triangle_input.glsl"
+#include "tri_box.glsl"
+
+layout(local_size_x = LOCAL_SIZE) in;
+
+layout(std430, binding = 2) readonly buffer ObjectRanges {
+    ivec2 object_ranges[];
+};
+layout(std430, binding = 3) readonly buffer ObjectClass {
+    uint object_class[];
+};
+layout(std430, binding = 4) writeonly buffer KeepFlags {
+    uint keep_flags[];
+};
+layout(std430, binding = 5) writeonly buffer ChunkCounts {
+    uint chunk_counts[];
+};
+
+uniform uint u_count;
+uniform uint u_chunk_size;
+uniform uint u_num_chunks;
+uniform uint u_num_objects;
+uniform vec3 u_center;
+uniform vec3 u_half_size;
+
+#define CLASS_OUTSIDE 0u
+#define CLASS_INSIDE 1u
+#define CLASS_STRADDLING 2u
+
+void main() {
+    uint chunk = flat_invocation_index();
+    if (chunk >= u_num_chunks) {
+        return;
+    }
+    uint begin = chunk * u_chunk_size;
+    uint end = min(begin + u_chunk_size, u_count);
+    // Last object whose first triangle is <= begin (-1 if none).
+    int lo = 0;
+    int hi = int(u_num_objects) - 1;
+    int object = -1;
+    while (lo <= hi) {
+        int mid = (lo + hi) / 2;
+        if (uint(object_ranges[mid].x) <= begin) {
+            object = mid;
+            lo = mid + 1;
+        } else {
+            hi = mid - 1;
+        }
+    }
+    uint kept = 0u;
+    for (uint i = begin; i < end; ++i) {
+        while (object + 1 < int(u_num_objects) && uint(object_ranges[object + 1].x) <= i) {
+            ++object;
+        }
+        uint cls = CLASS_STRADDLING;
+        if (object >= 0 && i < uint(object_ranges[object].x + object_ranges[object].y)) {
+            cls = object_class[object];
+        }
+        bool keep = cls == CLASS_INSIDE;
+        if (cls == CLASS_STRADDLING) {
+            keep = tri_box_overlap(input_vertex(i, 0u), input_vertex(i, 1u), input_vertex(i, 2u),
+                                   u_center, u_half_size);
+        }
+        keep_flags[i] = keep ? 1u : 0u;
+        kept += keep ? 1u : 0u;
+    }
+    chunk_counts[chunk] = kept;
+}

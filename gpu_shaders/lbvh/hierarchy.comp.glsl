@@ -1,0 +1,129 @@
+// LBVH pass 4: parallel hierarchy construction, Karras 2012 "Maximizing parallelism in the
+// construction of BVHs, octrees, and k-d trees", Algorithm 1 (the paper's §3.3 cites it).
+//
+// One invocation per inner node i in [0, N-2]: find the direction and far end of the key range
+// that node i covers, then the split inside it by binary search on the common prefix length
+// delta. Duplicate Morton codes are handled as Karras §4 suggests: when two keys are equal,
+// delta falls back to 32 + the common prefix of their indices, so the keys behave as if they
+// were distinct (key, index) concatenations and the tree stays well formed.
+//
+// Also writes each node's parent link and clears the refit flags, so the bottom-up pass needs
+// no separate reset.
+//
+// Host defines: LOCAL_SIZE.
+// Bindings: 0 sorted keys (read), 1 nodes (write: child refs, parents), 2 leaf_parent (write),
+//   3 refit_flags (write: 0).
+// Uniforms: u_count (leaves N). The host dispatches max(N - 1, 1) invocations; for N < 2
+//   invocation 0 writes the special root described in bvh_layout.glsl.
+#include "dispatch.glsl"
+#include "float_order.glsl"
+#include "bvh_layout.glsl"
+
+layout(local_size_x = LOCAL_SIZE) in;
+
+layout(std430, binding = 0) readonly buffer Keys {
+    uint keys[];
+};
+layout(std430, binding = 1) buffer Nodes {
+    BVHNode nodes[];
+};
+layout(std430, binding = 2) writeonly buffer LeafParent {
+    int leaf_parent[];
+};
+layout(std430, binding = 3) writeonly buffer RefitFlags {
+    uint refit_flags[];
+};
+
+uniform uint u_count;
+
+// Length of the common prefix of key i (passed in, loaded once) and key j, with the index
+// tie-break for equal keys; -1 when j lies outside [0, N-1].
+int delta(uint key_i, int i, int j) {
+    if (j < 0 || j >= int(u_count)) {
+        return -1;
+    }
+    uint diff = key_i ^ keys[j];
+    if (diff == 0u) {
+        return 32 + (31 - findMSB(uint(i) ^ uint(j)));
+    }
+    return 31 - findMSB(diff);
+}
+
+void main() {
+    uint index = flat_invocation_index();
+    if (u_count < 2u) {
+        // Degenerate trees: no inner node exists, so node 0 is a stand-in root whose left child
+        // is leaf 0 (N = 1) and whose other boxes are empty; the refit fills the left box.
+        if (index == 0u) {
+            nodes[0] = BVHNode(bvh_pack(vec3(FLOAT_MAX), ~0), bvh_pack(vec3(-FLOAT_MAX), ~0),
+                               bvh_pack(vec3(FLOAT_MAX), BVH_NO_PARENT),
+                               bvh_pack(vec3(-FLOAT_MAX), int(u_count)));
+            refit_flags[0] = 0u;
+            if (u_count == 1u) {
+                leaf_parent[0] = 0;
+            }
+        }
+        return;
+    }
+    if (index >= u_count - 1u) {
+        return;
+    }
+    int i = int(index);
+    uint key_i = keys[i];
+
+    // Direction of the range: towards the neighbour sharing the longer prefix.
+    int d = (delta(key_i, i, i + 1) - delta(key_i, i, i - 1)) >= 0 ? 1 : -1;
+    // Upper bound for the range length, then its exact other end j by binary search.
+    int delta_min = delta(key_i, i, i - d);
+    int length_max = 2;
+    while (delta(key_i, i, i + length_max * d) > delta_min) {
+        length_max *= 2;
+    }
+    int length = 0;
+    for (int step = length_max >> 1; step >= 1; step >>= 1) {
+        if (delta(key_i, i, i + (length + step) * d) > delta_min) {
+            length += step;
+        }
+    }
+    int j = i + length * d;
+
+    // Split position: the last key sharing more than delta_node bits with key i.
+    int delta_node = delta(key_i, i, j);
+    // Steps ceil(length / 2^k) for k = 1, 2, ...: shifts, since a CPU driver has no vector
+    // integer division and would run one scalar division per lane.
+    int split = 0;
+    int shift = 1;
+    for (;;) {
+        int step = (length + (1 << shift) - 1) >> shift;
+        if (delta(key_i, i, i + (split + step) * d) > delta_node) {
+            split += step;
+        }
+        if (step <= 1) {
+            break;
+        }
+        ++shift;
+    }
+    int gamma = i + split * d + min(d, 0);
+
+    int first = min(i, j);
+    int last = max(i, j);
+    int left = (first == gamma) ? ~gamma : gamma;
+    int right = (last == gamma + 1) ? ~(gamma + 1) : gamma + 1;
+    nodes[i].left_min.w = uint(left);
+    nodes[i].left_max.w = uint(right);
+    nodes[i].right_max.w = uint(last - first + 1);
+    if (left < 0) {
+        leaf_parent[gamma] = i;
+    } else {
+        nodes[left].right_min.w = uint(i);
+    }
+    if (right < 0) {
+        leaf_parent[gamma + 1] = i;
+    } else {
+        nodes[right].right_min.w = uint(i);
+    }
+    if (i == 0) {
+        nodes[0].right_min.w = uint(BVH_NO_PARENT);
+    }
+    refit_flags[i] = 0u;
+}

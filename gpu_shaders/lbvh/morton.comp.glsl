@@ -1,0 +1,47 @@
+// LBVH pass 2: one 30-bit Morton code per triangle centroid (paper §3.3; Karras 2012 §4).
+//
+// Host defines: LOCAL_SIZE, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1.
+// Bindings: 0 tri_input (read), 1 tri_index (read, if u_use_indices), 2 bounds (read: the
+//   ordered-float centroid-sum bounds of centroid_bounds.comp.glsl), 3 keys (write: codes),
+//   4 values (write: the ORIGINAL triangle index of each element, carried through the sort).
+// Uniforms: u_count (elements), u_use_indices.
+// One element per invocation; the dispatch may be split over x and y (dispatch.glsl).
+#include "dispatch.glsl"
+#include "float_order.glsl"
+#include "morton.glsl"
+#include "triangle_input.glsl"
+
+layout(local_size_x = LOCAL_SIZE) in;
+
+layout(std430, binding = 2) readonly buffer Bounds {
+    uint bounds[6];
+};
+layout(std430, binding = 3) writeonly buffer Keys {
+    uint keys[];
+};
+layout(std430, binding = 4) writeonly buffer Values {
+    uint values[];
+};
+
+uniform uint u_count;
+
+void main() {
+    uint element = flat_invocation_index();
+    if (element >= u_count) {
+        return;
+    }
+    vec3 lo = vec3(ordered_to_float(bounds[0]), ordered_to_float(bounds[1]),
+                   ordered_to_float(bounds[2]));
+    vec3 hi = vec3(ordered_to_float(bounds[3]), ordered_to_float(bounds[4]),
+                   ordered_to_float(bounds[5]));
+    precise vec3 extent = hi - lo;
+    vec3 scale = vec3(morton_axis_scale(extent.x), morton_axis_scale(extent.y),
+                      morton_axis_scale(extent.z));
+
+    uint prim = input_triangle(element);
+    precise vec3 sum = (input_vertex(prim, 0u) + input_vertex(prim, 1u)) + input_vertex(prim, 2u);
+    // A non-finite centroid (NaN/inf vertex, or a finite triangle whose sum overflows) sorts
+    // last; its leaf box decides whether it can ever be hit.
+    keys[element] = all_finite(sum) ? morton_code(sum, lo, scale) : MORTON_INVALID;
+    values[element] = prim;
+}

@@ -1,0 +1,48 @@
+// Radix sort, step 1 of 3 per digit: per-chunk digit histograms (LSD radix sort of the Morton
+// codes, paper §3.3 "tree construction is reduced to a sorting problem").
+//
+// The keys are cut into u_num_chunks contiguous chunks of u_chunk_size keys; invocation t
+// counts the digits of chunk t serially. No shared memory and no barriers: llvmpipe runs a
+// workgroup's lanes as SIMD vectors on one CPU thread and pays for every barrier with a
+// coroutine switch, while a serial loop per lane costs nothing extra. On a discrete GPU the
+// host picks many short chunks instead.
+//
+// Host defines: LOCAL_SIZE, RADIX_BITS (digit width; 8 -> 256 buckets).
+// Bindings: 0 keys (read), 1 histograms (write: uint[u_num_chunks * RADIX], chunk-major:
+//   histograms[t * RADIX + d] = keys of chunk t whose digit is d).
+// Uniforms: u_count (keys), u_chunk_size, u_num_chunks, u_shift (bit position of the digit).
+#include "dispatch.glsl"
+
+layout(local_size_x = LOCAL_SIZE) in;
+
+#define RADIX (1u << RADIX_BITS)
+#define DIGIT_MASK (RADIX - 1u)
+
+layout(std430, binding = 0) readonly buffer Keys {
+    uint keys[];
+};
+layout(std430, binding = 1) buffer Histograms {
+    uint histograms[];
+};
+
+uniform uint u_count;
+uniform uint u_chunk_size;
+uniform uint u_num_chunks;
+uniform uint u_shift;
+
+void main() {
+    uint chunk = flat_invocation_index();
+    if (chunk >= u_num_chunks) {
+        return;
+    }
+    uint row = chunk * RADIX;
+    for (uint d = 0u; d < RADIX; ++d) {
+        histograms[row + d] = 0u;
+    }
+    uint begin = chunk * u_chunk_size;
+    uint end = min(begin + u_chunk_size, u_count);
+    for (uint i = begin; i < end; ++i) {
+        uint digit = (keys[i] >> u_shift) & DIGIT_MASK;
+        histograms[row + digit] += 1u;
+    }
+}

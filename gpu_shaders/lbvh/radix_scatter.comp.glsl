@@ -1,0 +1,55 @@
+// Radix sort, step 3 of 3 per digit: stable scatter of (key, value) pairs to their offsets.
+//
+// Invocation t walks chunk t in order and bumps its own offset row, so equal digits keep
+// their input order (required for LSD radix sort, and it makes ties in the Morton codes fall
+// back to the element order that Karras' index tie-break assumes).
+//
+// Host defines: LOCAL_SIZE, RADIX_BITS.
+// Bindings: 0 keys_in (read), 1 histograms (read/write: offsets from radix_scan, consumed),
+//   2 values_in (read), 3 keys_out (write), 4 values_out (write).
+// Uniforms: u_count, u_chunk_size, u_num_chunks, u_shift.
+#include "dispatch.glsl"
+
+layout(local_size_x = LOCAL_SIZE) in;
+
+#define RADIX (1u << RADIX_BITS)
+#define DIGIT_MASK (RADIX - 1u)
+
+layout(std430, binding = 0) readonly buffer KeysIn {
+    uint keys_in[];
+};
+layout(std430, binding = 1) buffer Histograms {
+    uint histograms[];
+};
+layout(std430, binding = 2) readonly buffer ValuesIn {
+    uint values_in[];
+};
+layout(std430, binding = 3) writeonly buffer KeysOut {
+    uint keys_out[];
+};
+layout(std430, binding = 4) writeonly buffer ValuesOut {
+    uint values_out[];
+};
+
+uniform uint u_count;
+uniform uint u_chunk_size;
+uniform uint u_num_chunks;
+uniform uint u_shift;
+
+void main() {
+    uint chunk = flat_invocation_index();
+    if (chunk >= u_num_chunks) {
+        return;
+    }
+    uint row = chunk * RADIX;
+    uint begin = chunk * u_chunk_size;
+    uint end = min(begin + u_chunk_size, u_count);
+    for (uint i = begin; i < end; ++i) {
+        uint key = keys_in[i];
+        uint slot = row + ((key >> u_shift) & DIGIT_MASK);
+        uint target = histograms[slot];
+        histograms[slot] = target + 1u;
+        keys_out[target] = key;
+        values_out[target] = values_in[i];
+    }
+}

@@ -1,0 +1,91 @@
+// LBVH pass 5: reorder the triangles into leaf order and build the boxes bottom-up
+// (paper §3.3 "tree and AABB construction similar to Karras"; Karras 2012 §4).
+//
+// One invocation per leaf j: it copies triangle values[j] into slot j of the BVH triangle
+// array, computes its box and walks towards the root. At every inner node it stores the box it
+// carries into the node's left or right child slot (child boxes live in the parent, see
+// bvh_layout.glsl), then increments the node's atomic flag: the first arrival stops, the second
+// knows that both child boxes are written, merges them and continues upwards. Every node is
+// thus finished by exactly one invocation, O(N) work in all.
+//
+// Degenerate input: a triangle with a NaN or infinite coordinate gets an empty box
+// (min = +FLOAT_MAX, max = -FLOAT_MAX), so no ray ever reaches it and it cannot stretch its
+// ancestors' boxes. Zero-area triangles keep their (flat) boxes; the watertight test rejects
+// them (determinant 0).
+//
+// Host defines: LOCAL_SIZE, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1 (unused here).
+// Bindings: 0 tri_input (read), 2 values (read: original triangle index per leaf),
+//   3 nodes (read/write, coherent), 4 leaf_parent (read), 5 refit_flags (atomic),
+//   6 bvh_triangles (write).
+// Uniforms: u_count (leaves N).
+#include "dispatch.glsl"
+#include "float_order.glsl"
+#include "bvh_layout.glsl"
+#include "triangle_input.glsl"
+
+layout(local_size_x = LOCAL_SIZE) in;
+
+layout(std430, binding = 2) readonly buffer Values {
+    uint values[];
+};
+layout(std430, binding = 3) coherent buffer Nodes {
+    BVHNode nodes[];
+};
+layout(std430, binding = 4) readonly buffer LeafParent {
+    int leaf_parent[];
+};
+layout(std430, binding = 5) coherent buffer RefitFlags {
+    uint refit_flags[];
+};
+layout(std430, binding = 6) writeonly buffer Triangles {
+    BVHTriangle bvh_triangles[];
+};
+
+uniform uint u_count;
+
+void main() {
+    uint leaf = flat_invocation_index();
+    if (leaf >= u_count) {
+        return;
+    }
+    uint prim = values[leaf];
+    vec3 v0 = input_vertex(prim, 0u);
+    vec3 v1 = input_vertex(prim, 1u);
+    vec3 v2 = input_vertex(prim, 2u);
+    bvh_triangles[leaf] = BVHTriangle(bvh_pack(v0, int(prim)), bvh_pack(v1, 0), bvh_pack(v2, 0));
+
+    vec3 lo = vec3(FLOAT_MAX);
+    vec3 hi = vec3(-FLOAT_MAX);
+    if (all_finite(v0) && all_finite(v1) && all_finite(v2)) {
+        lo = min(v0, min(v1, v2));
+        hi = max(v0, max(v1, v2));
+    }
+
+    int child = ~int(leaf);
+    int node = leaf_parent[leaf];
+    while (node >= 0) {
+        bool is_left = int(nodes[node].left_min.w) == child;
+        if (is_left) {
+            nodes[node].left_min.xyz = floatBitsToUint(lo);
+            nodes[node].left_max.xyz = floatBitsToUint(hi);
+        } else {
+            nodes[node].right_min.xyz = floatBitsToUint(lo);
+            nodes[node].right_max.xyz = floatBitsToUint(hi);
+        }
+        memoryBarrierBuffer();
+        if (atomicAdd(refit_flags[node], 1u) == 0u) {
+            return;  // the sibling's invocation is still on its way; it finishes this node
+        }
+        memoryBarrierBuffer();
+        // Second arrival: the sibling's box is in the other slot; merge it with ours.
+        if (is_left) {
+            lo = min(lo, bvh_xyz(nodes[node].right_min));
+            hi = max(hi, bvh_xyz(nodes[node].right_max));
+        } else {
+            lo = min(lo, bvh_xyz(nodes[node].left_min));
+            hi = max(hi, bvh_xyz(nodes[node].left_max));
+        }
+        child = node;
+        node = int(nodes[node].right_min.w);
+    }
+}

@@ -1,0 +1,428 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Per-frame LBVH on the GPU: Morton codes, radix sort, Karras hierarchy, refit, traversal.
+
+The paper (§3.3) rebuilds a linear BVH (Lauterbach et al. 2009) over the triangles inside the
+near cube every frame, so that any deformation is handled without refitting logic on the
+CPU. Tree construction is reduced to sorting 30-bit Morton codes; the hierarchy follows Karras
+2012 (every inner node built independently from the sorted codes), and boxes are computed
+bottom-up with atomic flags. Everything runs in compute shaders under ``gpu_shaders/lbvh/``:
+
+====================  ================================================================
+centroid_bounds       bounds of the centroids (atomic min/max on order-preserving uints)
+morton                one 30-bit code per triangle, bit-identical to the numpy reference
+radix_count/scan/     LSD radix sort, 8-bit digits, 4 passes of count -> prefix sum ->
+radix_scatter         stable scatter (per-chunk serial loops; no barriers on llvmpipe)
+hierarchy             Karras 2012 Algorithm 1 with the index tie-break for equal codes
+refit                 triangles reordered into leaf order; boxes bottom-up, atomic flags
+trace                 closest hit per ray via gpu_shaders/include/bvh_traverse.glsl
+====================  ================================================================
+
+:class:`LBVHBuilder` keeps its programs and grow-only buffers across frames and exposes the
+built buffers (:class:`BuiltLBVH`) for the hybrid tracer to bind. :func:`trace_closest` is
+the public numpy-in, numpy-out entry point used by tests, benchmarks and the embreex oracle.
+
+The node layout is documented byte for byte in ``gpu_shaders/include/bvh_layout.glsl``;
+:data:`NODE_DTYPE` and :data:`TRIANGLE_DTYPE` mirror it.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import gl_context, shader_loader
+from .gpu_dispatch import GrowBuffer, bind_storage, dispatch, max_block_bytes, storage_barrier
+
+# Mirror of struct BVHNode in bvh_layout.glsl (64 bytes). Child refs: >= 0 inner node,
+# < 0 leaf ~ref (index into the reordered triangles).
+NODE_DTYPE = np.dtype(
+    [
+        ("left_min", "<f4", (3,)),
+        ("left_child", "<i4"),
+        ("left_max", "<f4", (3,)),
+        ("right_child", "<i4"),
+        ("right_min", "<f4", (3,)),
+        ("parent", "<i4"),
+        ("right_max", "<f4", (3,)),
+        ("leaf_count", "<i4"),
+    ]
+)
+assert NODE_DTYPE.itemsize == 64, "NODE_DTYPE must match BVHNode (64 bytes) in bvh_layout.glsl"
+
+# Mirror of struct BVHTriangle in bvh_layout.glsl (48 bytes).
+TRIANGLE_DTYPE = np.dtype(
+    [
+        ("v0", "<f4", (3,)),
+        ("prim", "<i4"),
+        ("v1", "<f4", (3,)),
+        ("flags", "<i4"),
+        ("v2", "<f4", (3,)),
+        ("pad", "<i4"),
+    ]
+)
+assert TRIANGLE_DTYPE.itemsize == 48, "TRIANGLE_DTYPE must match BVHTriangle (48 bytes)"
+
+# Workgroup size of the element-wise passes: llvmpipe runs 8 lanes per SIMD op (256-bit), a
+# 64-lane group is 8 ops per step and keeps enough groups for both CPU threads.
+LOCAL_SIZE = 64
+# 8-bit digits: 4 passes cover the 30-bit codes; 256 counters per chunk fit in L1.
+RADIX_BITS = 8
+MORTON_BITS = 30
+SORT_PASSES = math.ceil(MORTON_BITS / RADIX_BITS)
+# Keys each sort invocation walks serially. On a CPU driver long chunks amortise the per-chunk
+# histogram (256 counters) and keep each lane streaming; a GPU wants many short chunks.
+KEYS_PER_CHUNK_SOFTWARE = 2048
+KEYS_PER_CHUNK_HARDWARE = 256
+# Triangles each invocation of the bounds pass folds before its six atomics.
+BOUNDS_ITEMS_PER_INVOCATION = 16
+
+_INPUT_DEFINES = {"LOCAL_SIZE": LOCAL_SIZE, "TRI_INPUT_BINDING": 0, "TRI_INDEX_BINDING": 1}
+_SORT_DEFINES = {"LOCAL_SIZE": LOCAL_SIZE, "RADIX_BITS": RADIX_BITS}
+
+_ORDERED_MIN_RESET = 0xFFFFFFFF
+_ORDERED_MAX_RESET = 0
+
+
+def _set_uniform(program, name: str, value) -> None:
+    """Set a uniform if the compiler kept it (unused uniforms are optimised away)."""
+    member = program.get(name, None)
+    if member is not None:
+        member.value = value
+
+
+@dataclass
+class BuiltLBVH:
+    """GPU buffers of one build, valid until the next build on the same builder.
+
+    ``nodes``: BVHNode[max(leaf_count - 1, 1)], root at 0. ``triangles``: BVHTriangle[leaf_count]
+    in leaf (Morton) order. ``leaf_primitives``: uint[leaf_count], original triangle index of
+    each leaf (the index map; also stored in BVHTriangle.prim). ``sorted_keys``: the sorted
+    Morton codes.
+    """
+
+    nodes: object
+    triangles: object
+    leaf_primitives: object
+    sorted_keys: object
+    leaf_count: int
+
+    @property
+    def node_count(self) -> int:
+        return max(self.leaf_count - 1, 1)
+
+    def read_nodes(self) -> np.ndarray:
+        raw = self.nodes.read(size=self.node_count * NODE_DTYPE.itemsize)
+        return np.frombuffer(raw, dtype=NODE_DTYPE).copy()
+
+    def read_triangles(self) -> np.ndarray:
+        raw = _read(self.triangles, self.leaf_count * TRIANGLE_DTYPE.itemsize)
+        return np.frombuffer(raw, dtype=TRIANGLE_DTYPE).copy()
+
+    def read_leaf_primitives(self) -> np.ndarray:
+        raw = _read(self.leaf_primitives, self.leaf_count * 4)
+        return np.frombuffer(raw, dtype=np.uint32).astype(np.int64)
+
+    def read_sorted_keys(self) -> np.ndarray:
+        raw = _read(self.sorted_keys, self.leaf_count * 4)
+        return np.frombuffer(raw, dtype=np.uint32).copy()
+
+
+def _read(buffer, nbytes: int) -> bytes:
+    """Read the first ``nbytes`` of a GL buffer (mapping zero bytes is an error in GL)."""
+    return buffer.read(size=nbytes) if nbytes > 0 else b""
+
+
+class LBVHBuilder:
+    """Builds the LBVH of a triangle buffer every frame, reusing programs and buffers."""
+
+    def __init__(self, ctx=None, keys_per_chunk: int | None = None) -> None:
+        self.ctx = ctx if ctx is not None else gl_context.get_context()
+        if keys_per_chunk is None:
+            keys_per_chunk = (
+                KEYS_PER_CHUNK_SOFTWARE if gl_context.is_software_renderer()
+                else KEYS_PER_CHUNK_HARDWARE
+            )
+        self.keys_per_chunk = int(keys_per_chunk)
+        compute = shader_loader.compute
+        self._bounds = compute(
+            self.ctx, "lbvh/centroid_bounds.comp.glsl",
+            {**_INPUT_DEFINES, "ITEMS_PER_INVOCATION": BOUNDS_ITEMS_PER_INVOCATION},
+        )
+        self._morton = compute(self.ctx, "lbvh/morton.comp.glsl", _INPUT_DEFINES)
+        self._radix_count = compute(self.ctx, "lbvh/radix_count.comp.glsl", _SORT_DEFINES)
+        self._radix_scan = compute(self.ctx, "lbvh/radix_scan.comp.glsl", {"RADIX_BITS": RADIX_BITS, "RADIX": 1 << RADIX_BITS})
+        self._radix_scatter = compute(self.ctx, "lbvh/radix_scatter.comp.glsl", _SORT_DEFINES)
+        self._hierarchy = compute(self.ctx, "lbvh/hierarchy.comp.glsl", {"LOCAL_SIZE": LOCAL_SIZE})
+        self._refit = compute(self.ctx, "lbvh/refit.comp.glsl", _INPUT_DEFINES)
+        self._trace = compute(self.ctx, "lbvh/trace.comp.glsl", {"LOCAL_SIZE": LOCAL_SIZE})
+
+        ctx = self.ctx
+        self._input = GrowBuffer(ctx, "lbvh input triangles")
+        self._dummy_index = ctx.buffer(reserve=16)
+        self._bounds_buffer = ctx.buffer(reserve=24)
+        self._keys = (GrowBuffer(ctx, "lbvh keys A"), GrowBuffer(ctx, "lbvh keys B"))
+        self._values = (GrowBuffer(ctx, "lbvh values A"), GrowBuffer(ctx, "lbvh values B"))
+        self._histograms = GrowBuffer(ctx, "lbvh radix histograms")
+        self._nodes = GrowBuffer(ctx, "lbvh nodes")
+        self._leaf_parent = GrowBuffer(ctx, "lbvh leaf parents")
+        self._flags = GrowBuffer(ctx, "lbvh refit flags")
+        self._triangles = GrowBuffer(ctx, "lbvh triangles")
+        self._rays = (GrowBuffer(ctx, "trace origins"), GrowBuffer(ctx, "trace directions"))
+        self._hits = (GrowBuffer(ctx, "trace hit t"), GrowBuffer(ctx, "trace hit triangle"))
+        self.built: BuiltLBVH | None = None
+
+    # -- building ---------------------------------------------------------------------------
+
+    def build_from_array(self, triangles: np.ndarray) -> BuiltLBVH:
+        """Upload an (N, 3, 3) float32 triangle array and build over all of it."""
+        tris = _as_triangles(triangles)
+        buf = self._input.upload(tris.tobytes())
+        return self.build(buf, len(tris))
+
+    def build(self, triangles, count: int, indices=None, input_count: int | None = None) -> BuiltLBVH:
+        """Build over ``count`` triangles of a GL buffer of packed (N, 3, 3) float32.
+
+        With ``indices`` (a GL buffer of uint32), element i is triangle ``indices[i]`` (the
+        near-cube culler's compacted list); the reported hits are then indices into
+        ``triangles``. ``input_count`` is the number of triangles stored in ``triangles``
+        (default: ``count`` without indices, else what the buffer can hold); only that range
+        is bound.
+        """
+        ctx = self.ctx
+        count = int(count)
+        if count < 0:
+            raise ValueError(f"triangle count must be >= 0, got {count}")
+        use_indices = 1 if indices is not None else 0
+        index_buffer = indices if indices is not None else self._dummy_index
+        n4 = max(count, 1) * 4
+        node_count = max(count - 1, 1)
+        node_bytes = node_count * NODE_DTYPE.itemsize
+        tri_bytes = max(count, 1) * TRIANGLE_DTYPE.itemsize
+        if input_count is None:
+            input_count = count if indices is None else triangles.size // 36
+        input_bytes = max(int(input_count), 1) * 36
+        _check_block_limit(count, node_bytes, tri_bytes, input_bytes)
+        keys = [b.ensure(n4) for b in self._keys]
+        values = [b.ensure(n4) for b in self._values]
+        nodes = self._nodes.ensure(node_bytes)
+        leaf_parent = self._leaf_parent.ensure(n4)
+        flags = self._flags.ensure(node_count * 4)
+        bvh_tris = self._triangles.ensure(tri_bytes)
+
+        if count > 0:
+            # 1. Centroid bounds.
+            self._bounds_buffer.write(
+                np.array([_ORDERED_MIN_RESET] * 3 + [_ORDERED_MAX_RESET] * 3, np.uint32).tobytes()
+            )
+            bind_storage(triangles, 0, 0, input_bytes)
+            bind_storage(index_buffer, 1)
+            bind_storage(self._bounds_buffer, 2)
+            _set_uniform(self._bounds, "u_count", count)
+            _set_uniform(self._bounds, "u_use_indices", use_indices)
+            dispatch(self._bounds, count, LOCAL_SIZE, BOUNDS_ITEMS_PER_INVOCATION)
+            storage_barrier(ctx)
+
+            # 2. Morton codes; values carry the original triangle index through the sort.
+            bind_storage(keys[0], 3, 0, n4)
+            bind_storage(values[0], 4, 0, n4)
+            _set_uniform(self._morton, "u_count", count)
+            _set_uniform(self._morton, "u_use_indices", use_indices)
+            dispatch(self._morton, count, LOCAL_SIZE)
+            storage_barrier(ctx)
+
+            # 3. Radix sort (ping-pong A -> B -> A ...).
+            current = self._sort(keys, values, count)
+        else:
+            current = 0
+
+        # 4. Karras hierarchy (also the special roots for N < 2 and the refit flag reset).
+        bind_storage(keys[current], 0, 0, n4)
+        bind_storage(nodes, 1, 0, node_bytes)
+        bind_storage(leaf_parent, 2, 0, n4)
+        bind_storage(flags, 3, 0, node_count * 4)
+        _set_uniform(self._hierarchy, "u_count", count)
+        dispatch(self._hierarchy, max(count - 1, 1), LOCAL_SIZE)
+        storage_barrier(ctx)
+
+        # 5. Reorder triangles and refit boxes bottom-up.
+        if count > 0:
+            bind_storage(triangles, 0, 0, input_bytes)
+            bind_storage(values[current], 2, 0, n4)
+            bind_storage(nodes, 3, 0, node_bytes)
+            bind_storage(leaf_parent, 4, 0, n4)
+            bind_storage(flags, 5, 0, node_count * 4)
+            bind_storage(bvh_tris, 6, 0, tri_bytes)
+            _set_uniform(self._refit, "u_count", count)
+            _set_uniform(self._refit, "u_use_indices", 0)
+            dispatch(self._refit, count, LOCAL_SIZE)
+            storage_barrier(ctx)
+
+        if gl_context.debug_checks_enabled():
+            gl_context.check_error("LBVH build")
+        self.built = BuiltLBVH(
+            nodes=nodes, triangles=bvh_tris, leaf_primitives=values[current],
+            sorted_keys=keys[current], leaf_count=count,
+        )
+        return self.built
+
+    def sort_plan(self, count: int) -> tuple[int, int]:
+        """(chunk size, chunk count) used by the radix sort for ``count`` keys."""
+        num_chunks = max(1, math.ceil(count / self.keys_per_chunk))
+        chunk_size = max(1, math.ceil(count / num_chunks))
+        return chunk_size, math.ceil(count / chunk_size) if count else 1
+
+    def _sort(self, keys, values, count: int) -> int:
+        """LSD radix sort of keys[0]/values[0]; returns the index of the sorted pair."""
+        ctx = self.ctx
+        n4 = max(count, 1) * 4
+        chunk_size, num_chunks = self.sort_plan(count)
+        radix = 1 << RADIX_BITS
+        histograms = self._histograms.ensure(num_chunks * radix * 4)
+        bind_storage(histograms, 1, 0, num_chunks * radix * 4)
+        for program in (self._radix_count, self._radix_scatter):
+            _set_uniform(program, "u_count", count)
+            _set_uniform(program, "u_chunk_size", chunk_size)
+            _set_uniform(program, "u_num_chunks", num_chunks)
+        _set_uniform(self._radix_scan, "u_num_chunks", num_chunks)
+        src = 0
+        for digit in range(SORT_PASSES):
+            shift = digit * RADIX_BITS
+            dst = 1 - src
+            bind_storage(keys[src], 0, 0, n4)
+            _set_uniform(self._radix_count, "u_shift", shift)
+            dispatch(self._radix_count, num_chunks, LOCAL_SIZE)
+            storage_barrier(ctx)
+            self._radix_scan.run(1, 1, 1)
+            storage_barrier(ctx)
+            bind_storage(values[src], 2, 0, n4)
+            bind_storage(keys[dst], 3, 0, n4)
+            bind_storage(values[dst], 4, 0, n4)
+            _set_uniform(self._radix_scatter, "u_shift", shift)
+            dispatch(self._radix_scatter, num_chunks, LOCAL_SIZE)
+            storage_barrier(ctx)
+            src = dst
+        return src
+
+    # -- tracing ----------------------------------------------------------------------------
+
+    def trace(
+        self, origins: np.ndarray, directions: np.ndarray, tmin: float = 0.0,
+        tmax: float = float(np.finfo(np.float32).max),
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Closest hits of rays against the last build: (t with inf on miss, tri with -1)."""
+        if self.built is None:
+            raise RuntimeError("LBVHBuilder.trace() needs a build first")
+        org = _as_rays(origins, "origins")
+        dirs = _as_rays(directions, "directions")
+        if org.shape != dirs.shape:
+            raise ValueError(f"origins {org.shape} and directions {dirs.shape} differ in shape")
+        count = len(org)
+        if count == 0:
+            return np.empty(0, np.float32), np.empty(0, np.int32)
+        org_buf = self._rays[0].upload(org.tobytes())
+        dir_buf = self._rays[1].upload(dirs.tobytes())
+        t_buf = self._hits[0].ensure(count * 4)
+        tri_buf = self._hits[1].ensure(count * 4)
+        self.trace_buffers(org_buf, dir_buf, t_buf, tri_buf, count, tmin, tmax)
+        t = np.frombuffer(t_buf.read(size=count * 4), dtype=np.float32).copy()
+        tri = np.frombuffer(tri_buf.read(size=count * 4), dtype=np.int32).copy()
+        return t, tri
+
+    def trace_buffers(self, origins, directions, hit_t, hit_tri, count: int,
+                      tmin: float = 0.0, tmax: float = float(np.finfo(np.float32).max)) -> None:
+        """GPU-side trace of ``count`` rays held in GL buffers (float[3M] each)."""
+        built = self.built
+        count = int(count)
+        bind_storage(built.nodes, 0, 0, built.node_count * NODE_DTYPE.itemsize)
+        bind_storage(built.triangles, 1, 0, max(built.leaf_count, 1) * TRIANGLE_DTYPE.itemsize)
+        bind_storage(origins, 2, 0, max(count, 1) * 12)
+        bind_storage(directions, 3, 0, max(count, 1) * 12)
+        bind_storage(hit_t, 4, 0, max(count, 1) * 4)
+        bind_storage(hit_tri, 5, 0, max(count, 1) * 4)
+        _set_uniform(self._trace, "u_count", int(count))
+        _set_uniform(self._trace, "u_tmin", float(tmin))
+        _set_uniform(self._trace, "u_tmax", float(tmax))
+        dispatch(self._trace, int(count), LOCAL_SIZE)
+        storage_barrier(self.ctx)
+        if gl_context.debug_checks_enabled():
+            gl_context.check_error("LBVH trace")
+
+    def release(self) -> None:
+        """Free the GL buffers (programs stay in the loader's per-context cache)."""
+        for grow in (self._input, *self._keys, *self._values, self._histograms, self._nodes,
+                     self._leaf_parent, self._flags, self._triangles, *self._rays, *self._hits):
+            grow.release()
+        self._dummy_index.release()
+        self._bounds_buffer.release()
+        self.built = None
+
+
+def max_build_triangles() -> int:
+    """Most triangles one build can hold within the storage-block limit (the node array,
+    64 bytes per leaf, is the largest per-leaf array)."""
+    return max_block_bytes() // NODE_DTYPE.itemsize + 1
+
+
+def _check_block_limit(count: int, node_bytes: int, tri_bytes: int, input_bytes: int) -> None:
+    """Refuse, with the numbers, a build whose arrays a single storage binding cannot cover.
+
+    The traversal indexes nodes and triangles randomly, so they cannot be bound in windows;
+    on llvmpipe (128 MiB blocks) the limit is about 2.1 million triangles in one BVH, far
+    above a near cube's content.
+    """
+    limit = max_block_bytes()
+    for what, nbytes in (("node array", node_bytes), ("triangle array", tri_bytes),
+                         ("input triangle buffer", input_bytes)):
+        if nbytes > limit:
+            raise ValueError(
+                f"an LBVH over {count} triangles needs a {nbytes}-byte {what}, over the "
+                f"driver's {limit}-byte GL_MAX_SHADER_STORAGE_BLOCK_SIZE; build at most "
+                f"{max_build_triangles()} triangles at once (cull to a smaller near cube)"
+            )
+
+
+def _as_triangles(triangles: np.ndarray) -> np.ndarray:
+    tris = np.asarray(triangles)
+    if tris.ndim != 3 or tris.shape[1:] != (3, 3):
+        raise ValueError(f"triangles must have shape (N, 3, 3), got {tris.shape}")
+    return np.ascontiguousarray(tris, dtype=np.float32)
+
+
+def _as_rays(rays: np.ndarray, name: str) -> np.ndarray:
+    arr = np.asarray(rays)
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (M, 3), got {arr.shape}")
+    return np.ascontiguousarray(arr, dtype=np.float32)
+
+
+_builders: dict[int, LBVHBuilder] = {}
+
+
+def default_builder() -> LBVHBuilder:
+    """The builder of the shared context (its buffers persist between calls)."""
+    ctx = gl_context.get_context()
+    builder = _builders.get(id(ctx))
+    if builder is None:
+        builder = _builders[id(ctx)] = LBVHBuilder(ctx)
+    return builder
+
+
+def trace_closest(
+    triangles: np.ndarray, origins: np.ndarray, directions: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Closest hits of rays against a triangle soup, on the GPU.
+
+    Builds the LBVH over all ``triangles`` ((N, 3, 3) float32; no culling) and traces the rays
+    ((M, 3) origins and directions; directions need not be normalised, t is in their units).
+    Returns ``t`` ((M,) float32, inf on a miss) and ``tri`` ((M,) int32, original triangle
+    index, -1 on a miss). Triangles with NaN/inf coordinates are never hit.
+    """
+    tris = _as_triangles(triangles)
+    org = _as_rays(origins, "origins")
+    dirs = _as_rays(directions, "directions")
+    if org.shape != dirs.shape:
+        raise ValueError(f"origins {org.shape} and directions {dirs.shape} differ in shape")
+    builder = default_builder()
+    builder.build_from_array(tris)
+    return builder.trace(org, dirs)

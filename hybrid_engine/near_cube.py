@@ -1,0 +1,221 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Near-cube culling on the GPU (paper §3.3): which triangles go into this frame's LBVH.
+
+Only geometry inside the cube formed by the cube-map cameras' near planes (half-size
+``near_size`` around the camera) is traced in the BVH; a ray leaving the cube continues in the
+cube map. Culling happens in two stages, as in the paper:
+
+1. per object: its world AABB against the cube (outside: dropped, inside: kept whole,
+   straddling: go to stage 2), ``gpu_shaders/lbvh/cull_objects.comp.glsl``;
+2. per triangle of straddling objects: the exact separating-axis triangle/box test
+   (``gpu_shaders/include/tri_box.glsl``) -- not a centroid test, which would drop large
+   triangles crossing the cube -- then stream compaction (per-chunk counts, a prefix sum,
+   an ordered scatter) into a list of triangle indices.
+
+The cube is grown by a small overlap margin (paper: "by introducing a small overlap of the BVH
+and the cube map the possibility of a gap at the boundary due to precision errors is
+removed"): triangles just outside the near planes are in both the BVH and the cube map, and
+an intersection in the overlap is found by either.
+
+The compacted index list feeds :meth:`hybrid_engine.lbvh.LBVHBuilder.build` directly; hit
+indices then refer to the full scene's triangles.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import gl_context, shader_loader
+from .gpu_dispatch import GrowBuffer, bind_storage, dispatch, storage_barrier
+
+LOCAL_SIZE = 64
+# Triangles each culling invocation walks serially (see the radix sort's chunks in lbvh.py).
+TRIANGLES_PER_CHUNK = 1024
+# Scan workgroup size: the chunk counts are few, one group of 256 scans them.
+SCAN_LOCAL_SIZE = 256
+# Overlap of BVH and cube map: a fraction of the cube's half-size plus a floor for tiny cubes,
+# several float32 ulps at scene scale yet invisible in the image.
+OVERLAP_RELATIVE = 1e-3
+OVERLAP_ABSOLUTE = 1e-5
+
+CLASS_OUTSIDE = 0
+CLASS_INSIDE = 1
+CLASS_STRADDLING = 2
+
+_DEFINES = {"LOCAL_SIZE": LOCAL_SIZE, "TRI_INPUT_BINDING": 0, "TRI_INDEX_BINDING": 1}
+
+
+def overlap_margin(near_size: float) -> float:
+    """How far the culling cube extends beyond the near planes (scene units)."""
+    return float(near_size) * OVERLAP_RELATIVE + OVERLAP_ABSOLUTE
+
+
+@dataclass
+class CullResult:
+    """The compacted triangle list of one frame (valid until the next cull).
+
+    ``indices``: GL buffer of uint32 triangle indices, ascending, ``count`` of them.
+    ``objects_inside`` / ``objects_straddling`` / ``objects_outside``: stage-1 counts.
+    """
+
+    indices: object
+    count: int
+    objects_inside: int
+    objects_straddling: int
+    objects_outside: int
+
+    def read_indices(self) -> np.ndarray:
+        if self.count == 0:
+            return np.empty(0, np.int64)
+        raw = self.indices.read(size=self.count * 4)
+        return np.frombuffer(raw, dtype=np.uint32).astype(np.int64)
+
+
+class NearCubeCuller:
+    """Culls triangles against the near cube every frame with persistent programs and buffers."""
+
+    def __init__(self, ctx=None, triangles_per_chunk: int = TRIANGLES_PER_CHUNK) -> None:
+        self.ctx = ctx if ctx is not None else gl_context.get_context()
+        self.triangles_per_chunk = int(triangles_per_chunk)
+        compute = shader_loader.compute
+        self._classify = compute(self.ctx, "lbvh/cull_objects.comp.glsl", _DEFINES)
+        self._triangles = compute(self.ctx, "lbvh/cull_triangles.comp.glsl", _DEFINES)
+        self._scan = compute(self.ctx, "lbvh/scan.comp.glsl", {"LOCAL_SIZE": SCAN_LOCAL_SIZE})
+        self._compact = compute(self.ctx, "lbvh/cull_compact.comp.glsl", _DEFINES)
+        ctx = self.ctx
+        self._input = GrowBuffer(ctx, "cull input triangles")
+        self._object_bounds = GrowBuffer(ctx, "cull object bounds")
+        self._object_ranges = GrowBuffer(ctx, "cull object ranges")
+        self._object_class = GrowBuffer(ctx, "cull object classes")
+        self._flags = GrowBuffer(ctx, "cull keep flags")
+        self._counts = GrowBuffer(ctx, "cull chunk counts")
+        self._indices = GrowBuffer(ctx, "cull kept indices")
+
+    def cull_array(self, triangles: np.ndarray, center, near_size: float,
+                   object_ranges: np.ndarray | None = None,
+                   object_bounds: np.ndarray | None = None,
+                   margin: float | None = None) -> CullResult:
+        """Upload an (N, 3, 3) float32 array and cull it (see :meth:`cull`)."""
+        tris = np.asarray(triangles)
+        if tris.ndim != 3 or tris.shape[1:] != (3, 3):
+            raise ValueError(f"triangles must have shape (N, 3, 3), got {tris.shape}")
+        tris = np.ascontiguousarray(tris, dtype=np.float32)
+        buf = self._input.upload(tris.tobytes())
+        return self.cull(buf, len(tris), center, near_size, object_ranges, object_bounds, margin)
+
+    def cull(self, triangles, count: int, center, near_size: float,
+             object_ranges: np.ndarray | None = None, object_bounds: np.ndarray | None = None,
+             margin: float | None = None) -> CullResult:
+        """Keep the triangles of a GL buffer ((N, 3, 3) float32) that overlap the near cube.
+
+        ``object_ranges`` ((K, 2) first, count) and ``object_bounds`` ((K, 2, 3) world
+        min/max) drive the per-object stage; without them every triangle is tested. The cube
+        is centred on ``center`` with half-size ``near_size`` + ``margin`` (default
+        :func:`overlap_margin`).
+        """
+        ctx = self.ctx
+        count = int(count)
+        if count < 0:
+            raise ValueError(f"triangle count must be >= 0, got {count}")
+        if not (math.isfinite(near_size) and near_size > 0):
+            raise ValueError(f"near_size must be a positive finite number, got {near_size}")
+        center = np.asarray(center, dtype=np.float64).reshape(3)
+        if not np.isfinite(center).all():
+            raise ValueError(f"the cube centre must be finite, got {center}")
+        margin = overlap_margin(near_size) if margin is None else float(margin)
+        half = float(near_size) + margin
+        ranges, bounds = _objects(count, object_ranges, object_bounds)
+        num_objects = len(ranges)
+
+        self._object_ranges.upload(ranges.tobytes())
+        self._object_bounds.upload(bounds.tobytes())
+        object_class = self._object_class.ensure(max(num_objects, 1) * 4)
+        num_chunks = max(1, math.ceil(count / self.triangles_per_chunk))
+        chunk_size = max(1, math.ceil(count / num_chunks))
+        flags = self._flags.ensure(max(count, 1) * 4)
+        counts = self._counts.ensure((num_chunks + 1) * 4)
+        indices = self._indices.ensure(max(count, 1) * 4)
+
+        for program in (self._classify, self._triangles):
+            _set(program, "u_center", tuple(float(c) for c in center))
+            _set(program, "u_half_size", (half, half, half))
+            _set(program, "u_num_objects", num_objects)
+        # 1. Objects.
+        bind_storage(self._object_bounds.buffer, 0, 0, num_objects * 24)
+        bind_storage(object_class, 1, 0, max(num_objects, 1) * 4)
+        dispatch(self._classify, num_objects, LOCAL_SIZE)
+        storage_barrier(ctx)
+        # 2. Triangles: flags and per-chunk counts.
+        for program in (self._triangles, self._compact):
+            _set(program, "u_count", count)
+            _set(program, "u_chunk_size", chunk_size)
+            _set(program, "u_num_chunks", num_chunks)
+        _set(self._triangles, "u_use_indices", 0)
+        if count > 0:
+            bind_storage(triangles, 0, 0, count * 36)
+            bind_storage(self._object_ranges.buffer, 2, 0, num_objects * 8)
+            bind_storage(object_class, 3, 0, max(num_objects, 1) * 4)
+            bind_storage(flags, 4, 0, count * 4)
+            bind_storage(counts, 5, 0, (num_chunks + 1) * 4)
+            dispatch(self._triangles, num_chunks, LOCAL_SIZE)
+            storage_barrier(ctx)
+        else:
+            counts.write(np.zeros(1, np.uint32).tobytes())
+        # 3. Prefix sum of the chunk counts (total at [num_chunks]).
+        bind_storage(counts, 0, 0, (num_chunks + 1) * 4)
+        _set(self._scan, "u_count", num_chunks if count > 0 else 0)
+        self._scan.run(1, 1, 1)
+        storage_barrier(ctx)
+        # 4. Compaction.
+        if count > 0:
+            bind_storage(flags, 0, 0, count * 4)
+            bind_storage(counts, 1, 0, (num_chunks + 1) * 4)
+            bind_storage(indices, 2, 0, count * 4)
+            dispatch(self._compact, num_chunks, LOCAL_SIZE)
+            storage_barrier(ctx)
+        total_offset = (num_chunks if count > 0 else 0) * 4
+        kept = int(np.frombuffer(counts.read(size=4, offset=total_offset), np.uint32)[0])
+        classes = (np.frombuffer(object_class.read(size=num_objects * 4), np.uint32)
+                   if num_objects else np.empty(0, np.uint32))
+        if gl_context.debug_checks_enabled():
+            gl_context.check_error("near-cube culling")
+        return CullResult(
+            indices=indices, count=kept,
+            objects_inside=int(np.count_nonzero(classes == CLASS_INSIDE)),
+            objects_straddling=int(np.count_nonzero(classes == CLASS_STRADDLING)),
+            objects_outside=int(np.count_nonzero(classes == CLASS_OUTSIDE)),
+        )
+
+    def release(self) -> None:
+        for grow in (self._input, self._object_bounds, self._object_ranges, self._object_class,
+                     self._flags, self._counts, self._indices):
+            grow.release()
+
+
+def _set(program, name: str, value) -> None:
+    member = program.get(name, None)
+    if member is not None:
+        member.value = value
+
+
+def _objects(count: int, object_ranges, object_bounds) -> tuple[np.ndarray, np.ndarray]:
+    """Validated (K, 2) int32 ranges sorted by first triangle and matching (K, 6) float32 bounds.
+
+    Without objects, one pseudo-object with non-finite bounds covers everything, so every
+    triangle takes the exact per-triangle test.
+    """
+    if object_ranges is None:
+        ranges = np.array([[0, count]], dtype=np.int32)
+        bounds = np.full((1, 6), np.nan, dtype=np.float32)
+        return ranges, bounds
+    ranges = np.asarray(object_ranges, dtype=np.int64).reshape(-1, 2)
+    if object_bounds is None:
+        raise ValueError("object_bounds are required with object_ranges")
+    bounds = np.asarray(object_bounds, dtype=np.float64).reshape(len(ranges), 6)
+    if (ranges < 0).any() or (ranges[:, 0] + ranges[:, 1] > count).any():
+        raise ValueError(f"object_ranges must lie within the {count} triangles")
+    order = np.argsort(ranges[:, 0], kind="stable")
+    return (np.ascontiguousarray(ranges[order], dtype=np.int32),
+            np.ascontiguousarray(bounds[order], dtype=np.float32))

@@ -1,0 +1,328 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""GPU LBVH (paper §3.3) against independent oracles.
+
+* the numpy reference build (hybrid_engine/lbvh_reference.py): Morton codes bit for bit, the
+  same Karras tree node for node;
+* structural invariants checked on the GPU tree alone (reachability, box containment,
+  permutation), which would catch a bug shared by both implementations;
+* embreex closest hits for random soups, a tessellated scene and duplicate centroids.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hybrid_engine import gpu_dispatch, lbvh, lbvh_reference
+from hybrid_engine.bench import hit_agreement, mesh_like_scene, reflection_rays
+from hybrid_engine.lbvh import NODE_DTYPE, TRIANGLE_DTYPE, LBVHBuilder, trace_closest
+
+# The brief's bar for agreement with Embree: rays grazing a shared edge may pick either
+# neighbour, a few in ten thousand at most.
+MIN_AGREEMENT = 0.999
+# Below this fraction of hitting rays an agreement figure would mostly count misses.
+MIN_HIT_FRACTION = 0.1
+SIZES = [0, 1, 2, 255, 256, 257, 2049, 100_003]
+
+
+@pytest.fixture(scope="module")
+def builder(gl):
+    b = LBVHBuilder(gl)
+    yield b
+    b.release()
+
+
+def random_soup(rng: np.random.Generator, count: int, size: float = 0.02) -> np.ndarray:
+    centers = rng.random((count, 1, 3))
+    return (centers + size * rng.standard_normal((count, 3, 3))).astype(np.float32)
+
+
+def duplicate_centroid_scene(rng: np.random.Generator, count: int) -> np.ndarray:
+    """Many triangles share one of a few centroids (equal Morton codes, Karras' tie-break)."""
+    centers = rng.random((8, 3))[rng.integers(0, 8, count)]
+    offsets = rng.standard_normal((count, 3, 3)) * 0.05
+    offsets -= offsets.mean(axis=1, keepdims=True)  # the centroid is exactly the centre
+    return (centers[:, None, :] + offsets).astype(np.float32)
+
+
+def embree_closest(tris: np.ndarray, origins: np.ndarray, dirs: np.ndarray):
+    from embreex import rtcore_scene
+    from embreex.mesh_construction import TriangleMesh
+
+    scene = rtcore_scene.EmbreeScene()
+    TriangleMesh(scene, tris)
+    res = scene.run(origins, dirs, output=1)
+    return np.asarray(res["tfar"], np.float32), np.asarray(res["primID"], np.int32)
+
+
+def gpu_codes_per_triangle(built: lbvh.BuiltLBVH) -> np.ndarray:
+    codes = np.empty(built.leaf_count, np.uint32)
+    codes[built.read_leaf_primitives()] = built.read_sorted_keys()
+    return codes
+
+
+# -- Morton codes and the reference tree ----------------------------------------------------
+
+@pytest.mark.parametrize("scene", ["soup", "flat", "huge", "tiny", "duplicates"])
+def test_morton_codes_are_bit_identical_to_numpy(ctx, builder, rng, scene):
+    """Every triangle's 30-bit code equals the reference's (only exact float ops are used)."""
+    tris = random_soup(rng, 3000)
+    if scene == "flat":
+        tris[:, :, 2] = 0.25  # zero extent on z
+    elif scene == "huge":
+        tris = tris * np.float32(3e30) - np.float32(1e30)
+    elif scene == "tiny":
+        tris = tris * np.float32(1e-20)
+    elif scene == "duplicates":
+        tris = duplicate_centroid_scene(rng, 3000)
+    built = builder.build_from_array(tris)
+    np.testing.assert_array_equal(gpu_codes_per_triangle(built), lbvh_reference.morton_codes(tris))
+
+
+@pytest.mark.parametrize("count", SIZES)
+def test_tree_equals_reference_build(ctx, builder, rng, count):
+    """Sizes straddling workgroups (64), sort chunks and blocks: same leaves, topology, boxes."""
+    tris = random_soup(rng, count)
+    built = builder.build_from_array(tris)
+    ref = lbvh_reference.build(tris)
+    nodes = built.read_nodes()
+    np.testing.assert_array_equal(built.read_sorted_keys(), ref.sorted_codes)
+    np.testing.assert_array_equal(built.read_leaf_primitives(), ref.leaf_primitives)
+    np.testing.assert_array_equal(nodes["left_child"], ref.left_child)
+    np.testing.assert_array_equal(nodes["right_child"], ref.right_child)
+    np.testing.assert_array_equal(nodes["parent"], ref.parent)
+    np.testing.assert_array_equal(nodes["left_min"], ref.child_min[:, 0])
+    np.testing.assert_array_equal(nodes["left_max"], ref.child_max[:, 0])
+    np.testing.assert_array_equal(nodes["right_min"], ref.child_min[:, 1])
+    np.testing.assert_array_equal(nodes["right_max"], ref.child_max[:, 1])
+
+
+# -- invariants on the GPU tree alone -------------------------------------------------------
+
+def check_invariants(built: lbvh.BuiltLBVH, tris: np.ndarray) -> None:
+    """Every leaf once, two children per inner node, parent box = union, leaves a permutation."""
+    n = len(tris)
+    nodes = built.read_nodes()
+    bvh_tris = built.read_triangles()
+    prims = built.read_leaf_primitives()
+    assert sorted(prims.tolist()) == list(range(n)), "leaves are not a permutation of the input"
+    np.testing.assert_array_equal(bvh_tris["prim"], prims)
+    np.testing.assert_array_equal(np.stack([bvh_tris["v0"], bvh_tris["v1"], bvh_tris["v2"]], 1),
+                                  tris[prims])
+    if n < 2:
+        return
+    assert len(nodes) == n - 1
+    leaf_visits = np.zeros(n, int)
+    node_visits = np.zeros(n - 1, int)
+    stack = [0]
+    while stack:
+        index = stack.pop()
+        node_visits[index] += 1
+        node = nodes[index]
+        for side in ("left", "right"):
+            ref = int(node[f"{side}_child"])
+            lo, hi = node[f"{side}_min"], node[f"{side}_max"]
+            if ref < 0:
+                leaf_visits[~ref] += 1
+                tri = tris[prims[~ref]]
+                np.testing.assert_array_equal(lo, tri.min(axis=0))
+                np.testing.assert_array_equal(hi, tri.max(axis=0))
+            else:
+                child = nodes[ref]
+                assert int(child["parent"]) == index
+                np.testing.assert_array_equal(lo, np.minimum(child["left_min"], child["right_min"]))
+                np.testing.assert_array_equal(hi, np.maximum(child["left_max"], child["right_max"]))
+                stack.append(ref)
+    assert np.all(leaf_visits == 1), "some leaf is unreachable or reached twice"
+    assert np.all(node_visits == 1), "some inner node is unreachable or reached twice"
+    assert int(nodes[0]["parent"]) == -1
+    assert int(nodes[0]["leaf_count"]) == n
+
+
+@pytest.mark.parametrize("scene", ["soup", "mesh", "duplicates"])
+def test_hierarchy_invariants(ctx, builder, rng, scene):
+    if scene == "soup":
+        tris = random_soup(rng, 5000)
+    elif scene == "mesh":
+        tris = mesh_like_scene(5000, rng, triangles_per_object=1200)
+    else:
+        tris = duplicate_centroid_scene(rng, 5000)
+    check_invariants(builder.build_from_array(tris), tris)
+
+
+def test_node_struct_bytes_read_back_at_documented_offsets(ctx, builder):
+    """Two hand-placed triangles: the raw bytes match bvh_layout.glsl's offset table."""
+    tris = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+                     [[5, 5, 5], [6, 5, 5], [5, 7, 5]]], np.float32)
+    assert NODE_DTYPE.itemsize == 64 and TRIANGLE_DTYPE.itemsize == 48
+    built = builder.build_from_array(tris)
+    raw = built.nodes.read(size=64)
+    words_f = np.frombuffer(raw, "<f4")
+    words_i = np.frombuffer(raw, "<i4")
+    # Two leaves, one root: left = leaf 0 (the lower Morton code: triangle 0), right = leaf 1.
+    assert words_i[3] == ~0 and words_i[7] == ~1 and words_i[11] == -1 and words_i[15] == 2
+    np.testing.assert_array_equal(words_f[0:3], [0, 0, 0])
+    np.testing.assert_array_equal(words_f[4:7], [1, 1, 0])
+    np.testing.assert_array_equal(words_f[8:11], [5, 5, 5])
+    np.testing.assert_array_equal(words_f[12:15], [6, 7, 5])
+    tri_raw = built.triangles.read(size=96)
+    tri_f = np.frombuffer(tri_raw, "<f4")
+    tri_i = np.frombuffer(tri_raw, "<i4")
+    np.testing.assert_array_equal(tri_f[12 + 4:12 + 7], [6, 5, 5])  # leaf 1, v1
+    assert tri_i[3] == 0 and tri_i[12 + 3] == 1 and tri_i[7] == 0 and tri_i[11] == 0
+
+
+# -- closest hits against Embree ------------------------------------------------------------
+
+@pytest.mark.parametrize("scene", ["soup", "mesh", "duplicates"])
+def test_closest_hits_agree_with_embree(ctx, rng, scene):
+    if scene == "soup":
+        tris = random_soup(rng, 20_000)
+        origins = rng.random((20_000, 3)).astype(np.float32)
+        dirs = rng.standard_normal((20_000, 3)).astype(np.float32)
+    elif scene == "mesh":
+        tris = mesh_like_scene(40_000, rng, triangles_per_object=4_000)
+        origins, dirs = reflection_rays(tris, 20_000, rng)
+    else:
+        tris = duplicate_centroid_scene(rng, 20_000)
+        origins = rng.random((20_000, 3)).astype(np.float32)
+        dirs = rng.standard_normal((20_000, 3)).astype(np.float32)
+    t, tri = trace_closest(tris, origins, dirs)
+    t_ref, tri_ref = embree_closest(tris, origins, dirs)
+    assert t.dtype == np.float32 and tri.dtype == np.int32
+    assert np.all(np.isinf(t[tri == -1])) and np.all(np.isfinite(t[tri >= 0]))
+    assert np.mean(tri_ref >= 0) > MIN_HIT_FRACTION, "too few hits for a meaningful comparison"
+    assert hit_agreement(t, tri, t_ref, tri_ref) >= MIN_AGREEMENT
+
+
+@pytest.mark.parametrize("count", SIZES)
+def test_closest_hits_agree_with_embree_across_sizes(ctx, rng, count):
+    tris = random_soup(rng, count, size=0.05)
+    origins = rng.random((3000, 3)).astype(np.float32)
+    dirs = rng.standard_normal((3000, 3)).astype(np.float32)
+    t, tri = trace_closest(tris, origins, dirs)
+    if count == 0:
+        assert np.all(tri == -1) and np.all(np.isinf(t))
+        return
+    t_ref, tri_ref = embree_closest(tris, origins, dirs)
+    assert hit_agreement(t, tri, t_ref, tri_ref) >= MIN_AGREEMENT
+
+
+def test_ray_through_a_shared_edge_hits_exactly_one_triangle(ctx):
+    """Watertightness: rays aimed exactly at the diagonal of a quad never slip through."""
+    quad = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0]], [[0, 0, 0], [1, 1, 0], [0, 1, 0]]],
+                    np.float32)
+    s = np.linspace(0.01, 0.99, 99, dtype=np.float32)
+    origins = np.stack([s, s, np.ones_like(s)], axis=1)
+    dirs = np.tile(np.array([[0, 0, -1]], np.float32), (len(s), 1))
+    t, tri = trace_closest(quad, origins, dirs)
+    assert np.all(tri >= 0)
+    np.testing.assert_allclose(t, 1.0)
+
+
+def test_non_finite_and_degenerate_triangles_do_not_poison_other_rays(ctx, rng):
+    """NaN/inf vertices and zero-area triangles: the build survives, other hits are unchanged."""
+    good = random_soup(rng, 4000)
+    bad = good.copy()
+    bad[10, 0, 0] = np.nan
+    bad[20, 1, 1] = np.inf
+    bad[30, 2, 2] = -np.inf
+    bad[40] = bad[40, 0]  # a point
+    bad[50, 2] = bad[50, 0] + 2 * (bad[50, 1] - bad[50, 0])  # collinear
+    origins = rng.random((5000, 3)).astype(np.float32)
+    dirs = rng.standard_normal((5000, 3)).astype(np.float32)
+    t, tri = trace_closest(bad, origins, dirs)
+    assert not np.isin(tri, [10, 20, 30, 40, 50]).any()
+    keep = np.setdiff1d(np.arange(4000), [10, 20, 30, 40, 50])
+    t_ref, tri_ref = embree_closest(good[keep], origins, dirs)
+    tri_ref = np.where(tri_ref >= 0, keep[np.maximum(tri_ref, 0)], -1).astype(np.int32)
+    assert hit_agreement(t, tri, t_ref, tri_ref) >= MIN_AGREEMENT
+    # Rays with NaN components simply miss.
+    t_nan, tri_nan = trace_closest(good, np.full((3, 3), np.nan, np.float32), dirs[:3])
+    assert np.all(tri_nan == -1)
+
+
+def test_trace_closest_rejects_bad_shapes(ctx):
+    with pytest.raises(ValueError, match="triangles"):
+        trace_closest(np.zeros((4, 3)), np.zeros((1, 3)), np.ones((1, 3)))
+    with pytest.raises(ValueError, match="origins"):
+        trace_closest(np.zeros((1, 3, 3)), np.zeros((1, 4)), np.ones((1, 3)))
+    with pytest.raises(ValueError, match="differ"):
+        trace_closest(np.zeros((1, 3, 3)), np.zeros((2, 3)), np.ones((1, 3)))
+
+
+# -- limits and buffer reuse ----------------------------------------------------------------
+
+def test_dispatch_grid_splits_beyond_the_workgroup_limit():
+    with gpu_dispatch.forced_limits(max_groups=7):
+        assert gpu_dispatch.grid_for(7) == (7, 1)
+        assert gpu_dispatch.grid_for(8) == (7, 2)
+        assert gpu_dispatch.grid_for(49) == (7, 7)
+        with pytest.raises(ValueError, match="exceeds"):
+            gpu_dispatch.grid_for(50)
+
+
+def test_build_and_trace_with_split_dispatches_match_unsplit(ctx, rng):
+    """Forcing 3 groups per dimension turns every pass into a 2D dispatch; results are equal."""
+    tris = random_soup(rng, 9000)
+    origins = rng.random((6000, 3)).astype(np.float32)
+    dirs = rng.standard_normal((6000, 3)).astype(np.float32)
+    builder = LBVHBuilder(ctx)
+    try:
+        built = builder.build_from_array(tris)
+        nodes, keys = built.read_nodes(), built.read_sorted_keys()
+        t, tri = builder.trace(origins, dirs)
+        with gpu_dispatch.forced_limits(max_groups=12):
+            split = builder.build_from_array(tris)
+            np.testing.assert_array_equal(split.read_nodes(), nodes)
+            np.testing.assert_array_equal(split.read_sorted_keys(), keys)
+            t_split, tri_split = builder.trace(origins, dirs)
+    finally:
+        builder.release()
+    np.testing.assert_array_equal(tri_split, tri)
+    np.testing.assert_array_equal(t_split, t)
+
+
+def test_repeated_builds_of_the_same_size_allocate_nothing(ctx, rng):
+    builder = LBVHBuilder(ctx)
+    try:
+        tris = random_soup(rng, 5000)
+        builder.build_from_array(tris)
+        builder.trace(tris[:100, 0], np.ones((100, 3), np.float32))
+        grows = [g for g in vars(builder).values() if isinstance(g, gpu_dispatch.GrowBuffer)]
+        grows += [g for pair in (builder._keys, builder._values, builder._rays, builder._hits)
+                  for g in pair]
+        before = [g.allocations for g in grows]
+        for _ in range(3):
+            builder.build_from_array(random_soup(rng, 5000))
+            builder.build_from_array(random_soup(rng, 3000))  # smaller: reuses too
+            builder.trace(tris[:100, 0], np.ones((100, 3), np.float32))
+        assert [g.allocations for g in grows] == before
+    finally:
+        builder.release()
+
+
+def test_storage_binding_past_the_block_limit_is_refused_with_a_clear_error(ctx):
+    buffer = ctx.buffer(reserve=4096)
+    try:
+        with gpu_dispatch.forced_limits(max_block=1024):
+            with pytest.raises(ValueError, match="block limit"):
+                gpu_dispatch.bind_storage(buffer, 0)
+            gpu_dispatch.bind_storage(buffer, 0, 0, 1024)  # a range within the limit binds
+    finally:
+        buffer.release()
+
+
+def test_build_past_the_block_limit_fails_cleanly_and_the_builder_stays_usable(ctx, rng):
+    """With a (forced) 8 KiB block limit, 129 leaves fit (128 nodes) and 200 do not."""
+    builder = LBVHBuilder(ctx)
+    try:
+        with gpu_dispatch.forced_limits(max_block=8192):
+            assert lbvh.max_build_triangles() == 129
+            fits = random_soup(rng, 129)
+            check_invariants(builder.build_from_array(fits), fits)
+            with pytest.raises(ValueError, match="GL_MAX_SHADER_STORAGE_BLOCK_SIZE"):
+                builder.build_from_array(random_soup(rng, 200))
+        tris = random_soup(rng, 300)
+        check_invariants(builder.build_from_array(tris), tris)
+    finally:
+        builder.release()

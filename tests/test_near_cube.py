@@ -1,0 +1,190 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Near-cube culling (paper §3.3) against an independent float64 numpy SAT test.
+
+The GPU works in float32 and a triangle that grazes the cube's surface may legitimately go
+either way, so each check brackets the GPU result between the reference with a slightly
+smaller and a slightly larger cube: every triangle that overlaps the shrunken cube must be
+kept, and nothing outside the grown cube may be.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hybrid_engine import near_cube
+from hybrid_engine.lbvh import LBVHBuilder
+
+# float32 rounding of vertex coordinates around 10 scene units is ~1e-6; 1e-4 is a comfortable
+# band in which the GPU may decide either way without hiding a wrong test.
+BOUNDARY_TOLERANCE = 1e-4
+
+
+def sat_overlap(tris: np.ndarray, center: np.ndarray, half: float) -> np.ndarray:
+    """Triangle/axis-aligned-cube overlap by the 13 separating axes, in float64."""
+    p = np.asarray(tris, dtype=np.float64) - np.asarray(center, dtype=np.float64)
+    finite = np.isfinite(p).all(axis=(1, 2))
+    p = np.where(finite[:, None, None], p, 0.0)
+    edges = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 1], p[:, 0] - p[:, 2]], axis=1)
+    axes = [np.broadcast_to(np.eye(3)[k], (len(p), 3)) for k in range(3)]
+    axes.append(np.cross(edges[:, 0], edges[:, 1]))
+    for k in range(3):
+        for e in range(3):
+            axes.append(np.cross(np.eye(3)[k], edges[:, e]))
+    overlap = finite.copy()
+    for axis in axes:
+        proj = np.einsum("nvk,nk->nv", p, axis)
+        radius = half * np.abs(axis).sum(axis=1)
+        overlap &= ~((proj.min(axis=1) > radius) | (proj.max(axis=1) < -radius))
+    return overlap
+
+
+def scene_with_objects(rng: np.random.Generator, objects: int, per_object: int, spread: float):
+    """Clusters of random triangles, one object each, with their ranges and bounds."""
+    centers = rng.uniform(-spread, spread, (objects, 1, 1, 3))
+    tris = centers + rng.normal(0.0, 0.6, (objects, per_object, 3, 3))
+    tris = tris.reshape(-1, 3, 3).astype(np.float32)
+    ranges = np.stack([np.arange(objects) * per_object, np.full(objects, per_object)], axis=1)
+    per_obj = tris.reshape(objects, per_object * 3, 3)
+    bounds = np.stack([per_obj.min(axis=1), per_obj.max(axis=1)], axis=1)
+    return tris, ranges, bounds
+
+
+def assert_bracketed(kept: np.ndarray, tris: np.ndarray, center, half: float) -> None:
+    must = np.flatnonzero(sat_overlap(tris, center, half - BOUNDARY_TOLERANCE))
+    may = sat_overlap(tris, center, half + BOUNDARY_TOLERANCE)
+    missing = np.setdiff1d(must, kept)
+    extra = kept[~may[kept]]
+    assert missing.size == 0, f"{missing.size} overlapping triangles dropped, e.g. {missing[:5]}"
+    assert extra.size == 0, f"{extra.size} triangles outside the cube kept, e.g. {extra[:5]}"
+
+
+def test_culling_keeps_exactly_the_triangles_overlapping_the_cube(ctx, rng):
+    """Objects inside, outside and straddling: the kept set equals the exact SAT set."""
+    tris, ranges, bounds = scene_with_objects(rng, objects=40, per_object=300, spread=6.0)
+    culler = near_cube.NearCubeCuller(ctx)
+    center = np.array([0.5, -0.25, 0.0])
+    near_size = 3.0
+    result = culler.cull_array(tris, center, near_size, ranges, bounds, margin=0.0)
+    kept = result.read_indices()
+    assert np.all(np.diff(kept) > 0), "compacted indices must be ascending and unique"
+    assert_bracketed(kept, tris, center, near_size)
+    assert result.objects_inside + result.objects_straddling + result.objects_outside == 40
+    assert result.objects_straddling > 0 and result.objects_outside > 0
+
+
+def test_large_triangle_crossing_the_cube_with_every_vertex_outside_is_kept(ctx):
+    """A centroid or vertex test would drop this triangle; the SAT test must keep it."""
+    tris = np.array([[[-10.0, -0.5, 0.0], [10.0, -0.5, 0.0], [0.0, 20.0, 0.0]],
+                     [[5.0, 5.0, 5.0], [6.0, 5.0, 5.0], [5.0, 6.0, 5.0]],
+                     # outside near a corner, but overlapping the cube's bounding slabs
+                     [[1.2, 1.2, -3.0], [3.0, 1.2, 3.0], [1.2, 3.0, 3.0]]], np.float32)
+    culler = near_cube.NearCubeCuller(ctx)
+    result = culler.cull_array(tris, (0, 0, 0), 1.0, margin=0.0)
+    assert result.read_indices().tolist() == [0]
+
+
+def test_overlap_margin_keeps_triangles_just_beyond_the_near_planes(ctx):
+    """The paper's overlap: a triangle slightly outside the near plane is still in the BVH."""
+    near_size = 2.0
+    gap = 0.5 * near_cube.overlap_margin(near_size)
+    tri = np.array([[[near_size + gap, -1, -1], [near_size + gap, 1, -1], [near_size + gap, 0, 1]]],
+                   np.float32)
+    culler = near_cube.NearCubeCuller(ctx)
+    assert culler.cull_array(tri, (0, 0, 0), near_size).count == 1
+    assert culler.cull_array(tri, (0, 0, 0), near_size, margin=0.0).count == 0
+
+
+@pytest.mark.parametrize("count", [0, 1, 255, 256, 257, 2049])
+def test_culling_sizes_across_chunk_boundaries(ctx, rng, count):
+    """Sizes around the chunk and workgroup sizes compact correctly (no object ranges)."""
+    tris = (rng.uniform(-3, 3, (count, 1, 3)) + rng.normal(0, 0.3, (count, 3, 3))).astype(np.float32)
+    culler = near_cube.NearCubeCuller(ctx, triangles_per_chunk=64)
+    result = culler.cull_array(tris, (0.1, 0.2, 0.3), 1.5, margin=0.0)
+    kept = result.read_indices()
+    assert kept.size == result.count
+    assert_bracketed(kept, tris, np.array([0.1, 0.2, 0.3]), 1.5)
+
+
+def test_object_fully_inside_is_kept_without_per_triangle_test_and_outside_dropped(ctx, rng):
+    """Stage 1 decides whole objects; the counts report it."""
+    inside = rng.uniform(-0.5, 0.5, (50, 3, 3)).astype(np.float32)
+    outside = (rng.uniform(-0.5, 0.5, (50, 3, 3)) + 10).astype(np.float32)
+    tris = np.concatenate([inside, outside])
+    ranges = np.array([[0, 50], [50, 50]])
+    bounds = np.stack([[t.reshape(-1, 3).min(0), t.reshape(-1, 3).max(0)] for t in (inside, outside)])
+    result = near_cube.NearCubeCuller(ctx).cull_array(tris, (0, 0, 0), 1.0, ranges, bounds)
+    assert (result.objects_inside, result.objects_outside, result.objects_straddling) == (1, 1, 0)
+    assert result.read_indices().tolist() == list(range(50))
+
+
+def test_non_finite_triangles_are_culled_and_do_not_disturb_others(ctx, rng):
+    tris = rng.uniform(-1, 1, (300, 3, 3)).astype(np.float32)
+    tris[7, 1, 2] = np.nan
+    tris[100, 0, 0] = np.inf
+    result = near_cube.NearCubeCuller(ctx).cull_array(tris, (0, 0, 0), 2.0, margin=0.0)
+    kept = result.read_indices()
+    expected = np.setdiff1d(np.arange(300), [7, 100])
+    assert np.array_equal(kept, expected)
+
+
+def test_empty_culled_set_builds_an_empty_bvh_whose_rays_all_miss(ctx, rng):
+    """Nothing near the camera: the LBVH over zero triangles is valid and every ray misses."""
+    tris = (rng.uniform(-1, 1, (500, 3, 3)) + 50).astype(np.float32)
+    culler = near_cube.NearCubeCuller(ctx)
+    result = culler.cull_array(tris, (0, 0, 0), 1.0)
+    assert result.count == 0
+    builder = LBVHBuilder(ctx)
+    tri_buffer = ctx.buffer(tris.tobytes())
+    try:
+        builder.build(tri_buffer, result.count, result.indices)
+        origins = rng.uniform(-1, 1, (256, 3)).astype(np.float32)
+        dirs = rng.normal(size=(256, 3)).astype(np.float32)
+        t, tri = builder.trace(origins, dirs)
+        assert np.all(tri == -1) and np.all(np.isinf(t))
+    finally:
+        builder.release()
+        tri_buffer.release()
+
+
+def test_culled_bvh_reports_original_triangle_indices(ctx, rng):
+    """Rays against the BVH of the culled set hit the same triangles as against all of them."""
+    tris, ranges, bounds = scene_with_objects(rng, objects=20, per_object=200, spread=4.0)
+    culler = near_cube.NearCubeCuller(ctx)
+    result = culler.cull_array(tris, (0, 0, 0), 2.0, ranges, bounds)
+    kept = result.read_indices()
+    builder = LBVHBuilder(ctx)
+    tri_buffer = ctx.buffer(tris.tobytes())
+    try:
+        builder.build(tri_buffer, result.count, result.indices)
+        origins = rng.uniform(-0.5, 0.5, (2000, 3)).astype(np.float32)
+        dirs = rng.normal(size=(2000, 3)).astype(np.float32)
+        t, tri = builder.trace(origins, dirs)
+        builder.build_from_array(tris[kept])
+        t_ref, tri_ref = builder.trace(origins, dirs)
+        hit = tri_ref >= 0
+        assert np.array_equal(tri[hit], kept[tri_ref[hit]])
+        assert np.array_equal(tri[~hit], tri_ref[~hit])
+        assert np.allclose(t, t_ref)
+    finally:
+        builder.release()
+        tri_buffer.release()
+
+
+def test_repeated_culls_of_the_same_size_allocate_nothing(ctx, rng):
+    tris = rng.uniform(-2, 2, (3000, 3, 3)).astype(np.float32)
+    culler = near_cube.NearCubeCuller(ctx)
+    culler.cull_array(tris, (0, 0, 0), 1.0)
+    before = [g.allocations for g in vars(culler).values() if hasattr(g, "allocations")]
+    for _ in range(3):
+        culler.cull_array(tris, (0.1, 0, 0), 1.0)
+    after = [g.allocations for g in vars(culler).values() if hasattr(g, "allocations")]
+    assert before == after
+
+
+def test_invalid_cube_is_rejected_with_a_clear_error(ctx):
+    culler = near_cube.NearCubeCuller(ctx)
+    tris = np.zeros((1, 3, 3), np.float32)
+    with pytest.raises(ValueError, match="near_size"):
+        culler.cull_array(tris, (0, 0, 0), 0.0)
+    with pytest.raises(ValueError, match="centre"):
+        culler.cull_array(tris, (np.nan, 0, 0), 1.0)

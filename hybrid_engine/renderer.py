@@ -3,9 +3,17 @@
 
 ``Renderer`` owns the GPU state of one consumer (a final render, a viewport) on the shared
 process-wide context and keeps it across frames; ``render()`` runs the passes of paper §3
-for the selected mode. RASTER runs steps 1 and 4 of §3 (primary G-buffer and deferred
-shading with shadow maps); the other modes add the cube map, the near-cube LBVH and the
-recursive tracer on top of the same passes.
+for the selected mode:
+
+==========  ===================================================================================
+RASTER      upload, shadow_maps, primary_raster, shade (specular lobes see the sky), readback
+HYBRID      upload, shadow_maps, primary_raster, cube_map_raster (§3.2), cull + lbvh_build
+            (§3.3), shade (emission + diffuse), trace (§3.4), readback
+FULL_BVH    as HYBRID without the cube map and the culling: the LBVH holds the whole scene
+            (the paper's ground truth)
+PROVENANCE  upload, shadow_maps, primary_raster, shade, trace (which only decides where each
+            specular pixel's first secondary ray starts: BVH blue, cube map red; Figure 4)
+==========  ===================================================================================
 """
 from __future__ import annotations
 
@@ -22,6 +30,7 @@ from .raster import RasterPasses, RasterView
 from .scene_data import SceneData
 from .settings import RenderSettings
 from .timing import PassTimer
+from .tracer import HybridTracer
 
 CancelCallback = Callable[[], bool]
 ProgressCallback = Callable[[str, float], None]
@@ -32,7 +41,17 @@ class RenderCancelled(Exception):
 
 
 class RenderModeUnavailable(NotImplementedError):
-    """The requested mode needs passes that this build does not provide."""
+    """The requested mode needs passes that this build does not provide (every mode of
+    settings.MODES is provided now; kept because callers catch it)."""
+
+
+MODE_STEPS = {
+    "RASTER": ("upload", "shadow_maps", "primary_raster", "shade", "readback"),
+    "HYBRID": ("upload", "shadow_maps", "primary_raster", "cube_map_raster", "cull", "lbvh_build",
+               "shade", "trace", "readback"),
+    "FULL_BVH": ("upload", "shadow_maps", "primary_raster", "lbvh_build", "shade", "trace", "readback"),
+    "PROVENANCE": ("upload", "shadow_maps", "primary_raster", "shade", "trace", "readback"),
+}
 
 
 @dataclass
@@ -59,6 +78,7 @@ class Renderer:
         self.ctx = ctx if ctx is not None else gl_context.get_context()
         self.gpu_scene = GPUScene(self.ctx)
         self.raster = RasterPasses(self.ctx)
+        self.tracer: HybridTracer | None = None  # created on the first non-RASTER frame
 
     def render(
         self,
@@ -73,14 +93,15 @@ class Renderer:
         """Render one frame. Raises RenderCancelled when ``cancel()`` returns True between
         passes; the GPU state stays valid for the next frame."""
         settings = settings or RenderSettings()
-        if settings.mode != "RASTER":
-            raise RenderModeUnavailable(
-                f"render mode {settings.mode} needs the hybrid tracer, which is not built yet; "
-                "use RASTER"
-            )
+        steps = MODE_STEPS.get(settings.mode)
+        if steps is None:
+            raise RenderModeUnavailable(f"render mode {settings.mode} is not provided")
+        traced = settings.mode != "RASTER"
+        if traced and self.tracer is None:
+            self.tracer = HybridTracer(self.ctx, self.raster)
+        tracer = self.tracer
         timer = PassTimer(self.ctx, enabled=timing)
         start = time.perf_counter()
-        steps = ("upload", "shadow_maps", "primary_raster", "shade", "readback")
 
         def step(name: str) -> None:
             if cancel is not None and cancel():
@@ -88,25 +109,59 @@ class Renderer:
             if progress is not None:
                 progress(name, steps.index(name) / len(steps))
 
-        step("upload")
-        with timer.measure("upload"):
-            self.gpu_scene.upload(scene)
-        step("shadow_maps")
-        with timer.measure("shadow_maps"):
-            per_light = self.raster.shadows(self.gpu_scene, scene, settings)
-            self.gpu_scene.upload_lights(scene.lights, per_light)
-        step("primary_raster")
-        view = RasterView.from_camera(camera)
-        with timer.measure("primary_raster"):
-            targets = self.raster.primary_targets(view.width, view.height)
-            targets.clear()
-            submitted = self.raster.gbuffer(self.gpu_scene, scene, view, targets)
-        step("shade")
-        with timer.measure("shade"):
-            self.raster.shade(self.gpu_scene, scene, view, targets, settings)
-        step("readback")
-        with timer.measure("readback"):
-            image = targets.read_color()
+        counts: dict[str, int] = {}
+        center = np.asarray(camera.position, np.float64)
+        # Shaded G-buffers leave the specular lobes to the tracer in every traced mode. The
+        # shading program is shared (cached per context), so the flag is reset after the frame.
+        shade_flag = self.raster.shade_prog["u_traced_specular"]
+        shade_flag.value = int(traced)
+        try:
+            step("upload")
+            with timer.measure("upload"):
+                self.gpu_scene.upload(scene)
+                if traced:
+                    tracer.upload(scene)
+            step("shadow_maps")
+            with timer.measure("shadow_maps"):
+                per_light = self.raster.shadows(self.gpu_scene, scene, settings)
+                self.gpu_scene.upload_lights(scene.lights, per_light)
+            step("primary_raster")
+            view = RasterView.from_camera(camera)
+            with timer.measure("primary_raster"):
+                targets = self.raster.primary_targets(view.width, view.height)
+                targets.clear()
+                submitted = self.raster.gbuffer(self.gpu_scene, scene, view, targets)
+            if "cube_map_raster" in steps:
+                step("cube_map_raster")
+                with timer.measure("cube_map_raster"):
+                    counts["triangles_cube_map_submitted"] = int(
+                        tracer.render_cube_map(self.gpu_scene, scene, center, settings))
+            culled = None
+            if "cull" in steps:
+                step("cull")
+                with timer.measure("cull"):
+                    culled = tracer.cull(scene, center, settings)
+                counts.update(objects_near_inside=culled.objects_inside,
+                              objects_near_straddling=culled.objects_straddling,
+                              objects_near_outside=culled.objects_outside)
+            if "lbvh_build" in steps:
+                step("lbvh_build")
+                with timer.measure("lbvh_build"):
+                    tracer.build(culled)
+            step("shade")
+            with timer.measure("shade"):
+                self.raster.shade(self.gpu_scene, scene, view, targets, settings)
+            if "trace" in steps:
+                step("trace")
+                with timer.measure("trace"):
+                    tracer.trace(self.gpu_scene, scene, view, targets, settings, center)
+            step("readback")
+            with timer.measure("readback"):
+                image = targets.read_color()
+                if traced and settings.mode != "PROVENANCE":
+                    counts.update(tracer.read_stats(settings.max_depth).as_counts())
+        finally:
+            shade_flag.value = 0
         if gl_context.debug_checks_enabled():
             gl_context.check_error(f"{settings.mode} frame")
         if progress is not None:
@@ -116,11 +171,15 @@ class Renderer:
             "triangles_total": scene.geometry.triangle_count,
             "triangles_primary_submitted": int(submitted),
             "lights": len(scene.lights),
+            **counts,
         }
         return FrameResult(image=image, passes=dict(timer.passes), counts=counts,
                            timing_source=timer.source, total_ms=total, mode=settings.mode)
 
     def release(self) -> None:
         """Free this renderer's GL objects (the shared context stays)."""
+        if self.tracer is not None:
+            self.tracer.release()
+            self.tracer = None
         self.raster.release()
         self.gpu_scene.release()

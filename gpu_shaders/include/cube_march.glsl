@@ -1,0 +1,276 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Ray marching through the G-buffer cube map (paper §3.4, "BVH and Cube Map Traversal").
+//
+//   CubeMarch cube_march(vec3 o, vec3 d, float t_start)
+//
+// follows the world ray r_w(t) = o + d t (|d| = 1) from r_w(t_start) through the six face
+// G-buffers of hybrid_engine/cube_map.py (atlas, face i at texels [i res, (i+1) res) in x) and
+// returns one of
+//   CUBE_HIT     a stored surface: its face, atlas texel, position reconstructed from the
+//                face's depth, stored normal and material;
+//   CUBE_SKY     the ray left a face through its far plane (NDC z > 1), or never entered a
+//                face (an origin beyond the far planes);
+//   CUBE_TO_BVH  the ray left a face through its near plane (NDC z < -1): it re-enters the
+//                near cube at world parameter t (the caller continues in the BVH).
+//
+// The map ray. The paper maps p0 = r_w(t_i) and p1 = r_w(t_i + eps) by the face's
+// view-projection M_i and marches o_m = p0', d_m = (p1' - p0') / |p1' - p0'| in NDC. We use
+// the limit eps -> 0, which is exact and has no cancellation: with clip c = M_i (p0, 1) and
+// c' = M_i (d, 0), d NDC/dt is proportional to c'.xyz c.w - c.xyz c'.w.
+//
+// Sampling. A face is crossed from o_m to the exit of the NDC box [-1, 1]^3 in
+// n = n_min + |d_m.z| (n_max - n_min) equal steps: the paper's n = n_min + N.r (n_max - n_min)
+// with N.r the z component of the normalised NDC direction.
+//
+// Hit rule (per sample s_k on texel T, linear view depths along the face axis: r_k of the
+// sample, S of the surface stored at T, F the far plane, b a small depth bias):
+//   no surface stored at T                     -> no hit
+//   r_k <= S + b   (sample in front)           -> no hit
+//   r_{k-1} <= S + b  (the step pierced S)     -> hit (any thickness: a ray that crosses the
+//                                                 stored depth within one step hits it)
+//   r_k <= S + thickness (F - S)               -> hit (the sample lies inside the stretched
+//                                                 object: thickness 0 = a sheet with nothing
+//                                                 behind it, 1 = solid to the far plane)
+//   otherwise                                  -> the ray passes behind the stored surface
+// where thickness is the hit material's params.y. A piercing hit is refined by bisection
+// between the two samples (CUBE_REFINE_STEPS) so that the texel is the first one behind.
+// The bias b = S (CUBE_BIAS_RELATIVE + texel angle * min(tan(angle of incidence), CUBE_MAX_SLOPE))
+// absorbs the quantisation of the depth to one value per texel, which otherwise makes a
+// surface seen at a grazing angle hit itself.
+//
+// Face switching (paper Figure 3). A ray starts in the FIRST face (order +X, -X, +Y, -Y, +Z,
+// -Z) whose frustum contains its start point, and keeps that face for as long as it stays in
+// the face's frustum (the 90.2-degree faces overlap, and being inside the overlap does not
+// switch). On an x/y exit the exit point is carried into the other faces by the precomputed
+// matrices M_j M_i^-1 (u_face_to_face) and the first face containing it is picked. A line
+// leaves a convex frustum only once, so a ray never returns to a face it has left; the
+// number of switches is bounded by CUBE_MAX_FACE_SWITCHES anyway (then: sky).
+//
+// Needs, declared by the including shader: `Material materials[]` (scene_layout.glsl).
+// Uniforms: u_cube_depth, u_cube_normal_material (the atlas), u_face_view_proj[6],
+// u_face_inv_view_proj[6], u_face_to_face[36] (index i * 6 + j), u_cube_center, u_cube_near,
+// u_cube_far, u_cube_res, u_n_min, u_n_max.
+#ifndef HYBRID_CUBE_MARCH_GLSL
+#define HYBRID_CUBE_MARCH_GLSL
+
+uniform sampler2D u_cube_depth;
+uniform sampler2D u_cube_normal_material;
+uniform mat4 u_face_view_proj[6];
+uniform mat4 u_face_inv_view_proj[6];
+uniform mat4 u_face_to_face[36];
+uniform vec3 u_cube_center;
+uniform float u_cube_near;
+uniform float u_cube_far;
+uniform int u_cube_res;
+uniform int u_n_min;
+uniform int u_n_max;
+
+#define CUBE_SKY 0
+#define CUBE_HIT 1
+#define CUBE_TO_BVH 2
+
+#define CUBE_MAX_FACE_SWITCHES 8
+#define CUBE_REFINE_STEPS 6
+// A point on a face's frustum boundary belongs to it (relative NDC tolerance).
+const float CUBE_CONTAINS_EPS = 1e-5;
+// Depth bias: float32 depth rounding, plus the depth change across one texel of a surface
+// seen at an angle (tan of the incidence angle, capped for surfaces seen edge-on).
+const float CUBE_BIAS_RELATIVE = 1e-4;
+const float CUBE_MAX_SLOPE = 8.0;
+// Half the angular width of a face: tan(90.2 deg / 2).
+const float CUBE_TAN_HALF_FOV = 1.0034970;
+
+struct CubeMarch {
+    int kind;        // CUBE_SKY, CUBE_HIT, CUBE_TO_BVH
+    int face;        // face of the hit / of the exit
+    ivec2 texel;     // atlas texel of the hit
+    vec3 position;   // hit: reconstructed world position; TO_BVH: the re-entry point
+    vec3 normal;     // hit: stored world normal (as modelled, unit)
+    int material;    // hit: material index
+    float t;         // TO_BVH: world ray parameter of the re-entry point
+    int switches;    // face switches taken
+};
+
+float cube_linear_depth(float z_ndc) {
+    float n = u_cube_near;
+    float f = u_cube_far;
+    return 2.0 * f * n / max((f + n) - clamp(z_ndc, -1.0, 1.0) * (f - n), 1e-30);
+}
+
+bool cube_face_contains(vec4 clip) {
+    return clip.w > 0.0 && all(lessThanEqual(abs(clip.xyz), vec3(clip.w * (1.0 + CUBE_CONTAINS_EPS))));
+}
+
+// How far outside the face's NDC box a clip point lies (0 inside; huge behind the camera).
+float cube_face_violation(vec4 clip) {
+    if (!(clip.w > 0.0)) return 1e30;
+    vec3 ndc = abs(clip.xyz / clip.w);
+    return max(max(ndc.x, ndc.y), ndc.z) - 1.0;
+}
+
+vec3 cube_unproject(int face, vec3 ndc) {
+    vec4 w = u_face_inv_view_proj[face] * vec4(ndc, 1.0);
+    return w.xyz / w.w;
+}
+
+ivec2 cube_texel(int face, vec2 ndc_xy) {
+    ivec2 local = ivec2(floor((ndc_xy * 0.5 + 0.5) * float(u_cube_res)));
+    return ivec2(face * u_cube_res, 0) + clamp(local, ivec2(0), ivec2(u_cube_res - 1));
+}
+
+// The hit test of one sample (see the header). prev_lin: linear depth of the previous sample.
+// `piercing` says which rule fired.
+bool cube_sample_hits(int face, vec3 s, float prev_lin, out ivec2 texel, out vec4 nm,
+                      out float stored_z, out bool piercing) {
+    texel = cube_texel(face, s.xy);
+    nm = texelFetch(u_cube_normal_material, texel, 0);
+    piercing = false;
+    stored_z = 1.0;
+    if (nm.w == 0.0) return false;
+    stored_z = texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0;
+    float surface = cube_linear_depth(stored_z);
+    float r = cube_linear_depth(s.z);
+    if (r <= surface) return false;
+    // Depth bias from the incidence angle at the stored surface (seen from the centre).
+    vec3 view = normalize(cube_unproject(face, vec3(s.xy, stored_z)) - u_cube_center);
+    float c = abs(dot(view, nm.xyz));
+    float slope = c > 0.0 ? min(sqrt(max(1.0 - c * c, 0.0)) / c, CUBE_MAX_SLOPE) : CUBE_MAX_SLOPE;
+    float texel_angle = 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
+    float bias = surface * (CUBE_BIAS_RELATIVE + texel_angle * slope);
+    if (r <= surface + bias) return false;
+    if (prev_lin <= surface + bias) {
+        piercing = true;
+        return true;
+    }
+    int material = int(abs(nm.w) + 0.5) - 1;
+    float thickness = clamp(materials[material].params.y, 0.0, 1.0);
+    return r <= surface + thickness * (u_cube_far - surface);
+}
+
+CubeMarch cube_march(vec3 o, vec3 d, float t_start) {
+    CubeMarch res;
+    res.kind = CUBE_SKY;
+    res.face = -1;
+    res.texel = ivec2(-1);
+    res.position = vec3(0.0);
+    res.normal = vec3(0.0, 0.0, 1.0);
+    res.material = 0;
+    res.t = t_start;
+    res.switches = 0;
+
+    // The first face whose frustum contains the start point.
+    vec3 q = o + d * t_start;
+    int face = -1;
+    vec4 clip = vec4(0.0);
+    for (int i = 0; i < 6; ++i) {
+        vec4 c = u_face_view_proj[i] * vec4(q, 1.0);
+        if (cube_face_contains(c)) {
+            face = i;
+            clip = c;
+            break;
+        }
+    }
+    if (face < 0) return res;  // beyond every far plane: only the sky is left
+
+    for (int sw = 0; sw <= CUBE_MAX_FACE_SWITCHES; ++sw) {
+        res.face = face;
+        // The map ray o_m + d_m t in this face's NDC.
+        vec4 clip_dir = u_face_view_proj[face] * vec4(d, 0.0);
+        vec3 a = clamp(clip.xyz / clip.w, vec3(-1.0), vec3(1.0));
+        vec3 dm_raw = clip_dir.xyz * clip.w - clip.xyz * clip_dir.w;
+        float dm_len2 = dot(dm_raw, dm_raw);
+        if (!(dm_len2 > 0.0) || isinf(dm_len2)) return res;  // degenerate: give up to the sky
+        vec3 dm = dm_raw * inversesqrt(dm_len2);
+
+        // Exit of the NDC box.
+        vec3 bound = mix(vec3(-1.0), vec3(1.0), greaterThan(dm, vec3(0.0)));
+        vec3 safe = mix(dm, vec3(1e-30), lessThan(abs(dm), vec3(1e-30)));
+        vec3 t_axes = mix((bound - a) / safe, vec3(1e30), lessThan(abs(dm), vec3(1e-30)));
+        int axis = t_axes.x <= t_axes.y ? (t_axes.x <= t_axes.z ? 0 : 2) : (t_axes.y <= t_axes.z ? 1 : 2);
+        float t_exit = max(t_axes[axis], 0.0);
+
+        // March (n samples, the paper's sampling rate).
+        int n = max(1, int(float(u_n_min) + abs(dm.z) * float(u_n_max - u_n_min) + 0.5));
+        float prev_lin = cube_linear_depth(a.z);
+        float t_prev = 0.0;
+        for (int k = 1; k <= n; ++k) {
+            float t_k = t_exit * float(k) / float(n);
+            vec3 s = a + dm * t_k;
+            ivec2 texel;
+            vec4 nm;
+            float stored_z;
+            bool piercing;
+            if (cube_sample_hits(face, s, prev_lin, texel, nm, stored_z, piercing)) {
+                vec3 hit_s = s;
+                if (piercing) {
+                    // Bisect between the last sample in front and this one.
+                    float lo = t_prev;
+                    float hi = t_k;
+                    float lo_lin = prev_lin;
+                    for (int r = 0; r < CUBE_REFINE_STEPS; ++r) {
+                        float mid = 0.5 * (lo + hi);
+                        vec3 sm = a + dm * mid;
+                        ivec2 texel_m;
+                        vec4 nm_m;
+                        float z_m;
+                        bool p_m;
+                        if (cube_sample_hits(face, sm, lo_lin, texel_m, nm_m, z_m, p_m)) {
+                            hi = mid;
+                            hit_s = sm;
+                            texel = texel_m;
+                            nm = nm_m;
+                            stored_z = z_m;
+                        } else {
+                            lo = mid;
+                            lo_lin = cube_linear_depth(sm.z);
+                        }
+                    }
+                }
+                res.kind = CUBE_HIT;
+                res.texel = texel;
+                res.position = cube_unproject(face, vec3(hit_s.xy, stored_z));
+                res.normal = normalize(nm.xyz);
+                res.material = int(abs(nm.w) + 0.5) - 1;
+                res.t = dot(res.position - o, d);
+                return res;
+            }
+            prev_lin = cube_linear_depth(s.z);
+            t_prev = t_k;
+        }
+
+        vec3 e = a + dm * t_exit;
+        if (axis == 2) {
+            if (dm.z > 0.0) return res;  // far plane: the sky
+            res.kind = CUBE_TO_BVH;      // near plane: back into the near cube
+            res.position = cube_unproject(face, e);
+            res.t = dot(res.position - o, d);
+            return res;
+        }
+        // x/y exit: the first other face that contains the exit point.
+        int next = -1;
+        vec4 next_clip = vec4(0.0);
+        float best = 1e30;
+        for (int j = 0; j < 6; ++j) {
+            if (j == face) continue;
+            vec4 c = u_face_to_face[face * 6 + j] * vec4(e, 1.0);
+            if (cube_face_contains(c)) {
+                next = j;
+                next_clip = c;
+                break;
+            }
+            float v = cube_face_violation(c);
+            if (v < best) {  // fallback for a point that rounding put outside every face
+                best = v;
+                next = j;
+                next_clip = c;
+            }
+        }
+        if (next < 0 || !(next_clip.w > 0.0)) return res;
+        face = next;
+        clip = next_clip;
+        res.switches += 1;
+    }
+    return res;  // too many switches: the sky
+}
+
+#endif

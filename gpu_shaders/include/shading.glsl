@@ -1,0 +1,87 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// The surface model shared by the deferred shading of G-buffers (primary camera and cube-map
+// faces, paper §3.5) and by the hybrid tracer's hits in the BVH (§3.4), so that a surface
+// looks the same whichever structure found it.
+//
+// A material (scene_layout.glsl) splits into three lobes whose weights sum to 1:
+//   mirror  = reflectivity            perfect reflection tinted by the base colour
+//   glass   = transmission            clear dielectric of index IOR: Fresnel-weighted mix of
+//                                     the reflected ray and the refracted ray (tinted)
+//   diffuse = 1 - mirror - glass      Lambertian, lit directly (lighting.glsl, shadow maps)
+// plus emission. The local part (emission + diffuse) is `shade_local`; the two specular
+// lobes become secondary rays with the weights of `specular_split`.
+#include "scene_layout.glsl"
+#include "lighting.glsl"
+
+// Exact unpolarised Fresnel reflectance; eta = n_transmitted / n_incident.
+float fresnel_dielectric(float cos_i, float eta) {
+    float sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if (sin2_t >= 1.0) return 1.0;  // total internal reflection
+    float cos_t = sqrt(1.0 - sin2_t);
+    float rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    float rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+// v / |v|, or `fallback` when v is zero, tiny, infinite or NaN.
+vec3 safe_normalize(vec3 v, vec3 fallback) {
+    float len2 = dot(v, v);
+    if (!(len2 > 1e-30) || isinf(len2) || isnan(len2)) return fallback;
+    return v * inversesqrt(len2);
+}
+
+float material_reflectivity(Material m) { return clamp(m.base_color_refl.a, 0.0, 1.0); }
+float material_transmission(Material m) { return clamp(m.emission_trans.a, 0.0, 1.0); }
+float material_diffuse(Material m) {
+    return max(0.0, 1.0 - material_reflectivity(m) - material_transmission(m));
+}
+bool material_is_specular(Material m) {
+    return material_reflectivity(m) > 0.0 || material_transmission(m) > 0.0;
+}
+
+// Emission plus the diffuse lobe lit by all lights (with shadow maps) at p, n_facing being
+// the shading normal turned towards the viewer (two-sided shading, like Blender).
+vec3 shade_local(Material m, vec3 albedo, vec3 p, vec3 n_facing) {
+    vec3 color = m.emission_trans.rgb;
+    float diffuse_weight = material_diffuse(m);
+    if (diffuse_weight > 0.0) {
+        color += diffuse_weight * albedo / PI * direct_irradiance(p, n_facing);
+    }
+    return color;
+}
+
+// The specular lobes of a hit seen along `view_dir` (unit, towards the surface) with shading
+// normal n (unit, as modelled). Returns the reflected and refracted directions and their
+// weights (colour multipliers). refract_weight is zero under total internal reflection.
+struct SpecularSplit {
+    vec3 reflect_dir;
+    vec3 reflect_weight;
+    vec3 refract_dir;
+    vec3 refract_weight;
+    vec3 n_facing;  // the normal on the viewer's side
+};
+
+SpecularSplit specular_split(Material m, vec3 albedo, vec3 view_dir, vec3 n) {
+    SpecularSplit s;
+    bool entering = dot(n, view_dir) < 0.0;
+    s.n_facing = entering ? n : -n;
+    s.reflect_dir = reflect(view_dir, s.n_facing);
+    float reflectivity = material_reflectivity(m);
+    float transmission = material_transmission(m);
+    s.reflect_weight = reflectivity * albedo;
+    s.refract_weight = vec3(0.0);
+    s.refract_dir = view_dir;
+    if (transmission > 0.0) {
+        float ior = max(m.params.x, 1.0);
+        float eta = entering ? ior : 1.0 / ior;
+        float cos_i = clamp(-dot(view_dir, s.n_facing), 0.0, 1.0);
+        float f = fresnel_dielectric(cos_i, eta);
+        vec3 refracted = refract(view_dir, s.n_facing, 1.0 / eta);
+        s.reflect_weight += vec3(transmission * f);
+        if (f < 1.0 && dot(refracted, refracted) > 0.0) {
+            s.refract_dir = normalize(refracted);
+            s.refract_weight = transmission * (1.0 - f) * albedo;
+        }
+    }
+    return s;
+}

@@ -1,0 +1,323 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// The hybrid tracer (paper §3, steps 4 and 5; §3.4): secondary rays of every reflective or
+// refractive primary hit, traced recursively through the near-cube BVH and the G-buffer
+// cube map, added to the deferred-shaded primary image.
+//
+// One invocation per pixel runs a depth-first explicit stack of pending rays (weight,
+// origin, direction, depth): a megakernel with no per-ray host work. Per ray:
+//   * where it starts (§3.4): in the BVH when its origin lies inside the near cube
+//     (half-size u_near_half around the camera), otherwise in the cube map; FULL_BVH traces
+//     everything in one BVH over the whole scene and a miss is the sky;
+//   * in the BVH: closest hit (bvh_traverse.glsl) up to the point where the ray leaves the
+//     near cube (grown by the culling overlap), then the cube map from that point;
+//   * in the cube map: cube_march.glsl; a hit, the sky, or back into the BVH (z < -1);
+//   * a BVH hit is shaded like the deferred pass (shading.glsl: emission + diffuse with
+//     shadow maps) and spawns the reflected ray (mirror lobe tinted by the base colour, plus
+//     the Fresnel part of the glass lobe) and the refracted ray (Snell, total internal
+//     reflection, Fresnel weight 1 - F, tinted);
+//   * a cube-map hit returns the face's stored shaded colour (emission + diffuse, shaded with
+//     u_traced_specular = 1) and spawns the reflected ray from the position reconstructed
+//     from the face's depth with the stored normal; a refractive cube-map hit is thin
+//     (§3.4, Figure 8): its refracted part is the sky seen in the refracted direction,
+//     sky(refract(d, n, 1 / ior)) weighted by (1 - F) and the base colour. The same holds
+//     for any refractive hit outside the near cube in HYBRID (a primary hit there: its
+//     refracted ray would start in the cube map, inside the very object the map stores);
+//   * a ray of depth max_depth spawns nothing: the specular lobes of its hit are black
+//     (Whitted's cut-off; tests/whitted_reference.py does the same).
+// PROVENANCE mode writes, instead of tracing, blue (0, 0, 1) for specular pixels whose
+// first secondary rays start in the BVH, red (1, 0, 0) for those starting in the cube map,
+// and grey 0.5 elsewhere (paper Figure 4).
+//
+// Counters (SSBO 6, uint[4][COUNTER_DEPTHS], index kind * COUNTER_DEPTHS + depth): rays
+// traced, rays that entered the cube map, rays that ended in the sky, rays that went from
+// the cube map back into the BVH, per bounce depth 1..max_depth; each ray counts at most
+// once per kind.
+//
+// Bindings: SSBO 0 materials, 1 lights, 2 shadow slots, 3 BVH nodes, 4 BVH triangles
+//   (bvh_layout.glsl), 5 triangle shading (TriangleShading[N], original triangle order),
+//   6 counters (read/write). Image unit 0: the primary colour (RGBA32F, read and written).
+//   Samplers: primary u_depth, u_normal_material, u_albedo; the cube atlas u_cube_depth,
+//   u_cube_normal_material, u_cube_color; u_shadow_atlas; u_sky_env.
+// Workgroup 8x8: neighbouring pixels' rays are coherent for the first bounce.
+#define BVH_NODES_BINDING 3
+#define BVH_TRIANGLES_BINDING 4
+#include "scene_layout.glsl"
+#include "sky.glsl"
+#include "lighting.glsl"
+#include "shading.glsl"
+#include "float_order.glsl"
+#include "bvh_traverse.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(std430, binding = 0) readonly buffer MaterialBuffer { Material materials[]; };
+
+#include "cube_march.glsl"
+
+// struct TriangleShading (hybrid_engine/tracer.py TRIANGLE_SHADING_DTYPE)  // total: 64 bytes
+//   vec4 n0_material;  xyz = shading normal of corner 0, w = material index (as a float)
+//   vec4 n1;           xyz = shading normal of corner 1
+//   vec4 n2;           xyz = shading normal of corner 2
+//   vec4 geometric;    xyz = unit face normal (fallback for degenerate shading normals)
+struct TriangleShading {
+    vec4 n0_material;
+    vec4 n1;
+    vec4 n2;
+    vec4 geometric;
+};
+layout(std430, binding = 5) readonly buffer TriangleShadingBuffer { TriangleShading tri_shading[]; };
+
+#define COUNTER_DEPTHS 17
+#define COUNT_TRACED 0
+#define COUNT_CUBE_MAP 1
+#define COUNT_SKY 2
+#define COUNT_BVH_REENTRY 3
+layout(std430, binding = 6) buffer CounterBuffer { uint counters[]; };
+
+layout(rgba32f, binding = 0) uniform image2D u_color;
+
+uniform sampler2D u_depth;
+uniform sampler2D u_normal_material;
+uniform sampler2D u_albedo;
+uniform sampler2D u_cube_color;
+uniform mat4 u_inv_view_proj;
+uniform vec3 u_camera_position;
+uniform vec3 u_camera_forward;
+uniform int u_orthographic;
+uniform ivec2 u_size;
+uniform int u_mode;          // MODE_* below
+uniform int u_max_depth;     // 0..MAX_DEPTH_LIMIT
+uniform vec3 u_near_center;  // the near cube (camera position)
+uniform float u_near_half;   // its half-size (near_size): decides where a ray starts
+uniform float u_bvh_half;    // half-size of the culled region (near_size + overlap)
+
+#define MODE_HYBRID 0
+#define MODE_FULL_BVH 1
+#define MODE_PROVENANCE 2
+
+#define MAX_DEPTH_LIMIT 16
+#define STACK_SIZE (MAX_DEPTH_LIMIT + 2)
+// Segments (BVH <-> cube map hand-overs) one ray may take before it is given the sky.
+#define MAX_SEGMENTS 12
+// Spawned rays start this far off the surface (relative to the position's magnitude), so
+// that neither the BVH nor the cube map finds the surface they leave.
+const float RAY_OFFSET_RELATIVE = 1e-4;
+const float RAY_OFFSET_ABSOLUTE = 1e-4;
+
+#define HIT_SKY 0
+#define HIT_BVH 1
+#define HIT_CUBE 2
+
+struct Hit {
+    int kind;
+    vec3 position;
+    vec3 normal;     // unit shading normal as modelled
+    int material;
+    ivec2 texel;     // cube hits: atlas texel (stored colour)
+};
+
+struct PendingRay {
+    vec3 origin;
+    vec3 dir;
+    vec3 weight;
+    int depth;
+};
+
+vec3 unproject_primary(vec2 ndc_xy, float ndc_z) {
+    vec4 world = u_inv_view_proj * vec4(ndc_xy, ndc_z, 1.0);
+    return world.xyz / world.w;
+}
+
+bool inside_near_cube(vec3 p) {
+    return all(lessThanEqual(abs(p - u_near_center), vec3(u_near_half)));
+}
+
+// [enter, exit] of the ray with the BVH region (the culled cube); enter > exit: no overlap.
+vec2 bvh_region_interval(vec3 o, vec3 d) {
+    vec3 lo = u_near_center - vec3(u_bvh_half);
+    vec3 hi = u_near_center + vec3(u_bvh_half);
+    vec3 safe = mix(d, vec3(1e-30), lessThan(abs(d), vec3(1e-30)));
+    vec3 inv = 1.0 / safe;
+    vec3 t0 = (lo - o) * inv;
+    vec3 t1 = (hi - o) * inv;
+    vec3 tn = min(t0, t1);
+    vec3 tf = max(t0, t1);
+    return vec2(max(max(tn.x, tn.y), tn.z), min(min(tf.x, tf.y), tf.z));
+}
+
+vec3 offset_origin(vec3 p, vec3 towards) {
+    float scale = RAY_OFFSET_ABSOLUTE + RAY_OFFSET_RELATIVE * max(max(abs(p.x), abs(p.y)), abs(p.z));
+    return p + towards * scale;
+}
+
+void count(int kind, int depth) {
+    atomicAdd(counters[kind * COUNTER_DEPTHS + clamp(depth, 0, COUNTER_DEPTHS - 1)], 1u);
+}
+
+Hit bvh_hit(vec3 o, vec3 d, float t, int tri, vec2 bary) {
+    Hit h;
+    h.kind = HIT_BVH;
+    h.position = o + d * t;
+    TriangleShading ts = tri_shading[tri];
+    vec3 n = (1.0 - bary.x - bary.y) * ts.n0_material.xyz + bary.x * ts.n1.xyz + bary.y * ts.n2.xyz;
+    h.normal = safe_normalize(n, safe_normalize(ts.geometric.xyz, -d));
+    h.material = int(ts.n0_material.w + 0.5);
+    h.texel = ivec2(0);
+    return h;
+}
+
+// Follow one ray through the BVH and the cube map until it hits something or the sky.
+Hit trace_ray(vec3 o, vec3 d, int depth) {
+    Hit h;
+    h.kind = HIT_SKY;
+    h.position = vec3(0.0);
+    h.normal = vec3(0.0, 0.0, 1.0);
+    h.material = 0;
+    h.texel = ivec2(0);
+    bool reached_cube = false;
+    bool reentered = false;
+    float t;
+    int tri;
+    vec2 bary;
+    if (u_mode == MODE_FULL_BVH) {
+        if (bvh_closest_hit(o, d, 0.0, FLOAT_MAX, t, tri, bary)) h = bvh_hit(o, d, t, tri, bary);
+    } else {
+        bool in_bvh = inside_near_cube(o);
+        float t_cur = 0.0;
+        for (int seg = 0; seg < MAX_SEGMENTS; ++seg) {
+            if (in_bvh) {
+                vec2 span = bvh_region_interval(o, d);
+                float t0 = max(t_cur, span.x);
+                float t1 = span.y;
+                if (t0 <= t1 && bvh_closest_hit(o, d, t0, t1, t, tri, bary)) {
+                    h = bvh_hit(o, d, t, tri, bary);
+                    break;
+                }
+                // Leave the near cube: continue in the cube map at the exit point.
+                t_cur = max(t_cur, t1);
+                in_bvh = false;
+            } else {
+                reached_cube = true;
+                CubeMarch cm = cube_march(o, d, t_cur);
+                if (cm.kind == CUBE_HIT) {
+                    h.kind = HIT_CUBE;
+                    h.position = cm.position;
+                    h.normal = safe_normalize(cm.normal, -d);
+                    h.material = cm.material;
+                    h.texel = cm.texel;
+                    break;
+                }
+                if (cm.kind == CUBE_SKY) break;
+                // Back through a near plane into the near cube (paper: "using the original
+                // ray r_w"); never step backwards along the ray.
+                reentered = true;
+                t_cur = max(t_cur, cm.t);
+                in_bvh = true;
+            }
+        }
+    }
+    count(COUNT_TRACED, depth);
+    if (reached_cube) count(COUNT_CUBE_MAP, depth);
+    if (reentered) count(COUNT_BVH_REENTRY, depth);
+    if (h.kind == HIT_SKY) count(COUNT_SKY, depth);
+    return h;
+}
+
+// The pending rays of this invocation (file-scope variables are private per invocation).
+PendingRay stack[STACK_SIZE];
+int stack_size = 0;
+
+void push(vec3 origin, vec3 dir, vec3 weight, int depth) {
+    if (stack_size >= STACK_SIZE || depth > u_max_depth || !(max(max(weight.r, weight.g), weight.b) > 0.0)) {
+        return;
+    }
+    stack[stack_size].origin = origin;
+    stack[stack_size].dir = dir;
+    stack[stack_size].weight = weight;
+    stack[stack_size].depth = depth;
+    stack_size += 1;
+}
+
+// Spawn the reflected and refracted rays of a hit at p (offset off the surface). Returns the
+// radiance settled at once: a refracted ray that would start in the cube map is the paper's
+// thin refraction (§3.4: refractive objects in the cube map are thin, the refracted ray goes
+// to the sky), so it is the sky in the refracted direction.
+vec3 spawn_children(SpecularSplit split, vec3 p, vec3 weight, int depth) {
+    push(offset_origin(p, split.n_facing), split.reflect_dir, weight * split.reflect_weight, depth);
+    vec3 refract_weight = weight * split.refract_weight;
+    if (u_mode == MODE_HYBRID && !inside_near_cube(p)) {
+        if (depth > u_max_depth || !(max(max(refract_weight.r, refract_weight.g), refract_weight.b) > 0.0)) {
+            return vec3(0.0);
+        }
+        count(COUNT_TRACED, depth);
+        count(COUNT_SKY, depth);
+        return refract_weight * sky_radiance(split.refract_dir);
+    }
+    push(offset_origin(p, -split.n_facing), split.refract_dir, refract_weight, depth);
+    return vec3(0.0);
+}
+
+void main() {
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(pixel, u_size))) return;
+
+    vec4 nm = texelFetch(u_normal_material, pixel, 0);
+    Material m;
+    bool specular = false;
+    int material_index = 0;
+    if (nm.w != 0.0) {
+        material_index = int(abs(nm.w) + 0.5) - 1;
+        m = materials[material_index];
+        specular = material_is_specular(m);
+    }
+    if (!specular) {
+        if (u_mode == MODE_PROVENANCE) imageStore(u_color, pixel, vec4(vec3(0.5), 1.0));
+        return;  // the deferred-shaded colour stands
+    }
+
+    vec2 ndc_xy = (vec2(pixel) + 0.5) / vec2(u_size) * 2.0 - 1.0;
+    vec3 near_point = unproject_primary(ndc_xy, -1.0);
+    vec3 view_dir = u_orthographic != 0 ? normalize(u_camera_forward)
+                                        : normalize(near_point - u_camera_position);
+    float depth = texelFetch(u_depth, pixel, 0).r;
+    vec3 p = unproject_primary(ndc_xy, depth * 2.0 - 1.0);
+    vec3 albedo = texelFetch(u_albedo, pixel, 0).rgb;
+    vec3 n = safe_normalize(nm.xyz, -view_dir);
+
+    if (u_mode == MODE_PROVENANCE) {
+        vec3 where = inside_near_cube(p) ? vec3(0.0, 0.0, 1.0) : vec3(1.0, 0.0, 0.0);
+        imageStore(u_color, pixel, vec4(where, 1.0));
+        return;
+    }
+
+    SpecularSplit split = specular_split(m, albedo, view_dir, n);
+
+    vec3 traced = spawn_children(split, p, vec3(1.0), 1);
+    while (stack_size > 0) {
+        stack_size -= 1;
+        PendingRay ray = stack[stack_size];
+        Hit h = trace_ray(ray.origin, ray.dir, ray.depth);
+        if (h.kind == HIT_SKY) {
+            traced += ray.weight * sky_radiance(ray.dir);
+            continue;
+        }
+        Material hm = materials[h.material];
+        vec3 h_albedo = hm.base_color_refl.rgb;
+        SpecularSplit hs = specular_split(hm, h_albedo, ray.dir, h.normal);
+        if (h.kind == HIT_BVH) {
+            traced += ray.weight * shade_local(hm, h_albedo, h.position, hs.n_facing);
+            traced += spawn_children(hs, h.position, ray.weight, ray.depth + 1);
+        } else {
+            // Cube map: stored colour; reflection traced from the reconstructed position;
+            // refraction is thin and goes to the sky (paper §3.4, Figure 8; the hit lies
+            // outside the near cube, so spawn_children sends it to the sky).
+            traced += ray.weight * texelFetch(u_cube_color, h.texel, 0).rgb;
+            traced += spawn_children(hs, h.position, ray.weight, ray.depth + 1);
+        }
+    }
+    vec4 base = imageLoad(u_color, pixel);
+    vec3 color = base.rgb + traced;
+    if (any(isnan(color)) || any(isinf(color))) color = base.rgb;
+    if (any(isnan(color)) || any(isinf(color))) color = vec3(0.0);
+    imageStore(u_color, pixel, vec4(color, 1.0));
+}

@@ -1,0 +1,318 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The hybrid tracer: secondary rays through the near-cube BVH and the G-buffer cube map.
+
+Paper §3, steps 3 to 5. Every frame the triangles overlapping the near cube are culled
+(:mod:`.near_cube`, §3.3) and an LBVH is built over them (:mod:`.lbvh`); one compute
+megakernel (``gpu_shaders/trace/hybrid_trace.comp.glsl``) then walks, per pixel, a
+depth-first stack of the reflected and refracted rays spawned by the primary G-buffer and
+traces each through the BVH and the cube map (``gpu_shaders/include/cube_march.glsl``, §3.4),
+adding their radiance to the deferred-shaded image. FULL_BVH, the paper's ground truth,
+builds the LBVH over the whole scene and never touches the cube map.
+
+The per-triangle shading attributes (three shading normals, the face normal and the material)
+live in one buffer in ORIGINAL triangle order, because the BVH reports original indices.
+All buffers are grow-only and the kernel is compiled once per context: a frame of the same
+size as the last allocates nothing and compiles nothing.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import gl_context, shader_loader
+from .cube_map import CubeFaces, CubeMapPass
+from .gpu_scene import GPUScene
+from .gpu_dispatch import GrowBuffer, storage_barrier
+from .lbvh import BuiltLBVH, LBVHBuilder
+from .near_cube import CullResult, NearCubeCuller, overlap_margin
+from .raster import GBufferTargets, RasterPasses, RasterView, gl_matrix
+from .scene_data import Geometry, SceneData
+from .settings import FIELD_LIMITS, RenderSettings
+
+# Kernel modes (u_mode in hybrid_trace.comp.glsl).
+TRACE_MODES = {"HYBRID": 0, "FULL_BVH": 1, "PROVENANCE": 2}
+
+# struct TriangleShading (hybrid_trace.comp.glsl)                     // total: 64 bytes
+TRIANGLE_SHADING_DTYPE = np.dtype(
+    [("n0_material", np.float32, 4), ("n1", np.float32, 4), ("n2", np.float32, 4),
+     ("geometric", np.float32, 4)]
+)
+assert TRIANGLE_SHADING_DTYPE.itemsize == 64
+
+# Counter layout: uint[len(COUNTER_KINDS)][COUNTER_DEPTHS], index kind * COUNTER_DEPTHS + depth.
+COUNTER_KINDS = ("traced", "cube_map", "sky", "bvh_reentry")
+COUNTER_DEPTHS = 17
+assert FIELD_LIMITS["max_depth"][1] < COUNTER_DEPTHS, "the kernel's counters cover every depth"
+
+WORKGROUP = 8  # the kernel's local size in x and y
+
+
+def pack_triangles(geometry: Geometry) -> np.ndarray:
+    """Triangle corners as the LBVH input layout ((N, 3, 3) float32); non-finite corners
+    are kept (the BVH never hits such a triangle)."""
+    return np.ascontiguousarray(geometry.triangles, np.float32)
+
+
+def pack_triangle_shading(geometry: Geometry) -> np.ndarray:
+    """One TRIANGLE_SHADING_DTYPE row per triangle, original order.
+
+    Non-finite shading normals become zero (the kernel then falls back to the face normal);
+    a degenerate face normal becomes zero too (the kernel then faces the ray).
+    """
+    n = geometry.triangle_count
+    out = np.zeros(max(n, 1), TRIANGLE_SHADING_DTYPE)
+    if n == 0:
+        return out
+    normals = np.where(np.isfinite(geometry.normals), geometry.normals, 0.0)
+    out["n0_material"][:n, :3] = normals[:, 0]
+    out["n0_material"][:n, 3] = geometry.material_ids.astype(np.float32)
+    out["n1"][:n, :3] = normals[:, 1]
+    out["n2"][:n, :3] = normals[:, 2]
+    tris = geometry.triangles.astype(np.float64)
+    with np.errstate(invalid="ignore", over="ignore"):
+        face = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+        length = np.linalg.norm(face, axis=1, keepdims=True)
+        ok = np.isfinite(length) & (length > 0)
+        face = np.where(ok, face / np.where(ok, length, 1.0), 0.0)
+    out["geometric"][:n, :3] = face
+    return out
+
+
+@dataclass
+class TraceStats:
+    """What one frame's tracing did (goes into FrameResult.counts)."""
+
+    per_depth: dict[str, list[int]]  # kind -> [count at depth 1, 2, ...]
+    bvh_triangles: int
+
+    def as_counts(self) -> dict[str, int]:
+        counts = {"triangles_bvh": int(self.bvh_triangles)}
+        for kind, values in self.per_depth.items():
+            counts[f"rays_{kind}"] = int(sum(values))
+            for depth, value in enumerate(values, start=1):
+                counts[f"rays_{kind}_bounce_{depth}"] = int(value)
+        return counts
+
+
+def _set(program, name: str, value) -> None:
+    """Set a uniform the compiler kept (unused ones are optimised away)."""
+    member = program.get(name, None)
+    if member is None:
+        return
+    if isinstance(value, bytes):
+        member.write(value)
+    else:
+        member.value = value
+
+
+class HybridTracer:
+    """GPU state of the tracing passes: geometry buffers, culler, LBVH, cube map, kernel."""
+
+    def __init__(self, ctx, raster: RasterPasses) -> None:
+        self.ctx = ctx
+        self.raster = raster
+        self.program = shader_loader.compute(ctx, "trace/hybrid_trace.comp.glsl")
+        self.cube_map = CubeMapPass(ctx, raster)
+        self.culler = NearCubeCuller(ctx)
+        self.builder = LBVHBuilder(ctx)
+        self._triangles = GrowBuffer(ctx, "tracer triangles")
+        self._shading = GrowBuffer(ctx, "tracer triangle shading")
+        self._counters = ctx.buffer(reserve=len(COUNTER_KINDS) * COUNTER_DEPTHS * 4)
+        self._zero_counters = bytes(self._counters.size)
+        self._dummy_ssbo = ctx.buffer(reserve=256)
+        self._dummy_depth = ctx.depth_texture((1, 1))
+        self._dummy_rgba = ctx.texture((1, 1), 4, dtype="f4")
+        self.triangle_count = 0
+        self.built: BuiltLBVH | None = None
+        self.cull_result: CullResult | None = None
+
+    # -- per-frame steps -------------------------------------------------------------------
+    def upload(self, scene: SceneData) -> None:
+        """Triangles (LBVH input) and shading attributes, original order."""
+        geo = scene.geometry
+        self.triangle_count = geo.triangle_count
+        self._triangles.upload(pack_triangles(geo).tobytes() or bytes(36))
+        self._shading.upload(pack_triangle_shading(geo).tobytes())
+
+    def render_cube_map(self, gpu, scene: SceneData, center, settings: RenderSettings) -> int:
+        """The six face G-buffers (§3.2), shaded without the specular lobes (the tracer adds
+        them when a ray hits a face). Returns the triangles submitted."""
+        return self.cube_map.render(gpu, scene, center, settings)
+
+    def cull(self, scene: SceneData, center, settings: RenderSettings) -> CullResult:
+        """Triangles overlapping the near cube (§3.3)."""
+        geo = scene.geometry
+        self.cull_result = self.culler.cull(
+            self._triangles.buffer, self.triangle_count, center, settings.near_size,
+            geo.object_ranges, geo.object_bounds,
+        )
+        return self.cull_result
+
+    def build(self, culled: CullResult | None) -> BuiltLBVH:
+        """The LBVH over the culled triangles, or over all of them (``culled`` None)."""
+        if culled is None:
+            self.built = self.builder.build(self._triangles.buffer, self.triangle_count)
+        else:
+            self.built = self.builder.build(self._triangles.buffer, culled.count, indices=culled.indices)
+        return self.built
+
+    def trace(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
+              settings: RenderSettings, center) -> None:
+        """Run the megakernel over the primary G-buffer; adds the traced radiance to
+        ``targets.color`` (or writes the provenance colours)."""
+        ctx = self.ctx
+        prog = self.program
+        mode = settings.mode
+        raster = self.raster
+        self._counters.write(self._zero_counters)
+
+        # Storage buffers.
+        # The shadow atlas, its slot table and the sky texture belong to the raster passes
+        # (the deferred shading reads them too); the tracer binds the same objects.
+        gpu.materials.buffer.bind_to_storage_buffer(0)
+        gpu.lights.buffer.bind_to_storage_buffer(1)
+        raster._slot_buffer.bind_to_storage_buffer(2)
+        built = self.built if mode != "PROVENANCE" else None
+        if built is not None:
+            built.nodes.bind_to_storage_buffer(3)
+            built.triangles.bind_to_storage_buffer(4)
+        else:
+            self._dummy_ssbo.bind_to_storage_buffer(3)
+            self._dummy_ssbo.bind_to_storage_buffer(4)
+        self._shading.buffer.bind_to_storage_buffer(5)
+        self._counters.bind_to_storage_buffer(6)
+
+        # Textures.
+        cube = self.cube_map.targets if mode == "HYBRID" else None
+        units = {
+            "u_depth": targets.depth,
+            "u_normal_material": targets.normal_material,
+            "u_albedo": targets.albedo,
+            "u_cube_depth": cube.depth if cube is not None else self._dummy_depth,
+            "u_cube_normal_material": cube.normal_material if cube is not None else self._dummy_rgba,
+            "u_cube_color": cube.color if cube is not None else self._dummy_rgba,
+            "u_shadow_atlas": raster._shadow_atlas,
+            "u_sky_env": raster._sky_texture or raster._dummy_env,
+        }
+        for unit, (name, tex) in enumerate(units.items()):
+            tex.use(location=unit)
+            _set(prog, name, unit)
+        targets.color.bind_to_image(0, read=True, write=True)
+
+        # Uniforms.
+        center = np.asarray(center, np.float64)
+        values = {
+            "u_inv_view_proj": gl_matrix(np.linalg.inv(view.view_proj)),
+            "u_camera_position": tuple(np.asarray(view.position, float)),
+            "u_camera_forward": tuple(np.asarray(view.forward, float)),
+            "u_orthographic": int(view.orthographic),
+            "u_size": (view.width, view.height),
+            "u_mode": TRACE_MODES[mode],
+            "u_max_depth": int(settings.max_depth),
+            "u_near_center": tuple(center),
+            "u_near_half": float(settings.near_size),
+            "u_bvh_half": float(settings.near_size + overlap_margin(settings.near_size)),
+            "u_light_count": len(scene.lights),
+            "u_shadow_bias": float(settings.shadow_bias),
+            "u_sky_color": tuple(scene.sky.color),
+            "u_sky_strength": float(scene.sky.strength),
+            "u_sky_has_env": int(raster._sky_texture is not None),
+        }
+        faces: CubeFaces | None = self.cube_map.faces if cube is not None else None
+        if faces is not None:
+            values.update({
+                "u_face_view_proj": b"".join(gl_matrix(m) for m in faces.view_proj),
+                "u_face_inv_view_proj": b"".join(gl_matrix(m) for m in faces.inv_view_proj),
+                "u_face_to_face": b"".join(gl_matrix(faces.face_to_face[i, j])
+                                           for i in range(6) for j in range(6)),
+                "u_cube_center": tuple(faces.center),
+                "u_cube_near": float(faces.near),
+                "u_cube_far": float(faces.far),
+                "u_cube_res": int(settings.cube_resolution),
+                "u_n_min": int(settings.n_min),
+                "u_n_max": int(settings.n_max),
+            })
+        for name, value in values.items():
+            _set(prog, name, value)
+        prog.run(math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
+        storage_barrier(ctx)
+        if gl_context.debug_checks_enabled():
+            gl_context.check_error(f"{mode} trace")
+
+    def read_stats(self, max_depth: int) -> TraceStats:
+        raw = np.frombuffer(self._counters.read(), np.uint32).reshape(len(COUNTER_KINDS), COUNTER_DEPTHS)
+        depths = range(1, max(int(max_depth), 0) + 1)
+        per_depth = {kind: [int(raw[k, d]) for d in depths] for k, kind in enumerate(COUNTER_KINDS)}
+        bvh = 0 if self.built is None else int(self.built.leaf_count)
+        return TraceStats(per_depth=per_depth, bvh_triangles=bvh)
+
+    def release(self) -> None:
+        self.cube_map.release()
+        self.culler.release()
+        self.builder.release()
+        for grow in (self._triangles, self._shading):
+            grow.release()
+        for obj in (self._counters, self._dummy_ssbo, self._dummy_depth, self._dummy_rgba):
+            obj.release()
+
+
+# Mirror of the probe's per-ray output (cube_march_probe.comp.glsl)   // total: 64 bytes
+MARCH_RESULT_DTYPE = np.dtype(
+    [("kind", np.int32), ("face", np.int32), ("texel", np.int32, 2), ("switches", np.int32),
+     ("material", np.int32), ("pad", np.int32, 2), ("position", np.float32, 3), ("t", np.float32),
+     ("normal", np.float32, 3), ("pad2", np.float32)]
+)
+assert MARCH_RESULT_DTYPE.itemsize == 64
+MARCH_SKY, MARCH_HIT, MARCH_TO_BVH = 0, 1, 2  # CUBE_* in cube_march.glsl
+PROBE_LOCAL_SIZE = 64
+
+
+def probe_cube_march(ctx, cube_map: CubeMapPass, materials_buffer, settings: RenderSettings,
+                     origins: np.ndarray, directions: np.ndarray, t_start: np.ndarray) -> np.ndarray:
+    """March rays through the cube map last rendered by ``cube_map`` and return one
+    MARCH_RESULT_DTYPE row per ray (for tests and diagnostics; the tracer marches inside its
+    megakernel with the same code)."""
+    from .gpu_dispatch import dispatch
+
+    origins = np.asarray(origins, np.float32).reshape(-1, 3)
+    directions = np.asarray(directions, np.float32).reshape(-1, 3)
+    count = len(origins)
+    rays = np.zeros((count, 2, 4), np.float32)
+    rays[:, 0, :3] = origins
+    rays[:, 0, 3] = np.broadcast_to(np.asarray(t_start, np.float32), (count,))
+    rays[:, 1, :3] = directions
+    prog = shader_loader.compute(ctx, "trace/cube_march_probe.comp.glsl", {"LOCAL_SIZE": PROBE_LOCAL_SIZE})
+    ray_buf = ctx.buffer(rays.tobytes() or bytes(32))
+    out_buf = ctx.buffer(reserve=max(count, 1) * MARCH_RESULT_DTYPE.itemsize)
+    try:
+        materials_buffer.bind_to_storage_buffer(0)
+        ray_buf.bind_to_storage_buffer(1)
+        out_buf.bind_to_storage_buffer(2)
+        faces = cube_map.faces
+        cube_map.targets.depth.use(location=0)
+        cube_map.targets.normal_material.use(location=1)
+        values = {
+            "u_count": count,
+            "u_cube_depth": 0,
+            "u_cube_normal_material": 1,
+            "u_face_view_proj": b"".join(gl_matrix(m) for m in faces.view_proj),
+            "u_face_inv_view_proj": b"".join(gl_matrix(m) for m in faces.inv_view_proj),
+            "u_face_to_face": b"".join(gl_matrix(faces.face_to_face[i, j]) for i in range(6) for j in range(6)),
+            "u_cube_center": tuple(faces.center),
+            "u_cube_near": float(faces.near),
+            "u_cube_far": float(faces.far),
+            "u_cube_res": int(settings.cube_resolution),
+            "u_n_min": int(settings.n_min),
+            "u_n_max": int(settings.n_max),
+        }
+        for name, value in values.items():
+            _set(prog, name, value)
+        dispatch(prog, count, PROBE_LOCAL_SIZE)
+        storage_barrier(ctx)
+        raw = out_buf.read(size=count * MARCH_RESULT_DTYPE.itemsize) if count else b""
+    finally:
+        ray_buf.release()
+        out_buf.release()
+    return np.frombuffer(raw, MARCH_RESULT_DTYPE).copy()

@@ -1,0 +1,184 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""An independent numpy march through a G-buffer cube map (paper §3.4), in float64.
+
+It re-derives everything from the paper and the documented rule in
+gpu_shaders/include/cube_march.glsl without importing hybrid_engine: the six 90.2° face
+cameras (GL cube-map orientation), the map ray in NDC, the n = n_min + |d_m.z| (n_max - n_min)
+samples, the thickness hit rule with its depth bias and bisection, and face switching to the
+first face that contains the exit point. Tests feed it the same atlas the GPU marched (read
+back from the GL textures) and compare outcomes ray by ray.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+FOV = math.radians(90.2)
+DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
+UPS = np.array([[0, -1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1], [0, -1, 0], [0, -1, 0]], float)
+SKY, HIT, TO_BVH = 0, 1, 2
+MAX_SWITCHES = 8
+REFINE_STEPS = 6
+CONTAINS_EPS = 1e-5
+BIAS_RELATIVE = 1e-4
+MAX_SLOPE = 8.0
+
+
+def face_matrices(center, near: float, far: float) -> np.ndarray:
+    """(6, 4, 4) world -> clip of the six faces."""
+    f = 1.0 / math.tan(FOV / 2)
+    proj = np.array([[f, 0, 0, 0], [0, f, 0, 0],
+                     [0, 0, -(far + near) / (far - near), -2 * far * near / (far - near)],
+                     [0, 0, -1, 0]])
+    out = []
+    c = np.asarray(center, float)
+    for d, up in zip(DIRECTIONS, UPS):
+        back = -d
+        right = np.cross(up, back)
+        right /= np.linalg.norm(right)
+        true_up = np.cross(back, right)
+        rot = np.stack([right, true_up, back])  # rows: camera axes in world
+        view = np.eye(4)
+        view[:3, :3] = rot
+        view[:3, 3] = -rot @ c
+        out.append(proj @ view)
+    return np.array(out)
+
+
+@dataclass
+class MarchResult:
+    kind: int
+    face: int
+    texel: tuple[int, int]
+    position: np.ndarray
+    t: float
+    switches: int
+
+
+class CubeMapReference:
+    """depth: (res, 6 res) window depths in [0, 1]; normal_material: (res, 6 res, 4) with
+    w = ±(material + 1) (0 = empty); thickness: per-material thickness."""
+
+    def __init__(self, depth, normal_material, thickness, center, near, far, n_min, n_max):
+        self.depth = np.asarray(depth, np.float64)
+        self.nm = np.asarray(normal_material, np.float64)
+        self.res = self.depth.shape[0]
+        self.thickness = np.asarray(thickness, np.float64)
+        self.center = np.asarray(center, np.float64)
+        self.near, self.far = float(near), float(far)
+        self.n_min, self.n_max = int(n_min), int(n_max)
+        self.vp = face_matrices(center, near, far)
+        self.inv = np.linalg.inv(self.vp)
+
+    def linear(self, z):
+        n, f = self.near, self.far
+        return 2 * f * n / ((f + n) - np.clip(z, -1, 1) * (f - n))
+
+    def contains(self, clip) -> bool:
+        return clip[3] > 0 and bool((np.abs(clip[:3]) <= clip[3] * (1 + CONTAINS_EPS)).all())
+
+    def texel(self, face, xy):
+        local = np.floor((np.asarray(xy) * 0.5 + 0.5) * self.res).astype(int)
+        local = np.clip(local, 0, self.res - 1)
+        return face * self.res + local[0], local[1]
+
+    def unproject(self, face, ndc):
+        w = self.inv[face] @ np.r_[ndc, 1.0]
+        return w[:3] / w[3]
+
+    def sample_hits(self, face, s, prev_lin):
+        """(hit, piercing, texel, stored z) of one sample (the documented rule)."""
+        tx, ty = self.texel(face, s[:2])
+        nm = self.nm[ty, tx]
+        if nm[3] == 0.0:
+            return False, False, (tx, ty), 1.0
+        z = self.depth[ty, tx] * 2 - 1
+        surface, r = self.linear(z), self.linear(s[2])
+        if r <= surface:
+            return False, False, (tx, ty), z
+        view = self.unproject(face, np.r_[s[:2], z]) - self.center
+        view /= np.linalg.norm(view)
+        c = abs(view @ nm[:3])
+        slope = min(math.sqrt(max(1 - c * c, 0.0)) / c, MAX_SLOPE) if c > 0 else MAX_SLOPE
+        texel_angle = 2 * math.tan(FOV / 2) / self.res
+        bias = surface * (BIAS_RELATIVE + texel_angle * slope)
+        if r <= surface + bias:
+            return False, False, (tx, ty), z
+        if prev_lin <= surface + bias:
+            return True, True, (tx, ty), z
+        material = int(abs(nm[3]) + 0.5) - 1
+        thick = min(max(self.thickness[material], 0.0), 1.0)
+        return r <= surface + thick * (self.far - surface), False, (tx, ty), z
+
+    def march(self, origin, direction, t_start=0.0) -> MarchResult:
+        o = np.asarray(origin, float)
+        d = np.asarray(direction, float)
+        d = d / np.linalg.norm(d)
+        q = o + d * t_start
+        face, clip = -1, None
+        for i in range(6):
+            c = self.vp[i] @ np.r_[q, 1.0]
+            if self.contains(c):
+                face, clip = i, c
+                break
+        result = MarchResult(SKY, face, (-1, -1), np.zeros(3), t_start, 0)
+        if face < 0:
+            return result
+        for _ in range(MAX_SWITCHES + 1):
+            result.face = face
+            cd = self.vp[face] @ np.r_[d, 0.0]
+            a = np.clip(clip[:3] / clip[3], -1, 1)
+            dm = cd[:3] * clip[3] - clip[:3] * cd[3]
+            dm /= np.linalg.norm(dm)
+            bound = np.where(dm > 0, 1.0, -1.0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t_axes = np.where(np.abs(dm) < 1e-30, 1e30, (bound - a) / dm)
+            axis = int(np.argmin(t_axes))
+            t_exit = max(t_axes[axis], 0.0)
+            n = max(1, int(self.n_min + abs(dm[2]) * (self.n_max - self.n_min) + 0.5))
+            prev_lin, t_prev = self.linear(a[2]), 0.0
+            for k in range(1, n + 1):
+                t_k = t_exit * k / n
+                s = a + dm * t_k
+                hit, piercing, texel, z = self.sample_hits(face, s, prev_lin)
+                if hit:
+                    hit_s = s
+                    if piercing:
+                        lo, hi, lo_lin = t_prev, t_k, prev_lin
+                        for _ in range(REFINE_STEPS):
+                            mid = 0.5 * (lo + hi)
+                            sm = a + dm * mid
+                            h2, _, texel2, z2 = self.sample_hits(face, sm, lo_lin)
+                            if h2:
+                                hi, hit_s, texel, z = mid, sm, texel2, z2
+                            else:
+                                lo, lo_lin = mid, self.linear(sm[2])
+                    position = self.unproject(face, np.r_[hit_s[:2], z])
+                    return MarchResult(HIT, face, texel, position, float((position - o) @ d),
+                                       result.switches)
+                prev_lin, t_prev = self.linear(s[2]), t_k
+            e = a + dm * t_exit
+            if axis == 2:
+                if dm[2] > 0:
+                    return result
+                position = self.unproject(face, e)
+                return MarchResult(TO_BVH, face, (-1, -1), position, float((position - o) @ d),
+                                   result.switches)
+            nxt, nxt_clip, best = -1, None, 1e30
+            for j in range(6):
+                if j == face:
+                    continue
+                c = self.vp[j] @ self.inv[face] @ np.r_[e, 1.0]
+                if self.contains(c):
+                    nxt, nxt_clip = j, c
+                    break
+                v = 1e30 if c[3] <= 0 else np.abs(c[:3] / c[3]).max() - 1
+                if v < best:
+                    nxt, nxt_clip, best = j, c, v
+            if nxt < 0 or nxt_clip[3] <= 0:
+                return result
+            face, clip = nxt, nxt_clip
+            result.switches += 1
+        return result

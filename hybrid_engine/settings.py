@@ -28,8 +28,10 @@ FIELD_DOCS = {
     "max_depth": "Maximum number of secondary bounces (reflections and refractions) per pixel",
     "cube_resolution": "Resolution of each of the six G-buffer cube-map faces, in pixels",
     "cube_far": "Far plane of the cube-map faces (scene units); rays that pass it see the sky",
-    "n_min": "Fewest ray-march samples per cube-map face, for rays facing the face straight on",
-    "n_max": "Most ray-march samples per cube-map face, for rays grazing the face",
+    "n_min": "Ray-march samples per cube-map face for rays grazing the face "
+    "(paper 3.4: n = n_min + (N.r)(n_max - n_min))",
+    "n_max": "Ray-march samples per cube-map face for rays entering it head-on, along its normal "
+    "(paper 3.4: n = n_min + (N.r)(n_max - n_min))",
     "shadow_resolution": "Resolution of each shadow map, in pixels",
     "shadow_bias": "Depth bias of shadow-map tests, in scene units, against shadow acne",
     "viewport_scale": "Fraction of the viewport's resolution that is rendered (lower is faster)",

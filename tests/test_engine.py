@@ -103,15 +103,16 @@ def test_render_reports_stats_and_keeps_the_frame_result(addon, tmp_path):
     assert frame.counts["triangles_total"] == 2
 
 
-def test_unavailable_mode_falls_back_to_raster_with_a_warning(addon, tmp_path):
+def test_hybrid_mode_renders_through_blenders_render_path(addon, tmp_path):
     import bpy
 
     scene = build_plane_scene(bpy, "SUN", 1.0, size=8)
     scene.render.engine = "HYBRID_RT"
     scene.hybrid_rt.mode = "HYBRID"
-    image = render_exr(bpy, scene, tmp_path / "fallback.exr")
+    image = render_exr(bpy, scene, tmp_path / "hybrid.exr")
     frame = addon.blender_adapter.engine.last_frame
-    assert frame.mode in ("RASTER", "HYBRID")
+    assert frame.mode == "HYBRID"
+    assert {"cube_map_raster", "cull", "lbvh_build", "trace"} <= set(frame.passes)
     assert image[..., 0].mean() > 0.1
 
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..hybrid_engine.renderer import FrameResult, RenderCancelled, Renderer, RenderModeUnavailable
 from . import extract, properties, viewport
+from .gl_host import gl_block
 
 _renderer: Renderer | None = None
 last_frame: FrameResult | None = None  # the most recent final render's result (image, passes, counts)
@@ -34,7 +35,8 @@ def release_renderer() -> None:
     global _renderer
     if _renderer is not None:
         try:
-            _renderer.release()
+            with gl_block():
+                _renderer.release()
         finally:
             _renderer = None
 
@@ -51,14 +53,15 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None) -> F
     scene_data = extract.extract_scene(depsgraph)
     camera = extract.camera_from_scene(scene, depsgraph)
     extract_ms = (time.perf_counter() - start) * 1e3
-    renderer = shared_renderer()
-    try:
-        result = renderer.render(scene_data, camera, settings, cancel=cancel, progress=progress)
-    except RenderModeUnavailable as exc:
-        if report is not None:
-            report({"WARNING"}, f"{exc}; rendering RASTER instead")
-        result = renderer.render(scene_data, camera, replace(settings, mode="RASTER"),
-                                 cancel=cancel, progress=progress)
+    with gl_block():
+        renderer = shared_renderer()
+        try:
+            result = renderer.render(scene_data, camera, settings, cancel=cancel, progress=progress)
+        except RenderModeUnavailable as exc:
+            if report is not None:
+                report({"WARNING"}, f"{exc}; rendering RASTER instead")
+            result = renderer.render(scene_data, camera, replace(settings, mode="RASTER"),
+                                     cancel=cancel, progress=progress)
     result.passes = {"extract": extract_ms, **result.passes}
     result.total_ms += extract_ms
     return result

@@ -39,6 +39,7 @@ import bpy
 import numpy as np
 
 from ..hybrid_engine.gl_context import GLUnavailableError
+from .gl_host import gl_block
 from ..hybrid_engine.renderer import RenderModeUnavailable
 from ..hybrid_engine.settings import RenderSettings
 from ..hybrid_engine.viewport_frame import (
@@ -100,7 +101,8 @@ class ViewportSession:
             rect = plan.rect
             if plan.view is None:
                 return ViewportFrame(None, rect, f"{ERROR_PREFIX} | render border outside the view")
-            result, note = self._render(plan.view, settings)
+            with gl_block():
+                result, note = self._render(plan.view, settings)
         except Exception as exc:  # noqa: BLE001 - a viewport frame must never raise
             return self._failed(exc, rect)
         self.latch.clear()  # a later failure is news again
@@ -159,7 +161,8 @@ class ViewportSession:
         """Free the session's GL objects (the shared context stays) and its cached arrays."""
         renderer, self.renderer = self.renderer, None
         if renderer is not None:
-            renderer.release()
+            with gl_block():
+                renderer.release()
         self.cache.reset()
 
 

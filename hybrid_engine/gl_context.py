@@ -12,9 +12,14 @@ storage buffers (both core in 4.3).
 """
 from __future__ import annotations
 
+import ctypes
 import os
+import sys
 import threading
+import types
+from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import Iterator
 
 REQUIRED_GL_VERSION = 430
 
@@ -36,9 +41,17 @@ class GLLimits:
     max_array_texture_layers: int
 
 
-_lock = threading.Lock()
-_context = None
-_limits: GLLimits | None = None
+# The package can be imported under two names in one process (Blender's ``bl_ext.*.hybrid_rt``
+# add-on and the top-level ``hybrid_engine`` of scripts and tests). The context must still be
+# one per process, so its state lives in a process-wide module object, not in this module.
+_STATE_KEY = "_hybrid_rt_gl_process_state"
+_state = sys.modules.setdefault(_STATE_KEY, types.ModuleType(_STATE_KEY))
+if not hasattr(_state, "lock"):
+    _state.lock = threading.Lock()
+    _state.context = None
+    _state.handle = None  # our EGLContext, to tell it from a host's context
+    _state.limits = None
+    _state.parking_fbo = None
 
 
 def _create_context():
@@ -83,21 +96,20 @@ def get_context():
 
     Raises GLUnavailableError with a specific message when EGL, moderngl or GL 4.3 is missing.
     """
-    global _context, _limits
-    with _lock:
-        if _context is None:
-            _context = _create_context()
-            _limits = None
-        return _context
+    with _state.lock:
+        if _state.context is None:
+            _state.context = _create_context()
+            _state.limits = None
+            _state.handle = _native.egl_current()[3] if _native.egl else None
+        return _state.context
 
 
 def limits() -> GLLimits:
     """Driver limits of the shared context (queried once)."""
-    global _limits
     ctx = get_context()
-    if _limits is None:
+    if _state.limits is None:
         info = ctx.info
-        _limits = GLLimits(
+        _state.limits = GLLimits(
             max_ssbo_block_bytes=int(info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27)),
             max_compute_workgroup_count=tuple(
                 int(info.get(f"GL_MAX_COMPUTE_WORK_GROUP_COUNT")[i]) for i in range(3)
@@ -108,7 +120,7 @@ def limits() -> GLLimits:
             max_3d_texture_size=int(info.get("GL_MAX_3D_TEXTURE_SIZE", 2048)),
             max_array_texture_layers=int(info.get("GL_MAX_ARRAY_TEXTURE_LAYERS", 2048)),
         )
-    return _limits
+    return _state.limits
 
 
 def renderer_name() -> str:
@@ -135,7 +147,87 @@ def debug_checks_enabled() -> bool:
     return os.environ.get("HYBRID_RT_DEBUG", "") not in ("", "0")
 
 
-_parking_fbo = None
+class _NativeGL:
+    """Just enough of EGL and GLX (through ctypes) to save and restore a host's current
+    context. Missing libraries simply disable that half."""
+
+    def __init__(self) -> None:
+        self.egl = self._load("libEGL.so.1", ("eglGetCurrentDisplay", "eglGetCurrentSurface",
+                                              "eglGetCurrentContext", "eglMakeCurrent"))
+        self.glx = self._load("libGL.so.1", ("glXGetCurrentDisplay", "glXGetCurrentDrawable",
+                                             "glXGetCurrentReadDrawable", "glXGetCurrentContext",
+                                             "glXMakeContextCurrent"))
+        if self.egl:
+            for name in ("eglGetCurrentDisplay", "eglGetCurrentSurface", "eglGetCurrentContext"):
+                getattr(self.egl, name).restype = ctypes.c_void_p
+            self.egl.eglGetCurrentSurface.argtypes = [ctypes.c_int]
+            self.egl.eglMakeCurrent.argtypes = [ctypes.c_void_p] * 4
+        if self.glx:
+            for name in ("glXGetCurrentDisplay", "glXGetCurrentContext"):
+                getattr(self.glx, name).restype = ctypes.c_void_p
+            for name in ("glXGetCurrentDrawable", "glXGetCurrentReadDrawable"):
+                getattr(self.glx, name).restype = ctypes.c_ulong
+            self.glx.glXMakeContextCurrent.argtypes = [ctypes.c_void_p, ctypes.c_ulong, ctypes.c_ulong, ctypes.c_void_p]
+
+    @staticmethod
+    def _load(name: str, symbols: tuple[str, ...]):
+        try:
+            lib = ctypes.CDLL(name)
+            for symbol in symbols:
+                getattr(lib, symbol)
+            return lib
+        except (OSError, AttributeError):
+            return None
+
+    def egl_current(self) -> tuple:
+        e = self.egl
+        EGL_DRAW, EGL_READ = 0x3059, 0x305A
+        return (e.eglGetCurrentDisplay(), e.eglGetCurrentSurface(EGL_DRAW),
+                e.eglGetCurrentSurface(EGL_READ), e.eglGetCurrentContext())
+
+    def glx_current(self) -> tuple:
+        g = self.glx
+        return (g.glXGetCurrentDisplay(), g.glXGetCurrentDrawable(),
+                g.glXGetCurrentReadDrawable(), g.glXGetCurrentContext())
+
+
+_native = _NativeGL()
+
+
+@contextmanager
+def activated(release_after: bool = False) -> Iterator[object]:
+    """Make the shared context current for a block of GL work inside a host application.
+
+    Inside Blender's viewport callbacks Blender's own context is current; our context is made
+    current for the block and Blender's (EGL or GLX) is restored afterwards, so Blender's own
+    drawing is untouched. Where nothing else was current our context stays current, unless
+    ``release_after``: an EGL context can be current on one thread only, so inside an
+    interactive Blender (viewport on the main thread, F12 renders on a render thread) every
+    block hands the context back; background runs keep it current.
+    """
+    # Record the host's context first: creating ours on first use makes ours current.
+    saved_egl = _native.egl_current() if _native.egl else None
+    saved_glx = _native.glx_current() if _native.glx else None
+    ctx = get_context()
+    foreign_egl = saved_egl is not None and saved_egl[3] not in (None, _state.handle)
+    foreign_glx = saved_glx is not None and saved_glx[3] is not None
+    already_ours = saved_egl is not None and saved_egl[3] == _state.handle
+    if not (foreign_egl or foreign_glx or already_ours):
+        if saved_egl is None:  # no EGL library to ask: trust that ours is current
+            yield ctx
+            return
+    if not already_ours:
+        ctx.__enter__()  # glcontext makes ours current
+    try:
+        yield ctx
+    finally:
+        if foreign_egl:
+            _native.egl.eglMakeCurrent(*saved_egl)
+        elif foreign_glx:
+            _native.glx.glXMakeContextCurrent(*saved_glx)
+        elif release_after and _native.egl:
+            display = _native.egl_current()[0]
+            _native.egl.eglMakeCurrent(display, None, None, None)
 
 
 def park_framebuffer() -> None:
@@ -144,24 +236,23 @@ def park_framebuffer() -> None:
     Mesa raises GL_INVALID_OPERATION on later calls when the bound framebuffer is deleted,
     so code that releases a framebuffer parks the binding here first.
     """
-    global _parking_fbo
     ctx = get_context()
-    if _parking_fbo is None:
-        _parking_fbo = ctx.simple_framebuffer((1, 1))
-    _parking_fbo.use()
+    if _state.parking_fbo is None:
+        _state.parking_fbo = ctx.simple_framebuffer((1, 1))
+    _state.parking_fbo.use()
 
 
 def release_context() -> None:
     """Release the shared context (explicit teardown, never left to a GC on another thread)."""
-    global _context, _limits, _parking_fbo
     from . import shader_loader
 
-    with _lock:
-        if _context is not None:
+    with _state.lock:
+        if _state.context is not None:
             shader_loader.clear_cache()
-            if _parking_fbo is not None:
-                _parking_fbo.release()
-                _parking_fbo = None
-            _context.release()
-            _context = None
-            _limits = None
+            if _state.parking_fbo is not None:
+                _state.parking_fbo.release()
+                _state.parking_fbo = None
+            _state.context.release()
+            _state.context = None
+            _state.handle = None
+            _state.limits = None

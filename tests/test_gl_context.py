@@ -80,3 +80,88 @@ def test_driver_refusing_the_required_version_names_opengl_4_3(monkeypatch):
     monkeypatch.setattr(moderngl, "create_context", refuse)
     with pytest.raises(gl_context.GLUnavailableError, match=r"needs OpenGL 4\.3"):
         gl_context._create_context()
+
+
+def test_activated_renders_in_our_context_and_restores_a_host_context():
+    """Inside Blender's viewport callbacks Blender's context is current: our frame must run in
+    our own context and hand Blender's back afterwards (a second EGL context stands in for
+    Blender's here)."""
+    result = run_isolated(
+        """
+        import ctypes, moderngl, numpy as np
+        from hybrid_engine import gl_context, Camera, Geometry, MaterialTable, Lights, SceneData, Sky, RenderSettings
+        from hybrid_engine.renderer import Renderer
+        egl = ctypes.CDLL("libEGL.so.1"); egl.eglGetCurrentContext.restype = ctypes.c_void_p
+        ours = gl_context.get_context(); ours_handle = egl.eglGetCurrentContext()
+        renderer = Renderer()
+        host = moderngl.create_context(standalone=True, backend="egl")  # now current, like Blender's
+        host_handle = egl.eglGetCurrentContext()
+        assert host_handle != ours_handle
+        scene = SceneData(Geometry.empty(), MaterialTable.default(), Lights.empty(), Sky(color=(0.25, 0.5, 1.0)))
+        with gl_context.activated():
+            inside = egl.eglGetCurrentContext()
+            image = renderer.render(scene, Camera(width=8, height=4), RenderSettings(mode="RASTER")).image
+        after = egl.eglGetCurrentContext()
+        print("INSIDE_OURS", inside == ours_handle)
+        print("HOST_RESTORED", after == host_handle)
+        print("IMAGE_OK", bool(np.allclose(image[..., :3], [0.25, 0.5, 1.0])))
+        """
+    )
+    assert "INSIDE_OURS True" in result.stdout, result.stdout + result.stderr
+    assert "HOST_RESTORED True" in result.stdout
+    assert "IMAGE_OK True" in result.stdout
+
+
+def test_activated_leaves_our_context_current_when_no_host_context_exists():
+    result = run_isolated(
+        """
+        import numpy as np
+        from hybrid_engine import gl_context
+        ctx = gl_context.get_context()
+        with gl_context.activated():
+            pass
+        buf = ctx.buffer(np.arange(4, dtype="f4").tobytes())
+        print("READ", np.frombuffer(buf.read(), "f4").tolist())
+        """
+    )
+    assert "READ [0.0, 1.0, 2.0, 3.0]" in result.stdout, result.stdout + result.stderr
+
+
+def test_activated_can_hand_the_context_back_for_use_on_another_thread():
+    """Interactive Blender renders F12 on a render thread and the viewport on the main thread:
+    with release_after the context is free for the next thread that activates it."""
+    result = run_isolated(
+        """
+        import ctypes, threading, numpy as np
+        from hybrid_engine import gl_context
+        egl = ctypes.CDLL("libEGL.so.1"); egl.eglGetCurrentContext.restype = ctypes.c_void_p
+        ctx = gl_context.get_context()
+        with gl_context.activated(release_after=True):
+            pass
+        print("RELEASED", egl.eglGetCurrentContext() is None)
+        out = {}
+        def worker():
+            with gl_context.activated(release_after=True) as c:
+                buf = c.buffer(np.arange(3, dtype="f4").tobytes())
+                out["read"] = np.frombuffer(buf.read(), "f4").tolist()
+                buf.release()
+        t = threading.Thread(target=worker); t.start(); t.join()
+        print("THREAD", out.get("read"))
+        with gl_context.activated():
+            buf = ctx.buffer(np.ones(2, dtype="f4").tobytes())
+            print("MAIN", np.frombuffer(buf.read(), "f4").tolist())
+        """
+    )
+    assert "RELEASED True" in result.stdout, result.stdout + result.stderr
+    assert "THREAD [0.0, 1.0, 2.0]" in result.stdout, result.stdout + result.stderr
+    assert "MAIN [1.0, 1.0]" in result.stdout, result.stdout + result.stderr
+
+
+def test_the_addon_and_the_core_imported_under_two_names_share_one_context(gl):
+    """Blender imports the add-on as bl_ext.*.hybrid_rt while scripts import hybrid_engine:
+    still one context per process."""
+    from conftest import load_addon
+
+    addon = load_addon()
+    assert addon.hybrid_engine.gl_context is not __import__("hybrid_engine.gl_context").gl_context
+    assert addon.hybrid_engine.gl_context.get_context() is gl

@@ -9,7 +9,12 @@ Three driver limits shape every pass, and this module keeps them out of the algo
 * A storage block may cover at most ``GL_MAX_SHADER_STORAGE_BLOCK_SIZE`` bytes (128 MiB on
   llvmpipe). :func:`bind_storage` binds exactly the range a pass uses (grow-only buffers are
   often larger) and refuses a range past the limit with a specific error instead of leaving
-  the result to the driver.
+  the result to the driver. An array larger than one block is split by :func:`split_blocks`
+  into at most :data:`MAX_SPLIT_BLOCKS` consecutive ranges of one buffer, each bound to its
+  own binding point (:func:`bind_blocks`); the shaders pick the block with the index
+  arithmetic of ``gpu_shaders/include/storage_blocks.glsl``. A split array costs a compare
+  and a branch per access, so an array that fits one block is never split and its shaders
+  are compiled without the split code.
 * Allocating GL buffers every frame costs driver time and fragments memory, so
   :class:`GrowBuffer` only ever grows: once a scene's size has been seen, later frames of the
   same or smaller size allocate nothing.
@@ -18,9 +23,20 @@ from __future__ import annotations
 
 import contextlib
 import math
-from typing import Iterator
+from dataclasses import dataclass
+from typing import Iterator, Sequence
 
 from . import gl_context
+
+# Most storage blocks one array is split into. The LBVH refit binds the most blocks: seven
+# single ones plus three split arrays (input triangles, nodes, BVH triangles), 7 + 3 * 3 = 16,
+# which is llvmpipe's GL_MAX_COMPUTE_SHADER_STORAGE_BLOCKS. Four 128 MiB blocks hold 8.4M
+# nodes, 11.2M BVH triangles or 14.9M input triangles.
+MAX_SPLIT_BLOCKS = 4
+# Items per block are a multiple of this, so that with items of a multiple of 4 bytes every
+# block starts at a multiple of 256 bytes: the largest GL_SHADER_STORAGE_BUFFER_OFFSET_ALIGNMENT
+# of common drivers (llvmpipe needs 16).
+BLOCK_ITEM_GRANULE = 64
 
 _forced_max_groups: int | None = None
 _forced_max_block_bytes: int | None = None
@@ -106,6 +122,74 @@ def bind_storage(buffer, binding: int, offset: int = 0, size: int | None = None)
             f"{max_block_bytes()}-byte block limit"
         )
     buffer.bind_to_storage_buffer(binding, offset=offset, size=max(size, 4))
+
+
+@dataclass(frozen=True)
+class BlockSplit:
+    """An array of ``count`` items of ``item_bytes`` bytes spread over ``blocks`` bindings.
+
+    Block b covers items [b * items_per_block, (b + 1) * items_per_block) of ONE buffer; only
+    the last block may be shorter. ``blocks == 1`` means the array fits one binding (then
+    ``items_per_block`` is ``count``).
+    """
+
+    count: int
+    item_bytes: int
+    items_per_block: int
+    blocks: int
+
+    def defines(self, blocks_name: str, size_name: str) -> dict[str, int]:
+        """Shader defines of a split array; none for a single block, so that small arrays
+        share one compiled program whatever the driver's limit."""
+        if self.blocks == 1:
+            return {}
+        return {blocks_name: self.blocks, size_name: self.items_per_block}
+
+    def ranges(self) -> list[tuple[int, int]]:
+        """(byte offset, byte size) of each block; at least one item's bytes."""
+        out = []
+        total = max(self.count, 1)
+        for block in range(self.blocks):
+            first = block * self.items_per_block
+            items = min(self.items_per_block, total - first)
+            out.append((first * self.item_bytes, items * self.item_bytes))
+        return out
+
+
+def max_split_items(item_bytes: int, max_blocks: int = MAX_SPLIT_BLOCKS) -> int:
+    """Most items of ``item_bytes`` bytes that ``max_blocks`` storage blocks can hold."""
+    single = max_block_bytes() // item_bytes
+    per_block = single // BLOCK_ITEM_GRANULE * BLOCK_ITEM_GRANULE
+    return max(single, per_block * max_blocks)
+
+
+def split_blocks(count: int, item_bytes: int, what: str,
+                 max_blocks: int = MAX_SPLIT_BLOCKS) -> BlockSplit:
+    """How ``count`` items of ``item_bytes`` bytes are bound: one block if they fit the
+    driver's storage-block limit, else consecutive blocks of equal size (a multiple of
+    :data:`BLOCK_ITEM_GRANULE` items). Raises ``ValueError`` naming ``what`` and the numbers
+    when even ``max_blocks`` blocks are too few."""
+    count = int(count)
+    limit = max_block_bytes()
+    if max(count, 1) * item_bytes <= limit:
+        return BlockSplit(count, item_bytes, max(count, 1), 1)
+    per_block = limit // item_bytes // BLOCK_ITEM_GRANULE * BLOCK_ITEM_GRANULE
+    blocks = math.ceil(count / per_block) if per_block else max_blocks + 1
+    if blocks > max_blocks:
+        raise ValueError(
+            f"the {what} ({count} items of {item_bytes} bytes) needs {blocks} storage blocks "
+            f"of the driver's {limit}-byte GL_MAX_SHADER_STORAGE_BLOCK_SIZE; at most "
+            f"{max_blocks} are supported ({max_blocks * per_block} items)"
+        )
+    return BlockSplit(count, item_bytes, per_block, blocks)
+
+
+def bind_blocks(buffer, bindings: Sequence[int], split: BlockSplit) -> None:
+    """Bind the blocks of ``split`` (ranges of ``buffer``) to ``bindings[0..blocks-1]``."""
+    if len(bindings) < split.blocks:
+        raise ValueError(f"{split.blocks} blocks need {split.blocks} bindings, got {len(bindings)}")
+    for binding, (offset, size) in zip(bindings, split.ranges()):
+        bind_storage(buffer, binding, offset, size)
 
 
 class GrowBuffer:

@@ -23,6 +23,12 @@ the public numpy-in, numpy-out entry point used by tests, benchmarks and the emb
 
 The node layout is documented byte for byte in ``gpu_shaders/include/bvh_layout.glsl``;
 :data:`NODE_DTYPE` and :data:`TRIANGLE_DTYPE` mirror it.
+
+Arrays past the driver's storage-block limit (128 MiB on llvmpipe: 2^21 nodes, i.e. a BVH of
+2.1M triangles, or an input of 3.7M triangles) are bound as up to four ranges of one buffer
+(:func:`hybrid_engine.gpu_dispatch.split_blocks`, ``gpu_shaders/include/storage_blocks.glsl``):
+one build then holds up to 8.4M triangles and reads a scene of up to 14.9M. The passes are
+compiled once per block count; a build that fits single blocks uses the plain programs.
 """
 from __future__ import annotations
 
@@ -32,7 +38,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import gl_context, shader_loader
-from .gpu_dispatch import GrowBuffer, bind_storage, dispatch, max_block_bytes, storage_barrier
+from .gpu_dispatch import (
+    BlockSplit, GrowBuffer, bind_blocks, bind_storage, dispatch, max_block_bytes,
+    max_split_items, split_blocks, storage_barrier,
+)
 
 # Mirror of struct BVHNode in bvh_layout.glsl (64 bytes). Child refs: >= 0 inner node,
 # < 0 leaf ~ref (index into the reordered triangles).
@@ -77,11 +86,34 @@ KEYS_PER_CHUNK_HARDWARE = 256
 # Triangles each invocation of the bounds pass folds before its six atomics.
 BOUNDS_ITEMS_PER_INVOCATION = 16
 
+# Input triangles: 9 float32 (the (N, 3, 3) layout of Geometry.triangles).
+INPUT_TRIANGLE_BYTES = 36
+# Bindings of blocks 1..3 of split arrays (defaults of triangle_input.glsl and
+# bvh_storage.glsl): above every binding the passes and the hybrid tracer use themselves.
+INPUT_EXTRA_BINDINGS = (40, 41, 42)
+NODE_EXTRA_BINDINGS = (43, 44, 45)
+TRIANGLE_EXTRA_BINDINGS = (46, 47, 48)
+
 _INPUT_DEFINES = {"LOCAL_SIZE": LOCAL_SIZE, "TRI_INPUT_BINDING": 0, "TRI_INDEX_BINDING": 1}
 _SORT_DEFINES = {"LOCAL_SIZE": LOCAL_SIZE, "RADIX_BITS": RADIX_BITS}
 
 _ORDERED_MIN_RESET = 0xFFFFFFFF
 _ORDERED_MAX_RESET = 0
+
+
+def input_split(count: int) -> BlockSplit:
+    """How an input buffer of ``count`` triangles is bound (triangle_input.glsl)."""
+    return split_blocks(count, INPUT_TRIANGLE_BYTES, "input triangle buffer")
+
+
+def input_defines(split: BlockSplit) -> dict[str, int]:
+    """Defines of triangle_input.glsl for an input bound as ``split``."""
+    return split.defines("TRI_INPUT_BLOCKS", "TRI_INPUT_BLOCK_SIZE")
+
+
+def bind_input(buffer, split: BlockSplit, first_binding: int = 0) -> None:
+    """Bind an input triangle buffer at ``first_binding`` (and 40..42 when split)."""
+    bind_blocks(buffer, (first_binding, *INPUT_EXTRA_BINDINGS), split)
 
 
 def _set_uniform(program, name: str, value) -> None:
@@ -98,7 +130,9 @@ class BuiltLBVH:
     ``nodes``: BVHNode[max(leaf_count - 1, 1)], root at 0. ``triangles``: BVHTriangle[leaf_count]
     in leaf (Morton) order. ``leaf_primitives``: uint[leaf_count], original triangle index of
     each leaf (the index map; also stored in BVHTriangle.prim). ``sorted_keys``: the sorted
-    Morton codes.
+    Morton codes. ``node_split`` / ``triangle_split``: how the node and triangle arrays are
+    bound (one block each below 2.1M leaves at 128 MiB blocks); a shader that traverses the
+    build compiles with :meth:`traversal_defines` and binds with :meth:`bind`.
     """
 
     nodes: object
@@ -106,10 +140,28 @@ class BuiltLBVH:
     leaf_primitives: object
     sorted_keys: object
     leaf_count: int
+    node_split: BlockSplit
+    triangle_split: BlockSplit
 
     @property
     def node_count(self) -> int:
         return max(self.leaf_count - 1, 1)
+
+    def traversal_defines(self) -> dict[str, int]:
+        """Defines a shader including bvh_traverse.glsl needs for this build: none unless an
+        array spans several storage blocks (programs are cached per define set)."""
+        return {
+            **self.node_split.defines("BVH_NODE_BLOCKS", "BVH_NODE_BLOCK_SIZE"),
+            **self.triangle_split.defines("BVH_TRIANGLE_BLOCKS", "BVH_TRIANGLE_BLOCK_SIZE"),
+        }
+
+    def bind(self, nodes_binding: int = 0, triangles_binding: int = 1) -> None:
+        """Bind the node and triangle arrays for bvh_traverse.glsl: block 0 at the given
+        bindings (BVH_NODES_BINDING / BVH_TRIANGLES_BINDING), blocks 1..3 of split arrays at
+        the include's defaults (43..45, 46..48)."""
+        bind_blocks(self.nodes, (nodes_binding, *NODE_EXTRA_BINDINGS), self.node_split)
+        bind_blocks(self.triangles, (triangles_binding, *TRIANGLE_EXTRA_BINDINGS),
+                    self.triangle_split)
 
     def read_nodes(self) -> np.ndarray:
         raw = self.nodes.read(size=self.node_count * NODE_DTYPE.itemsize)
@@ -145,17 +197,13 @@ class LBVHBuilder:
             )
         self.keys_per_chunk = int(keys_per_chunk)
         compute = shader_loader.compute
-        self._bounds = compute(
-            self.ctx, "lbvh/centroid_bounds.comp.glsl",
-            {**_INPUT_DEFINES, "ITEMS_PER_INVOCATION": BOUNDS_ITEMS_PER_INVOCATION},
-        )
-        self._morton = compute(self.ctx, "lbvh/morton.comp.glsl", _INPUT_DEFINES)
         self._radix_count = compute(self.ctx, "lbvh/radix_count.comp.glsl", _SORT_DEFINES)
         self._radix_scan = compute(self.ctx, "lbvh/radix_scan.comp.glsl", {"RADIX_BITS": RADIX_BITS, "RADIX": 1 << RADIX_BITS})
         self._radix_scatter = compute(self.ctx, "lbvh/radix_scatter.comp.glsl", _SORT_DEFINES)
-        self._hierarchy = compute(self.ctx, "lbvh/hierarchy.comp.glsl", {"LOCAL_SIZE": LOCAL_SIZE})
-        self._refit = compute(self.ctx, "lbvh/refit.comp.glsl", _INPUT_DEFINES)
-        self._trace = compute(self.ctx, "lbvh/trace.comp.glsl", {"LOCAL_SIZE": LOCAL_SIZE})
+        # Passes that touch split arrays: compiled now for single blocks; variants for split
+        # arrays come from the loader's cache (compiled on their first use).
+        single = BlockSplit(1, 1, 1, 1)
+        self._select_programs(single, single, single)
 
         ctx = self.ctx
         self._input = GrowBuffer(ctx, "lbvh input triangles")
@@ -201,8 +249,8 @@ class LBVHBuilder:
         tri_bytes = max(count, 1) * TRIANGLE_DTYPE.itemsize
         if input_count is None:
             input_count = count if indices is None else triangles.size // 36
-        input_bytes = max(int(input_count), 1) * 36
-        _check_block_limit(count, node_bytes, tri_bytes, input_bytes)
+        in_split, node_split, tri_split = _plan_blocks(count, int(input_count))
+        self._select_programs(in_split, node_split, tri_split)
         keys = [b.ensure(n4) for b in self._keys]
         values = [b.ensure(n4) for b in self._values]
         nodes = self._nodes.ensure(node_bytes)
@@ -215,8 +263,8 @@ class LBVHBuilder:
             self._bounds_buffer.write(
                 np.array([_ORDERED_MIN_RESET] * 3 + [_ORDERED_MAX_RESET] * 3, np.uint32).tobytes()
             )
-            bind_storage(triangles, 0, 0, input_bytes)
-            bind_storage(index_buffer, 1)
+            bind_input(triangles, in_split)
+            bind_storage(index_buffer, 1, 0, n4 if use_indices else None)
             bind_storage(self._bounds_buffer, 2)
             _set_uniform(self._bounds, "u_count", count)
             _set_uniform(self._bounds, "u_use_indices", use_indices)
@@ -238,7 +286,7 @@ class LBVHBuilder:
 
         # 4. Karras hierarchy (also the special roots for N < 2 and the refit flag reset).
         bind_storage(keys[current], 0, 0, n4)
-        bind_storage(nodes, 1, 0, node_bytes)
+        bind_blocks(nodes, (1, *NODE_EXTRA_BINDINGS), node_split)
         bind_storage(leaf_parent, 2, 0, n4)
         bind_storage(flags, 3, 0, node_count * 4)
         _set_uniform(self._hierarchy, "u_count", count)
@@ -247,12 +295,12 @@ class LBVHBuilder:
 
         # 5. Reorder triangles and refit boxes bottom-up.
         if count > 0:
-            bind_storage(triangles, 0, 0, input_bytes)
+            bind_input(triangles, in_split)
             bind_storage(values[current], 2, 0, n4)
-            bind_storage(nodes, 3, 0, node_bytes)
+            bind_blocks(nodes, (3, *NODE_EXTRA_BINDINGS), node_split)
             bind_storage(leaf_parent, 4, 0, n4)
             bind_storage(flags, 5, 0, node_count * 4)
-            bind_storage(bvh_tris, 6, 0, tri_bytes)
+            bind_blocks(bvh_tris, (6, *TRIANGLE_EXTRA_BINDINGS), tri_split)
             _set_uniform(self._refit, "u_count", count)
             _set_uniform(self._refit, "u_use_indices", 0)
             dispatch(self._refit, count, LOCAL_SIZE)
@@ -262,9 +310,27 @@ class LBVHBuilder:
             gl_context.check_error("LBVH build")
         self.built = BuiltLBVH(
             nodes=nodes, triangles=bvh_tris, leaf_primitives=values[current],
-            sorted_keys=keys[current], leaf_count=count,
+            sorted_keys=keys[current], leaf_count=count, node_split=node_split,
+            triangle_split=tri_split,
         )
         return self.built
+
+    def _select_programs(self, in_split: BlockSplit, node_split: BlockSplit,
+                         tri_split: BlockSplit) -> None:
+        """The passes compiled for these block counts (a cache lookup after the first use)."""
+        compute = shader_loader.compute
+        ctx = self.ctx
+        inputs = {**_INPUT_DEFINES, **input_defines(in_split)}
+        nodes = node_split.defines("BVH_NODE_BLOCKS", "BVH_NODE_BLOCK_SIZE")
+        tris = tri_split.defines("BVH_TRIANGLE_BLOCKS", "BVH_TRIANGLE_BLOCK_SIZE")
+        self._bounds = compute(
+            ctx, "lbvh/centroid_bounds.comp.glsl",
+            {**inputs, "ITEMS_PER_INVOCATION": BOUNDS_ITEMS_PER_INVOCATION},
+        )
+        self._morton = compute(ctx, "lbvh/morton.comp.glsl", inputs)
+        self._hierarchy = compute(ctx, "lbvh/hierarchy.comp.glsl", {"LOCAL_SIZE": LOCAL_SIZE, **nodes})
+        self._refit = compute(ctx, "lbvh/refit.comp.glsl", {**inputs, **nodes, **tris})
+        self._trace = compute(ctx, "lbvh/trace.comp.glsl", {"LOCAL_SIZE": LOCAL_SIZE, **nodes, **tris})
 
     def sort_plan(self, count: int) -> tuple[int, int]:
         """(chunk size, chunk count) used by the radix sort for ``count`` keys."""
@@ -334,8 +400,10 @@ class LBVHBuilder:
         """GPU-side trace of ``count`` rays held in GL buffers (float[3M] each)."""
         built = self.built
         count = int(count)
-        bind_storage(built.nodes, 0, 0, built.node_count * NODE_DTYPE.itemsize)
-        bind_storage(built.triangles, 1, 0, max(built.leaf_count, 1) * TRIANGLE_DTYPE.itemsize)
+        self._trace = shader_loader.compute(
+            self.ctx, "lbvh/trace.comp.glsl", {"LOCAL_SIZE": LOCAL_SIZE, **built.traversal_defines()}
+        )
+        built.bind(0, 1)
         bind_storage(origins, 2, 0, max(count, 1) * 12)
         bind_storage(directions, 3, 0, max(count, 1) * 12)
         bind_storage(hit_t, 4, 0, max(count, 1) * 4)
@@ -359,27 +427,33 @@ class LBVHBuilder:
 
 
 def max_build_triangles() -> int:
-    """Most triangles one build can hold within the storage-block limit (the node array,
-    64 bytes per leaf, is the largest per-leaf array)."""
-    return max_block_bytes() // NODE_DTYPE.itemsize + 1
+    """Most triangles one build can hold: its node array (N - 1 nodes of 64 bytes) and its
+    triangle array (N of 48 bytes) split over at most four storage blocks each, and its
+    per-leaf uint arrays (keys, values, parents) within one block."""
+    return min(max_split_items(NODE_DTYPE.itemsize) + 1, max_split_items(TRIANGLE_DTYPE.itemsize),
+               max_block_bytes() // 4)
 
 
-def _check_block_limit(count: int, node_bytes: int, tri_bytes: int, input_bytes: int) -> None:
-    """Refuse, with the numbers, a build whose arrays a single storage binding cannot cover.
+def _plan_blocks(count: int, input_count: int) -> tuple[BlockSplit, BlockSplit, BlockSplit]:
+    """Block splits of the input, node and triangle arrays of a build over ``count`` triangles
+    read from ``input_count``; refuses, with the numbers, what four blocks cannot cover.
 
-    The traversal indexes nodes and triangles randomly, so they cannot be bound in windows;
-    on llvmpipe (128 MiB blocks) the limit is about 2.1 million triangles in one BVH, far
-    above a near cube's content.
+    The traversal indexes nodes and triangles randomly, so they cannot be processed in
+    windows: they are bound whole, as several blocks (bvh_storage.glsl).
     """
-    limit = max_block_bytes()
-    for what, nbytes in (("node array", node_bytes), ("triangle array", tri_bytes),
-                         ("input triangle buffer", input_bytes)):
-        if nbytes > limit:
-            raise ValueError(
-                f"an LBVH over {count} triangles needs a {nbytes}-byte {what}, over the "
-                f"driver's {limit}-byte GL_MAX_SHADER_STORAGE_BLOCK_SIZE; build at most "
-                f"{max_build_triangles()} triangles at once (cull to a smaller near cube)"
-            )
+    inputs = input_split(input_count)  # its error names the input buffer and the numbers
+    try:
+        if max(count, 1) * 4 > max_block_bytes():
+            raise ValueError(f"its per-leaf uint arrays exceed the driver's {max_block_bytes()}-byte "
+                             "GL_MAX_SHADER_STORAGE_BLOCK_SIZE")
+        return (inputs,
+                split_blocks(max(count - 1, 1), NODE_DTYPE.itemsize, "node array"),
+                split_blocks(count, TRIANGLE_DTYPE.itemsize, "triangle array"))
+    except ValueError as err:
+        raise ValueError(
+            f"an LBVH over {count} triangles cannot be bound: {err}; build at most "
+            f"{max_build_triangles()} triangles at once (cull to a smaller near cube)"
+        ) from err
 
 
 def _as_triangles(triangles: np.ndarray) -> np.ndarray:

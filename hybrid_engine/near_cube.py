@@ -19,6 +19,11 @@ an intersection in the overlap is found by either.
 
 The compacted index list feeds :meth:`hybrid_engine.lbvh.LBVHBuilder.build` directly; hit
 indices then refer to the full scene's triangles.
+
+A scene larger than one storage block (3.7M triangles at llvmpipe's 128 MiB) is read as up to
+four blocks of the same buffer (``gpu_shaders/include/triangle_input.glsl``), so scenes of up
+to 14.9M triangles are culled in one pass; the per-triangle keep flags and the kept indices
+(4 bytes each) stay single blocks up to 33M triangles.
 """
 from __future__ import annotations
 
@@ -28,7 +33,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import gl_context, shader_loader
-from .gpu_dispatch import GrowBuffer, bind_storage, dispatch, storage_barrier
+from .gpu_dispatch import GrowBuffer, bind_storage, dispatch, max_block_bytes, storage_barrier
+from .lbvh import bind_input, input_defines, input_split
 
 LOCAL_SIZE = 64
 # Triangles each culling invocation walks serially (see the radix sort's chunks in lbvh.py).
@@ -119,6 +125,12 @@ class NearCubeCuller:
         count = int(count)
         if count < 0:
             raise ValueError(f"triangle count must be >= 0, got {count}")
+        split = input_split(count)
+        if max(count, 1) * 4 > max_block_bytes():
+            raise ValueError(
+                f"culling {count} triangles needs {count * 4}-byte keep flags, over the "
+                f"driver's {max_block_bytes()}-byte GL_MAX_SHADER_STORAGE_BLOCK_SIZE"
+            )
         if not (math.isfinite(near_size) and near_size > 0):
             raise ValueError(f"near_size must be a positive finite number, got {near_size}")
         center = np.asarray(center, dtype=np.float64).reshape(3)
@@ -137,6 +149,10 @@ class NearCubeCuller:
         flags = self._flags.ensure(max(count, 1) * 4)
         counts = self._counts.ensure((num_chunks + 1) * 4)
         indices = self._indices.ensure(max(count, 1) * 4)
+        # The per-triangle pass compiled for the input's block count (cached after first use).
+        self._triangles = shader_loader.compute(
+            ctx, "lbvh/cull_triangles.comp.glsl", {**_DEFINES, **input_defines(split)}
+        )
 
         for program in (self._classify, self._triangles):
             _set(program, "u_center", tuple(float(c) for c in center))
@@ -154,7 +170,7 @@ class NearCubeCuller:
             _set(program, "u_num_chunks", num_chunks)
         _set(self._triangles, "u_use_indices", 0)
         if count > 0:
-            bind_storage(triangles, 0, 0, count * 36)
+            bind_input(triangles, split)
             bind_storage(self._object_ranges.buffer, 2, 0, num_objects * 8)
             bind_storage(object_class, 3, 0, max(num_objects, 1) * 4)
             bind_storage(flags, 4, 0, count * 4)

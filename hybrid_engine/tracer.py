@@ -155,7 +155,8 @@ class HybridTracer:
         if culled is None:
             self.built = self.builder.build(self._triangles.buffer, self.triangle_count)
         else:
-            self.built = self.builder.build(self._triangles.buffer, culled.count, indices=culled.indices)
+            self.built = self.builder.build(self._triangles.buffer, culled.count,
+                                            indices=culled.indices, input_count=self.triangle_count)
         return self.built
 
     def trace(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
@@ -163,9 +164,13 @@ class HybridTracer:
         """Run the megakernel over the primary G-buffer; adds the traced radiance to
         ``targets.color`` (or writes the provenance colours)."""
         ctx = self.ctx
-        prog = self.program
         mode = settings.mode
         raster = self.raster
+        built = self.built if mode != "PROVENANCE" else None
+        # A BVH whose arrays span several storage blocks needs the kernel compiled for them
+        # (cached per block count; none for BVHs within one block: then this is self.program).
+        prog = (self.program if built is None else shader_loader.compute(
+            ctx, "trace/hybrid_trace.comp.glsl", built.traversal_defines()))
         self._counters.write(self._zero_counters)
 
         # Storage buffers.
@@ -174,10 +179,8 @@ class HybridTracer:
         gpu.materials.buffer.bind_to_storage_buffer(0)
         gpu.lights.buffer.bind_to_storage_buffer(1)
         raster._slot_buffer.bind_to_storage_buffer(2)
-        built = self.built if mode != "PROVENANCE" else None
         if built is not None:
-            built.nodes.bind_to_storage_buffer(3)
-            built.triangles.bind_to_storage_buffer(4)
+            built.bind(3, 4)  # BVH_NODES_BINDING, BVH_TRIANGLES_BINDING (+ 43..48 when split)
         else:
             self._dummy_ssbo.bind_to_storage_buffer(3)
             self._dummy_ssbo.bind_to_storage_buffer(4)

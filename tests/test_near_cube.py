@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybrid_engine import near_cube
+from hybrid_engine import gpu_dispatch, lbvh, near_cube
 from hybrid_engine.lbvh import LBVHBuilder
 
 # float32 rounding of vertex coordinates around 10 scene units is ~1e-6; 1e-4 is a comfortable
@@ -188,3 +188,58 @@ def test_invalid_cube_is_rejected_with_a_clear_error(ctx):
         culler.cull_array(tris, (0, 0, 0), 0.0)
     with pytest.raises(ValueError, match="centre"):
         culler.cull_array(tris, (np.nan, 0, 0), 1.0)
+
+
+# A forced 100 KiB block limit splits a 10,000-triangle input (360 KB) into 4 blocks of 2816
+# triangles, the layout that a 128 MiB block gives a scene of 11-15M triangles.
+SPLIT_BLOCK_BYTES = 100 * 1024
+
+
+def test_culling_a_scene_split_over_storage_blocks_keeps_the_same_triangles(ctx, rng):
+    """Objects straddling the block boundaries: the kept list equals the unsplit one."""
+    tris, ranges, bounds = scene_with_objects(rng, objects=25, per_object=400, spread=5.0)
+    center = np.array([0.3, -0.2, 0.1])
+    culler = near_cube.NearCubeCuller(ctx)
+    whole = culler.cull_array(tris, center, 3.0, ranges, bounds, margin=0.0).read_indices()
+    with gpu_dispatch.forced_limits(max_block=SPLIT_BLOCK_BYTES):
+        assert lbvh.input_split(len(tris)).blocks == 4
+        split = culler.cull_array(tris, center, 3.0, ranges, bounds, margin=0.0)
+        kept = split.read_indices()
+        # Without objects every triangle takes the SAT test, in every block.
+        kept_sat = culler.cull_array(tris, center, 3.0, margin=0.0).read_indices()
+    assert np.array_equal(kept, whole) and np.array_equal(kept_sat, whole)
+    assert (kept >= 3 * 2816).any() and (kept < 2816).any(), "the kept set should span blocks"
+    assert_bracketed(kept, tris, center, 3.0)
+
+
+def test_culled_build_over_a_split_scene_hits_what_the_unsplit_one_hits(ctx, rng):
+    tris, ranges, bounds = scene_with_objects(rng, objects=25, per_object=400, spread=3.0)
+    origins = rng.uniform(-0.5, 0.5, (3000, 3)).astype(np.float32)
+    dirs = rng.normal(size=(3000, 3)).astype(np.float32)
+    culler = near_cube.NearCubeCuller(ctx)
+    builder = LBVHBuilder(ctx)
+    tri_buffer = ctx.buffer(tris.tobytes())
+    try:
+        result = culler.cull(tri_buffer, len(tris), (0, 0, 0), 1.5, ranges, bounds)
+        builder.build(tri_buffer, result.count, result.indices, input_count=len(tris))
+        t, tri = builder.trace(origins, dirs)
+        with gpu_dispatch.forced_limits(max_block=SPLIT_BLOCK_BYTES):
+            result = culler.cull(tri_buffer, len(tris), (0, 0, 0), 1.5, ranges, bounds)
+            built = builder.build(tri_buffer, result.count, result.indices, input_count=len(tris))
+            assert built.node_split.blocks > 1 and lbvh.input_split(len(tris)).blocks == 4
+            t_split, tri_split = builder.trace(origins, dirs)
+    finally:
+        builder.release()
+        tri_buffer.release()
+    assert np.mean(tri >= 0) > 0.1
+    assert np.array_equal(tri_split, tri) and np.array_equal(t_split, t)
+
+
+def test_scene_past_four_input_blocks_is_refused_with_the_numbers(ctx, rng):
+    tris = rng.uniform(-1, 1, (300, 3, 3)).astype(np.float32)
+    culler = near_cube.NearCubeCuller(ctx)
+    with gpu_dispatch.forced_limits(max_block=2304):  # 64 triangles per block, 256 in four
+        assert len(culler.cull_array(tris[:256], (0, 0, 0), 1.0).read_indices()) > 0
+        with pytest.raises(ValueError, match="input triangle buffer .* 5 storage blocks"):
+            culler.cull_array(tris, (0, 0, 0), 1.0)
+    assert culler.cull_array(tris, (0, 0, 0), 1.0).count > 0

@@ -26,6 +26,9 @@
 //   offset  0: float v0[3] ; 12: int prim   (original triangle index)
 //   offset 16: float v1[3] ; 28: int 0      (reserved)
 //   offset 32: float v2[3] ; 44: int 0      (reserved)
+//
+// The arrays themselves are declared, and split over several storage blocks when they exceed
+// one, by bvh_storage.glsl; passes reach them only through its accessors.
 #ifndef HYBRID_BVH_LAYOUT_GLSL
 #define HYBRID_BVH_LAYOUT_GLSL
 

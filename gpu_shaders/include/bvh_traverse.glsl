@@ -21,12 +21,12 @@
 // box, min > max, is never entered) and the far distance widened by 2 ulp-ish (Ize 2013,
 // "Robust BVH Ray Traversal") so a box is never missed by rounding.
 //
-// Host defines (optional): BVH_NODES_BINDING (default 0), BVH_TRIANGLES_BINDING (default 1).
+// Host defines (optional): BVH_NODES_BINDING (default 0), BVH_TRIANGLES_BINDING (default 1);
+// for a BVH whose arrays exceed one storage block, the split defines of bvh_storage.glsl
+// (BVH_NODE_BLOCKS, BVH_NODE_BLOCK_SIZE, BVH_TRIANGLE_BLOCKS, BVH_TRIANGLE_BLOCK_SIZE; the host
+// takes them from BuiltLBVH.traversal_defines() and binds with BuiltLBVH.bind()).
 #ifndef HYBRID_BVH_TRAVERSE_GLSL
 #define HYBRID_BVH_TRAVERSE_GLSL
-
-#include "bvh_layout.glsl"
-#include "float_order.glsl"
 
 #ifndef BVH_NODES_BINDING
 #define BVH_NODES_BINDING 0
@@ -34,16 +34,14 @@
 #ifndef BVH_TRIANGLES_BINDING
 #define BVH_TRIANGLES_BINDING 1
 #endif
+
+#include "bvh_layout.glsl"
+#include "bvh_storage.glsl"
+#include "float_order.glsl"
+
 #define BVH_STACK_SIZE 64
 // 1 + 2 * gamma(3) with gamma(n) = n eps / (1 - n eps), eps = 2^-24 (Ize 2013, pbrt-v3 §3.9).
 #define BVH_BOX_FAR_SCALE 1.0000003576
-
-layout(std430, binding = BVH_NODES_BINDING) readonly buffer BVHNodes {
-    BVHNode bvh_nodes[];
-};
-layout(std430, binding = BVH_TRIANGLES_BINDING) readonly buffer BVHTriangles {
-    BVHTriangle bvh_triangles[];
-};
 
 // Per-ray constants of the watertight test (Woop et al. 2013, §3).
 struct BVHRay {
@@ -157,7 +155,7 @@ bool bvh_closest_hit(vec3 origin, vec3 dir, float tmin, float tmax,
     int stack_size = 0;
     int node = 0;
     for (;;) {
-        BVHNode n = bvh_nodes[node];
+        BVHNode n = bvh_node(uint(node));
         float t_left = bvh_box_entry(ray, bvh_xyz(n.left_min), bvh_xyz(n.left_max), tmin, t_best);
         float t_right = bvh_box_entry(ray, bvh_xyz(n.right_min), bvh_xyz(n.right_max), tmin,
                                       t_best);
@@ -165,7 +163,7 @@ bool bvh_closest_hit(vec3 origin, vec3 dir, float tmin, float tmax,
         int right = int(n.left_max.w);
         // Leaf children: intersect now (one triangle per leaf).
         if (t_left < FLOAT_MAX && bvh_is_leaf(left)) {
-            BVHTriangle tr = bvh_triangles[~left];
+            BVHTriangle tr = bvh_triangle(uint(~left));
             if (bvh_intersect_triangle(ray, bvh_xyz(tr.v0), bvh_xyz(tr.v1), bvh_xyz(tr.v2), tmin,
                                        t_best, hit_bary)) {
                 hit_leaf = ~left;
@@ -173,7 +171,7 @@ bool bvh_closest_hit(vec3 origin, vec3 dir, float tmin, float tmax,
             t_left = FLOAT_MAX;
         }
         if (t_right < FLOAT_MAX && bvh_is_leaf(right)) {
-            BVHTriangle tr = bvh_triangles[~right];
+            BVHTriangle tr = bvh_triangle(uint(~right));
             if (bvh_intersect_triangle(ray, bvh_xyz(tr.v0), bvh_xyz(tr.v1), bvh_xyz(tr.v2), tmin,
                                        t_best, hit_bary)) {
                 hit_leaf = ~right;
@@ -203,7 +201,7 @@ bool bvh_closest_hit(vec3 origin, vec3 dir, float tmin, float tmax,
     }
     t = t_best;
     bary = hit_bary;
-    tri = hit_leaf >= 0 ? int(bvh_triangles[hit_leaf].v0.w) : -1;
+    tri = hit_leaf >= 0 ? int(bvh_triangle(uint(hit_leaf)).v0.w) : -1;
     return hit_leaf >= 0;
 }
 

@@ -1,15 +1,54 @@
-// Input triangles of the LBVH passes: world-space vertices as a flat float array (9 floats =
-// 36 bytes per triangle, the (N, 3, 3) float32 layout of Geometry.triangles), optionally seen
-// through an index list (the near-cube culler's compacted output).
+// Input triangles of the LBVH and culling passes: world-space vertices as a flat float array
+// (9 floats = 36 bytes per triangle, the (N, 3, 3) float32 layout of Geometry.triangles),
+// optionally seen through an index list (the near-cube culler's compacted output).
 //
-// Host defines: TRI_INPUT_BINDING, TRI_INDEX_BINDING (binding points).
+// A scene of more than 3.7M triangles exceeds one 128 MiB storage block; the host then binds
+// the buffer as TRI_INPUT_BLOCKS ranges of TRI_INPUT_BLOCK_SIZE triangles each
+// (storage_blocks.glsl) and input_vertex() picks the block.
+//
+// Host defines: TRI_INPUT_BINDING, TRI_INDEX_BINDING (binding points); for a split input
+//   TRI_INPUT_BLOCKS (2..4, default 1), TRI_INPUT_BLOCK_SIZE (triangles per block),
+//   TRI_INPUT_BINDING_1..3 (bindings of blocks 1..3; defaults 40..42, above every pass's own).
 // Uniform u_use_indices: 1 -> element i is triangle tri_index[i]; 0 -> element i is triangle i.
 #ifndef HYBRID_TRIANGLE_INPUT_GLSL
 #define HYBRID_TRIANGLE_INPUT_GLSL
 
+#include "storage_blocks.glsl"
+
+#ifndef TRI_INPUT_BLOCKS
+#define TRI_INPUT_BLOCKS 1
+#endif
+#if TRI_INPUT_BLOCKS < 1 || TRI_INPUT_BLOCKS > STORAGE_MAX_BLOCKS
+#error "TRI_INPUT_BLOCKS must be 1..4"
+#endif
+#ifndef TRI_INPUT_BINDING_1
+#define TRI_INPUT_BINDING_1 40
+#endif
+#ifndef TRI_INPUT_BINDING_2
+#define TRI_INPUT_BINDING_2 41
+#endif
+#ifndef TRI_INPUT_BINDING_3
+#define TRI_INPUT_BINDING_3 42
+#endif
+
 layout(std430, binding = TRI_INPUT_BINDING) readonly buffer TriangleInput {
     float tri_input[];
 };
+#if TRI_INPUT_BLOCKS > 1
+layout(std430, binding = TRI_INPUT_BINDING_1) readonly buffer TriangleInput1 {
+    float tri_input_1[];
+};
+#endif
+#if TRI_INPUT_BLOCKS > 2
+layout(std430, binding = TRI_INPUT_BINDING_2) readonly buffer TriangleInput2 {
+    float tri_input_2[];
+};
+#endif
+#if TRI_INPUT_BLOCKS > 3
+layout(std430, binding = TRI_INPUT_BINDING_3) readonly buffer TriangleInput3 {
+    float tri_input_3[];
+};
+#endif
 
 layout(std430, binding = TRI_INDEX_BINDING) readonly buffer TriangleIndex {
     uint tri_index[];
@@ -21,9 +60,30 @@ uint input_triangle(uint element) {
     return u_use_indices != 0 ? tri_index[element] : element;
 }
 
+#define TRI_INPUT_VEC3(array, base) vec3(array[base], array[(base) + 1u], array[(base) + 2u])
+
 vec3 input_vertex(uint prim, uint corner) {
+#if TRI_INPUT_BLOCKS == 1
     uint base = prim * 9u + corner * 3u;
-    return vec3(tri_input[base], tri_input[base + 1u], tri_input[base + 2u]);
+    return TRI_INPUT_VEC3(tri_input, base);
+#else
+    uint block = STORAGE_BLOCK_OF(prim, TRI_INPUT_BLOCK_SIZE, TRI_INPUT_BLOCKS);
+    uint base = (prim - block * uint(TRI_INPUT_BLOCK_SIZE)) * 9u + corner * 3u;
+#if TRI_INPUT_BLOCKS > 3
+    if (block == 3u) {
+        return TRI_INPUT_VEC3(tri_input_3, base);
+    }
+#endif
+#if TRI_INPUT_BLOCKS > 2
+    if (block == 2u) {
+        return TRI_INPUT_VEC3(tri_input_2, base);
+    }
+#endif
+    if (block == 1u) {
+        return TRI_INPUT_VEC3(tri_input_1, base);
+    }
+    return TRI_INPUT_VEC3(tri_input, base);
+#endif
 }
 
 #endif

@@ -7,8 +7,9 @@
 //
 // Host defines: LOCAL_SIZE (64; llvmpipe runs 8 lanes per SIMD op, 64 keeps a group short),
 //   ITEMS_PER_INVOCATION (elements each invocation folds before its atomics),
-//   TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1.
-// Bindings: 0 tri_input (read), 1 tri_index (read, if u_use_indices),
+//   TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1, TRI_INPUT_BLOCKS, TRI_INPUT_BLOCK_SIZE (the
+//   last two only for an input split over storage blocks).
+// Bindings: 0 tri_input (read; blocks 1..3 of a split input at 40..42), 1 tri_index (read, if u_use_indices),
 //   2 bounds (read/write: 6 uints, ordered-float min xyz then max xyz; the host resets them).
 // Uniforms: u_count (elements), u_use_indices.
 #include "dispatch.glsl"

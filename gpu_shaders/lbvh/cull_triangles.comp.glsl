@@ -8,8 +8,10 @@
 // against the cube grown by the overlap margin. A 0/1 flag per triangle and the chunk's kept
 // count feed the prefix sum and compaction.
 //
-// Host defines: LOCAL_SIZE, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1 (unused).
-// Bindings: 0 tri_input (read), 2 object_ranges (read: ivec2[K] first, count; sorted by first),
+// Host defines: LOCAL_SIZE, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1 (unused),
+//   TRI_INPUT_BLOCKS, TRI_INPUT_BLOCK_SIZE (the last two only for a scene split over storage
+//   blocks: triangle_input.glsl).
+// Bindings: 0 tri_input (read; blocks 1..3 of a split scene at 40..42), 2 object_ranges (read: ivec2[K] first, count; sorted by first),
 //   3 object_class (read), 4 keep_flags (write: uint[N]), 5 chunk_counts (write: uint[T]).
 // Uniforms: u_count (N), u_chunk_size, u_num_chunks (T), u_num_objects (K), u_center,
 //   u_half_size.

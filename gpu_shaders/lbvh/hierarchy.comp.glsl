@@ -10,22 +10,24 @@
 // Also writes each node's parent link and clears the refit flags, so the bottom-up pass needs
 // no separate reset.
 //
-// Host defines: LOCAL_SIZE.
-// Bindings: 0 sorted keys (read), 1 nodes (write: child refs, parents), 2 leaf_parent (write),
-//   3 refit_flags (write: 0).
+// Host defines: LOCAL_SIZE, BVH_NODE_BLOCKS, BVH_NODE_BLOCK_SIZE (the last two only for a node
+//   array split over storage blocks: bvh_storage.glsl).
+// Bindings: 0 sorted keys (read), 1 nodes (write: child refs, parents; blocks 1..3 of a split
+//   array at 43..45), 2 leaf_parent (write), 3 refit_flags (write: 0).
 // Uniforms: u_count (leaves N). The host dispatches max(N - 1, 1) invocations; for N < 2
 //   invocation 0 writes the special root described in bvh_layout.glsl.
 #include "dispatch.glsl"
 #include "float_order.glsl"
 #include "bvh_layout.glsl"
 
+#define BVH_NODES_BINDING 1
+#define BVH_NODES_ACCESS
+#include "bvh_storage.glsl"
+
 layout(local_size_x = LOCAL_SIZE) in;
 
 layout(std430, binding = 0) readonly buffer Keys {
     uint keys[];
-};
-layout(std430, binding = 1) buffer Nodes {
-    BVHNode nodes[];
 };
 layout(std430, binding = 2) writeonly buffer LeafParent {
     int leaf_parent[];
@@ -55,7 +57,8 @@ void main() {
         // Degenerate trees: no inner node exists, so node 0 is a stand-in root whose left child
         // is leaf 0 (N = 1) and whose other boxes are empty; the refit fills the left box.
         if (index == 0u) {
-            nodes[0] = BVHNode(bvh_pack(vec3(FLOAT_MAX), ~0), bvh_pack(vec3(-FLOAT_MAX), ~0),
+            // Node 0 always lies in the first block.
+            bvh_nodes[0] = BVHNode(bvh_pack(vec3(FLOAT_MAX), ~0), bvh_pack(vec3(-FLOAT_MAX), ~0),
                                bvh_pack(vec3(FLOAT_MAX), BVH_NO_PARENT),
                                bvh_pack(vec3(-FLOAT_MAX), int(u_count)));
             refit_flags[0] = 0u;
@@ -109,21 +112,21 @@ void main() {
     int last = max(i, j);
     int left = (first == gamma) ? ~gamma : gamma;
     int right = (last == gamma + 1) ? ~(gamma + 1) : gamma + 1;
-    nodes[i].left_min.w = uint(left);
-    nodes[i].left_max.w = uint(right);
-    nodes[i].right_max.w = uint(last - first + 1);
+    bvh_node_set_w(index, BVH_ROW_LEFT_MIN, uint(left));
+    bvh_node_set_w(index, BVH_ROW_LEFT_MAX, uint(right));
+    bvh_node_set_w(index, BVH_ROW_RIGHT_MAX, uint(last - first + 1));
     if (left < 0) {
         leaf_parent[gamma] = i;
     } else {
-        nodes[left].right_min.w = uint(i);
+        bvh_node_set_w(uint(left), BVH_ROW_RIGHT_MIN, uint(i));
     }
     if (right < 0) {
         leaf_parent[gamma + 1] = i;
     } else {
-        nodes[right].right_min.w = uint(i);
+        bvh_node_set_w(uint(right), BVH_ROW_RIGHT_MIN, uint(i));
     }
     if (i == 0) {
-        nodes[0].right_min.w = uint(BVH_NO_PARENT);
+        bvh_nodes[0].right_min.w = uint(BVH_NO_PARENT);
     }
     refit_flags[i] = 0u;
 }

@@ -1,7 +1,8 @@
 // LBVH pass 2: one 30-bit Morton code per triangle centroid (paper §3.3; Karras 2012 §4).
 //
-// Host defines: LOCAL_SIZE, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1.
-// Bindings: 0 tri_input (read), 1 tri_index (read, if u_use_indices), 2 bounds (read: the
+// Host defines: LOCAL_SIZE, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1, TRI_INPUT_BLOCKS,
+//   TRI_INPUT_BLOCK_SIZE (the last two only for an input split over storage blocks).
+// Bindings: 0 tri_input (read; blocks 1..3 of a split input at 40..42), 1 tri_index (read, if u_use_indices), 2 bounds (read: the
 //   ordered-float centroid-sum bounds of centroid_bounds.comp.glsl), 3 keys (write: codes),
 //   4 values (write: the ORIGINAL triangle index of each element, carried through the sort).
 // Uniforms: u_count (elements), u_use_indices.

@@ -13,32 +13,36 @@
 // ancestors' boxes. Zero-area triangles keep their (flat) boxes; the watertight test rejects
 // them (determinant 0).
 //
-// Host defines: LOCAL_SIZE, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1 (unused here).
-// Bindings: 0 tri_input (read), 2 values (read: original triangle index per leaf),
-//   3 nodes (read/write, coherent), 4 leaf_parent (read), 5 refit_flags (atomic),
-//   6 bvh_triangles (write).
+// Host defines: LOCAL_SIZE, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1 (unused here),
+//   TRI_INPUT_BLOCKS, TRI_INPUT_BLOCK_SIZE, BVH_NODE_BLOCKS, BVH_NODE_BLOCK_SIZE,
+//   BVH_TRIANGLE_BLOCKS, BVH_TRIANGLE_BLOCK_SIZE (the last six only for arrays split over
+//   storage blocks: triangle_input.glsl, bvh_storage.glsl).
+// Bindings: 0 tri_input (read; blocks 1..3 at 40..42), 2 values (read: original triangle index
+//   per leaf), 3 nodes (read/write, coherent; blocks 1..3 at 43..45), 4 leaf_parent (read),
+//   5 refit_flags (atomic), 6 bvh_triangles (write; blocks 1..3 at 46..48).
 // Uniforms: u_count (leaves N).
 #include "dispatch.glsl"
 #include "float_order.glsl"
 #include "bvh_layout.glsl"
 #include "triangle_input.glsl"
 
+#define BVH_NODES_BINDING 3
+#define BVH_NODES_ACCESS coherent
+#define BVH_TRIANGLES_BINDING 6
+#define BVH_TRIANGLES_ACCESS writeonly
+#define BVH_TRIANGLES_WRITEONLY
+#include "bvh_storage.glsl"
+
 layout(local_size_x = LOCAL_SIZE) in;
 
 layout(std430, binding = 2) readonly buffer Values {
     uint values[];
-};
-layout(std430, binding = 3) coherent buffer Nodes {
-    BVHNode nodes[];
 };
 layout(std430, binding = 4) readonly buffer LeafParent {
     int leaf_parent[];
 };
 layout(std430, binding = 5) coherent buffer RefitFlags {
     uint refit_flags[];
-};
-layout(std430, binding = 6) writeonly buffer Triangles {
-    BVHTriangle bvh_triangles[];
 };
 
 uniform uint u_count;
@@ -52,7 +56,7 @@ void main() {
     vec3 v0 = input_vertex(prim, 0u);
     vec3 v1 = input_vertex(prim, 1u);
     vec3 v2 = input_vertex(prim, 2u);
-    bvh_triangles[leaf] = BVHTriangle(bvh_pack(v0, int(prim)), bvh_pack(v1, 0), bvh_pack(v2, 0));
+    bvh_triangle_store(leaf, BVHTriangle(bvh_pack(v0, int(prim)), bvh_pack(v1, 0), bvh_pack(v2, 0)));
 
     vec3 lo = vec3(FLOAT_MAX);
     vec3 hi = vec3(-FLOAT_MAX);
@@ -64,13 +68,14 @@ void main() {
     int child = ~int(leaf);
     int node = leaf_parent[leaf];
     while (node >= 0) {
-        bool is_left = int(nodes[node].left_min.w) == child;
+        uint at = uint(node);
+        bool is_left = int(bvh_node_row(at, BVH_ROW_LEFT_MIN).w) == child;
         if (is_left) {
-            nodes[node].left_min.xyz = floatBitsToUint(lo);
-            nodes[node].left_max.xyz = floatBitsToUint(hi);
+            bvh_node_set_xyz(at, BVH_ROW_LEFT_MIN, floatBitsToUint(lo));
+            bvh_node_set_xyz(at, BVH_ROW_LEFT_MAX, floatBitsToUint(hi));
         } else {
-            nodes[node].right_min.xyz = floatBitsToUint(lo);
-            nodes[node].right_max.xyz = floatBitsToUint(hi);
+            bvh_node_set_xyz(at, BVH_ROW_RIGHT_MIN, floatBitsToUint(lo));
+            bvh_node_set_xyz(at, BVH_ROW_RIGHT_MAX, floatBitsToUint(hi));
         }
         memoryBarrierBuffer();
         if (atomicAdd(refit_flags[node], 1u) == 0u) {
@@ -79,13 +84,13 @@ void main() {
         memoryBarrierBuffer();
         // Second arrival: the sibling's box is in the other slot; merge it with ours.
         if (is_left) {
-            lo = min(lo, bvh_xyz(nodes[node].right_min));
-            hi = max(hi, bvh_xyz(nodes[node].right_max));
+            lo = min(lo, bvh_xyz(bvh_node_row(at, BVH_ROW_RIGHT_MIN)));
+            hi = max(hi, bvh_xyz(bvh_node_row(at, BVH_ROW_RIGHT_MAX)));
         } else {
-            lo = min(lo, bvh_xyz(nodes[node].left_min));
-            hi = max(hi, bvh_xyz(nodes[node].left_max));
+            lo = min(lo, bvh_xyz(bvh_node_row(at, BVH_ROW_LEFT_MIN)));
+            hi = max(hi, bvh_xyz(bvh_node_row(at, BVH_ROW_LEFT_MAX)));
         }
         child = node;
-        node = int(nodes[node].right_min.w);
+        node = int(bvh_node_row(at, BVH_ROW_RIGHT_MIN).w);
     }
 }

@@ -2,8 +2,10 @@
 // hybrid_engine.trace_closest and the embreex comparison; the hybrid tracer calls the same
 // bvh_closest_hit() from its own shader).
 //
-// Host defines: LOCAL_SIZE.
-// Bindings: 0 BVH nodes (read), 1 BVH triangles (read), 2 origins (read: float[3 M]),
+// Host defines: LOCAL_SIZE, BVH_NODE_BLOCKS, BVH_NODE_BLOCK_SIZE, BVH_TRIANGLE_BLOCKS,
+//   BVH_TRIANGLE_BLOCK_SIZE (all but the first only for a BVH split over storage blocks:
+//   BuiltLBVH.traversal_defines()).
+// Bindings: 0 BVH nodes (read; blocks 1..3 at 43..45), 1 BVH triangles (read; 46..48), 2 origins (read: float[3 M]),
 //   3 directions (read: float[3 M]), 4 hit_t (write: float[M], +inf on a miss),
 //   5 hit_tri (write: int[M], original triangle index, -1 on a miss).
 // Uniforms: u_count (rays M), u_tmin, u_tmax.

@@ -42,22 +42,34 @@ def vertex_binding(program, buffer) -> tuple:
     return (buffer, " ".join(fmt), *names)
 
 
-def pack_vertices(scene: SceneData) -> np.ndarray:
-    """Interleave the triangle soup into VERTEX_DTYPE rows, three per triangle."""
+def pack_vertices(scene: SceneData, out: np.ndarray | None = None) -> np.ndarray:
+    """Interleave the triangle soup into VERTEX_DTYPE rows, three per triangle.
+
+    Writes straight into the interleaved array; the NaN/inf sanitising copies are made only
+    when the input actually holds non-finite values (rare), since at a million triangles
+    every extra pass over the arrays costs tens of milliseconds per frame. ``out`` is a
+    reusable staging array (grown by the caller): a fresh 100 MB array costs as much in
+    first-touch page faults as the packing itself.
+    """
     geo = scene.geometry
     n = geo.triangle_count
-    verts = np.zeros(n * 3, VERTEX_DTYPE)
+    verts = np.empty(n * 3, VERTEX_DTYPE) if out is None or len(out) < n * 3 else out[: n * 3]
     if n == 0:
         return verts
     tris = geo.triangles
-    finite = np.isfinite(tris).all(axis=(1, 2))
-    pos = np.where(finite[:, None, None], tris, 0.0)
-    normals = np.where(np.isfinite(geo.normals), geo.normals, 0.0)
-    verts["pos"] = pos.reshape(-1, 3)
-    verts["normal"] = normals.reshape(-1, 3)
+    if np.isfinite(tris).all():
+        verts["pos"] = tris.reshape(-1, 3)
+    else:
+        finite = np.isfinite(tris).all(axis=(1, 2))
+        verts["pos"] = np.where(finite[:, None, None], tris, 0.0).reshape(-1, 3)
+    normals = geo.normals
+    verts["normal"] = (normals if np.isfinite(normals).all() else np.where(np.isfinite(normals), normals, 0.0)).reshape(-1, 3)
     if geo.uvs is not None:
-        verts["uv"] = np.where(np.isfinite(geo.uvs), geo.uvs, 0.0).reshape(-1, 2)
-    verts["material"] = np.repeat(geo.material_ids, 3)
+        uvs = geo.uvs
+        verts["uv"] = (uvs if np.isfinite(uvs).all() else np.where(np.isfinite(uvs), uvs, 0.0)).reshape(-1, 2)
+    else:
+        verts["uv"] = 0.0
+    verts["material"].reshape(n, 3)[:] = geo.material_ids[:, None]
     return verts
 
 
@@ -100,14 +112,15 @@ class GrowBuffer:
     def write(self, data: np.ndarray | bytes) -> bool:
         """Upload; returns True when the buffer object was replaced (dependent VAOs must be
         rebuilt)."""
-        raw = data.tobytes() if isinstance(data, np.ndarray) else bytes(data)
+        # A byte view, not a copy: at a million triangles tobytes() alone costs ~100 ms.
+        raw = np.ascontiguousarray(data).reshape(-1).view(np.uint8) if isinstance(data, np.ndarray) else bytes(data)
         replaced = False
         if len(raw) > self.buffer.size:
             new_size = max(len(raw), int(self.buffer.size * 1.5))
             self.buffer.release()
             self.buffer = self.ctx.buffer(reserve=new_size)
             replaced = True
-        if raw:
+        if len(raw):
             self.buffer.write(raw)
         self.used = len(raw)
         return replaced
@@ -125,10 +138,14 @@ class GPUScene:
         self.materials = GrowBuffer(ctx, 48)
         self.lights = GrowBuffer(ctx, 64)
         self.generation = 0  # bumps when the vertex buffer object changes
+        self._staging: np.ndarray | None = None  # host-side packing array, reused per frame
         self.vertex_count = 0
 
     def upload(self, scene: SceneData) -> None:
-        verts = pack_vertices(scene)
+        needed = scene.geometry.triangle_count * 3
+        if self._staging is None or len(self._staging) < needed:
+            self._staging = np.empty(max(needed, 3), VERTEX_DTYPE)
+        verts = pack_vertices(scene, self._staging)
         if self.vertices.write(verts):
             self.generation += 1
         self.vertex_count = len(verts)

@@ -65,17 +65,21 @@ def pack_triangle_shading(geometry: Geometry) -> np.ndarray:
     out = np.zeros(max(n, 1), TRIANGLE_SHADING_DTYPE)
     if n == 0:
         return out
-    normals = np.where(np.isfinite(geometry.normals), geometry.normals, 0.0)
+    normals = geometry.normals
+    if not np.isfinite(normals).all():  # copy only when there is something to sanitise
+        normals = np.where(np.isfinite(normals), normals, 0.0)
     out["n0_material"][:n, :3] = normals[:, 0]
-    out["n0_material"][:n, 3] = geometry.material_ids.astype(np.float32)
+    out["n0_material"][:n, 3] = geometry.material_ids
     out["n1"][:n, :3] = normals[:, 1]
     out["n2"][:n, :3] = normals[:, 2]
-    tris = geometry.triangles.astype(np.float64)
-    with np.errstate(invalid="ignore", over="ignore"):
+    tris = geometry.triangles
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
         face = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
-        length = np.linalg.norm(face, axis=1, keepdims=True)
-        ok = np.isfinite(length) & (length > 0)
-        face = np.where(ok, face / np.where(ok, length, 1.0), 0.0)
+        length = np.sqrt(np.einsum("ij,ij->i", face, face))[:, None]
+        face /= length
+    ok = np.isfinite(face).all(axis=1) & (length[:, 0] > 0)
+    if not ok.all():
+        face[~ok] = 0.0
     out["geometric"][:n, :3] = face
     return out
 
@@ -133,8 +137,9 @@ class HybridTracer:
         """Triangles (LBVH input) and shading attributes, original order."""
         geo = scene.geometry
         self.triangle_count = geo.triangle_count
-        self._triangles.upload(pack_triangles(geo).tobytes() or bytes(36))
-        self._shading.upload(pack_triangle_shading(geo).tobytes())
+        triangles = pack_triangles(geo)  # uploaded as byte views, not copies
+        self._triangles.upload(triangles.reshape(-1).view(np.uint8) if len(triangles) else bytes(36))
+        self._shading.upload(pack_triangle_shading(geo).reshape(-1).view(np.uint8))
 
     def render_cube_map(self, gpu, scene: SceneData, center, settings: RenderSettings) -> int:
         """The six face G-buffers (§3.2), shaded without the specular lobes (the tracer adds

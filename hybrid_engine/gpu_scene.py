@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .gpu_dispatch import GrowBuffer
 from .scene_data import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, Lights, SceneData
 
 VERTEX_LAYOUT = (("3f", "in_pos", 12), ("3f", "in_normal", 12), ("2f", "in_uv", 8), ("1i", "in_material", 4))
@@ -101,32 +102,9 @@ def needs_cube_shadow(kind: int) -> bool:
     return kind in (LIGHT_POINT, LIGHT_AREA)
 
 
-class GrowBuffer:
-    """A GL buffer that is reallocated only when the data outgrows it."""
-
-    def __init__(self, ctx, initial_bytes: int = 256) -> None:
-        self.ctx = ctx
-        self.buffer = ctx.buffer(reserve=max(16, initial_bytes))
-        self.used = 0
-
-    def write(self, data: np.ndarray | bytes) -> bool:
-        """Upload; returns True when the buffer object was replaced (dependent VAOs must be
-        rebuilt)."""
-        # A byte view, not a copy: at a million triangles tobytes() alone costs ~100 ms.
-        raw = np.ascontiguousarray(data).reshape(-1).view(np.uint8) if isinstance(data, np.ndarray) else bytes(data)
-        replaced = False
-        if len(raw) > self.buffer.size:
-            new_size = max(len(raw), int(self.buffer.size * 1.5))
-            self.buffer.release()
-            self.buffer = self.ctx.buffer(reserve=new_size)
-            replaced = True
-        if len(raw):
-            self.buffer.write(raw)
-        self.used = len(raw)
-        return replaced
-
-    def release(self) -> None:
-        self.buffer.release()
+def _bytes_of(array: np.ndarray) -> np.ndarray:
+    """A flat uint8 view of a contiguous array (no copy)."""
+    return np.ascontiguousarray(array).reshape(-1).view(np.uint8)
 
 
 class GPUScene:
@@ -134,9 +112,11 @@ class GPUScene:
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
-        self.vertices = GrowBuffer(ctx, 36 * 3)
-        self.materials = GrowBuffer(ctx, 48)
-        self.lights = GrowBuffer(ctx, 64)
+        self.vertices = GrowBuffer(ctx, "scene vertices", VERTEX_DTYPE.itemsize * 3)
+        self.materials = GrowBuffer(ctx, "scene materials", 48)
+        self.lights = GrowBuffer(ctx, "scene lights", 64)
+        for buf in (self.vertices, self.materials, self.lights):
+            buf.ensure(0)  # passes bind these before the first upload
         self.generation = 0  # bumps when the vertex buffer object changes
         self._staging: np.ndarray | None = None  # host-side packing array, reused per frame
         self.vertex_count = 0
@@ -146,13 +126,15 @@ class GPUScene:
         if self._staging is None or len(self._staging) < needed:
             self._staging = np.empty(max(needed, 3), VERTEX_DTYPE)
         verts = pack_vertices(scene, self._staging)
-        if self.vertices.write(verts):
-            self.generation += 1
+        allocations = self.vertices.allocations
+        self.vertices.upload(_bytes_of(verts))  # a byte view: tobytes() would copy ~100 MB
+        if self.vertices.allocations != allocations:
+            self.generation += 1  # a new buffer object: dependent VAOs must be rebuilt
         self.vertex_count = len(verts)
-        self.materials.write(scene.materials.packed())
+        self.materials.upload(_bytes_of(scene.materials.packed()))
 
     def upload_lights(self, lights: Lights, shadow_slots: list[tuple[int, int]]) -> None:
-        self.lights.write(pack_lights(lights, shadow_slots))
+        self.lights.upload(_bytes_of(pack_lights(lights, shadow_slots)))
 
     def release(self) -> None:
         for buf in (self.vertices, self.materials, self.lights):

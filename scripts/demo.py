@@ -12,24 +12,14 @@ Writes the image and prints the per-pass timing of the frame.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import math
 import sys
 import time
 from pathlib import Path
 
+from addon_loader import load_addon
+
 REPO_ROOT = Path(__file__).resolve().parent.parent
-
-
-def load_addon():
-    """Import the repository root as the add-on package ``hybrid_rt``."""
-    spec = importlib.util.spec_from_file_location(
-        "hybrid_rt", REPO_ROOT / "__init__.py", submodule_search_locations=[str(REPO_ROOT)]
-    )
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["hybrid_rt"] = module
-    spec.loader.exec_module(module)
-    return module
 
 
 def principled(name, color, metallic=0.0, roughness=0.5, transmission=0.0, ior=1.45, thickness=0.5):

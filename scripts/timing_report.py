@@ -13,23 +13,12 @@ could not be made (the reason is printed).
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import sys
 from pathlib import Path
 
-REPO_ROOT = Path(__file__).resolve().parent.parent
+from addon_loader import load_addon
 
-
-def load_addon():
-    """Import the repository root as the add-on package ``hybrid_rt``."""
-    spec = importlib.util.spec_from_file_location(
-        "hybrid_rt", REPO_ROOT / "__init__.py", submodule_search_locations=[str(REPO_ROOT)]
-    )
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["hybrid_rt"] = module
-    spec.loader.exec_module(module)
-    return module
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -2,7 +2,6 @@
 """Shared fixtures: the one place a GL context is made, fixed seeds, the add-on loader."""
 from __future__ import annotations
 
-import importlib.util
 import os
 import sys
 from pathlib import Path
@@ -14,9 +13,11 @@ REPO_ROOT = Path(__file__).resolve().parent.parent
 SHARED_SCENES = REPO_ROOT.parent / "shared" / "scenes"
 FAILURE_DIR = REPO_ROOT / "tests" / "_failures"
 
-for _path in (REPO_ROOT, REPO_ROOT / "tests"):  # core package and test helpers importable
+for _path in (REPO_ROOT, REPO_ROOT / "tests", REPO_ROOT / "scripts"):  # core, test helpers, addon_loader
     if str(_path) not in sys.path:
         sys.path.insert(0, str(_path))
+
+from addon_loader import load_addon  # noqa: E402 - the one loader, shared with the scripts
 
 os.environ.setdefault("HYBRID_RT_DEBUG", "1")  # GL error checks after every pass in tests
 
@@ -41,19 +42,6 @@ def ctx(gl):
 def rng():
     """A fixed-seed generator: random inputs are reproducible."""
     return np.random.default_rng(20140101)
-
-
-def load_addon():
-    """Import the repository root as the add-on package ``hybrid_rt`` (as Blender would)."""
-    if "hybrid_rt" in sys.modules:
-        return sys.modules["hybrid_rt"]
-    spec = importlib.util.spec_from_file_location(
-        "hybrid_rt", REPO_ROOT / "__init__.py", submodule_search_locations=[str(REPO_ROOT)]
-    )
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["hybrid_rt"] = module
-    spec.loader.exec_module(module)
-    return module
 
 
 @pytest.fixture

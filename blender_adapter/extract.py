@@ -12,11 +12,14 @@ Speed matters because the viewport re-extracts on every geometry change and the 
 LBVH (paper §3.3) is rebuilt from these arrays: all per-element work is ``foreach_get`` into
 numpy through Blender's raw attribute arrays plus vectorised gathers, never a Python loop over
 vertices or triangles. Local mesh data is read once per evaluated mesh datablock and reused
-by all its instances. Nothing here writes to Blender data.
+by all its instances. Image textures linked to a material's base or emission colour are
+read once per image content and kept across calls (``image_pixels``), so playback frames do
+not read pixels again. Nothing here writes to Blender data.
 """
 from __future__ import annotations
 
 import logging
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,6 +27,7 @@ import numpy as np
 from ..hybrid_engine.camera import Camera, CameraError
 from ..hybrid_engine.materials import DEFAULT_THICKNESS, principled_to_params
 from ..hybrid_engine.scene_data import Geometry, Lights, MaterialTable, SceneData, Sky
+from ..hybrid_engine.textures import srgb_to_linear
 
 log = logging.getLogger(__name__)
 
@@ -48,12 +52,196 @@ _QUAD_CONVEX_COS = -0.1
 # Materials
 # ---------------------------------------------------------------------------------------
 def _socket_value(node, name: str, default):
-    """Default value of an input socket (links are not followed: textures use the default)."""
+    """Default value of an input socket (links are not followed; colour sockets linked to an
+    image go through ``_color_input``)."""
     socket = node.inputs.get(name)
     if socket is None or not hasattr(socket, "default_value"):
         return default
     value = socket.default_value
     return tuple(value) if hasattr(value, "__len__") else float(value)
+
+
+# ---------------------------------------------------------------------------------------
+# Image textures
+# ---------------------------------------------------------------------------------------
+# Pixels of images read so far, keyed by what identifies their content (``_image_key``): a
+# playback frame or a viewport redraw reuses them instead of reading ``Image.pixels`` again
+# (tens of milliseconds per megapixel). Least recently used images are dropped beyond this.
+IMAGE_CACHE_BYTES = 1 << 30
+_image_cache: OrderedDict[tuple, np.ndarray] = OrderedDict()
+_warned: set[tuple] = set()  # (what, name) pairs already reported: warn once, not per frame
+
+# Colour spaces whose byte values are linear already (Blender 5.0 names); ``is_data``
+# (Non-Color) images are read as they are too.
+_LINEAR_SPACES = frozenset({"Linear Rec.709", "Working Space"})
+_SRGB_SPACES = frozenset({"sRGB"})
+
+
+def _warn_once(key: tuple, message: str, *args) -> None:
+    if key not in _warned:
+        _warned.add(key)
+        log.warning(message, *args)
+
+
+def forget_image_pixels() -> None:
+    """Drop the cached image pixels (for callers that know an image was painted: in-memory
+    edits of an already modified image do not change its cache key)."""
+    _image_cache.clear()
+
+
+def _image_key(image) -> tuple:
+    """What identifies an image's pixels: the datablock, its source, size, colour space and
+    modified state; a generated image also by its generator settings."""
+    key = (image.session_uid, image.name_full, image.source, image.filepath_raw, tuple(image.size),
+           int(image.channels), bool(image.is_float), image.colorspace_settings.name,
+           bool(image.colorspace_settings.is_data), bool(image.is_dirty), image.packed_file is not None)
+    if image.source == "GENERATED":
+        key += (image.generated_type, tuple(image.generated_color), int(image.generated_width),
+                int(image.generated_height), bool(image.use_generated_float))
+    return key
+
+
+def _byte_image_is_srgb(image) -> bool:
+    """Whether a byte image's values must be decoded from sRGB. Blender hands back byte
+    pixels in the image's own colour space (value / 255) but float pixels in scene linear."""
+    settings = image.colorspace_settings
+    name = settings.name
+    if settings.is_data or name in _LINEAR_SPACES:
+        return False
+    if name in _SRGB_SPACES:
+        return True
+    linear = name.startswith("Linear") or name in ("ACEScg", "ACES2065-1")
+    _warn_once(("colorspace", image.name_full),
+               "image %r: colour space %r is read as %s (its gamut is taken as Rec.709)",
+               image.name_full, name, "linear" if linear else "sRGB")
+    return not linear
+
+
+def image_pixels(image) -> np.ndarray | None:
+    """An image as (H, W, 4) float32 linear RGBA, row 0 at the bottom (read-only, shared by
+    every caller), or None when it has no pixels (missing file, empty image). Read once per
+    image content (``_image_key``) with one ``foreach_get``."""
+    if image.source not in ("FILE", "GENERATED"):
+        _warn_once(("source", image.name_full), "image %r: %s images are not supported; the "
+                   "socket's colour is used", image.name_full, image.source)
+        return None
+    key = _image_key(image)
+    cached = _image_cache.get(key)
+    if cached is not None:
+        _image_cache.move_to_end(key)
+        return cached
+    width, height = (int(v) for v in image.size)
+    channels = int(image.channels)
+    if width < 1 or height < 1 or channels < 1:
+        _warn_once(("empty", image.name_full), "image %r has no pixels (missing file %r?); the "
+                   "socket's colour is used", image.name_full, image.filepath)
+        return None
+    flat = np.empty(width * height * channels, np.float32)
+    image.pixels.foreach_get(flat)
+    pixels = flat.reshape(height, width, channels)
+    out = np.ones((height, width, 4), np.float32)
+    out[..., :3] = pixels[..., :3] if channels >= 3 else pixels[..., :1]
+    if channels in (2, 4):
+        out[..., 3] = pixels[..., -1]
+    if not image.is_float and _byte_image_is_srgb(image):
+        out[..., :3] = srgb_to_linear(out[..., :3])
+    out.flags.writeable = False  # shared by the cache and every scene that uses it
+    _image_cache[key] = out
+    total = sum(a.nbytes for a in _image_cache.values())
+    while total > IMAGE_CACHE_BYTES and len(_image_cache) > 1:
+        _, dropped = _image_cache.popitem(last=False)
+        total -= dropped.nbytes
+    return out
+
+
+def _linked_node(socket):
+    """The node feeding ``socket`` (reroutes skipped), or None when unlinked or muted."""
+    while socket is not None and socket.is_linked:
+        link = socket.links[0]
+        if link.is_muted:
+            return None, None
+        node = link.from_node
+        if node.type != "REROUTE":
+            return node, link.from_socket
+        socket = node.inputs[0]
+    return None, None
+
+
+def _image_node(node, from_socket, owner: str):
+    """``node`` when it is an Image Texture whose Color output is used, else None; warns
+    about the node settings that are not reproduced."""
+    if node is None or node.type != "TEX_IMAGE" or node.mute or from_socket.name != "Color":
+        return None
+    name = node.image.name_full if node.image is not None else "<none>"
+    if node.extension != "REPEAT":
+        _warn_once(("extension", owner, node.name), "%s: image texture %r uses %s extension; it is "
+                   "sampled with REPEAT", owner, name, node.extension)
+    if node.projection != "FLAT":
+        _warn_once(("projection", owner, node.name), "%s: image texture %r uses %s projection; it "
+                   "is sampled as FLAT", owner, name, node.projection)
+    vector, _ = _linked_node(node.inputs.get("Vector"))
+    if vector is not None and not (vector.type == "UVMAP" and not vector.uv_map) and vector.type != "TEX_COORD":
+        _warn_once(("vector", owner, node.name), "%s: the vector input of image texture %r is "
+                   "ignored; the active render UV map is used", owner, name)
+    return node
+
+
+def _sockets(collection, *identifiers: str):
+    """Sockets by identifier (the Mix node has several inputs named "A", one per type)."""
+    by_id = {socket.identifier: socket for socket in collection}
+    return tuple(by_id.get(i) for i in identifiers)
+
+
+def _mix_inputs(node):
+    """(factor socket, A socket, B socket) of a colour Multiply mix, else None."""
+    if node.type == "MIX" and node.data_type == "RGBA" and node.blend_type == "MULTIPLY":
+        sockets = _sockets(node.inputs, "Factor_Float", "A_Color", "B_Color")
+    elif node.type == "MIX_RGB" and node.blend_type == "MULTIPLY":
+        sockets = _sockets(node.inputs, "Fac", "Color1", "Color2")
+    else:
+        return None
+    return sockets if all(s is not None for s in sockets) else None
+
+
+def _color_input(node, name: str, default, owner: str):
+    """(colour factor, image or None, the socket's own colour) of a colour input socket.
+
+    Unlinked: its value and no image. Linked to an Image Texture's Color (directly or
+    through reroutes): factor 1, since Blender then ignores the socket's value. Linked to a
+    Multiply mix of an image and a constant colour c with factor f (Blender: A (1 - f + f B)):
+    the image in A gives factor 1 - f + f c; in B only f = 1 is a product (factor c). Other
+    links, and images without pixels, fall back to the socket's own value with a warning.
+    """
+    socket = node.inputs.get(name) if node is not None else None
+    if socket is None or not hasattr(socket, "default_value"):
+        return default, None, default
+    own = tuple(socket.default_value)[:3]
+    source, from_socket = _linked_node(socket)
+    if source is None:
+        return own, None, own
+    factor, image_node = (1.0, 1.0, 1.0), _image_node(source, from_socket, owner)
+    mix = _mix_inputs(source) if image_node is None and not source.mute else None
+    if mix is not None:
+        fac_socket, a, b = mix
+        (a_node, a_from), (b_node, b_from) = _linked_node(a), _linked_node(b)
+        f = float(fac_socket.default_value)
+        if getattr(source, "clamp_factor", True) or source.type == "MIX_RGB":
+            f = min(max(f, 0.0), 1.0)
+        if not fac_socket.is_linked and b_node is None and _image_node(a_node, a_from, owner):
+            image_node = a_node
+            factor = tuple(1.0 - f + f * c for c in tuple(b.default_value)[:3])
+        elif not fac_socket.is_linked and a_node is None and f == 1.0 and _image_node(b_node, b_from, owner):
+            image_node = b_node
+            factor = tuple(tuple(a.default_value)[:3])
+    if image_node is None:
+        _warn_once(("link", owner, name), "%s: %s is linked to %r, which is not an image texture "
+                   "(or a Multiply of one); its own colour is used", owner, name, source.name)
+        return own, None, own
+    if image_node.image is None:
+        _warn_once(("no image", owner, name), "%s: the image texture on %s has no image; the "
+                   "socket's colour is used", owner, name)
+        return own, None, own
+    return factor, image_node.image, own
 
 
 def _surface_node(node_tree):
@@ -72,40 +260,58 @@ def _surface_node(node_tree):
     return None
 
 
-def material_inputs(material) -> dict:
+def material_inputs(material, textures: dict | None = None) -> dict:
     """Keyword arguments of ``principled_to_params`` read from a Blender material.
 
     Principled BSDF inputs are read directly; a lone Diffuse, Glossy, Glass or Emission
     shader is read as the Principled BSDF it is a special case of; anything else (or a
     material without a node tree) falls back to the viewport display values
     ``diffuse_color``/``metallic``/``roughness``.
+
+    With a ``textures`` dict, the base colour and emission colour inputs follow links to
+    Image Texture nodes (``_color_input``): the returned colour is then the factor the
+    texture multiplies, and the image's pixels (``image_pixels``) go into
+    ``textures["base_color_texture"]`` / ``textures["emission_texture"]``. Without one,
+    linked inputs read as their own socket value.
     """
     thickness = getattr(getattr(material, "hybrid_rt", None), "thickness", DEFAULT_THICKNESS)
     node = _surface_node(getattr(material, "node_tree", None))
     kind = node.type if node is not None else None
+
+    def color(name: str, default, slot: str):
+        if textures is None:
+            return _socket_value(node, name, default)
+        factor, image, own = _color_input(node, name, default, material.name)
+        pixels = image_pixels(image) if image is not None else None
+        if pixels is None:
+            return own
+        textures[slot] = pixels
+        return factor
+
     if kind == "BSDF_PRINCIPLED":
         return dict(
-            base_color=_socket_value(node, "Base Color", (0.8, 0.8, 0.8)),
+            base_color=color("Base Color", (0.8, 0.8, 0.8), "base_color_texture"),
             metallic=_socket_value(node, "Metallic", 0.0),
             roughness=_socket_value(node, "Roughness", 0.5),
             transmission=_socket_value(node, "Transmission Weight", 0.0),
             ior=_socket_value(node, "IOR", 1.5),
-            emission=_socket_value(node, "Emission Color", (0.0, 0.0, 0.0)),
+            emission=color("Emission Color", (0.0, 0.0, 0.0), "emission_texture"),
             emission_strength=_socket_value(node, "Emission Strength", 0.0),
             thickness=thickness,
         )
-    color = _socket_value(node, "Color", (0.8, 0.8, 0.8)) if node is not None else None
+    if kind == "EMISSION":
+        return dict(base_color=(0.0, 0.0, 0.0), emission=color("Color", (0.8, 0.8, 0.8), "emission_texture"),
+                    emission_strength=_socket_value(node, "Strength", 1.0), thickness=thickness)
+    if kind in ("BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_ANISOTROPIC", "BSDF_GLASS"):
+        base = color("Color", (0.8, 0.8, 0.8), "base_color_texture")
     if kind == "BSDF_DIFFUSE":
-        return dict(base_color=color, roughness=1.0, thickness=thickness)
+        return dict(base_color=base, roughness=1.0, thickness=thickness)
     if kind in ("BSDF_GLOSSY", "BSDF_ANISOTROPIC"):
-        return dict(base_color=color, metallic=1.0, roughness=_socket_value(node, "Roughness", 0.5),
+        return dict(base_color=base, metallic=1.0, roughness=_socket_value(node, "Roughness", 0.5),
                     thickness=thickness)
     if kind == "BSDF_GLASS":
-        return dict(base_color=color, transmission=1.0, roughness=_socket_value(node, "Roughness", 0.0),
+        return dict(base_color=base, transmission=1.0, roughness=_socket_value(node, "Roughness", 0.0),
                     ior=_socket_value(node, "IOR", 1.5), thickness=thickness)
-    if kind == "EMISSION":
-        return dict(base_color=(0.0, 0.0, 0.0), emission=color,
-                    emission_strength=_socket_value(node, "Strength", 1.0), thickness=thickness)
     return dict(
         base_color=tuple(material.diffuse_color),
         metallic=float(material.metallic),
@@ -114,10 +320,14 @@ def material_inputs(material) -> dict:
     )
 
 
-def material_params(material) -> dict:
+def material_params(material, textures: bool = True) -> dict:
     """One ``MaterialTable`` row for a Blender material (shared by the extractor and the
-    material panel, so the panel shows exactly what is rendered)."""
-    row = principled_to_params(**material_inputs(material))
+    material panel, so the panel shows exactly what is rendered). With ``textures`` the
+    row also holds the pixels of its base-colour and emission images (``MaterialTable.
+    from_rows`` turns them into texture indices, one texture per image)."""
+    images: dict | None = {} if textures else None
+    row = principled_to_params(**material_inputs(material, images))
+    row.update(images or {})
     row["name"] = material.name
     return row
 

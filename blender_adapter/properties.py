@@ -17,7 +17,8 @@ import bpy
 import numpy as np
 
 from ..hybrid_engine.materials import DEFAULT_THICKNESS
-from ..hybrid_engine.settings import FIELD_DOCS, FIELD_LIMITS, MODE_DOCS, MODES, RenderSettings
+from ..hybrid_engine.settings import (CUBE_MARCH_DOCS, CUBE_MARCHES, FIELD_DOCS, FIELD_LIMITS, MODE_DOCS,
+                                      MODES, RenderSettings)
 
 # Blender display details the core does not know about (units and sliders).
 _FLOAT_SUBTYPES = {
@@ -28,6 +29,7 @@ _FLOAT_SUBTYPES = {
 }
 _LABELS = {
     "mode": "Mode",
+    "cube_march": "March",
     "near_size": "Near Size",
     "max_depth": "Max Depth",
     "cube_resolution": "Face Resolution",
@@ -58,6 +60,9 @@ def _keep_n_max_above_n_min(settings, _context) -> None:
         settings.n_min = settings.n_max
 
 
+# String fields of RenderSettings: their allowed values and each value's tooltip.
+_ENUMS = {"mode": (MODES, MODE_DOCS), "cube_march": (CUBE_MARCHES, CUBE_MARCH_DOCS)}
+
 _UPDATES = {"n_min": _keep_n_min_below_n_max, "n_max": _keep_n_max_above_n_min}
 
 
@@ -65,8 +70,9 @@ def _property_for(name: str, default):
     """One bpy property definition for a RenderSettings field."""
     label = _LABELS.get(name, name.replace("_", " ").title())
     doc = FIELD_DOCS[name]
-    if name == "mode":
-        items = [(mode, mode.replace("_", " ").title(), MODE_DOCS[mode]) for mode in MODES]
+    if name in _ENUMS:
+        values, docs = _ENUMS[name]
+        items = [(value, value.replace("_", " ").title(), docs[value]) for value in values]
         return bpy.props.EnumProperty(name=label, description=doc, items=items, default=default)
     lo, hi = FIELD_LIMITS[name]
     extra = {}

@@ -21,8 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .camera import CUBE_FACE_DIRECTIONS, cube_face_views, perspective_matrix
+from .cube_pyramid import CubeHitPyramid
 from .gpu_scene import GPUScene
-from .raster import GBufferTargets, RasterPasses, RasterView
+from .raster import GBufferTargets, RasterPasses, RasterView, gl_matrix
 from .scene_data import SceneData
 from .settings import RenderSettings
 
@@ -67,13 +68,22 @@ def face_of_direction(direction: np.ndarray) -> np.ndarray:
 
 
 class CubeMapPass:
-    """Renders the six face G-buffers into one atlas and shades them (colour with shadows)."""
+    """Renders the six face G-buffers into one atlas and prepares them for marching.
+
+    The faces are not shaded here: the tracer shades the few texels its rays hit (with the
+    ray's own view direction) instead of all 6 res^2, which on a software GL costs as much
+    as the face rasterisation itself. ``render(..., shade=True)`` also fills ``targets.color``
+    (diagnostics and tests). The HIERARCHICAL march needs the hit-interval pyramid
+    (:mod:`.cube_pyramid`), built here after the faces.
+    """
 
     def __init__(self, ctx, raster: RasterPasses) -> None:
         self.ctx = ctx
         self.raster = raster
         self.targets: GBufferTargets | None = None
         self.faces: CubeFaces | None = None
+        self.pyramid = CubeHitPyramid(ctx)
+        self.resolution = 0
 
     def _ensure_targets(self, resolution: int) -> GBufferTargets:
         size = (6 * resolution, resolution)
@@ -83,22 +93,58 @@ class CubeMapPass:
                 old.release()
         return self.targets
 
-    def render(self, gpu: GPUScene, scene: SceneData, center, settings: RenderSettings) -> int:
-        """Rasterize and shade all six faces; returns the triangles submitted (after
-        per-face object culling, which also drops objects wholly inside the near cube)."""
+    def render(self, gpu: GPUScene, scene: SceneData, center, settings: RenderSettings,
+               shade: bool = False) -> int:
+        """Rasterize all six faces (and shade them when ``shade``); returns the triangles
+        submitted (after per-face object culling, which also drops objects wholly inside
+        the near cube)."""
         res = int(settings.cube_resolution)
         targets = self._ensure_targets(res)
         self.faces = CubeFaces.at(center, settings.near_size, settings.cube_far)
+        self.resolution = res
         targets.clear()
         submitted = 0
         views = self.faces.views(res)
         for i, view in enumerate(views):
             submitted += self.raster.gbuffer(gpu, scene, view, targets, origin=(i * res, 0))
-        for i, view in enumerate(views):
-            self.raster.shade(gpu, scene, view, targets, settings, origin=(i * res, 0))
+        if shade:
+            for i, view in enumerate(views):
+                self.raster.shade(gpu, scene, view, targets, settings, origin=(i * res, 0))
+        if settings.cube_march == "HIERARCHICAL":
+            self.pyramid.build(targets.depth, targets.normal_material, gpu.materials.buffer,
+                               self.march_uniforms(settings), res)
         return submitted
 
+    def march_uniforms(self, settings: RenderSettings) -> dict:
+        """Values of cube_march.glsl's uniforms (samplers excluded) for the last render."""
+        faces = self.faces
+        return {
+            "u_face_view_proj": b"".join(gl_matrix(m) for m in faces.view_proj),
+            "u_face_inv_view_proj": b"".join(gl_matrix(m) for m in faces.inv_view_proj),
+            "u_face_to_face": b"".join(gl_matrix(faces.face_to_face[i, j])
+                                       for i in range(6) for j in range(6)),
+            "u_cube_center": tuple(faces.center),
+            "u_cube_near": float(faces.near),
+            "u_cube_far": float(faces.far),
+            "u_cube_res": int(self.resolution),
+            "u_n_min": int(settings.n_min),
+            "u_n_max": int(settings.n_max),
+            "u_cube_hiz_res": int(self.pyramid.face_size),
+            "u_cube_hiz_levels": int(self.pyramid.levels),
+            "u_cube_hierarchical": int(settings.cube_march == "HIERARCHICAL"
+                                       and self.pyramid.texture is not None),
+        }
+
+    def march_textures(self) -> dict:
+        """cube_march.glsl's samplers → textures of the last render."""
+        textures = {"u_cube_depth": self.targets.depth,
+                    "u_cube_normal_material": self.targets.normal_material}
+        if self.pyramid.texture is not None:
+            textures["u_cube_hiz"] = self.pyramid.texture
+        return textures
+
     def release(self) -> None:
+        self.pyramid.release()
         if self.targets is not None:
             self.targets.release()
             self.targets = None

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Scene data on the GPU: vertex buffer, material and light buffers.
+"""Scene data on the GPU: vertex buffer, material and light buffers, image textures.
 
 Buffers are persistent and grow-only: a frame whose data fits reuses last frame's buffer
 objects and only writes into them, which matters in the viewport where every redraw
@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 
 from .gpu_dispatch import GrowBuffer
-from .scene_data import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, Lights, SceneData
+from .scene_data import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, MATERIAL_DTYPE, Lights, SceneData
+from .textures import GPUTextures
 
 VERTEX_LAYOUT = (("3f", "in_pos", 12), ("3f", "in_normal", 12), ("2f", "in_uv", 8), ("1i", "in_material", 4))
 VERTEX_DTYPE = np.dtype(
@@ -113,13 +114,14 @@ class GPUScene:
     def __init__(self, ctx) -> None:
         self.ctx = ctx
         self.vertices = GrowBuffer(ctx, "scene vertices", VERTEX_DTYPE.itemsize * 3)
-        self.materials = GrowBuffer(ctx, "scene materials", 48)
+        self.materials = GrowBuffer(ctx, "scene materials", MATERIAL_DTYPE.itemsize)
         self.lights = GrowBuffer(ctx, "scene lights", 64)
         for buf in (self.vertices, self.materials, self.lights):
             buf.ensure(0)  # passes bind these before the first upload
         self.generation = 0  # bumps when the vertex buffer object changes
         self._staging: np.ndarray | None = None  # host-side packing array, reused per frame
         self.vertex_count = 0
+        self.textures = GPUTextures(ctx)  # re-uploaded only when the scene's images change
 
     def upload(self, scene: SceneData) -> None:
         needed = scene.geometry.triangle_count * 3
@@ -132,6 +134,7 @@ class GPUScene:
             self.generation += 1  # a new buffer object: dependent VAOs must be rebuilt
         self.vertex_count = len(verts)
         self.materials.upload(_bytes_of(scene.materials.packed()))
+        self.textures.upload(scene.materials.textures)
 
     def upload_lights(self, lights: Lights, shadow_slots: list[tuple[int, int]]) -> None:
         self.lights.upload(_bytes_of(pack_lights(lights, shadow_slots)))
@@ -139,3 +142,4 @@ class GPUScene:
     def release(self) -> None:
         for buf in (self.vertices, self.materials, self.lights):
             buf.release()
+        self.textures.release()

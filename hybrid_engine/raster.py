@@ -149,7 +149,9 @@ class RasterView:
 
 
 class GBufferTargets:
-    """A G-buffer (depth, normal + material, albedo) and its shaded colour, W x H texels.
+    """A G-buffer (depth, normal + material, albedo, emission scale) and its shaded colour,
+    W x H texels. ``emission_scale`` holds the colour of the material's emission texture
+    (1 without one); the shading multiplies the material's emission by it.
 
     The primary camera owns one; the cube map owns one six faces wide (an atlas: face i
     covers texels [i * res, (i + 1) * res) in x), so that a single set of textures holds the
@@ -161,10 +163,12 @@ class GBufferTargets:
         self.depth = ctx.depth_texture(self.size)
         self.normal_material = ctx.texture(self.size, 4, dtype="f4")
         self.albedo = ctx.texture(self.size, 4, dtype="f2")
+        self.emission_scale = ctx.texture(self.size, 4, dtype="f2")
         self.color = ctx.texture(self.size, 4, dtype="f4")
-        for tex in (self.depth, self.normal_material, self.albedo, self.color):
+        for tex in (self.depth, self.normal_material, self.albedo, self.emission_scale, self.color):
             tex.filter = (ctx.NEAREST, ctx.NEAREST)
-        self.fbo = ctx.framebuffer(color_attachments=[self.normal_material, self.albedo], depth_attachment=self.depth)
+        self.fbo = ctx.framebuffer(color_attachments=[self.normal_material, self.albedo, self.emission_scale],
+                                   depth_attachment=self.depth)
 
     def clear(self) -> None:
         self.fbo.use()
@@ -176,8 +180,18 @@ class GBufferTargets:
         w, h = self.size
         return np.frombuffer(self.color.read(), np.float32).reshape(h, w, 4).copy()
 
+    def read_albedo(self) -> np.ndarray:
+        """The albedo target as (H, W, 4) float32, row 0 at the bottom (tests, diagnostics)."""
+        w, h = self.size
+        return np.frombuffer(self.albedo.read(), np.float16).reshape(h, w, 4).astype(np.float32)
+
+    def read_emission_scale(self) -> np.ndarray:
+        """The emission-scale target as (H, W, 4) float32, row 0 at the bottom."""
+        w, h = self.size
+        return np.frombuffer(self.emission_scale.read(), np.float16).reshape(h, w, 4).astype(np.float32)
+
     def release(self) -> None:
-        _release_all((self.fbo, self.depth, self.normal_material, self.albedo, self.color))
+        _release_all((self.fbo, self.depth, self.normal_material, self.albedo, self.emission_scale, self.color))
 
 
 class RasterPasses:
@@ -283,6 +297,9 @@ class RasterPasses:
         ctx.disable(ctx.CULL_FACE)  # Blender shades both sides of a face
         self.gbuffer_prog["u_view_proj"].write(gl_matrix(view.view_proj))
         gpu.materials.buffer.bind_to_storage_buffer(0)
+        gpu.textures.use(0)
+        if "u_textures" in self.gbuffer_prog:
+            self.gbuffer_prog["u_textures"].value = 0
         return self.draw_world(self._gbuffer_vao, view.view_proj, scene)
 
     def shadows(self, gpu: GPUScene, scene: SceneData, settings: RenderSettings) -> list[tuple[int, int]]:
@@ -321,6 +338,7 @@ class RasterPasses:
         gpu.lights.buffer.bind_to_storage_buffer(1)
         self._slot_buffer.bind_to_storage_buffer(2)
         units = {"u_depth": targets.depth, "u_normal_material": targets.normal_material, "u_albedo": targets.albedo,
+                 "u_emission_scale": targets.emission_scale,
                  "u_shadow_atlas": self._shadow_atlas, "u_sky_env": self._sky_texture or self._dummy_env}
         for unit, (name, tex) in enumerate(units.items()):
             tex.use(location=unit)

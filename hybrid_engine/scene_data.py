@@ -147,6 +147,24 @@ class MaterialTable:
     by ``base_color``; ``transmission`` the weight of the clear-glass lobe of index ``ior``;
     what remains is diffuse. ``thickness`` is the paper's per-material thickness (§3.4):
     0 thin, 1 solid to the cube map's far plane.
+
+    Image textures: ``textures`` holds the scene's images and ``base_color_texture[i]`` /
+    ``emission_texture[i]`` index it (-1: none). A texture *multiplies* the material's
+    factor: albedo = base_color * texture(uv).rgb, emission = emission * texture(uv).rgb.
+    Blender ignores a socket's own value once an Image Texture is linked to it, so the
+    extractor stores a factor of 1 for a direct link (and the constant of a Multiply mix
+    for a ``colour × image`` link); scenes built by hand can use the factor as a tint.
+    Texture coordinates are the triangles' ``Geometry.uvs`` (zero when absent), wrapped
+    by repetition; the alpha channel is not used.
+
+    Each texture is (H, W, 4) (or (H, W, 3), given alpha 1) float32 *linear* RGBA, row 0
+    at the bottom (v = 0), the order of Blender's ``Image.pixels`` and of OpenGL; 8-bit
+    sRGB images must be decoded first (``hybrid_engine.textures.srgb_to_linear``). Arrays
+    already in that form are kept as they are, not copied, and are treated as immutable:
+    the GPU copy is refreshed when the list holds different arrays, not when an array is
+    changed in place. Non-finite or negative texels are not rejected here (checking every
+    texel every frame would cost more than the frame); the upload replaces them (documented
+    fallback in ``hybrid_engine.textures.pack_layers``).
     """
 
     base_color: np.ndarray  # (M, 3) float32, linear
@@ -156,6 +174,9 @@ class MaterialTable:
     ior: np.ndarray  # (M,) float32 >= 1
     thickness: np.ndarray  # (M,) float32 in [0, 1]
     names: list[str] = field(default_factory=list)
+    base_color_texture: np.ndarray | None = None  # (M,) int32 index into textures, -1 none
+    emission_texture: np.ndarray | None = None  # (M,) int32 index into textures, -1 none
+    textures: list[np.ndarray] = field(default_factory=list)  # (H, W, 4) float32 linear
 
     def __post_init__(self) -> None:
         self.base_color = _as(self.base_color, np.float32, (3,), "base_color")
@@ -168,6 +189,25 @@ class MaterialTable:
                 raise SceneDataError(f"material {name} has {len(getattr(self, name))} rows, expected {m}")
         if not self.names:
             self.names = [f"material_{i}" for i in range(m)]
+        self.textures = [_texture(t, i) for i, t in enumerate(self.textures)]
+        for name in ("base_color_texture", "emission_texture"):
+            value = getattr(self, name)
+            index = np.full(m, -1, np.int32) if value is None else _as(value, np.int32, (), name)
+            if len(index) != m:
+                raise SceneDataError(f"material {name} has {len(index)} rows, expected {m}")
+            bad = np.flatnonzero((index < -1) | (index >= len(self.textures)))
+            if len(bad):
+                k = int(bad[0])
+                raise SceneDataError(
+                    f"material {k} ({self.names[k]!r}) has {name} {int(index[k])}, but there "
+                    f"are {len(self.textures)} textures (valid: -1 for none, 0..{len(self.textures) - 1})"
+                )
+            setattr(self, name, index)
+
+    @property
+    def has_textures(self) -> bool:
+        """True when some material samples a texture."""
+        return bool((self.base_color_texture >= 0).any() or (self.emission_texture >= 0).any())
 
     def __len__(self) -> int:
         return int(len(self.base_color))
@@ -178,10 +218,28 @@ class MaterialTable:
         return cls.from_rows([dict(name="default")])
 
     @classmethod
-    def from_rows(cls, rows: list[dict]) -> "MaterialTable":
+    def from_rows(cls, rows: list[dict], textures: list[np.ndarray] | None = None) -> "MaterialTable":
         """Build from dicts with keys base_color, emission, reflectivity, transmission, ior,
-        thickness, name (all optional)."""
+        thickness, name, base_color_texture, emission_texture (all optional).
+
+        A texture key holds an index into ``textures``, None (no texture) or the image
+        array itself; arrays are appended to the texture list once per array object, so
+        materials sharing an image share one texture.
+        """
         get = lambda key, default: [r.get(key, default) for r in rows]  # noqa: E731
+        texture_list = list(textures or [])
+        slot_of = {id(t): i for i, t in enumerate(texture_list)}
+
+        def texture_index(value) -> int:
+            if value is None:
+                return -1
+            if isinstance(value, np.ndarray) and value.ndim >= 2:
+                if id(value) not in slot_of:
+                    slot_of[id(value)] = len(texture_list)
+                    texture_list.append(value)
+                return slot_of[id(value)]
+            return int(value)
+
         return cls(
             base_color=np.array(get("base_color", (0.8, 0.8, 0.8)), np.float32).reshape(-1, 3),
             emission=np.array(get("emission", (0.0, 0.0, 0.0)), np.float32).reshape(-1, 3),
@@ -190,6 +248,9 @@ class MaterialTable:
             ior=np.array(get("ior", 1.45), np.float32),
             thickness=np.array(get("thickness", 0.5), np.float32),
             names=[str(n) for n in get("name", "material")],
+            base_color_texture=np.array([texture_index(v) for v in get("base_color_texture", None)], np.int32),
+            emission_texture=np.array([texture_index(v) for v in get("emission_texture", None)], np.int32),
+            textures=texture_list,
         )
 
     def packed(self) -> np.ndarray:
@@ -201,14 +262,33 @@ class MaterialTable:
         out["emission"][:, 3] = self.transmission
         out["params"][:, 0] = self.ior
         out["params"][:, 1] = self.thickness
+        out["textures"][:] = -1  # zw reserved: -1 like "no texture"
+        out["textures"][:, 0] = self.base_color_texture
+        out["textures"][:, 1] = self.emission_texture
         return out
 
 
-# struct Material { vec4 base_color_refl; vec4 emission_trans; vec4 params; }  // total: 48 bytes
+# struct Material { vec4 base_color_refl; vec4 emission_trans; vec4 params; ivec4 textures; }
 MATERIAL_DTYPE = np.dtype(
-    [("base_color", np.float32, 4), ("emission", np.float32, 4), ("params", np.float32, 4)]
+    [("base_color", np.float32, 4), ("emission", np.float32, 4), ("params", np.float32, 4),
+     ("textures", np.int32, 4)]
 )
-assert MATERIAL_DTYPE.itemsize == 48
+assert MATERIAL_DTYPE.itemsize == 64  # total: 64 bytes
+
+
+def _texture(array, index: int) -> np.ndarray:
+    """One texture as (H, W, 4) float32, the same object when it already is one."""
+    arr = np.asarray(array)
+    if arr.dtype.kind != "f":
+        raise SceneDataError(
+            f"texture {index} has dtype {arr.dtype}; textures are float linear RGBA (decode 8-bit "
+            "sRGB images with hybrid_engine.textures.srgb_to_linear)"
+        )
+    if arr.ndim != 3 or arr.shape[2] not in (3, 4) or arr.shape[0] < 1 or arr.shape[1] < 1:
+        raise SceneDataError(f"texture {index} must have shape (H, W, 4) or (H, W, 3), got {arr.shape}")
+    if arr.shape[2] == 3:
+        arr = np.concatenate([arr, np.ones(arr.shape[:2] + (1,), arr.dtype)], axis=2)
+    return np.ascontiguousarray(arr, np.float32)
 
 
 @dataclass
@@ -308,6 +388,12 @@ class SceneData:
     materials: MaterialTable
     lights: Lights = field(default_factory=Lights.empty)
     sky: Sky = field(default_factory=Sky)
+
+    @property
+    def textures(self) -> list[np.ndarray]:
+        """The scene's image textures; they live in the material table, next to the indices
+        that refer to them, so a table can never be paired with the wrong list."""
+        return self.materials.textures
 
     def __post_init__(self) -> None:
         if len(self.materials) == 0:

@@ -13,6 +13,14 @@ from dataclasses import dataclass, fields
 
 MODES = ("HYBRID", "FULL_BVH", "PROVENANCE", "RASTER")
 
+CUBE_MARCHES = ("HIERARCHICAL", "SAMPLED")
+
+CUBE_MARCH_DOCS = {
+    "HIERARCHICAL": "Visit every cube-map texel the ray crosses, skipping empty and unreachable "
+    "regions with a min/max depth pyramid: exact and fast",
+    "SAMPLED": "The paper's march: n_min to n_max equally spaced depth samples per face (3.4)",
+}
+
 MODE_DOCS = {
     "HYBRID": "The paper's method: BVH near the camera, G-buffer cube map beyond it",
     "FULL_BVH": "One BVH over the whole scene, no cube map: the ground truth the hybrid approximates",
@@ -28,9 +36,10 @@ FIELD_DOCS = {
     "max_depth": "Maximum number of secondary bounces (reflections and refractions) per pixel",
     "cube_resolution": "Resolution of each of the six G-buffer cube-map faces, in pixels",
     "cube_far": "Far plane of the cube-map faces (scene units); rays that pass it see the sky",
-    "n_min": "Ray-march samples per cube-map face for rays grazing the face "
+    "cube_march": "How rays are marched through the cube-map faces",
+    "n_min": "SAMPLED march: samples per cube-map face for rays grazing the face "
     "(paper 3.4: n = n_min + (N.r)(n_max - n_min))",
-    "n_max": "Ray-march samples per cube-map face for rays entering it head-on, along its normal "
+    "n_max": "SAMPLED march: samples per cube-map face for rays entering it head-on "
     "(paper 3.4: n = n_min + (N.r)(n_max - n_min))",
     "shadow_resolution": "Resolution of each shadow map, in pixels",
     "shadow_bias": "Depth bias of shadow-map tests, in scene units, against shadow acne",
@@ -61,6 +70,7 @@ class RenderSettings:
     max_depth: int = 4
     cube_resolution: int = 512
     cube_far: float = 1000.0
+    cube_march: str = "HIERARCHICAL"
     n_min: int = 16
     n_max: int = 64
     shadow_resolution: int = 1024
@@ -70,6 +80,9 @@ class RenderSettings:
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise SettingsError(f"mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        if self.cube_march not in CUBE_MARCHES:
+            raise SettingsError(
+                f"cube_march must be one of {', '.join(CUBE_MARCHES)}, got {self.cube_march!r}")
         for f in fields(self):
             if f.name not in FIELD_LIMITS:
                 continue

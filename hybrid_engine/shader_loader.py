@@ -183,6 +183,19 @@ def program(
     return _compile(ctx, stages, defines)
 
 
+def set_uniforms(program, values: Mapping[str, object]) -> None:
+    """Set the uniforms the compiler kept (unused ones are optimised away and absent);
+    ``bytes`` values are written raw (matrix arrays)."""
+    for name, value in values.items():
+        member = program.get(name, None)
+        if member is None:
+            continue
+        if isinstance(value, bytes):
+            member.write(value)
+        else:
+            member.value = value
+
+
 def clear_cache() -> None:
     """Forget cached programs (they die with their context)."""
     for prog in _cache.values():

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import gl_context, shader_loader
-from .cube_map import CubeFaces, CubeMapPass
+from .cube_map import CubeMapPass
 from .gpu_scene import GPUScene
 from .gpu_dispatch import GrowBuffer, storage_barrier
 from .lbvh import BuiltLBVH, LBVHBuilder
@@ -30,6 +30,7 @@ from .near_cube import CullResult, NearCubeCuller, overlap_margin
 from .raster import GBufferTargets, RasterPasses, RasterView, gl_matrix
 from .scene_data import Geometry, SceneData
 from .settings import FIELD_LIMITS, RenderSettings
+from .textures import pixel_footprint
 
 # Kernel modes (u_mode in hybrid_trace.comp.glsl).
 TRACE_MODES = {"HYBRID": 0, "FULL_BVH": 1, "PROVENANCE": 2}
@@ -84,6 +85,50 @@ def pack_triangle_shading(geometry: Geometry) -> np.ndarray:
     return out
 
 
+# struct TriangleUV (hybrid_trace.comp.glsl)                          // total: 32 bytes
+TRIANGLE_UV_DTYPE = np.dtype([("uv01", np.float32, 4), ("uv2_scale", np.float32, 4)])
+assert TRIANGLE_UV_DTYPE.itemsize == 32
+
+
+def pack_triangle_uvs(scene: SceneData) -> np.ndarray:
+    """One TRIANGLE_UV_DTYPE row per triangle, original order: the corners' UVs and the
+    triangle's ``uv_per_world`` = sqrt(UV area / world area) (the tracer's mip level,
+    see textures.py). Their own buffer, apart from the shading rows, because only
+    textured materials read them: rows of untextured triangles stay zero and are not
+    computed. Non-finite UVs become 0 (as in the vertex buffer); a degenerate triangle
+    gets uv_per_world 0 (mip level 0).
+    """
+    geo, materials = scene.geometry, scene.materials
+    n = geo.triangle_count
+    out = np.zeros(max(n, 1), TRIANGLE_UV_DTYPE)
+    if n == 0 or geo.uvs is None or not materials.has_textures:
+        return out
+    textured = (materials.base_color_texture >= 0) | (materials.emission_texture >= 0)
+    rows = np.flatnonzero(textured[geo.material_ids])
+    if len(rows) == 0:
+        return out
+    whole = len(rows) == n
+    uvs = geo.uvs if whole else geo.uvs[rows]
+    if not np.isfinite(uvs).all():
+        uvs = np.where(np.isfinite(uvs), uvs, 0.0).astype(np.float32)
+    tris = geo.triangles if whole else geo.triangles[rows]
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        e1, e2 = tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
+        world = np.linalg.norm(np.cross(e1, e2), axis=1)
+        f1, f2 = uvs[:, 1] - uvs[:, 0], uvs[:, 2] - uvs[:, 0]
+        uv_area = np.abs(f1[:, 0] * f2[:, 1] - f1[:, 1] * f2[:, 0])
+        scale = np.sqrt(uv_area / world)
+    scale = np.where(np.isfinite(scale), scale, 0.0)
+    flat = out.view(np.float32).reshape(-1, 8)
+    if whole:
+        flat[:, :6] = uvs.reshape(n, 6)
+        flat[:, 6] = scale
+    else:
+        flat[rows, :6] = uvs.reshape(-1, 6)
+        flat[rows, 6] = scale
+    return out
+
+
 @dataclass
 class TraceStats:
     """What one frame's tracing did (goes into FrameResult.counts)."""
@@ -101,14 +146,8 @@ class TraceStats:
 
 
 def _set(program, name: str, value) -> None:
-    """Set a uniform the compiler kept (unused ones are optimised away)."""
-    member = program.get(name, None)
-    if member is None:
-        return
-    if isinstance(value, bytes):
-        member.write(value)
-    else:
-        member.value = value
+    """Set one uniform the compiler kept."""
+    shader_loader.set_uniforms(program, {name: value})
 
 
 class HybridTracer:
@@ -123,11 +162,13 @@ class HybridTracer:
         self.builder = LBVHBuilder(ctx)
         self._triangles = GrowBuffer(ctx, "tracer triangles")
         self._shading = GrowBuffer(ctx, "tracer triangle shading")
+        self._uvs = GrowBuffer(ctx, "tracer triangle uvs")
         self._counters = ctx.buffer(reserve=len(COUNTER_KINDS) * COUNTER_DEPTHS * 4)
         self._zero_counters = bytes(self._counters.size)
         self._dummy_ssbo = ctx.buffer(reserve=256)
         self._dummy_depth = ctx.depth_texture((1, 1))
         self._dummy_rgba = ctx.texture((1, 1), 4, dtype="f4")
+        self._dummy_rg = ctx.texture((1, 1), 2, dtype="f4")
         self.triangle_count = 0
         self.built: BuiltLBVH | None = None
         self.cull_result: CullResult | None = None
@@ -140,10 +181,14 @@ class HybridTracer:
         triangles = pack_triangles(geo)  # uploaded as byte views, not copies
         self._triangles.upload(triangles.reshape(-1).view(np.uint8) if len(triangles) else bytes(36))
         self._shading.upload(pack_triangle_shading(geo).reshape(-1).view(np.uint8))
+        if scene.materials.has_textures:  # only textured BVH hits read UVs
+            self._uvs.upload(pack_triangle_uvs(scene).reshape(-1).view(np.uint8))
+        else:
+            self._uvs.ensure(0)
 
     def render_cube_map(self, gpu, scene: SceneData, center, settings: RenderSettings) -> int:
-        """The six face G-buffers (§3.2), shaded without the specular lobes (the tracer adds
-        them when a ray hits a face). Returns the triangles submitted."""
+        """The six face G-buffers (§3.2) and, for the hierarchical march, their hit-interval
+        pyramid; the tracer shades the texels its rays hit. Returns the triangles submitted."""
         return self.cube_map.render(gpu, scene, center, settings)
 
     def cull(self, scene: SceneData, center, settings: RenderSettings) -> CullResult:
@@ -191,6 +236,7 @@ class HybridTracer:
             self._dummy_ssbo.bind_to_storage_buffer(4)
         self._shading.buffer.bind_to_storage_buffer(5)
         self._counters.bind_to_storage_buffer(6)
+        self._uvs.buffer.bind_to_storage_buffer(7)
 
         # Textures.
         cube = self.cube_map.targets if mode == "HYBRID" else None
@@ -198,12 +244,17 @@ class HybridTracer:
             "u_depth": targets.depth,
             "u_normal_material": targets.normal_material,
             "u_albedo": targets.albedo,
-            "u_cube_depth": cube.depth if cube is not None else self._dummy_depth,
-            "u_cube_normal_material": cube.normal_material if cube is not None else self._dummy_rgba,
-            "u_cube_color": cube.color if cube is not None else self._dummy_rgba,
+            "u_cube_depth": self._dummy_depth,
+            "u_cube_normal_material": self._dummy_rgba,
+            "u_cube_albedo": cube.albedo if cube is not None else self._dummy_rgba,
+            "u_cube_emission_scale": cube.emission_scale if cube is not None else self._dummy_rgba,
+            "u_cube_hiz": self._dummy_rg,
             "u_shadow_atlas": raster._shadow_atlas,
             "u_sky_env": raster._sky_texture or raster._dummy_env,
+            "u_textures": gpu.textures.array,
         }
+        if cube is not None:
+            units.update(self.cube_map.march_textures())
         for unit, (name, tex) in enumerate(units.items()):
             tex.use(location=unit)
             _set(prog, name, unit)
@@ -228,20 +279,10 @@ class HybridTracer:
             "u_sky_strength": float(scene.sky.strength),
             "u_sky_has_env": int(raster._sky_texture is not None),
         }
-        faces: CubeFaces | None = self.cube_map.faces if cube is not None else None
-        if faces is not None:
-            values.update({
-                "u_face_view_proj": b"".join(gl_matrix(m) for m in faces.view_proj),
-                "u_face_inv_view_proj": b"".join(gl_matrix(m) for m in faces.inv_view_proj),
-                "u_face_to_face": b"".join(gl_matrix(faces.face_to_face[i, j])
-                                           for i in range(6) for j in range(6)),
-                "u_cube_center": tuple(faces.center),
-                "u_cube_near": float(faces.near),
-                "u_cube_far": float(faces.far),
-                "u_cube_res": int(settings.cube_resolution),
-                "u_n_min": int(settings.n_min),
-                "u_n_max": int(settings.n_max),
-            })
+        values["u_pixel_width"], values["u_pixel_spread"] = pixel_footprint(
+            view.view_proj, view.height, view.orthographic)
+        if cube is not None:
+            values.update(self.cube_map.march_uniforms(settings))
         for name, value in values.items():
             _set(prog, name, value)
         prog.run(math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
@@ -260,9 +301,9 @@ class HybridTracer:
         self.cube_map.release()
         self.culler.release()
         self.builder.release()
-        for grow in (self._triangles, self._shading):
+        for grow in (self._triangles, self._shading, self._uvs):
             grow.release()
-        for obj in (self._counters, self._dummy_ssbo, self._dummy_depth, self._dummy_rgba):
+        for obj in (self._counters, self._dummy_ssbo, self._dummy_depth, self._dummy_rgba, self._dummy_rg):
             obj.release()
 
 
@@ -298,23 +339,10 @@ def probe_cube_march(ctx, cube_map: CubeMapPass, materials_buffer, settings: Ren
         materials_buffer.bind_to_storage_buffer(0)
         ray_buf.bind_to_storage_buffer(1)
         out_buf.bind_to_storage_buffer(2)
-        faces = cube_map.faces
-        cube_map.targets.depth.use(location=0)
-        cube_map.targets.normal_material.use(location=1)
-        values = {
-            "u_count": count,
-            "u_cube_depth": 0,
-            "u_cube_normal_material": 1,
-            "u_face_view_proj": b"".join(gl_matrix(m) for m in faces.view_proj),
-            "u_face_inv_view_proj": b"".join(gl_matrix(m) for m in faces.inv_view_proj),
-            "u_face_to_face": b"".join(gl_matrix(faces.face_to_face[i, j]) for i in range(6) for j in range(6)),
-            "u_cube_center": tuple(faces.center),
-            "u_cube_near": float(faces.near),
-            "u_cube_far": float(faces.far),
-            "u_cube_res": int(settings.cube_resolution),
-            "u_n_min": int(settings.n_min),
-            "u_n_max": int(settings.n_max),
-        }
+        values = {"u_count": count, **cube_map.march_uniforms(settings)}
+        for unit, (name, tex) in enumerate(cube_map.march_textures().items()):
+            tex.use(location=unit)
+            values[name] = unit
         for name, value in values.items():
             _set(prog, name, value)
         dispatch(prog, count, PROBE_LOCAL_SIZE)

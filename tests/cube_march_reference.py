@@ -5,8 +5,11 @@ It re-derives everything from the paper and the documented rule in
 gpu_shaders/include/cube_march.glsl without importing hybrid_engine: the six 90.2° face
 cameras (GL cube-map orientation), the map ray in NDC, the n = n_min + |d_m.z| (n_max - n_min)
 samples, the thickness hit rule with its depth bias and bisection, and face switching to the
-first face that contains the exit point. Tests feed it the same atlas the GPU marched (read
-back from the GL textures) and compare outcomes ray by ray.
+first face that contains the exit point. ``hierarchical=True`` gives the continuous rule of
+the hierarchical march instead: every texel the map ray crosses (found by listing all
+texel-edge crossings, not by walking a pyramid) is tested against its hit interval (A, B].
+Tests feed it the same atlas the GPU marched (read back from the GL textures) and compare
+outcomes ray by ray.
 """
 from __future__ import annotations
 
@@ -61,7 +64,8 @@ class CubeMapReference:
     """depth: (res, 6 res) window depths in [0, 1]; normal_material: (res, 6 res, 4) with
     w = ±(material + 1) (0 = empty); thickness: per-material thickness."""
 
-    def __init__(self, depth, normal_material, thickness, center, near, far, n_min, n_max):
+    def __init__(self, depth, normal_material, thickness, center, near, far, n_min, n_max,
+                 hierarchical: bool = False):
         self.depth = np.asarray(depth, np.float64)
         self.nm = np.asarray(normal_material, np.float64)
         self.res = self.depth.shape[0]
@@ -71,6 +75,63 @@ class CubeMapReference:
         self.n_min, self.n_max = int(n_min), int(n_max)
         self.vp = face_matrices(center, near, far)
         self.inv = np.linalg.inv(self.vp)
+        self.hierarchical = hierarchical
+
+    def ndc(self, r):
+        n, f = self.near, self.far
+        return ((f + n) - 2 * f * n / r) / (f - n)
+
+    def bias(self, face, ndc, surface, normal):
+        view = self.unproject(face, ndc) - self.center
+        view /= np.linalg.norm(view)
+        c = abs(view @ normal)
+        slope = min(math.sqrt(max(1 - c * c, 0.0)) / c, MAX_SLOPE) if c > 0 else MAX_SLOPE
+        texel_angle = 2 * math.tan(FOV / 2) / self.res
+        return surface * (BIAS_RELATIVE + texel_angle * slope)
+
+    def interval(self, tx, ty):
+        """(A, B) of an atlas texel as NDC depths; None where nothing is stored."""
+        nm = self.nm[ty, tx]
+        if nm[3] == 0.0:
+            return None
+        face = tx // self.res
+        xy = (np.array([tx - face * self.res, ty]) + 0.5) / self.res * 2 - 1
+        z = self.depth[ty, tx] * 2 - 1
+        surface = self.linear(z)
+        normal = nm[:3] / np.linalg.norm(nm[:3])
+        a = surface + self.bias(face, np.r_[xy, z], surface, normal)
+        material = int(abs(nm[3]) + 0.5) - 1
+        thick = min(max(self.thickness[material], 0.0), 1.0)
+        b = max(a, surface + thick * (self.far - surface))
+        return self.ndc(a), self.ndc(b)
+
+    def march_face_exact(self, face, a, dm, t_exit):
+        """First texel along the map ray whose hit interval the ray reaches: (texel, xy)."""
+        u0 = (a[:2] * 0.5 + 0.5) * self.res
+        du = dm[:2] * 0.5 * self.res
+        ts = [0.0, t_exit]
+        for k in range(2):
+            if abs(du[k]) > 1e-30:
+                lo, hi = sorted((u0[k], u0[k] + du[k] * t_exit))
+                edges = np.arange(math.ceil(lo), math.floor(hi) + 1)
+                ts.extend(((edges - u0[k]) / du[k]).tolist())
+        ts = np.unique(np.clip(ts, 0.0, t_exit))
+        for t0, t1 in zip(ts[:-1], ts[1:]):
+            if t1 <= t0:
+                continue
+            local = np.clip(np.floor(u0 + du * (0.5 * (t0 + t1))).astype(int), 0, self.res - 1)
+            tx, ty = face * self.res + local[0], local[1]
+            ab = self.interval(tx, ty)
+            if ab is None:
+                continue
+            z0, z1 = a[2] + dm[2] * t0, a[2] + dm[2] * t1
+            if max(z0, z1) > ab[0] and min(z0, z1) <= ab[1]:
+                t_hit = t0
+                if not ab[0] < z0 <= ab[1]:
+                    target = ab[0] if z0 <= ab[0] else ab[1]
+                    t_hit = min(max(t0 + (target - z0) / dm[2], t0), t1)
+                return (tx, ty), a[:2] + dm[:2] * t_hit
+        return None
 
     def linear(self, z):
         n, f = self.near, self.far
@@ -137,7 +198,16 @@ class CubeMapReference:
                 t_axes = np.where(np.abs(dm) < 1e-30, 1e30, (bound - a) / dm)
             axis = int(np.argmin(t_axes))
             t_exit = max(t_axes[axis], 0.0)
-            n = max(1, int(self.n_min + abs(dm[2]) * (self.n_max - self.n_min) + 0.5))
+            if self.hierarchical:
+                found = self.march_face_exact(face, a, dm, t_exit)
+                if found is not None:
+                    (tx, ty), xy = found
+                    position = self.unproject(face, np.r_[xy, self.depth[ty, tx] * 2 - 1])
+                    return MarchResult(HIT, face, (tx, ty), position, float((position - o) @ d),
+                                       result.switches)
+                n = 0  # no samples: go on to the exit
+            else:
+                n = max(1, int(self.n_min + abs(dm[2]) * (self.n_max - self.n_min) + 0.5))
             prev_lin, t_prev = self.linear(a[2]), 0.0
             for k in range(1, n + 1):
                 t_k = t_exit * k / n

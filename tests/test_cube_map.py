@@ -48,7 +48,7 @@ def render_cube(cube_pass, scene, settings):
     gpu.upload(scene)
     cube.raster.shadows(gpu, scene, settings)
     gpu.upload_lights(scene.lights, [(-1, 0)] * len(scene.lights))
-    cube.render(gpu, scene, (0.0, 0.0, 0.0), settings)
+    cube.render(gpu, scene, (0.0, 0.0, 0.0), settings, shade=True)
     return cube.targets.read_color()
 
 

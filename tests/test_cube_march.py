@@ -49,9 +49,10 @@ def cube_setup(gl):
     gpu.release()
 
 
-def march_both(cube_setup, scene, origins, dirs, t_start, **kw):
+def march_both(cube_setup, scene, origins, dirs, t_start, march="HIERARCHICAL", res=RES, **kw):
+    """The GPU march and the numpy reference march of the same rays through the same atlas."""
     ctx, raster, gpu, cube = cube_setup
-    settings = RenderSettings(near_size=NEAR, cube_far=FAR, cube_resolution=RES, **kw)
+    settings = RenderSettings(near_size=NEAR, cube_far=FAR, cube_resolution=res, cube_march=march, **kw)
     gpu.upload(scene)
     raster.shadows(gpu, scene, settings)
     gpu.upload_lights(scene.lights, [])
@@ -61,7 +62,7 @@ def march_both(cube_setup, scene, origins, dirs, t_start, **kw):
     depth = np.frombuffer(cube.targets.depth.read(), np.float32).reshape(h, w)
     nm = np.frombuffer(cube.targets.normal_material.read(), np.float32).reshape(h, w, 4)
     ref = CubeMapReference(depth, nm, scene.materials.thickness, CENTER, NEAR, FAR,
-                           settings.n_min, settings.n_max)
+                           settings.n_min, settings.n_max, hierarchical=march == "HIERARCHICAL")
     t_start = np.broadcast_to(np.asarray(t_start, float), (len(origins),))
     refs = [ref.march(o, d, t) for o, d, t in zip(origins, dirs, t_start)]
     return gpu_rows, refs
@@ -72,9 +73,12 @@ def test_reference_face_matrices_equal_the_engine_cube_faces():
     np.testing.assert_allclose(face_matrices(CENTER, NEAR, FAR), faces.view_proj, atol=1e-12)
 
 
-def test_march_agrees_with_the_numpy_reference_on_random_rays(cube_setup, rng):
+@pytest.mark.parametrize("march, res", [("SAMPLED", RES), ("HIERARCHICAL", RES), ("HIERARCHICAL", 48)])
+def test_march_agrees_with_the_numpy_reference_on_random_rays(cube_setup, rng, march, res):
     """Rays from inside the near cube (entering the map at its faces) and from outside it
-    (starting in the map), in all directions."""
+    (starting in the map), in all directions. The hierarchical march walks a pyramid; the
+    reference tests every texel crossed, so agreement proves the pyramid skips no hit (also
+    for faces that are not a power of two, padded in the pyramid)."""
     count = 300
     inside = CENTER + rng.uniform(-0.9, 0.9, (count // 2, 3)) * NEAR
     outside = CENTER + rng.uniform(-6, 6, (count - count // 2, 3))
@@ -86,7 +90,7 @@ def test_march_agrees_with_the_numpy_reference_on_random_rays(cube_setup, rng):
     with np.errstate(divide="ignore"):
         t_faces = np.where(dirs > 0, (CENTER + NEAR - origins) / dirs, (CENTER - NEAR - origins) / dirs)
     t_start = np.where(np.arange(len(origins)) < len(inside), np.min(np.abs(t_faces), axis=1), 0.0)
-    gpu_rows, refs = march_both(cube_setup, boxes_scene(), origins, dirs, t_start)
+    gpu_rows, refs = march_both(cube_setup, boxes_scene(), origins, dirs, t_start, march, res)
     kinds = np.array([r.kind for r in refs])
     assert {HIT, SKY} <= set(kinds.tolist())  # the sample covers hits and misses
     same_kind = gpu_rows["kind"] == kinds
@@ -98,15 +102,17 @@ def test_march_agrees_with_the_numpy_reference_on_random_rays(cube_setup, rng):
     assert (gpu_rows["face"][hits] == np.array([r.face for r in refs])[hits]).mean() >= MIN_AGREEMENT
 
 
+@pytest.mark.parametrize("march", ["SAMPLED", "HIERARCHICAL"])
 @pytest.mark.parametrize("thickness", [0.0, 1.0])
-def test_thickness_rule_agrees_with_the_reference_for_rays_passing_behind_objects(cube_setup, rng, thickness):
+def test_thickness_rule_agrees_with_the_reference_for_rays_passing_behind_objects(cube_setup, rng, thickness,
+                                                                                   march):
     """Rays that start beside the far red box and pass behind it: thin (0) lets them through,
     solid (1) stops them, in both marches."""
     origins = CENTER + np.array([[3.5, -2.5, 0.0]]) + rng.uniform(-0.2, 0.2, (60, 3))
     targets = CENTER + np.array([4.5, 1.5, 0.0]) + rng.uniform(-0.3, 0.3, (60, 3))
     dirs = targets - origins
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    gpu_rows, refs = march_both(cube_setup, boxes_scene(thickness), origins, dirs, 0.0)
+    gpu_rows, refs = march_both(cube_setup, boxes_scene(thickness), origins, dirs, 0.0, march)
     kinds = np.array([r.kind for r in refs])
     assert (gpu_rows["kind"] == kinds).mean() >= MIN_AGREEMENT
     hit_share = (gpu_rows["kind"] == MARCH_HIT).mean()
@@ -181,3 +187,22 @@ def test_hits_report_the_surface_position_normal_and_material(cube_setup):
     assert abs(row["position"][0] - (CENTER[0] + 3.0)) < 0.05
     np.testing.assert_allclose(row["normal"], [-1, 0, 0], atol=1e-5)
     assert refs[0].kind == HIT and abs(refs[0].position[0] - row["position"][0]) < 0.05
+
+
+def test_the_hierarchical_march_hits_a_thin_pole_that_sparse_samples_step_over(cube_setup):
+    """Every texel crossed is tested: a pole about two texels wide (0.3 at distance 4, texels
+    of 2/64 rad) is hit by every ray passing through it, where two samples per face (the
+    paper's march at n = 2) land on either side of it for some."""
+    pole = box(CENTER + (-0.15, 4.0, -3.0), CENTER + (0.15, 4.3, 3.0))
+    scene = SceneData(Geometry.from_objects([(pole, None, 0)]),
+                      MaterialTable.from_rows([dict(base_color=(0.5, 0.5, 0.5), thickness=0.0)]),
+                      Lights.empty(), Sky())
+    origins = CENTER + np.array([[x, 2.0, 0.0] for x in np.linspace(-2.0, -1.5, 8)])
+    dirs = CENTER + np.array([0.0, 4.0, 0.0]) - origins
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    exact, ref_exact = march_both(cube_setup, scene, origins, dirs, 0.0, "HIERARCHICAL")
+    sparse, _ = march_both(cube_setup, scene, origins, dirs, 0.0, "SAMPLED", n_min=2, n_max=2)
+    assert (exact["kind"] == MARCH_HIT).all()
+    assert all(r.kind == HIT for r in ref_exact)
+    assert (sparse["kind"] != MARCH_HIT).any()
+    np.testing.assert_allclose(exact["position"][:, 1], CENTER[1] + 4.0, atol=0.05)

@@ -525,3 +525,140 @@ def test_one_million_triangles_extract_within_budget(addon):
     print(f"\nextract_scene: {count} triangles, best {best:.1f} ms, runs {np.round(timings, 1)}")
     assert count == 2 * 501 * 501 + 4 * 2 * 251 * 251  # grid subdivisions count quads per side
     assert best <= EXTRACT_BUDGET_MS
+
+
+# ---------------------------------------------------------------------------------------
+# image textures
+# Byte images come back as value / 255 in their colour space; the expected linear values
+# are decoded here with the sRGB formula (IEC 61966-2-1), independently of the engine's.
+def srgb_decode(values):
+    values = np.asarray(values, np.float64)
+    return np.where(values <= 0.04045, values / 12.92, ((values + 0.055) / 1.055) ** 2.4)
+
+
+def uv_plane(name="plane"):
+    """A unit quad in z = 0 whose render UV map equals its xy coordinates."""
+    obj = mesh_object(name, [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [(0, 1, 2, 3)])
+    uv_map = obj.data.uv_layers.new(name="render")
+    uv_map.uv.foreach_set("vector", [0, 0, 1, 0, 1, 1, 0, 1])
+    return obj
+
+
+def image_of(name, pixels, float_buffer=False):
+    """A generated image holding ``pixels`` ((H, W, 4), row 0 at the bottom)."""
+    pixels = np.asarray(pixels, np.float32)
+    image = bpy.data.images.new(name, pixels.shape[1], pixels.shape[0], float_buffer=float_buffer)
+    image.pixels.foreach_set(pixels.reshape(-1))
+    return image
+
+
+def textured_material(name, image, socket="Base Color"):
+    """A Principled material whose ``socket`` is fed by an Image Texture of ``image``."""
+    material = bpy.data.materials.new(name)
+    tree = material.node_tree
+    principled = tree.nodes["Principled BSDF"]
+    principled.inputs[socket].default_value = (1.0, 0.0, 0.0, 1.0)  # ignored once linked
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    tree.links.new(tex.outputs["Color"], principled.inputs[socket])
+    return material
+
+
+@pytest.fixture
+def fresh_images(addon):
+    addon.blender_adapter.extract.forget_image_pixels()
+    yield addon
+    addon.blender_adapter.extract.forget_image_pixels()
+
+
+def test_image_texture_on_base_color_becomes_a_texture_sampled_through_the_render_uv_map(fresh_images, rng):
+    clear_scene()
+    pixels = np.ones((3, 4, 4), np.float32)
+    pixels[..., :3] = rng.uniform(0, 1, (3, 4, 3))
+    image = image_of("checker", pixels)
+    obj = uv_plane()
+    obj.data.materials.append(textured_material("textured", image))
+    scene = extract(fresh_images)
+    table = scene.materials
+    k = table.names.index("textured")
+    assert len(scene.textures) == 1 and table.base_color_texture[k] == 0 and table.emission_texture[k] == -1
+    np.testing.assert_allclose(table.base_color[k], (1, 1, 1))  # Blender ignores the linked socket's red
+    stored = np.round(pixels[..., :3] * 255) / 255  # 8-bit storage
+    np.testing.assert_allclose(scene.textures[0][..., :3], srgb_decode(stored), atol=1e-6)
+    corners = {tuple(np.round(c, 6)) for c in scene.geometry.uvs.reshape(-1, 2)}
+    assert corners == {(0, 0), (1, 0), (1, 1), (0, 1)}
+
+
+def test_float_image_on_emission_color_is_read_linear_and_scaled_by_the_strength(fresh_images, rng):
+    clear_scene()
+    pixels = np.ones((2, 2, 4), np.float32)
+    pixels[..., :3] = rng.uniform(0, 4, (2, 2, 3))  # HDR values survive
+    material = textured_material("glow", image_of("hdr", pixels, float_buffer=True), socket="Emission Color")
+    material.node_tree.nodes["Principled BSDF"].inputs["Emission Strength"].default_value = 3.0
+    uv_plane().data.materials.append(material)
+    scene = extract(fresh_images)
+    k = scene.materials.names.index("glow")
+    assert scene.materials.emission_texture[k] == 0 and scene.materials.base_color_texture[k] == -1
+    np.testing.assert_allclose(scene.materials.emission[k], (3, 3, 3))
+    np.testing.assert_array_equal(scene.textures[0], pixels)
+
+
+@pytest.mark.parametrize("factor, expected", [(1.0, (0.5, 0.25, 1.0)), (0.5, (0.75, 0.625, 1.0))])
+def test_multiply_mix_of_an_image_and_a_colour_gives_the_factor_blender_computes(fresh_images, factor, expected):
+    """Blender's Multiply mix is A (1 - f + f B): the image in A is scaled by 1 - f + f B."""
+    clear_scene()
+    material = bpy.data.materials.new("tinted")
+    tree = material.node_tree
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type, mix.blend_type = "RGBA", "MULTIPLY"
+    inputs = {s.identifier: s for s in mix.inputs}  # several inputs are named "A" and "B"
+    inputs["Factor_Float"].default_value = factor
+    inputs["B_Color"].default_value = (0.5, 0.25, 1.0, 1.0)
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image_of("grey", np.full((2, 2, 4), 0.5, np.float32))
+    tree.links.new(tex.outputs["Color"], inputs["A_Color"])
+    result = next(s for s in mix.outputs if s.identifier == "Result_Color")
+    tree.links.new(result, tree.nodes["Principled BSDF"].inputs["Base Color"])
+    uv_plane().data.materials.append(material)
+    scene = extract(fresh_images)
+    k = scene.materials.names.index("tinted")
+    assert scene.materials.base_color_texture[k] == 0
+    np.testing.assert_allclose(scene.materials.base_color[k], expected, atol=1e-6)
+
+
+def test_non_color_byte_images_are_not_decoded(fresh_images):
+    clear_scene()
+    image = bpy.data.images.new("data", 2, 2)
+    image.colorspace_settings.name = "Non-Color"  # before the pixels: Blender regenerates on change
+    image.pixels.foreach_set(np.full(16, 0.4, np.float32))
+    uv_plane().data.materials.append(textured_material("data", image))
+    scene = extract(fresh_images)
+    np.testing.assert_allclose(scene.textures[0][..., :3], np.round(0.4 * 255) / 255, atol=1e-6)
+
+
+def test_an_image_without_pixels_warns_and_uses_the_sockets_own_colour(fresh_images, caplog):
+    clear_scene()
+    image = bpy.data.images.new("missing", 4, 4)
+    image.source = "FILE"
+    image.filepath = "/nonexistent/missing_texture.png"
+    uv_plane().data.materials.append(textured_material("broken", image))
+    with caplog.at_level("WARNING"):
+        scene = extract(fresh_images)
+    k = scene.materials.names.index("broken")
+    assert scene.textures == [] and scene.materials.base_color_texture[k] == -1
+    np.testing.assert_allclose(scene.materials.base_color[k], (1.0, 0.0, 0.0))  # the socket's red
+    assert any("missing" in r.getMessage() and "no pixels" in r.getMessage() for r in caplog.records)
+
+
+def test_image_pixels_are_read_once_and_again_only_when_the_image_changes(fresh_images):
+    """Two extractions (two playback frames) share the very same pixel array; resizing the
+    image gives a new one."""
+    clear_scene()
+    image = image_of("cached", np.full((4, 4, 4), 0.5, np.float32))
+    uv_plane().data.materials.append(textured_material("cached", image))
+    first = extract(fresh_images).textures[0]
+    assert extract(fresh_images).textures[0] is first
+    assert not first.flags.writeable  # shared: nobody may change it in place
+    image.scale(8, 8)
+    second = extract(fresh_images).textures[0]
+    assert second is not first and second.shape == (8, 8, 4)

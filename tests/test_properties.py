@@ -8,7 +8,7 @@ from dataclasses import fields
 import bpy
 import pytest
 
-from hybrid_engine.settings import FIELD_DOCS, FIELD_LIMITS, MODES, RenderSettings
+from hybrid_engine.settings import CUBE_MARCHES, FIELD_DOCS, FIELD_LIMITS, MODES, RenderSettings
 
 FLOAT32_TOLERANCE = 1e-6  # Blender stores float properties as float32
 
@@ -23,9 +23,10 @@ def test_every_render_settings_field_is_a_scene_property_with_core_default_limit
     for f in fields(RenderSettings):
         prop = _rna(group, f.name)
         assert prop.description == FIELD_DOCS[f.name]
-        if f.name == "mode":
-            assert [item.identifier for item in prop.enum_items] == list(MODES)
-            assert prop.default == "HYBRID"
+        enums = {"mode": MODES, "cube_march": CUBE_MARCHES}
+        if f.name in enums:
+            assert [item.identifier for item in prop.enum_items] == list(enums[f.name])
+            assert prop.default == getattr(defaults, f.name)
             continue
         assert prop.default == pytest.approx(getattr(defaults, f.name), rel=FLOAT32_TOLERANCE)
         lo, hi = FIELD_LIMITS[f.name]

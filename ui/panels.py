@@ -113,7 +113,9 @@ class RENDER_PT_hybrid_rt_cube_map(HybridRTPanel, bpy.types.Panel):
         col = layout.column()
         col.prop(settings, "cube_resolution")
         col.prop(settings, "cube_far")
+        layout.prop(settings, "cube_march")
         col = layout.column(align=True)
+        col.active = settings.cube_march == "SAMPLED"
         col.prop(settings, "n_min", text="Ray March Samples Min")
         col.prop(settings, "n_max", text="Max")
 

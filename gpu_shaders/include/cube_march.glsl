@@ -38,6 +38,24 @@
 // absorbs the quantisation of the depth to one value per texel, which otherwise makes a
 // surface seen at a grazing angle hit itself.
 //
+// Hierarchical march (settings.cube_march HIERARCHICAL, the default). The same rule made
+// continuous: the ray is followed through every texel T of the face it crosses, entering T
+// at depth r_in and leaving at r_out, and hits T when its depth range [lo, hi] there reaches
+// into T's hit interval (A, B]:
+//   A = S + b                                  (b: the bias above, at T's centre)
+//   B = max(A, S + thickness (F - S))
+//   hit  <=>  hi > A  and  lo <= B
+// (a ray crossing A within T pierces the surface whatever the thickness; thickness 0 is a
+// sheet). The hit point is where the ray enters (A, B] inside T. Instead of sampling, the
+// march walks a min/max pyramid of the intervals (u_cube_hiz, built by
+// trace/cube_hiz_base.comp.glsl and cube_hiz_reduce.comp.glsl: level 0 holds (A, B) as NDC
+// depths, level L the (min A, max B) of 2^L x 2^L texels): a cell whose interval the ray's
+// depth range over the cell misses is skipped whole and the walk climbs a level; a cell it
+// may hit is descended into. Every texel the ray crosses is accounted for, so unlike the
+// sampled march no thin surface is stepped over, and an empty or unreachable region costs
+// one fetch per pyramid cell instead of n samples. Depths compare in NDC, where the map
+// ray's depth is linear in its parameter (perspective maps lines to lines).
+//
 // Face switching (paper Figure 3). A ray starts in the FIRST face (order +X, -X, +Y, -Y, +Z,
 // -Z) whose frustum contains its start point, and keeps that face for as long as it stays in
 // the face's frustum (the 90.2-degree faces overlap, and being inside the overlap does not
@@ -49,7 +67,9 @@
 // Needs, declared by the including shader: `Material materials[]` (scene_layout.glsl).
 // Uniforms: u_cube_depth, u_cube_normal_material (the atlas), u_face_view_proj[6],
 // u_face_inv_view_proj[6], u_face_to_face[36] (index i * 6 + j), u_cube_center, u_cube_near,
-// u_cube_far, u_cube_res, u_n_min, u_n_max.
+// u_cube_far, u_cube_res, u_n_min, u_n_max; the pyramid u_cube_hiz (faces u_cube_hiz_res
+// texels apart at level 0, a power of two >= u_cube_res), u_cube_hiz_levels, and
+// u_cube_hierarchical (1: hierarchical march, 0: sampled).
 #ifndef HYBRID_CUBE_MARCH_GLSL
 #define HYBRID_CUBE_MARCH_GLSL
 
@@ -64,6 +84,10 @@ uniform float u_cube_far;
 uniform int u_cube_res;
 uniform int u_n_min;
 uniform int u_n_max;
+uniform sampler2D u_cube_hiz;
+uniform int u_cube_hiz_res;
+uniform int u_cube_hiz_levels;
+uniform int u_cube_hierarchical;
 
 #define CUBE_SKY 0
 #define CUBE_HIT 1
@@ -71,6 +95,11 @@ uniform int u_n_max;
 
 #define CUBE_MAX_FACE_SWITCHES 8
 #define CUBE_REFINE_STEPS 6
+// Fetches one face's hierarchical march may take before the ray is given the sky. A walk
+// needs at most (levels + 1) fetches per texel crossed; real rays take a few dozen.
+#define CUBE_HIZ_MAX_STEPS 4096
+// Hit interval of an empty texel: nothing to hit at any depth.
+#define CUBE_HIZ_EMPTY vec2(2.0, -2.0)
 // A point on a face's frustum boundary belongs to it (relative NDC tolerance).
 const float CUBE_CONTAINS_EPS = 1e-5;
 // Depth bias: float32 depth rounding, plus the depth change across one texel of a surface
@@ -118,6 +147,96 @@ ivec2 cube_texel(int face, vec2 ndc_xy) {
     return ivec2(face * u_cube_res, 0) + clamp(local, ivec2(0), ivec2(u_cube_res - 1));
 }
 
+// NDC depth of linear view depth r (the inverse of cube_linear_depth).
+float cube_ndc_depth(float r) {
+    float n = u_cube_near;
+    float f = u_cube_far;
+    return ((f + n) - 2.0 * f * n / max(r, 1e-30)) / (f - n);
+}
+
+// The depth bias b of a stored surface at linear depth `surface`, seen at NDC point `ndc` of
+// `face`, with unit normal `normal` (see the header): the incidence angle is that of the
+// line of sight from the centre.
+float cube_depth_bias(int face, vec3 ndc, float surface, vec3 normal) {
+    vec3 view = normalize(cube_unproject(face, ndc) - u_cube_center);
+    float c = abs(dot(view, normal));
+    float slope = c > 0.0 ? min(sqrt(max(1.0 - c * c, 0.0)) / c, CUBE_MAX_SLOPE) : CUBE_MAX_SLOPE;
+    float texel_angle = 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
+    return surface * (CUBE_BIAS_RELATIVE + texel_angle * slope);
+}
+
+// The hit interval (A, B] of an atlas texel as NDC depths (see the header), or
+// CUBE_HIZ_EMPTY where no surface is stored. Level 0 of the pyramid.
+vec2 cube_hit_interval(ivec2 atlas_texel) {
+    vec4 nm = texelFetch(u_cube_normal_material, atlas_texel, 0);
+    if (nm.w == 0.0) return CUBE_HIZ_EMPTY;
+    int face = atlas_texel.x / u_cube_res;
+    vec2 local = vec2(atlas_texel - ivec2(face * u_cube_res, 0)) + 0.5;
+    vec2 xy = local / float(u_cube_res) * 2.0 - 1.0;
+    float stored_z = texelFetch(u_cube_depth, atlas_texel, 0).r * 2.0 - 1.0;
+    float surface = cube_linear_depth(stored_z);
+    float a = surface + cube_depth_bias(face, vec3(xy, stored_z), surface, normalize(nm.xyz));
+    int material = int(abs(nm.w) + 0.5) - 1;
+    float thickness = clamp(materials[material].params.y, 0.0, 1.0);
+    float b = max(a, surface + thickness * (u_cube_far - surface));
+    return vec2(cube_ndc_depth(a), cube_ndc_depth(b));
+}
+
+// The hierarchical march of one face (see the header) along the map ray a + dm t,
+// t in [0, t_exit]. On a hit returns true with the atlas texel and the NDC xy where the ray
+// enters the texel's hit interval.
+bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
+                                  out ivec2 hit_texel, out vec2 hit_xy) {
+    hit_texel = ivec2(-1);
+    hit_xy = vec2(0.0);
+    float res = float(u_cube_res);
+    // Texel coordinates along the ray: u(t) = u0 + du t.
+    vec2 u0 = (a.xy * 0.5 + 0.5) * res;
+    vec2 du = dm.xy * (0.5 * res);
+    bvec2 moving = greaterThan(abs(du), vec2(1e-30));
+    vec2 inv_du = 1.0 / mix(vec2(1.0), du, moving);
+    ivec2 positive = ivec2(greaterThan(du, vec2(0.0)));
+    ivec2 cell = clamp(ivec2(floor(u0)), ivec2(0), ivec2(u_cube_res - 1));  // level-0 texel
+    int top = u_cube_hiz_levels - 1;
+    int level = 0;
+    float t = 0.0;
+    for (int step = 0; step < CUBE_HIZ_MAX_STEPS; ++step) {
+        int size = 1 << level;
+        ivec2 c = cell >> level;
+        vec2 t_bound = mix(vec2(1e30), (vec2((c + positive) * size) - u0) * inv_du, moving);
+        float t_end = min(min(t_bound.x, t_bound.y), t_exit);
+        vec2 ab = texelFetch(u_cube_hiz, ivec2(face * (u_cube_hiz_res >> level), 0) + c, level).rg;
+        float z0 = a.z + dm.z * t;
+        float z1 = a.z + dm.z * t_end;
+        if (max(z0, z1) > ab.x && min(z0, z1) <= ab.y) {
+            if (level > 0) {
+                level -= 1;  // the cell may hold a hit: look at its children
+                continue;
+            }
+            float t_hit = t;
+            if (!(z0 > ab.x && z0 <= ab.y)) {
+                // Entered the texel in front of A (or behind B): where the depth crosses it.
+                float target = z0 <= ab.x ? ab.x : ab.y;
+                t_hit = clamp(t + (target - z0) / dm.z, t, t_end);
+            }
+            hit_texel = ivec2(face * u_cube_res, 0) + cell;
+            hit_xy = a.xy + dm.xy * t_hit;
+            return true;
+        }
+        if (t_end >= t_exit) return false;
+        // Step into the neighbouring cell of this level; the coordinate that does not step
+        // follows the ray, kept inside the cell's span.
+        t = t_end;
+        ivec2 stepped = c * size - 1 + positive * (size + 1);  // (c + 1) size or c size - 1
+        ivec2 followed = clamp(ivec2(floor(u0 + du * t)), c * size, c * size + size - 1);
+        cell.x = t_bound.x <= t_bound.y ? stepped.x : followed.x;
+        cell.y = t_bound.y <= t_bound.x ? stepped.y : followed.y;
+        if (any(lessThan(cell, ivec2(0))) || any(greaterThanEqual(cell, ivec2(u_cube_res)))) return false;
+        level = min(level + 1, top);
+    }
+    return false;
+}
+
 // The hit test of one sample (see the header). prev_lin: linear depth of the previous sample.
 // `piercing` says which rule fired.
 bool cube_sample_hits(int face, vec3 s, float prev_lin, out ivec2 texel, out vec4 nm,
@@ -131,12 +250,7 @@ bool cube_sample_hits(int face, vec3 s, float prev_lin, out ivec2 texel, out vec
     float surface = cube_linear_depth(stored_z);
     float r = cube_linear_depth(s.z);
     if (r <= surface) return false;
-    // Depth bias from the incidence angle at the stored surface (seen from the centre).
-    vec3 view = normalize(cube_unproject(face, vec3(s.xy, stored_z)) - u_cube_center);
-    float c = abs(dot(view, nm.xyz));
-    float slope = c > 0.0 ? min(sqrt(max(1.0 - c * c, 0.0)) / c, CUBE_MAX_SLOPE) : CUBE_MAX_SLOPE;
-    float texel_angle = 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
-    float bias = surface * (CUBE_BIAS_RELATIVE + texel_angle * slope);
+    float bias = cube_depth_bias(face, vec3(s.xy, stored_z), surface, nm.xyz);
     if (r <= surface + bias) return false;
     if (prev_lin <= surface + bias) {
         piercing = true;
@@ -189,53 +303,69 @@ CubeMarch cube_march(vec3 o, vec3 d, float t_start) {
         int axis = t_axes.x <= t_axes.y ? (t_axes.x <= t_axes.z ? 0 : 2) : (t_axes.y <= t_axes.z ? 1 : 2);
         float t_exit = max(t_axes[axis], 0.0);
 
-        // March (n samples, the paper's sampling rate).
-        int n = max(1, int(float(u_n_min) + abs(dm.z) * float(u_n_max - u_n_min) + 0.5));
-        float prev_lin = cube_linear_depth(a.z);
-        float t_prev = 0.0;
-        for (int k = 1; k <= n; ++k) {
-            float t_k = t_exit * float(k) / float(n);
-            vec3 s = a + dm * t_k;
+        if (u_cube_hierarchical != 0) {
             ivec2 texel;
-            vec4 nm;
-            float stored_z;
-            bool piercing;
-            if (cube_sample_hits(face, s, prev_lin, texel, nm, stored_z, piercing)) {
-                vec3 hit_s = s;
-                if (piercing) {
-                    // Bisect between the last sample in front and this one.
-                    float lo = t_prev;
-                    float hi = t_k;
-                    float lo_lin = prev_lin;
-                    for (int r = 0; r < CUBE_REFINE_STEPS; ++r) {
-                        float mid = 0.5 * (lo + hi);
-                        vec3 sm = a + dm * mid;
-                        ivec2 texel_m;
-                        vec4 nm_m;
-                        float z_m;
-                        bool p_m;
-                        if (cube_sample_hits(face, sm, lo_lin, texel_m, nm_m, z_m, p_m)) {
-                            hi = mid;
-                            hit_s = sm;
-                            texel = texel_m;
-                            nm = nm_m;
-                            stored_z = z_m;
-                        } else {
-                            lo = mid;
-                            lo_lin = cube_linear_depth(sm.z);
-                        }
-                    }
-                }
+            vec2 hit_xy;
+            if (cube_march_face_hierarchical(face, a, dm, t_exit, texel, hit_xy)) {
+                vec4 nm = texelFetch(u_cube_normal_material, texel, 0);
+                float stored_z = texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0;
                 res.kind = CUBE_HIT;
                 res.texel = texel;
-                res.position = cube_unproject(face, vec3(hit_s.xy, stored_z));
+                res.position = cube_unproject(face, vec3(hit_xy, stored_z));
                 res.normal = normalize(nm.xyz);
                 res.material = int(abs(nm.w) + 0.5) - 1;
                 res.t = dot(res.position - o, d);
                 return res;
             }
-            prev_lin = cube_linear_depth(s.z);
-            t_prev = t_k;
+        } else {
+            // March (n samples, the paper's sampling rate).
+            int n = max(1, int(float(u_n_min) + abs(dm.z) * float(u_n_max - u_n_min) + 0.5));
+            float prev_lin = cube_linear_depth(a.z);
+            float t_prev = 0.0;
+            for (int k = 1; k <= n; ++k) {
+                float t_k = t_exit * float(k) / float(n);
+                vec3 s = a + dm * t_k;
+                ivec2 texel;
+                vec4 nm;
+                float stored_z;
+                bool piercing;
+                if (cube_sample_hits(face, s, prev_lin, texel, nm, stored_z, piercing)) {
+                    vec3 hit_s = s;
+                    if (piercing) {
+                        // Bisect between the last sample in front and this one.
+                        float lo = t_prev;
+                        float hi = t_k;
+                        float lo_lin = prev_lin;
+                        for (int r = 0; r < CUBE_REFINE_STEPS; ++r) {
+                            float mid = 0.5 * (lo + hi);
+                            vec3 sm = a + dm * mid;
+                            ivec2 texel_m;
+                            vec4 nm_m;
+                            float z_m;
+                            bool p_m;
+                            if (cube_sample_hits(face, sm, lo_lin, texel_m, nm_m, z_m, p_m)) {
+                                hi = mid;
+                                hit_s = sm;
+                                texel = texel_m;
+                                nm = nm_m;
+                                stored_z = z_m;
+                            } else {
+                                lo = mid;
+                                lo_lin = cube_linear_depth(sm.z);
+                            }
+                        }
+                    }
+                    res.kind = CUBE_HIT;
+                    res.texel = texel;
+                    res.position = cube_unproject(face, vec3(hit_s.xy, stored_z));
+                    res.normal = normalize(nm.xyz);
+                    res.material = int(abs(nm.w) + 0.5) - 1;
+                    res.t = dot(res.position - o, d);
+                    return res;
+                }
+                prev_lin = cube_linear_depth(s.z);
+                t_prev = t_k;
+            }
         }
 
         vec3 e = a + dm * t_exit;

@@ -3,14 +3,18 @@
 // hybrid_engine/scene_data.py (MATERIAL_DTYPE) or hybrid_engine/gpu_scene.py (LIGHT_DTYPE,
 // SHADOW_SLOT_DTYPE); the byte sizes are asserted on the Python side.
 
-// struct Material                                           // total: 48 bytes
+// struct Material                                           // total: 64 bytes
 //   vec4 base_color_refl;  rgb = linear base colour, a = reflectivity (mirror lobe weight)
 //   vec4 emission_trans;   rgb = emitted radiance,   a = transmission (glass lobe weight)
 //   vec4 params;           x = IOR, y = thickness (paper §3.4), zw unused
+//   ivec4 textures;        x = base colour texture layer, y = emission texture layer
+//                          (-1 = none; the texture multiplies the colour above, see
+//                          textures.glsl), zw reserved (-1)
 struct Material {
     vec4 base_color_refl;
     vec4 emission_trans;
     vec4 params;
+    ivec4 textures;
 };
 
 // struct Light                                              // total: 64 bytes

@@ -40,14 +40,20 @@ bool material_is_specular(Material m) {
 }
 
 // Emission plus the diffuse lobe lit by all lights (with shadow maps) at p, n_facing being
-// the shading normal turned towards the viewer (two-sided shading, like Blender).
-vec3 shade_local(Material m, vec3 albedo, vec3 p, vec3 n_facing) {
-    vec3 color = m.emission_trans.rgb;
+// the shading normal turned towards the viewer (two-sided shading, like Blender). `albedo`
+// and `emission` are the material's colours with its image textures applied (textures.glsl).
+vec3 shade_local_emission(Material m, vec3 albedo, vec3 emission, vec3 p, vec3 n_facing) {
+    vec3 color = emission;
     float diffuse_weight = material_diffuse(m);
     if (diffuse_weight > 0.0) {
         color += diffuse_weight * albedo / PI * direct_irradiance(p, n_facing);
     }
     return color;
+}
+
+// The same for an untextured emission.
+vec3 shade_local(Material m, vec3 albedo, vec3 p, vec3 n_facing) {
+    return shade_local_emission(m, albedo, m.emission_trans.rgb, p, n_facing);
 }
 
 // The specular lobes of a hit seen along `view_dir` (unit, towards the surface) with shading

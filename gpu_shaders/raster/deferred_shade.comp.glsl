@@ -8,7 +8,8 @@
 // because the hybrid tracer (trace/hybrid_trace.comp.glsl) adds them as traced rays -- on the
 // primary image and when it hits a cube-map face. Background pixels get the sky.
 //
-// Bindings: u_depth (DEPTH32F), u_normal_material (RGBA32F), u_albedo (RGBA16F) read;
+// Bindings: u_depth (DEPTH32F), u_normal_material (RGBA32F), u_albedo (RGBA16F),
+//   u_emission_scale (RGBA16F: the emission texture's colour, multiplies the emission) read;
 //   SSBO 0 materials, 1 lights, 2 shadow slots read; image unit 0 (RGBA32F) written.
 // Workgroup 8x8: square tiles keep neighbouring pixels (and their G-buffer rows) together.
 #include "scene_layout.glsl"
@@ -24,6 +25,7 @@ layout(rgba32f, binding = 0) writeonly uniform image2D u_output;
 uniform sampler2D u_depth;
 uniform sampler2D u_normal_material;
 uniform sampler2D u_albedo;
+uniform sampler2D u_emission_scale;
 uniform mat4 u_inv_view_proj;
 uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
@@ -59,7 +61,8 @@ void main() {
 
     vec3 n = nm.xyz;
     SpecularSplit split = specular_split(m, albedo, view_dir, n);
-    vec3 color = shade_local(m, albedo, p, split.n_facing);
+    vec3 emission = m.emission_trans.rgb * texelFetch(u_emission_scale, pixel, 0).rgb;
+    vec3 color = shade_local_emission(m, albedo, emission, p, split.n_facing);
     if (u_traced_specular == 0) {
         color += split.reflect_weight * sky_radiance(split.reflect_dir);
         color += split.refract_weight * sky_radiance(split.refract_dir);

@@ -6,9 +6,14 @@
 //   location 0 (RGBA32F): xyz = world shading normal as modelled (not flipped),
 //                         w = material index + 1, negated when the triangle is seen from its
 //                         back side (0 = background, cleared by the host)
-//   location 1 (RGBA16F): rgb = albedo (base colour), a = 1
+//   location 1 (RGBA16F): rgb = albedo (base colour times its image texture), a = 1
+//   location 2 (RGBA16F): rgb = emission scale (the emission image texture's colour, 1
+//                         without one; the shading multiplies the material's emission), a = 1
 // Depth: the hardware depth buffer (DEPTH32F); positions are reconstructed from it.
+// Samplers: u_textures (textures.glsl), sampled with the UV derivatives of the fragment
+// (mipmaps, anisotropic filtering).
 #include "scene_layout.glsl"
+#include "textures.glsl"
 
 layout(std430, binding = 0) readonly buffer MaterialBuffer { Material materials[]; };
 
@@ -19,6 +24,7 @@ flat in int v_material;
 
 layout(location = 0) out vec4 out_normal_material;
 layout(location = 1) out vec4 out_albedo;
+layout(location = 2) out vec4 out_emission_scale;
 
 void main() {
     vec3 n = v_normal;
@@ -33,5 +39,10 @@ void main() {
     }
     float id = float(v_material + 1);
     out_normal_material = vec4(n, gl_FrontFacing ? id : -id);
-    out_albedo = vec4(materials[v_material].base_color_refl.rgb, 1.0);
+    // Derivatives outside any branch (they are undefined in non-uniform control flow).
+    vec2 duv_dx = dFdx(v_uv);
+    vec2 duv_dy = dFdy(v_uv);
+    Material m = materials[v_material];
+    out_albedo = vec4(material_albedo_grad(m, v_uv, duv_dx, duv_dy), 1.0);
+    out_emission_scale = vec4(material_emission_scale_grad(m, v_uv, duv_dx, duv_dy), 1.0);
 }

@@ -15,9 +15,9 @@
 //     shadow maps) and spawns the reflected ray (mirror lobe tinted by the base colour, plus
 //     the Fresnel part of the glass lobe) and the refracted ray (Snell, total internal
 //     reflection, Fresnel weight 1 - F, tinted);
-//   * a cube-map hit returns the face's stored shaded colour (emission + diffuse, shaded with
-//     u_traced_specular = 1) and spawns the reflected ray from the position reconstructed
-//     from the face's depth with the stored normal; a refractive cube-map hit is thin
+//   * a cube-map hit is shaded the same way from the face's G-buffer (stored albedo, normal
+//     and material, position reconstructed from the face's depth; only hit texels are
+//     shaded, never whole faces) and spawns the reflected ray from that position; a refractive cube-map hit is thin
 //     (§3.4, Figure 8): its refracted part is the sky seen in the refracted direction,
 //     sky(refract(d, n, 1 / ior)) weighted by (1 - F) and the base colour. The same holds
 //     for any refractive hit outside the near cube in HYBRID (a primary hit there: its
@@ -35,9 +35,12 @@
 //
 // Bindings: SSBO 0 materials, 1 lights, 2 shadow slots, 3 BVH nodes, 4 BVH triangles
 //   (bvh_layout.glsl), 5 triangle shading (TriangleShading[N], original triangle order),
-//   6 counters (read/write). Image unit 0: the primary colour (RGBA32F, read and written).
+//   6 counters (read/write), 7 triangle UVs (TriangleUV[N], original triangle order; read
+//   only for materials with image textures). Image unit 0: the primary colour (RGBA32F,
+//   read and written). Textures: u_textures (textures.glsl; BVH hits sample it at the
+//   interpolated UV, mip level from the ray cone u_pixel_width + u_pixel_spread * distance).
 //   Samplers: primary u_depth, u_normal_material, u_albedo; the cube atlas u_cube_depth,
-//   u_cube_normal_material, u_cube_color; u_shadow_atlas; u_sky_env.
+//   u_cube_normal_material, u_cube_albedo, u_cube_emission_scale, u_cube_hiz; u_shadow_atlas; u_sky_env.
 // Workgroup 8x8: neighbouring pixels' rays are coherent for the first bounce.
 #define BVH_NODES_BINDING 3
 #define BVH_TRIANGLES_BINDING 4
@@ -67,6 +70,19 @@ struct TriangleShading {
 };
 layout(std430, binding = 5) readonly buffer TriangleShadingBuffer { TriangleShading tri_shading[]; };
 
+#include "textures.glsl"
+// struct TriangleUV (hybrid_engine/tracer.py TRIANGLE_UV_DTYPE)             // total: 32 bytes
+//   vec4 uv01;       xy = UV of corner 0, zw = UV of corner 1
+//   vec4 uv2_scale;  xy = UV of corner 2, z = UV units per metre (sqrt of UV area over
+//                    world area; 0 when degenerate), w unused
+struct TriangleUV {
+    vec4 uv01;
+    vec4 uv2_scale;
+};
+layout(std430, binding = 7) readonly buffer TriangleUVBuffer { TriangleUV tri_uvs[]; };
+uniform float u_pixel_width;   // a pixel's footprint at the camera (orthographic), metres
+uniform float u_pixel_spread;  // its growth per metre of distance (perspective), radians
+
 #define COUNTER_DEPTHS 17
 #define COUNT_TRACED 0
 #define COUNT_CUBE_MAP 1
@@ -79,7 +95,8 @@ layout(rgba32f, binding = 0) uniform image2D u_color;
 uniform sampler2D u_depth;
 uniform sampler2D u_normal_material;
 uniform sampler2D u_albedo;
-uniform sampler2D u_cube_color;
+uniform sampler2D u_cube_albedo;
+uniform sampler2D u_cube_emission_scale;
 uniform mat4 u_inv_view_proj;
 uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
@@ -113,7 +130,9 @@ struct Hit {
     vec3 position;
     vec3 normal;     // unit shading normal as modelled
     int material;
-    ivec2 texel;     // cube hits: atlas texel (stored colour)
+    ivec2 texel;     // cube hits: atlas texel (stored G-buffer)
+    vec2 uv;         // BVH hits: interpolated texture coordinate
+    float lod;       // BVH hits: mip level of the ray cone's footprint
 };
 
 struct PendingRay {
@@ -163,6 +182,17 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int tri, vec2 bary) {
     h.normal = safe_normalize(n, safe_normalize(ts.geometric.xyz, -d));
     h.material = int(ts.n0_material.w + 0.5);
     h.texel = ivec2(0);
+    h.uv = vec2(0.0);
+    h.lod = 0.0;
+    ivec4 tex = materials[h.material].textures;
+    if (max(tex.x, tex.y) >= 0) {
+        // Texture coordinate by the hit's barycentrics; the cone's width at the hit uses the
+        // camera-to-origin distance plus t, a lower bound of the path length (textures.py).
+        TriangleUV tuv = tri_uvs[tri];
+        h.uv = (1.0 - bary.x - bary.y) * tuv.uv01.xy + bary.x * tuv.uv01.zw + bary.y * tuv.uv2_scale.xy;
+        float footprint = u_pixel_width + u_pixel_spread * (distance(o, u_camera_position) + t);
+        h.lod = texture_lod(footprint, tuv.uv2_scale.z);
+    }
     return h;
 }
 
@@ -174,6 +204,8 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
     h.normal = vec3(0.0, 0.0, 1.0);
     h.material = 0;
     h.texel = ivec2(0);
+    h.uv = vec2(0.0);
+    h.lod = 0.0;
     bool reached_cube = false;
     bool reentered = false;
     float t;
@@ -302,16 +334,20 @@ void main() {
             continue;
         }
         Material hm = materials[h.material];
-        vec3 h_albedo = hm.base_color_refl.rgb;
+        vec3 h_albedo = h.kind == HIT_CUBE ? texelFetch(u_cube_albedo, h.texel, 0).rgb
+                                           : material_albedo_lod(hm, h.uv, h.lod);
         SpecularSplit hs = specular_split(hm, h_albedo, ray.dir, h.normal);
         if (h.kind == HIT_BVH) {
-            traced += ray.weight * shade_local(hm, h_albedo, h.position, hs.n_facing);
+            vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
+            traced += ray.weight * shade_local_emission(hm, h_albedo, h_emission, h.position, hs.n_facing);
             traced += spawn_children(hs, h.position, ray.weight, ray.depth + 1);
         } else {
-            // Cube map: stored colour; reflection traced from the reconstructed position;
-            // refraction is thin and goes to the sky (paper §3.4, Figure 8; the hit lies
-            // outside the near cube, so spawn_children sends it to the sky).
-            traced += ray.weight * texelFetch(u_cube_color, h.texel, 0).rgb;
+            // Cube map: shaded here from the stored G-buffer (albedo, normal, material) at the
+            // reconstructed position, so only the texels rays hit are shaded; reflection
+            // traced from that position; refraction is thin and goes to the sky (paper §3.4,
+            // Figure 8; the hit lies outside the near cube, so spawn_children sends it there).
+            vec3 cube_emission = hm.emission_trans.rgb * texelFetch(u_cube_emission_scale, h.texel, 0).rgb;
+            traced += ray.weight * shade_local_emission(hm, h_albedo, cube_emission, h.position, hs.n_facing);
             traced += spawn_children(hs, h.position, ray.weight, ray.depth + 1);
         }
     }

@@ -1,0 +1,52 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Image textures of materials (hybrid_engine/textures.py): every image of the scene is one
+// layer of u_textures (RGBA16F, mipmapped, repeat wrapping, linear colour). A material's
+// textures.x / textures.y (scene_layout.glsl) are the layers of its base-colour and emission
+// images, -1 for none; a texture multiplies the material's colour (base_color_refl.rgb,
+// emission_trans.rgb), and its alpha is not used.
+//
+// Two ways to pick the mip level: with UV derivatives (fragment shaders: the G-buffer pass,
+// trilinear + anisotropic), or an explicit level (compute shaders, which have no
+// derivatives: the tracer's ray cones, texture_lod below).
+#ifndef HYBRID_TEXTURES_GLSL
+#define HYBRID_TEXTURES_GLSL
+#include "scene_layout.glsl"
+
+uniform sampler2DArray u_textures;
+
+// Texture colour of `layer` (>= 0) at uv, or white when the material has none (layer < 0).
+vec3 texture_rgb_grad(int layer, vec2 uv, vec2 duv_dx, vec2 duv_dy) {
+    if (layer < 0) return vec3(1.0);
+    return textureGrad(u_textures, vec3(uv, float(layer)), duv_dx, duv_dy).rgb;
+}
+
+vec3 texture_rgb_lod(int layer, vec2 uv, float lod) {
+    if (layer < 0) return vec3(1.0);
+    return textureLod(u_textures, vec3(uv, float(layer)), lod).rgb;
+}
+
+// Mip level for a footprint of `footprint_world` metres on a triangle whose UVs cover
+// `uv_per_world` UV units per metre (sqrt of the UV area over the world area): log2 of the
+// footprint in texels of the array's layers. Degenerate input gives level 0.
+float texture_lod(float footprint_world, float uv_per_world) {
+    vec2 size = vec2(textureSize(u_textures, 0).xy);
+    float texels = footprint_world * uv_per_world * sqrt(size.x * size.y);
+    return (texels > 1.0 && !isinf(texels)) ? log2(texels) : 0.0;
+}
+
+// The material's albedo and the factor its emission is multiplied by (the emission
+// texture's colour, or 1) at uv.
+vec3 material_albedo_grad(Material m, vec2 uv, vec2 duv_dx, vec2 duv_dy) {
+    return m.base_color_refl.rgb * texture_rgb_grad(m.textures.x, uv, duv_dx, duv_dy);
+}
+vec3 material_emission_scale_grad(Material m, vec2 uv, vec2 duv_dx, vec2 duv_dy) {
+    return texture_rgb_grad(m.textures.y, uv, duv_dx, duv_dy);
+}
+vec3 material_albedo_lod(Material m, vec2 uv, float lod) {
+    return m.base_color_refl.rgb * texture_rgb_lod(m.textures.x, uv, lod);
+}
+vec3 material_emission_lod(Material m, vec2 uv, float lod) {
+    return m.emission_trans.rgb * texture_rgb_lod(m.textures.y, uv, lod);
+}
+
+#endif

@@ -1,0 +1,86 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Change tracking between frames (hybrid_engine/scene_delta.py)."""
+from __future__ import annotations
+
+import numpy as np
+
+from hybrid_engine import Geometry
+from hybrid_engine.scene_delta import MERGE_GAP_TRIANGLES, GeometryTracker, merge_ranges
+
+
+def geometry(rng, objects=4, per_object=5000, uvs=False) -> Geometry:
+    tris = [rng.normal(size=(per_object, 3, 3)).astype(np.float32) for _ in range(objects)]
+    geo = Geometry.from_objects([(t, None, i % 2) for i, t in enumerate(tris)])
+    if uvs:
+        geo.uvs = rng.random((geo.triangle_count, 3, 2)).astype(np.float32)
+    return geo
+
+
+def test_the_first_frame_and_layout_changes_upload_everything(rng):
+    tracker = GeometryTracker()
+    geo = geometry(rng)
+    first = tracker.update(geo)
+    assert first.full and first.ranges == ((0, geo.triangle_count),)
+    smaller = geometry(rng, objects=3)
+    assert tracker.update(smaller).full
+    assert tracker.update(geometry(rng, objects=3, uvs=True)).full  # UVs appeared
+
+
+def test_an_identical_frame_changes_nothing_even_as_new_arrays(rng):
+    tracker = GeometryTracker()
+    geo = geometry(rng)
+    tracker.update(geo)
+    copy = Geometry(geo.triangles.copy(), geo.normals.copy(), geo.material_ids.copy(),
+                    geo.object_ranges.copy(), geo.object_bounds.copy())
+    delta = tracker.update(copy)
+    assert delta.unchanged and delta.changed_triangles == 0
+
+
+def test_a_moved_object_yields_exactly_its_range(rng):
+    tracker = GeometryTracker()
+    geo = geometry(rng)
+    tracker.update(geo)
+    first, count = (int(v) for v in geo.object_ranges[2])
+    geo.triangles[first:first + count] += np.float32(0.5)  # edited in place: still detected
+    delta = tracker.update(geo)
+    assert not delta.full
+    assert delta.ranges == ((first, count),)
+    assert delta.changed_triangles == count
+    assert tracker.update(geo).unchanged  # the tracker remembered the move
+
+
+def test_normal_material_and_uv_edits_are_changes(rng):
+    tracker = GeometryTracker()
+    geo = geometry(rng, uvs=True)
+    tracker.update(geo)
+    geo.normals[10, 1, 2] = 7.0
+    geo.material_ids[20_000 - 1] = 5
+    geo.uvs[15_000, 0, 0] += 1.0
+    delta = tracker.update(geo)
+    changed = {i for first, count in delta.ranges for i in range(first, first + count)}
+    assert {10, 15_000, 19_999} <= changed
+    assert delta.changed_triangles == 3
+
+
+def test_nan_triangles_that_stay_the_same_are_not_changes(rng):
+    tracker = GeometryTracker()
+    geo = geometry(rng)
+    geo.triangles[5] = np.nan
+    tracker.update(geo)
+    assert tracker.update(geo).unchanged
+
+
+def test_close_changes_merge_into_one_range_and_distant_ones_do_not():
+    mask = np.zeros(100_000, bool)
+    mask[[10, 20, 20 + MERGE_GAP_TRIANGLES, 20 + 3 * MERGE_GAP_TRIANGLES]] = True
+    assert merge_ranges(mask) == [(10, MERGE_GAP_TRIANGLES + 11), (20 + 3 * MERGE_GAP_TRIANGLES, 1)]
+    assert merge_ranges(np.zeros(5, bool)) == []
+
+
+def test_moving_most_triangles_falls_back_to_a_full_upload(rng):
+    tracker = GeometryTracker()
+    geo = geometry(rng)
+    tracker.update(geo)
+    geo.triangles[: geo.triangle_count * 3 // 4] *= 2
+    delta = tracker.update(geo)
+    assert delta.full and delta.ranges == ((0, geo.triangle_count),)

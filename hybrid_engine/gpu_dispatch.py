@@ -231,6 +231,16 @@ class GrowBuffer:
             buf.write(view)
         return buf
 
+    def write_at(self, data: bytes | memoryview, offset: int) -> None:
+        """Overwrite bytes [offset, offset + len(data)) of the current buffer (no growth:
+        the caller re-uploads in full when the data outgrew it)."""
+        view = memoryview(data).cast("B")
+        if offset < 0 or offset + len(view) > self.capacity:
+            raise ValueError(f"{self.label}: write of {len(view)} bytes at {offset} exceeds "
+                             f"the buffer's {self.capacity} bytes")
+        if len(view):
+            self.buffer.write(view, offset=int(offset))
+
     def release(self) -> None:
         if self.buffer is not None:
             self.buffer.release()

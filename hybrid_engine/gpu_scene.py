@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from .gpu_dispatch import GrowBuffer
+from .scene_delta import GeometryDelta
 from .scene_data import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, MATERIAL_DTYPE, Lights, SceneData
 from .textures import GPUTextures
 
@@ -121,18 +122,31 @@ class GPUScene:
         self.generation = 0  # bumps when the vertex buffer object changes
         self._staging: np.ndarray | None = None  # host-side packing array, reused per frame
         self.vertex_count = 0
+        self._synced = -1  # sequence of the last GeometryDelta applied (scene_delta.py)
         self.textures = GPUTextures(ctx)  # re-uploaded only when the scene's images change
 
-    def upload(self, scene: SceneData) -> None:
-        needed = scene.geometry.triangle_count * 3
-        if self._staging is None or len(self._staging) < needed:
+    def upload(self, scene: SceneData, delta: GeometryDelta | None = None) -> None:
+        """Vertices, materials and textures. With a ``delta`` that follows this scene's last
+        upload only the changed triangle ranges are re-packed and written (scene_delta.py)."""
+        geo = scene.geometry
+        needed = geo.triangle_count * 3
+        incremental = (delta is not None and not delta.full and delta.sequence == self._synced + 1
+                       and needed == self.vertex_count)
+        self._synced = delta.sequence if delta is not None else -1
+        if self._staging is None or len(self._staging) < max(needed, 3):
             self._staging = np.empty(max(needed, 3), VERTEX_DTYPE)
-        verts = pack_vertices(scene, self._staging)
-        allocations = self.vertices.allocations
-        self.vertices.upload(_bytes_of(verts))  # a byte view: tobytes() would copy ~100 MB
-        if self.vertices.allocations != allocations:
-            self.generation += 1  # a new buffer object: dependent VAOs must be rebuilt
-        self.vertex_count = len(verts)
+        if incremental:
+            for first, count in delta.ranges:
+                part = SceneData(geo.rows(first, count), scene.materials)
+                verts = pack_vertices(part, self._staging)
+                self.vertices.write_at(_bytes_of(verts), first * 3 * VERTEX_DTYPE.itemsize)
+        else:
+            verts = pack_vertices(scene, self._staging)
+            allocations = self.vertices.allocations
+            self.vertices.upload(_bytes_of(verts))  # a byte view: tobytes() would copy ~100 MB
+            if self.vertices.allocations != allocations:
+                self.generation += 1  # a new buffer object: dependent VAOs must be rebuilt
+            self.vertex_count = len(verts)
         self.materials.upload(_bytes_of(scene.materials.packed()))
         self.textures.upload(scene.materials.textures)
 

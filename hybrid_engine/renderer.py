@@ -25,9 +25,10 @@ import numpy as np
 
 from . import gl_context
 from .camera import Camera
-from .gpu_scene import GPUScene
+from .gpu_scene import GPUScene, pack_lights
 from .raster import RasterPasses, RasterView
 from .scene_data import SceneData
+from .scene_delta import GeometryTracker
 from .settings import RenderSettings
 from .timing import PassTimer
 from .tracer import HybridTracer
@@ -79,6 +80,11 @@ class Renderer:
         self.gpu_scene = GPUScene(self.ctx)
         self.raster = RasterPasses(self.ctx)
         self.tracer: HybridTracer | None = None  # created on the first non-RASTER frame
+        # Frame-to-frame reuse: only changed triangles are re-uploaded, and the shadow maps
+        # are re-rendered only when the geometry, the lights or their resolution changed.
+        self.geometry_tracker = GeometryTracker()
+        self._shadow_key: tuple | None = None
+        self._shadow_slots: list | None = None
 
     def render(
         self,
@@ -118,12 +124,22 @@ class Renderer:
         try:
             step("upload")
             with timer.measure("upload"):
-                self.gpu_scene.upload(scene)
+                delta = self.geometry_tracker.update(scene.geometry)
+                self.gpu_scene.upload(scene, delta)
                 if traced:
-                    tracer.upload(scene)
+                    tracer.upload(scene, delta)
+            counts["triangles_uploaded"] = int(delta.changed_triangles)
             step("shadow_maps")
             with timer.measure("shadow_maps"):
-                per_light = self.raster.shadows(self.gpu_scene, scene, settings)
+                key = (pack_lights(scene.lights).tobytes(), int(settings.shadow_resolution))
+                if delta.unchanged and key == self._shadow_key and self._shadow_slots is not None:
+                    per_light = self._shadow_slots  # nothing that casts or receives moved
+                    counts["shadow_maps_rendered"] = 0
+                else:
+                    self._shadow_key = None  # invalid until the new maps are complete
+                    per_light = self.raster.shadows(self.gpu_scene, scene, settings)
+                    self._shadow_key, self._shadow_slots = key, per_light
+                    counts["shadow_maps_rendered"] = 1
                 self.gpu_scene.upload_lights(scene.lights, per_light)
             step("primary_raster")
             view = RasterView.from_camera(camera)

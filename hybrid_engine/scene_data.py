@@ -77,6 +77,17 @@ class Geometry:
     def triangle_count(self) -> int:
         return int(len(self.triangles))
 
+    def rows(self, first: int, count: int) -> "Geometry":
+        """Triangles [first, first + count) as a Geometry of views (no copies, no objects):
+        what per-triangle packers need to re-pack a changed range."""
+        end = first + count
+        return Geometry(
+            triangles=self.triangles[first:end], normals=self.normals[first:end],
+            material_ids=self.material_ids[first:end], object_ranges=np.zeros((0, 2), np.int32),
+            object_bounds=np.zeros((0, 2, 3), np.float32),
+            uvs=None if self.uvs is None else self.uvs[first:end],
+        )
+
     @classmethod
     def empty(cls) -> "Geometry":
         return cls(

@@ -37,14 +37,18 @@ class GeometryDelta:
     full: bool
     ranges: tuple[tuple[int, int], ...] = field(default_factory=tuple)
     changed_triangles: int = 0
+    # The tracker's update count: a consumer may apply a delta incrementally only when it
+    # applied the previous one (sequence - 1); any other consumer needs a full upload.
+    sequence: int = 0
 
     @property
     def unchanged(self) -> bool:
         return not self.full and not self.ranges
 
     @classmethod
-    def everything(cls, count: int) -> "GeometryDelta":
-        return cls(full=True, ranges=((0, int(count)),) if count else (), changed_triangles=int(count))
+    def everything(cls, count: int, sequence: int = 0) -> "GeometryDelta":
+        return cls(full=True, ranges=((0, int(count)),) if count else (), changed_triangles=int(count),
+                   sequence=sequence)
 
 
 def _rows_as_words(array: np.ndarray, n: int) -> np.ndarray:
@@ -76,6 +80,7 @@ class GeometryTracker:
 
     def __init__(self) -> None:
         self._last: dict[str, np.ndarray] | None = None
+        self.sequence = 0
 
     def reset(self) -> None:
         """Forget the last geometry (the next update is a full upload)."""
@@ -83,6 +88,8 @@ class GeometryTracker:
 
     def update(self, geometry: Geometry) -> GeometryDelta:
         """Compare with the last call's geometry, remember this one, return the delta."""
+        self.sequence += 1
+        seq = self.sequence
         n = geometry.triangle_count
         arrays = {"triangles": geometry.triangles, "normals": geometry.normals,
                   "material_ids": geometry.material_ids}
@@ -98,13 +105,13 @@ class GeometryTracker:
         if not same_layout:
             self._last = {name: np.array(a, copy=True) for name, a in arrays.items()}
             self._last["object_ranges"] = np.array(geometry.object_ranges, copy=True)
-            return GeometryDelta.everything(n)
+            return GeometryDelta.everything(n, seq)
         mask = np.zeros(n, bool)
         for name, a in arrays.items():
             mask |= changed_rows(last[name], a)
         changed = int(mask.sum())
         if changed == 0:
-            return GeometryDelta(full=False)
+            return GeometryDelta(full=False, sequence=seq)
         if changed > FULL_UPLOAD_FRACTION * n:
             ranges = [(0, n)]
             full = True
@@ -114,4 +121,4 @@ class GeometryTracker:
         for name, a in arrays.items():
             for first, count in ranges:
                 last[name][first:first + count] = a[first:first + count]
-        return GeometryDelta(full=full, ranges=tuple(ranges), changed_triangles=changed)
+        return GeometryDelta(full=full, ranges=tuple(ranges), changed_triangles=changed, sequence=seq)

@@ -29,6 +29,7 @@ from .lbvh import BuiltLBVH, LBVHBuilder
 from .near_cube import CullResult, NearCubeCuller, overlap_margin
 from .raster import GBufferTargets, RasterPasses, RasterView, gl_matrix
 from .scene_data import Geometry, SceneData
+from .scene_delta import GeometryDelta
 from .settings import FIELD_LIMITS, RenderSettings
 from .textures import pixel_footprint
 
@@ -48,6 +49,11 @@ COUNTER_DEPTHS = 17
 assert FIELD_LIMITS["max_depth"][1] < COUNTER_DEPTHS, "the kernel's counters cover every depth"
 
 WORKGROUP = 8  # the kernel's local size in x and y
+
+
+def _bytes_of(array: np.ndarray) -> np.ndarray:
+    """A flat uint8 view of a contiguous array (no copy)."""
+    return np.ascontiguousarray(array).reshape(-1).view(np.uint8)
 
 
 def pack_triangles(geometry: Geometry) -> np.ndarray:
@@ -90,7 +96,7 @@ TRIANGLE_UV_DTYPE = np.dtype([("uv01", np.float32, 4), ("uv2_scale", np.float32,
 assert TRIANGLE_UV_DTYPE.itemsize == 32
 
 
-def pack_triangle_uvs(scene: SceneData) -> np.ndarray:
+def pack_triangle_uvs(scene: SceneData, geometry: Geometry | None = None) -> np.ndarray:
     """One TRIANGLE_UV_DTYPE row per triangle, original order: the corners' UVs and the
     triangle's ``uv_per_world`` = sqrt(UV area / world area) (the tracer's mip level,
     see textures.py). Their own buffer, apart from the shading rows, because only
@@ -98,7 +104,7 @@ def pack_triangle_uvs(scene: SceneData) -> np.ndarray:
     computed. Non-finite UVs become 0 (as in the vertex buffer); a degenerate triangle
     gets uv_per_world 0 (mip level 0).
     """
-    geo, materials = scene.geometry, scene.materials
+    geo, materials = geometry if geometry is not None else scene.geometry, scene.materials
     n = geo.triangle_count
     out = np.zeros(max(n, 1), TRIANGLE_UV_DTYPE)
     if n == 0 or geo.uvs is None or not materials.has_textures:
@@ -170,19 +176,38 @@ class HybridTracer:
         self._dummy_rgba = ctx.texture((1, 1), 4, dtype="f4")
         self._dummy_rg = ctx.texture((1, 1), 2, dtype="f4")
         self.triangle_count = 0
+        self._synced = -1  # sequence of the last GeometryDelta applied (scene_delta.py)
+        self._with_uvs = False
         self.built: BuiltLBVH | None = None
         self.cull_result: CullResult | None = None
 
     # -- per-frame steps -------------------------------------------------------------------
-    def upload(self, scene: SceneData) -> None:
-        """Triangles (LBVH input) and shading attributes, original order."""
+    def upload(self, scene: SceneData, delta: GeometryDelta | None = None) -> None:
+        """Triangles (LBVH input) and shading attributes, original order. With a ``delta``
+        that follows this tracer's last upload only its changed ranges are re-packed and
+        written (scene_delta.py); otherwise everything."""
         geo = scene.geometry
+        with_uvs = scene.materials.has_textures  # only textured BVH hits read UVs
+        incremental = (delta is not None and not delta.full and delta.sequence == self._synced + 1
+                       and geo.triangle_count == self.triangle_count and with_uvs == self._with_uvs)
+        self._synced = delta.sequence if delta is not None else -1
+        self._with_uvs = with_uvs
         self.triangle_count = geo.triangle_count
+        if incremental:
+            for first, count in delta.ranges:
+                part = geo.rows(first, count)
+                self._triangles.write_at(_bytes_of(pack_triangles(part)), first * 36)
+                self._shading.write_at(_bytes_of(pack_triangle_shading(part)[:count]),
+                                       first * TRIANGLE_SHADING_DTYPE.itemsize)
+                if with_uvs:
+                    self._uvs.write_at(_bytes_of(pack_triangle_uvs(scene, part)[:count]),
+                                       first * TRIANGLE_UV_DTYPE.itemsize)
+            return
         triangles = pack_triangles(geo)  # uploaded as byte views, not copies
-        self._triangles.upload(triangles.reshape(-1).view(np.uint8) if len(triangles) else bytes(36))
-        self._shading.upload(pack_triangle_shading(geo).reshape(-1).view(np.uint8))
-        if scene.materials.has_textures:  # only textured BVH hits read UVs
-            self._uvs.upload(pack_triangle_uvs(scene).reshape(-1).view(np.uint8))
+        self._triangles.upload(_bytes_of(triangles) if len(triangles) else bytes(36))
+        self._shading.upload(_bytes_of(pack_triangle_shading(geo)))
+        if with_uvs:
+            self._uvs.upload(_bytes_of(pack_triangle_uvs(scene)))
         else:
             self._uvs.ensure(0)
 

@@ -24,7 +24,7 @@ import numpy as np
 from . import gl_context, shader_loader
 from .cube_map import CubeMapPass
 from .gpu_scene import GPUScene
-from .gpu_dispatch import GrowBuffer, storage_barrier
+from .gpu_dispatch import GrowBuffer, bind_blocks, split_blocks, storage_barrier
 from .lbvh import BuiltLBVH, LBVHBuilder
 from .near_cube import CullResult, NearCubeCuller, overlap_margin
 from .raster import GBufferTargets, RasterPasses, RasterView, gl_matrix
@@ -49,6 +49,9 @@ COUNTER_DEPTHS = 17
 assert FIELD_LIMITS["max_depth"][1] < COUNTER_DEPTHS, "the kernel's counters cover every depth"
 
 WORKGROUP = 8  # the kernel's local size in x and y
+# Storage bindings of the shading rows' blocks (one per 128 MiB on llvmpipe; see
+# hybrid_trace.comp.glsl: TRI_SHADING_BLOCKS).
+SHADING_BINDINGS = (5, 49, 50, 51)
 
 
 def _bytes_of(array: np.ndarray) -> np.ndarray:
@@ -244,8 +247,11 @@ class HybridTracer:
         built = self.built if mode != "PROVENANCE" else None
         # A BVH whose arrays span several storage blocks needs the kernel compiled for them
         # (cached per block count; none for BVHs within one block: then this is self.program).
-        prog = (self.program if built is None else shader_loader.compute(
-            ctx, "trace/hybrid_trace.comp.glsl", built.traversal_defines()))
+        shading_split = split_blocks(self.triangle_count, TRIANGLE_SHADING_DTYPE.itemsize,
+                                     "tracer's triangle shading rows")
+        defines = {**(built.traversal_defines() if built is not None else {}),
+                   **shading_split.defines("TRI_SHADING_BLOCKS", "TRI_SHADING_BLOCK_SIZE")}
+        prog = shader_loader.compute(ctx, "trace/hybrid_trace.comp.glsl", defines) if defines else self.program
         self._counters.write(self._zero_counters)
 
         # Storage buffers.
@@ -259,7 +265,7 @@ class HybridTracer:
         else:
             self._dummy_ssbo.bind_to_storage_buffer(3)
             self._dummy_ssbo.bind_to_storage_buffer(4)
-        self._shading.buffer.bind_to_storage_buffer(5)
+        bind_blocks(self._shading.buffer, SHADING_BINDINGS, shading_split)
         self._counters.bind_to_storage_buffer(6)
         self._uvs.buffer.bind_to_storage_buffer(7)
 

@@ -81,3 +81,26 @@ def test_switching_to_a_traced_mode_mid_animation_uploads_the_tracer_in_full(gl,
         np.testing.assert_array_equal(image, fresh.render(*frames[1], hybrid).image)
     finally:
         fresh.release()
+
+
+@pytest.mark.parametrize("mode", ["HYBRID", "FULL_BVH"])
+def test_shading_rows_split_over_storage_blocks_render_the_same_image(gl, frames, mode):
+    """Past the driver's storage-block limit the tracer's per-triangle shading rows are bound
+    as several blocks (and the BVH arrays too); forcing a tiny limit must not change a pixel."""
+    from hybrid_engine import gpu_dispatch
+
+    scene, camera = frames[0]
+    settings = RenderSettings(mode=mode, **SETTINGS)
+    plain = Renderer(gl)
+    try:
+        expected = plain.render(scene, camera, settings).image
+    finally:
+        plain.release()
+    rows = scene.geometry.triangle_count * 64
+    split = Renderer(gl)
+    try:
+        with gpu_dispatch.forced_limits(max_block=rows * 2 // 3):  # two blocks of rows
+            image = split.render(scene, camera, settings).image
+    finally:
+        split.release()
+    np.testing.assert_array_equal(image, expected)

@@ -45,6 +45,7 @@
 #define BVH_NODES_BINDING 3
 #define BVH_TRIANGLES_BINDING 4
 #include "scene_layout.glsl"
+#include "storage_blocks.glsl"
 #include "sky.glsl"
 #include "lighting.glsl"
 #include "shading.glsl"
@@ -68,7 +69,40 @@ struct TriangleShading {
     vec4 n2;
     vec4 geometric;
 };
+// Past the storage-block limit (about 2.1 M triangles of 64 bytes on llvmpipe) the rows are
+// bound as up to four ranges (storage_blocks.glsl): blocks 1..3 at bindings 49..51.
+#ifndef TRI_SHADING_BLOCKS
+#define TRI_SHADING_BLOCKS 1
+#define TRI_SHADING_BLOCK_SIZE 1
+#endif
 layout(std430, binding = 5) readonly buffer TriangleShadingBuffer { TriangleShading tri_shading[]; };
+#if TRI_SHADING_BLOCKS > 1
+layout(std430, binding = 49) readonly buffer TriangleShadingBuffer1 { TriangleShading tri_shading1[]; };
+#endif
+#if TRI_SHADING_BLOCKS > 2
+layout(std430, binding = 50) readonly buffer TriangleShadingBuffer2 { TriangleShading tri_shading2[]; };
+#endif
+#if TRI_SHADING_BLOCKS > 3
+layout(std430, binding = 51) readonly buffer TriangleShadingBuffer3 { TriangleShading tri_shading3[]; };
+#endif
+
+TriangleShading triangle_shading(int tri) {
+#if TRI_SHADING_BLOCKS == 1
+    return tri_shading[tri];
+#else
+    uint i = uint(tri);
+    uint block = STORAGE_BLOCK_OF(i, TRI_SHADING_BLOCK_SIZE, TRI_SHADING_BLOCKS);
+    uint local = i - block * uint(TRI_SHADING_BLOCK_SIZE);
+    if (block == 0u) return tri_shading[local];
+#if TRI_SHADING_BLOCKS > 2
+    if (block == 2u) return tri_shading2[local];
+#endif
+#if TRI_SHADING_BLOCKS > 3
+    if (block == 3u) return tri_shading3[local];
+#endif
+    return tri_shading1[local];
+#endif
+}
 
 #include "textures.glsl"
 // struct TriangleUV (hybrid_engine/tracer.py TRIANGLE_UV_DTYPE)             // total: 32 bytes
@@ -177,7 +211,7 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int tri, vec2 bary) {
     Hit h;
     h.kind = HIT_BVH;
     h.position = o + d * t;
-    TriangleShading ts = tri_shading[tri];
+    TriangleShading ts = triangle_shading(tri);
     vec3 n = (1.0 - bary.x - bary.y) * ts.n0_material.xyz + bary.x * ts.n1.xyz + bary.y * ts.n2.xyz;
     h.normal = safe_normalize(n, safe_normalize(ts.geometric.xyz, -d));
     h.material = int(ts.n0_material.w + 0.5);

@@ -11,7 +11,7 @@ PYTEST_ARGS ?=
 .PHONY: help setup demo test bench package clean distclean
 
 help:
-	@echo "make demo       render the default scene with Hybrid RT to out/demo.png"
+	@echo "make demo       render the generated Chess scene with Hybrid RT (out/demo*.png, timing report)"
 	@echo "make test       run the test suite"
 	@echo "make bench      run the benchmark, results in out/bench.json"
 	@echo "make package    build the installable extension zip into dist/"

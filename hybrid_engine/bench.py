@@ -15,7 +15,9 @@ Sections (one function each; :func:`main` assembles them):
 ``trace``
     Closest-hit traversal of reflection rays (rays leaving random surface points of a
     mesh-like scene in mirrored directions, as the hybrid tracer's secondary rays do) on the
-    GPU versus Embree, with the fraction of rays on which both agree.
+    GPU versus Embree, with the fraction of rays on which both agree. The GPU time is that of
+    ``LBVHBuilder.trace_buffers``, which first sorts the rays by their origins' Morton codes
+    (counted in the time); the same trace without the sort is reported too.
 ``frame``
     Whole frames of the procedural Chess scene (:mod:`hybrid_engine.scenes.chess`, the
     paper's pathological case, §4 and Figure 6) in HYBRID and in FULL_BVH, the paper's
@@ -46,18 +48,18 @@ import numpy as np
 
 from . import gl_context, lbvh, lbvh_reference
 from .scenes.chess import CHESS_CUBE_FAR, build_chess
-from .settings import RenderSettings
+from .settings import CUBE_MARCHES, RenderSettings
 
 FULL_BUILD_SIZES = (100_000, 300_000, 1_000_000)
 QUICK_BUILD_SIZES = (2_000, 10_000)
 FULL_TRACE = {"triangles": 300_000, "rays": 200_000}
 QUICK_TRACE = {"triangles": 5_000, "rays": 2_000}
 ROUNDS = 5
-# The frame section. Detail 0.7 gives 1.52 M triangles: the paper's Chess scene has 2.15 M
-# (detail 1.0), but FULL_BVH must hold the whole scene in one LBVH and the per-triangle
-# buffers (64-byte shading rows, 64-byte nodes) stop at the driver's 128 MiB storage-block
-# limit, i.e. about 2.1 M triangles; 1.5 M stays clear of it with a margin.
-FULL_FRAME = {"detail": 0.7, "resolution": (640, 360), "cube_resolution": 512}
+# The frame section: the paper's Chess scene at full size (detail 1.0: 2,155,124 triangles
+# against the paper's 2,149,944). Per-triangle arrays past the driver's storage-block limit
+# (128 MiB on llvmpipe: FULL_BVH's nodes and the tracer's shading rows) are bound as several
+# blocks.
+FULL_FRAME = {"detail": 1.0, "resolution": (640, 360), "cube_resolution": 512}
 HARDWARE_FRAME_RESOLUTION = (1280, 720)  # the paper's 720p, when a hardware GPU is present
 QUICK_FRAME = {"detail": 0.02, "resolution": (96, 54), "cube_resolution": 128}
 # Frame 0 of the animation: the camera stands 3 units above the boards, 8.25 units from the
@@ -240,15 +242,17 @@ def trace_section(triangles: int = FULL_TRACE["triangles"], rays: int = FULL_TRA
         t_buf = ctx.buffer(reserve=rays * 4)
         tri_buf = ctx.buffer(reserve=rays * 4)
 
-        def gpu() -> float:
-            ctx.finish()
-            start = time.perf_counter()
-            builder.trace_buffers(org_buf, dir_buf, t_buf, tri_buf, rays)
-            ctx.finish()
-            elapsed = time.perf_counter() - start
-            results["gpu"] = (np.frombuffer(t_buf.read(), np.float32),
-                              np.frombuffer(tri_buf.read(), np.int32))
-            return elapsed
+        def gpu_trace(name: str, sort_rays: bool | None) -> Callable[[], float]:
+            def run() -> float:
+                ctx.finish()
+                start = time.perf_counter()
+                builder.trace_buffers(org_buf, dir_buf, t_buf, tri_buf, rays, sort_rays=sort_rays)
+                ctx.finish()
+                elapsed = time.perf_counter() - start
+                results[name] = (np.frombuffer(t_buf.read(), np.float32),
+                                 np.frombuffer(tri_buf.read(), np.int32))
+                return elapsed
+            return run
 
         # embreex's run() traces on the calling thread and releases the GIL, so Embree gets
         # one thread per core, each tracing a contiguous share of the rays.
@@ -266,7 +270,9 @@ def trace_section(triangles: int = FULL_TRACE["triangles"], rays: int = FULL_TRA
                                  np.concatenate([np.asarray(p["primID"], np.int32) for p in parts]))
             return elapsed
 
-        medians = _interleaved({"gpu": gpu, "embree": embree}, rounds)
+        medians = _interleaved({"gpu": gpu_trace("gpu", None),
+                                "gpu_unsorted": gpu_trace("gpu_unsorted", False),
+                                "embree": embree}, rounds)
         for buf in (org_buf, dir_buf, t_buf, tri_buf):
             buf.release()
     finally:
@@ -279,10 +285,13 @@ def trace_section(triangles: int = FULL_TRACE["triangles"], rays: int = FULL_TRA
         "triangles": int(len(tris)),
         "kind": "reflection",
         "mrays_per_s": round(rays / medians["gpu"] / 1e6, 4),
+        "gpu_ray_sort": rays >= lbvh.RAY_SORT_MIN_RAYS,
+        "mrays_per_s_unsorted": round(rays / medians["gpu_unsorted"] / 1e6, 4),
         "embree_mrays_per_s": round(rays / medians["embree"] / 1e6, 4),
         "embree_threads": embree_threads,
         "embree_cpu_utilisation": round(statistics.median(cpu_ratio), 2),
         "hit_agreement": round(hit_agreement(t_gpu, tri_gpu, t_emb, tri_emb), 6),
+        "hit_agreement_unsorted": round(hit_agreement(*results["gpu_unsorted"], t_emb, tri_emb), 6),
         "hit_fraction": round(float(np.mean(tri_emb >= 0)), 4),
     }
 
@@ -327,39 +336,48 @@ def frame_section(detail: float = FULL_FRAME["detail"],
                   resolution: tuple[int, int] = FULL_FRAME["resolution"],
                   rounds: int = ROUNDS, cube_resolution: int = FULL_FRAME["cube_resolution"],
                   near_size: float = FRAME_NEAR_SIZE, max_depth: int = FRAME_MAX_DEPTH,
-                  frame: int = FRAME_NUMBER) -> dict:
-    """HYBRID vs FULL_BVH frames of the procedural Chess scene, side by side in one process.
+                  frame: int = FRAME_NUMBER, cube_march: str = "HIERARCHICAL") -> dict:
+    """HYBRID vs FULL_BVH on consecutive frames of the procedural Chess animation, side by
+    side in one process.
 
-    Each mode renders once untimed-for-the-report (shader compilation, buffer growth), then
-    the modes alternate ``rounds`` times; frame and per-pass figures are medians over the
-    rounds. ``flip_mean`` compares the last HYBRID image with the last FULL_BVH image.
+    Each mode has its own Renderer, as an application playing the animation would: frame
+    ``frame`` warms it up (shader compilation, buffer growth, the first full upload), then
+    frames ``frame + 1 .. frame + rounds`` are rendered with the modes alternating frame by
+    frame. Each frame re-uploads what moved and re-renders the shadow maps (pieces and
+    spheres move every frame), exactly as playback would. Frame and per-pass figures are
+    medians over the timed frames; ``flip_mean`` is the mean FLIP over them.
     """
     from .renderer import Renderer
 
     width, height = (int(v) for v in resolution)
     start = time.perf_counter()
-    scene, camera = build_chess(detail, frame, width, height)
-    build_ms = (time.perf_counter() - start) * 1e3
+    frames = [build_chess(detail, frame + k, width, height) for k in range(rounds + 1)]
+    build_ms = (time.perf_counter() - start) * 1e3 / len(frames)
+    scene = frames[0][0]
     base = dict(near_size=float(near_size), max_depth=int(max_depth),
-                cube_resolution=int(cube_resolution), cube_far=CHESS_CUBE_FAR)
+                cube_resolution=int(cube_resolution), cube_far=CHESS_CUBE_FAR, cube_march=cube_march)
     settings = {mode: RenderSettings(mode=mode, **base) for mode in ("HYBRID", "FULL_BVH")}
-    renderer = Renderer(gl_context.get_context())
+    ctx = gl_context.get_context()
+    renderers = {mode: Renderer(ctx) for mode in settings}
     totals: dict[str, list[float]] = {mode: [] for mode in settings}
     passes: dict[str, dict[str, list[float]]] = {mode: {} for mode in settings}
-    last = {}
+    results: dict[str, list] = {mode: [] for mode in settings}
     try:
-        for mode, mode_settings in settings.items():  # warm-up
-            renderer.render(scene, camera, mode_settings)
-        for _ in range(rounds):
+        for mode, mode_settings in settings.items():  # warm-up on the first frame
+            renderers[mode].render(*frames[0], mode_settings)
+        for frame_scene, camera in frames[1:]:
             for mode, mode_settings in settings.items():
-                result = renderer.render(scene, camera, mode_settings)
+                result = renderers[mode].render(frame_scene, camera, mode_settings)
                 totals[mode].append(result.total_ms)
                 for name, ms in result.passes.items():
                     passes[mode].setdefault(name, []).append(ms)
-                last[mode] = result
+                results[mode].append(result)
     finally:
-        renderer.release()
-    hybrid, full = last["HYBRID"], last["FULL_BVH"]
+        for renderer in renderers.values():
+            renderer.release()
+    hybrid = results["HYBRID"][-1]
+    full = results["FULL_BVH"][-1]
+    flips = [flip_mean(f.image, h.image) for h, f in zip(results["HYBRID"], results["FULL_BVH"])]
     hybrid_ms = statistics.median(totals["HYBRID"])
     full_ms = statistics.median(totals["FULL_BVH"])
     pass_medians = {mode: {name: round(statistics.median(v), 3) for name, v in by_pass.items()}
@@ -367,7 +385,7 @@ def frame_section(detail: float = FULL_FRAME["detail"],
     hybrid_no_upload = hybrid_ms - pass_medians["HYBRID"].get("upload", 0.0)
     full_no_upload = full_ms - pass_medians["FULL_BVH"].get("upload", 0.0)
     return {
-        "scene": f"chess (procedural, detail {detail:g}, frame {frame})",
+        "scene": f"chess (procedural, detail {detail:g}, frames {frame + 1}-{frame + rounds})",
         "triangles_total": int(scene.geometry.triangle_count),
         "triangles_bvh": int(hybrid.counts.get("triangles_bvh", 0)),
         "resolution": f"{width}x{height}",
@@ -375,7 +393,7 @@ def frame_section(detail: float = FULL_FRAME["detail"],
         "hybrid_ms": round(hybrid_ms, 3),
         "full_bvh_ms": round(full_ms, 3),
         "speedup": round(full_ms / hybrid_ms, 4),
-        "flip_mean": round(flip_mean(full.image, hybrid.image), 5),
+        "flip_mean": round(float(np.mean(flips)), 5),
         "passes_hybrid": pass_medians["HYBRID"],
         "passes_full_bvh": pass_medians["FULL_BVH"],
         # Context for reading the figures above.
@@ -383,7 +401,11 @@ def frame_section(detail: float = FULL_FRAME["detail"],
         "near_size": float(near_size),
         "cube_resolution": int(cube_resolution),
         "cube_far": float(CHESS_CUBE_FAR),
+        "cube_march": cube_march,
         "rounds": int(rounds),
+        "flip_per_frame": [round(float(v), 5) for v in flips],
+        "triangles_uploaded_median": int(statistics.median(
+            r.counts.get("triangles_uploaded", 0) for r in results["HYBRID"])),
         "objects_near": int(hybrid.counts.get("objects_near_inside", 0)
                             + hybrid.counts.get("objects_near_straddling", 0)),
         "objects_total": int(len(scene.geometry.object_ranges)),
@@ -428,7 +450,8 @@ def format_tables(report: dict) -> str:
             f"GPU {trace['mrays_per_s']:.3f} Mrays/s, Embree {trace['embree_mrays_per_s']:.3f} "
             f"Mrays/s ({trace['embree_threads']} thread(s)), ratio "
             f"{trace['mrays_per_s'] / trace['embree_mrays_per_s']:.2f}, agreement "
-            f"{100 * trace['hit_agreement']:.3f}%")
+            f"{100 * trace['hit_agreement']:.3f}%; GPU without the ray sort "
+            f"{trace['mrays_per_s_unsorted']:.3f} Mrays/s")
     frame = report.get("frame")
     if frame:
         lines.extend(["", format_frame_table(frame)])
@@ -463,10 +486,12 @@ SECTIONS = ("lbvh", "trace", "frame")
 
 
 def run(quick: bool = False, sections=SECTIONS, rounds: int = ROUNDS,
-        resolution: tuple[int, int] | None = None, near_size: float = FRAME_NEAR_SIZE) -> dict:
+        resolution: tuple[int, int] | None = None, near_size: float = FRAME_NEAR_SIZE,
+        detail: float | None = None, cube_march: str = "HIERARCHICAL") -> dict:
     """Run the requested sections and return the report dictionary (``resolution``: the
     frame section's image size, default :func:`default_frame_resolution`; ``near_size``: its
-    near-cube half-size)."""
+    near-cube half-size; ``detail``: the Chess scene's detail, default 1.0 (0.02 quick);
+    ``cube_march``: how HYBRID marches the cube map)."""
     report: dict = {"machine": machine_info(), "quick": bool(quick), "rounds": rounds}
     if "lbvh" in sections:
         report["lbvh"] = lbvh_section(QUICK_BUILD_SIZES if quick else FULL_BUILD_SIZES, rounds)
@@ -476,8 +501,10 @@ def run(quick: bool = False, sections=SECTIONS, rounds: int = ROUNDS,
     if "frame" in sections:
         params = QUICK_FRAME if quick else FULL_FRAME
         report["frame"] = frame_section(
-            detail=params["detail"], resolution=resolution or default_frame_resolution(quick),
-            rounds=rounds, cube_resolution=params["cube_resolution"], near_size=near_size)
+            detail=params["detail"] if detail is None else detail,
+            resolution=resolution or default_frame_resolution(quick),
+            rounds=rounds, cube_resolution=params["cube_resolution"], near_size=near_size,
+            cube_march=cube_march)
     return report
 
 
@@ -504,6 +531,10 @@ def main(argv: list[str] | None = None) -> int:
                         "renderer, 1280x720 on a GPU, 96x54 with --quick)")
     parser.add_argument("--near-size", type=float, default=FRAME_NEAR_SIZE,
                         help=f"near-cube half-size of the frame section (default {FRAME_NEAR_SIZE:g})")
+    parser.add_argument("--detail", type=float, default=None,
+                        help="Chess scene detail of the frame section (default 1.0, 0.02 with --quick)")
+    parser.add_argument("--cube-march", choices=CUBE_MARCHES, default="HIERARCHICAL",
+                        help="how HYBRID marches the cube map in the frame section")
     parser.add_argument("--sections", default=",".join(SECTIONS),
                         help=f"comma-separated subset of {', '.join(SECTIONS)}")
     args = parser.parse_args(argv)
@@ -515,7 +546,10 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--rounds must be >= 1")
     if not (math.isfinite(args.near_size) and 0 < args.near_size < CHESS_CUBE_FAR):
         parser.error(f"--near-size must lie in (0, {CHESS_CUBE_FAR:g}) (the cube map's far plane)")
-    report = run(args.quick, sections, args.rounds, args.resolution, args.near_size)
+    if args.detail is not None and not 0 < args.detail <= 1:
+        parser.error("--detail must lie in (0, 1]")
+    report = run(args.quick, sections, args.rounds, args.resolution, args.near_size,
+                 args.detail, args.cube_march)
     print(format_tables(report))
     if args.json:
         with open(args.json, "w", encoding="utf-8") as handle:

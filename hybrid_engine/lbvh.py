@@ -85,6 +85,14 @@ KEYS_PER_CHUNK_SOFTWARE = 2048
 KEYS_PER_CHUNK_HARDWARE = 256
 # Triangles each invocation of the bounds pass folds before its six atomics.
 BOUNDS_ITEMS_PER_INVOCATION = 16
+# Ray sorting before tracing (ray_keys.comp.glsl): from this many rays on, trace_buffers
+# orders the rays by a Morton code of their origins (a 3-pass radix sort of 24-bit keys) so
+# that the 8 lanes of a SIMD vector trace neighbouring rays. On the bench's 200k incoherent
+# reflection rays (300k triangles, llvmpipe) the sort takes ~12 ms and the whole trace gets
+# 1.7-1.8x faster; at 5k rays sorting breaks even, at 2k it loses (its ten dispatches).
+RAY_SORT_MIN_RAYS = 4096
+RAY_KEY_BITS = 24
+RAY_SORT_PASSES = math.ceil(RAY_KEY_BITS / RADIX_BITS)
 
 # Input triangles: 9 float32 (the (N, 3, 3) layout of Geometry.triangles).
 INPUT_TRIANGLE_BYTES = 36
@@ -218,6 +226,9 @@ class LBVHBuilder:
         self._triangles = GrowBuffer(ctx, "lbvh triangles")
         self._rays = (GrowBuffer(ctx, "trace origins"), GrowBuffer(ctx, "trace directions"))
         self._hits = (GrowBuffer(ctx, "trace hit t"), GrowBuffer(ctx, "trace hit triangle"))
+        self._ray_keys = (GrowBuffer(ctx, "trace ray keys A"), GrowBuffer(ctx, "trace ray keys B"))
+        self._ray_order = (GrowBuffer(ctx, "trace ray order A"),
+                           GrowBuffer(ctx, "trace ray order B"))
         self.built: BuiltLBVH | None = None
 
     # -- building ---------------------------------------------------------------------------
@@ -338,8 +349,9 @@ class LBVHBuilder:
         chunk_size = max(1, math.ceil(count / num_chunks))
         return chunk_size, math.ceil(count / chunk_size) if count else 1
 
-    def _sort(self, keys, values, count: int) -> int:
-        """LSD radix sort of keys[0]/values[0]; returns the index of the sorted pair."""
+    def _sort(self, keys, values, count: int, passes: int = SORT_PASSES) -> int:
+        """LSD radix sort of keys[0]/values[0] on their low ``passes * RADIX_BITS`` bits;
+        returns the index of the sorted pair."""
         ctx = self.ctx
         n4 = max(count, 1) * 4
         chunk_size, num_chunks = self.sort_plan(count)
@@ -352,7 +364,7 @@ class LBVHBuilder:
             _set_uniform(program, "u_num_chunks", num_chunks)
         _set_uniform(self._radix_scan, "u_num_chunks", num_chunks)
         src = 0
-        for digit in range(SORT_PASSES):
+        for digit in range(passes):
             shift = digit * RADIX_BITS
             dst = 1 - src
             bind_storage(keys[src], 0, 0, n4)
@@ -374,9 +386,12 @@ class LBVHBuilder:
 
     def trace(
         self, origins: np.ndarray, directions: np.ndarray, tmin: float = 0.0,
-        tmax: float = float(np.finfo(np.float32).max),
+        tmax: float = float(np.finfo(np.float32).max), sort_rays: bool | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Closest hits of rays against the last build: (t with inf on miss, tri with -1)."""
+        """Closest hits of rays against the last build: (t with inf on miss, tri with -1).
+
+        ``sort_rays`` as in :meth:`trace_buffers` (the results do not depend on it).
+        """
         if self.built is None:
             raise RuntimeError("LBVHBuilder.trace() needs a build first")
         org = _as_rays(origins, "origins")
@@ -390,19 +405,30 @@ class LBVHBuilder:
         dir_buf = self._rays[1].upload(dirs.tobytes())
         t_buf = self._hits[0].ensure(count * 4)
         tri_buf = self._hits[1].ensure(count * 4)
-        self.trace_buffers(org_buf, dir_buf, t_buf, tri_buf, count, tmin, tmax)
+        self.trace_buffers(org_buf, dir_buf, t_buf, tri_buf, count, tmin, tmax, sort_rays)
         t = np.frombuffer(t_buf.read(size=count * 4), dtype=np.float32).copy()
         tri = np.frombuffer(tri_buf.read(size=count * 4), dtype=np.int32).copy()
         return t, tri
 
     def trace_buffers(self, origins, directions, hit_t, hit_tri, count: int,
-                      tmin: float = 0.0, tmax: float = float(np.finfo(np.float32).max)) -> None:
-        """GPU-side trace of ``count`` rays held in GL buffers (float[3M] each)."""
+                      tmin: float = 0.0, tmax: float = float(np.finfo(np.float32).max),
+                      sort_rays: bool | None = None) -> None:
+        """GPU-side trace of ``count`` rays held in GL buffers (float[3M] each).
+
+        ``sort_rays``: trace the rays in the order of their origins' Morton codes
+        (ray_keys.comp.glsl; the hits are still stored by ray index). ``None`` sorts from
+        :data:`RAY_SORT_MIN_RAYS` rays on.
+        """
         built = self.built
         count = int(count)
-        self._trace = shader_loader.compute(
-            self.ctx, "lbvh/trace.comp.glsl", {"LOCAL_SIZE": LOCAL_SIZE, **built.traversal_defines()}
-        )
+        if sort_rays is None:
+            sort_rays = count >= RAY_SORT_MIN_RAYS
+        defines = {"LOCAL_SIZE": LOCAL_SIZE, **built.traversal_defines()}
+        if sort_rays and count > 0:
+            order = self._order_rays(origins, count)
+            defines["RAY_ORDER"] = 1
+            bind_storage(order, 6, 0, count * 4)
+        self._trace = shader_loader.compute(self.ctx, "lbvh/trace.comp.glsl", defines)
         built.bind(0, 1)
         bind_storage(origins, 2, 0, max(count, 1) * 12)
         bind_storage(directions, 3, 0, max(count, 1) * 12)
@@ -416,10 +442,28 @@ class LBVHBuilder:
         if gl_context.debug_checks_enabled():
             gl_context.check_error("LBVH trace")
 
+    def _order_rays(self, origins, count: int):
+        """Sort ``count`` rays by their origins' Morton codes; returns the buffer holding
+        the ray indices in traversal order (uint[count])."""
+        ctx = self.ctx
+        n4 = count * 4
+        keys = [b.ensure(n4) for b in self._ray_keys]
+        order = [b.ensure(n4) for b in self._ray_order]
+        program = shader_loader.compute(ctx, "lbvh/ray_keys.comp.glsl", {"LOCAL_SIZE": LOCAL_SIZE})
+        self.built.bind(0, 1)
+        bind_storage(origins, 2, 0, count * 12)
+        bind_storage(keys[0], 3, 0, n4)
+        bind_storage(order[0], 4, 0, n4)
+        _set_uniform(program, "u_count", count)
+        dispatch(program, count, LOCAL_SIZE)
+        storage_barrier(ctx)
+        return order[self._sort(keys, order, count, RAY_SORT_PASSES)]
+
     def release(self) -> None:
         """Free the GL buffers (programs stay in the loader's per-context cache)."""
         for grow in (self._input, *self._keys, *self._values, self._histograms, self._nodes,
-                     self._leaf_parent, self._flags, self._triangles, *self._rays, *self._hits):
+                     self._leaf_parent, self._flags, self._triangles, *self._rays, *self._hits,
+                     *self._ray_keys, *self._ray_order):
             grow.release()
         self._dummy_index.release()
         self._bounds_buffer.release()

@@ -4,10 +4,12 @@
 //
 // Host defines: LOCAL_SIZE, BVH_NODE_BLOCKS, BVH_NODE_BLOCK_SIZE, BVH_TRIANGLE_BLOCKS,
 //   BVH_TRIANGLE_BLOCK_SIZE (all but the first only for a BVH split over storage blocks:
-//   BuiltLBVH.traversal_defines()).
+//   BuiltLBVH.traversal_defines()); RAY_ORDER (optional): invocation i traces ray
+//   ray_order[i] (the rays sorted by ray_keys.comp.glsl) instead of ray i.
 // Bindings: 0 BVH nodes (read; blocks 1..3 at 43..45), 1 BVH triangles (read; 46..48), 2 origins (read: float[3 M]),
 //   3 directions (read: float[3 M]), 4 hit_t (write: float[M], +inf on a miss),
-//   5 hit_tri (write: int[M], original triangle index, -1 on a miss).
+//   5 hit_tri (write: int[M], original triangle index, -1 on a miss), 6 ray_order (read:
+//   uint[M], a permutation of the rays; only with RAY_ORDER). Hits are stored by ray index.
 // Uniforms: u_count (rays M), u_tmin, u_tmax.
 #include "dispatch.glsl"
 #include "float_order.glsl"
@@ -28,15 +30,26 @@ layout(std430, binding = 5) writeonly buffer HitTri {
     int hit_tri[];
 };
 
+#ifdef RAY_ORDER
+layout(std430, binding = 6) readonly buffer RayOrder {
+    uint ray_order[];
+};
+#endif
+
 uniform uint u_count;
 uniform float u_tmin;
 uniform float u_tmax;
 
 void main() {
-    uint ray = flat_invocation_index();
-    if (ray >= u_count) {
+    uint slot = flat_invocation_index();
+    if (slot >= u_count) {
         return;
     }
+#ifdef RAY_ORDER
+    uint ray = ray_order[slot];
+#else
+    uint ray = slot;
+#endif
     vec3 origin = vec3(origins[3u * ray], origins[3u * ray + 1u], origins[3u * ray + 2u]);
     vec3 dir = vec3(directions[3u * ray], directions[3u * ray + 1u], directions[3u * ray + 2u]);
     float t;

@@ -97,7 +97,6 @@ MIN_SPHERE_RINGS = 8
 # Materials as the core Chess scene's table (hybrid_engine/scenes/chess.py chess_materials):
 # the Poly Haven board is one material, so it takes the mean of the two board rows.
 CHESS_REAL_BOARD_REFLECTIVITY = 0.25
-CHESS_SKY_PROBE_DETAIL = 0.01  # the smallest core chess scene, built only to read its sky
 
 # -- sponza -------------------------------------------------------------------------------------
 # Sponza_blender.gltf is in metres. Measured on the file (ray casts in bpy 5.0.1): its open
@@ -459,6 +458,18 @@ def _animate_transforms(obj, frames: np.ndarray, locations: np.ndarray | None = 
     _animate(obj, channels, frames)
 
 
+def _add_mirror_spheres(collection, mesh, frames, frame_count: int) -> None:
+    """The nine mirror spheres of both chess scenes, one per board, keyed with the core's
+    sphere motion (scale keys only where a sphere's size changes)."""
+    scales, centres = _sphere_motion(frames, frame_count)
+    for b in range(chess_core.SETS):
+        obj = bpy.data.objects.new(f"sphere_{b}", mesh)
+        obj.location, obj.scale = centres[0, b], scales[0, b]
+        collection.objects.link(obj)
+        moving_scale = np.ptp(scales[:, b], axis=0).max() > 0
+        _animate_transforms(obj, frames, locations=centres[:, b], scales=scales[:, b] if moving_scale else None)
+
+
 def _eulers(rotations: np.ndarray) -> np.ndarray:
     """XYZ Euler angles of (F, 3, 3) rotations, each compatible with the previous one so that
     interpolated sub-frames never spin the long way round."""
@@ -563,7 +574,7 @@ def _chess_camera(scene, collection, frames: np.ndarray, frame_count: int) -> No
 
 def _sphere_motion(frames: np.ndarray, frame_count: int) -> tuple[np.ndarray, np.ndarray]:
     """(F, 9, 3) sphere scales (the diagonal of the core's linear maps) and (F, 9, 3) centres."""
-    motion = [chess_core._spheres(f) for f in _core_frames(frames, frame_count)]
+    motion = [chess_core.sphere_placements(f) for f in _core_frames(frames, frame_count)]
     scales = np.stack([np.diagonal(maps, axis1=1, axis2=2) for maps, _ in motion])
     centres = np.stack([centres for _, centres in motion])
     return scales, centres
@@ -574,7 +585,7 @@ def _build_chess(scene, assets: Path | None, detail: float, frame_count: int) ->
 
     Static parts (floor, boards, board frames) are taken from ``build_chess(detail, 0)`` in
     world space. Pieces and spheres are instances of the core's templates: one mesh per piece
-    type, placed by the core's own ``_pieces``/``_spheres`` at every frame; only objects
+    type, placed by the core's own ``piece_placements``/``sphere_placements`` at every frame; only objects
     that move get keys. Object and material names are the core's, so a frame extracted from
     this scene can be compared object by object with ``build_chess(detail, frame)``.
     """
@@ -605,7 +616,7 @@ def _build_chess(scene, assets: Path | None, detail: float, frame_count: int) ->
     meshes["sphere"].materials.append(materials[chess_core.MAT_SPHERE])
 
     # Pieces: the core's placement at every frame; one object each, sharing its type's mesh.
-    placements = [chess_core._pieces(f) for f in core_frames]
+    placements = [chess_core.piece_placements(f) for f in core_frames]
     positions = np.array([[p["position"] for p in frame] for frame in placements])  # (F, 288, 3)
     angles = np.array([[p["angle"] for p in frame] for frame in placements])
     for k, piece in enumerate(placements[0]):
@@ -623,13 +634,7 @@ def _build_chess(scene, assets: Path | None, detail: float, frame_count: int) ->
             euler[:, 2] = angles[:, k]
             _animate_transforms(obj, frames, locations=positions[:, k], euler=euler)
 
-    scales, centres = _sphere_motion(frames, frame_count)
-    for b in range(chess_core.SETS):
-        obj = bpy.data.objects.new(f"sphere_{b}", meshes["sphere"])
-        obj.location, obj.scale = centres[0, b], scales[0, b]
-        piece_collection.objects.link(obj)
-        moving_scale = np.ptp(scales[:, b], axis=0).max() > 0
-        _animate_transforms(obj, frames, locations=centres[:, b], scales=scales[:, b] if moving_scale else None)
+    _add_mirror_spheres(piece_collection, meshes["sphere"], frames, frame_count)
 
     _chess_lights(scene, rig)
     _chess_camera(scene, rig, frames, frame_count)
@@ -718,7 +723,7 @@ def _build_chess_real(scene, assets: Path, detail: float, frame_count: int) -> N
 
     # The core's piece placement drives the matching Poly Haven piece (same colour, kind
     # and square): the core's displacement from frame 0 is added to the piece's position.
-    placements = [chess_core._pieces(f) for f in core_frames]
+    placements = [chess_core.piece_placements(f) for f in core_frames]
     by_name = {p["name"]: k for k, p in enumerate(placements[0])}
     positions = np.array([[p["position"] for p in frame] for frame in placements])
     offsets = positions - positions[:1]
@@ -761,17 +766,11 @@ def _build_chess_real(scene, assets: Path, detail: float, frame_count: int) -> N
         "sphere_mirror", tuple(float(c) for c in table.base_color[sphere_row]),
         metallic=float(table.reflectivity[sphere_row]), roughness=0.0,
         thickness=float(table.thickness[sphere_row])))
-    scales, centres = _sphere_motion(frames, frame_count)
-    for b in range(CHESS_SETS):
-        obj = bpy.data.objects.new(f"sphere_{b}", sphere_mesh)
-        obj.location, obj.scale = centres[0, b], scales[0, b]
-        sets.objects.link(obj)
-        moving_scale = np.ptp(scales[:, b], axis=0).max() > 0
-        _animate_transforms(obj, frames, locations=centres[:, b], scales=scales[:, b] if moving_scale else None)
+    _add_mirror_spheres(sets, sphere_mesh, frames, frame_count)
 
     _chess_lights(scene, rig)
     _chess_camera(scene, rig, frames, frame_count)
-    sky = chess_core.build_chess(CHESS_SKY_PROBE_DETAIL, 0, 1, 1)[0].sky  # the core scene's sky
+    sky = chess_core.chess_sky()
     _world(scene, tuple(float(c) for c in sky.color), float(sky.strength))
     _settings(scene, near_size=FRAME_NEAR_SIZE, cube_far=chess_core.CHESS_CUBE_FAR)
     total = CHESS_SETS * (set_triangles + len(sphere_mesh.loop_triangles)) + len(floor.loop_triangles)

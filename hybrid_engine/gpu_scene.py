@@ -104,7 +104,7 @@ def needs_cube_shadow(kind: int) -> bool:
     return kind in (LIGHT_POINT, LIGHT_AREA)
 
 
-def _bytes_of(array: np.ndarray) -> np.ndarray:
+def bytes_of(array: np.ndarray) -> np.ndarray:
     """A flat uint8 view of a contiguous array (no copy)."""
     return np.ascontiguousarray(array).reshape(-1).view(np.uint8)
 
@@ -139,19 +139,19 @@ class GPUScene:
             for first, count in delta.ranges:
                 part = SceneData(geo.rows(first, count), scene.materials)
                 verts = pack_vertices(part, self._staging)
-                self.vertices.write_at(_bytes_of(verts), first * 3 * VERTEX_DTYPE.itemsize)
+                self.vertices.write_at(bytes_of(verts), first * 3 * VERTEX_DTYPE.itemsize)
         else:
             verts = pack_vertices(scene, self._staging)
             allocations = self.vertices.allocations
-            self.vertices.upload(_bytes_of(verts))  # a byte view: tobytes() would copy ~100 MB
+            self.vertices.upload(bytes_of(verts))  # a byte view: tobytes() would copy ~100 MB
             if self.vertices.allocations != allocations:
                 self.generation += 1  # a new buffer object: dependent VAOs must be rebuilt
             self.vertex_count = len(verts)
-        self.materials.upload(_bytes_of(scene.materials.packed()))
+        self.materials.upload(bytes_of(scene.materials.packed()))
         self.textures.upload(scene.materials.textures)
 
     def upload_lights(self, lights: Lights, shadow_slots: list[tuple[int, int]]) -> None:
-        self.lights.upload(_bytes_of(pack_lights(lights, shadow_slots)))
+        self.lights.upload(bytes_of(pack_lights(lights, shadow_slots)))
 
     def release(self) -> None:
         for buf in (self.vertices, self.materials, self.lights):

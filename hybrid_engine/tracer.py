@@ -23,7 +23,7 @@ import numpy as np
 
 from . import gl_context, shader_loader
 from .cube_map import CubeMapPass
-from .gpu_scene import GPUScene
+from .gpu_scene import GPUScene, bytes_of
 from .gpu_dispatch import GrowBuffer, bind_blocks, split_blocks, storage_barrier
 from .lbvh import BuiltLBVH, LBVHBuilder
 from .near_cube import CullResult, NearCubeCuller, overlap_margin
@@ -52,11 +52,6 @@ WORKGROUP = 8  # the kernel's local size in x and y
 # Storage bindings of the shading rows' blocks (one per 128 MiB on llvmpipe; see
 # hybrid_trace.comp.glsl: TRI_SHADING_BLOCKS).
 SHADING_BINDINGS = (5, 49, 50, 51)
-
-
-def _bytes_of(array: np.ndarray) -> np.ndarray:
-    """A flat uint8 view of a contiguous array (no copy)."""
-    return np.ascontiguousarray(array).reshape(-1).view(np.uint8)
 
 
 def pack_triangles(geometry: Geometry) -> np.ndarray:
@@ -154,11 +149,6 @@ class TraceStats:
         return counts
 
 
-def _set(program, name: str, value) -> None:
-    """Set one uniform the compiler kept."""
-    shader_loader.set_uniforms(program, {name: value})
-
-
 class HybridTracer:
     """GPU state of the tracing passes: geometry buffers, culler, LBVH, cube map, kernel."""
 
@@ -199,18 +189,18 @@ class HybridTracer:
         if incremental:
             for first, count in delta.ranges:
                 part = geo.rows(first, count)
-                self._triangles.write_at(_bytes_of(pack_triangles(part)), first * 36)
-                self._shading.write_at(_bytes_of(pack_triangle_shading(part)[:count]),
+                self._triangles.write_at(bytes_of(pack_triangles(part)), first * 36)
+                self._shading.write_at(bytes_of(pack_triangle_shading(part)[:count]),
                                        first * TRIANGLE_SHADING_DTYPE.itemsize)
                 if with_uvs:
-                    self._uvs.write_at(_bytes_of(pack_triangle_uvs(scene, part)[:count]),
+                    self._uvs.write_at(bytes_of(pack_triangle_uvs(scene, part)[:count]),
                                        first * TRIANGLE_UV_DTYPE.itemsize)
             return
         triangles = pack_triangles(geo)  # uploaded as byte views, not copies
-        self._triangles.upload(_bytes_of(triangles) if len(triangles) else bytes(36))
-        self._shading.upload(_bytes_of(pack_triangle_shading(geo)))
+        self._triangles.upload(bytes_of(triangles) if len(triangles) else bytes(36))
+        self._shading.upload(bytes_of(pack_triangle_shading(geo)))
         if with_uvs:
-            self._uvs.upload(_bytes_of(pack_triangle_uvs(scene)))
+            self._uvs.upload(bytes_of(pack_triangle_uvs(scene)))
         else:
             self._uvs.ensure(0)
 
@@ -286,9 +276,9 @@ class HybridTracer:
         }
         if cube is not None:
             units.update(self.cube_map.march_textures())
-        for unit, (name, tex) in enumerate(units.items()):
+        for unit, tex in enumerate(units.values()):
             tex.use(location=unit)
-            _set(prog, name, unit)
+        shader_loader.set_uniforms(prog, {name: unit for unit, name in enumerate(units)})
         targets.color.bind_to_image(0, read=True, write=True)
 
         # Uniforms.
@@ -314,8 +304,7 @@ class HybridTracer:
             view.view_proj, view.height, view.orthographic)
         if cube is not None:
             values.update(self.cube_map.march_uniforms(settings))
-        for name, value in values.items():
-            _set(prog, name, value)
+        shader_loader.set_uniforms(prog, values)
         prog.run(math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
         storage_barrier(ctx)
         if gl_context.debug_checks_enabled():
@@ -374,8 +363,7 @@ def probe_cube_march(ctx, cube_map: CubeMapPass, materials_buffer, settings: Ren
         for unit, (name, tex) in enumerate(cube_map.march_textures().items()):
             tex.use(location=unit)
             values[name] = unit
-        for name, value in values.items():
-            _set(prog, name, value)
+        shader_loader.set_uniforms(prog, values)
         dispatch(prog, count, PROBE_LOCAL_SIZE)
         storage_barrier(ctx)
         raw = out_buf.read(size=count * MARCH_RESULT_DTYPE.itemsize) if count else b""

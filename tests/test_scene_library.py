@@ -268,8 +268,8 @@ def test_chess_real_places_nine_poly_haven_sets_in_the_core_layout_and_animates_
     pieces_moved = moved - {f"sphere_{b}" for b in range(chess_core.SETS)}
     assert len(pieces_moved) == 2 * chess_core.SETS
     # The white a-pawn moves as the core's a2 pawn does.
-    core0 = {p["name"]: p["position"] for p in chess_core._pieces(0)}
-    core10 = {p["name"]: p["position"] for p in chess_core._pieces(CHANGED_FRAME)}
+    core0 = {p["name"]: p["position"] for p in chess_core.piece_placements(0)}
+    core10 = {p["name"]: p["position"] for p in chess_core.piece_placements(CHANGED_FRAME)}
     pawn = next(n for n in pieces_moved if n.startswith("set0_piece_pawn_white"))
     shift = object_triangles(later.geometry, pawn).astype(np.float64) - object_triangles(geometry, pawn)
     np.testing.assert_allclose(shift.reshape(-1, 3) - (core10["set0_white_pawn_a2"] - core0["set0_white_pawn_a2"]), 0.0,

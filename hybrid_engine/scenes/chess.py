@@ -327,7 +327,7 @@ def _wave(frame: int) -> tuple[float, float]:
     return t, 0.5 - 0.5 * math.cos(2.0 * math.pi * t)
 
 
-def _pieces(frame: int) -> list[dict]:
+def piece_placements(frame: int) -> list[dict]:
     """Every piece's type, name, material, position and heading at ``frame``."""
     t, w = _wave(frame)
     pieces = []
@@ -352,7 +352,7 @@ def _pieces(frame: int) -> list[dict]:
     return pieces
 
 
-def _spheres(frame: int) -> tuple[np.ndarray, np.ndarray]:
+def sphere_placements(frame: int) -> tuple[np.ndarray, np.ndarray]:
     """Per-sphere (9, 3, 3) linear maps (scale) and (9, 3) centres at ``frame``: each circles
     and bobs over its board's middle; the middle one squashes and stretches."""
     t, _ = _wave(frame)
@@ -402,6 +402,11 @@ def chess_materials() -> MaterialTable:
     ])
 
 
+def chess_sky() -> Sky:
+    """A clear blue sky, the only light source besides the sun and the lamp."""
+    return Sky(color=(0.45, 0.60, 0.85), strength=1.0)
+
+
 def chess_lights() -> Lights:
     """A sun (irradiance 3 W/m², low from the south-west) and a warm point light over the grid."""
     sun_dir = np.array([0.45, 0.35, -1.0])
@@ -427,8 +432,8 @@ def build_chess(detail: float = 1.0, frame: int = 0, width: int = 640,
     detail = _check_detail(detail)
     frame = int(frame)
     templates = piece_templates(detail)
-    pieces = _pieces(frame)
-    sphere_maps, sphere_centres = _spheres(frame)
+    pieces = piece_placements(frame)
+    sphere_maps, sphere_centres = sphere_placements(frame)
 
     # The static parts are small: one object per board, per frame, and the floor.
     board_tris, board_mats = _board_top()
@@ -499,5 +504,5 @@ def build_chess(detail: float = 1.0, frame: int = 0, width: int = 640,
     geometry = Geometry(triangles=tris, normals=normals, material_ids=materials,
                         object_ranges=ranges_arr, object_bounds=bounds, object_names=names)
     scene = SceneData(geometry=geometry, materials=chess_materials(), lights=chess_lights(),
-                      sky=Sky(color=(0.45, 0.60, 0.85), strength=1.0))
+                      sky=chess_sky())
     return scene, camera_path(frame, width, height)

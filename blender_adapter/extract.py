@@ -18,6 +18,7 @@ not read pixels again. Nothing here writes to Blender data.
 """
 from __future__ import annotations
 
+import functools
 import logging
 from collections import OrderedDict
 from dataclasses import dataclass
@@ -27,6 +28,7 @@ import numpy as np
 from ..hybrid_engine.camera import Camera, CameraError
 from ..hybrid_engine.materials import DEFAULT_THICKNESS, principled_to_params
 from ..hybrid_engine.scene_data import Geometry, Lights, MaterialTable, SceneData, Sky
+from ..hybrid_engine.solids import closed_outward_indexed
 from ..hybrid_engine.textures import srgb_to_linear
 
 log = logging.getLogger(__name__)
@@ -46,6 +48,9 @@ _EXACT_READ_LIMIT = 4096
 # A quad is clearly convex (Blender keeps its 0-2 split) when the cosine between the two
 # half-triangle normals, as in Blender's is_quad_flip_v3_first_third_fast, is below this.
 _QUAD_CONVEX_COS = -0.1
+# Meshes above this many triangles skip the closed-surface check (solids.py) and draw
+# two-sided: the check sorts 3 edges per triangle, ~0.3 s per million.
+CLOSED_CHECK_MAX_TRIANGLES = 1_000_000
 
 
 # ---------------------------------------------------------------------------------------
@@ -377,10 +382,23 @@ class _MeshData:
     slots: np.ndarray  # (N,) int32 material slot per triangle
     uvs: np.ndarray | None  # (N*3, 2) float32
     all_vertices_used: bool  # bounds may be taken over all vertices
+    # Every edge borders two face corners' worth of loops (corners == 2 x edges): necessary
+    # for a closed 2-manifold and free to test, so open meshes skip the full check.
+    maybe_closed: bool = False
 
     @property
     def triangle_count(self) -> int:
         return len(self.slots)
+
+    @functools.cached_property
+    def closed(self) -> bool:
+        """Closed and wound outwards (hybrid_engine/solids.py): its instances' back faces
+        may be culled. Checked once per evaluated mesh (the scene cache keeps unchanged
+        meshes); meshes above CLOSED_CHECK_MAX_TRIANGLES are drawn two-sided instead of
+        paying the check again on every deformed frame."""
+        if not self.maybe_closed or self.triangle_count > CLOSED_CHECK_MAX_TRIANGLES:
+            return False
+        return closed_outward_indexed(self.positions, self.tri_vertices.reshape(-1, 3))
 
 
 def _read(collection, attr: str, count: int, width: int, dtype) -> np.ndarray:
@@ -517,6 +535,7 @@ def _read_mesh(mesh) -> _MeshData | None:
         slots=slots,
         uvs=uvs,
         all_vertices_used=bool(used.all()),
+        maybe_closed=n_corners == 2 * len(mesh.edges),
     )
 
 
@@ -537,6 +556,7 @@ class _ObjectArrays:
     material_ids: np.ndarray  # (n,)
     uvs: np.ndarray | None  # (n, 3, 2)
     bounds: np.ndarray  # (2, 3)
+    closed: bool = False  # solids.py: back faces may be culled
 
 
 def _instance_arrays(name: str, data: _MeshData, matrix: np.ndarray, slot_ids: np.ndarray) -> _ObjectArrays | None:
@@ -587,7 +607,10 @@ def _instance_arrays(name: str, data: _MeshData, matrix: np.ndarray, slot_ids: n
     else:
         pts = triangles.reshape(-1, 3)
     bounds = np.array([[pts[:, k].min() for k in range(3)], [pts[:, k].max() for k in range(3)]], np.float32)
-    return _ObjectArrays(name, triangles, tri_normals, material_ids.astype(np.int32, copy=False), tri_uvs, bounds)
+    # The mirror swap above keeps the winding outward; dropped triangles open the surface.
+    closed = keep is None and data.closed
+    return _ObjectArrays(name, triangles, tri_normals, material_ids.astype(np.int32, copy=False), tri_uvs, bounds,
+                         closed)
 
 
 def _concat(arrays: list[np.ndarray]) -> np.ndarray:
@@ -611,6 +634,7 @@ def _geometry(objects: list[_ObjectArrays]) -> Geometry:
         object_bounds=np.stack([o.bounds for o in objects]),
         object_names=[o.name for o in objects],
         uvs=uvs,
+        object_closed=np.array([o.closed for o in objects], bool),
     )
 
 

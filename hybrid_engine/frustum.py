@@ -35,6 +35,29 @@ def visible_objects(view_proj: np.ndarray, object_bounds: np.ndarray) -> np.ndar
     return valid & ~outside
 
 
+def beyond_near_plane(view_proj: np.ndarray, object_bounds: np.ndarray) -> np.ndarray:
+    """Boolean mask of objects whose AABB lies wholly in front of the near plane of
+    ``view_proj`` (all eight corners have clip z >= -w): the near plane cuts none of them
+    and, for a perspective view, the eye lies outside every one. Only such objects may have
+    their back faces culled (:mod:`.solids`)."""
+    bounds = np.asarray(object_bounds, np.float64).reshape(-1, 2, 3)
+    if len(bounds) == 0:
+        return np.zeros(0, bool)
+    finite = np.isfinite(bounds).all(axis=(1, 2))
+    b = np.where(finite[:, None, None], bounds, 0.0)
+    corners = np.where(_CORNER_BITS[None], b[:, 1][:, None, :], b[:, 0][:, None, :])
+    z = corners @ view_proj[2, :3] + view_proj[2, 3]
+    w = corners @ view_proj[3, :3] + view_proj[3, 3]
+    return finite & (z >= -w).all(axis=1) & (w > 0).all(axis=1)
+
+
+def front_face_winding(view_proj: np.ndarray) -> str:
+    """"ccw" when triangles wound counter-clockwise seen from outside stay counter-clockwise
+    in window space under ``view_proj`` (every proper OpenGL projection of a right-handed
+    view: its determinant is negative), "cw" when the view mirrors them."""
+    return "ccw" if np.linalg.det(np.asarray(view_proj, np.float64)) < 0 else "cw"
+
+
 def draw_ranges(mask: np.ndarray, object_ranges: np.ndarray) -> list[tuple[int, int]]:
     """Merge the triangle ranges of visible objects into as few (first, count) runs as
     possible, so that adjacent visible objects cost one draw call."""

@@ -25,10 +25,11 @@ from .camera import (
     perspective_matrix,
     view_from_world,
 )
-from .frustum import draw_ranges, visible_objects
+from .frustum import beyond_near_plane, draw_ranges, front_face_winding, visible_objects
 from .gpu_scene import GPUScene, needs_cube_shadow, vertex_binding
 from .scene_data import LIGHT_SPOT, LIGHT_SUN, SceneData, Sky
 from .settings import RenderSettings
+from .shadow_cache import snapped_bounds
 
 # struct ShadowSlot (gpu_shaders/include/scene_layout.glsl)           // total: 80 bytes
 SHADOW_SLOT_DTYPE = np.dtype([("view_proj", np.float32, (4, 4)), ("rect", np.int32, 4), ("texel", np.float32, 4)])
@@ -210,10 +211,15 @@ class RasterPasses:
         self._gbuffer_vao = None
         self._shadow_vao = None
         self._vao_generation = -1
+        # Two depth layers per shadow slot (hybrid_engine/shadow_cache.py): objects at rest
+        # and moving objects; the lookup takes the nearer depth.
         self._shadow_atlas = None
         self._shadow_fbo = None
+        self._shadow_dynamic = None
+        self._shadow_dynamic_fbo = None
         self._atlas_size: tuple[int, int] | None = None
         self._slot_buffer = ctx.buffer(reserve=SHADOW_SLOT_DTYPE.itemsize)
+        self._slots = np.zeros(1, SHADOW_SLOT_DTYPE)
         self._sky_texture = None
         self._sky_key = None
         self._dummy_env = ctx.texture((1, 1), 3, dtype="f4")
@@ -248,11 +254,18 @@ class RasterPasses:
         res = min(resolution, max_size // cols, max_size // rows)
         size = (cols * res, rows * res)
         if self._atlas_size != size:
-            old = (self._shadow_fbo, self._shadow_atlas)
-            self._shadow_atlas = self.ctx.depth_texture(size)
-            self._shadow_atlas.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
-            self._shadow_atlas.compare_func = ""
-            self._shadow_fbo = self.ctx.framebuffer(depth_attachment=self._shadow_atlas)
+            old = (self._shadow_fbo, self._shadow_atlas, self._shadow_dynamic_fbo, self._shadow_dynamic)
+            layers = []
+            for _ in range(2):
+                tex = self.ctx.depth_texture(size)
+                tex.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
+                tex.compare_func = ""
+                fbo = self.ctx.framebuffer(depth_attachment=tex)
+                fbo.use()
+                fbo.viewport = (0, 0, *size)
+                fbo.clear(depth=1.0)
+                layers += [tex, fbo]
+            self._shadow_atlas, self._shadow_fbo, self._shadow_dynamic, self._shadow_dynamic_fbo = layers
             _release_all(old)
             self._atlas_size = size
         self._atlas_cols = cols
@@ -275,14 +288,36 @@ class RasterPasses:
         self._sky_key = key
 
     # -- passes ----------------------------------------------------------------------------
-    def draw_world(self, vao, view_proj: np.ndarray, scene: SceneData) -> int:
-        """Draw the objects whose bounds touch the frustum; returns triangles submitted."""
+    def draw_world(self, vao, view_proj: np.ndarray, scene: SceneData, include: np.ndarray | None = None) -> int:
+        """Draw the objects whose bounds touch the frustum (and, given ``include``, that it
+        selects); returns triangles submitted."""
         geo = scene.geometry
         mask = visible_objects(view_proj, geo.object_bounds)
+        if include is not None:
+            mask &= include
+        # Closed outward-wound objects wholly in front of the near plane lose nothing
+        # visible by back-face culling (solids.py); the rest is drawn two-sided.
+        culled = np.zeros_like(mask)
+        if geo.object_closed is not None and mask.any():
+            culled = mask & geo.object_closed & beyond_near_plane(view_proj, geo.object_bounds)
         submitted = 0
-        for first, count in draw_ranges(mask, geo.object_ranges):
-            vao.render(self.ctx.TRIANGLES, vertices=count * 3, first=first * 3)
-            submitted += count
+        ctx = self.ctx
+        for group, cull in ((mask & ~culled, False), (culled, True)):
+            ranges = draw_ranges(group, geo.object_ranges)
+            if not ranges:
+                continue
+            if cull:
+                ctx.front_face = front_face_winding(view_proj)
+                ctx.cull_face = "back"
+                ctx.enable(ctx.CULL_FACE)
+            try:
+                for first, count in ranges:
+                    vao.render(ctx.TRIANGLES, vertices=count * 3, first=first * 3)
+                    submitted += count
+            finally:
+                if cull:
+                    ctx.disable(ctx.CULL_FACE)
+                    ctx.front_face = "ccw"
         return submitted
 
     def gbuffer(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
@@ -302,31 +337,58 @@ class RasterPasses:
             self.gbuffer_prog["u_textures"].value = 0
         return self.draw_world(self._gbuffer_vao, view.view_proj, scene)
 
-    def shadows(self, gpu: GPUScene, scene: SceneData, settings: RenderSettings) -> list[tuple[int, int]]:
-        """Render every light's shadow slots into the atlas (§3.5)."""
-        ctx = self.ctx
-        matrices, per_light = shadow_views(scene, SceneBounds.of(scene))
-        slots = np.zeros(max(len(matrices), 1), SHADOW_SLOT_DTYPE)
-        if matrices:
-            self._ensure_vaos(gpu)
-            res = self._ensure_atlas(len(matrices), int(settings.shadow_resolution))
-            self._shadow_fbo.use()
-            self._shadow_fbo.viewport = (0, 0, *self._atlas_size)
-            self._shadow_fbo.clear(depth=1.0)
-            ctx.enable(ctx.DEPTH_TEST)
-            ctx.disable(ctx.CULL_FACE)
-            for i, view in enumerate(matrices):
+    def shadow_views(self, scene: SceneData) -> tuple[list[ShadowView], list[tuple[int, int]]]:
+        """This frame's shadow slots, fitted to the scene's bounds snapped to a grid (so that
+        objects moving inside the scene keep the matrices, and with them the static layer)."""
+        bounds = SceneBounds.of(scene)
+        return shadow_views(scene, SceneBounds(*snapped_bounds(bounds.lo, bounds.hi)))
+
+    def shadow_layout(self, views: list[ShadowView], settings: RenderSettings) -> None:
+        """Allocate both atlas layers for ``views`` and write the slot table (§3.5)."""
+        slots = np.zeros(max(len(views), 1), SHADOW_SLOT_DTYPE)
+        if views:
+            res = self._ensure_atlas(len(views), int(settings.shadow_resolution))
+            for i, view in enumerate(views):
                 x, y = (i % self._atlas_cols) * res, (i // self._atlas_cols) * res
-                self._shadow_fbo.viewport = (x, y, res, res)
-                self.shadow_prog["u_view_proj"].write(gl_matrix(view.view_proj))
-                self.draw_world(self._shadow_vao, view.view_proj, scene)
                 slots[i]["view_proj"] = np.asarray(view.view_proj, np.float32).T  # column-major for GLSL
                 slots[i]["rect"] = (x, y, res, 0)
                 slots[i]["texel"] = (view.extent / res, float(view.perspective), 0.0, 0.0)
         elif self._shadow_atlas is None:
-            self._ensure_atlas(1, 1)  # keep a valid texture bound for the shading pass
+            self._ensure_atlas(1, 1)  # keep valid textures bound for the shading pass
         self._slot_buffer.orphan(slots.nbytes)
         self._slot_buffer.write(slots.tobytes())
+        self._slots = slots
+
+    def render_shadow_layer(self, gpu: GPUScene, scene: SceneData, views: list[ShadowView], dynamic: bool,
+                            include: np.ndarray | None = None) -> int:
+        """Clear one atlas layer (static or dynamic) and draw the objects ``include`` selects
+        (all when None) into every slot laid out by :meth:`shadow_layout`; returns triangles
+        submitted."""
+        ctx = self.ctx
+        fbo = self._shadow_dynamic_fbo if dynamic else self._shadow_fbo
+        fbo.use()
+        fbo.viewport = (0, 0, *self._atlas_size)
+        fbo.clear(depth=1.0)
+        if not views or (include is not None and not include.any()):
+            return 0
+        self._ensure_vaos(gpu)
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.disable(ctx.CULL_FACE)
+        submitted = 0
+        for i, view in enumerate(views):
+            x, y, res, _ = (int(v) for v in self._slots[i]["rect"])
+            fbo.viewport = (x, y, res, res)
+            self.shadow_prog["u_view_proj"].write(gl_matrix(view.view_proj))
+            submitted += self.draw_world(self._shadow_vao, view.view_proj, scene, include)
+        return submitted
+
+    def shadows(self, gpu: GPUScene, scene: SceneData, settings: RenderSettings) -> list[tuple[int, int]]:
+        """Render every light's shadow slots from scratch, all objects in the static layer
+        (§3.5); returns each light's (first, count) slots."""
+        views, per_light = self.shadow_views(scene)
+        self.shadow_layout(views, settings)
+        self.render_shadow_layer(gpu, scene, views, dynamic=False)
+        self.render_shadow_layer(gpu, scene, views, dynamic=True, include=np.zeros(0, bool))
         return per_light
 
     def shade(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
@@ -339,7 +401,8 @@ class RasterPasses:
         self._slot_buffer.bind_to_storage_buffer(2)
         units = {"u_depth": targets.depth, "u_normal_material": targets.normal_material, "u_albedo": targets.albedo,
                  "u_emission_scale": targets.emission_scale,
-                 "u_shadow_atlas": self._shadow_atlas, "u_sky_env": self._sky_texture or self._dummy_env}
+                 "u_shadow_atlas": self._shadow_atlas, "u_shadow_dynamic": self._shadow_dynamic,
+                 "u_sky_env": self._sky_texture or self._dummy_env}
         for unit, (name, tex) in enumerate(units.items()):
             tex.use(location=unit)
             if name in prog:
@@ -371,5 +434,6 @@ class RasterPasses:
         if self.primary is not None:
             self.primary.release()
         _release_all((self._gbuffer_vao,
-                      self._shadow_vao, self._shadow_fbo, self._shadow_atlas, self._slot_buffer,
+                      self._shadow_vao, self._shadow_fbo, self._shadow_atlas, self._shadow_dynamic_fbo,
+                      self._shadow_dynamic, self._slot_buffer,
                       self._sky_texture, self._dummy_env))

@@ -30,6 +30,7 @@ from .raster import RasterPasses, RasterView
 from .scene_data import SceneData
 from .scene_delta import GeometryTracker
 from .settings import RenderSettings
+from .shadow_cache import ShadowCache
 from .timing import PassTimer
 from .tracer import HybridTracer
 
@@ -80,11 +81,10 @@ class Renderer:
         self.gpu_scene = GPUScene(self.ctx)
         self.raster = RasterPasses(self.ctx)
         self.tracer: HybridTracer | None = None  # created on the first non-RASTER frame
-        # Frame-to-frame reuse: only changed triangles are re-uploaded, and the shadow maps
-        # are re-rendered only when the geometry, the lights or their resolution changed.
+        # Frame-to-frame reuse: only changed triangles are re-uploaded, and of the shadow
+        # maps only the layer whose objects changed is re-rendered (shadow_cache.py).
         self.geometry_tracker = GeometryTracker()
-        self._shadow_key: tuple | None = None
-        self._shadow_slots: list | None = None
+        self.shadow_cache = ShadowCache()
 
     def render(
         self,
@@ -131,15 +131,26 @@ class Renderer:
             counts["triangles_uploaded"] = int(delta.changed_triangles)
             step("shadow_maps")
             with timer.measure("shadow_maps"):
-                key = (pack_lights(scene.lights).tobytes(), int(settings.shadow_resolution))
-                if delta.unchanged and key == self._shadow_key and self._shadow_slots is not None:
-                    per_light = self._shadow_slots  # nothing that casts or receives moved
-                    counts["shadow_maps_rendered"] = 0
-                else:
-                    self._shadow_key = None  # invalid until the new maps are complete
-                    per_light = self.raster.shadows(self.gpu_scene, scene, settings)
-                    self._shadow_key, self._shadow_slots = key, per_light
-                    counts["shadow_maps_rendered"] = 1
+                views, per_light = self.raster.shadow_views(scene)
+                key = (pack_lights(scene.lights).tobytes(), int(settings.shadow_resolution),
+                       b"".join(np.asarray(v.view_proj, np.float64).tobytes() for v in views))
+                plan = self.shadow_cache.plan(scene.geometry.object_ranges, delta, key)
+                submitted_shadow = 0
+                if plan.anything:
+                    try:
+                        self.raster.shadow_layout(views, settings)
+                        if plan.render_static:
+                            submitted_shadow += self.raster.render_shadow_layer(
+                                self.gpu_scene, scene, views, dynamic=False, include=plan.static_mask)
+                        if plan.render_dynamic:
+                            submitted_shadow += self.raster.render_shadow_layer(
+                                self.gpu_scene, scene, views, dynamic=True, include=~plan.static_mask)
+                    except BaseException:
+                        self.shadow_cache.reset()  # the layers are incomplete
+                        raise
+                counts["shadow_maps_rendered"] = int(plan.anything)
+                counts["shadow_static_rendered"] = int(plan.render_static)
+                counts["shadow_triangles_submitted"] = submitted_shadow
                 self.gpu_scene.upload_lights(scene.lights, per_light)
             step("primary_raster")
             view = RasterView.from_camera(camera)

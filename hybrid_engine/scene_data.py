@@ -39,7 +39,11 @@ class Geometry:
     ``triangles[i]`` holds the three corners of triangle i; ``normals[i]`` the three shading
     normals (smooth, flat or custom split normals, already in world space); ``uvs`` is
     optional. ``object_ranges[k] = (first, count)`` are the triangles of object k and
-    ``object_bounds[k] = (min, max)`` its AABB (NaN corners excluded).
+    ``object_bounds[k] = (min, max)`` its AABB (NaN corners excluded). ``object_closed``
+    (optional, (K,) bool) marks objects whose triangles form closed surfaces wound
+    counter-clockwise seen from outside (:func:`hybrid_engine.solids.closed_outward`): the
+    raster passes skip their back faces, which an outside eye never sees. Marking an open
+    or inward-wound object lets the background show through it; None marks none.
     """
 
     triangles: np.ndarray  # (N, 3, 3) float32
@@ -49,6 +53,7 @@ class Geometry:
     object_bounds: np.ndarray  # (K, 2, 3) float32
     object_names: list[str] = field(default_factory=list)
     uvs: np.ndarray | None = None  # (N, 3, 2) float32
+    object_closed: np.ndarray | None = None  # (K,) bool
 
     def __post_init__(self) -> None:
         self.triangles = _as(self.triangles, np.float32, (3, 3), "triangles")
@@ -68,6 +73,11 @@ class Geometry:
                 raise SceneDataError(f"uvs has {len(self.uvs)} rows, triangles {n}")
         if len(self.object_ranges) != len(self.object_bounds):
             raise SceneDataError("object_ranges and object_bounds must have one row per object")
+        if self.object_closed is not None:
+            self.object_closed = np.asarray(self.object_closed, bool).reshape(-1)
+            if len(self.object_closed) != len(self.object_ranges):
+                raise SceneDataError(f"object_closed has {len(self.object_closed)} entries, "
+                                     f"object_ranges {len(self.object_ranges)}")
         if len(self.object_ranges):
             ends = self.object_ranges[:, 0].astype(np.int64) + self.object_ranges[:, 1]
             if (self.object_ranges < 0).any() or ends.max() > n:

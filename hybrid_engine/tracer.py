@@ -271,6 +271,7 @@ class HybridTracer:
             "u_cube_emission_scale": cube.emission_scale if cube is not None else self._dummy_rgba,
             "u_cube_hiz": self._dummy_rg,
             "u_shadow_atlas": raster._shadow_atlas,
+            "u_shadow_dynamic": raster._shadow_dynamic,
             "u_sky_env": raster._sky_texture or raster._dummy_env,
             "u_textures": gpu.textures.array,
         }

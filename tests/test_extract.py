@@ -662,3 +662,25 @@ def test_image_pixels_are_read_once_and_again_only_when_the_image_changes(fresh_
     image.scale(8, 8)
     second = extract(fresh_images).textures[0]
     assert second is not first and second.shape == (8, 8, 4)
+
+
+# ---------------------------------------------------------------------------------------
+# closed surfaces (hybrid_engine/solids.py: their back faces may be culled)
+def test_closed_meshes_are_marked_for_back_face_culling_and_open_or_mirrored_ones_right(addon):
+    clear_scene()
+    bpy.ops.mesh.primitive_cube_add(location=(0, 0, 0))
+    bpy.context.object.name = "cube"
+    bpy.ops.mesh.primitive_cube_add(location=(4, 0, 0))
+    bpy.context.object.name = "mirrored_cube"
+    bpy.context.object.scale = (-1.0, 1.0, 1.0)  # the extractor swaps corners: still outward
+    bpy.ops.mesh.primitive_uv_sphere_add(location=(0, 4, 0))
+    bpy.context.object.name = "sphere"
+    bpy.ops.mesh.primitive_plane_add(location=(0, 0, -2))
+    bpy.context.object.name = "plane"
+    mesh_object("open_tetra", TETRA_VERTS, TETRA_FACES[:3], trs((0, -4, 0), (0, 0, 0), (1, 1, 1)))
+    inward = [tuple(reversed(face)) for face in TETRA_FACES]
+    mesh_object("inward_tetra", TETRA_VERTS, inward, trs((0, -8, 0), (0, 0, 0), (1, 1, 1)))
+    geometry = extract(addon).geometry
+    closed = dict(zip(geometry.object_names, geometry.object_closed.tolist()))
+    assert closed == {"cube": True, "mirrored_cube": True, "sphere": True, "plane": False,
+                      "open_tetra": False, "inward_tetra": False}

@@ -11,7 +11,8 @@
 layout(std430, binding = 1) readonly buffer LightBuffer { Light lights[]; };
 layout(std430, binding = 2) readonly buffer ShadowSlotBuffer { ShadowSlot shadow_slots[]; };
 
-uniform sampler2D u_shadow_atlas;
+uniform sampler2D u_shadow_atlas;    // objects at rest (hybrid_engine/shadow_cache.py)
+uniform sampler2D u_shadow_dynamic;  // moving objects: same slots, the nearer depth wins
 uniform int u_light_count;
 uniform float u_shadow_bias;
 
@@ -41,7 +42,8 @@ float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light) {
     if (any(greaterThan(abs(ndc.xy), vec2(1.0))) || ndc.z > 1.0) return 1.0;
     int size = slot.rect.z;
     ivec2 texel = clamp(ivec2((ndc.xy * 0.5 + 0.5) * float(size)), ivec2(0), ivec2(size - 1));
-    float stored = texelFetch(u_shadow_atlas, slot.rect.xy + texel, 0).r;
+    ivec2 at = slot.rect.xy + texel;
+    float stored = min(texelFetch(u_shadow_atlas, at, 0).r, texelFetch(u_shadow_dynamic, at, 0).r);
     return (ndc.z * 0.5 + 0.5) <= stored + 1e-5 ? 1.0 : 0.0;
 }
 

@@ -40,7 +40,7 @@
 //   read and written). Textures: u_textures (textures.glsl; BVH hits sample it at the
 //   interpolated UV, mip level from the ray cone u_pixel_width + u_pixel_spread * distance).
 //   Samplers: primary u_depth, u_normal_material, u_albedo; the cube atlas u_cube_depth,
-//   u_cube_normal_material, u_cube_albedo, u_cube_emission_scale, u_cube_hiz; u_shadow_atlas; u_sky_env.
+//   u_cube_normal_material, u_cube_albedo, u_cube_emission_scale, u_cube_hiz; u_shadow_atlas, u_shadow_dynamic; u_sky_env.
 // Workgroup 8x8: neighbouring pixels' rays are coherent for the first bounce.
 #define BVH_NODES_BINDING 3
 #define BVH_TRIANGLES_BINDING 4

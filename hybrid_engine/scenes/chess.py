@@ -41,6 +41,7 @@ import numpy as np
 
 from ..camera import Camera, look_at
 from ..scene_data import Geometry, Lights, MaterialTable, SceneData, Sky, flat_normals
+from ..solids import closed_outward
 
 CHESS_FRAMES = 200  # length of the paper's animated sequences (§4)
 # Far plane the thickness values below are chosen for (pass it as RenderSettings.cube_far).
@@ -173,6 +174,8 @@ def lathe(profile: np.ndarray, normals: np.ndarray, segments: int) -> tuple[np.n
     cos, sin = np.cos(phi), np.sin(phi)
     cos[-1], sin[-1] = 1.0, 0.0  # close the seam exactly
     r, z = profile[:, 0:1], profile[:, 1:2]
+    # Poles exactly on the axis (resampling leaves ~1e-17): the surface then closes there.
+    r = np.where(np.abs(r) < 1e-9, 0.0, r)
     verts = np.stack([r * cos, r * sin, np.broadcast_to(z, r.shape[:1] + cos.shape)], axis=-1)
     nr, nz = normals[:, 0:1], normals[:, 1:2]
     norms = np.stack([nr * cos, nr * sin, np.broadcast_to(nz, nr.shape[:1] + cos.shape)], axis=-1)
@@ -257,6 +260,13 @@ def piece_templates(detail: float) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     tris, normals = lathe(sphere_profile, sphere_profile, 2 * rings)
     out["sphere"] = (tris.astype(np.float32), normals.astype(np.float32))
     return out
+
+
+@lru_cache(maxsize=8)
+def template_closed(detail: float) -> dict[str, bool]:
+    """Which templates at ``detail`` are closed, outward-wound surfaces (all of them; checked,
+    not assumed, since a lathe profile that misses the axis leaves a hole)."""
+    return {name: closed_outward(tris) for name, (tris, _) in piece_templates(detail).items()}
 
 
 def chess_triangle_count(detail: float = 1.0) -> int:
@@ -501,8 +511,16 @@ def build_chess(detail: float = 1.0, frame: int = 0, width: int = 640,
         bounds[k:k + count, 1] = block.max(axis=1)
         k += count
 
+    # Pieces and spheres are closed, outward-wound surfaces (their back faces may be culled)
+    # as long as their linear maps keep orientation; boards, frames and floor are open.
+    closed_templates = template_closed(detail)
+    closed = [False] * len(static)
+    for batch_names, (tmpl_tris, _), maps, *_ in batches:
+        kind = next(k for k, (t, _) in templates.items() if t is tmpl_tris)
+        closed.extend(bool(closed_templates[kind] and np.linalg.det(m) > 0) for m in maps)
     geometry = Geometry(triangles=tris, normals=normals, material_ids=materials,
-                        object_ranges=ranges_arr, object_bounds=bounds, object_names=names)
+                        object_ranges=ranges_arr, object_bounds=bounds, object_names=names,
+                        object_closed=np.array(closed, bool))
     scene = SceneData(geometry=geometry, materials=chess_materials(), lights=chess_lights(),
                       sky=chess_sky())
     return scene, camera_path(frame, width, height)

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from hybrid_engine import Geometry
-from hybrid_engine.scene_delta import MERGE_GAP_TRIANGLES, GeometryTracker, merge_ranges
+from hybrid_engine.scene_delta import MERGE_GAP_TRIANGLES, GeometryTracker, changed_rows, merge_ranges
 
 
 def geometry(rng, objects=4, per_object=5000, uvs=False) -> Geometry:
@@ -84,3 +85,16 @@ def test_moving_most_triangles_falls_back_to_a_full_upload(rng):
     geo.triangles[: geo.triangle_count * 3 // 4] *= 2
     delta = tracker.update(geo)
     assert delta.full and delta.ranges == ((0, geo.triangle_count),)
+
+
+@pytest.mark.parametrize("shape", [(500,), (500, 3, 2), (500, 3, 3), (500, 6, 3), (3, 3, 3)])
+def test_changed_rows_finds_exactly_the_rows_that_differ_in_any_bit(rng, shape):
+    old = rng.random(shape).astype(np.float32)
+    new = old.copy()
+    rows = rng.choice(len(old), max(1, len(old) // 7), replace=False)
+    flat = new.reshape(len(new), -1)
+    flat[rows, rng.integers(0, flat.shape[1], len(rows))] = np.nextafter(
+        flat[rows, 0], np.float32(np.inf))  # one word, by as little as a float can move
+    expected = (old.reshape(len(old), -1).view(np.uint32) != new.reshape(len(new), -1).view(np.uint32)).any(axis=1)
+    np.testing.assert_array_equal(changed_rows(old, new), expected)
+    assert expected.sum() == len(rows)

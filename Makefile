@@ -8,12 +8,13 @@ SHELL := /bin/bash
 PYTHON_VENV := .venv/bin/python
 PYTEST_ARGS ?=
 
-.PHONY: help setup demo test bench package clean distclean
+.PHONY: help setup demo test bench pictures package clean distclean
 
 help:
 	@echo "make demo       render the generated Chess scene with Hybrid RT (out/demo*.png, timing report)"
 	@echo "make test       run the test suite"
 	@echo "make bench      run the benchmark, results in out/bench.json"
+	@echo "make pictures   render docs/pictures/*.png: each scene in every mode next to EEVEE and Cycles (~11 min)"
 	@echo "make package    build the installable extension zip into dist/"
 	@echo "make clean      remove build outputs (dist/, wheels/, out/, caches)"
 	@echo "make distclean  clean, and remove the virtual environment .venv"
@@ -37,6 +38,9 @@ test: setup
 bench: setup
 	@mkdir -p out
 	$(PYTHON_VENV) -m hybrid_engine.bench --json out/bench.json
+
+pictures: setup
+	$(PYTHON_VENV) scripts/make_pictures.py
 
 package: setup
 	$(PYTHON_VENV) scripts/build_extension.py

@@ -315,15 +315,22 @@ def to_srgb_ldr(linear: np.ndarray) -> np.ndarray:
     return srgb.astype(np.float32)
 
 
-def flip_mean(reference_linear: np.ndarray, test_linear: np.ndarray) -> float:
-    """Mean LDR FLIP (flip_evaluator) between two linear (H, W, 3|4) images, row 0 at the
-    bottom as the renderer returns them (FLIP wants the top row first)."""
+def flip_error(reference_linear: np.ndarray, test_linear: np.ndarray,
+               magma: bool = False) -> tuple[np.ndarray, float]:
+    """LDR FLIP (flip_evaluator) between two linear (H, W, 3|4) images, row 0 at the bottom
+    as the renderer returns them (FLIP wants the top row first): the error map (top row
+    first; magma-coloured RGB when ``magma``) and its mean."""
     import flip_evaluator
 
     reference = np.ascontiguousarray(to_srgb_ldr(reference_linear)[::-1])
     test = np.ascontiguousarray(to_srgb_ldr(test_linear)[::-1])
-    _, mean, _ = flip_evaluator.evaluate(reference, test, "LDR", applyMagma=False)
-    return float(mean)
+    error_map, mean, _ = flip_evaluator.evaluate(reference, test, "LDR", applyMagma=magma)
+    return np.asarray(error_map), float(mean)
+
+
+def flip_mean(reference_linear: np.ndarray, test_linear: np.ndarray) -> float:
+    """Mean LDR FLIP of :func:`flip_error`."""
+    return flip_error(reference_linear, test_linear)[1]
 
 
 def default_frame_resolution(quick: bool) -> tuple[int, int]:

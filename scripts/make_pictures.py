@@ -34,12 +34,10 @@ import contextlib
 import json
 import math
 import os
-import struct
 import subprocess
 import sys
 import tempfile
 import time
-import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator
@@ -179,14 +177,11 @@ def flip_map(reference_linear: np.ndarray, test_linear: np.ndarray) -> tuple[np.
     reference = FULL_BVH), with flip_evaluator's own magma colour map switched on, so the mean
     equals the benchmark's figure for the same pair of images.
     """
-    import flip_evaluator
-    from hybrid_rt.hybrid_engine.bench import to_srgb_ldr
+    from hybrid_rt.hybrid_engine.bench import flip_error
 
-    reference = np.ascontiguousarray(to_srgb_ldr(reference_linear)[::-1])
-    test = np.ascontiguousarray(to_srgb_ldr(test_linear)[::-1])
-    error_map, mean, _ = flip_evaluator.evaluate(reference, test, "LDR", applyMagma=True)
+    error_map, mean = flip_error(reference_linear, test_linear, magma=True)
     colours = np.clip(np.asarray(error_map, np.float64)[..., :3], 0.0, 1.0)
-    return (colours * 255.0 + 0.5).astype(np.uint8), float(mean)
+    return (colours * 255.0 + 0.5).astype(np.uint8), mean
 
 
 def label_scale(width: int) -> int:
@@ -254,43 +249,11 @@ def compose_sheet(tiles: dict[str, np.ndarray], labels: dict[str, str], title: s
 
 
 def encode_png(pixels: np.ndarray, compression: int = 9) -> bytes:
-    """An 8-bit RGB/RGBA PNG with a scanline filter chosen per row (None, Sub, Up, Average or
-    Paeth: the smallest sum of absolute filtered bytes, libpng's heuristic).
-
-    chart_png.encode_png writes every row unfiltered, which suits flat charts; renders
-    compress about half as well that way, and the sheets are kept in git. The encoder side of
-    every filter depends only on the raw bytes, so all rows are filtered at once in numpy.
-    Decodes with chart_png.decode_png or any PNG reader.
-    """
+    """The sheets' PNG encoding: chart_png's encoder with a scanline filter chosen per row
+    (renders compress about twice as well that way, and the sheets are kept in git)."""
     from hybrid_rt.hybrid_engine import chart_png
 
-    array = np.asarray(pixels)
-    if array.dtype != np.uint8 or array.ndim != 3 or array.shape[2] not in (3, 4):
-        raise ValueError(f"expected (H, W, 3|4) uint8 pixels, got {array.dtype} {array.shape}")
-    height, width, channels = array.shape
-    raw = array.reshape(height, width * channels).astype(np.int16)
-    left = np.zeros_like(raw)
-    left[:, channels:] = raw[:, :-channels]
-    up = np.zeros_like(raw)
-    up[1:] = raw[:-1]
-    up_left = np.zeros_like(raw)
-    up_left[1:, channels:] = raw[:-1, :-channels]
-    estimate = left + up - up_left
-    distance_left, distance_up, distance_up_left = (np.abs(estimate - v) for v in (left, up, up_left))
-    paeth = np.where((distance_left <= distance_up) & (distance_left <= distance_up_left), left,
-                     np.where(distance_up <= distance_up_left, up, up_left))
-    candidates = np.stack([raw, raw - left, raw - up, raw - (left + up) // 2, raw - paeth]) & 0xFF
-    cost = np.abs(candidates.astype(np.uint8).view(np.int8).astype(np.int32)).sum(axis=2)  # (5, H)
-    chosen = np.argmin(cost, axis=0)
-    rows = candidates[chosen, np.arange(height)].astype(np.uint8)
-    data = np.concatenate([chosen.astype(np.uint8)[:, None], rows], axis=1)
-
-    def chunk(tag: bytes, body: bytes) -> bytes:
-        return struct.pack(">I", len(body)) + tag + body + struct.pack(">I", zlib.crc32(tag + body) & 0xFFFFFFFF)
-
-    header = struct.pack(">IIBBBBB", width, height, 8, 2 if channels == 3 else 6, 0, 0, 0)
-    return (chart_png.PNG_SIGNATURE + chunk(b"IHDR", header)
-            + chunk(b"IDAT", zlib.compress(data.tobytes(), compression)) + chunk(b"IEND", b""))
+    return chart_png.encode_png(pixels, compression, adaptive_filter=True)
 
 
 def write_png(path: Path, pixels: np.ndarray) -> int:

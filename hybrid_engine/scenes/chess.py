@@ -453,17 +453,17 @@ def build_chess(detail: float = 1.0, frame: int = 0, width: int = 640,
     static += [(f"board_{b}", board_tris + c, board_mats) for b, c in enumerate(board_centers())]
     static += [(f"board_frame_{b}", frame_tris + c, MAT_FRAME) for b, c in enumerate(board_centers())]
 
-    # Instanced parts: (names, template, linear maps, translations, materials), per type.
-    batches = [([f"sphere_{b}" for b in range(SETS)], templates["sphere"], sphere_maps,
+    # Instanced parts: (kind, names, template, linear maps, translations, materials), per type.
+    batches = [("sphere", [f"sphere_{b}" for b in range(SETS)], templates["sphere"], sphere_maps,
                 sphere_centres, np.full(SETS, MAT_SPHERE))]
     for kind in PIECE_TYPES:
         chosen = [p for p in pieces if p["kind"] == kind]
-        batches.append(([p["name"] for p in chosen], templates[kind],
+        batches.append((kind, [p["name"] for p in chosen], templates[kind],
                         _rotation_z(np.array([p["angle"] for p in chosen])),
                         np.array([p["position"] for p in chosen]),
                         np.array([p["material"] for p in chosen])))
 
-    total = sum(len(t) for _, t, _ in static) + sum(len(b[0]) * len(b[1][0]) for b in batches)
+    total = sum(len(t) for _, t, _ in static) + sum(len(b[1]) * len(b[2][0]) for b in batches)
     tris = np.empty((total, 3, 3), np.float32)
     normals = np.empty((total, 3, 3), np.float32)
     materials = np.empty(total, np.int32)
@@ -477,7 +477,7 @@ def build_chess(detail: float = 1.0, frame: int = 0, width: int = 640,
         ranges.append((start, len(obj_tris)))
         names.append(name)
         start = end
-    for batch_names, (tmpl_tris, tmpl_normals), maps, offsets, mats in batches:
+    for _, batch_names, (tmpl_tris, tmpl_normals), maps, offsets, mats in batches:
         count, per = len(batch_names), len(tmpl_tris)
         end = start + count * per
         maps32 = maps.astype(np.float32)
@@ -503,7 +503,7 @@ def build_chess(detail: float = 1.0, frame: int = 0, width: int = 640,
         pts = tris[first:first + count].reshape(-1, 3)
         bounds[k] = pts.min(axis=0), pts.max(axis=0)
     k = 1 + 2 * SETS
-    for batch_names, (tmpl_tris, _), *_ in batches:
+    for _, batch_names, (tmpl_tris, _), *_ in batches:
         count, per = len(batch_names), len(tmpl_tris)
         first = ranges_arr[k, 0]
         block = tris[first:first + count * per].reshape(count, per * 3, 3)
@@ -515,8 +515,7 @@ def build_chess(detail: float = 1.0, frame: int = 0, width: int = 640,
     # as long as their linear maps keep orientation; boards, frames and floor are open.
     closed_templates = template_closed(detail)
     closed = [False] * len(static)
-    for batch_names, (tmpl_tris, _), maps, *_ in batches:
-        kind = next(k for k, (t, _) in templates.items() if t is tmpl_tris)
+    for kind, _, _, maps, *_ in batches:
         closed.extend(bool(closed_templates[kind] and np.linalg.det(m) > 0) for m in maps)
     geometry = Geometry(triangles=tris, normals=normals, material_ids=materials,
                         object_ranges=ranges_arr, object_bounds=bounds, object_names=names,

@@ -265,6 +265,7 @@ class HybridTracer:
             "u_depth": targets.depth,
             "u_normal_material": targets.normal_material,
             "u_albedo": targets.albedo,
+            "u_emission_scale": targets.emission_scale,
             "u_cube_depth": self._dummy_depth,
             "u_cube_normal_material": self._dummy_rgba,
             "u_cube_albedo": cube.albedo if cube is not None else self._dummy_rgba,

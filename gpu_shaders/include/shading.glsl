@@ -57,21 +57,46 @@ vec3 shade_local(Material m, vec3 albedo, vec3 p, vec3 n_facing) {
 }
 
 // The specular lobes of a hit seen along `view_dir` (unit, towards the surface) with shading
-// normal n (unit, as modelled). Returns the reflected and refracted directions and their
-// weights (colour multipliers). refract_weight is zero under total internal reflection.
+// normal n (unit, as modelled) on a triangle whose plane has unit normal g (either
+// orientation; vec3(0) when unknown). Returns the reflected and refracted directions and
+// their weights (colour multipliers). refract_weight is zero under total internal reflection.
+//
+// Interpolated shading normals disagree with the tessellated surface they smooth: near a
+// silhouette the mirror direction about n can point into the mesh, and the ray then finds the
+// object's own inside (dark speckles on curved mirrors, worst where the mesh is coarse). Like
+// production renderers (Cycles' ensure_valid_reflection) the directions are kept on their
+// side of the true surface: the reflected ray leaves above the triangle's plane, the
+// refracted one below it, each at least a small elevation off it; the side the ray arrives
+// on, not the shading normal, says whether it enters or leaves a glass object.
 struct SpecularSplit {
     vec3 reflect_dir;
     vec3 reflect_weight;
     vec3 refract_dir;
     vec3 refract_weight;
-    vec3 n_facing;  // the normal on the viewer's side
+    vec3 n_facing;  // the shading normal on the viewer's side
+    vec3 g_facing;  // the geometric normal on the viewer's side (n_facing when g is unknown)
 };
 
-SpecularSplit specular_split(Material m, vec3 albedo, vec3 view_dir, vec3 n) {
+// d turned towards `side` (unit) until it leaves the plane at an elevation of at least
+// `min_cos` (the cosine to the plane's normal); unchanged when it already does.
+vec3 keep_on_side(vec3 d, vec3 side, float min_cos) {
+    float c = dot(d, side);
+    if (c >= min_cos) return d;
+    return safe_normalize(d + side * (min_cos - c), side);
+}
+
+SpecularSplit specular_split_geometric(Material m, vec3 albedo, vec3 view_dir, vec3 n, vec3 g) {
     SpecularSplit s;
-    bool entering = dot(n, view_dir) < 0.0;
+    bool known = dot(g, g) > 0.5;
+    // The plane normal oriented like the shading normal (outwards, as modelled).
+    vec3 g_out = known ? (dot(g, n) >= 0.0 ? g : -g) : n;
+    bool entering = dot(g_out, view_dir) < 0.0;
     s.n_facing = entering ? n : -n;
+    s.g_facing = entering ? g_out : -g_out;
+    // Cycles' threshold: 0.01, or less for a ray arriving almost along the plane.
+    float min_cos = min(0.9 * max(-dot(view_dir, s.g_facing), 0.0), 0.01);
     s.reflect_dir = reflect(view_dir, s.n_facing);
+    if (known) s.reflect_dir = keep_on_side(s.reflect_dir, s.g_facing, min_cos);
     float reflectivity = material_reflectivity(m);
     float transmission = material_transmission(m);
     s.reflect_weight = reflectivity * albedo;
@@ -86,8 +111,14 @@ SpecularSplit specular_split(Material m, vec3 albedo, vec3 view_dir, vec3 n) {
         s.reflect_weight += vec3(transmission * f);
         if (f < 1.0 && dot(refracted, refracted) > 0.0) {
             s.refract_dir = normalize(refracted);
+            if (known) s.refract_dir = keep_on_side(s.refract_dir, -s.g_facing, min_cos);
             s.refract_weight = transmission * (1.0 - f) * albedo;
         }
     }
     return s;
+}
+
+// The same where only the shading normal is known.
+SpecularSplit specular_split(Material m, vec3 albedo, vec3 view_dir, vec3 n) {
+    return specular_split_geometric(m, albedo, view_dir, n, vec3(0.0));
 }

@@ -16,6 +16,7 @@
 #include "sky.glsl"
 #include "lighting.glsl"
 #include "shading.glsl"
+#include "octahedral.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -57,11 +58,16 @@ void main() {
     vec3 p = unproject(ndc_xy, depth * 2.0 - 1.0);
     int material_index = int(abs(nm.w) + 0.5) - 1;
     Material m = materials[material_index];
-    vec3 albedo = texelFetch(u_albedo, pixel, 0).rgb;
+    vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
+    vec4 emission_g = texelFetch(u_emission_scale, pixel, 0);
+    vec3 albedo = albedo_g.rgb;
 
+    // The alphas hold the triangle's geometric normal (gbuffer.frag.glsl): it decides which
+    // side the viewer is on, as in the tracer, so both shade a surface alike.
     vec3 n = nm.xyz;
-    SpecularSplit split = specular_split(m, albedo, view_dir, n);
-    vec3 emission = m.emission_trans.rgb * texelFetch(u_emission_scale, pixel, 0).rgb;
+    vec3 g = octahedral_decode(clamp(vec2(albedo_g.a, emission_g.a), -1.0, 1.0));
+    SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n, g);
+    vec3 emission = m.emission_trans.rgb * emission_g.rgb;
     vec3 color = shade_local_emission(m, albedo, emission, p, split.n_facing);
     if (u_traced_specular == 0) {
         color += split.reflect_weight * sky_radiance(split.reflect_dir);

@@ -6,14 +6,22 @@
 //   location 0 (RGBA32F): xyz = world shading normal as modelled (not flipped),
 //                         w = material index + 1, negated when the triangle is seen from its
 //                         back side (0 = background, cleared by the host)
-//   location 1 (RGBA16F): rgb = albedo (base colour times its image texture), a = 1
+//   location 1 (RGBA16F): rgb = albedo (base colour times its image texture),
+//                         a = first octahedral coordinate of the geometric normal
 //   location 2 (RGBA16F): rgb = emission scale (the emission image texture's colour, 1
-//                         without one; the shading multiplies the material's emission), a = 1
+//                         without one; the shading multiplies the material's emission),
+//                         a = second octahedral coordinate of the geometric normal
+// The geometric normal (the plane of the triangle, either orientation) lets the tracer keep
+// reflected rays above and refracted rays below the true surface: with interpolated shading
+// normals on a tessellated surface a mirror direction can point into the mesh, and the ray
+// then hits the object's own inside (speckles on curved mirrors). Derivatives of the world
+// position give it exactly: two differences of points on one plane lie in that plane.
 // Depth: the hardware depth buffer (DEPTH32F); positions are reconstructed from it.
 // Samplers: u_textures (textures.glsl), sampled with the UV derivatives of the fragment
 // (mipmaps, anisotropic filtering).
 #include "scene_layout.glsl"
 #include "textures.glsl"
+#include "octahedral.glsl"
 
 layout(std430, binding = 0) readonly buffer MaterialBuffer { Material materials[]; };
 
@@ -27,22 +35,26 @@ layout(location = 1) out vec4 out_albedo;
 layout(location = 2) out vec4 out_emission_scale;
 
 void main() {
+    // Derivatives outside any branch (they are undefined in non-uniform control flow).
+    vec3 geometric = cross(dFdx(v_world), dFdy(v_world));
+    float geometric_len2 = dot(geometric, geometric);
+    vec2 duv_dx = dFdx(v_uv);
+    vec2 duv_dy = dFdy(v_uv);
     vec3 n = v_normal;
     float len2 = dot(n, n);
     if (!(len2 > 1e-20) || any(isinf(n)) || any(isnan(n))) {
         // Degenerate shading normal: fall back to the geometric normal of the triangle.
-        n = cross(dFdx(v_world), dFdy(v_world));
-        len2 = dot(n, n);
-        n = len2 > 0.0 ? n * inversesqrt(len2) : vec3(0.0, 0.0, 1.0);
+        n = geometric_len2 > 0.0 ? geometric * inversesqrt(geometric_len2) : vec3(0.0, 0.0, 1.0);
     } else {
         n *= inversesqrt(len2);
     }
+    // A triangle seen edge-on (or too small for float differences) gets the shading normal.
+    vec3 g = geometric_len2 > 1e-36 && !any(isnan(geometric)) && !any(isinf(geometric))
+           ? geometric * inversesqrt(geometric_len2) : n;
+    vec2 g_oct = octahedral_encode(g);
     float id = float(v_material + 1);
     out_normal_material = vec4(n, gl_FrontFacing ? id : -id);
-    // Derivatives outside any branch (they are undefined in non-uniform control flow).
-    vec2 duv_dx = dFdx(v_uv);
-    vec2 duv_dy = dFdy(v_uv);
     Material m = materials[v_material];
-    out_albedo = vec4(material_albedo_grad(m, v_uv, duv_dx, duv_dy), 1.0);
-    out_emission_scale = vec4(material_emission_scale_grad(m, v_uv, duv_dx, duv_dy), 1.0);
+    out_albedo = vec4(material_albedo_grad(m, v_uv, duv_dx, duv_dy), g_oct.x);
+    out_emission_scale = vec4(material_emission_scale_grad(m, v_uv, duv_dx, duv_dy), g_oct.y);
 }

@@ -39,7 +39,7 @@
 //   only for materials with image textures). Image unit 0: the primary colour (RGBA32F,
 //   read and written). Textures: u_textures (textures.glsl; BVH hits sample it at the
 //   interpolated UV, mip level from the ray cone u_pixel_width + u_pixel_spread * distance).
-//   Samplers: primary u_depth, u_normal_material, u_albedo; the cube atlas u_cube_depth,
+//   Samplers: primary u_depth, u_normal_material, u_albedo, u_emission_scale; the cube atlas u_cube_depth,
 //   u_cube_normal_material, u_cube_albedo, u_cube_emission_scale, u_cube_hiz; u_shadow_atlas, u_shadow_dynamic; u_sky_env.
 // Workgroup 8x8: neighbouring pixels' rays are coherent for the first bounce.
 #define BVH_NODES_BINDING 3
@@ -49,6 +49,7 @@
 #include "sky.glsl"
 #include "lighting.glsl"
 #include "shading.glsl"
+#include "octahedral.glsl"
 #include "float_order.glsl"
 #include "bvh_traverse.glsl"
 
@@ -129,6 +130,7 @@ layout(rgba32f, binding = 0) uniform image2D u_color;
 uniform sampler2D u_depth;
 uniform sampler2D u_normal_material;
 uniform sampler2D u_albedo;
+uniform sampler2D u_emission_scale;
 uniform sampler2D u_cube_albedo;
 uniform sampler2D u_cube_emission_scale;
 uniform mat4 u_inv_view_proj;
@@ -163,6 +165,7 @@ struct Hit {
     int kind;
     vec3 position;
     vec3 normal;     // unit shading normal as modelled
+    vec3 geometric;  // unit normal of the hit triangle's plane (either orientation)
     int material;
     ivec2 texel;     // cube hits: atlas texel (stored G-buffer)
     vec2 uv;         // BVH hits: interpolated texture coordinate
@@ -198,6 +201,14 @@ vec2 bvh_region_interval(vec3 o, vec3 d) {
     return vec2(max(max(tn.x, tn.y), tn.z), min(min(tf.x, tf.y), tf.z));
 }
 
+// The geometric normal a G-buffer texel stores in the alphas of its albedo and emission
+// targets (raster/gbuffer.frag.glsl); `fallback` if it does not decode to a unit vector.
+vec3 gbuffer_geometric(sampler2D albedo, sampler2D emission_scale, ivec2 texel, vec3 fallback) {
+    vec2 e = vec2(texelFetch(albedo, texel, 0).a, texelFetch(emission_scale, texel, 0).a);
+    if (any(isnan(e)) || any(greaterThan(abs(e), vec2(1.0 + 1e-3)))) return fallback;
+    return octahedral_decode(clamp(e, -1.0, 1.0));
+}
+
 vec3 offset_origin(vec3 p, vec3 towards) {
     float scale = RAY_OFFSET_ABSOLUTE + RAY_OFFSET_RELATIVE * max(max(abs(p.x), abs(p.y)), abs(p.z));
     return p + towards * scale;
@@ -213,7 +224,8 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int tri, vec2 bary) {
     h.position = o + d * t;
     TriangleShading ts = triangle_shading(tri);
     vec3 n = (1.0 - bary.x - bary.y) * ts.n0_material.xyz + bary.x * ts.n1.xyz + bary.y * ts.n2.xyz;
-    h.normal = safe_normalize(n, safe_normalize(ts.geometric.xyz, -d));
+    h.geometric = safe_normalize(ts.geometric.xyz, -d);
+    h.normal = safe_normalize(n, h.geometric);
     h.material = int(ts.n0_material.w + 0.5);
     h.texel = ivec2(0);
     h.uv = vec2(0.0);
@@ -236,6 +248,7 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
     h.kind = HIT_SKY;
     h.position = vec3(0.0);
     h.normal = vec3(0.0, 0.0, 1.0);
+    h.geometric = h.normal;
     h.material = 0;
     h.texel = ivec2(0);
     h.uv = vec2(0.0);
@@ -269,6 +282,7 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
                     h.kind = HIT_CUBE;
                     h.position = cm.position;
                     h.normal = safe_normalize(cm.normal, -d);
+                    h.geometric = gbuffer_geometric(u_cube_albedo, u_cube_emission_scale, cm.texel, h.normal);
                     h.material = cm.material;
                     h.texel = cm.texel;
                     break;
@@ -309,7 +323,7 @@ void push(vec3 origin, vec3 dir, vec3 weight, int depth) {
 // thin refraction (§3.4: refractive objects in the cube map are thin, the refracted ray goes
 // to the sky), so it is the sky in the refracted direction.
 vec3 spawn_children(SpecularSplit split, vec3 p, vec3 weight, int depth) {
-    push(offset_origin(p, split.n_facing), split.reflect_dir, weight * split.reflect_weight, depth);
+    push(offset_origin(p, split.g_facing), split.reflect_dir, weight * split.reflect_weight, depth);
     vec3 refract_weight = weight * split.refract_weight;
     if (u_mode == MODE_HYBRID && !inside_near_cube(p)) {
         if (depth > u_max_depth || !(max(max(refract_weight.r, refract_weight.g), refract_weight.b) > 0.0)) {
@@ -319,7 +333,7 @@ vec3 spawn_children(SpecularSplit split, vec3 p, vec3 weight, int depth) {
         count(COUNT_SKY, depth);
         return refract_weight * sky_radiance(split.refract_dir);
     }
-    push(offset_origin(p, -split.n_facing), split.refract_dir, refract_weight, depth);
+    push(offset_origin(p, -split.g_facing), split.refract_dir, refract_weight, depth);
     return vec3(0.0);
 }
 
@@ -356,7 +370,8 @@ void main() {
         return;
     }
 
-    SpecularSplit split = specular_split(m, albedo, view_dir, n);
+    vec3 g = gbuffer_geometric(u_albedo, u_emission_scale, pixel, n);
+    SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n, g);
 
     vec3 traced = spawn_children(split, p, vec3(1.0), 1);
     while (stack_size > 0) {
@@ -370,7 +385,7 @@ void main() {
         Material hm = materials[h.material];
         vec3 h_albedo = h.kind == HIT_CUBE ? texelFetch(u_cube_albedo, h.texel, 0).rgb
                                            : material_albedo_lod(hm, h.uv, h.lod);
-        SpecularSplit hs = specular_split(hm, h_albedo, ray.dir, h.normal);
+        SpecularSplit hs = specular_split_geometric(hm, h_albedo, ray.dir, h.normal, h.geometric);
         if (h.kind == HIT_BVH) {
             vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
             traced += ray.weight * shade_local_emission(hm, h_albedo, h_emission, h.position, hs.n_facing);

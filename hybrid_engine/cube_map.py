@@ -26,6 +26,7 @@ from .gpu_scene import GPUScene
 from .raster import GBufferTargets, RasterPasses, RasterView, gl_matrix
 from .scene_data import SceneData
 from .settings import RenderSettings
+from .view_cull import CulledDraws, CullView, ViewTriangleCuller
 
 CUBE_FACE_FOV = math.radians(90.2)  # paper §3.2, Figure 3
 FACE_NAMES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
@@ -83,6 +84,8 @@ class CubeMapPass:
         self.targets: GBufferTargets | None = None
         self.faces: CubeFaces | None = None
         self.pyramid = CubeHitPyramid(ctx)
+        self.culler: ViewTriangleCuller | None = None
+        self.culled: CulledDraws | None = None  # this frame's per-triangle culling, if any
         self.resolution = 0
 
     def _ensure_targets(self, resolution: int) -> GBufferTargets:
@@ -94,10 +97,13 @@ class CubeMapPass:
         return self.targets
 
     def render(self, gpu: GPUScene, scene: SceneData, center, settings: RenderSettings,
-               shade: bool = False) -> int:
+               shade: bool = False, triangles: tuple[object, int] | None = None) -> int:
         """Rasterize all six faces (and shade them when ``shade``); returns the triangles
         submitted (after per-face object culling, which also drops objects wholly inside
-        the near cube)."""
+        the near cube). ``triangles`` -- the scene's world triangles in a GL buffer and
+        their count -- enables per-triangle culling of the faces' draws on the GPU
+        (view_cull.py: same G-buffers, a fraction of the triangles rasterized); without it,
+        or past the culler's buffer limit, each face draws its object list directly."""
         res = int(settings.cube_resolution)
         targets = self._ensure_targets(res)
         self.faces = CubeFaces.at(center, settings.near_size, settings.cube_far)
@@ -105,8 +111,17 @@ class CubeMapPass:
         targets.clear()
         submitted = 0
         views = self.faces.views(res)
+        self.culled = None
+        if triangles is not None and scene.geometry.triangle_count:
+            if self.culler is None:
+                self.culler = ViewTriangleCuller(self.ctx)
+            geo = scene.geometry
+            self.culled = self.culler.cull(
+                triangles[0], triangles[1], [CullView(v.view_proj, v.width, v.height) for v in views],
+                geo.object_ranges, geo.object_bounds, geo.object_closed)
         for i, view in enumerate(views):
-            submitted += self.raster.gbuffer(gpu, scene, view, targets, origin=(i * res, 0))
+            submitted += self.raster.gbuffer(gpu, scene, view, targets, origin=(i * res, 0),
+                                             culled=self.culled, view_index=i)
         if shade:
             for i, view in enumerate(views):
                 self.raster.shade(gpu, scene, view, targets, settings, origin=(i * res, 0))
@@ -145,6 +160,9 @@ class CubeMapPass:
 
     def release(self) -> None:
         self.pyramid.release()
+        if self.culler is not None:
+            self.culler.release()
+            self.culler = None
         if self.targets is not None:
             self.targets.release()
             self.targets = None

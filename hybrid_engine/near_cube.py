@@ -12,6 +12,11 @@ cube map. Culling happens in two stages, as in the paper:
    triangles crossing the cube -- then stream compaction (per-chunk counts, a prefix sum,
    an ordered scatter) into a list of triangle indices.
 
+Stage 2 walks only candidate triangles: the host lists the triangles of objects whose bounds
+touch the cube (a slightly larger one, so that the list holds everything stage 1 keeps) and of
+no object, from the object table alone; the Chess frame's 2.15 M triangles shrink to 0.1 M
+before any triangle is read.
+
 The cube is grown by a small overlap margin (paper: "by introducing a small overlap of the BVH
 and the cube map the possibility of a gap at the boundary due to precision errors is
 removed"): triangles just outside the near planes are in both the BVH and the cube map, and
@@ -33,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import gl_context, shader_loader
+from .frustum import draw_ranges
 from .gpu_dispatch import GrowBuffer, bind_storage, dispatch, max_block_bytes, storage_barrier
 from .lbvh import bind_input, input_defines, input_split
 
@@ -98,6 +104,7 @@ class NearCubeCuller:
         self._flags = GrowBuffer(ctx, "cull keep flags")
         self._counts = GrowBuffer(ctx, "cull chunk counts")
         self._indices = GrowBuffer(ctx, "cull kept indices")
+        self._candidates = GrowBuffer(ctx, "cull candidate triangles")
 
     def cull_array(self, triangles: np.ndarray, center, near_size: float,
                    object_ranges: np.ndarray | None = None,
@@ -140,13 +147,15 @@ class NearCubeCuller:
         half = float(near_size) + margin
         ranges, bounds = _objects(count, object_ranges, object_bounds)
         num_objects = len(ranges)
+        candidates = candidate_triangles(count, ranges, bounds, center, half)
+        elements = count if candidates is None else len(candidates)
 
         self._object_ranges.upload(ranges.tobytes())
         self._object_bounds.upload(bounds.tobytes())
         object_class = self._object_class.ensure(max(num_objects, 1) * 4)
-        num_chunks = max(1, math.ceil(count / self.triangles_per_chunk))
-        chunk_size = max(1, math.ceil(count / num_chunks))
-        flags = self._flags.ensure(max(count, 1) * 4)
+        num_chunks = max(1, math.ceil(elements / self.triangles_per_chunk))
+        chunk_size = max(1, math.ceil(elements / num_chunks))
+        flags = self._flags.ensure(max(elements, 1) * 4)
         counts = self._counts.ensure((num_chunks + 1) * 4)
         indices = self._indices.ensure(max(count, 1) * 4)
         # The per-triangle pass compiled for the input's block count (cached after first use).
@@ -165,15 +174,18 @@ class NearCubeCuller:
         storage_barrier(ctx)
         # 2. Triangles: flags and per-chunk counts.
         for program in (self._triangles, self._compact):
-            _set(program, "u_count", count)
+            _set(program, "u_count", elements)
             _set(program, "u_chunk_size", chunk_size)
             _set(program, "u_num_chunks", num_chunks)
-        _set(self._triangles, "u_use_indices", 0)
-        if count > 0:
+            _set(program, "u_use_indices", int(candidates is not None))
+        if candidates is not None and elements:
+            self._candidates.upload(candidates.tobytes())
+            bind_storage(self._candidates.buffer, 1, 0, elements * 4)
+        if elements > 0:
             bind_input(triangles, split)
             bind_storage(self._object_ranges.buffer, 2, 0, num_objects * 8)
             bind_storage(object_class, 3, 0, max(num_objects, 1) * 4)
-            bind_storage(flags, 4, 0, count * 4)
+            bind_storage(flags, 4, 0, elements * 4)
             bind_storage(counts, 5, 0, (num_chunks + 1) * 4)
             dispatch(self._triangles, num_chunks, LOCAL_SIZE)
             storage_barrier(ctx)
@@ -181,17 +193,19 @@ class NearCubeCuller:
             counts.write(np.zeros(1, np.uint32).tobytes())
         # 3. Prefix sum of the chunk counts (total at [num_chunks]).
         bind_storage(counts, 0, 0, (num_chunks + 1) * 4)
-        _set(self._scan, "u_count", num_chunks if count > 0 else 0)
+        _set(self._scan, "u_count", num_chunks if elements > 0 else 0)
         self._scan.run(1, 1, 1)
         storage_barrier(ctx)
         # 4. Compaction.
-        if count > 0:
-            bind_storage(flags, 0, 0, count * 4)
+        if elements > 0:
+            bind_storage(flags, 0, 0, elements * 4)
             bind_storage(counts, 1, 0, (num_chunks + 1) * 4)
-            bind_storage(indices, 2, 0, count * 4)
+            bind_storage(indices, 2, 0, elements * 4)
+            if candidates is not None:
+                bind_storage(self._candidates.buffer, 3, 0, elements * 4)
             dispatch(self._compact, num_chunks, LOCAL_SIZE)
             storage_barrier(ctx)
-        total_offset = (num_chunks if count > 0 else 0) * 4
+        total_offset = (num_chunks if elements > 0 else 0) * 4
         kept = int(np.frombuffer(counts.read(size=4, offset=total_offset), np.uint32)[0])
         classes = (np.frombuffer(object_class.read(size=num_objects * 4), np.uint32)
                    if num_objects else np.empty(0, np.uint32))
@@ -206,7 +220,7 @@ class NearCubeCuller:
 
     def release(self) -> None:
         for grow in (self._input, self._object_bounds, self._object_ranges, self._object_class,
-                     self._flags, self._counts, self._indices):
+                     self._flags, self._counts, self._indices, self._candidates):
             grow.release()
 
 
@@ -214,6 +228,44 @@ def _set(program, name: str, value) -> None:
     member = program.get(name, None)
     if member is not None:
         member.value = value
+
+
+# The host's candidate test uses a cube this much larger (relative, plus absolute) than the
+# GPU's stage 1, so float32 rounding there can never class an object the host left out.
+CANDIDATE_SLACK_RELATIVE = 1e-4
+CANDIDATE_SLACK_ABSOLUTE = 1e-4
+# Above this share of the scene a candidate list saves too little to be worth uploading.
+CANDIDATE_MAX_SHARE = 0.5
+
+
+def candidate_triangles(count: int, ranges: np.ndarray, bounds: np.ndarray, center: np.ndarray,
+                        half: float) -> np.ndarray | None:
+    """The ascending uint32 indices of the triangles stage 2 must look at: those of objects
+    whose bounds (K, 6: min, max) touch the cube of half-size ``half`` (grown by the slack
+    above; non-finite bounds always do) and those of no object. None when that is more than
+    CANDIDATE_MAX_SHARE of the ``count`` triangles: stage 2 then walks them all."""
+    if count == 0:
+        return None
+    lo, hi = bounds[:, :3].astype(np.float64), bounds[:, 3:].astype(np.float64)
+    reach = half * (1.0 + CANDIDATE_SLACK_RELATIVE) + CANDIDATE_SLACK_ABSOLUTE
+    with np.errstate(invalid="ignore"):
+        touches = ((lo <= center + reach) & (hi >= center - reach)).all(axis=1)
+    touches |= ~(np.isfinite(lo).all(axis=1) & np.isfinite(hi).all(axis=1))
+    # Runs of triangles of no object: the complement of all ranges' union.
+    union = np.asarray(draw_ranges(np.ones(len(ranges), bool), ranges), np.int64).reshape(-1, 2)
+    ends = np.concatenate([[0], union[:, 0] + union[:, 1]])
+    starts = np.concatenate([union[:, 0], [count]])
+    gaps = np.stack([ends, starts - ends], axis=1)
+    runs = np.concatenate([ranges[touches].astype(np.int64), gaps[gaps[:, 1] > 0]])
+    runs = np.asarray(draw_ranges(np.ones(len(runs), bool), runs), np.int64).reshape(-1, 2)
+    total = int(runs[:, 1].sum()) if len(runs) else 0
+    if total > CANDIDATE_MAX_SHARE * count:
+        return None
+    if total == 0:
+        return np.empty(0, np.uint32)
+    # Concatenated aranges: element e of run r is runs[r, 0] + (e - start of run r).
+    run_start = np.concatenate([[0], np.cumsum(runs[:, 1])[:-1]])
+    return (np.arange(total, dtype=np.int64) + np.repeat(runs[:, 0] - run_start, runs[:, 1])).astype(np.uint32)
 
 
 def _objects(count: int, object_ranges, object_bounds) -> tuple[np.ndarray, np.ndarray]:

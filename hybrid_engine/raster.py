@@ -321,9 +321,11 @@ class RasterPasses:
         return submitted
 
     def gbuffer(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
-                origin: tuple[int, int] = (0, 0)) -> int:
+                origin: tuple[int, int] = (0, 0), culled=None, view_index: int = 0) -> int:
         """Rasterize ``view`` into the region of ``targets`` at ``origin`` (§3.1); returns the
-        triangles submitted after per-object frustum culling. The caller clears targets."""
+        triangles submitted after per-object frustum culling. The caller clears targets.
+        ``culled`` (view_cull.CulledDraws) draws view ``view_index``'s GPU-culled list
+        instead of the object list."""
         ctx = self.ctx
         self._ensure_vaos(gpu)
         targets.fbo.use()
@@ -335,6 +337,8 @@ class RasterPasses:
         gpu.textures.use(0)
         if "u_textures" in self.gbuffer_prog:
             self.gbuffer_prog["u_textures"].value = 0
+        if culled is not None:
+            return culled.draw(self.gbuffer_prog, gpu.vertices.buffer, gpu.generation, view_index)
         return self.draw_world(self._gbuffer_vao, view.view_proj, scene)
 
     def shadow_views(self, scene: SceneData) -> tuple[list[ShadowView], list[tuple[int, int]]]:

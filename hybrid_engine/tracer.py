@@ -206,8 +206,11 @@ class HybridTracer:
 
     def render_cube_map(self, gpu, scene: SceneData, center, settings: RenderSettings) -> int:
         """The six face G-buffers (§3.2) and, for the hierarchical march, their hit-interval
-        pyramid; the tracer shades the texels its rays hit. Returns the triangles submitted."""
-        return self.cube_map.render(gpu, scene, center, settings)
+        pyramid; the tracer shades the texels its rays hit. The faces' draw lists are culled
+        per triangle on the GPU from this frame's uploaded triangles (view_cull.py). Returns
+        the triangles submitted."""
+        return self.cube_map.render(gpu, scene, center, settings,
+                                    triangles=(self._triangles.buffer, self.triangle_count))
 
     def cull(self, scene: SceneData, center, settings: RenderSettings) -> CullResult:
         """Triangles overlapping the near cube (§3.3)."""

@@ -72,6 +72,52 @@ def test_culling_keeps_exactly_the_triangles_overlapping_the_cube(ctx, rng):
     assert result.objects_straddling > 0 and result.objects_outside > 0
 
 
+def test_candidate_list_holds_every_triangle_of_touching_objects_and_of_no_object(rng):
+    """The host's list for stage 2 against brute force: objects touching the (slightly
+    grown) cube, objects with non-finite bounds, overlapping ranges and triangles that
+    belong to no object; far objects are left out."""
+    count = 10000
+    ranges = np.array([[0, 100], [100, 100], [150, 100], [400, 50], [600, 100], [700, 50],
+                       [1000, 9000]], np.int64)
+    lo = np.array([[-1, -1, -1], [20, 20, 20], [0.5, 0, 0], [30, 0, 0], [np.nan, 0, 0], [2.0, 0, 0],
+                   [0, 0, -50]])
+    hi = lo + 0.5
+    hi[5] = (2.5, 0.5, 0.5)
+    bounds = np.concatenate([lo, hi], axis=1)
+    center = np.zeros(3)
+    got = near_cube.candidate_triangles(count, ranges, bounds, center, 2.0)
+    expected = set(range(0, 100)) | set(range(150, 250)) | set(range(600, 700)) | set(range(700, 750))
+    expected |= set(range(250, 400)) | set(range(450, 600)) | set(range(750, 1000))  # no object
+    assert len(expected) < near_cube.CANDIDATE_MAX_SHARE * count
+    assert got is not None and got.dtype == np.uint32
+    assert got.tolist() == sorted(expected)
+    # Touching only by the slack: the object just beyond the cube's face is a candidate.
+    bounds_edge = bounds.copy()
+    bounds_edge[5, 0] = 2.0 + 1e-5
+    assert 700 in near_cube.candidate_triangles(count, ranges, bounds_edge, center, 2.0)
+    # Most of the scene near the cube: no list, stage 2 walks everything.
+    assert near_cube.candidate_triangles(1000, np.array([[0, 1000]]), np.array([[-1, -1, -1, 1, 1, 1.0]]),
+                                         center, 2.0) is None
+
+
+def test_culling_a_wide_scene_through_the_candidate_list_keeps_exactly_the_overlapping_triangles(ctx, rng):
+    """200 objects spread far beyond the cube plus loose triangles of no object: stage 2
+    walks only candidates, and the kept set is still the exact SAT set."""
+    tris, ranges, bounds = scene_with_objects(rng, objects=200, per_object=50, spread=40.0)
+    loose = rng.uniform(-3, 3, (300, 3, 3)).astype(np.float32)
+    tris = np.concatenate([tris, loose])
+    center = np.array([0.25, 0.5, -0.5])
+    half = 3.0
+    candidates = near_cube.candidate_triangles(len(tris), ranges.astype(np.int64),
+                                               bounds.reshape(-1, 6).astype(np.float64), center, half)
+    assert candidates is not None and len(candidates) < len(tris) // 4
+    result = near_cube.NearCubeCuller(ctx).cull_array(tris, center, half, ranges, bounds, margin=0.0)
+    kept = result.read_indices()
+    assert np.all(np.diff(kept) > 0)
+    assert_bracketed(kept, tris, center, half)
+    assert np.isin(np.arange(10000, 10300)[sat_overlap(loose, center, half - BOUNDARY_TOLERANCE)], kept).all()
+
+
 def test_large_triangle_crossing_the_cube_with_every_vertex_outside_is_kept(ctx):
     """A centroid or vertex test would drop this triangle; the SAT test must keep it."""
     tris = np.array([[[-10.0, -0.5, 0.0], [10.0, -0.5, 0.0], [0.0, 20.0, 0.0]],

@@ -1,11 +1,12 @@
 // Near-cube culling, step 3: stream compaction. Invocation t writes the indices of chunk t's
 // kept triangles, in order, from its exclusive-prefix offset (scan.comp.glsl), so the output
-// list is sorted by triangle index.
+// list is sorted by triangle index. Element i is triangle i, or candidates[i] when the host
+// passed a candidate list (u_use_indices = 1, cull_triangles.comp.glsl).
 //
 // Host defines: LOCAL_SIZE.
 // Bindings: 0 keep_flags (read), 1 chunk_offsets (read: uint[T + 1], scanned counts),
-//   2 kept_indices (write: uint[kept]).
-// Uniforms: u_count (N), u_chunk_size, u_num_chunks (T).
+//   2 kept_indices (write: uint[kept]), 3 candidates (read: uint[N], with u_use_indices).
+// Uniforms: u_count (N), u_chunk_size, u_num_chunks (T), u_use_indices.
 #include "dispatch.glsl"
 
 layout(local_size_x = LOCAL_SIZE) in;
@@ -19,6 +20,11 @@ layout(std430, binding = 1) readonly buffer ChunkOffsets {
 layout(std430, binding = 2) writeonly buffer KeptIndices {
     uint kept_indices[];
 };
+layout(std430, binding = 3) readonly buffer Candidates {
+    uint candidates[];
+};
+
+uniform int u_use_indices;
 
 uniform uint u_count;
 uniform uint u_chunk_size;
@@ -34,7 +40,7 @@ void main() {
     uint target = chunk_offsets[chunk];
     for (uint i = begin; i < end; ++i) {
         if (keep_flags[i] != 0u) {
-            kept_indices[target] = i;
+            kept_indices[target] = u_use_indices != 0 ? candidates[i] : i;
             ++target;
         }
     }

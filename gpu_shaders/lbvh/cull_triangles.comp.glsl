@@ -1,14 +1,16 @@
 // Near-cube culling, step 2: per-triangle decision and per-chunk kept counts (paper §3.3: "the
 // second pass performs per triangle culling").
 //
-// Invocation t walks chunk t of the triangles in order. Each triangle takes its object's class
+// Invocation t walks chunk t of the elements in order: the triangles themselves, or (uniform
+// u_use_indices = 1) an ascending list of candidate triangles -- the host leaves out the
+// objects whose bounds miss the cube, so their triangles cost nothing here. Each triangle takes its object's class
 // (objects are sorted by first triangle, so the object index only moves forward inside a
 // chunk; a binary search finds the chunk's first object). Triangles of straddling objects, and
 // triangles outside every object range, get the exact triangle/box SAT test (tri_box.glsl)
 // against the cube grown by the overlap margin. A 0/1 flag per triangle and the chunk's kept
 // count feed the prefix sum and compaction.
 //
-// Host defines: LOCAL_SIZE, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1 (unused),
+// Host defines: LOCAL_SIZE, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1 (the candidates),
 //   TRI_INPUT_BLOCKS, TRI_INPUT_BLOCK_SIZE (the last two only for a scene split over storage
 //   blocks: triangle_input.glsl).
 // Bindings: 0 tri_input (read; blocks 1..3 of a split scene at 40..42), 2 object_ranges (read: ivec2[K] first, count; sorted by first),
@@ -53,13 +55,14 @@ void main() {
     }
     uint begin = chunk * u_chunk_size;
     uint end = min(begin + u_chunk_size, u_count);
-    // Last object whose first triangle is <= begin (-1 if none).
+    uint first_triangle = begin < end ? input_triangle(begin) : 0u;
+    // Last object whose first triangle is <= the chunk's first triangle (-1 if none).
     int lo = 0;
     int hi = int(u_num_objects) - 1;
     int object = -1;
     while (lo <= hi) {
         int mid = (lo + hi) / 2;
-        if (uint(object_ranges[mid].x) <= begin) {
+        if (uint(object_ranges[mid].x) <= first_triangle) {
             object = mid;
             lo = mid + 1;
         } else {
@@ -68,16 +71,17 @@ void main() {
     }
     uint kept = 0u;
     for (uint i = begin; i < end; ++i) {
-        while (object + 1 < int(u_num_objects) && uint(object_ranges[object + 1].x) <= i) {
+        uint t = input_triangle(i);  // ascending, so the object walk only moves forward
+        while (object + 1 < int(u_num_objects) && uint(object_ranges[object + 1].x) <= t) {
             ++object;
         }
         uint cls = CLASS_STRADDLING;
-        if (object >= 0 && i < uint(object_ranges[object].x + object_ranges[object].y)) {
+        if (object >= 0 && t < uint(object_ranges[object].x + object_ranges[object].y)) {
             cls = object_class[object];
         }
         bool keep = cls == CLASS_INSIDE;
         if (cls == CLASS_STRADDLING) {
-            keep = tri_box_overlap(input_vertex(i, 0u), input_vertex(i, 1u), input_vertex(i, 2u),
+            keep = tri_box_overlap(input_vertex(t, 0u), input_vertex(t, 1u), input_vertex(t, 2u),
                                    u_center, u_half_size);
         }
         keep_flags[i] = keep ? 1u : 0u;

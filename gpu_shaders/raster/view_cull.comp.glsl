@@ -1,0 +1,118 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Per-triangle culling of raster draws, step 1: which triangles of a view's draw list can
+// produce a fragment. Used for the six G-buffer cube-map faces (paper §3.2), whose draws are
+// dominated by triangles that produce none: a distant chess piece of 5,500 triangles covers
+// a few hundred texels of a 512^2 face, so most of its triangles fall between texel centres,
+// and half face away. The rasterizer would set each of them up only to discard it; here
+// one test per triangle drops it first (the "small primitive" and back-face tests of
+// GPU-driven pipelines), and only the survivors are drawn.
+//
+// A triangle is dropped (and only then) when the GL would rasterize nothing of it:
+//   * all three vertices lie outside the same clip plane (x, y or z of [-w, w]);
+//   * all three have w > 0 and the bounding box of the projected triangle, clamped to the
+//     view and widened by CULL_PIXEL_EPS, holds no pixel centre (the GL samples at centres;
+//     the widening absorbs the rasterizer's fixed-point snapping);
+//   * its object is closed and back-face cullable in this view (raster.py draw_world: closed,
+//     outward wound, wholly beyond the near plane) and its window-space area, signed by the
+//     view's front-face winding, is <= 0 -- what glCullFace(GL_BACK) would drop.
+// A triangle crossing the camera plane (some w <= 0) is kept: the clipper decides.
+//
+// Work list: the host concatenates, view by view, segments (first triangle, count) of the
+// objects each view draws; each view's work starts at a multiple of 32 items so that a
+// 32-item chunk never spans two views. Invocation c tests the items of chunk c in order and
+// writes one bit per item (1 = draw) and the chunk's count for the prefix sum.
+//
+// Host defines: LOCAL_SIZE, MAX_VIEWS, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 5 (unused),
+//   TRI_INPUT_BLOCKS, TRI_INPUT_BLOCK_SIZE (triangle_input.glsl).
+// Bindings: 0 tri_input (read; blocks 1..3 of a split scene at 40..42), 1 segments (read:
+//   uvec4[S] = first triangle, count, first work item, view | closed << 8; sorted by work
+//   item), 2 masks (write: uint[C]), 3 counts (write: uint[C + 1]).
+// Uniforms: u_num_chunks (C), u_num_segments (S), u_view_proj[MAX_VIEWS], u_view_size
+//   (pixels), u_front_sign (+1: counter-clockwise front faces, -1: clockwise).
+#include "dispatch.glsl"
+#include "triangle_input.glsl"
+#include "view_cull_segments.glsl"
+
+layout(local_size_x = LOCAL_SIZE) in;
+
+layout(std430, binding = 2) writeonly buffer ChunkMasks {
+    uint chunk_masks[];
+};
+layout(std430, binding = 3) writeonly buffer ChunkCounts {
+    uint chunk_counts[];
+};
+
+uniform uint u_num_chunks;
+uniform mat4 u_view_proj[MAX_VIEWS];
+uniform vec2 u_view_size[MAX_VIEWS];
+uniform float u_front_sign[MAX_VIEWS];
+
+// Widening of the projected bounding box, in pixels. The GL snaps vertices to a subpixel grid
+// (8 bits on llvmpipe and current GPUs: 1/256 pixel); four times that keeps every triangle
+// the rasterizer could sample.
+const float CULL_PIXEL_EPS = 1.0 / 64.0;
+
+bool may_rasterize(uint tri, uint view, bool closed) {
+    mat4 m = u_view_proj[view];
+    vec4 c0 = m * vec4(input_vertex(tri, 0u), 1.0);
+    vec4 c1 = m * vec4(input_vertex(tri, 1u), 1.0);
+    vec4 c2 = m * vec4(input_vertex(tri, 2u), 1.0);
+    // Outcodes: outside one clip plane with all three vertices.
+    bvec3 below0 = lessThan(c0.xyz, vec3(-c0.w)), below1 = lessThan(c1.xyz, vec3(-c1.w)),
+          below2 = lessThan(c2.xyz, vec3(-c2.w));
+    bvec3 above0 = greaterThan(c0.xyz, vec3(c0.w)), above1 = greaterThan(c1.xyz, vec3(c1.w)),
+          above2 = greaterThan(c2.xyz, vec3(c2.w));
+    if (any(bvec3(below0.x && below1.x && below2.x, below0.y && below1.y && below2.y,
+                  below0.z && below1.z && below2.z)) ||
+        any(bvec3(above0.x && above1.x && above2.x, above0.y && above1.y && above2.y,
+                  above0.z && above1.z && above2.z))) {
+        return false;
+    }
+    if (!(c0.w > 0.0 && c1.w > 0.0 && c2.w > 0.0)) {
+        return true;  // crosses the camera plane (or is NaN): let the clipper decide
+    }
+    vec2 size = u_view_size[view];
+    vec2 s0 = (c0.xy / c0.w * 0.5 + 0.5) * size - 0.5;  // pixel centres at integers
+    vec2 s1 = (c1.xy / c1.w * 0.5 + 0.5) * size - 0.5;
+    vec2 s2 = (c2.xy / c2.w * 0.5 + 0.5) * size - 0.5;
+    vec2 lo = max(min(s0, min(s1, s2)) - CULL_PIXEL_EPS, vec2(0.0));
+    vec2 hi = min(max(s0, max(s1, s2)) + CULL_PIXEL_EPS, size - 1.0);
+    if (any(greaterThan(ceil(lo), floor(hi)))) {
+        return false;  // no pixel centre inside the bounding box
+    }
+    if (closed) {
+        vec2 e1 = s1 - s0;
+        vec2 e2 = s2 - s0;
+        float area = e1.x * e2.y - e1.y * e2.x;
+        if (!(area * u_front_sign[view] > 0.0)) {
+            return false;  // a back face of a closed object (or zero area)
+        }
+    }
+    return true;
+}
+
+void main() {
+    uint chunk = flat_invocation_index();
+    if (chunk >= u_num_chunks) {
+        return;
+    }
+    uint begin = chunk * 32u;
+    int seg = segment_of(begin);
+    uint mask = 0u;
+    for (uint b = 0u; b < 32u; ++b) {
+        uint item = begin + b;
+        while (seg + 1 < int(u_num_segments) && segments[seg + 1].z <= item) {
+            ++seg;
+        }
+        uvec4 s = segments[seg];
+        uint local = item - s.z;
+        if (local >= s.y) {
+            continue;  // padding between views
+        }
+        if (may_rasterize(s.x + local, s.w & 0xffu, (s.w >> 8) != 0u)) {
+            mask |= 1u << b;
+        }
+    }
+    chunk_masks[chunk] = mask;
+    chunk_counts[chunk] = uint(bitCount(mask));
+}

@@ -1,0 +1,221 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Per-triangle culling of raster draws on the GPU, for views drawn many triangles at a time.
+
+Per-object frustum culling (:func:`.frustum.visible_objects`) leaves the G-buffer cube map
+(paper §3.2) with the whole far scene: on the Chess frame 2.4 M triangles over the six faces,
+of which about 85 % produce no fragment -- they fall between the texel centres of a 512²
+face, face away, or lie outside the face. A rasterizer sets each of them up before finding
+that out (on a software GL it is most of the pass). Here a compute pass tests every
+triangle of every view's draw list once (``gpu_shaders/raster/view_cull.comp.glsl``: clip
+outcodes, pixel centres inside the projected bounding box, back faces of closed objects)
+and compacts the survivors into an index buffer with one indirect draw command per view
+(``view_cull_compact.comp.glsl``), so only they reach the rasterizer. The test drops a
+triangle only where the GL would rasterize nothing of it and the survivors keep their
+order, so the G-buffers are bit-identical to drawing the lists directly (tested).
+
+Everything stays on the GPU: the host builds the per-view segment lists from object bounds
+(no per-triangle work) and never reads the result back. A draw list whose index buffer
+would exceed one storage block returns None, and the caller draws directly (the documented
+fallback).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import shader_loader
+from .frustum import beyond_near_plane, front_face_winding, visible_objects
+from .gpu_dispatch import GrowBuffer, bind_storage, dispatch, max_block_bytes, storage_barrier
+from .lbvh import bind_input, input_defines, input_split
+
+LOCAL_SIZE = 64
+SCAN_LOCAL_SIZE = 256
+MAX_VIEWS = 6
+CHUNK_ITEMS = 32  # one mask word per invocation
+COMMAND_BYTES = 20  # DrawElementsIndirectCommand
+SEGMENT_DTYPE = np.dtype([("first", "<u4"), ("count", "<u4"), ("work", "<u4"), ("tag", "<u4")])
+
+
+@dataclass(frozen=True)
+class CullView:
+    """One view to cull for: its world-to-clip matrix and size in pixels."""
+
+    view_proj: np.ndarray
+    width: int
+    height: int
+
+
+def view_segments(views: list[CullView], object_ranges: np.ndarray, object_bounds: np.ndarray,
+                  object_closed: np.ndarray | None) -> tuple[np.ndarray, list[int]]:
+    """The work list of :mod:`view_cull.comp.glsl`: per view, the triangle runs of the
+    objects whose bounds touch it (adjacent objects of the same back-face class merged),
+    each tagged with the view and whether its back faces may be culled; each view's work
+    starts at a multiple of CHUNK_ITEMS. Returns the segments and the first chunk of each
+    view plus the total chunk count (V + 1 entries)."""
+    ranges = np.asarray(object_ranges, np.int64).reshape(-1, 2)
+    closed_objects = (np.zeros(len(ranges), bool) if object_closed is None
+                      else np.asarray(object_closed, bool).reshape(-1))
+    order = np.argsort(ranges[:, 0], kind="stable")
+    rows = []
+    view_chunks = [0]
+    work = 0
+    for index, view in enumerate(views):
+        visible = visible_objects(view.view_proj, object_bounds) & (ranges[:, 1] > 0)
+        cullable = visible & closed_objects & beyond_near_plane(view.view_proj, object_bounds)
+        picked = order[visible[order]]
+        first, count, flag = ranges[picked, 0], ranges[picked, 1], cullable[picked]
+        if len(picked):
+            # Merge runs: same flag and contiguous triangles.
+            starts = np.ones(len(picked), bool)
+            starts[1:] = (first[1:] != first[:-1] + count[:-1]) | (flag[1:] != flag[:-1])
+            run = np.cumsum(starts) - 1
+            run_first = first[starts]
+            run_count = np.bincount(run, weights=count).astype(np.int64)
+            run_flag = flag[starts]
+            run_work = work + np.concatenate([[0], np.cumsum(run_count)[:-1]])
+            block = np.empty(len(run_first), SEGMENT_DTYPE)
+            block["first"] = run_first
+            block["count"] = run_count
+            block["work"] = run_work
+            block["tag"] = index | (run_flag.astype(np.uint32) << 8)
+            rows.append(block)
+            work += int(run_count.sum())
+        work = math.ceil(work / CHUNK_ITEMS) * CHUNK_ITEMS
+        view_chunks.append(work // CHUNK_ITEMS)
+    segments = np.concatenate(rows) if rows else np.empty(0, SEGMENT_DTYPE)
+    return segments, view_chunks
+
+
+class CulledDraws:
+    """The result of :meth:`ViewTriangleCuller.cull`: an index buffer and the indirect
+    command of each view. ``submitted[v]`` is the number of triangles tested for view v
+    (its per-object draw list); the survivors are known only to the GPU."""
+
+    def __init__(self, culler: "ViewTriangleCuller", submitted: list[int]) -> None:
+        self._culler = culler
+        self.submitted = submitted
+
+    def draw(self, program, vertex_buffer, generation: int, view: int) -> int:
+        """Draw view ``view``'s survivors with ``program`` (its vertex inputs bound from
+        ``vertex_buffer``, whose allocation ``generation`` numbers); returns the triangles
+        submitted to the culler for it."""
+        if self.submitted[view] == 0:
+            return 0
+        vao = self._culler.vertex_array(program, vertex_buffer, generation)
+        vao.render_indirect(self._culler.commands.buffer, count=1, first=view)
+        return self.submitted[view]
+
+    def drawn(self) -> list[int]:
+        """Triangles each view drew (reads the commands back: a synchronisation point)."""
+        data = np.frombuffer(self._culler.commands.buffer.read(size=COMMAND_BYTES * len(self.submitted)),
+                             np.uint32).reshape(-1, 5)
+        return [int(data[v, 0]) // 3 if self.submitted[v] else 0 for v in range(len(self.submitted))]
+
+
+class ViewTriangleCuller:
+    """Culls the triangles of up to MAX_VIEWS views' draw lists on the GPU (module doc)."""
+
+    def __init__(self, ctx) -> None:
+        self.ctx = ctx
+        defines = {"LOCAL_SIZE": LOCAL_SIZE, "MAX_VIEWS": MAX_VIEWS}
+        self._compact = shader_loader.compute(ctx, "raster/view_cull_compact.comp.glsl", defines)
+        self._scan = shader_loader.compute(ctx, "lbvh/scan.comp.glsl", {"LOCAL_SIZE": SCAN_LOCAL_SIZE})
+        self._segments = GrowBuffer(ctx, "view cull segments")
+        self._masks = GrowBuffer(ctx, "view cull masks")
+        self._counts = GrowBuffer(ctx, "view cull counts")
+        self.indices = GrowBuffer(ctx, "view cull indices")
+        self.commands = GrowBuffer(ctx, "view cull commands")
+        self._vaos: dict[tuple[int, int, int], object] = {}
+
+    def vertex_array(self, program, vertex_buffer, generation: int):
+        """An indexed vertex array of ``program`` over ``vertex_buffer`` (allocation number
+        ``generation``) and the index buffer, cached while neither is re-allocated."""
+        from .gpu_scene import vertex_binding
+
+        key = (id(program), int(generation), self.indices.allocations)
+        vao = self._vaos.get(key)
+        if vao is None:
+            self._release_vaos()
+            vao = self.ctx.vertex_array(program, [vertex_binding(program, vertex_buffer)],
+                                        index_buffer=self.indices.buffer, index_element_size=4)
+            self._vaos[key] = vao
+        return vao
+
+    def cull(self, triangles, triangle_count: int, views: list[CullView], object_ranges: np.ndarray,
+             object_bounds: np.ndarray, object_closed: np.ndarray | None = None) -> CulledDraws | None:
+        """Cull ``views``' draw lists of the scene whose world triangles ((N, 3, 3) float32)
+        are in the GL buffer ``triangles``. None when the index buffer would exceed one
+        storage block (draw directly then)."""
+        if not 1 <= len(views) <= MAX_VIEWS:
+            raise ValueError(f"between 1 and {MAX_VIEWS} views can be culled at once, got {len(views)}")
+        segments, view_chunks = view_segments(views, object_ranges, object_bounds, object_closed)
+        submitted = [0] * len(views)
+        tags = segments["tag"] & 0xFF
+        for v in range(len(views)):
+            submitted[v] = int(segments["count"][tags == v].sum())
+        num_chunks = view_chunks[-1]
+        total = sum(submitted)
+        if 3 * 4 * total > max_block_bytes() or (num_chunks + 1) * 4 > max_block_bytes():
+            return None
+        ctx = self.ctx
+        commands = self.commands.ensure(COMMAND_BYTES * MAX_VIEWS)
+        if num_chunks == 0:
+            return CulledDraws(self, submitted)
+        split = input_split(int(triangle_count))
+        cull = shader_loader.compute(ctx, "raster/view_cull.comp.glsl", {
+            "LOCAL_SIZE": LOCAL_SIZE, "MAX_VIEWS": MAX_VIEWS, "TRI_INPUT_BINDING": 0,
+            "TRI_INDEX_BINDING": 5, **input_defines(split)})
+        self._segments.upload(segments.tobytes())
+        masks = self._masks.ensure(num_chunks * 4)
+        counts = self._counts.ensure((num_chunks + 1) * 4)
+        indices = self.indices.ensure(3 * 4 * max(total, 1))
+
+        view_proj = np.zeros((MAX_VIEWS, 4, 4), np.float32)
+        sizes = np.ones((MAX_VIEWS, 2), np.float32)
+        signs = np.ones(MAX_VIEWS, np.float32)
+        for v, view in enumerate(views):
+            view_proj[v] = np.asarray(view.view_proj, np.float64).T  # column-major for GL
+            sizes[v] = (view.width, view.height)
+            signs[v] = 1.0 if front_face_winding(view.view_proj) == "ccw" else -1.0
+        chunks = np.full(MAX_VIEWS + 1, num_chunks, np.uint32)
+        chunks[: len(view_chunks)] = view_chunks
+        common = {"u_num_chunks": num_chunks, "u_num_segments": len(segments)}
+        shader_loader.set_uniforms(cull, {**common, "u_view_proj": view_proj.tobytes(),
+                                          "u_view_size": sizes.tobytes(), "u_front_sign": signs.tobytes()})
+        shader_loader.set_uniforms(self._compact, {**common, "u_view_chunks": chunks.tobytes(),
+                                                   "u_num_views": len(views)})
+        shader_loader.set_uniforms(self._scan, {"u_count": num_chunks})
+
+        # 1. One bit per item, a count per chunk.
+        bind_input(triangles, split)
+        bind_storage(self._segments.buffer, 1, 0, len(segments) * SEGMENT_DTYPE.itemsize)
+        bind_storage(masks, 2, 0, num_chunks * 4)
+        bind_storage(counts, 3, 0, (num_chunks + 1) * 4)
+        dispatch(cull, num_chunks, LOCAL_SIZE)
+        storage_barrier(ctx)
+        # 2. Offsets (total at [num_chunks]).
+        bind_storage(counts, 0, 0, (num_chunks + 1) * 4)
+        self._scan.run(1, 1, 1)
+        storage_barrier(ctx)
+        # 3. Indices and commands.
+        bind_storage(masks, 2, 0, num_chunks * 4)
+        bind_storage(counts, 3, 0, (num_chunks + 1) * 4)
+        bind_storage(indices, 4, 0, 3 * 4 * max(total, 1))
+        bind_storage(commands, 6, 0, COMMAND_BYTES * MAX_VIEWS)
+        dispatch(self._compact, num_chunks, LOCAL_SIZE)
+        import moderngl
+
+        ctx.memory_barrier(moderngl.ELEMENT_ARRAY_BARRIER_BIT | moderngl.COMMAND_BARRIER_BIT)
+        return CulledDraws(self, submitted)
+
+    def _release_vaos(self) -> None:
+        for vao in self._vaos.values():
+            vao.release()
+        self._vaos.clear()
+
+    def release(self) -> None:
+        self._release_vaos()
+        for grow in (self._segments, self._masks, self._counts, self.indices, self.commands):
+            grow.release()

@@ -151,10 +151,8 @@ class ViewTriangleCuller:
         if not 1 <= len(views) <= MAX_VIEWS:
             raise ValueError(f"between 1 and {MAX_VIEWS} views can be culled at once, got {len(views)}")
         segments, view_chunks = view_segments(views, object_ranges, object_bounds, object_closed)
-        submitted = [0] * len(views)
-        tags = segments["tag"] & 0xFF
-        for v in range(len(views)):
-            submitted[v] = int(segments["count"][tags == v].sum())
+        submitted = np.bincount(segments["tag"] & 0xFF, weights=segments["count"],
+                                minlength=len(views)).astype(np.int64).tolist()
         num_chunks = view_chunks[-1]
         total = sum(submitted)
         if 3 * 4 * total > max_block_bytes() or (num_chunks + 1) * 4 > max_block_bytes():

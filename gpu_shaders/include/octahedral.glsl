@@ -24,4 +24,12 @@ vec3 octahedral_decode(vec2 e) {
     return normalize(n);
 }
 
+// The geometric normal a G-buffer texel keeps in the alphas of its albedo and emission
+// targets (raster/gbuffer.frag.glsl); `fallback` where they do not decode to a direction.
+vec3 gbuffer_geometric(float albedo_alpha, float emission_alpha, vec3 fallback) {
+    vec2 e = vec2(albedo_alpha, emission_alpha);
+    if (any(isnan(e)) || any(greaterThan(abs(e), vec2(1.0 + 1e-3)))) return fallback;
+    return octahedral_decode(clamp(e, -1.0, 1.0));
+}
+
 #endif

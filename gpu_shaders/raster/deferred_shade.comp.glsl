@@ -65,7 +65,7 @@ void main() {
     // The alphas hold the triangle's geometric normal (gbuffer.frag.glsl): it decides which
     // side the viewer is on, as in the tracer, so both shade a surface alike.
     vec3 n = nm.xyz;
-    vec3 g = octahedral_decode(clamp(vec2(albedo_g.a, emission_g.a), -1.0, 1.0));
+    vec3 g = gbuffer_geometric(albedo_g.a, emission_g.a, n);
     SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n, g);
     vec3 emission = m.emission_trans.rgb * emission_g.rgb;
     vec3 color = shade_local_emission(m, albedo, emission, p, split.n_facing);

@@ -201,14 +201,6 @@ vec2 bvh_region_interval(vec3 o, vec3 d) {
     return vec2(max(max(tn.x, tn.y), tn.z), min(min(tf.x, tf.y), tf.z));
 }
 
-// The geometric normal a G-buffer texel stores in the alphas of its albedo and emission
-// targets (raster/gbuffer.frag.glsl); `fallback` if it does not decode to a unit vector.
-vec3 gbuffer_geometric(sampler2D albedo, sampler2D emission_scale, ivec2 texel, vec3 fallback) {
-    vec2 e = vec2(texelFetch(albedo, texel, 0).a, texelFetch(emission_scale, texel, 0).a);
-    if (any(isnan(e)) || any(greaterThan(abs(e), vec2(1.0 + 1e-3)))) return fallback;
-    return octahedral_decode(clamp(e, -1.0, 1.0));
-}
-
 vec3 offset_origin(vec3 p, vec3 towards) {
     float scale = RAY_OFFSET_ABSOLUTE + RAY_OFFSET_RELATIVE * max(max(abs(p.x), abs(p.y)), abs(p.z));
     return p + towards * scale;
@@ -282,7 +274,8 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
                     h.kind = HIT_CUBE;
                     h.position = cm.position;
                     h.normal = safe_normalize(cm.normal, -d);
-                    h.geometric = gbuffer_geometric(u_cube_albedo, u_cube_emission_scale, cm.texel, h.normal);
+                    h.geometric = gbuffer_geometric(texelFetch(u_cube_albedo, cm.texel, 0).a,
+                                                    texelFetch(u_cube_emission_scale, cm.texel, 0).a, h.normal);
                     h.material = cm.material;
                     h.texel = cm.texel;
                     break;
@@ -361,7 +354,8 @@ void main() {
                                         : normalize(near_point - u_camera_position);
     float depth = texelFetch(u_depth, pixel, 0).r;
     vec3 p = unproject_primary(ndc_xy, depth * 2.0 - 1.0);
-    vec3 albedo = texelFetch(u_albedo, pixel, 0).rgb;
+    vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
+    vec3 albedo = albedo_g.rgb;
     vec3 n = safe_normalize(nm.xyz, -view_dir);
 
     if (u_mode == MODE_PROVENANCE) {
@@ -370,7 +364,7 @@ void main() {
         return;
     }
 
-    vec3 g = gbuffer_geometric(u_albedo, u_emission_scale, pixel, n);
+    vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
     SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n, g);
 
     vec3 traced = spawn_children(split, p, vec3(1.0), 1);

@@ -57,7 +57,7 @@ QUICK_TRACE = {"triangles": 5_000, "rays": 2_000}
 ROUNDS = 5
 # The frame section: the paper's Chess scene at full size (detail 1.0: 2,155,124 triangles
 # against the paper's 2,149,944). Per-triangle arrays past the driver's storage-block limit
-# (128 MiB on llvmpipe: FULL_BVH's nodes and the tracer's shading rows) are bound as several
+# (128 MiB on llvmpipe: FULL_BVH's nodes and triangles) are bound as several
 # blocks.
 FULL_FRAME = {"detail": 1.0, "resolution": (640, 360), "cube_resolution": 512}
 HARDWARE_FRAME_RESOLUTION = (1280, 720)  # the paper's 720p, when a hardware GPU is present

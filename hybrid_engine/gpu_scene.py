@@ -1,14 +1,24 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Scene data on the GPU: vertex buffer, material and light buffers, image textures.
+"""Scene data on the GPU: vertex attributes, material and light buffers, image textures.
 
 Buffers are persistent and grow-only: a frame whose data fits reuses last frame's buffer
 objects and only writes into them, which matters in the viewport where every redraw
 re-uploads deformed geometry (paper §3.3: the BVH is rebuilt every frame so that any
 deformation works, so the triangles must be re-sent every frame too).
 
+The triangle soup is uploaded as it arrives, one array per attribute, with no packing:
+``Geometry.triangles`` (N, 3, 3) float32 is both the rasterizer's position attribute and
+the tracer's LBVH input, ``Geometry.normals`` both the shading-normal attribute and the
+normals the tracer interpolates at BVH hits, and the per-triangle material ids are read by
+the G-buffer vertex stage (``gl_VertexID / 3``) and the tracer alike. Interleaving them into
+vertex rows and packing separate tracer rows cost three passes over every moved triangle
+per frame (about 110 ms for the 0.67 M moving triangles of the Chess animation); a raw
+range write costs one memcpy.
+
 Non-finite input never reaches the rasterizer: a triangle with a NaN/inf corner is collapsed
-to a point (zero area, no fragments), and non-finite normals are zeroed so that the
-G-buffer pass substitutes the geometric normal.
+to the origin (zero area: no fragments, and no ray hits it), and non-finite normals and UVs
+are zeroed so that the G-buffer pass substitutes the geometric normal. The sanitising copies
+are made only for ranges that hold such values.
 """
 from __future__ import annotations
 
@@ -16,14 +26,14 @@ import numpy as np
 
 from .gpu_dispatch import GrowBuffer
 from .scene_delta import GeometryDelta
-from .scene_data import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, MATERIAL_DTYPE, Lights, SceneData
+from .scene_data import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, MATERIAL_DTYPE, Geometry, Lights, SceneData
 from .textures import GPUTextures
 
-VERTEX_LAYOUT = (("3f", "in_pos", 12), ("3f", "in_normal", 12), ("2f", "in_uv", 8), ("1i", "in_material", 4))
-VERTEX_DTYPE = np.dtype(
-    [("pos", np.float32, 3), ("normal", np.float32, 3), ("uv", np.float32, 2), ("material", np.int32)]
-)
-assert VERTEX_DTYPE.itemsize == 36
+# Per-vertex attributes: (GLSL input, moderngl format, GPUScene buffer attribute).
+VERTEX_ATTRIBUTES = (("in_pos", "3f", "positions"), ("in_normal", "3f", "normals"), ("in_uv", "2f", "uvs"))
+# Storage binding of the per-triangle material ids in the G-buffer vertex stage
+# (gpu_shaders/raster/gbuffer.vert.glsl).
+TRIANGLE_MATERIAL_BINDING = 1
 
 # struct Light (gpu_shaders/include/scene_layout.glsl)              // total: 64 bytes
 LIGHT_DTYPE = np.dtype(
@@ -32,48 +42,36 @@ LIGHT_DTYPE = np.dtype(
 assert LIGHT_DTYPE.itemsize == 64
 
 
-def vertex_binding(program, buffer) -> tuple:
-    """The moderngl vertex-array binding for ``program``: attributes the program does not use
-    (the GLSL compiler drops them) are skipped as padding."""
-    fmt, names = [], []
-    for code, name, size in VERTEX_LAYOUT:
-        if name in program:
-            fmt.append(code)
-            names.append(name)
-        else:
-            fmt.append(f"{size}x")
-    return (buffer, " ".join(fmt), *names)
+def finite_positions(triangles: np.ndarray) -> np.ndarray:
+    """``triangles`` ((N, 3, 3) float32), with every triangle that has a non-finite corner
+    collapsed to the origin; the input itself (no copy) when all corners are finite."""
+    if np.isfinite(triangles).all():
+        return triangles
+    finite = np.isfinite(triangles).all(axis=(1, 2))
+    return np.where(finite[:, None, None], triangles, np.float32(0.0)).astype(np.float32)
 
 
-def pack_vertices(scene: SceneData, out: np.ndarray | None = None) -> np.ndarray:
-    """Interleave the triangle soup into VERTEX_DTYPE rows, three per triangle.
+def finite_or_zero(values: np.ndarray) -> np.ndarray:
+    """``values`` with non-finite entries zeroed; the input itself when all are finite."""
+    if np.isfinite(values).all():
+        return values
+    return np.where(np.isfinite(values), values, np.float32(0.0)).astype(values.dtype)
 
-    Writes straight into the interleaved array; the NaN/inf sanitising copies are made only
-    when the input actually holds non-finite values (rare), since at a million triangles
-    every extra pass over the arrays costs tens of milliseconds per frame. ``out`` is a
-    reusable staging array (grown by the caller): a fresh 100 MB array costs as much in
-    first-touch page faults as the packing itself.
-    """
-    geo = scene.geometry
-    n = geo.triangle_count
-    verts = np.empty(n * 3, VERTEX_DTYPE) if out is None or len(out) < n * 3 else out[: n * 3]
-    if n == 0:
-        return verts
-    tris = geo.triangles
-    if np.isfinite(tris).all():
-        verts["pos"] = tris.reshape(-1, 3)
-    else:
-        finite = np.isfinite(tris).all(axis=(1, 2))
-        verts["pos"] = np.where(finite[:, None, None], tris, 0.0).reshape(-1, 3)
-    normals = geo.normals
-    verts["normal"] = (normals if np.isfinite(normals).all() else np.where(np.isfinite(normals), normals, 0.0)).reshape(-1, 3)
-    if geo.uvs is not None:
-        uvs = geo.uvs
-        verts["uv"] = (uvs if np.isfinite(uvs).all() else np.where(np.isfinite(uvs), uvs, 0.0)).reshape(-1, 2)
-    else:
-        verts["uv"] = 0.0
-    verts["material"].reshape(n, 3)[:] = geo.material_ids[:, None]
-    return verts
+
+def attribute_arrays(geometry: Geometry, zero_uvs: bool = True) -> dict[str, np.ndarray]:
+    """The arrays GPUScene uploads for ``geometry`` (sanitised, C-contiguous), by buffer.
+    Geometry without UVs gets zero UVs, or (``zero_uvs`` False: the buffer already holds
+    them) none."""
+    arrays = {
+        "positions": np.ascontiguousarray(finite_positions(geometry.triangles), np.float32),
+        "normals": np.ascontiguousarray(finite_or_zero(geometry.normals), np.float32),
+        "triangle_materials": np.ascontiguousarray(geometry.material_ids, np.int32),
+    }
+    if geometry.uvs is not None:
+        arrays["uvs"] = np.ascontiguousarray(finite_or_zero(geometry.uvs), np.float32)
+    elif zero_uvs:
+        arrays["uvs"] = np.zeros((geometry.triangle_count, 3, 2), np.float32)
+    return arrays
 
 
 def pack_lights(lights: Lights, shadow_slots: list[tuple[int, int]] | None = None) -> np.ndarray:
@@ -114,39 +112,50 @@ class GPUScene:
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
-        self.vertices = GrowBuffer(ctx, "scene vertices", VERTEX_DTYPE.itemsize * 3)
+        self.positions = GrowBuffer(ctx, "scene positions", 36)
+        self.normals = GrowBuffer(ctx, "scene normals", 36)
+        self.uvs = GrowBuffer(ctx, "scene uvs", 24)
+        self.triangle_materials = GrowBuffer(ctx, "scene triangle materials", 4)
         self.materials = GrowBuffer(ctx, "scene materials", MATERIAL_DTYPE.itemsize)
         self.lights = GrowBuffer(ctx, "scene lights", 64)
-        for buf in (self.vertices, self.materials, self.lights):
+        self._geometry_buffers = (self.positions, self.normals, self.uvs, self.triangle_materials)
+        for buf in (*self._geometry_buffers, self.materials, self.lights):
             buf.ensure(0)  # passes bind these before the first upload
-        self.generation = 0  # bumps when the vertex buffer object changes
-        self._staging: np.ndarray | None = None  # host-side packing array, reused per frame
-        self.vertex_count = 0
+        self.generation = 0  # bumps when a vertex attribute's buffer object changes
+        self.triangle_count = 0
         self._synced = -1  # sequence of the last GeometryDelta applied (scene_delta.py)
         self.textures = GPUTextures(ctx)  # re-uploaded only when the scene's images change
 
+    def vertex_content(self, program) -> list[tuple]:
+        """moderngl vertex-array content of ``program``: one binding per attribute it reads
+        (the GLSL compiler drops unused inputs)."""
+        return [(getattr(self, buffer).buffer, fmt, name)
+                for name, fmt, buffer in VERTEX_ATTRIBUTES if name in program]
+
+    def bind_triangle_materials(self) -> None:
+        """The per-triangle material ids for the G-buffer vertex stage."""
+        self.triangle_materials.buffer.bind_to_storage_buffer(TRIANGLE_MATERIAL_BINDING)
+
     def upload(self, scene: SceneData, delta: GeometryDelta | None = None) -> None:
-        """Vertices, materials and textures. With a ``delta`` that follows this scene's last
-        upload only the changed triangle ranges are re-packed and written (scene_delta.py)."""
+        """Geometry, materials and textures. With a ``delta`` that follows this scene's last
+        upload only the changed triangle ranges are written (scene_delta.py)."""
         geo = scene.geometry
-        needed = geo.triangle_count * 3
+        n = geo.triangle_count
         incremental = (delta is not None and not delta.full and delta.sequence == self._synced + 1
-                       and needed == self.vertex_count)
+                       and n == self.triangle_count)
         self._synced = delta.sequence if delta is not None else -1
-        if self._staging is None or len(self._staging) < max(needed, 3):
-            self._staging = np.empty(max(needed, 3), VERTEX_DTYPE)
         if incremental:
             for first, count in delta.ranges:
-                part = SceneData(geo.rows(first, count), scene.materials)
-                verts = pack_vertices(part, self._staging)
-                self.vertices.write_at(bytes_of(verts), first * 3 * VERTEX_DTYPE.itemsize)
+                # (A delta never switches UVs on or off: that is a layout change.)
+                for name, array in attribute_arrays(geo.rows(first, count), zero_uvs=False).items():
+                    getattr(self, name).write_at(bytes_of(array), first * array.strides[0])
         else:
-            verts = pack_vertices(scene, self._staging)
-            allocations = self.vertices.allocations
-            self.vertices.upload(bytes_of(verts))  # a byte view: tobytes() would copy ~100 MB
-            if self.vertices.allocations != allocations:
+            allocations = [buf.allocations for buf in self._geometry_buffers]
+            for name, array in attribute_arrays(geo).items():
+                getattr(self, name).upload(bytes_of(array))  # byte views: tobytes() would copy
+            if [buf.allocations for buf in self._geometry_buffers] != allocations:
                 self.generation += 1  # a new buffer object: dependent VAOs must be rebuilt
-            self.vertex_count = len(verts)
+            self.triangle_count = n
         self.materials.upload(bytes_of(scene.materials.packed()))
         self.textures.upload(scene.materials.textures)
 
@@ -154,6 +163,6 @@ class GPUScene:
         self.lights.upload(bytes_of(pack_lights(lights, shadow_slots)))
 
     def release(self) -> None:
-        for buf in (self.vertices, self.materials, self.lights):
+        for buf in (*self._geometry_buffers, self.materials, self.lights):
             buf.release()
         self.textures.release()

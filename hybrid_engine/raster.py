@@ -26,7 +26,7 @@ from .camera import (
     view_from_world,
 )
 from .frustum import beyond_near_plane, draw_ranges, front_face_winding, visible_objects
-from .gpu_scene import GPUScene, needs_cube_shadow, vertex_binding
+from .gpu_scene import GPUScene, needs_cube_shadow
 from .scene_data import LIGHT_SPOT, LIGHT_SUN, SceneData, Sky
 from .settings import RenderSettings
 from .shadow_cache import snapped_bounds
@@ -240,9 +240,8 @@ class RasterPasses:
         for vao in (self._gbuffer_vao, self._shadow_vao):
             if vao is not None:
                 vao.release()
-        buf = gpu.vertices.buffer
-        self._gbuffer_vao = self.ctx.vertex_array(self.gbuffer_prog, [vertex_binding(self.gbuffer_prog, buf)])
-        self._shadow_vao = self.ctx.vertex_array(self.shadow_prog, [vertex_binding(self.shadow_prog, buf)])
+        self._gbuffer_vao = self.ctx.vertex_array(self.gbuffer_prog, gpu.vertex_content(self.gbuffer_prog))
+        self._shadow_vao = self.ctx.vertex_array(self.shadow_prog, gpu.vertex_content(self.shadow_prog))
         self._vao_generation = gpu.generation
 
     def _ensure_atlas(self, slots: int, resolution: int) -> int:
@@ -334,11 +333,12 @@ class RasterPasses:
         ctx.disable(ctx.CULL_FACE)  # Blender shades both sides of a face
         self.gbuffer_prog["u_view_proj"].write(gl_matrix(view.view_proj))
         gpu.materials.buffer.bind_to_storage_buffer(0)
+        gpu.bind_triangle_materials()
         gpu.textures.use(0)
         if "u_textures" in self.gbuffer_prog:
             self.gbuffer_prog["u_textures"].value = 0
         if culled is not None:
-            return culled.draw(self.gbuffer_prog, gpu.vertices.buffer, gpu.generation, view_index)
+            return culled.draw(self.gbuffer_prog, gpu, view_index)
         return self.draw_world(self._gbuffer_vao, view.view_proj, scene)
 
     def shadow_views(self, scene: SceneData) -> tuple[list[ShadowView], list[tuple[int, int]]]:

@@ -127,7 +127,7 @@ class Renderer:
                 delta = self.geometry_tracker.update(scene.geometry)
                 self.gpu_scene.upload(scene, delta)
                 if traced:
-                    tracer.upload(scene, delta)
+                    tracer.upload(self.gpu_scene, scene, delta)
             counts["triangles_uploaded"] = int(delta.changed_triangles)
             step("shadow_maps")
             with timer.measure("shadow_maps"):

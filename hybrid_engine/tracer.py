@@ -9,9 +9,11 @@ traces each through the BVH and the cube map (``gpu_shaders/include/cube_march.g
 adding their radiance to the deferred-shaded image. FULL_BVH, the paper's ground truth,
 builds the LBVH over the whole scene and never touches the cube map.
 
-The per-triangle shading attributes (three shading normals, the face normal and the material)
-live in one buffer in ORIGINAL triangle order, because the BVH reports original indices.
-All buffers are grow-only and the kernel is compiled once per context: a frame of the same
+The tracer reads the scene's geometry where GPUScene uploaded it (gpu_scene.py): the
+triangles are the LBVH's input, and at a BVH hit the kernel interpolates the shading normals
+and reads the material of the ORIGINAL triangle index the BVH reports (the face normal comes
+from the hit leaf's own corners). Only the UV rows of textured triangles are its own. All
+buffers are grow-only and the kernel is compiled once per context: a frame of the same
 size as the last allocates nothing and compiles nothing.
 """
 from __future__ import annotations
@@ -36,60 +38,19 @@ from .textures import pixel_footprint
 # Kernel modes (u_mode in hybrid_trace.comp.glsl).
 TRACE_MODES = {"HYBRID": 0, "FULL_BVH": 1, "PROVENANCE": 2}
 
-# struct TriangleShading (hybrid_trace.comp.glsl)                     // total: 64 bytes
-TRIANGLE_SHADING_DTYPE = np.dtype(
-    [("n0_material", np.float32, 4), ("n1", np.float32, 4), ("n2", np.float32, 4),
-     ("geometric", np.float32, 4)]
-)
-assert TRIANGLE_SHADING_DTYPE.itemsize == 64
-
 # Counter layout: uint[len(COUNTER_KINDS)][COUNTER_DEPTHS], index kind * COUNTER_DEPTHS + depth.
 COUNTER_KINDS = ("traced", "cube_map", "sky", "bvh_reentry")
 COUNTER_DEPTHS = 17
 assert FIELD_LIMITS["max_depth"][1] < COUNTER_DEPTHS, "the kernel's counters cover every depth"
 
 WORKGROUP = 8  # the kernel's local size in x and y
-# Storage bindings of the shading rows' blocks (one per 128 MiB on llvmpipe; see
-# hybrid_trace.comp.glsl: TRI_SHADING_BLOCKS).
-SHADING_BINDINGS = (5, 49, 50, 51)
+# Storage bindings of the shading normals' blocks (one per 128 MiB on llvmpipe; see
+# hybrid_trace.comp.glsl: TRI_NORMAL_BLOCKS) and of the per-triangle material ids.
+NORMAL_BINDINGS = (5, 49, 50, 51)
+MATERIAL_ID_BINDING = 8
+NORMAL_BYTES = 36  # three float32 vec3 per triangle: Geometry.normals as uploaded
 
 
-def pack_triangles(geometry: Geometry) -> np.ndarray:
-    """Triangle corners as the LBVH input layout ((N, 3, 3) float32); non-finite corners
-    are kept (the BVH never hits such a triangle)."""
-    return np.ascontiguousarray(geometry.triangles, np.float32)
-
-
-def pack_triangle_shading(geometry: Geometry) -> np.ndarray:
-    """One TRIANGLE_SHADING_DTYPE row per triangle, original order.
-
-    Non-finite shading normals become zero (the kernel then falls back to the face normal);
-    a degenerate face normal becomes zero too (the kernel then faces the ray).
-    """
-    n = geometry.triangle_count
-    out = np.zeros(max(n, 1), TRIANGLE_SHADING_DTYPE)
-    if n == 0:
-        return out
-    normals = geometry.normals
-    if not np.isfinite(normals).all():  # copy only when there is something to sanitise
-        normals = np.where(np.isfinite(normals), normals, 0.0)
-    out["n0_material"][:n, :3] = normals[:, 0]
-    out["n0_material"][:n, 3] = geometry.material_ids
-    out["n1"][:n, :3] = normals[:, 1]
-    out["n2"][:n, :3] = normals[:, 2]
-    tris = geometry.triangles
-    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-        face = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
-        length = np.sqrt(np.einsum("ij,ij->i", face, face))[:, None]
-        face /= length
-    ok = np.isfinite(face).all(axis=1) & (length[:, 0] > 0)
-    if not ok.all():
-        face[~ok] = 0.0
-    out["geometric"][:n, :3] = face
-    return out
-
-
-# struct TriangleUV (hybrid_trace.comp.glsl)                          // total: 32 bytes
 TRIANGLE_UV_DTYPE = np.dtype([("uv01", np.float32, 4), ("uv2_scale", np.float32, 4)])
 assert TRIANGLE_UV_DTYPE.itemsize == 32
 
@@ -97,8 +58,8 @@ assert TRIANGLE_UV_DTYPE.itemsize == 32
 def pack_triangle_uvs(scene: SceneData, geometry: Geometry | None = None) -> np.ndarray:
     """One TRIANGLE_UV_DTYPE row per triangle, original order: the corners' UVs and the
     triangle's ``uv_per_world`` = sqrt(UV area / world area) (the tracer's mip level,
-    see textures.py). Their own buffer, apart from the shading rows, because only
-    textured materials read them: rows of untextured triangles stay zero and are not
+    see textures.py). The tracer's own buffer, apart from the scene's raw UVs, because
+    only textured materials read them: rows of untextured triangles stay zero and are not
     computed. Non-finite UVs become 0 (as in the vertex buffer); a degenerate triangle
     gets uv_per_world 0 (mip level 0).
     """
@@ -159,8 +120,7 @@ class HybridTracer:
         self.cube_map = CubeMapPass(ctx, raster)
         self.culler = NearCubeCuller(ctx)
         self.builder = LBVHBuilder(ctx)
-        self._triangles = GrowBuffer(ctx, "tracer triangles")
-        self._shading = GrowBuffer(ctx, "tracer triangle shading")
+        self._gpu: GPUScene | None = None  # the scene buffers of the last upload
         self._uvs = GrowBuffer(ctx, "tracer triangle uvs")
         self._counters = ctx.buffer(reserve=len(COUNTER_KINDS) * COUNTER_DEPTHS * 4)
         self._zero_counters = bytes(self._counters.size)
@@ -175,10 +135,11 @@ class HybridTracer:
         self.cull_result: CullResult | None = None
 
     # -- per-frame steps -------------------------------------------------------------------
-    def upload(self, scene: SceneData, delta: GeometryDelta | None = None) -> None:
-        """Triangles (LBVH input) and shading attributes, original order. With a ``delta``
-        that follows this tracer's last upload only its changed ranges are re-packed and
-        written (scene_delta.py); otherwise everything."""
+    def upload(self, gpu: GPUScene, scene: SceneData, delta: GeometryDelta | None = None) -> None:
+        """Take this frame's geometry from ``gpu`` (already uploaded) and write the UV rows
+        of textured triangles. With a ``delta`` that follows this tracer's last upload only
+        its changed ranges are re-packed and written (scene_delta.py); otherwise all."""
+        self._gpu = gpu
         geo = scene.geometry
         with_uvs = scene.materials.has_textures  # only textured BVH hits read UVs
         incremental = (delta is not None and not delta.full and delta.sequence == self._synced + 1
@@ -186,23 +147,21 @@ class HybridTracer:
         self._synced = delta.sequence if delta is not None else -1
         self._with_uvs = with_uvs
         self.triangle_count = geo.triangle_count
-        if incremental:
-            for first, count in delta.ranges:
-                part = geo.rows(first, count)
-                self._triangles.write_at(bytes_of(pack_triangles(part)), first * 36)
-                self._shading.write_at(bytes_of(pack_triangle_shading(part)[:count]),
-                                       first * TRIANGLE_SHADING_DTYPE.itemsize)
-                if with_uvs:
-                    self._uvs.write_at(bytes_of(pack_triangle_uvs(scene, part)[:count]),
-                                       first * TRIANGLE_UV_DTYPE.itemsize)
-            return
-        triangles = pack_triangles(geo)  # uploaded as byte views, not copies
-        self._triangles.upload(bytes_of(triangles) if len(triangles) else bytes(36))
-        self._shading.upload(bytes_of(pack_triangle_shading(geo)))
-        if with_uvs:
-            self._uvs.upload(bytes_of(pack_triangle_uvs(scene)))
-        else:
+        if not with_uvs:
             self._uvs.ensure(0)
+        elif incremental:
+            for first, count in delta.ranges:
+                self._uvs.write_at(bytes_of(pack_triangle_uvs(scene, geo.rows(first, count))[:count]),
+                                   first * TRIANGLE_UV_DTYPE.itemsize)
+        else:
+            self._uvs.upload(bytes_of(pack_triangle_uvs(scene)))
+
+    @property
+    def _triangles(self):
+        """The scene's triangle buffer ((N, 3, 3) float32, original order)."""
+        if self._gpu is None:
+            raise RuntimeError("HybridTracer.upload must run before the tracing passes")
+        return self._gpu.positions.buffer
 
     def render_cube_map(self, gpu, scene: SceneData, center, settings: RenderSettings) -> int:
         """The six face G-buffers (§3.2) and, for the hierarchical march, their hit-interval
@@ -210,13 +169,13 @@ class HybridTracer:
         per triangle on the GPU from this frame's uploaded triangles (view_cull.py). Returns
         the triangles submitted."""
         return self.cube_map.render(gpu, scene, center, settings,
-                                    triangles=(self._triangles.buffer, self.triangle_count))
+                                    triangles=(self._triangles, self.triangle_count))
 
     def cull(self, scene: SceneData, center, settings: RenderSettings) -> CullResult:
         """Triangles overlapping the near cube (§3.3)."""
         geo = scene.geometry
         self.cull_result = self.culler.cull(
-            self._triangles.buffer, self.triangle_count, center, settings.near_size,
+            self._triangles, self.triangle_count, center, settings.near_size,
             geo.object_ranges, geo.object_bounds,
         )
         return self.cull_result
@@ -224,9 +183,9 @@ class HybridTracer:
     def build(self, culled: CullResult | None) -> BuiltLBVH:
         """The LBVH over the culled triangles, or over all of them (``culled`` None)."""
         if culled is None:
-            self.built = self.builder.build(self._triangles.buffer, self.triangle_count)
+            self.built = self.builder.build(self._triangles, self.triangle_count)
         else:
-            self.built = self.builder.build(self._triangles.buffer, culled.count,
+            self.built = self.builder.build(self._triangles, culled.count,
                                             indices=culled.indices, input_count=self.triangle_count)
         return self.built
 
@@ -240,10 +199,9 @@ class HybridTracer:
         built = self.built if mode != "PROVENANCE" else None
         # A BVH whose arrays span several storage blocks needs the kernel compiled for them
         # (cached per block count; none for BVHs within one block: then this is self.program).
-        shading_split = split_blocks(self.triangle_count, TRIANGLE_SHADING_DTYPE.itemsize,
-                                     "tracer's triangle shading rows")
+        normal_split = split_blocks(self.triangle_count, NORMAL_BYTES, "tracer's shading normals")
         defines = {**(built.traversal_defines() if built is not None else {}),
-                   **shading_split.defines("TRI_SHADING_BLOCKS", "TRI_SHADING_BLOCK_SIZE")}
+                   **normal_split.defines("TRI_NORMAL_BLOCKS", "TRI_NORMAL_BLOCK_SIZE")}
         prog = shader_loader.compute(ctx, "trace/hybrid_trace.comp.glsl", defines) if defines else self.program
         self._counters.write(self._zero_counters)
 
@@ -258,7 +216,8 @@ class HybridTracer:
         else:
             self._dummy_ssbo.bind_to_storage_buffer(3)
             self._dummy_ssbo.bind_to_storage_buffer(4)
-        bind_blocks(self._shading.buffer, SHADING_BINDINGS, shading_split)
+        bind_blocks(gpu.normals.buffer, NORMAL_BINDINGS, normal_split)
+        gpu.triangle_materials.buffer.bind_to_storage_buffer(MATERIAL_ID_BINDING)
         self._counters.bind_to_storage_buffer(6)
         self._uvs.buffer.bind_to_storage_buffer(7)
 
@@ -326,8 +285,7 @@ class HybridTracer:
         self.cube_map.release()
         self.culler.release()
         self.builder.release()
-        for grow in (self._triangles, self._shading, self._uvs):
-            grow.release()
+        self._uvs.release()
         for obj in (self._counters, self._dummy_ssbo, self._dummy_depth, self._dummy_rgba, self._dummy_rg):
             obj.release()
 

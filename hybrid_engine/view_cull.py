@@ -97,13 +97,12 @@ class CulledDraws:
         self._culler = culler
         self.submitted = submitted
 
-    def draw(self, program, vertex_buffer, generation: int, view: int) -> int:
-        """Draw view ``view``'s survivors with ``program`` (its vertex inputs bound from
-        ``vertex_buffer``, whose allocation ``generation`` numbers); returns the triangles
-        submitted to the culler for it."""
+    def draw(self, program, gpu, view: int) -> int:
+        """Draw view ``view``'s survivors with ``program`` (its vertex inputs bound from the
+        GPUScene ``gpu``); returns the triangles submitted to the culler for it."""
         if self.submitted[view] == 0:
             return 0
-        vao = self._culler.vertex_array(program, vertex_buffer, generation)
+        vao = self._culler.vertex_array(program, gpu)
         vao.render_indirect(self._culler.commands.buffer, count=1, first=view)
         return self.submitted[view]
 
@@ -129,16 +128,14 @@ class ViewTriangleCuller:
         self.commands = GrowBuffer(ctx, "view cull commands")
         self._vaos: dict[tuple[int, int, int], object] = {}
 
-    def vertex_array(self, program, vertex_buffer, generation: int):
-        """An indexed vertex array of ``program`` over ``vertex_buffer`` (allocation number
-        ``generation``) and the index buffer, cached while neither is re-allocated."""
-        from .gpu_scene import vertex_binding
-
-        key = (id(program), int(generation), self.indices.allocations)
+    def vertex_array(self, program, gpu):
+        """An indexed vertex array of ``program`` over the GPUScene ``gpu``'s attributes and
+        the index buffer, cached while neither is re-allocated."""
+        key = (id(program), id(gpu), int(gpu.generation), self.indices.allocations)
         vao = self._vaos.get(key)
         if vao is None:
             self._release_vaos()
-            vao = self.ctx.vertex_array(program, [vertex_binding(program, vertex_buffer)],
+            vao = self.ctx.vertex_array(program, gpu.vertex_content(program),
                                         index_buffer=self.indices.buffer, index_element_size=4)
             self._vaos[key] = vao
         return vao

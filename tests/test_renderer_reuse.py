@@ -84,23 +84,33 @@ def test_switching_to_a_traced_mode_mid_animation_uploads_the_tracer_in_full(gl,
 
 
 @pytest.mark.parametrize("mode", ["HYBRID", "FULL_BVH"])
-def test_shading_rows_split_over_storage_blocks_render_the_same_image(gl, frames, mode):
-    """Past the driver's storage-block limit the tracer's per-triangle shading rows are bound
-    as several blocks (and the BVH arrays too); forcing a tiny limit must not change a pixel."""
+def test_shading_normals_split_over_storage_blocks_render_the_same_image(gl, frames, mode):
+    """Past the driver's storage-block limit the scene's shading normals (which the tracer
+    interpolates at BVH hits), its triangles and the BVH arrays are bound as several blocks;
+    forcing a tiny limit must not change a pixel. HYBRID's limit splits the normals in two;
+    FULL_BVH's splits its whole-scene BVH (64-byte nodes, 48-byte triangles) and not the
+    36-byte normals, as a 2-3 M triangle scene does (more splits than that exceed llvmpipe's
+    16 storage blocks per kernel)."""
     from hybrid_engine import gpu_dispatch
+    from hybrid_engine.tracer import NORMAL_BYTES
 
     scene, camera = frames[0]
+    n = scene.geometry.triangle_count
     settings = RenderSettings(mode=mode, **SETTINGS)
     plain = Renderer(gl)
     try:
         expected = plain.render(scene, camera, settings).image
     finally:
         plain.release()
-    rows = scene.geometry.triangle_count * 64
+    limit = (NORMAL_BYTES if mode == "HYBRID" else 64) * n * 2 // 3
     split = Renderer(gl)
     try:
-        with gpu_dispatch.forced_limits(max_block=rows * 2 // 3):  # two blocks of rows
+        with gpu_dispatch.forced_limits(max_block=limit):
             image = split.render(scene, camera, settings).image
+            normal_blocks = gpu_dispatch.split_blocks(n, NORMAL_BYTES, "normals").blocks
+            assert normal_blocks == (2 if mode == "HYBRID" else 1)
+            if mode == "FULL_BVH":
+                assert split.tracer.built.node_split.blocks > 1
     finally:
         split.release()
     np.testing.assert_array_equal(image, expected)

@@ -413,7 +413,8 @@ def test_repeated_frames_allocate_no_tracer_buffers(renderer):
     scene, camera = mirror_and_emitters_scene(), SCENES["mirror_and_emitters"][1]()
     render(renderer, scene, camera, "HYBRID", near_size=2.0)
     tracer = renderer.tracer
-    grow = [tracer._triangles, tracer._shading]
+    gpu = renderer.gpu_scene
+    grow = [gpu.positions, gpu.normals, gpu.uvs, gpu.triangle_materials, tracer._uvs]
     before = [g.allocations for g in grow]
     buffers = (tracer._counters, tracer.cube_map.targets)
     first = render(renderer, scene, camera, "HYBRID", near_size=2.0).image
@@ -421,3 +422,33 @@ def test_repeated_frames_allocate_no_tracer_buffers(renderer):
     assert [g.allocations for g in grow] == before
     assert (tracer._counters, tracer.cube_map.targets) == buffers
     np.testing.assert_array_equal(first, second)
+
+
+def test_shading_normals_split_over_storage_blocks_render_the_same_image(renderer):
+    """Past the storage-block limit the scene's triangles and the shading normals the kernel
+    interpolates at BVH hits are bound as several ranges. A dense ball far outside the near
+    cube comes first, so that the near objects' triangles lie in the later blocks; with a
+    (forced) limit that splits the normals into three blocks, HYBRID renders the image of the unsplit buffers."""
+    from hybrid_engine import gpu_dispatch, lbvh
+    from hybrid_engine.tracer import NORMAL_BYTES
+
+    near = mirror_and_emitters_scene()
+    far_ball, far_normals = uv_sphere((0, 60, 0), 3.0, 64, 32)
+    objects = [(far_ball, far_normals, DIFFUSE)]
+    for first, count in near.geometry.object_ranges:
+        rows = slice(first, first + count)
+        objects.append((near.geometry.triangles[rows], near.geometry.normals[rows],
+                        int(near.geometry.material_ids[first])))
+    scene = SceneData(Geometry.from_objects(objects), near.materials, near.lights, near.sky)
+    camera = SCENES["mirror_and_emitters"][1]()
+    n = scene.geometry.triangle_count
+    whole = render(renderer, scene, camera, "HYBRID", near_size=7.0)
+    bvh = whole.counts["triangles_bvh"]
+    assert 0 < bvh <= n - len(far_ball)  # the far ball is not in the BVH
+    limit = NORMAL_BYTES * n // 3 + 64 * NORMAL_BYTES
+    with gpu_dispatch.forced_limits(max_block=limit):
+        assert gpu_dispatch.split_blocks(n, NORMAL_BYTES, "normals").blocks == 3
+        assert lbvh.input_split(n).blocks == 3
+        split = render(renderer, scene, camera, "HYBRID", near_size=7.0)
+    assert split.counts["triangles_bvh"] == bvh
+    np.testing.assert_array_equal(split.image, whole.image)

@@ -6,7 +6,8 @@
 //
 // returns true on a hit with t in (tmin, tmax], tri the ORIGINAL triangle index and bary the
 // barycentric (u, v) of vertices 1 and 2 (hit = (1-u-v) v0 + u v1 + v v2). A ray with a
-// non-finite origin or direction misses (t = tmax, tri = -1).
+// non-finite origin or direction misses (t = tmax, tri = -1). bvh_closest_leaf reports the
+// hit leaf instead, from which bvh_leaf_original and bvh_leaf_face_normal read the rest.
 //
 // Stack-based: each fetched node carries both child boxes (bvh_layout.glsl); leaf children are
 // intersected at once, the nearer inner child is visited next and the farther one pushed.
@@ -235,10 +236,10 @@ bool bvh_intersect_leaf(BVHRay ray, int leaf, float tmin, inout float t_best, in
                                   t_best, bary);
 }
 
-bool bvh_closest_hit(vec3 origin, vec3 dir, float tmin, float tmax,
-                     out float t, out int tri, out vec2 bary) {
+bool bvh_closest_leaf(vec3 origin, vec3 dir, float tmin, float tmax,
+                      out float t, out int leaf, out vec2 bary) {
     t = tmax;
-    tri = -1;
+    leaf = -1;
     bary = vec2(0.0);
     // A ray with a NaN or infinite component has no meaningful hit (and float comparisons
     // with NaN may be reordered by the compiler): it misses.
@@ -293,8 +294,34 @@ bool bvh_closest_hit(vec3 origin, vec3 dir, float tmin, float tmax,
     }
     t = t_best;
     bary = hit_bary;
-    tri = hit_leaf >= 0 ? int(bvh_triangle(uint(hit_leaf)).v0.w) : -1;
+    leaf = hit_leaf;
     return hit_leaf >= 0;
+}
+
+// The original triangle index of leaf `leaf`.
+int bvh_leaf_original(int leaf) {
+    return int(bvh_triangle(uint(leaf)).v0.w);
+}
+
+// The unit face normal of leaf `leaf` (winding order: (v1 - v0) x (v2 - v0)), zero for a
+// degenerate triangle. The cross product is scaled by its largest component first, so that
+// tiny triangles (edges of 1e-8) keep their direction instead of underflowing.
+vec3 bvh_leaf_face_normal(int leaf) {
+    BVHTriangle tr = bvh_triangle(uint(leaf));
+    vec3 p0 = bvh_xyz(tr.v0);
+    vec3 c = cross(bvh_xyz(tr.v1) - p0, bvh_xyz(tr.v2) - p0);
+    float m = max(max(abs(c.x), abs(c.y)), abs(c.z));
+    if (!(m > 0.0) || isinf(m)) return vec3(0.0);
+    c /= m;
+    return c * inversesqrt(dot(c, c));
+}
+
+bool bvh_closest_hit(vec3 origin, vec3 dir, float tmin, float tmax,
+                     out float t, out int tri, out vec2 bary) {
+    int leaf;
+    bool hit = bvh_closest_leaf(origin, dir, tmin, tmax, t, leaf, bary);
+    tri = hit ? bvh_leaf_original(leaf) : -1;
+    return hit;
 }
 
 #endif

@@ -34,9 +34,9 @@
 // once per kind.
 //
 // Bindings: SSBO 0 materials, 1 lights, 2 shadow slots, 3 BVH nodes, 4 BVH triangles
-//   (bvh_layout.glsl), 5 triangle shading (TriangleShading[N], original triangle order),
-//   6 counters (read/write), 7 triangle UVs (TriangleUV[N], original triangle order; read
-//   only for materials with image textures). Image unit 0: the primary colour (RGBA32F,
+//   (bvh_layout.glsl), 5 shading normals (float[9 N], the scene's normal buffer), 6 counters
+//   (read/write), 7 triangle UVs (TriangleUV[N]; read only for materials with image
+//   textures), 8 material ids (int[N]); all per-triangle arrays in original triangle order. Image unit 0: the primary colour (RGBA32F,
 //   read and written). Textures: u_textures (textures.glsl; BVH hits sample it at the
 //   interpolated UV, mip level from the ray cone u_pixel_width + u_pixel_spread * distance).
 //   Samplers: primary u_depth, u_normal_material, u_albedo, u_emission_scale; the cube atlas u_cube_depth,
@@ -59,50 +59,53 @@ layout(std430, binding = 0) readonly buffer MaterialBuffer { Material materials[
 
 #include "cube_march.glsl"
 
-// struct TriangleShading (hybrid_engine/tracer.py TRIANGLE_SHADING_DTYPE)  // total: 64 bytes
-//   vec4 n0_material;  xyz = shading normal of corner 0, w = material index (as a float)
-//   vec4 n1;           xyz = shading normal of corner 1
-//   vec4 n2;           xyz = shading normal of corner 2
-//   vec4 geometric;    xyz = unit face normal (fallback for degenerate shading normals)
-struct TriangleShading {
-    vec4 n0_material;
-    vec4 n1;
-    vec4 n2;
-    vec4 geometric;
-};
-// Past the storage-block limit (about 2.1 M triangles of 64 bytes on llvmpipe) the rows are
-// bound as up to four ranges (storage_blocks.glsl): blocks 1..3 at bindings 49..51.
-#ifndef TRI_SHADING_BLOCKS
-#define TRI_SHADING_BLOCKS 1
-#define TRI_SHADING_BLOCK_SIZE 1
+// Shading normals of triangle i, corners 0..2: floats 9 i .. 9 i + 8 of the scene's normal
+// buffer (Geometry.normals as uploaded by hybrid_engine/gpu_scene.py; ORIGINAL order, as
+// the BVH reports). Past the storage-block limit (3.7 M triangles of 36 bytes on llvmpipe)
+// it is bound as up to four ranges (storage_blocks.glsl): blocks 1..3 at bindings 49..51.
+#ifndef TRI_NORMAL_BLOCKS
+#define TRI_NORMAL_BLOCKS 1
+#define TRI_NORMAL_BLOCK_SIZE 1
 #endif
-layout(std430, binding = 5) readonly buffer TriangleShadingBuffer { TriangleShading tri_shading[]; };
-#if TRI_SHADING_BLOCKS > 1
-layout(std430, binding = 49) readonly buffer TriangleShadingBuffer1 { TriangleShading tri_shading1[]; };
+layout(std430, binding = 5) readonly buffer TriangleNormals { float tri_normals[]; };
+#if TRI_NORMAL_BLOCKS > 1
+layout(std430, binding = 49) readonly buffer TriangleNormals1 { float tri_normals1[]; };
 #endif
-#if TRI_SHADING_BLOCKS > 2
-layout(std430, binding = 50) readonly buffer TriangleShadingBuffer2 { TriangleShading tri_shading2[]; };
+#if TRI_NORMAL_BLOCKS > 2
+layout(std430, binding = 50) readonly buffer TriangleNormals2 { float tri_normals2[]; };
 #endif
-#if TRI_SHADING_BLOCKS > 3
-layout(std430, binding = 51) readonly buffer TriangleShadingBuffer3 { TriangleShading tri_shading3[]; };
+#if TRI_NORMAL_BLOCKS > 3
+layout(std430, binding = 51) readonly buffer TriangleNormals3 { float tri_normals3[]; };
 #endif
+// Material index per triangle (Geometry.material_ids), original order.
+layout(std430, binding = 8) readonly buffer TriangleMaterials { int tri_materials[]; };
 
-TriangleShading triangle_shading(int tri) {
-#if TRI_SHADING_BLOCKS == 1
-    return tri_shading[tri];
-#else
+#define TRI_NORMAL_AT(array, base) vec3(array[(base)], array[(base) + 1u], array[(base) + 2u])
+
+// The shading normal interpolated at barycentrics (b1, b2) of original triangle `tri`.
+vec3 interpolated_normal(int tri, vec2 bary) {
     uint i = uint(tri);
-    uint block = STORAGE_BLOCK_OF(i, TRI_SHADING_BLOCK_SIZE, TRI_SHADING_BLOCKS);
-    uint local = i - block * uint(TRI_SHADING_BLOCK_SIZE);
-    if (block == 0u) return tri_shading[local];
-#if TRI_SHADING_BLOCKS > 2
-    if (block == 2u) return tri_shading2[local];
+#if TRI_NORMAL_BLOCKS == 1
+    uint base = i * 9u;
+#define TRI_NORMAL_FETCH(corner) TRI_NORMAL_AT(tri_normals, base + (corner) * 3u)
+#else
+    uint block = STORAGE_BLOCK_OF(i, TRI_NORMAL_BLOCK_SIZE, TRI_NORMAL_BLOCKS);
+    uint base = (i - block * uint(TRI_NORMAL_BLOCK_SIZE)) * 9u;
+#if TRI_NORMAL_BLOCKS > 3
+#define TRI_NORMAL_FETCH(corner) (block == 0u ? TRI_NORMAL_AT(tri_normals, base + (corner) * 3u) : \
+    block == 1u ? TRI_NORMAL_AT(tri_normals1, base + (corner) * 3u) : \
+    block == 2u ? TRI_NORMAL_AT(tri_normals2, base + (corner) * 3u) : TRI_NORMAL_AT(tri_normals3, base + (corner) * 3u))
+#elif TRI_NORMAL_BLOCKS > 2
+#define TRI_NORMAL_FETCH(corner) (block == 0u ? TRI_NORMAL_AT(tri_normals, base + (corner) * 3u) : \
+    block == 1u ? TRI_NORMAL_AT(tri_normals1, base + (corner) * 3u) : TRI_NORMAL_AT(tri_normals2, base + (corner) * 3u))
+#else
+#define TRI_NORMAL_FETCH(corner) (block == 0u ? TRI_NORMAL_AT(tri_normals, base + (corner) * 3u) : \
+    TRI_NORMAL_AT(tri_normals1, base + (corner) * 3u))
 #endif
-#if TRI_SHADING_BLOCKS > 3
-    if (block == 3u) return tri_shading3[local];
 #endif
-    return tri_shading1[local];
-#endif
+    return (1.0 - bary.x - bary.y) * TRI_NORMAL_FETCH(0u) + bary.x * TRI_NORMAL_FETCH(1u)
+           + bary.y * TRI_NORMAL_FETCH(2u);
+#undef TRI_NORMAL_FETCH
 }
 
 #include "textures.glsl"
@@ -210,15 +213,14 @@ void count(int kind, int depth) {
     atomicAdd(counters[kind * COUNTER_DEPTHS + clamp(depth, 0, COUNTER_DEPTHS - 1)], 1u);
 }
 
-Hit bvh_hit(vec3 o, vec3 d, float t, int tri, vec2 bary) {
+Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary) {
     Hit h;
     h.kind = HIT_BVH;
     h.position = o + d * t;
-    TriangleShading ts = triangle_shading(tri);
-    vec3 n = (1.0 - bary.x - bary.y) * ts.n0_material.xyz + bary.x * ts.n1.xyz + bary.y * ts.n2.xyz;
-    h.geometric = safe_normalize(ts.geometric.xyz, -d);
-    h.normal = safe_normalize(n, h.geometric);
-    h.material = int(ts.n0_material.w + 0.5);
+    int tri = bvh_leaf_original(leaf);
+    h.geometric = safe_normalize(bvh_leaf_face_normal(leaf), -d);
+    h.normal = safe_normalize(interpolated_normal(tri, bary), h.geometric);
+    h.material = tri_materials[tri];
     h.texel = ivec2(0);
     h.uv = vec2(0.0);
     h.lod = 0.0;
@@ -248,10 +250,10 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
     bool reached_cube = false;
     bool reentered = false;
     float t;
-    int tri;
+    int leaf;
     vec2 bary;
     if (u_mode == MODE_FULL_BVH) {
-        if (bvh_closest_hit(o, d, 0.0, FLOAT_MAX, t, tri, bary)) h = bvh_hit(o, d, t, tri, bary);
+        if (bvh_closest_leaf(o, d, 0.0, FLOAT_MAX, t, leaf, bary)) h = bvh_hit(o, d, t, leaf, bary);
     } else {
         bool in_bvh = inside_near_cube(o);
         float t_cur = 0.0;
@@ -260,8 +262,8 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
                 vec2 span = bvh_region_interval(o, d);
                 float t0 = max(t_cur, span.x);
                 float t1 = span.y;
-                if (t0 <= t1 && bvh_closest_hit(o, d, t0, t1, t, tri, bary)) {
-                    h = bvh_hit(o, d, t, tri, bary);
+                if (t0 <= t1 && bvh_closest_leaf(o, d, t0, t1, t, leaf, bary)) {
+                    h = bvh_hit(o, d, t, leaf, bary);
                     break;
                 }
                 // Leave the near cube: continue in the cube map at the exit point.

@@ -120,8 +120,10 @@ class CubeMapPass:
                 triangles[0], triangles[1], [CullView(v.view_proj, v.width, v.height) for v in views],
                 geo.object_ranges, geo.object_bounds, geo.object_closed)
         for i, view in enumerate(views):
+            # Refractive surfaces are left out: the faces hold what lies behind them
+            # (paper Figure 8; gbuffer.frag.glsl).
             submitted += self.raster.gbuffer(gpu, scene, view, targets, origin=(i * res, 0),
-                                             culled=self.culled, view_index=i)
+                                             culled=self.culled, view_index=i, skip_refractive=True)
         if shade:
             for i, view in enumerate(views):
                 self.raster.shade(gpu, scene, view, targets, settings, origin=(i * res, 0))

@@ -320,11 +320,13 @@ class RasterPasses:
         return submitted
 
     def gbuffer(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
-                origin: tuple[int, int] = (0, 0), culled=None, view_index: int = 0) -> int:
+                origin: tuple[int, int] = (0, 0), culled=None, view_index: int = 0,
+                skip_refractive: bool = False) -> int:
         """Rasterize ``view`` into the region of ``targets`` at ``origin`` (§3.1); returns the
         triangles submitted after per-object frustum culling. The caller clears targets.
         ``culled`` (view_cull.CulledDraws) draws view ``view_index``'s GPU-culled list
-        instead of the object list."""
+        instead of the object list. ``skip_refractive`` leaves refractive surfaces out (the
+        cube-map faces, gbuffer.frag.glsl)."""
         ctx = self.ctx
         self._ensure_vaos(gpu)
         targets.fbo.use()
@@ -332,6 +334,7 @@ class RasterPasses:
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE)  # Blender shades both sides of a face
         self.gbuffer_prog["u_view_proj"].write(gl_matrix(view.view_proj))
+        self.gbuffer_prog["u_skip_refractive"].value = int(skip_refractive)
         gpu.materials.buffer.bind_to_storage_buffer(0)
         gpu.bind_triangle_materials()
         gpu.textures.use(0)

@@ -63,6 +63,36 @@ def test_each_face_sees_the_object_on_its_axis_and_not_the_near_cube_contents(cu
     assert not (atlas[..., :3] == 5.0).all(axis=-1).any()
 
 
+def test_faces_leave_refractive_surfaces_out_and_hold_what_lies_behind_them(cube_pass):
+    """Paper Figure 8: the map has one layer, so a refractive object would hide what lies
+    behind it from the rays refracted through it; the faces store the scene behind instead
+    (the primary G-buffer keeps the glass)."""
+    scene = six_box_scene(inner=False)
+    glass_pane = np.array([[[3, -2, -2], [3, 2, -2], [3, 2, 2]], [[3, -2, -2], [3, 2, 2], [3, -2, 2]]], np.float32)
+    geo = scene.geometry
+    glassy = Geometry.from_objects(
+        [(glass_pane, None, 7)] + [(geo.triangles[a:a + n], None, int(geo.material_ids[a])) for a, n in geo.object_ranges])
+    rows = [dict(base_color=(0, 0, 0), emission=tuple(c)) for c in FACE_COLORS]
+    rows += [dict(base_color=(0, 0, 0)), dict(base_color=(1, 1, 1), transmission=1.0, ior=1.5)]
+    glassy_scene = SceneData(glassy, MaterialTable.from_rows(rows), Lights.empty(), Sky(color=(0, 0, 0)))
+    settings = RenderSettings(near_size=2.0, cube_far=50.0, cube_resolution=32)
+    atlas = render_cube(cube_pass, glassy_scene, settings)
+    np.testing.assert_array_equal(atlas[16, 16, :3], FACE_COLORS[0])  # the +x box, behind the pane
+    cube, _ = cube_pass
+    w, h = cube.targets.size
+    materials = np.abs(np.frombuffer(cube.targets.normal_material.read(), np.float32).reshape(h, w, 4)[..., 3])
+    assert 8 not in materials  # material 7 + 1: no glass texel anywhere
+    # The same pane seen by a primary camera is there.
+    renderer = Renderer(cube.ctx)
+    try:
+        cam = Camera(matrix_world=look_at((0, 0, 0), (1, 0, 0), (0, 0, 1)), width=16, height=16,
+                     clip_start=0.1, clip_end=40.0)
+        image = renderer.render(glassy_scene, cam, RenderSettings(mode="RASTER")).image
+        assert not np.allclose(image[8, 8, :3], FACE_COLORS[0])
+    finally:
+        renderer.release()
+
+
 def test_face_image_equals_a_primary_render_with_the_same_camera(cube_pass, gl):
     """A face is a 90.2° camera at the centre: the RASTER path with an equivalent Blender
     camera must produce the same pixels."""

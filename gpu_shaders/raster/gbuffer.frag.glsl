@@ -17,6 +17,11 @@
 // then hits the object's own inside (speckles on curved mirrors). Derivatives of the world
 // position give it exactly: two differences of points on one plane lie in that plane.
 // Depth: the hardware depth buffer (DEPTH32F); positions are reconstructed from it.
+// u_skip_refractive (the cube-map faces): refractive surfaces are left out, so the faces hold
+// what lies behind them. The map has one layer; a ray refracted at a surface outside the
+// near cube finds the scene behind it there (paper Figure 8: refractive objects in the cube
+// map are thin, refract once and look the cube map up), and rays that meet such an object in
+// the map pass it as a thin clear sheet.
 // Samplers: u_textures (textures.glsl), sampled with the UV derivatives of the fragment
 // (mipmaps, anisotropic filtering).
 #include "scene_layout.glsl"
@@ -30,11 +35,15 @@ in vec3 v_normal;
 in vec2 v_uv;
 flat in int v_material;
 
+uniform int u_skip_refractive;
+
 layout(location = 0) out vec4 out_normal_material;
 layout(location = 1) out vec4 out_albedo;
 layout(location = 2) out vec4 out_emission_scale;
 
 void main() {
+    Material m = materials[v_material];
+    if (u_skip_refractive != 0 && m.emission_trans.a > 0.0) discard;
     // Derivatives outside any branch (they are undefined in non-uniform control flow).
     vec3 geometric = cross(dFdx(v_world), dFdy(v_world));
     float geometric_len2 = dot(geometric, geometric);
@@ -54,7 +63,6 @@ void main() {
     vec2 g_oct = octahedral_encode(g);
     float id = float(v_material + 1);
     out_normal_material = vec4(n, gl_FrontFacing ? id : -id);
-    Material m = materials[v_material];
     out_albedo = vec4(material_albedo_grad(m, v_uv, duv_dx, duv_dy), g_oct.x);
     out_emission_scale = vec4(material_emission_scale_grad(m, v_uv, duv_dx, duv_dy), g_oct.y);
 }

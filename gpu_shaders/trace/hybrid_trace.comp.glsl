@@ -313,23 +313,13 @@ void push(vec3 origin, vec3 dir, vec3 weight, int depth) {
     stack_size += 1;
 }
 
-// Spawn the reflected and refracted rays of a hit at p (offset off the surface). Returns the
-// radiance settled at once: a refracted ray that would start in the cube map is the paper's
-// thin refraction (§3.4: refractive objects in the cube map are thin, the refracted ray goes
-// to the sky), so it is the sky in the refracted direction.
-vec3 spawn_children(SpecularSplit split, vec3 p, vec3 weight, int depth) {
+// Spawn the reflected and refracted rays of a hit at p (offset off the surface). Outside the
+// near cube a refraction is the paper's thin fallback (§3.4, Figure 8): the ray refracts
+// once and looks the scene up in the cube map, whose faces hold what lies behind refractive
+// surfaces (cube_map.py: they are left out of the faces), not the surfaces themselves.
+void spawn_children(SpecularSplit split, vec3 p, vec3 weight, int depth) {
     push(offset_origin(p, split.g_facing), split.reflect_dir, weight * split.reflect_weight, depth);
-    vec3 refract_weight = weight * split.refract_weight;
-    if (u_mode == MODE_HYBRID && !inside_near_cube(p)) {
-        if (depth > u_max_depth || !(max(max(refract_weight.r, refract_weight.g), refract_weight.b) > 0.0)) {
-            return vec3(0.0);
-        }
-        count(COUNT_TRACED, depth);
-        count(COUNT_SKY, depth);
-        return refract_weight * sky_radiance(split.refract_dir);
-    }
-    push(offset_origin(p, -split.g_facing), split.refract_dir, refract_weight, depth);
-    return vec3(0.0);
+    push(offset_origin(p, -split.g_facing), split.refract_dir, weight * split.refract_weight, depth);
 }
 
 void main() {
@@ -369,7 +359,8 @@ void main() {
     vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
     SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n, g);
 
-    vec3 traced = spawn_children(split, p, vec3(1.0), 1);
+    vec3 traced = vec3(0.0);
+    spawn_children(split, p, vec3(1.0), 1);
     while (stack_size > 0) {
         stack_size -= 1;
         PendingRay ray = stack[stack_size];
@@ -385,15 +376,15 @@ void main() {
         if (h.kind == HIT_BVH) {
             vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
             traced += ray.weight * shade_local_emission(hm, h_albedo, h_emission, h.position, hs.n_facing);
-            traced += spawn_children(hs, h.position, ray.weight, ray.depth + 1);
+            spawn_children(hs, h.position, ray.weight, ray.depth + 1);
         } else {
             // Cube map: shaded here from the stored G-buffer (albedo, normal, material) at the
             // reconstructed position, so only the texels rays hit are shaded; reflection
-            // traced from that position; refraction is thin and goes to the sky (paper §3.4,
-            // Figure 8; the hit lies outside the near cube, so spawn_children sends it there).
+            // and refraction traced from that position (no refractive surface is stored in
+            // the faces, paper Figure 8: refraction finds none here).
             vec3 cube_emission = hm.emission_trans.rgb * texelFetch(u_cube_emission_scale, h.texel, 0).rgb;
             traced += ray.weight * shade_local_emission(hm, h_albedo, cube_emission, h.position, hs.n_facing);
-            traced += spawn_children(hs, h.position, ray.weight, ray.depth + 1);
+            spawn_children(hs, h.position, ray.weight, ray.depth + 1);
         }
     }
     vec4 base = imageLoad(u_color, pixel);

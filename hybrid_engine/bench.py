@@ -23,7 +23,9 @@ Sections (one function each; :func:`main` assembles them):
     paper's pathological case, §4 and Figure 6) in HYBRID and in FULL_BVH, the paper's
     ground truth: median frame and per-pass times, the speedup, and the mean FLIP error of
     HYBRID against FULL_BVH (both tone-mapped by clamping to [0, 1] and the sRGB OETF, as
-    FLIP's LDR mode expects).
+    FLIP's LDR mode expects). The comparison itself (:func:`compare_modes`) takes any
+    sequence of frames; ``scripts/bench_scene.py`` feeds it the scene library's Blender
+    scenes (Sponza ...), extracted frame by frame as the render engine does.
 
 Method: all contenders run side by side in one process on the same data, warmed up first
 (shader compilation, buffer growth, page faults), then in interleaved rounds so that load
@@ -42,11 +44,13 @@ import statistics
 import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
-from typing import Callable
+from typing import Callable, Iterable
 
 import numpy as np
 
 from . import gl_context, lbvh, lbvh_reference
+from .camera import Camera
+from .scene_data import SceneData
 from .scenes.chess import CHESS_CUBE_FAR, build_chess
 from .settings import CUBE_MARCHES, RenderSettings
 
@@ -346,61 +350,79 @@ def frame_section(detail: float = FULL_FRAME["detail"],
                   near_size: float = FRAME_NEAR_SIZE, max_depth: int = FRAME_MAX_DEPTH,
                   frame: int = FRAME_NUMBER, cube_march: str = "HIERARCHICAL") -> dict:
     """HYBRID vs FULL_BVH on consecutive frames of the procedural Chess animation, side by
-    side in one process.
-
-    Each mode has its own Renderer, as an application playing the animation would: frames
-    ``frame`` and ``frame + 1`` warm it up (shader compilation, buffer growth, the first
-    full upload, the shadow layers learning what moves), then frames ``frame + 2 ..
-    frame + rounds + 1`` are rendered with the modes alternating frame by frame. Each frame
-    re-uploads what moved and re-renders the dynamic shadow layer (pieces and spheres move
-    every frame), exactly as playback would. Frame and per-pass figures are
-    medians over the timed frames; ``flip_mean`` is the mean FLIP over them.
-    """
-    from .renderer import Renderer
-
+    side in one process (:func:`compare_modes`): frames ``frame`` and ``frame + 1`` warm the
+    renderers up, frames ``frame + 2 .. frame + rounds + 1`` are timed."""
     width, height = (int(v) for v in resolution)
     start = time.perf_counter()
     frames = [build_chess(detail, frame + k, width, height) for k in range(rounds + WARM_UP_FRAMES)]
     build_ms = (time.perf_counter() - start) * 1e3 / len(frames)
-    scene = frames[0][0]
     base = dict(near_size=float(near_size), max_depth=int(max_depth),
                 cube_resolution=int(cube_resolution), cube_far=CHESS_CUBE_FAR, cube_march=cube_march)
-    settings = {mode: RenderSettings(mode=mode, **base) for mode in ("HYBRID", "FULL_BVH")}
+    label = (f"chess (procedural, detail {detail:g}, frames {frame + WARM_UP_FRAMES}-"
+             f"{frame + WARM_UP_FRAMES + rounds - 1})")
+    report = compare_modes(frames, base, label, context={"detail": float(detail)})
+    report["scene_build_ms"] = round(build_ms, 3)
+    return report
+
+
+def compare_modes(frames: Iterable[tuple[SceneData, Camera]], base_settings: dict, label: str,
+                  context: dict | None = None) -> dict:
+    """HYBRID vs FULL_BVH on consecutive frames of one animation, side by side in one process.
+
+    ``frames``: (scene, camera) pairs in playback order, the first :data:`WARM_UP_FRAMES` of
+    them warm-up, the rest timed; any iterable, so a caller extracting frames from a large
+    scene can produce each one only when it is rendered. ``base_settings``: RenderSettings
+    keyword values shared by both modes (``mode`` is set here). ``label`` names the scene in
+    the report; ``context`` (e.g. the scene's detail) is reported among the settings.
+
+    Each mode has its own Renderer, as an application playing the animation would: the
+    warm-up frames pay for shader compilation, buffer growth, the first full upload and the
+    shadow layers learning what moves; the timed frames are rendered with the modes
+    alternating frame by frame, each re-uploading what moved and re-rendering the dynamic
+    shadow layer exactly as playback would. Frame and per-pass figures are medians over the
+    timed frames; ``flip_mean`` is the mean FLIP over them.
+    """
+    from .renderer import Renderer
+
+    settings = {mode: RenderSettings(**{**base_settings, "mode": mode}) for mode in ("HYBRID", "FULL_BVH")}
     ctx = gl_context.get_context()
     renderers = {mode: Renderer(ctx) for mode in settings}
-    totals: dict[str, list[float]] = {mode: [] for mode in settings}
-    passes: dict[str, dict[str, list[float]]] = {mode: {} for mode in settings}
     results: dict[str, list] = {mode: [] for mode in settings}
+    first: tuple[SceneData, Camera] | None = None
     try:
-        for warm_up in frames[:WARM_UP_FRAMES]:
-            for mode, mode_settings in settings.items():
-                renderers[mode].render(*warm_up, mode_settings)
-        for frame_scene, camera in frames[WARM_UP_FRAMES:]:
+        for index, (frame_scene, camera) in enumerate(frames):
+            if first is None:
+                first = (frame_scene, camera)
             for mode, mode_settings in settings.items():
                 result = renderers[mode].render(frame_scene, camera, mode_settings)
-                totals[mode].append(result.total_ms)
-                for name, ms in result.passes.items():
-                    passes[mode].setdefault(name, []).append(ms)
-                results[mode].append(result)
+                if index >= WARM_UP_FRAMES:
+                    results[mode].append(result)
     finally:
         for renderer in renderers.values():
             renderer.release()
+    if not results["HYBRID"]:
+        raise ValueError(f"compare_modes needs more than {WARM_UP_FRAMES} frames (the first are warm-up)")
+    return _comparison_report(first, settings["HYBRID"], results, label, context or {})
+
+
+def _comparison_report(first: tuple[SceneData, Camera], hybrid_settings: RenderSettings,
+                       results: dict[str, list], label: str, context: dict) -> dict:
+    """The figures of :func:`compare_modes` from the timed frames' results of both modes."""
+    scene, camera = first
     hybrid = results["HYBRID"][-1]
     full = results["FULL_BVH"][-1]
     flips = [flip_mean(f.image, h.image) for h, f in zip(results["HYBRID"], results["FULL_BVH"])]
-    hybrid_ms = statistics.median(totals["HYBRID"])
-    full_ms = statistics.median(totals["FULL_BVH"])
-    pass_medians = {mode: {name: round(statistics.median(v), 3) for name, v in by_pass.items()}
-                    for mode, by_pass in passes.items()}
+    hybrid_ms = statistics.median(r.total_ms for r in results["HYBRID"])
+    full_ms = statistics.median(r.total_ms for r in results["FULL_BVH"])
+    pass_medians = {mode: _pass_medians(mode_results) for mode, mode_results in results.items()}
     hybrid_no_upload = hybrid_ms - pass_medians["HYBRID"].get("upload", 0.0)
     full_no_upload = full_ms - pass_medians["FULL_BVH"].get("upload", 0.0)
     return {
-        "scene": f"chess (procedural, detail {detail:g}, frames {frame + WARM_UP_FRAMES}-"
-                 f"{frame + WARM_UP_FRAMES + rounds - 1})",
+        "scene": label,
         "triangles_total": int(scene.geometry.triangle_count),
         "triangles_bvh": int(hybrid.counts.get("triangles_bvh", 0)),
-        "resolution": f"{width}x{height}",
-        "max_depth": int(max_depth),
+        "resolution": f"{camera.width}x{camera.height}",
+        "max_depth": int(hybrid_settings.max_depth),
         "hybrid_ms": round(hybrid_ms, 3),
         "full_bvh_ms": round(full_ms, 3),
         "speedup": round(full_ms / hybrid_ms, 4),
@@ -408,12 +430,12 @@ def frame_section(detail: float = FULL_FRAME["detail"],
         "passes_hybrid": pass_medians["HYBRID"],
         "passes_full_bvh": pass_medians["FULL_BVH"],
         # Context for reading the figures above.
-        "detail": float(detail),
-        "near_size": float(near_size),
-        "cube_resolution": int(cube_resolution),
-        "cube_far": float(CHESS_CUBE_FAR),
-        "cube_march": cube_march,
-        "rounds": int(rounds),
+        **context,
+        "near_size": float(hybrid_settings.near_size),
+        "cube_resolution": int(hybrid_settings.cube_resolution),
+        "cube_far": float(hybrid_settings.cube_far),
+        "cube_march": hybrid_settings.cube_march,
+        "rounds": len(results["HYBRID"]),
         "flip_per_frame": [round(float(v), 5) for v in flips],
         "triangles_uploaded_median": int(statistics.median(
             r.counts.get("triangles_uploaded", 0) for r in results["HYBRID"])),
@@ -424,8 +446,16 @@ def frame_section(detail: float = FULL_FRAME["detail"],
         "rays_cube_map": int(hybrid.counts.get("rays_cube_map", 0)),
         "rays_full_bvh": int(full.counts.get("rays_traced", 0)),
         "speedup_without_upload": round(full_no_upload / max(hybrid_no_upload, 1e-9), 4),
-        "scene_build_ms": round(build_ms, 3),
     }
+
+
+def _pass_medians(results: list) -> dict[str, float]:
+    """Median milliseconds of every pass over the frames, in the order the passes ran."""
+    passes: dict[str, list[float]] = {}
+    for result in results:
+        for name, ms in result.passes.items():
+            passes.setdefault(name, []).append(ms)
+    return {name: round(statistics.median(values), 3) for name, values in passes.items()}
 
 
 # -- report ---------------------------------------------------------------------------------

@@ -22,8 +22,6 @@ from .scene_data import Geometry
 # Changed triangles closer than this are uploaded as one range: one buffer write per range
 # costs more than a few kilobytes of unchanged data.
 MERGE_GAP_TRIANGLES = 2048
-# Above this fraction of changed triangles a whole upload is as cheap as ranges.
-FULL_UPLOAD_FRACTION = 0.5
 
 
 @dataclass(frozen=True)
@@ -125,13 +123,12 @@ class GeometryTracker:
         changed = int(mask.sum())
         if changed == 0:
             return GeometryDelta(full=False, sequence=seq)
-        if changed > FULL_UPLOAD_FRACTION * n:
-            ranges = [(0, n)]
-            full = True
-        else:
-            ranges = merge_ranges(mask)
-            full = False
+        # Ranges even when most triangles moved: writing them costs no more than a whole
+        # upload (the arrays go to the GPU as they are, gpu_scene.py), and ``full`` stays
+        # reserved for layout changes, so that consumers keeping per-object state (the
+        # shadow layers) still learn which objects stayed still.
+        ranges = merge_ranges(mask)
         for name, a in arrays.items():
             for first, count in ranges:
                 last[name][first:first + count] = a[first:first + count]
-        return GeometryDelta(full=full, ranges=tuple(ranges), changed_triangles=changed, sequence=seq)
+        return GeometryDelta(full=False, ranges=tuple(ranges), changed_triangles=changed, sequence=seq)

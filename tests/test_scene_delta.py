@@ -78,13 +78,18 @@ def test_close_changes_merge_into_one_range_and_distant_ones_do_not():
     assert merge_ranges(np.zeros(5, bool)) == []
 
 
-def test_moving_most_triangles_falls_back_to_a_full_upload(rng):
+def test_moving_most_triangles_still_yields_ranges_not_a_full_upload(rng):
+    """A large object moving (Sponza's dragon is two thirds of the scene) is a range like any
+    other: ``full`` means a layout change only, so per-object consumers (the shadow layers)
+    keep knowing which objects stayed still."""
     tracker = GeometryTracker()
     geo = geometry(rng)
     tracker.update(geo)
-    geo.triangles[: geo.triangle_count * 3 // 4] *= 2
+    moved = geo.triangle_count * 3 // 4
+    geo.triangles[:moved] *= 2
     delta = tracker.update(geo)
-    assert delta.full and delta.ranges == ((0, geo.triangle_count),)
+    assert not delta.full and delta.ranges == ((0, moved),)
+    assert delta.changed_triangles == moved
 
 
 @pytest.mark.parametrize("shape", [(500,), (500, 3, 2), (500, 3, 3), (500, 6, 3), (3, 3, 3)])

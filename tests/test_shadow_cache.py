@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybrid_engine import RenderSettings
+from hybrid_engine import Geometry, RenderSettings
 from hybrid_engine.renderer import Renderer
-from hybrid_engine.scene_delta import GeometryDelta
+from hybrid_engine.scene_delta import GeometryDelta, GeometryTracker
 from hybrid_engine.scenes.chess import build_chess
 from hybrid_engine.shadow_cache import PROMOTE_AFTER_FRAMES, ShadowCache, changed_objects, snapped_bounds
 
@@ -60,6 +60,25 @@ def test_plan_demotes_a_moving_object_once_then_renders_only_the_dynamic_layer()
     assert not again.render_static and again.render_dynamic
     rest = cache.plan(RANGES, delta(5), key=("k",))
     assert not rest.anything
+
+
+def test_a_large_object_moving_every_frame_leaves_the_static_layer_alone():
+    """Three quarters of the triangles moving (one large object) re-render the dynamic layer
+    only, after the one demotion."""
+    cache = ShadowCache()
+    tracker = GeometryTracker()
+    rng = np.random.default_rng(5)
+    parts = [(rng.random((n, 3, 3)).astype(np.float32), None, 0) for n in (100, 900, 200)]
+    geo = Geometry.from_objects(parts)
+    plans = []
+    for frame in range(4):
+        geo = Geometry(geo.triangles.copy(), geo.normals, geo.material_ids, geo.object_ranges, geo.object_bounds)
+        if frame:
+            geo.triangles[100:1000] += 0.5  # the large object moves
+        plans.append(cache.plan(geo.object_ranges, tracker.update(geo), key=("k",)))
+    assert plans[1].render_static and plans[1].static_mask.tolist() == [True, False, True]
+    for plan in plans[2:]:
+        assert plan.render_dynamic and not plan.render_static
 
 
 def test_plan_promotes_an_object_after_it_rested():

@@ -203,12 +203,18 @@ class RasterPasses:
         self.gbuffer_prog = shader_loader.program(
             ctx, vertex="raster/gbuffer.vert.glsl", fragment="raster/gbuffer.frag.glsl"
         )
+        # The cube-map faces' variant leaves refractive surfaces out (gbuffer.frag.glsl). A
+        # variant of its own, because a shader that may discard loses the early depth test.
+        self.cube_gbuffer_prog = shader_loader.program(
+            ctx, vertex="raster/gbuffer.vert.glsl", fragment="raster/gbuffer.frag.glsl",
+            defines={"SKIP_REFRACTIVE": 1})
         self.shadow_prog = shader_loader.program(
             ctx, vertex="raster/shadow_depth.vert.glsl", fragment="raster/shadow_depth.frag.glsl"
         )
         self.shade_prog = shader_loader.compute(ctx, "raster/deferred_shade.comp.glsl")
         self._size: tuple[int, int] | None = None
         self._gbuffer_vao = None
+        self._cube_gbuffer_vao = None
         self._shadow_vao = None
         self._vao_generation = -1
         # Two depth layers per shadow slot (hybrid_engine/shadow_cache.py): objects at rest
@@ -237,10 +243,12 @@ class RasterPasses:
     def _ensure_vaos(self, gpu: GPUScene) -> None:
         if self._vao_generation == gpu.generation and self._gbuffer_vao is not None:
             return
-        for vao in (self._gbuffer_vao, self._shadow_vao):
+        for vao in (self._gbuffer_vao, self._cube_gbuffer_vao, self._shadow_vao):
             if vao is not None:
                 vao.release()
         self._gbuffer_vao = self.ctx.vertex_array(self.gbuffer_prog, gpu.vertex_content(self.gbuffer_prog))
+        self._cube_gbuffer_vao = self.ctx.vertex_array(self.cube_gbuffer_prog,
+                                                       gpu.vertex_content(self.cube_gbuffer_prog))
         self._shadow_vao = self.ctx.vertex_array(self.shadow_prog, gpu.vertex_content(self.shadow_prog))
         self._vao_generation = gpu.generation
 
@@ -333,16 +341,17 @@ class RasterPasses:
         targets.fbo.viewport = (int(origin[0]), int(origin[1]), view.width, view.height)
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE)  # Blender shades both sides of a face
-        self.gbuffer_prog["u_view_proj"].write(gl_matrix(view.view_proj))
-        self.gbuffer_prog["u_skip_refractive"].value = int(skip_refractive)
+        prog, vao = ((self.cube_gbuffer_prog, self._cube_gbuffer_vao) if skip_refractive
+                     else (self.gbuffer_prog, self._gbuffer_vao))
+        prog["u_view_proj"].write(gl_matrix(view.view_proj))
         gpu.materials.buffer.bind_to_storage_buffer(0)
         gpu.bind_triangle_materials()
         gpu.textures.use(0)
-        if "u_textures" in self.gbuffer_prog:
-            self.gbuffer_prog["u_textures"].value = 0
+        if "u_textures" in prog:
+            prog["u_textures"].value = 0
         if culled is not None:
-            return culled.draw(self.gbuffer_prog, gpu, view_index)
-        return self.draw_world(self._gbuffer_vao, view.view_proj, scene)
+            return culled.draw(prog, gpu, view_index)
+        return self.draw_world(vao, view.view_proj, scene)
 
     def shadow_views(self, scene: SceneData) -> tuple[list[ShadowView], list[tuple[int, int]]]:
         """This frame's shadow slots, fitted to the scene's bounds snapped to a grid (so that
@@ -440,7 +449,7 @@ class RasterPasses:
     def release(self) -> None:
         if self.primary is not None:
             self.primary.release()
-        _release_all((self._gbuffer_vao,
+        _release_all((self._gbuffer_vao, self._cube_gbuffer_vao,
                       self._shadow_vao, self._shadow_fbo, self._shadow_atlas, self._shadow_dynamic_fbo,
                       self._shadow_dynamic, self._slot_buffer,
                       self._sky_texture, self._dummy_env))

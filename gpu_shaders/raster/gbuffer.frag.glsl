@@ -17,11 +17,12 @@
 // then hits the object's own inside (speckles on curved mirrors). Derivatives of the world
 // position give it exactly: two differences of points on one plane lie in that plane.
 // Depth: the hardware depth buffer (DEPTH32F); positions are reconstructed from it.
-// u_skip_refractive (the cube-map faces): refractive surfaces are left out, so the faces hold
-// what lies behind them. The map has one layer; a ray refracted at a surface outside the
-// near cube finds the scene behind it there (paper Figure 8: refractive objects in the cube
-// map are thin, refract once and look the cube map up), and rays that meet such an object in
-// the map pass it as a thin clear sheet.
+// SKIP_REFRACTIVE defined (the cube-map faces' variant): refractive surfaces are left out, so
+// the faces hold what lies behind them. The map has one layer; a ray refracted at a surface
+// outside the near cube finds the scene behind it there (paper Figure 8: refractive objects
+// in the cube map are thin, refract once and look the cube map up), and rays that meet such
+// an object in the map pass it as a thin clear sheet. Only that variant may discard: a shader
+// that can discard loses the early depth test.
 // Samplers: u_textures (textures.glsl), sampled with the UV derivatives of the fragment
 // (mipmaps, anisotropic filtering).
 #include "scene_layout.glsl"
@@ -35,15 +36,15 @@ in vec3 v_normal;
 in vec2 v_uv;
 flat in int v_material;
 
-uniform int u_skip_refractive;
-
 layout(location = 0) out vec4 out_normal_material;
 layout(location = 1) out vec4 out_albedo;
 layout(location = 2) out vec4 out_emission_scale;
 
 void main() {
     Material m = materials[v_material];
-    if (u_skip_refractive != 0 && m.emission_trans.a > 0.0) discard;
+#ifdef SKIP_REFRACTIVE
+    if (m.emission_trans.a > 0.0) discard;
+#endif
     // Derivatives outside any branch (they are undefined in non-uniform control flow).
     vec3 geometric = cross(dFdx(v_world), dFdy(v_world));
     float geometric_len2 = dot(geometric, geometric);

@@ -51,6 +51,7 @@ MATERIAL_ID_BINDING = 8
 NORMAL_BYTES = 36  # three float32 vec3 per triangle: Geometry.normals as uploaded
 
 
+# struct TriangleUV (hybrid_trace.comp.glsl)                          // total: 32 bytes
 TRIANGLE_UV_DTYPE = np.dtype([("uv01", np.float32, 4), ("uv2_scale", np.float32, 4)])
 assert TRIANGLE_UV_DTYPE.itemsize == 32
 

@@ -148,6 +148,17 @@ class RasterView:
         return cls(camera.view_projection(), camera.position, camera.forward,
                    camera.projection == "ORTHO", int(camera.width), int(camera.height))
 
+    def uniforms(self) -> dict:
+        """The camera uniforms that the passes reconstructing positions from a G-buffer
+        share (deferred_shade.comp.glsl, hybrid_trace.comp.glsl)."""
+        return {
+            "u_inv_view_proj": gl_matrix(np.linalg.inv(self.view_proj)),
+            "u_camera_position": tuple(np.asarray(self.position, float)),
+            "u_camera_forward": tuple(np.asarray(self.forward, float)),
+            "u_orthographic": int(self.orthographic),
+            "u_size": (self.width, self.height),
+        }
+
 
 class GBufferTargets:
     """A G-buffer (depth, normal + material, albedo, emission scale) and its shaded colour,
@@ -425,11 +436,7 @@ class RasterPasses:
                 prog[name].value = unit
         targets.color.bind_to_image(0, read=False, write=True)
         values = {
-            "u_inv_view_proj": gl_matrix(np.linalg.inv(view.view_proj)),
-            "u_camera_position": tuple(np.asarray(view.position, float)),
-            "u_camera_forward": tuple(np.asarray(view.forward, float)),
-            "u_orthographic": int(view.orthographic),
-            "u_size": (view.width, view.height),
+            **view.uniforms(),
             "u_origin": (int(origin[0]), int(origin[1])),
             "u_light_count": len(scene.lights),
             "u_shadow_bias": float(settings.shadow_bias),

@@ -29,7 +29,7 @@ from .gpu_scene import GPUScene, bytes_of
 from .gpu_dispatch import GrowBuffer, bind_blocks, split_blocks, storage_barrier
 from .lbvh import BuiltLBVH, LBVHBuilder
 from .near_cube import CullResult, NearCubeCuller, overlap_margin
-from .raster import GBufferTargets, RasterPasses, RasterView, gl_matrix
+from .raster import GBufferTargets, RasterPasses, RasterView
 from .scene_data import Geometry, SceneData
 from .scene_delta import GeometryDelta
 from .settings import FIELD_LIMITS, RenderSettings
@@ -249,11 +249,7 @@ class HybridTracer:
         # Uniforms.
         center = np.asarray(center, np.float64)
         values = {
-            "u_inv_view_proj": gl_matrix(np.linalg.inv(view.view_proj)),
-            "u_camera_position": tuple(np.asarray(view.position, float)),
-            "u_camera_forward": tuple(np.asarray(view.forward, float)),
-            "u_orthographic": int(view.orthographic),
-            "u_size": (view.width, view.height),
+            **view.uniforms(),
             "u_mode": TRACE_MODES[mode],
             "u_max_depth": int(settings.max_depth),
             "u_near_center": tuple(center),

@@ -82,30 +82,30 @@ layout(std430, binding = 8) readonly buffer TriangleMaterials { int tri_material
 
 #define TRI_NORMAL_AT(array, base) vec3(array[(base)], array[(base) + 1u], array[(base) + 2u])
 
+// The shading normal of corner `corner` of original triangle `tri` (the block picked as in
+// triangle_input.glsl input_vertex).
+vec3 corner_normal(uint tri, uint corner) {
+#if TRI_NORMAL_BLOCKS == 1
+    return TRI_NORMAL_AT(tri_normals, tri * 9u + corner * 3u);
+#else
+    uint block = STORAGE_BLOCK_OF(tri, TRI_NORMAL_BLOCK_SIZE, TRI_NORMAL_BLOCKS);
+    uint base = (tri - block * uint(TRI_NORMAL_BLOCK_SIZE)) * 9u + corner * 3u;
+#if TRI_NORMAL_BLOCKS > 3
+    if (block == 3u) return TRI_NORMAL_AT(tri_normals3, base);
+#endif
+#if TRI_NORMAL_BLOCKS > 2
+    if (block == 2u) return TRI_NORMAL_AT(tri_normals2, base);
+#endif
+    if (block == 1u) return TRI_NORMAL_AT(tri_normals1, base);
+    return TRI_NORMAL_AT(tri_normals, base);
+#endif
+}
+
 // The shading normal interpolated at barycentrics (b1, b2) of original triangle `tri`.
 vec3 interpolated_normal(int tri, vec2 bary) {
     uint i = uint(tri);
-#if TRI_NORMAL_BLOCKS == 1
-    uint base = i * 9u;
-#define TRI_NORMAL_FETCH(corner) TRI_NORMAL_AT(tri_normals, base + (corner) * 3u)
-#else
-    uint block = STORAGE_BLOCK_OF(i, TRI_NORMAL_BLOCK_SIZE, TRI_NORMAL_BLOCKS);
-    uint base = (i - block * uint(TRI_NORMAL_BLOCK_SIZE)) * 9u;
-#if TRI_NORMAL_BLOCKS > 3
-#define TRI_NORMAL_FETCH(corner) (block == 0u ? TRI_NORMAL_AT(tri_normals, base + (corner) * 3u) : \
-    block == 1u ? TRI_NORMAL_AT(tri_normals1, base + (corner) * 3u) : \
-    block == 2u ? TRI_NORMAL_AT(tri_normals2, base + (corner) * 3u) : TRI_NORMAL_AT(tri_normals3, base + (corner) * 3u))
-#elif TRI_NORMAL_BLOCKS > 2
-#define TRI_NORMAL_FETCH(corner) (block == 0u ? TRI_NORMAL_AT(tri_normals, base + (corner) * 3u) : \
-    block == 1u ? TRI_NORMAL_AT(tri_normals1, base + (corner) * 3u) : TRI_NORMAL_AT(tri_normals2, base + (corner) * 3u))
-#else
-#define TRI_NORMAL_FETCH(corner) (block == 0u ? TRI_NORMAL_AT(tri_normals, base + (corner) * 3u) : \
-    TRI_NORMAL_AT(tri_normals1, base + (corner) * 3u))
-#endif
-#endif
-    return (1.0 - bary.x - bary.y) * TRI_NORMAL_FETCH(0u) + bary.x * TRI_NORMAL_FETCH(1u)
-           + bary.y * TRI_NORMAL_FETCH(2u);
-#undef TRI_NORMAL_FETCH
+    return (1.0 - bary.x - bary.y) * corner_normal(i, 0u) + bary.x * corner_normal(i, 1u)
+           + bary.y * corner_normal(i, 2u);
 }
 
 #include "textures.glsl"

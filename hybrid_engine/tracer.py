@@ -29,7 +29,7 @@ from .gpu_scene import GPUScene, bytes_of
 from .gpu_dispatch import GrowBuffer, bind_blocks, split_blocks, storage_barrier
 from .lbvh import BuiltLBVH, LBVHBuilder
 from .near_cube import CullResult, NearCubeCuller, overlap_margin
-from .raster import GBufferTargets, RasterPasses, RasterView
+from .raster import GBufferTargets, RasterPasses, RasterView, SceneBounds
 from .scene_data import Geometry, SceneData
 from .scene_delta import GeometryDelta
 from .settings import FIELD_LIMITS, RenderSettings
@@ -54,6 +54,22 @@ NORMAL_BYTES = 36  # three float32 vec3 per triangle: Geometry.normals as upload
 # struct TriangleUV (hybrid_trace.comp.glsl)                          // total: 32 bytes
 TRIANGLE_UV_DTYPE = np.dtype([("uv01", np.float32, 4), ("uv2_scale", np.float32, 4)])
 assert TRIANGLE_UV_DTYPE.itemsize == 32
+
+
+# Padding of the scene bounds the tracer clips rays to (relative to their extent, plus an
+# absolute floor): float rounding of the box slabs must not cut a surface on the boundary.
+SCENE_BOUNDS_PADDING = 1e-3
+
+
+def scene_bound_uniforms(bounds: SceneBounds) -> dict:
+    """hybrid_trace.comp.glsl's u_scene_* uniforms: the padded bounds of all geometry, past
+    which a ray can hit nothing (the sky), or unbounded for a scene with no finite geometry."""
+    if bounds.empty:
+        return {"u_scene_bounded": 0, "u_scene_lo": (0.0, 0.0, 0.0), "u_scene_hi": (0.0, 0.0, 0.0)}
+    pad = SCENE_BOUNDS_PADDING * (float(np.max(bounds.hi - bounds.lo)) + 1.0)
+    return {"u_scene_bounded": 1,
+            "u_scene_lo": tuple(float(v) for v in bounds.lo - pad),
+            "u_scene_hi": tuple(float(v) for v in bounds.hi + pad)}
 
 
 def pack_triangle_uvs(scene: SceneData, geometry: Geometry | None = None) -> np.ndarray:
@@ -261,6 +277,7 @@ class HybridTracer:
             "u_sky_strength": float(scene.sky.strength),
             "u_sky_has_env": int(raster._sky_texture is not None),
         }
+        values.update(scene_bound_uniforms(SceneBounds.of(scene)))
         values["u_pixel_width"], values["u_pixel_spread"] = pixel_footprint(
             view.view_proj, view.height, view.orthographic)
         if cube is not None:

@@ -269,9 +269,9 @@ def test_a_glass_ball_in_the_cube_map_shows_the_backdrop_behind_it_not_the_sky(r
     assert backdrop.all() and not sky.any(), disc
 
 
-def thickness_scene(thickness):
+def thickness_scene(thickness, wall=True):
     """A mirror in the BVH sends rays behind a small red box that lies in the cube map; a
-    blue wall stands far behind it."""
+    blue wall stands far behind it (unless ``wall`` is False)."""
     incoming = np.array([3.0, 5.0, 0.0]) / np.linalg.norm([3.0, 5.0, 0.0])
     outgoing = np.array([-4.0, 10.0, 0.0]) / np.linalg.norm([-4.0, 10.0, 0.0])
     normal = (outgoing - incoming) / np.linalg.norm(outgoing - incoming)
@@ -280,8 +280,7 @@ def thickness_scene(thickness):
     return make_scene([
         (quad((3, 5, 0), tangent * 0.6, (0, 0, 0.6)), None, MIRROR),
         (box((-0.6, 10.0, -0.6), (0.6, 10.2, 0.6)), None, RED),
-        (quad((0, 40, 0), (40, 0, 0), (0, 0, 40)), None, BLUE),
-    ], mats=mats)
+    ] + ([(quad((0, 40, 0), (40, 0, 0), (0, 0, 40)), None, BLUE)] if wall else []), mats=mats)
 
 
 def mirror_colours(image, camera, scene):
@@ -309,6 +308,25 @@ def test_cube_map_thickness_zero_lets_rays_pass_behind_and_one_stretches_to_the_
     assert truth < 0.2, truth  # the rays really pass behind the box
     assert shares[0.0] <= truth + 0.1, shares
     assert shares[1.0] >= truth + 0.3, shares  # stretched: the box hides the wall
+
+
+def test_rays_leaving_the_bounds_of_all_geometry_see_the_sky_not_a_stretched_surface(renderer):
+    """The thickness scene without its far wall: behind the solid red box (thickness 1, it
+    stretches to the far plane) the rays leave the bounds of all geometry, so nothing can
+    be hit there. FULL_BVH shows the sky; HYBRID must too, where a march that ignored the
+    bounds would find the stretched box at depths no geometry reaches."""
+    camera = camera_at((0, 0, 0), (3, 5, 0), lens=60.0)
+    scene = thickness_scene(1.0, wall=False)
+    walled = thickness_scene(1.0)
+    full = red_share(mirror_colours(render(renderer, walled, camera, "FULL_BVH").image, camera, walled))
+    assert full < 0.2, full  # the rays really pass behind the box
+    shares = {}
+    for name, s in (("walled", walled), ("open", scene)):
+        # Fine faces: hits may lie a depth bias (a few texels' worth) past the bounds.
+        result = render(renderer, s, camera, "HYBRID", near_size=7.0, cube_resolution=1024)
+        shares[name] = red_share(mirror_colours(result.image, camera, s))
+    assert shares["walled"] >= full + 0.3, shares  # inside the bounds the box still stretches
+    assert shares["open"] <= full + 0.1, shares
 
 
 def test_the_sky_is_returned_past_the_cube_map_far_plane(renderer):

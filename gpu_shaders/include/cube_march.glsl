@@ -2,14 +2,17 @@
 // Ray marching through the G-buffer cube map (paper §3.4, "BVH and Cube Map Traversal").
 //
 //   CubeMarch cube_march(vec3 o, vec3 d, float t_start)
+//   CubeMarch cube_march_limited(vec3 o, vec3 d, float t_start, float t_limit)
 //
-// follows the world ray r_w(t) = o + d t (|d| = 1) from r_w(t_start) through the six face
+// follows the world ray r_w(t) = o + d t (|d| = 1) from r_w(t_start) (up to r_w(t_limit):
+// past it the ray is given the sky; the tracer passes where the ray leaves the bounds of
+// all geometry, grown by cube_max_hit_overshoot) through the six face
 // G-buffers of hybrid_engine/cube_map.py (atlas, face i at texels [i res, (i+1) res) in x) and
 // returns one of
 //   CUBE_HIT     a stored surface: its face, atlas texel, position reconstructed from the
 //                face's depth, stored normal and material;
-//   CUBE_SKY     the ray left a face through its far plane (NDC z > 1), or never entered a
-//                face (an origin beyond the far planes);
+//   CUBE_SKY     the ray left a face through its far plane (NDC z > 1), passed t_limit, or
+//                never entered a face (an origin beyond the far planes);
 //   CUBE_TO_BVH  the ray left a face through its near plane (NDC z < -1): it re-enters the
 //                near cube at world parameter t (the caller continues in the BVH).
 //
@@ -94,6 +97,8 @@ uniform int u_cube_hierarchical;
 #define CUBE_TO_BVH 2
 
 #define CUBE_MAX_FACE_SWITCHES 8
+// cube_march_limited's t_limit meaning "no limit".
+#define CUBE_NO_LIMIT 1e30
 #define CUBE_REFINE_STEPS 6
 // Fetches one face's hierarchical march may take before the ray is given the sky. A walk
 // needs at most (levels + 1) fetches per texel crossed; real rays take a few dozen.
@@ -163,6 +168,15 @@ float cube_depth_bias(int face, vec3 ndc, float surface, vec3 normal) {
     float slope = c > 0.0 ? min(sqrt(max(1.0 - c * c, 0.0)) / c, CUBE_MAX_SLOPE) : CUBE_MAX_SLOPE;
     float texel_angle = 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
     return surface * (CUBE_BIAS_RELATIVE + texel_angle * slope);
+}
+
+// How far past its surface a hit may lie, relative to the surface's depth: a ray is taken to
+// hit where it reaches A = S + b (b at most S (bias + texel angle x max slope)), up to a
+// texel diagonal to the side. A caller that clips rays to the bounds of the geometry scales
+// them about u_cube_center by 1 + this, so that no such hit is cut off.
+float cube_max_hit_overshoot() {
+    float texel_angle = 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
+    return CUBE_BIAS_RELATIVE + texel_angle * (CUBE_MAX_SLOPE + 1.5);
 }
 
 // The hit interval (A, B] of an atlas texel as NDC depths (see the header), or
@@ -261,7 +275,7 @@ bool cube_sample_hits(int face, vec3 s, float prev_lin, out ivec2 texel, out vec
     return r <= surface + thickness * (u_cube_far - surface);
 }
 
-CubeMarch cube_march(vec3 o, vec3 d, float t_start) {
+CubeMarch cube_march_limited(vec3 o, vec3 d, float t_start, float t_limit) {
     CubeMarch res;
     res.kind = CUBE_SKY;
     res.face = -1;
@@ -271,6 +285,8 @@ CubeMarch cube_march(vec3 o, vec3 d, float t_start) {
     res.material = 0;
     res.t = t_start;
     res.switches = 0;
+
+    if (!(t_start < t_limit)) return res;  // nothing left to march: the sky
 
     // The first face whose frustum contains the start point.
     vec3 q = o + d * t_start;
@@ -302,6 +318,19 @@ CubeMarch cube_march(vec3 o, vec3 d, float t_start) {
         vec3 t_axes = mix((bound - a) / safe, vec3(1e30), lessThan(abs(dm), vec3(1e-30)));
         int axis = t_axes.x <= t_axes.y ? (t_axes.x <= t_axes.z ? 0 : 2) : (t_axes.y <= t_axes.z ? 1 : 2);
         float t_exit = max(t_axes[axis], 0.0);
+        // The world limit in map units: r_w(t_limit) projects onto the map ray (a line
+        // maps to a line while w > 0, and w, linear in t, is positive at both ends).
+        bool limited = false;
+        if (t_limit < CUBE_NO_LIMIT) {
+            vec4 lc = u_face_view_proj[face] * vec4(o + d * t_limit, 1.0);
+            if (lc.w > 0.0) {
+                float s_limit = dot(lc.xyz / lc.w - a, dm);
+                if (s_limit < t_exit) {
+                    t_exit = max(s_limit, 0.0);
+                    limited = true;
+                }
+            }
+        }
 
         if (u_cube_hierarchical != 0) {
             ivec2 texel;
@@ -368,6 +397,7 @@ CubeMarch cube_march(vec3 o, vec3 d, float t_start) {
             }
         }
 
+        if (limited) return res;  // past the limit: nothing more to hit, the sky
         vec3 e = a + dm * t_exit;
         if (axis == 2) {
             if (dm.z > 0.0) return res;  // far plane: the sky
@@ -401,6 +431,10 @@ CubeMarch cube_march(vec3 o, vec3 d, float t_start) {
         res.switches += 1;
     }
     return res;  // too many switches: the sky
+}
+
+CubeMarch cube_march(vec3 o, vec3 d, float t_start) {
+    return cube_march_limited(o, d, t_start, CUBE_NO_LIMIT);
 }
 
 #endif

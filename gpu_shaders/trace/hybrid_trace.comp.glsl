@@ -10,7 +10,10 @@
 //     everything in one BVH over the whole scene and a miss is the sky;
 //   * in the BVH: closest hit (bvh_traverse.glsl) up to the point where the ray leaves the
 //     near cube (grown by the culling overlap), then the cube map from that point;
-//   * in the cube map: cube_march.glsl; a hit, the sky, or back into the BVH (z < -1);
+//   * in the cube map: cube_march.glsl; a hit, the sky, or back into the BVH (z < -1); the
+//     march ends where the ray leaves the bounds of all geometry (u_scene_lo/hi, grown by
+//     the march's depth bias): nothing lies past them, and sky-bound rays, most of a
+//     scene's reflections, no longer walk the faces on to their far planes;
 //   * a BVH hit is shaded like the deferred pass (shading.glsl: emission + diffuse with
 //     shadow maps) and spawns the reflected ray (mirror lobe tinted by the base colour, plus
 //     the Fresnel part of the glass lobe) and the refracted ray (Snell, total internal
@@ -146,6 +149,9 @@ uniform int u_max_depth;     // 0..MAX_DEPTH_LIMIT
 uniform vec3 u_near_center;  // the near cube (camera position)
 uniform float u_near_half;   // its half-size (near_size): decides where a ray starts
 uniform float u_bvh_half;    // half-size of the culled region (near_size + overlap)
+uniform int u_scene_bounded; // 1: u_scene_lo/hi bound all geometry (padded); 0: empty scene
+uniform vec3 u_scene_lo;
+uniform vec3 u_scene_hi;
 
 #define MODE_HYBRID 0
 #define MODE_FULL_BVH 1
@@ -191,10 +197,8 @@ bool inside_near_cube(vec3 p) {
     return all(lessThanEqual(abs(p - u_near_center), vec3(u_near_half)));
 }
 
-// [enter, exit] of the ray with the BVH region (the culled cube); enter > exit: no overlap.
-vec2 bvh_region_interval(vec3 o, vec3 d) {
-    vec3 lo = u_near_center - vec3(u_bvh_half);
-    vec3 hi = u_near_center + vec3(u_bvh_half);
+// [enter, exit] of the ray with the box [lo, hi]; enter > exit: no overlap.
+vec2 box_interval(vec3 o, vec3 d, vec3 lo, vec3 hi) {
     vec3 safe = mix(d, vec3(1e-30), lessThan(abs(d), vec3(1e-30)));
     vec3 inv = 1.0 / safe;
     vec3 t0 = (lo - o) * inv;
@@ -202,6 +206,11 @@ vec2 bvh_region_interval(vec3 o, vec3 d) {
     vec3 tn = min(t0, t1);
     vec3 tf = max(t0, t1);
     return vec2(max(max(tn.x, tn.y), tn.z), min(min(tf.x, tf.y), tf.z));
+}
+
+// [enter, exit] of the ray with the BVH region (the culled cube).
+vec2 bvh_region_interval(vec3 o, vec3 d) {
+    return box_interval(o, d, u_near_center - vec3(u_bvh_half), u_near_center + vec3(u_bvh_half));
 }
 
 vec3 offset_origin(vec3 p, vec3 towards) {
@@ -236,6 +245,21 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary) {
     return h;
 }
 
+// Where the ray leaves the bounds of all geometry (-1: it misses them; CUBE_NO_LIMIT: no
+// bounds). Past them neither the BVH nor the cube map holds anything to hit, so the march
+// stops there instead of walking the faces on to their far planes. The march takes a hit a
+// little behind its surface (the depth bias), so the bounds grow away from the map's centre
+// by that much (cube_max_hit_overshoot); a ray behind a thick object past them meets a
+// stretch of it, not the object itself.
+float scene_exit(vec3 o, vec3 d) {
+    if (u_scene_bounded == 0) return CUBE_NO_LIMIT;
+    float grow = 1.0 + cube_max_hit_overshoot();
+    vec3 lo = u_scene_lo - u_cube_center;
+    vec3 hi = u_scene_hi - u_cube_center;
+    vec2 span = box_interval(o, d, u_cube_center + min(lo, lo * grow), u_cube_center + max(hi, hi * grow));
+    return span.y < max(span.x, 0.0) ? -1.0 : span.y;
+}
+
 // Follow one ray through the BVH and the cube map until it hits something or the sky.
 Hit trace_ray(vec3 o, vec3 d, int depth) {
     Hit h;
@@ -252,43 +276,43 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
     float t;
     int leaf;
     vec2 bary;
-    if (u_mode == MODE_FULL_BVH) {
-        if (bvh_closest_leaf(o, d, 0.0, FLOAT_MAX, t, leaf, bary)) h = bvh_hit(o, d, t, leaf, bary);
-    } else {
-        bool in_bvh = inside_near_cube(o);
-        float t_cur = 0.0;
-        for (int seg = 0; seg < MAX_SEGMENTS; ++seg) {
-            if (in_bvh) {
-                vec2 span = bvh_region_interval(o, d);
-                float t0 = max(t_cur, span.x);
-                float t1 = span.y;
-                if (t0 <= t1 && bvh_closest_leaf(o, d, t0, t1, t, leaf, bary)) {
-                    h = bvh_hit(o, d, t, leaf, bary);
-                    break;
-                }
-                // Leave the near cube: continue in the cube map at the exit point.
-                t_cur = max(t_cur, t1);
-                in_bvh = false;
-            } else {
-                reached_cube = true;
-                CubeMarch cm = cube_march(o, d, t_cur);
-                if (cm.kind == CUBE_HIT) {
-                    h.kind = HIT_CUBE;
-                    h.position = cm.position;
-                    h.normal = safe_normalize(cm.normal, -d);
-                    h.geometric = gbuffer_geometric(texelFetch(u_cube_albedo, cm.texel, 0).a,
-                                                    texelFetch(u_cube_emission_scale, cm.texel, 0).a, h.normal);
-                    h.material = cm.material;
-                    h.texel = cm.texel;
-                    break;
-                }
-                if (cm.kind == CUBE_SKY) break;
-                // Back through a near plane into the near cube (paper: "using the original
-                // ray r_w"); never step backwards along the ray.
-                reentered = true;
-                t_cur = max(t_cur, cm.t);
-                in_bvh = true;
+    // One traversal serves both modes: FULL_BVH is a single BVH segment over the whole
+    // scene whose miss is the sky.
+    bool full = u_mode == MODE_FULL_BVH;
+    bool in_bvh = full || inside_near_cube(o);
+    float t_cur = 0.0;
+    for (int seg = 0; seg < MAX_SEGMENTS; ++seg) {
+        if (in_bvh) {
+            vec2 span = full ? vec2(0.0, FLOAT_MAX) : bvh_region_interval(o, d);
+            float t0 = max(t_cur, span.x);
+            float t1 = span.y;
+            if (t0 <= t1 && bvh_closest_leaf(o, d, t0, t1, t, leaf, bary)) {
+                h = bvh_hit(o, d, t, leaf, bary);
+                break;
             }
+            if (full) break;
+            // Leave the near cube: continue in the cube map at the exit point.
+            t_cur = max(t_cur, t1);
+            in_bvh = false;
+        } else {
+            reached_cube = true;
+            CubeMarch cm = cube_march_limited(o, d, t_cur, scene_exit(o, d));
+            if (cm.kind == CUBE_HIT) {
+                h.kind = HIT_CUBE;
+                h.position = cm.position;
+                h.normal = safe_normalize(cm.normal, -d);
+                h.geometric = gbuffer_geometric(texelFetch(u_cube_albedo, cm.texel, 0).a,
+                                                texelFetch(u_cube_emission_scale, cm.texel, 0).a, h.normal);
+                h.material = cm.material;
+                h.texel = cm.texel;
+                break;
+            }
+            if (cm.kind == CUBE_SKY) break;
+            // Back through a near plane into the near cube (paper: "using the original
+            // ray r_w"); never step backwards along the ray.
+            reentered = true;
+            t_cur = max(t_cur, cm.t);
+            in_bvh = true;
         }
     }
     count(COUNT_TRACED, depth);

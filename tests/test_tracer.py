@@ -484,3 +484,18 @@ def test_shading_normals_split_over_storage_blocks_render_the_same_image(rendere
         split = render(renderer, scene, camera, "HYBRID", near_size=7.0)
     assert split.counts["triangles_bvh"] == bvh
     np.testing.assert_array_equal(split.image, whole.image)
+
+
+def test_the_march_bounds_are_padded_around_the_geometry_and_absent_for_an_empty_scene():
+    from hybrid_engine.raster import SceneBounds
+    from hybrid_engine.tracer import scene_bound_uniforms
+    empty = scene_bound_uniforms(SceneBounds.of(make_scene([])))
+    assert empty["u_scene_bounded"] == 0  # nothing bounds the march: it runs to the far planes
+    # One finite object and one wholly NaN one: the bounds are those of the finite one.
+    bad = np.full((1, 3, 3), np.nan, np.float32)
+    scene = make_scene([(box((-1, 2, -3), (4, 5, 6)), None, DIFFUSE), (bad, None, DIFFUSE)])
+    values = scene_bound_uniforms(SceneBounds.of(scene))
+    lo, hi = np.array(values["u_scene_lo"]), np.array(values["u_scene_hi"])
+    assert values["u_scene_bounded"] == 1
+    assert np.all(lo < [-1, 2, -3]) and np.all(hi > [4, 5, 6])
+    assert np.all(lo > np.array([-1, 2, -3]) - 0.1) and np.all(hi < np.array([4, 5, 6]) + 0.1)

@@ -8,6 +8,7 @@
 //   2 kept_indices (write: uint[kept]), 3 candidates (read: uint[N], with u_use_indices).
 // Uniforms: u_count (N), u_chunk_size, u_num_chunks (T), u_use_indices.
 #include "dispatch.glsl"
+#include "chunks.glsl"
 
 layout(local_size_x = LOCAL_SIZE) in;
 
@@ -26,17 +27,12 @@ layout(std430, binding = 3) readonly buffer Candidates {
 
 uniform int u_use_indices;
 
-uniform uint u_count;
-uniform uint u_chunk_size;
-uniform uint u_num_chunks;
 
 void main() {
-    uint chunk = flat_invocation_index();
-    if (chunk >= u_num_chunks) {
+    uint chunk, begin, end;
+    if (!chunk_items(chunk, begin, end)) {
         return;
     }
-    uint begin = chunk * u_chunk_size;
-    uint end = min(begin + u_chunk_size, u_count);
     uint target = chunk_offsets[chunk];
     for (uint i = begin; i < end; ++i) {
         if (keep_flags[i] != 0u) {

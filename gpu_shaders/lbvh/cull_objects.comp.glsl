@@ -25,9 +25,7 @@ uniform uint u_num_objects;
 uniform vec3 u_center;
 uniform vec3 u_half_size;
 
-#define CLASS_OUTSIDE 0u
-#define CLASS_INSIDE 1u
-#define CLASS_STRADDLING 2u
+#include "near_cube_class.glsl"
 
 void main() {
     uint object = flat_invocation_index();

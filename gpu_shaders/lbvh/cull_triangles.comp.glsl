@@ -18,9 +18,11 @@
 // Uniforms: u_count (N), u_chunk_size, u_num_chunks (T), u_num_objects (K), u_center,
 //   u_half_size.
 #include "dispatch.glsl"
+#include "chunks.glsl"
 #include "float_order.glsl"
 #include "triangle_input.glsl"
 #include "tri_box.glsl"
+#include "near_cube_class.glsl"
 
 layout(local_size_x = LOCAL_SIZE) in;
 
@@ -37,24 +39,16 @@ layout(std430, binding = 5) writeonly buffer ChunkCounts {
     uint chunk_counts[];
 };
 
-uniform uint u_count;
-uniform uint u_chunk_size;
-uniform uint u_num_chunks;
 uniform uint u_num_objects;
 uniform vec3 u_center;
 uniform vec3 u_half_size;
 
-#define CLASS_OUTSIDE 0u
-#define CLASS_INSIDE 1u
-#define CLASS_STRADDLING 2u
 
 void main() {
-    uint chunk = flat_invocation_index();
-    if (chunk >= u_num_chunks) {
+    uint chunk, begin, end;
+    if (!chunk_items(chunk, begin, end)) {
         return;
     }
-    uint begin = chunk * u_chunk_size;
-    uint end = min(begin + u_chunk_size, u_count);
     uint first_triangle = begin < end ? input_triangle(begin) : 0u;
     // Last object whose first triangle is <= the chunk's first triangle (-1 if none).
     int lo = 0;

@@ -12,6 +12,7 @@
 //   histograms[t * RADIX + d] = keys of chunk t whose digit is d).
 // Uniforms: u_count (keys), u_chunk_size, u_num_chunks, u_shift (bit position of the digit).
 #include "dispatch.glsl"
+#include "chunks.glsl"
 
 layout(local_size_x = LOCAL_SIZE) in;
 
@@ -25,22 +26,17 @@ layout(std430, binding = 1) buffer Histograms {
     uint histograms[];
 };
 
-uniform uint u_count;
-uniform uint u_chunk_size;
-uniform uint u_num_chunks;
 uniform uint u_shift;
 
 void main() {
-    uint chunk = flat_invocation_index();
-    if (chunk >= u_num_chunks) {
+    uint chunk, begin, end;
+    if (!chunk_items(chunk, begin, end)) {
         return;
     }
     uint row = chunk * RADIX;
     for (uint d = 0u; d < RADIX; ++d) {
         histograms[row + d] = 0u;
     }
-    uint begin = chunk * u_chunk_size;
-    uint end = min(begin + u_chunk_size, u_count);
     for (uint i = begin; i < end; ++i) {
         uint digit = (keys[i] >> u_shift) & DIGIT_MASK;
         histograms[row + digit] += 1u;

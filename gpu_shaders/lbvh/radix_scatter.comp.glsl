@@ -9,6 +9,7 @@
 //   2 values_in (read), 3 keys_out (write), 4 values_out (write).
 // Uniforms: u_count, u_chunk_size, u_num_chunks, u_shift.
 #include "dispatch.glsl"
+#include "chunks.glsl"
 
 layout(local_size_x = LOCAL_SIZE) in;
 
@@ -31,19 +32,14 @@ layout(std430, binding = 4) writeonly buffer ValuesOut {
     uint values_out[];
 };
 
-uniform uint u_count;
-uniform uint u_chunk_size;
-uniform uint u_num_chunks;
 uniform uint u_shift;
 
 void main() {
-    uint chunk = flat_invocation_index();
-    if (chunk >= u_num_chunks) {
+    uint chunk, begin, end;
+    if (!chunk_items(chunk, begin, end)) {
         return;
     }
     uint row = chunk * RADIX;
-    uint begin = chunk * u_chunk_size;
-    uint end = min(begin + u_chunk_size, u_count);
     for (uint i = begin; i < end; ++i) {
         uint key = keys_in[i];
         uint slot = row + ((key >> u_shift) & DIGIT_MASK);

@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import moderngl
 import numpy as np
 
 from . import shader_loader
@@ -48,9 +49,11 @@ class CullView:
 
 
 def view_segments(views: list[CullView], object_ranges: np.ndarray, object_bounds: np.ndarray,
-                  object_closed: np.ndarray | None) -> tuple[np.ndarray, list[int]]:
+                  object_closed: np.ndarray | None,
+                  include: np.ndarray | None = None) -> tuple[np.ndarray, list[int]]:
     """The work list of :mod:`view_cull.comp.glsl`: per view, the triangle runs of the
-    objects whose bounds touch it (adjacent objects of the same back-face class merged),
+    objects whose bounds touch it (and, given ``include``, that it selects; a shadow
+    layer draws some objects only), adjacent objects of the same back-face class merged,
     each tagged with the view and whether its back faces may be culled; each view's work
     starts at a multiple of CHUNK_ITEMS. Returns the segments and the first chunk of each
     view plus the total chunk count (V + 1 entries)."""
@@ -63,6 +66,8 @@ def view_segments(views: list[CullView], object_ranges: np.ndarray, object_bound
     work = 0
     for index, view in enumerate(views):
         visible = visible_objects(view.view_proj, object_bounds) & (ranges[:, 1] > 0)
+        if include is not None:
+            visible &= include
         cullable = visible & closed_objects & beyond_near_plane(view.view_proj, object_bounds)
         picked = order[visible[order]]
         first, count, flag = ranges[picked, 0], ranges[picked, 1], cullable[picked]
@@ -141,13 +146,15 @@ class ViewTriangleCuller:
         return vao
 
     def cull(self, triangles, triangle_count: int, views: list[CullView], object_ranges: np.ndarray,
-             object_bounds: np.ndarray, object_closed: np.ndarray | None = None) -> CulledDraws | None:
+             object_bounds: np.ndarray, object_closed: np.ndarray | None = None,
+             include: np.ndarray | None = None) -> CulledDraws | None:
         """Cull ``views``' draw lists of the scene whose world triangles ((N, 3, 3) float32)
-        are in the GL buffer ``triangles``. None when the index buffer would exceed one
-        storage block (draw directly then)."""
+        are in the GL buffer ``triangles`` (of the objects ``include`` selects, all when
+        None). None when the index buffer would exceed one storage block (draw directly
+        then)."""
         if not 1 <= len(views) <= MAX_VIEWS:
             raise ValueError(f"between 1 and {MAX_VIEWS} views can be culled at once, got {len(views)}")
-        segments, view_chunks = view_segments(views, object_ranges, object_bounds, object_closed)
+        segments, view_chunks = view_segments(views, object_ranges, object_bounds, object_closed, include)
         submitted = np.bincount(segments["tag"] & 0xFF, weights=segments["count"],
                                 minlength=len(views)).astype(np.int64).tolist()
         num_chunks = view_chunks[-1]
@@ -200,8 +207,6 @@ class ViewTriangleCuller:
         bind_storage(indices, 4, 0, 3 * 4 * max(total, 1))
         bind_storage(commands, 6, 0, COMMAND_BYTES * MAX_VIEWS)
         dispatch(self._compact, num_chunks, LOCAL_SIZE)
-        import moderngl
-
         ctx.memory_barrier(moderngl.ELEMENT_ARRAY_BARRIER_BIT | moderngl.COMMAND_BARRIER_BIT)
         return CulledDraws(self, submitted)
 

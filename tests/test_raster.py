@@ -241,3 +241,91 @@ def test_cancel_callback_stops_the_frame_and_the_next_frame_renders(renderer):
     with pytest.raises(RenderCancelled):
         renderer.render(scene, camera, RASTER, cancel=lambda: True)
     assert renderer.render(scene, camera, RASTER).image.shape == (16, 16, 4)
+
+
+# -- per-triangle culling of the primary and shadow draws (RasterPasses.draw_views) ----------
+
+GBUFFER_TARGETS = ("depth", "normal_material", "albedo", "emission_scale", "color")
+
+
+def frames_rendered(gl, frames, settings, cull: bool) -> dict:
+    """Render ``frames`` in order with a fresh renderer whose raster passes cull per triangle
+    or draw the object lists; the last frame's targets, shadow layers, counts and the
+    culled batches' drawn triangles."""
+    r = Renderer(gl)
+    r.raster.cull_triangles = cull
+    try:
+        for scene, camera in frames:
+            result = r.render(scene, camera, settings)
+        static, dynamic = r.raster.read_shadow_layers()
+        return {
+            "targets": {name: getattr(r.raster.primary, name).read() for name in GBUFFER_TARGETS},
+            "static": static, "dynamic": dynamic, "counts": result.counts, "image": result.image,
+            "drawn": {layer: [None if c is None else c.drawn() for c in batches]
+                      for layer, batches in r.raster.culled.items()},
+        }
+    finally:
+        r.release()
+
+
+def assert_same_targets(a: dict, b: dict) -> None:
+    for name in GBUFFER_TARGETS:
+        same = np.frombuffer(a["targets"][name], np.uint8) == np.frombuffer(b["targets"][name], np.uint8)
+        assert same.all(), f"{name}: {np.count_nonzero(~same)} bytes differ"
+    np.testing.assert_array_equal(a["static"], b["static"])
+    np.testing.assert_array_equal(a["dynamic"], b["dynamic"])
+    np.testing.assert_array_equal(a["image"], b["image"])
+
+
+def test_culled_primary_and_shadow_draws_equal_the_object_lists_on_moving_chess_frames(gl):
+    """Two Chess frames (the second moves pieces, so both shadow layers are drawn, each with
+    its include mask; seven shadow slots make two batches): the G-buffer, both shadow
+    layers and the image are bit-identical to drawing the object lists, with the same
+    triangles submitted, and most primary triangles never reach the rasterizer."""
+    from hybrid_engine.scenes.chess import build_chess
+    from hybrid_engine.view_cull import MAX_VIEWS
+
+    frames = [build_chess(detail=0.05, frame=f, width=96, height=54) for f in (3, 4)]
+    settings = RenderSettings(mode="RASTER", shadow_resolution=256)
+    culled = frames_rendered(gl, frames, settings, cull=True)
+    direct = frames_rendered(gl, frames, settings, cull=False)
+    assert_same_targets(culled, direct)
+    for key in ("triangles_primary_submitted", "shadow_triangles_submitted"):
+        assert culled["counts"][key] == direct["counts"][key]
+    assert culled["counts"]["shadow_static_rendered"] == 1
+    assert all(b is None for batches in direct["drawn"].values() for b in batches)
+    [[primary_drawn]] = culled["drawn"]["primary"]
+    assert 0 < primary_drawn < 0.6 * culled["counts"]["triangles_primary_submitted"]
+    for layer in ("shadow_static", "shadow_dynamic"):
+        batches = culled["drawn"][layer]
+        assert len(batches) == 2 and all(b is not None for b in batches), f"{layer}: {len(batches)} batches"
+        assert len(batches[0]) == MAX_VIEWS and sum(map(sum, batches)) > 0
+
+
+def test_a_dense_distant_mesh_reaches_the_rasterizer_as_a_few_triangles(gl):
+    """A 40k-triangle sphere a few pixels wide: the culled draw keeps a small fraction of
+    its triangles (those covering a pixel centre and facing the camera) and the G-buffer
+    is unchanged."""
+    ball, ball_n = uv_sphere((0, 0, 0), 1.0, 200, 100)
+    scene = diffuse_scene([(quad((0, 0, -1), (8, 0, 0), (0, 8, 0)), None, 0), (ball, ball_n, 0)],
+                          [dict(kind="SUN", direction=(0.2, 0.1, -1.0), color=(1.0,) * 3)])
+    camera = Camera(matrix_world=look_at((0, -30, 6), (0, 0, 0)), width=64, height=48)
+    culled = frames_rendered(gl, [(scene, camera)], RASTER, cull=True)
+    direct = frames_rendered(gl, [(scene, camera)], RASTER, cull=False)
+    assert_same_targets(culled, direct)
+    [[primary_drawn]] = culled["drawn"]["primary"]
+    assert primary_drawn < 0.05 * scene.geometry.triangle_count
+
+
+def test_draws_past_the_storage_block_limit_fall_back_to_the_object_lists(gl):
+    """An index buffer larger than one storage block is not built: the primary view and the
+    shadow slots draw their object lists, with the same image."""
+    from hybrid_engine.gpu_dispatch import forced_limits
+    from hybrid_engine.scenes.chess import build_chess
+
+    frames = [build_chess(detail=0.03, frame=0, width=48, height=27)]
+    normal = frames_rendered(gl, frames, RASTER, cull=True)
+    with forced_limits(max_block=4096):
+        limited = frames_rendered(gl, frames, RASTER, cull=True)
+    assert limited["drawn"] == {"primary": [None], "shadow_static": [None, None]}
+    assert_same_targets(limited, normal)

@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The G-buffer cube map of paper §3.2.
 
-Six G-buffers (depth, shaded colour, normal + material index) rendered from the camera
-position every frame. Each face camera has a field of view of 90.2° rather than 90°, so
+Six G-buffers (depth, normal + material index, surface UV, geometric normal) rendered
+from the camera position every frame. Each face camera has a field of view of 90.2° rather than 90°, so
 that a ray lying in one of the diagonal planes between two faces always belongs to at least
 one face (paper Figure 3). Each face's near plane lies at ``near_size``: the six near
 planes are the faces of the *near cube*, the boundary between BVH traversal inside and
@@ -23,13 +23,29 @@ import numpy as np
 from .camera import CUBE_FACE_DIRECTIONS, cube_face_views, perspective_matrix
 from .cube_pyramid import CubeHitPyramid
 from .gpu_scene import GPUScene
-from .raster import GBufferTargets, RasterPasses, RasterView, gl_matrix
+from .raster import RasterPasses, RenderTargets, RasterView, gl_matrix
 from .scene_data import SceneData
 from .settings import RenderSettings
 from .view_cull import CulledDraws, CullView, ViewTriangleCuller
 
 CUBE_FACE_FOV = math.radians(90.2)  # paper §3.2, Figure 3
 FACE_NAMES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
+
+
+class CubeFaceTargets(RenderTargets):
+    """The six faces' G-buffers as one atlas (face i covers texels [i * res, (i + 1) * res)
+    in x): ``depth``; ``normal_material`` as the primary G-buffer's (raster.GBufferTargets);
+    ``surface`` (RGBA32F): UV and UV density (sqrt of UV area per world area); ``geometric``
+    (RG16F): the octahedral geometric normal.
+
+    The faces keep texture coordinates rather than colours: the tracer samples the
+    textures only at the texels its rays hit, with the ray cone's mip level as at BVH
+    hits (gbuffer.frag.glsl, CUBE_FACE). Float32 UVs because repeated textures carry
+    coordinates far past [0, 1]."""
+
+    def __init__(self, ctx, width: int, height: int) -> None:
+        super().__init__(ctx, width, height,
+                         colour={"normal_material": (4, "f4"), "surface": (4, "f4"), "geometric": (2, "f2")})
 
 
 @dataclass(frozen=True)
@@ -71,34 +87,34 @@ def face_of_direction(direction: np.ndarray) -> np.ndarray:
 class CubeMapPass:
     """Renders the six face G-buffers into one atlas and prepares them for marching.
 
-    The faces are not shaded here: the tracer shades the few texels its rays hit (with the
-    ray's own view direction) instead of all 6 res^2, which on a software GL costs as much
-    as the face rasterisation itself. ``render(..., shade=True)`` also fills ``targets.color``
-    (diagnostics and tests). The HIERARCHICAL march needs the hit-interval pyramid
-    (:mod:`.cube_pyramid`), built here after the faces.
+    The faces are neither shaded nor textured here: the tracer shades the few texels its
+    rays hit (with the ray's own view direction and the ray cone's texture level) instead
+    of all 6 res^2, which on a software GL costs as much as the face rasterisation itself.
+    The HIERARCHICAL march needs the hit-interval pyramid (:mod:`.cube_pyramid`), built
+    here after the faces.
     """
 
     def __init__(self, ctx, raster: RasterPasses) -> None:
         self.ctx = ctx
         self.raster = raster
-        self.targets: GBufferTargets | None = None
+        self.targets: CubeFaceTargets | None = None
         self.faces: CubeFaces | None = None
         self.pyramid = CubeHitPyramid(ctx)
         self.culler: ViewTriangleCuller | None = None
         self.culled: CulledDraws | None = None  # this frame's per-triangle culling, if any
         self.resolution = 0
 
-    def _ensure_targets(self, resolution: int) -> GBufferTargets:
+    def _ensure_targets(self, resolution: int) -> CubeFaceTargets:
         size = (6 * resolution, resolution)
         if self.targets is None or self.targets.size != size:
-            old, self.targets = self.targets, GBufferTargets(self.ctx, *size)
+            old, self.targets = self.targets, CubeFaceTargets(self.ctx, *size)
             if old is not None:
                 old.release()
         return self.targets
 
     def render(self, gpu: GPUScene, scene: SceneData, center, settings: RenderSettings,
-               shade: bool = False, triangles: tuple[object, int] | None = None) -> int:
-        """Rasterize all six faces (and shade them when ``shade``); returns the triangles
+               triangles: tuple[object, int] | None = None) -> int:
+        """Rasterize all six faces; returns the triangles
         submitted (after per-face object culling, which also drops objects wholly inside
         the near cube). ``triangles`` -- the scene's world triangles in a GL buffer and
         their count -- enables per-triangle culling of the faces' draws on the GPU
@@ -123,10 +139,7 @@ class CubeMapPass:
             # Refractive surfaces are left out: the faces hold what lies behind them
             # (paper Figure 8; gbuffer.frag.glsl).
             submitted += self.raster.gbuffer(gpu, scene, view, targets, origin=(i * res, 0),
-                                             culled=self.culled, view_index=i, skip_refractive=True)
-        if shade:
-            for i, view in enumerate(views):
-                self.raster.shade(gpu, scene, view, targets, settings, origin=(i * res, 0))
+                                             culled=self.culled, view_index=i, cube_face=True)
         if settings.cube_march == "HIERARCHICAL":
             self.pyramid.build(targets.depth, targets.normal_material, gpu.materials.buffer,
                                self.march_uniforms(settings), res)

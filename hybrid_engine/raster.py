@@ -174,26 +174,22 @@ class RasterView:
         }
 
 
-class GBufferTargets:
-    """A G-buffer (depth, normal + material, albedo, emission scale) and its shaded colour,
-    W x H texels. ``emission_scale`` holds the colour of the material's emission texture
-    (1 without one); the shading multiplies the material's emission by it.
+class RenderTargets:
+    """Textures of one size rendered together: a depth texture and colour targets in one
+    framebuffer, plus textures the passes fill otherwise (``extra``), all sampled texel by
+    texel (NEAREST). Subclasses name them."""
 
-    The primary camera owns one; the cube map owns one six faces wide (an atlas: face i
-    covers texels [i * res, (i + 1) * res) in x), so that a single set of textures holds the
-    paper's six per-face G-buffers (§3.2).
-    """
-
-    def __init__(self, ctx, width: int, height: int) -> None:
+    def __init__(self, ctx, width: int, height: int, colour: dict[str, tuple[int, str]],
+                 extra: dict[str, tuple[int, str]] | None = None) -> None:
         self.size = (int(width), int(height))
         self.depth = ctx.depth_texture(self.size)
-        self.normal_material = ctx.texture(self.size, 4, dtype="f4")
-        self.albedo = ctx.texture(self.size, 4, dtype="f2")
-        self.emission_scale = ctx.texture(self.size, 4, dtype="f2")
-        self.color = ctx.texture(self.size, 4, dtype="f4")
-        for tex in (self.depth, self.normal_material, self.albedo, self.emission_scale, self.color):
+        self._textures = {"depth": self.depth}
+        for name, (components, dtype) in {**colour, **(extra or {})}.items():
+            self._textures[name] = ctx.texture(self.size, components, dtype=dtype)
+            setattr(self, name, self._textures[name])
+        for tex in self._textures.values():
             tex.filter = (ctx.NEAREST, ctx.NEAREST)
-        self.fbo = ctx.framebuffer(color_attachments=[self.normal_material, self.albedo, self.emission_scale],
+        self.fbo = ctx.framebuffer(color_attachments=[self._textures[name] for name in colour],
                                    depth_attachment=self.depth)
 
     def clear(self) -> None:
@@ -201,23 +197,42 @@ class GBufferTargets:
         self.fbo.viewport = (0, 0, *self.size)
         self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
 
+    def read(self, name: str) -> np.ndarray:
+        """Texture ``name`` as (H, W, C) float32, row 0 at the bottom (tests, diagnostics)."""
+        tex = self._textures[name]
+        w, h = self.size
+        dtype = np.float16 if tex.dtype == "f2" else np.float32
+        return np.frombuffer(tex.read(), dtype).reshape(h, w, -1).astype(np.float32)
+
+    def release(self) -> None:
+        _release_all((self.fbo, *self._textures.values()))
+
+
+class GBufferTargets(RenderTargets):
+    """A G-buffer (depth, normal + material, albedo, emission scale) and its shaded colour,
+    W x H texels. ``emission_scale`` holds the colour of the material's emission texture
+    (1 without one); the shading multiplies the material's emission by it.
+
+    The primary camera owns one; the cube map's faces keep UVs instead of colours
+    (cube_map.CubeFaceTargets).
+    """
+
+    def __init__(self, ctx, width: int, height: int) -> None:
+        super().__init__(ctx, width, height,
+                         colour={"normal_material": (4, "f4"), "albedo": (4, "f2"), "emission_scale": (4, "f2")},
+                         extra={"color": (4, "f4")})
+
     def read_color(self) -> np.ndarray:
         """The shaded colour as (H, W, 4) float32, row 0 at the bottom."""
-        w, h = self.size
-        return np.frombuffer(self.color.read(), np.float32).reshape(h, w, 4).copy()
+        return self.read("color")
 
     def read_albedo(self) -> np.ndarray:
         """The albedo target as (H, W, 4) float32, row 0 at the bottom (tests, diagnostics)."""
-        w, h = self.size
-        return np.frombuffer(self.albedo.read(), np.float16).reshape(h, w, 4).astype(np.float32)
+        return self.read("albedo")
 
     def read_emission_scale(self) -> np.ndarray:
         """The emission-scale target as (H, W, 4) float32, row 0 at the bottom."""
-        w, h = self.size
-        return np.frombuffer(self.emission_scale.read(), np.float16).reshape(h, w, 4).astype(np.float32)
-
-    def release(self) -> None:
-        _release_all((self.fbo, self.depth, self.normal_material, self.albedo, self.emission_scale, self.color))
+        return self.read("emission_scale")
 
 
 class RasterPasses:
@@ -228,11 +243,12 @@ class RasterPasses:
         self.gbuffer_prog = shader_loader.program(
             ctx, vertex="raster/gbuffer.vert.glsl", fragment="raster/gbuffer.frag.glsl"
         )
-        # The cube-map faces' variant leaves refractive surfaces out (gbuffer.frag.glsl). A
-        # variant of its own, because a shader that may discard loses the early depth test.
+        # The cube-map faces' variant leaves refractive surfaces out and stores UVs instead
+        # of sampling the textures (gbuffer.frag.glsl). A variant of its own, also because a
+        # shader that may discard loses the early depth test.
         self.cube_gbuffer_prog = shader_loader.program(
             ctx, vertex="raster/gbuffer.vert.glsl", fragment="raster/gbuffer.frag.glsl",
-            defines={"SKIP_REFRACTIVE": 1})
+            defines={"CUBE_FACE": 1})
         self.shadow_prog = shader_loader.program(
             ctx, vertex="raster/shadow_depth.vert.glsl", fragment="raster/shadow_depth.frag.glsl"
         )
@@ -397,19 +413,20 @@ class RasterPasses:
                     submitted += self.draw_world(vao, view_proj, scene, include)
         return submitted
 
-    def gbuffer(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
+    def gbuffer(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets,
                 origin: tuple[int, int] = (0, 0), culled=None, view_index: int = 0,
-                skip_refractive: bool = False) -> int:
-        """Rasterize ``view`` into the region of ``targets`` at ``origin`` (§3.1); returns the
-        triangles submitted after per-object frustum culling. The caller clears targets.
-        ``skip_refractive`` draws a cube-map face (§3.2): refractive surfaces are left out
-        (gbuffer.frag.glsl), and ``culled`` (view_cull.CulledDraws, the six faces culled
+                cube_face: bool = False) -> int:
+        """Rasterize ``view`` into the region of ``targets`` (GBufferTargets, or
+        cube_map.CubeFaceTargets for a face) at ``origin`` (§3.1); returns the triangles
+        submitted after per-object frustum culling. The caller clears targets.
+        ``cube_face`` draws a cube-map face (§3.2): refractive surfaces are left out and
+        UVs stored (gbuffer.frag.glsl), and ``culled`` (view_cull.CulledDraws, the six faces culled
         at once by cube_map.py) draws view ``view_index``'s GPU-culled list, or, when None
         (the culler's fallback), the object lists. The primary view is culled on its own
         (:meth:`draw_views`)."""
         ctx = self.ctx
         self._ensure_vaos(gpu)
-        prog, vao = ((self.cube_gbuffer_prog, self._cube_gbuffer_vao) if skip_refractive
+        prog, vao = ((self.cube_gbuffer_prog, self._cube_gbuffer_vao) if cube_face
                      else (self.gbuffer_prog, self._gbuffer_vao))
         viewport = (int(origin[0]), int(origin[1]), view.width, view.height)
 
@@ -422,7 +439,7 @@ class RasterPasses:
             if "u_textures" in prog:
                 prog["u_textures"].value = 0
 
-        if not skip_refractive:
+        if not cube_face:
             return self.draw_views("primary", prog, vao, gpu, scene, targets.fbo, [(view.view_proj, viewport)],
                                    bind)
         targets.fbo.use()

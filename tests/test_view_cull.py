@@ -25,7 +25,7 @@ def renderer(gl):
 
 def face_targets(cube) -> dict[str, bytes]:
     t = cube.targets
-    return {name: getattr(t, name).read() for name in ("depth", "normal_material", "albedo", "emission_scale")}
+    return {name: getattr(t, name).read() for name in ("depth", "normal_material", "surface", "geometric")}
 
 
 def cube_maps_both_ways(renderer, scene, camera, settings):
@@ -52,7 +52,7 @@ def assert_identical(a: dict[str, bytes], b: dict[str, bytes]) -> None:
 
 def test_culled_cube_faces_equal_direct_draws_on_a_chess_frame(renderer):
     """Closed pieces (back faces dropped), sub-texel triangles of distant pieces, the floor
-    crossing every face: same depth, normals, materials and albedo, bit for bit."""
+    crossing every face: same depth, normals, materials and UVs, bit for bit."""
     scene, camera = build_chess(detail=0.03, frame=3, width=64, height=36)
     settings = RenderSettings(mode="HYBRID", near_size=3.5, cube_far=CHESS_CUBE_FAR, cube_resolution=128,
                               max_depth=2)

@@ -2,7 +2,7 @@
 // Primary G-buffer, fragment stage (paper §3.1): like a standard deferred renderer, except
 // that the alpha of the normal target holds the material index instead of a specular value.
 //
-// Outputs:
+// Outputs (the primary view; the cube faces write locations 1 and 2 differently, below):
 //   location 0 (RGBA32F): xyz = world shading normal as modelled (not flipped),
 //                         w = material index + 1, negated when the triangle is seen from its
 //                         back side (0 = background, cleared by the host)
@@ -17,12 +17,19 @@
 // then hits the object's own inside (speckles on curved mirrors). Derivatives of the world
 // position give it exactly: two differences of points on one plane lie in that plane.
 // Depth: the hardware depth buffer (DEPTH32F); positions are reconstructed from it.
-// SKIP_REFRACTIVE defined (the cube-map faces' variant): refractive surfaces are left out, so
-// the faces hold what lies behind them. The map has one layer; a ray refracted at a surface
-// outside the near cube finds the scene behind it there (paper Figure 8: refractive objects
-// in the cube map are thin, refract once and look the cube map up), and rays that meet such
-// an object in the map pass it as a thin clear sheet. Only that variant may discard: a shader
-// that can discard loses the early depth test.
+// CUBE_FACE defined (the cube-map faces' variant, cube_map.py CubeFaceTargets):
+// * Refractive surfaces are left out, so the faces hold what lies behind them. The map has
+//   one layer; a ray refracted at a surface outside the near cube finds the scene behind it
+//   there (paper Figure 8: refractive objects in the cube map are thin, refract once and
+//   look the cube map up), and rays that meet such an object in the map pass it as a thin
+//   clear sheet. Only this variant may discard: a shader that can discard loses the early
+//   depth test.
+// * The textures are not sampled: location 1 (RGBA32F) holds xy = UV, z = UV density (sqrt
+//   of UV area per world area, as tracer.pack_triangle_uvs gives BVH triangles), and
+//   location 2 (RG16F) the geometric normal's octahedral coordinates. The tracer samples
+//   the textures at the few texels its rays hit, with the ray cone's mip level, as at BVH
+//   hits (hybrid_trace.comp.glsl). Sampling them for all 6 x res^2 texels was a third of
+//   the faces' time on textured scenes (Sponza: 57 of 151 ms) on a software GL.
 // Samplers: u_textures (textures.glsl), sampled with the UV derivatives of the fragment
 // (mipmaps, anisotropic filtering).
 #include "scene_layout.glsl"
@@ -42,7 +49,7 @@ layout(location = 2) out vec4 out_emission_scale;
 
 void main() {
     Material m = materials[v_material];
-#ifdef SKIP_REFRACTIVE
+#ifdef CUBE_FACE
     if (m.emission_trans.a > 0.0) discard;
 #endif
     // Derivatives outside any branch (they are undefined in non-uniform control flow).
@@ -64,6 +71,15 @@ void main() {
     vec2 g_oct = octahedral_encode(g);
     float id = float(v_material + 1);
     out_normal_material = vec4(n, gl_FrontFacing ? id : -id);
+#ifdef CUBE_FACE
+    // UV area over world area of the screen-space footprint: constant over a triangle.
+    float uv_area = abs(duv_dx.x * duv_dy.y - duv_dx.y * duv_dy.x);
+    float world_area = sqrt(geometric_len2);
+    float density = world_area > 0.0 && !isinf(world_area) ? sqrt(uv_area / world_area) : 0.0;
+    out_albedo = vec4(v_uv, isnan(density) || isinf(density) ? 0.0 : density, 0.0);
+    out_emission_scale = vec4(g_oct, 0.0, 0.0);
+#else
     out_albedo = vec4(material_albedo_grad(m, v_uv, duv_dx, duv_dy), g_oct.x);
     out_emission_scale = vec4(material_emission_scale_grad(m, v_uv, duv_dx, duv_dy), g_oct.y);
+#endif
 }

@@ -18,9 +18,9 @@
 //     shadow maps) and spawns the reflected ray (mirror lobe tinted by the base colour, plus
 //     the Fresnel part of the glass lobe) and the refracted ray (Snell, total internal
 //     reflection, Fresnel weight 1 - F, tinted);
-//   * a cube-map hit is shaded the same way from the face's G-buffer (stored albedo, normal
-//     and material, position reconstructed from the face's depth; only hit texels are
-//     shaded, never whole faces) and spawns the reflected ray from that position; a refractive cube-map hit is thin
+//   * a cube-map hit is shaded the same way from the face's G-buffer (stored normal,
+//     material and UV, position reconstructed from the face's depth; only hit texels are
+//     shaded and textured, never whole faces) and spawns the reflected ray from that position; a refractive cube-map hit is thin
 //     (§3.4, Figure 8): its refracted part is the sky seen in the refracted direction,
 //     sky(refract(d, n, 1 / ior)) weighted by (1 - F) and the base colour. The same holds
 //     for any refractive hit outside the near cube in HYBRID (a primary hit there: its
@@ -42,8 +42,9 @@
 //   textures), 8 material ids (int[N]); all per-triangle arrays in original triangle order. Image unit 0: the primary colour (RGBA32F,
 //   read and written). Textures: u_textures (textures.glsl; BVH hits sample it at the
 //   interpolated UV, mip level from the ray cone u_pixel_width + u_pixel_spread * distance).
+//   Cube-map hits sample it the same way at the UV their face texel stores.
 //   Samplers: primary u_depth, u_normal_material, u_albedo, u_emission_scale; the cube atlas u_cube_depth,
-//   u_cube_normal_material, u_cube_albedo, u_cube_emission_scale, u_cube_hiz; u_shadow_atlas, u_shadow_dynamic; u_sky_env.
+//   u_cube_normal_material, u_cube_surface, u_cube_geometric, u_cube_hiz; u_shadow_atlas, u_shadow_dynamic; u_sky_env.
 // Workgroup 8x8: neighbouring pixels' rays are coherent for the first bounce.
 #define BVH_NODES_BINDING 3
 #define BVH_TRIANGLES_BINDING 4
@@ -137,8 +138,8 @@ uniform sampler2D u_depth;
 uniform sampler2D u_normal_material;
 uniform sampler2D u_albedo;
 uniform sampler2D u_emission_scale;
-uniform sampler2D u_cube_albedo;
-uniform sampler2D u_cube_emission_scale;
+uniform sampler2D u_cube_surface;    // xy UV, z UV density (cube_map.CubeFaceTargets)
+uniform sampler2D u_cube_geometric;  // xy octahedral geometric normal
 uniform mat4 u_inv_view_proj;
 uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
@@ -176,9 +177,8 @@ struct Hit {
     vec3 normal;     // unit shading normal as modelled
     vec3 geometric;  // unit normal of the hit triangle's plane (either orientation)
     int material;
-    ivec2 texel;     // cube hits: atlas texel (stored G-buffer)
-    vec2 uv;         // BVH hits: interpolated texture coordinate
-    float lod;       // BVH hits: mip level of the ray cone's footprint
+    vec2 uv;         // texture coordinate (BVH hits: interpolated; cube hits: the texel's)
+    float lod;       // mip level of the ray cone's footprint (textured hits)
 };
 
 struct PendingRay {
@@ -230,7 +230,6 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary) {
     h.geometric = safe_normalize(bvh_leaf_face_normal(leaf), -d);
     h.normal = safe_normalize(interpolated_normal(tri, bary), h.geometric);
     h.material = tri_materials[tri];
-    h.texel = ivec2(0);
     h.uv = vec2(0.0);
     h.lod = 0.0;
     ivec4 tex = materials[h.material].textures;
@@ -268,7 +267,6 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
     h.normal = vec3(0.0, 0.0, 1.0);
     h.geometric = h.normal;
     h.material = 0;
-    h.texel = ivec2(0);
     h.uv = vec2(0.0);
     h.lod = 0.0;
     bool reached_cube = false;
@@ -301,10 +299,19 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
                 h.kind = HIT_CUBE;
                 h.position = cm.position;
                 h.normal = safe_normalize(cm.normal, -d);
-                h.geometric = gbuffer_geometric(texelFetch(u_cube_albedo, cm.texel, 0).a,
-                                                texelFetch(u_cube_emission_scale, cm.texel, 0).a, h.normal);
+                vec2 g_oct = texelFetch(u_cube_geometric, cm.texel, 0).xy;
+                h.geometric = gbuffer_geometric(g_oct.x, g_oct.y, h.normal);
                 h.material = cm.material;
-                h.texel = cm.texel;
+                ivec4 tex = materials[h.material].textures;
+                if (max(tex.x, tex.y) >= 0) {
+                    // The face keeps the texel's UV and UV density (gbuffer.frag.glsl,
+                    // CUBE_FACE): textured like a BVH hit, with the same ray cone.
+                    vec4 surface = texelFetch(u_cube_surface, cm.texel, 0);
+                    h.uv = surface.xy;
+                    float footprint = u_pixel_width
+                                    + u_pixel_spread * (distance(o, u_camera_position) + distance(o, cm.position));
+                    h.lod = texture_lod(footprint, surface.z);
+                }
                 break;
             }
             if (cm.kind == CUBE_SKY) break;
@@ -393,23 +400,16 @@ void main() {
             traced += ray.weight * sky_radiance(ray.dir);
             continue;
         }
+        // A cube-map hit is shaded here from the face's G-buffer (normal, material, UV) at
+        // the reconstructed position, so only the texels rays hit are shaded and textured;
+        // reflection and refraction are traced from that position (no refractive surface
+        // is stored in the faces, paper Figure 8: refraction finds none there).
         Material hm = materials[h.material];
-        vec3 h_albedo = h.kind == HIT_CUBE ? texelFetch(u_cube_albedo, h.texel, 0).rgb
-                                           : material_albedo_lod(hm, h.uv, h.lod);
+        vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
+        vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
         SpecularSplit hs = specular_split_geometric(hm, h_albedo, ray.dir, h.normal, h.geometric);
-        if (h.kind == HIT_BVH) {
-            vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
-            traced += ray.weight * shade_local_emission(hm, h_albedo, h_emission, h.position, hs.n_facing);
-            spawn_children(hs, h.position, ray.weight, ray.depth + 1);
-        } else {
-            // Cube map: shaded here from the stored G-buffer (albedo, normal, material) at the
-            // reconstructed position, so only the texels rays hit are shaded; reflection
-            // and refraction traced from that position (no refractive surface is stored in
-            // the faces, paper Figure 8: refraction finds none here).
-            vec3 cube_emission = hm.emission_trans.rgb * texelFetch(u_cube_emission_scale, h.texel, 0).rgb;
-            traced += ray.weight * shade_local_emission(hm, h_albedo, cube_emission, h.position, hs.n_facing);
-            spawn_children(hs, h.position, ray.weight, ray.depth + 1);
-        }
+        traced += ray.weight * shade_local_emission(hm, h_albedo, h_emission, h.position, hs.n_facing);
+        spawn_children(hs, h.position, ray.weight, ray.depth + 1);
     }
     vec4 base = imageLoad(u_color, pixel);
     vec3 color = base.rgb + traced;

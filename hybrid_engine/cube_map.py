@@ -2,9 +2,9 @@
 """The G-buffer cube map of paper §3.2.
 
 Six G-buffers (depth, normal + material index, surface UV, geometric normal) rendered
-from the camera position every frame. Each face camera has a field of view of 90.2° rather than 90°, so
-that a ray lying in one of the diagonal planes between two faces always belongs to at least
-one face (paper Figure 3). Each face's near plane lies at ``near_size``: the six near
+from the camera position every frame. Each face camera has a field of view of 90.2° rather
+than 90°, so that a ray lying in one of the diagonal planes between two faces always
+belongs to at least one face (paper Figure 3). Each face's near plane lies at ``near_size``: the six near
 planes are the faces of the *near cube*, the boundary between BVH traversal inside and
 image-based ray marching outside, and geometry inside the near cube is clipped away here.
 
@@ -23,7 +23,7 @@ import numpy as np
 from .camera import CUBE_FACE_DIRECTIONS, cube_face_views, perspective_matrix
 from .cube_pyramid import CubeHitPyramid
 from .gpu_scene import GPUScene
-from .raster import RasterPasses, RenderTargets, RasterView, gl_matrix
+from .raster import RasterPasses, RasterView, RenderTargets, gl_matrix
 from .scene_data import SceneData
 from .settings import RenderSettings
 from .view_cull import CulledDraws, CullView, ViewTriangleCuller

@@ -72,6 +72,7 @@ void main() {
     float id = float(v_material + 1);
     out_normal_material = vec4(n, gl_FrontFacing ? id : -id);
 #ifdef CUBE_FACE
+    // Locations 1 and 2 in the faces' layout (header): UV and density, geometric normal.
     // UV area over world area of the screen-space footprint: constant over a triangle.
     float uv_area = abs(duv_dx.x * duv_dy.y - duv_dx.y * duv_dy.x);
     float world_area = sqrt(geometric_len2);

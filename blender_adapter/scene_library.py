@@ -265,6 +265,17 @@ def _remove_non_meshes(imported) -> None:
             bpy.data.lights.remove(data)
 
 
+def _import_gltf_meshes(scene, collection, path: Path) -> list:
+    """Import a glTF file into ``collection`` (images stay beside it, not packed) and keep
+    only its meshes; returns them."""
+    with _quiet_gltf_importer():
+        imported = _import(scene, collection, bpy.ops.import_scene.gltf, filepath=str(path),
+                           import_pack_images=False)
+    meshes = [obj for obj in imported if obj.type == "MESH"]
+    _remove_non_meshes(imported)
+    return meshes
+
+
 def _drop_missing_textures(materials) -> None:
     """Unlink Image Texture nodes whose file is missing (Sponza's three curtains), so every
     engine shows the socket's own colour instead of Blender's magenta "missing" colour."""
@@ -710,11 +721,7 @@ def _build_chess_real(scene, assets: Path, detail: float, frame_count: int) -> N
     core_frames = _core_frames(frames, frame_count)
     sets = _new_collection(scene, "chess sets (Poly Haven)")
     rig = _new_collection(scene, "chess camera and lights")
-    with _quiet_gltf_importer():
-        imported = _import(scene, sets, bpy.ops.import_scene.gltf, filepath=str(assets / CHESS_SET_GLTF),
-                           import_pack_images=False)
-    meshes = [obj for obj in imported if obj.type == "MESH"]
-    _remove_non_meshes(imported)
+    meshes = _import_gltf_meshes(scene, sets, assets / CHESS_SET_GLTF)
     set_triangles = _mesh_triangle_count(meshes)
     to_board, board_height = _chess_set_frame(meshes)
     pieces = [obj for obj in meshes if _parse_piece(obj.name)]
@@ -870,11 +877,7 @@ def _floor_height(scene, x: float, y: float, fallback: float) -> float:
 def _import_sponza(scene, assets: Path, cube_far: float):
     """Sponza into its own collection; its cameras are dropped (the scene has its own)."""
     building = _new_collection(scene, "Sponza (Crytek)")
-    with _quiet_gltf_importer():
-        imported = _import(scene, building, bpy.ops.import_scene.gltf, filepath=str(assets / SPONZA_GLTF),
-                           import_pack_images=False)
-    meshes = [obj for obj in imported if obj.type == "MESH"]
-    _remove_non_meshes(imported)
+    meshes = _import_gltf_meshes(scene, building, assets / SPONZA_GLTF)
     materials = {slot.material for obj in meshes for slot in obj.material_slots if slot.material}
     _drop_missing_textures(materials)
     for material in materials:

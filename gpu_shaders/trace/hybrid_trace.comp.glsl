@@ -222,6 +222,12 @@ void count(int kind, int depth) {
     atomicAdd(counters[kind * COUNTER_DEPTHS + clamp(depth, 0, COUNTER_DEPTHS - 1)], 1u);
 }
 
+// Width in metres of a pixel's ray cone at distance t along a ray from o: the camera-to-
+// origin distance plus t is a lower bound of the path length (textures.py).
+float ray_cone_footprint(vec3 o, float t) {
+    return u_pixel_width + u_pixel_spread * (distance(o, u_camera_position) + t);
+}
+
 Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary) {
     Hit h;
     h.kind = HIT_BVH;
@@ -234,12 +240,10 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary) {
     h.lod = 0.0;
     ivec4 tex = materials[h.material].textures;
     if (max(tex.x, tex.y) >= 0) {
-        // Texture coordinate by the hit's barycentrics; the cone's width at the hit uses the
-        // camera-to-origin distance plus t, a lower bound of the path length (textures.py).
+        // Texture coordinate by the hit's barycentrics.
         TriangleUV tuv = tri_uvs[tri];
         h.uv = (1.0 - bary.x - bary.y) * tuv.uv01.xy + bary.x * tuv.uv01.zw + bary.y * tuv.uv2_scale.xy;
-        float footprint = u_pixel_width + u_pixel_spread * (distance(o, u_camera_position) + t);
-        h.lod = texture_lod(footprint, tuv.uv2_scale.z);
+        h.lod = texture_lod(ray_cone_footprint(o, t), tuv.uv2_scale.z);
     }
     return h;
 }
@@ -308,9 +312,7 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
                     // CUBE_FACE): textured like a BVH hit, with the same ray cone.
                     vec4 surface = texelFetch(u_cube_surface, cm.texel, 0);
                     h.uv = surface.xy;
-                    float footprint = u_pixel_width
-                                    + u_pixel_spread * (distance(o, u_camera_position) + distance(o, cm.position));
-                    h.lod = texture_lod(footprint, surface.z);
+                    h.lod = texture_lod(ray_cone_footprint(o, distance(o, cm.position)), surface.z);
                 }
                 break;
             }

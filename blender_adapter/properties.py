@@ -30,6 +30,7 @@ _FLOAT_SUBTYPES = {
 _LABELS = {
     "mode": "Mode",
     "cube_march": "March",
+    "cube_back_layer": "Back Faces",
     "near_size": "Near Size",
     "max_depth": "Max Depth",
     "cube_resolution": "Face Resolution",
@@ -74,12 +75,12 @@ def _property_for(name: str, default):
         values, docs = _ENUMS[name]
         items = [(value, value.replace("_", " ").title(), docs[value]) for value in values]
         return bpy.props.EnumProperty(name=label, description=doc, items=items, default=default)
+    if isinstance(default, bool):
+        return bpy.props.BoolProperty(name=label, description=doc, default=default)
     lo, hi = FIELD_LIMITS[name]
     extra = {}
     if name in _UPDATES:
         extra["update"] = _UPDATES[name]
-    if isinstance(default, bool):
-        return bpy.props.BoolProperty(name=label, description=doc, default=default)
     if isinstance(default, int):
         return bpy.props.IntProperty(
             name=label, description=doc, default=default, min=int(lo), max=int(hi), **extra

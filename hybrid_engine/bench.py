@@ -348,7 +348,8 @@ def frame_section(detail: float = FULL_FRAME["detail"],
                   resolution: tuple[int, int] = FULL_FRAME["resolution"],
                   rounds: int = ROUNDS, cube_resolution: int = FULL_FRAME["cube_resolution"],
                   near_size: float = FRAME_NEAR_SIZE, max_depth: int = FRAME_MAX_DEPTH,
-                  frame: int = FRAME_NUMBER, cube_march: str = "HIERARCHICAL") -> dict:
+                  frame: int = FRAME_NUMBER, cube_march: str = "HIERARCHICAL",
+                  cube_back_layer: bool = False) -> dict:
     """HYBRID vs FULL_BVH on consecutive frames of the procedural Chess animation, side by
     side in one process (:func:`compare_modes`): frames ``frame`` and ``frame + 1`` warm the
     renderers up, frames ``frame + 2 .. frame + rounds + 1`` are timed."""
@@ -357,7 +358,8 @@ def frame_section(detail: float = FULL_FRAME["detail"],
     frames = [build_chess(detail, frame + k, width, height) for k in range(rounds + WARM_UP_FRAMES)]
     build_ms = (time.perf_counter() - start) * 1e3 / len(frames)
     base = dict(near_size=float(near_size), max_depth=int(max_depth),
-                cube_resolution=int(cube_resolution), cube_far=CHESS_CUBE_FAR, cube_march=cube_march)
+                cube_resolution=int(cube_resolution), cube_far=CHESS_CUBE_FAR, cube_march=cube_march,
+                cube_back_layer=bool(cube_back_layer))
     label = (f"chess (procedural, detail {detail:g}, frames {frame + WARM_UP_FRAMES}-"
              f"{frame + WARM_UP_FRAMES + rounds - 1})")
     report = compare_modes(frames, base, label, context={"detail": float(detail)})
@@ -435,6 +437,7 @@ def _comparison_report(first: tuple[SceneData, Camera], hybrid_settings: RenderS
         "cube_resolution": int(hybrid_settings.cube_resolution),
         "cube_far": float(hybrid_settings.cube_far),
         "cube_march": hybrid_settings.cube_march,
+        "cube_back_layer": bool(hybrid_settings.cube_back_layer),
         "rounds": len(results["HYBRID"]),
         "flip_per_frame": [round(float(v), 5) for v in flips],
         "triangles_uploaded_median": int(statistics.median(
@@ -528,11 +531,12 @@ SECTIONS = ("lbvh", "trace", "frame")
 
 def run(quick: bool = False, sections=SECTIONS, rounds: int = ROUNDS,
         resolution: tuple[int, int] | None = None, near_size: float = FRAME_NEAR_SIZE,
-        detail: float | None = None, cube_march: str = "HIERARCHICAL") -> dict:
+        detail: float | None = None, cube_march: str = "HIERARCHICAL", cube_back_layer: bool = False) -> dict:
     """Run the requested sections and return the report dictionary (``resolution``: the
     frame section's image size, default :func:`default_frame_resolution`; ``near_size``: its
     near-cube half-size; ``detail``: the Chess scene's detail, default 1.0 (0.02 quick);
-    ``cube_march``: how HYBRID marches the cube map)."""
+    ``cube_march``: how HYBRID marches the cube map; ``cube_back_layer``: whether its cube map
+    keeps the back layer)."""
     report: dict = {"machine": machine_info(), "quick": bool(quick), "rounds": rounds}
     if "lbvh" in sections:
         report["lbvh"] = lbvh_section(QUICK_BUILD_SIZES if quick else FULL_BUILD_SIZES, rounds)
@@ -545,7 +549,7 @@ def run(quick: bool = False, sections=SECTIONS, rounds: int = ROUNDS,
             detail=params["detail"] if detail is None else detail,
             resolution=resolution or default_frame_resolution(quick),
             rounds=rounds, cube_resolution=params["cube_resolution"], near_size=near_size,
-            cube_march=cube_march)
+            cube_march=cube_march, cube_back_layer=cube_back_layer)
     return report
 
 
@@ -576,6 +580,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="Chess scene detail of the frame section (default 1.0, 0.02 with --quick)")
     parser.add_argument("--cube-march", choices=CUBE_MARCHES, default="HIERARCHICAL",
                         help="how HYBRID marches the cube map in the frame section")
+    parser.add_argument("--back-layer", action="store_true",
+                        help="HYBRID's cube map with the back layer (settings.cube_back_layer)")
     parser.add_argument("--sections", default=",".join(SECTIONS),
                         help=f"comma-separated subset of {', '.join(SECTIONS)}")
     args = parser.parse_args(argv)
@@ -590,7 +596,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.detail is not None and not 0 < args.detail <= 1:
         parser.error("--detail must lie in (0, 1]")
     report = run(args.quick, sections, args.rounds, args.resolution, args.near_size,
-                 args.detail, args.cube_march)
+                 args.detail, args.cube_march, args.back_layer)
     print(format_tables(report))
     if args.json:
         with open(args.json, "w", encoding="utf-8") as handle:

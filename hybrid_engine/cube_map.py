@@ -12,6 +12,12 @@ The faces share one atlas, face i occupying texels [i * res, (i + 1) * res) in x
 order +X, -X, +Y, -Y, +Z, -Z. Because all faces share the centre, the face-to-face
 matrices M_j M_i^-1 that the marcher uses to switch faces (§3.4) do not depend on the
 camera position and are computed once per (near, far).
+
+The back layer (``settings.cube_back_layer``, off by default) goes past the paper's single
+layer (§4.1: "objects that have some thickness ... are not represented"): a second row of
+the atlas, texels [res, 2 res) in y, holds each face rasterized again with only the back
+faces of closed objects, so the marcher knows where such an object ends along each line of
+sight and what its hidden side looks like (gpu_shaders/include/cube_march.glsl).
 """
 from __future__ import annotations
 
@@ -101,11 +107,14 @@ class CubeMapPass:
         self.faces: CubeFaces | None = None
         self.pyramid = CubeHitPyramid(ctx)
         self.culler: ViewTriangleCuller | None = None
+        self.back_culler: ViewTriangleCuller | None = None
         self.culled: CulledDraws | None = None  # this frame's per-triangle culling, if any
+        self.culled_back: CulledDraws | None = None  # the same for the back layer
         self.resolution = 0
+        self.back_layer = False
 
-    def _ensure_targets(self, resolution: int) -> CubeFaceTargets:
-        size = (6 * resolution, resolution)
+    def _ensure_targets(self, resolution: int, layers: int) -> CubeFaceTargets:
+        size = (6 * resolution, layers * resolution)
         if self.targets is None or self.targets.size != size:
             old, self.targets = self.targets, CubeFaceTargets(self.ctx, *size)
             if old is not None:
@@ -114,32 +123,48 @@ class CubeMapPass:
 
     def render(self, gpu: GPUScene, scene: SceneData, center, settings: RenderSettings,
                triangles: tuple[object, int] | None = None) -> int:
-        """Rasterize all six faces; returns the triangles
-        submitted (after per-face object culling, which also drops objects wholly inside
-        the near cube). ``triangles`` -- the scene's world triangles in a GL buffer and
-        their count -- enables per-triangle culling of the faces' draws on the GPU
-        (view_cull.py: same G-buffers, a fraction of the triangles rasterized); without it,
-        or past the culler's buffer limit, each face draws its object list directly."""
+        """Rasterize all six faces (and their back layer, ``settings.cube_back_layer``);
+        returns the triangles submitted (after per-face object culling, which also drops
+        objects wholly inside the near cube). ``triangles`` -- the scene's world triangles
+        in a GL buffer and their count -- enables per-triangle culling of the faces' draws
+        on the GPU (view_cull.py: same G-buffers, a fraction of the triangles rasterized);
+        without it, or past the culler's buffer limit, each face draws its object list
+        directly."""
         res = int(settings.cube_resolution)
-        targets = self._ensure_targets(res)
+        geo = scene.geometry
+        self.back_layer = bool(settings.cube_back_layer)
+        targets = self._ensure_targets(res, 2 if self.back_layer else 1)
         self.faces = CubeFaces.at(center, settings.near_size, settings.cube_far)
         self.resolution = res
         targets.clear()
         submitted = 0
         views = self.faces.views(res)
-        self.culled = None
-        if triangles is not None and scene.geometry.triangle_count:
+        closed = geo.object_closed
+        draw_back = self.back_layer and closed is not None and bool(np.any(closed))
+        self.culled = self.culled_back = None
+        if triangles is not None and geo.triangle_count:
             if self.culler is None:
                 self.culler = ViewTriangleCuller(self.ctx)
-            geo = scene.geometry
             self.culled = self.culler.cull(
                 triangles[0], triangles[1], [CullView(v.view_proj, v.width, v.height) for v in views],
-                geo.object_ranges, geo.object_bounds, geo.object_closed)
+                geo.object_ranges, geo.object_bounds, closed)
+            if draw_back:
+                if self.back_culler is None:
+                    self.back_culler = ViewTriangleCuller(self.ctx)
+                self.culled_back = self.back_culler.cull(
+                    triangles[0], triangles[1],
+                    [CullView(v.view_proj, v.width, v.height, back_faces=True) for v in views],
+                    geo.object_ranges, geo.object_bounds, closed, include=np.asarray(closed, bool))
         for i, view in enumerate(views):
             # Refractive surfaces are left out: the faces hold what lies behind them
             # (paper Figure 8; gbuffer.frag.glsl).
             submitted += self.raster.gbuffer(gpu, scene, view, targets, origin=(i * res, 0),
                                              culled=self.culled, view_index=i, cube_face=True)
+        if draw_back:
+            for i, view in enumerate(views):
+                submitted += self.raster.gbuffer(gpu, scene, view, targets, origin=(i * res, res),
+                                                 culled=self.culled_back, view_index=i, cube_face=True,
+                                                 back_faces=True)
         if settings.cube_march == "HIERARCHICAL":
             self.pyramid.build(targets.depth, targets.normal_material, gpu.materials.buffer,
                                self.march_uniforms(settings), res)
@@ -163,6 +188,7 @@ class CubeMapPass:
             "u_cube_hiz_levels": int(self.pyramid.levels),
             "u_cube_hierarchical": int(settings.cube_march == "HIERARCHICAL"
                                        and self.pyramid.texture is not None),
+            "u_cube_back_layer": int(self.back_layer),
         }
 
     def march_textures(self) -> dict:
@@ -175,9 +201,10 @@ class CubeMapPass:
 
     def release(self) -> None:
         self.pyramid.release()
-        if self.culler is not None:
-            self.culler.release()
-            self.culler = None
+        for culler in (self.culler, self.back_culler):
+            if culler is not None:
+                culler.release()
+        self.culler = self.back_culler = None
         if self.targets is not None:
             self.targets.release()
             self.targets = None

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -344,37 +345,52 @@ class RasterPasses:
         self._sky_key = key
 
     # -- passes ----------------------------------------------------------------------------
-    def draw_world(self, vao, view_proj: np.ndarray, scene: SceneData, include: np.ndarray | None = None) -> int:
+    def draw_world(self, vao, view_proj: np.ndarray, scene: SceneData, include: np.ndarray | None = None,
+                   back_faces: bool = False) -> int:
         """Draw the objects whose bounds touch the frustum (and, given ``include``, that it
-        selects); returns triangles submitted."""
+        selects); returns triangles submitted. ``back_faces`` draws only their back faces
+        (the cube map's back layer; the caller selects closed objects)."""
         geo = scene.geometry
         mask = visible_objects(view_proj, geo.object_bounds)
         if include is not None:
             mask &= include
-        # Closed outward-wound objects wholly in front of the near plane lose nothing
-        # visible by back-face culling (solids.py); the rest is drawn two-sided.
-        culled = np.zeros_like(mask)
-        if geo.object_closed is not None and mask.any():
-            culled = mask & geo.object_closed & beyond_near_plane(view_proj, geo.object_bounds)
+        if back_faces:
+            groups = ((mask, "front"),)
+        else:
+            # Closed outward-wound objects wholly in front of the near plane lose nothing
+            # visible by back-face culling (solids.py); the rest is drawn two-sided.
+            culled = np.zeros_like(mask)
+            if geo.object_closed is not None and mask.any():
+                culled = mask & geo.object_closed & beyond_near_plane(view_proj, geo.object_bounds)
+            groups = ((mask & ~culled, None), (culled, "back"))
         submitted = 0
         ctx = self.ctx
-        for group, cull in ((mask & ~culled, False), (culled, True)):
+        for group, cull in groups:
             ranges = draw_ranges(group, geo.object_ranges)
             if not ranges:
                 continue
-            if cull:
-                ctx.front_face = front_face_winding(view_proj)
-                ctx.cull_face = "back"
-                ctx.enable(ctx.CULL_FACE)
-            try:
+            with self._face_culling(view_proj, cull):
                 for first, count in ranges:
                     vao.render(ctx.TRIANGLES, vertices=count * 3, first=first * 3)
                     submitted += count
-            finally:
-                if cull:
-                    ctx.disable(ctx.CULL_FACE)
-                    ctx.front_face = "ccw"
         return submitted
+
+    @contextmanager
+    def _face_culling(self, view_proj: np.ndarray, cull: str | None):
+        """GL face culling of ``cull`` ("back", "front") faces for the draws of the block,
+        with the view's front-face winding; none for None."""
+        ctx = self.ctx
+        if cull is None:
+            yield
+            return
+        ctx.front_face = front_face_winding(view_proj)
+        ctx.cull_face = cull
+        ctx.enable(ctx.CULL_FACE)
+        try:
+            yield
+        finally:
+            ctx.disable(ctx.CULL_FACE)
+            ctx.front_face = "ccw"
 
     def draw_views(self, layer: str, prog, vao, gpu: GPUScene, scene: SceneData, fbo,
                    views: list[tuple[np.ndarray, tuple[int, int, int, int]]], bind: Callable[[], None],
@@ -415,15 +431,16 @@ class RasterPasses:
 
     def gbuffer(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets,
                 origin: tuple[int, int] = (0, 0), culled=None, view_index: int = 0,
-                cube_face: bool = False) -> int:
+                cube_face: bool = False, back_faces: bool = False) -> int:
         """Rasterize ``view`` into the region of ``targets`` (GBufferTargets, or
         cube_map.CubeFaceTargets for a face) at ``origin`` (§3.1); returns the triangles
         submitted after per-object frustum culling. The caller clears targets.
         ``cube_face`` draws a cube-map face (§3.2): refractive surfaces are left out and
         UVs stored (gbuffer.frag.glsl), and ``culled`` (view_cull.CulledDraws, the six faces culled
         at once by cube_map.py) draws view ``view_index``'s GPU-culled list, or, when None
-        (the culler's fallback), the object lists. The primary view is culled on its own
-        (:meth:`draw_views`)."""
+        (the culler's fallback), the object lists. ``back_faces`` (with ``cube_face``) draws
+        the face's back layer: only the back faces of closed objects. The primary view is
+        culled on its own (:meth:`draw_views`)."""
         ctx = self.ctx
         self._ensure_vaos(gpu)
         prog, vao = ((self.cube_gbuffer_prog, self._cube_gbuffer_vao) if cube_face
@@ -446,9 +463,13 @@ class RasterPasses:
         targets.fbo.viewport = viewport
         bind()
         prog["u_view_proj"].write(gl_matrix(view.view_proj))
-        if culled is not None:
+        if culled is None:
+            closed = scene.geometry.object_closed if back_faces else None
+            if back_faces and closed is None:
+                return 0
+            return self.draw_world(vao, view.view_proj, scene, include=closed, back_faces=back_faces)
+        with self._face_culling(view.view_proj, "front" if back_faces else None):
             return culled.draw(prog, gpu, view_index)
-        return self.draw_world(vao, view.view_proj, scene)
 
     def shadow_views(self, scene: SceneData) -> tuple[list[ShadowView], list[tuple[int, int]]]:
         """This frame's shadow slots, fitted to the scene's bounds snapped to a grid (so that

@@ -37,6 +37,9 @@ FIELD_DOCS = {
     "cube_resolution": "Resolution of each of the six G-buffer cube-map faces, in pixels",
     "cube_far": "Far plane of the cube-map faces (scene units); rays that pass it see the sky",
     "cube_march": "How rays are marched through the cube-map faces",
+    "cube_back_layer": "Also store the far side of closed objects in the cube map (a second layer "
+    "of back faces): a ray that passes behind a surface meets its hidden side instead of a "
+    "surface stretched by the material's thickness",
     "n_min": "SAMPLED march: samples per cube-map face for rays grazing the face "
     "(paper 3.4: n = n_min + (N.r)(n_max - n_min))",
     "n_max": "SAMPLED march: samples per cube-map face for rays entering it head-on "
@@ -71,6 +74,7 @@ class RenderSettings:
     cube_resolution: int = 512
     cube_far: float = 1000.0
     cube_march: str = "HIERARCHICAL"
+    cube_back_layer: bool = False
     n_min: int = 16
     n_max: int = 64
     shadow_resolution: int = 1024

@@ -41,11 +41,15 @@ SEGMENT_DTYPE = np.dtype([("first", "<u4"), ("count", "<u4"), ("work", "<u4"), (
 
 @dataclass(frozen=True)
 class CullView:
-    """One view to cull for: its world-to-clip matrix and size in pixels."""
+    """One view to cull for: its world-to-clip matrix and size in pixels. ``back_faces``:
+    the view draws back faces where others draw front faces (the cube map's back layer,
+    cube_map.py: the caller draws only closed objects there, GL culling their front
+    faces), so the facing test keeps the other side."""
 
     view_proj: np.ndarray
     width: int
     height: int
+    back_faces: bool = False
 
 
 def view_segments(views: list[CullView], object_ranges: np.ndarray, object_bounds: np.ndarray,
@@ -181,6 +185,8 @@ class ViewTriangleCuller:
             view_proj[v] = np.asarray(view.view_proj, np.float64).T  # column-major for GL
             sizes[v] = (view.width, view.height)
             signs[v] = 1.0 if front_face_winding(view.view_proj) == "ccw" else -1.0
+            if view.back_faces:
+                signs[v] = -signs[v]
         chunks = np.full(MAX_VIEWS + 1, num_chunks, np.uint32)
         chunks[: len(view_chunks)] = view_chunks
         common = {"u_num_chunks": num_chunks, "u_num_segments": len(segments)}

@@ -8,6 +8,10 @@ samples, the thickness hit rule with its depth bias and bisection, and face swit
 first face that contains the exit point. ``hierarchical=True`` gives the continuous rule of
 the hierarchical march instead: every texel the map ray crosses (found by listing all
 texel-edge crossings, not by walking a pyramid) is tested against its hit interval (A, B].
+``back_layer=True`` reads the atlas's second row of faces as the back layer: where a front
+surface has a back face of its own material behind it, B is that back face (less its bias)
+instead of the thickness stretch, and a ray reaching the interval from behind hits the back
+layer's texel.
 Tests feed it the same atlas the GPU marched (read back from the GL textures) and compare
 outcomes ray by ray.
 """
@@ -61,14 +65,17 @@ class MarchResult:
 
 
 class CubeMapReference:
-    """depth: (res, 6 res) window depths in [0, 1]; normal_material: (res, 6 res, 4) with
-    w = ±(material + 1) (0 = empty); thickness: per-material thickness."""
+    """depth: (res, 6 res) window depths in [0, 1] ((2 res, 6 res) with the back layer in
+    rows res..2 res); normal_material: the same rows, 4 channels, w = ±(material + 1) (0 =
+    empty); thickness: per-material thickness."""
 
     def __init__(self, depth, normal_material, thickness, center, near, far, n_min, n_max,
-                 hierarchical: bool = False):
+                 hierarchical: bool = False, back_layer: bool = False):
         self.depth = np.asarray(depth, np.float64)
         self.nm = np.asarray(normal_material, np.float64)
-        self.res = self.depth.shape[0]
+        self.res = self.depth.shape[1] // 6
+        self.back_layer = back_layer
+        assert self.depth.shape[0] == (2 if back_layer else 1) * self.res
         self.thickness = np.asarray(thickness, np.float64)
         self.center = np.asarray(center, np.float64)
         self.near, self.far = float(near), float(far)
@@ -89,8 +96,9 @@ class CubeMapReference:
         texel_angle = 2 * math.tan(FOV / 2) / self.res
         return surface * (BIAS_RELATIVE + texel_angle * slope)
 
-    def interval(self, tx, ty):
-        """(A, B) of an atlas texel as NDC depths; None where nothing is stored."""
+    def interval_linear(self, tx, ty):
+        """(A, B, back) of a front-layer texel as linear depths; None where nothing is stored.
+        back: B is the back layer's surface (texel (tx, ty + res))."""
         nm = self.nm[ty, tx]
         if nm[3] == 0.0:
             return None
@@ -100,10 +108,24 @@ class CubeMapReference:
         surface = self.linear(z)
         normal = nm[:3] / np.linalg.norm(nm[:3])
         a = surface + self.bias(face, np.r_[xy, z], surface, normal)
+        if self.back_layer and nm[3] > 0:
+            back_nm = self.nm[ty + self.res, tx]
+            if back_nm[3] == -nm[3]:  # the back side of the same material
+                back_z = self.depth[ty + self.res, tx] * 2 - 1
+                k = self.linear(back_z)
+                if k > surface:
+                    back_normal = back_nm[:3] / np.linalg.norm(back_nm[:3])
+                    b = k - self.bias(face, np.r_[xy, back_z], k, back_normal)
+                    return a, max(a, b), True
         material = int(abs(nm[3]) + 0.5) - 1
         thick = min(max(self.thickness[material], 0.0), 1.0)
-        b = max(a, surface + thick * (self.far - surface))
-        return self.ndc(a), self.ndc(b)
+        return a, max(a, surface + thick * (self.far - surface)), False
+
+    def interval(self, tx, ty):
+        """(A, B, back) of a front-layer texel with A, B as NDC depths; None where nothing
+        is stored."""
+        ab = self.interval_linear(tx, ty)
+        return None if ab is None else (self.ndc(ab[0]), self.ndc(ab[1]), ab[2])
 
     def march_face_exact(self, face, a, dm, t_exit):
         """First texel along the map ray whose hit interval the ray reaches: (texel, xy)."""
@@ -130,6 +152,8 @@ class CubeMapReference:
                 if not ab[0] < z0 <= ab[1]:
                     target = ab[0] if z0 <= ab[0] else ab[1]
                     t_hit = min(max(t0 + (target - z0) / dm[2], t0), t1)
+                if ab[2] and z0 - ab[0] > ab[1] - z0:
+                    ty += self.res  # nearer the far side: the ray meets the back layer
                 return (tx, ty), a[:2] + dm[:2] * t_hit
         return None
 
@@ -150,28 +174,22 @@ class CubeMapReference:
         return w[:3] / w[3]
 
     def sample_hits(self, face, s, prev_lin):
-        """(hit, piercing, texel, stored z) of one sample (the documented rule)."""
+        """(hit, piercing, texel, stored z) of one sample (the documented rule); texel and z
+        are the back layer's for a ray that reaches a back surface from behind."""
         tx, ty = self.texel(face, s[:2])
-        nm = self.nm[ty, tx]
-        if nm[3] == 0.0:
+        ab = self.interval_linear(tx, ty)
+        if ab is None:
             return False, False, (tx, ty), 1.0
         z = self.depth[ty, tx] * 2 - 1
-        surface, r = self.linear(z), self.linear(s[2])
-        if r <= surface:
+        a, b, back = ab
+        r = self.linear(s[2])
+        if back and prev_lin > b and r <= b:
+            return True, True, (tx, ty + self.res), self.depth[ty + self.res, tx] * 2 - 1
+        if r <= a:
             return False, False, (tx, ty), z
-        view = self.unproject(face, np.r_[s[:2], z]) - self.center
-        view /= np.linalg.norm(view)
-        c = abs(view @ nm[:3])
-        slope = min(math.sqrt(max(1 - c * c, 0.0)) / c, MAX_SLOPE) if c > 0 else MAX_SLOPE
-        texel_angle = 2 * math.tan(FOV / 2) / self.res
-        bias = surface * (BIAS_RELATIVE + texel_angle * slope)
-        if r <= surface + bias:
-            return False, False, (tx, ty), z
-        if prev_lin <= surface + bias:
+        if prev_lin <= a:
             return True, True, (tx, ty), z
-        material = int(abs(nm[3]) + 0.5) - 1
-        thick = min(max(self.thickness[material], 0.0), 1.0)
-        return r <= surface + thick * (self.far - surface), False, (tx, ty), z
+        return r <= b, False, (tx, ty), z
 
     def march(self, origin, direction, t_start=0.0) -> MarchResult:
         o = np.asarray(origin, float)

@@ -5,6 +5,8 @@ the geometric properties the paper states (Figure 3: diagonal rays keep their fa
 exits switch faces; z > 1 is the sky; z < -1 returns to the BVH)."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -12,6 +14,7 @@ from hybrid_engine import Geometry, Lights, MaterialTable, RenderSettings, Scene
 from hybrid_engine.cube_map import CubeFaces, CubeMapPass
 from hybrid_engine.gpu_scene import GPUScene
 from hybrid_engine.raster import RasterPasses
+from hybrid_engine.solids import closed_outward
 from hybrid_engine.tracer import MARCH_HIT, MARCH_SKY, MARCH_TO_BVH, probe_cube_march
 from cube_march_reference import HIT, SKY, TO_BVH, CubeMapReference, face_matrices
 from scenes_analytic import box, quad
@@ -35,7 +38,10 @@ def boxes_scene(thickness: float = 0.5) -> SceneData:
     ]
     mats = MaterialTable.from_rows([dict(base_color=(0.8, 0.2, 0.2), thickness=thickness),
                                     dict(base_color=(0.2, 0.8, 0.2), thickness=1.0 - thickness)])
-    return SceneData(Geometry.from_objects(objects), mats, Lights.empty(), Sky())
+    geometry = Geometry.from_objects(objects)
+    # The boxes are closed solids (their far sides form the cube map's back layer).
+    geometry = dataclasses.replace(geometry, object_closed=[closed_outward(tris) for tris, _, _ in objects])
+    return SceneData(geometry, mats, Lights.empty(), Sky())
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +68,8 @@ def march_both(cube_setup, scene, origins, dirs, t_start, march="HIERARCHICAL", 
     depth = np.frombuffer(cube.targets.depth.read(), np.float32).reshape(h, w)
     nm = np.frombuffer(cube.targets.normal_material.read(), np.float32).reshape(h, w, 4)
     ref = CubeMapReference(depth, nm, scene.materials.thickness, CENTER, NEAR, FAR,
-                           settings.n_min, settings.n_max, hierarchical=march == "HIERARCHICAL")
+                           settings.n_min, settings.n_max, hierarchical=march == "HIERARCHICAL",
+                           back_layer=settings.cube_back_layer)
     t_start = np.broadcast_to(np.asarray(t_start, float), (len(origins),))
     refs = [ref.march(o, d, t) for o, d, t in zip(origins, dirs, t_start)]
     return gpu_rows, refs
@@ -73,26 +80,38 @@ def test_reference_face_matrices_equal_the_engine_cube_faces():
     np.testing.assert_allclose(face_matrices(CENTER, NEAR, FAR), faces.view_proj, atol=1e-12)
 
 
-@pytest.mark.parametrize("march, res", [("SAMPLED", RES), ("HIERARCHICAL", RES), ("HIERARCHICAL", 48)])
-def test_march_agrees_with_the_numpy_reference_on_random_rays(cube_setup, rng, march, res):
+@pytest.mark.parametrize("march, res, back_layer", [("SAMPLED", RES, False), ("HIERARCHICAL", RES, False),
+                                                     ("HIERARCHICAL", 48, False), ("SAMPLED", RES, True),
+                                                     ("HIERARCHICAL", RES, True)])
+def test_march_agrees_with_the_numpy_reference_on_random_rays(cube_setup, rng, march, res, back_layer):
     """Rays from inside the near cube (entering the map at its faces) and from outside it
     (starting in the map), in all directions. The hierarchical march walks a pyramid; the
     reference tests every texel crossed, so agreement proves the pyramid skips no hit (also
-    for faces that are not a power of two, padded in the pyramid)."""
+    for faces that are not a power of two, padded in the pyramid). With the back layer, rays
+    from outside also hit the far sides of the boxes."""
     count = 300
     inside = CENTER + rng.uniform(-0.9, 0.9, (count // 2, 3)) * NEAR
     outside = CENTER + rng.uniform(-6, 6, (count - count // 2, 3))
     outside = outside[np.abs(outside - CENTER).max(axis=1) > 1.2 * NEAR]
-    origins = np.concatenate([inside, outside])
+    # And rays from behind the far red box and the tall box, heading back at them.
+    box_centres = CENTER + np.array([[3.5, 0.0, 0.0], [2.0, 2.0, 3.25]])
+    which = rng.integers(0, 2, 60)
+    behind = (CENTER + (box_centres[which] - CENTER) * rng.uniform(1.6, 2.2, (60, 1))
+              + rng.uniform(-0.3, 0.3, (60, 3)))
+    origins = np.concatenate([inside, outside, behind])
     dirs = rng.normal(size=origins.shape)
+    dirs[-len(behind):] = box_centres[which] + rng.uniform(-0.4, 0.4, (60, 3)) - behind
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
     # Start inside rays where they leave the near cube (as the tracer does).
     with np.errstate(divide="ignore"):
         t_faces = np.where(dirs > 0, (CENTER + NEAR - origins) / dirs, (CENTER - NEAR - origins) / dirs)
     t_start = np.where(np.arange(len(origins)) < len(inside), np.min(np.abs(t_faces), axis=1), 0.0)
-    gpu_rows, refs = march_both(cube_setup, boxes_scene(), origins, dirs, t_start, march, res)
+    gpu_rows, refs = march_both(cube_setup, boxes_scene(), origins, dirs, t_start, march, res,
+                                cube_back_layer=back_layer)
     kinds = np.array([r.kind for r in refs])
     assert {HIT, SKY} <= set(kinds.tolist())  # the sample covers hits and misses
+    if back_layer:  # the sample covers back-layer hits
+        assert sum(r.kind == HIT and r.texel[1] >= res for r in refs) >= 20
     same_kind = gpu_rows["kind"] == kinds
     assert same_kind.mean() >= MIN_AGREEMENT, same_kind.mean()
     hits = same_kind & (kinds == HIT)

@@ -28,6 +28,9 @@ def test_every_render_settings_field_is_a_scene_property_with_core_default_limit
             assert [item.identifier for item in prop.enum_items] == list(enums[f.name])
             assert prop.default == getattr(defaults, f.name)
             continue
+        if isinstance(getattr(defaults, f.name), bool):
+            assert prop.type == "BOOLEAN" and prop.default == getattr(defaults, f.name)
+            continue
         assert prop.default == pytest.approx(getattr(defaults, f.name), rel=FLOAT32_TOLERANCE)
         lo, hi = FIELD_LIMITS[f.name]
         assert prop.hard_min == pytest.approx(lo, rel=FLOAT32_TOLERANCE)
@@ -41,9 +44,11 @@ def test_settings_from_scene_returns_the_stored_values(addon):
     stored = scene.hybrid_rt
     stored.mode, stored.near_size, stored.max_depth = "FULL_BVH", 2.5, 7
     stored.cube_resolution, stored.n_min, stored.n_max = 256, 8, 32
+    stored.cube_back_layer = True
     got = settings_from_scene(scene)
     assert (got.mode, got.near_size, got.max_depth) == ("FULL_BVH", 2.5, 7)
     assert (got.cube_resolution, got.n_min, got.n_max) == (256, 8, 32)
+    assert got.cube_back_layer is True
 
 
 def test_inconsistent_stored_settings_raise_a_clear_error(addon):

@@ -38,9 +38,11 @@ def cube_maps_both_ways(renderer, scene, camera, settings):
     culled = tracer.cube_map.culled
     assert culled is not None, "the renderer's cube map must use the culled lists"
     drawn = culled.drawn()
+    if settings.cube_back_layer:
+        drawn += tracer.cube_map.culled_back.drawn()
     with_culling = face_targets(tracer.cube_map)
     direct_submitted = tracer.cube_map.render(renderer.gpu_scene, scene, center, settings)
-    assert tracer.cube_map.culled is None
+    assert tracer.cube_map.culled is None and tracer.cube_map.culled_back is None
     return with_culling, face_targets(tracer.cube_map), submitted, direct_submitted, drawn
 
 
@@ -50,15 +52,21 @@ def assert_identical(a: dict[str, bytes], b: dict[str, bytes]) -> None:
         assert same.all(), f"{name}: {np.count_nonzero(~same)} bytes differ"
 
 
-def test_culled_cube_faces_equal_direct_draws_on_a_chess_frame(renderer):
-    """Closed pieces (back faces dropped), sub-texel triangles of distant pieces, the floor
-    crossing every face: same depth, normals, materials and UVs, bit for bit."""
+@pytest.mark.parametrize("back_layer", [False, True])
+def test_culled_cube_faces_equal_direct_draws_on_a_chess_frame(renderer, back_layer):
+    """Closed pieces (back faces dropped; in the back layer the front faces), sub-texel
+    triangles of distant pieces, the floor crossing every face (absent from the back layer):
+    same depth, normals, materials and UVs, bit for bit."""
     scene, camera = build_chess(detail=0.03, frame=3, width=64, height=36)
     settings = RenderSettings(mode="HYBRID", near_size=3.5, cube_far=CHESS_CUBE_FAR, cube_resolution=128,
-                              max_depth=2)
+                              max_depth=2, cube_back_layer=back_layer)
     culled, direct, submitted, direct_submitted, drawn = cube_maps_both_ways(renderer, scene, camera, settings)
     assert_identical(culled, direct)
     assert submitted == direct_submitted
+    if back_layer:
+        back_rows = np.frombuffer(culled["normal_material"], np.float32).reshape(256, 768, 4)[128:, :, 3]
+        assert (back_rows < 0).sum() > 1000  # back faces, seen from behind
+        assert not (back_rows > 0).any()
     assert 0 < sum(drawn) < 0.6 * submitted, f"drew {sum(drawn)} of {submitted}"
 
 

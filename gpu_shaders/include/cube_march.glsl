@@ -35,7 +35,13 @@
 //                                                 object: thickness 0 = a sheet with nothing
 //                                                 behind it, 1 = solid to the far plane)
 //   otherwise                                  -> the ray passes behind the stored surface
-// where thickness is the hit material's params.y. A piercing hit is refined by bisection
+// where thickness is the hit material's params.y.
+// Back layer (u_cube_back_layer, cube_map.py): where T holds a front face and the texel
+// res rows above it a back face of the same material, seen from behind at depth K > S (the
+// far side of the same closed object), the stretch S + thickness (F - S) is replaced by
+// K - b_K (b_K the bias at the back face): the object ends there, and a ray that reaches
+// the interval from behind (through K, or entering T nearer K than S) hits the back layer's
+// texel, the hidden side with its own normal, material and UV. A piercing hit is refined by bisection
 // between the two samples (CUBE_REFINE_STEPS) so that the texel is the first one behind.
 // The bias b = S (CUBE_BIAS_RELATIVE + texel angle * min(tan(angle of incidence), CUBE_MAX_SLOPE))
 // absorbs the quantisation of the depth to one value per texel, which otherwise makes a
@@ -91,6 +97,7 @@ uniform sampler2D u_cube_hiz;
 uniform int u_cube_hiz_res;
 uniform int u_cube_hiz_levels;
 uniform int u_cube_hierarchical;
+uniform int u_cube_back_layer;
 
 #define CUBE_SKY 0
 #define CUBE_HIT 1
@@ -179,21 +186,60 @@ float cube_max_hit_overshoot() {
     return CUBE_BIAS_RELATIVE + texel_angle * (CUBE_MAX_SLOPE + 1.5);
 }
 
+// The hit interval (A, B] of front-layer atlas texel `atlas_texel` as linear depths (see the
+// header), whose stored normal/material `nm` (w != 0) and NDC depth `stored_z` the caller
+// fetched. `back` says whether B is the texel's back-layer surface (u_cube_back_layer)
+// rather than the thickness rule's stretch: its atlas texel is atlas_texel + (0, res).
+vec2 cube_texel_interval(ivec2 atlas_texel, vec4 nm, float stored_z, out bool back) {
+    int face = atlas_texel.x / u_cube_res;
+    vec2 local = vec2(atlas_texel - ivec2(face * u_cube_res, 0)) + 0.5;
+    vec2 xy = local / float(u_cube_res) * 2.0 - 1.0;
+    float surface = cube_linear_depth(stored_z);
+    float a = surface + cube_depth_bias(face, vec3(xy, stored_z), surface, normalize(nm.xyz));
+    back = false;
+    if (u_cube_back_layer != 0 && nm.w > 0.0) {
+        // A front face with a back face of the same material behind it: the two sides of one
+        // closed object (along a line of sight the nearest front face of a closed solid is
+        // followed by its own back face). The ray hits it where it is inside the solid,
+        // shrunk by the back face's own bias so that a ray leaving that face does not hit it.
+        ivec2 back_texel = atlas_texel + ivec2(0, u_cube_res);
+        vec4 back_nm = texelFetch(u_cube_normal_material, back_texel, 0);
+        if (back_nm.w == -nm.w) {
+            float back_z = texelFetch(u_cube_depth, back_texel, 0).r * 2.0 - 1.0;
+            float k = cube_linear_depth(back_z);
+            if (k > surface) {
+                back = true;
+                float b = k - cube_depth_bias(face, vec3(xy, back_z), k, normalize(back_nm.xyz));
+                return vec2(a, max(a, b));
+            }
+        }
+    }
+    int material = int(abs(nm.w) + 0.5) - 1;
+    float thickness = clamp(materials[material].params.y, 0.0, 1.0);
+    return vec2(a, max(a, surface + thickness * (u_cube_far - surface)));
+}
+
 // The hit interval (A, B] of an atlas texel as NDC depths (see the header), or
 // CUBE_HIZ_EMPTY where no surface is stored. Level 0 of the pyramid.
 vec2 cube_hit_interval(ivec2 atlas_texel) {
     vec4 nm = texelFetch(u_cube_normal_material, atlas_texel, 0);
     if (nm.w == 0.0) return CUBE_HIZ_EMPTY;
-    int face = atlas_texel.x / u_cube_res;
-    vec2 local = vec2(atlas_texel - ivec2(face * u_cube_res, 0)) + 0.5;
-    vec2 xy = local / float(u_cube_res) * 2.0 - 1.0;
     float stored_z = texelFetch(u_cube_depth, atlas_texel, 0).r * 2.0 - 1.0;
-    float surface = cube_linear_depth(stored_z);
-    float a = surface + cube_depth_bias(face, vec3(xy, stored_z), surface, normalize(nm.xyz));
-    int material = int(abs(nm.w) + 0.5) - 1;
-    float thickness = clamp(materials[material].params.y, 0.0, 1.0);
-    float b = max(a, surface + thickness * (u_cube_far - surface));
-    return vec2(cube_ndc_depth(a), cube_ndc_depth(b));
+    bool back;
+    vec2 ab = cube_texel_interval(atlas_texel, nm, stored_z, back);
+    return vec2(cube_ndc_depth(ab.x), cube_ndc_depth(ab.y));
+}
+
+// The atlas texel that a ray hitting front-layer texel `front_texel` meets: its back layer
+// when the ray comes `from_behind` and the texel has a back-layer surface (see
+// cube_texel_interval), otherwise the texel itself.
+ivec2 cube_layer_hit(ivec2 front_texel, bool from_behind) {
+    if (!from_behind || u_cube_back_layer == 0) return front_texel;
+    vec4 nm = texelFetch(u_cube_normal_material, front_texel, 0);
+    float stored_z = texelFetch(u_cube_depth, front_texel, 0).r * 2.0 - 1.0;
+    bool back;
+    cube_texel_interval(front_texel, nm, stored_z, back);
+    return back ? front_texel + ivec2(0, u_cube_res) : front_texel;
 }
 
 // The hierarchical march of one face (see the header) along the map ray a + dm t,
@@ -228,12 +274,14 @@ bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
                 continue;
             }
             float t_hit = t;
+            // Entering nearer B than A: the ray meets the far side (the back layer) first.
+            bool from_behind = z0 - ab.x > ab.y - z0;
             if (!(z0 > ab.x && z0 <= ab.y)) {
                 // Entered the texel in front of A (or behind B): where the depth crosses it.
                 float target = z0 <= ab.x ? ab.x : ab.y;
                 t_hit = clamp(t + (target - z0) / dm.z, t, t_end);
             }
-            hit_texel = ivec2(face * u_cube_res, 0) + cell;
+            hit_texel = cube_layer_hit(ivec2(face * u_cube_res, 0) + cell, from_behind);
             hit_xy = a.xy + dm.xy * t_hit;
             return true;
         }
@@ -252,7 +300,9 @@ bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
 }
 
 // The hit test of one sample (see the header). prev_lin: linear depth of the previous sample.
-// `piercing` says which rule fired.
+// `piercing` says that the step crossed the surface it hit (A from in front, or the back
+// layer's B from behind); on a hit `texel`, `nm` and `stored_z` are those of the surface
+// met (the back layer's for a ray from behind).
 bool cube_sample_hits(int face, vec3 s, float prev_lin, out ivec2 texel, out vec4 nm,
                       out float stored_z, out bool piercing) {
     texel = cube_texel(face, s.xy);
@@ -261,18 +311,22 @@ bool cube_sample_hits(int face, vec3 s, float prev_lin, out ivec2 texel, out vec
     stored_z = 1.0;
     if (nm.w == 0.0) return false;
     stored_z = texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0;
-    float surface = cube_linear_depth(stored_z);
     float r = cube_linear_depth(s.z);
-    if (r <= surface) return false;
-    float bias = cube_depth_bias(face, vec3(s.xy, stored_z), surface, nm.xyz);
-    if (r <= surface + bias) return false;
-    if (prev_lin <= surface + bias) {
+    bool back;
+    vec2 ab = cube_texel_interval(texel, nm, stored_z, back);
+    if (back && prev_lin > ab.y && r <= ab.y) {
+        piercing = true;  // came from behind through the far side: the back layer's surface
+        texel += ivec2(0, u_cube_res);
+        nm = texelFetch(u_cube_normal_material, texel, 0);
+        stored_z = texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0;
+        return true;
+    }
+    if (r <= ab.x) return false;
+    if (prev_lin <= ab.x) {
         piercing = true;
         return true;
     }
-    int material = int(abs(nm.w) + 0.5) - 1;
-    float thickness = clamp(materials[material].params.y, 0.0, 1.0);
-    return r <= surface + thickness * (u_cube_far - surface);
+    return r <= ab.y;
 }
 
 CubeMarch cube_march_limited(vec3 o, vec3 d, float t_start, float t_limit) {

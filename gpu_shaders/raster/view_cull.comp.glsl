@@ -28,7 +28,8 @@
 //   uvec4[S] = first triangle, count, first work item, view | closed << 8; sorted by work
 //   item), 2 masks (write: uint[C]), 3 counts (write: uint[C + 1]).
 // Uniforms: u_num_chunks (C), u_num_segments (S), u_view_proj[MAX_VIEWS], u_view_size
-//   (pixels), u_front_sign (+1: counter-clockwise front faces, -1: clockwise).
+//   (pixels), u_front_sign (+1: counter-clockwise front faces, -1: clockwise; negated for
+//   a view that keeps back faces instead, the cube map's back layer: view_cull.CullView).
 #include "dispatch.glsl"
 #include "triangle_input.glsl"
 #include "view_cull_segments.glsl"

@@ -35,17 +35,18 @@
 //                                                 object: thickness 0 = a sheet with nothing
 //                                                 behind it, 1 = solid to the far plane)
 //   otherwise                                  -> the ray passes behind the stored surface
-// where thickness is the hit material's params.y.
-// Back layer (u_cube_back_layer, cube_map.py): where T holds a front face and the texel
-// res rows above it a back face of the same material, seen from behind at depth K > S (the
-// far side of the same closed object), the stretch S + thickness (F - S) is replaced by
-// K - b_K (b_K the bias at the back face): the object ends there, and a ray that reaches
-// the interval from behind (through K, or entering T nearer K than S) hits the back layer's
-// texel, the hidden side with its own normal, material and UV. A piercing hit is refined by bisection
+// where thickness is the hit material's params.y. A piercing hit is refined by bisection
 // between the two samples (CUBE_REFINE_STEPS) so that the texel is the first one behind.
 // The bias b = S (CUBE_BIAS_RELATIVE + texel angle * min(tan(angle of incidence), CUBE_MAX_SLOPE))
 // absorbs the quantisation of the depth to one value per texel, which otherwise makes a
 // surface seen at a grazing angle hit itself.
+//
+// Back layer (u_cube_back_layer, cube_map.py). Where T holds a front face and the texel
+// res rows above it a back face of the same material, seen from behind at depth K > S (the
+// far side of the same closed object), the stretch S + thickness (F - S) is replaced by
+// K - b_K (b_K the bias at the back face): the object ends there. A ray that reaches the
+// object from behind (crossing K, or entering T nearer K than S) hits the back layer's
+// texel: the hidden side, with its own normal, material and UV.
 //
 // Hierarchical march (settings.cube_march HIERARCHICAL, the default). The same rule made
 // continuous: the ray is followed through every texel T of the face it crosses, entering T
@@ -77,8 +78,9 @@
 // Uniforms: u_cube_depth, u_cube_normal_material (the atlas), u_face_view_proj[6],
 // u_face_inv_view_proj[6], u_face_to_face[36] (index i * 6 + j), u_cube_center, u_cube_near,
 // u_cube_far, u_cube_res, u_n_min, u_n_max; the pyramid u_cube_hiz (faces u_cube_hiz_res
-// texels apart at level 0, a power of two >= u_cube_res), u_cube_hiz_levels, and
-// u_cube_hierarchical (1: hierarchical march, 0: sampled).
+// texels apart at level 0, a power of two >= u_cube_res) and u_cube_hiz_levels;
+// u_cube_hierarchical (1: hierarchical march, 0: sampled); u_cube_back_layer (1: the atlas
+// holds the back layer in its second row of faces).
 #ifndef HYBRID_CUBE_MARCH_GLSL
 #define HYBRID_CUBE_MARCH_GLSL
 

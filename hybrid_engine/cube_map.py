@@ -154,7 +154,7 @@ class CubeMapPass:
                 self.culled_back = self.back_culler.cull(
                     triangles[0], triangles[1],
                     [CullView(v.view_proj, v.width, v.height, back_faces=True) for v in views],
-                    geo.object_ranges, geo.object_bounds, closed, include=np.asarray(closed, bool))
+                    geo.object_ranges, geo.object_bounds, closed, include=closed)
         for i, view in enumerate(views):
             # Refractive surfaces are left out: the faces hold what lies behind them
             # (paper Figure 8; gbuffer.frag.glsl).

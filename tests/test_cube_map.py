@@ -253,3 +253,35 @@ def test_a_mirror_wall_behind_a_ball_shows_the_balls_lit_back_through_the_back_l
     assert flip["one"] > 0.08
     assert flip["two"] < 0.25 * flip["one"], flip
     assert error["two"] < 0.25 * error["one"], error
+
+
+def test_a_frame_sees_nothing_of_the_previous_frames_cube_map(gl):
+    """The faces are cleared to depth and material only (CubeFaceTargets.clear): UVs and
+    geometric normals of the previous frame stay in texels this frame leaves empty, and must
+    never reach the image. Six emissive boxes around the camera, then the same scene without
+    them: the second frame renders bit for bit as on a fresh renderer (a stale material word
+    would mark texels of the boxes non-empty)."""
+    scene = mirror_ball_over_floor_scene()
+    eye = np.array([0.0, -6.0, 4.0])
+    camera = Camera(matrix_world=look_at(tuple(eye), (0.0, 0.0, 0.6)), width=64, height=48)
+    sphere, sphere_normals = uv_sphere((0.0, 0.0, 1.2), 1.0, segments=48, rings=24)
+    boxes = [(box(eye + d * 5.0 - 1.0, eye + d * 5.0 + 1.0), None, 1) for d in CUBE_FACE_DIRECTIONS]
+    with_boxes = SceneData(
+        Geometry.from_objects([(sphere, sphere_normals, 0), *boxes]),
+        MaterialTable.from_rows([dict(base_color=(0.9, 0.9, 0.9), reflectivity=1.0),
+                                 dict(base_color=(0, 0, 0), emission=(8.0, 1.0, 1.0))]),
+        scene.lights, scene.sky)
+    settings = RenderSettings(mode="HYBRID", near_size=0.3, cube_far=50.0, cube_resolution=64, max_depth=2)
+    reused, fresh = Renderer(gl), Renderer(gl)
+    try:
+        reused.render(with_boxes, camera, settings)
+        assert (reused.tracer.cube_map.targets.read("normal_material")[..., 3] != 0).mean() > 0.05
+        after = reused.render(scene, camera, settings).image
+        alone = fresh.render(scene, camera, settings).image
+        for name in ("depth", "normal_material"):  # what marks a texel empty, and where
+            np.testing.assert_array_equal(reused.tracer.cube_map.targets.read(name),
+                                          fresh.tracer.cube_map.targets.read(name), err_msg=name)
+    finally:
+        reused.release()
+        fresh.release()
+    np.testing.assert_array_equal(after, alone)

@@ -134,6 +134,14 @@ struct CubeMarch {
     int switches;    // face switches taken
 };
 
+// The face of atlas column x for faces `res` texels wide: x / res, in float arithmetic
+// because a CPU driver has no vector integer division (the pyramid's base pass spent a fifth
+// of its time dividing). Exact: x + 0.5 lies at least 0.5 / res from a multiple of res,
+// far more than the rounding of a float division of numbers below 2^24.
+int cube_face_of_column(int x, int res) {
+    return int((float(x) + 0.5) / float(res));
+}
+
 float cube_linear_depth(float z_ndc) {
     float n = u_cube_near;
     float f = u_cube_far;
@@ -193,7 +201,7 @@ float cube_max_hit_overshoot() {
 // fetched. `back` says whether B is the texel's back-layer surface (u_cube_back_layer)
 // rather than the thickness rule's stretch: its atlas texel is atlas_texel + (0, res).
 vec2 cube_texel_interval(ivec2 atlas_texel, vec4 nm, float stored_z, out bool back) {
-    int face = atlas_texel.x / u_cube_res;
+    int face = cube_face_of_column(atlas_texel.x, u_cube_res);
     vec2 local = vec2(atlas_texel - ivec2(face * u_cube_res, 0)) + 0.5;
     vec2 xy = local / float(u_cube_res) * 2.0 - 1.0;
     float surface = cube_linear_depth(stored_z);

@@ -22,8 +22,8 @@
 //   one layer; a ray refracted at a surface outside the near cube finds the scene behind it
 //   there (paper Figure 8: refractive objects in the cube map are thin, refract once and
 //   look the cube map up), and rays that meet such an object in the map pass it as a thin
-//   clear sheet. Only this variant may discard: a shader that can discard loses the early
-//   depth test.
+//   clear sheet. The vertex stage drops their triangles (gbuffer.vert.glsl), so that no
+//   variant of this shader discards and all keep the early depth test.
 // * The textures are not sampled: location 1 (RGBA32F) holds xy = UV, z = UV density (sqrt
 //   of UV area per world area, as tracer.pack_triangle_uvs gives BVH triangles), and
 //   location 2 (RG16F) the geometric normal's octahedral coordinates. The tracer samples
@@ -49,9 +49,6 @@ layout(location = 2) out vec4 out_emission_scale;
 
 void main() {
     Material m = materials[v_material];
-#ifdef CUBE_FACE
-    if (m.emission_trans.a > 0.0) discard;
-#endif
     // Derivatives outside any branch (they are undefined in non-uniform control flow).
     vec3 geometric = cross(dFdx(v_world), dFdy(v_world));
     float geometric_len2 = dot(geometric, geometric);

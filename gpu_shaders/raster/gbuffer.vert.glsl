@@ -6,6 +6,14 @@
 // TRIANGLE_MATERIAL_BINDING. Every draw addresses vertices 3 * triangle + corner (direct
 // draws through `first`, the culled cube-map draws through their index buffer), so
 // gl_VertexID / 3 is the triangle.
+// CUBE_FACE defined (the cube-map faces): a triangle of a refractive material is moved
+// outside the clip volume, all three vertices alike, so the clipper drops it whole and it
+// writes nothing (gbuffer.frag.glsl: the faces hold what lies behind refractive surfaces).
+// Dropping it here rather than discarding its fragments keeps the early depth test for the
+// fragment stage, which a shader that can discard loses: a third of the faces' raster time
+// on a software GL (Chess: 99 -> 66 ms). Same G-buffers either way.
+#include "scene_layout.glsl"
+
 uniform mat4 u_view_proj;
 
 in vec3 in_pos;
@@ -13,6 +21,9 @@ in vec3 in_normal;
 in vec2 in_uv;
 
 layout(std430, binding = 1) readonly buffer TriangleMaterials { int triangle_materials[]; };
+#ifdef CUBE_FACE
+layout(std430, binding = 0) readonly buffer MaterialBuffer { Material materials[]; };
+#endif
 
 out vec3 v_world;
 out vec3 v_normal;
@@ -25,4 +36,9 @@ void main() {
     v_uv = in_uv;
     v_material = triangle_materials[gl_VertexID / 3];
     gl_Position = u_view_proj * vec4(in_pos, 1.0);
+#ifdef CUBE_FACE
+    if (materials[v_material].emission_trans.a > 0.0) {
+        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // beyond x = w: outside for every vertex
+    }
+#endif
 }

@@ -19,7 +19,7 @@ layout(rg32f, binding = 0) writeonly uniform image2D u_level0;
 void main() {
     ivec2 texel = ivec2(gl_GlobalInvocationID.xy);
     if (texel.x >= 6 * u_cube_hiz_res || texel.y >= u_cube_hiz_res) return;
-    int face = texel.x / u_cube_hiz_res;
+    int face = cube_face_of_column(texel.x, u_cube_hiz_res);
     ivec2 local = texel - ivec2(face * u_cube_hiz_res, 0);
     vec2 ab = CUBE_HIZ_EMPTY;
     if (all(lessThan(local, ivec2(u_cube_res)))) {

@@ -53,8 +53,7 @@ uniform float u_front_sign[MAX_VIEWS];
 // the rasterizer could sample.
 const float CULL_PIXEL_EPS = 1.0 / 64.0;
 
-bool may_rasterize(uint tri, uint view, bool closed) {
-    mat4 m = u_view_proj[view];
+bool may_rasterize(uint tri, mat4 m, vec2 size, float front_sign, bool closed) {
     vec4 c0 = m * vec4(input_vertex(tri, 0u), 1.0);
     vec4 c1 = m * vec4(input_vertex(tri, 1u), 1.0);
     vec4 c2 = m * vec4(input_vertex(tri, 2u), 1.0);
@@ -72,7 +71,6 @@ bool may_rasterize(uint tri, uint view, bool closed) {
     if (!(c0.w > 0.0 && c1.w > 0.0 && c2.w > 0.0)) {
         return true;  // crosses the camera plane (or is NaN): let the clipper decide
     }
-    vec2 size = u_view_size[view];
     vec2 s0 = (c0.xy / c0.w * 0.5 + 0.5) * size - 0.5;  // pixel centres at integers
     vec2 s1 = (c1.xy / c1.w * 0.5 + 0.5) * size - 0.5;
     vec2 s2 = (c2.xy / c2.w * 0.5 + 0.5) * size - 0.5;
@@ -85,7 +83,7 @@ bool may_rasterize(uint tri, uint view, bool closed) {
         vec2 e1 = s1 - s0;
         vec2 e2 = s2 - s0;
         float area = e1.x * e2.y - e1.y * e2.x;
-        if (!(area * u_front_sign[view] > 0.0)) {
+        if (!(area * front_sign > 0.0)) {
             return false;  // a back face of a closed object (or zero area)
         }
     }
@@ -99,18 +97,30 @@ void main() {
     }
     uint begin = chunk * 32u;
     int seg = segment_of(begin);
+    // A chunk never spans two views (header): the view's uniforms are read once per chunk,
+    // not per item (a dynamically indexed uniform array is a gather per component on a
+    // CPU driver).
+    uint view = segments[seg].w & 0xffu;
+    mat4 m = u_view_proj[view];
+    vec2 size = u_view_size[view];
+    float front_sign = u_front_sign[view];
     uint mask = 0u;
+    // The segment of the current item, and the first item of the next one (the segments
+    // are read when the walk crosses into them, not per item).
+    uvec4 s = segments[seg];
+    uint next_start = seg + 1 < int(u_num_segments) ? segments[seg + 1].z : 0xffffffffu;
     for (uint b = 0u; b < 32u; ++b) {
         uint item = begin + b;
-        while (seg + 1 < int(u_num_segments) && segments[seg + 1].z <= item) {
+        while (item >= next_start) {
             ++seg;
+            s = segments[seg];
+            next_start = seg + 1 < int(u_num_segments) ? segments[seg + 1].z : 0xffffffffu;
         }
-        uvec4 s = segments[seg];
         uint local = item - s.z;
         if (local >= s.y) {
             continue;  // padding between views
         }
-        if (may_rasterize(s.x + local, s.w & 0xffu, (s.w >> 8) != 0u)) {
+        if (may_rasterize(s.x + local, m, size, front_sign, (s.w >> 8) != 0u)) {
             mask |= 1u << b;
         }
     }

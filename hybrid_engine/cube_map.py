@@ -184,7 +184,7 @@ class CubeMapPass:
                                                  back_faces=True)
         if settings.cube_march == "HIERARCHICAL":
             self.pyramid.build(targets.depth, targets.normal_material, gpu.materials.buffer,
-                               self.march_uniforms(settings), res)
+                               self.march_uniforms(settings), res, self.march_defines())
         return submitted
 
     def march_uniforms(self, settings: RenderSettings) -> dict:
@@ -205,8 +205,12 @@ class CubeMapPass:
             "u_cube_hiz_levels": int(self.pyramid.levels),
             "u_cube_hierarchical": int(settings.cube_march == "HIERARCHICAL"
                                        and self.pyramid.texture is not None),
-            "u_cube_back_layer": int(self.back_layer),
         }
+
+    def march_defines(self) -> dict:
+        """Defines of the shaders that include cube_march.glsl, for the last render: the
+        back layer is compiled in only when the atlas holds one (cube_march.glsl)."""
+        return {"CUBE_BACK_LAYER": 1} if self.back_layer else {}
 
     def march_textures(self) -> dict:
         """cube_march.glsl's samplers → textures of the last render."""

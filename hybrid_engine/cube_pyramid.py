@@ -54,13 +54,14 @@ class CubeHitPyramid:
         return self.texture
 
     def build(self, depth, normal_material, materials_buffer, march_uniforms: dict,
-              resolution: int) -> None:
+              resolution: int, march_defines: dict | None = None) -> None:
         """Fill every level from the cube atlas textures (``depth``, ``normal_material``)
         and the material table (thickness). ``march_uniforms`` are the cube_march.glsl
         uniform values of this frame's faces."""
         texture = self._ensure_texture(resolution)
         size = self.face_size
-        prog = self.base_prog
+        prog = (shader_loader.compute(self.ctx, "trace/cube_hiz_base.comp.glsl", march_defines)
+                if march_defines else self.base_prog)
         materials_buffer.bind_to_storage_buffer(0)
         depth.use(location=0)
         normal_material.use(location=1)

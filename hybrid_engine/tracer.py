@@ -214,11 +214,13 @@ class HybridTracer:
         mode = settings.mode
         raster = self.raster
         built = self.built if mode != "PROVENANCE" else None
-        # A BVH whose arrays span several storage blocks needs the kernel compiled for them
-        # (cached per block count; none for BVHs within one block: then this is self.program).
+        # A BVH whose arrays span several storage blocks needs the kernel compiled for them,
+        # and so does a cube map with a back layer (cached per define set; none for a BVH
+        # within one block and a single-layer map: then this is self.program).
         normal_split = split_blocks(self.triangle_count, NORMAL_BYTES, "tracer's shading normals")
         defines = {**(built.traversal_defines() if built is not None else {}),
-                   **normal_split.defines("TRI_NORMAL_BLOCKS", "TRI_NORMAL_BLOCK_SIZE")}
+                   **normal_split.defines("TRI_NORMAL_BLOCKS", "TRI_NORMAL_BLOCK_SIZE"),
+                   **(self.cube_map.march_defines() if mode == "HYBRID" else {})}
         prog = shader_loader.compute(ctx, "trace/hybrid_trace.comp.glsl", defines) if defines else self.program
         self._counters.write(self._zero_counters)
 
@@ -329,7 +331,8 @@ def probe_cube_march(ctx, cube_map: CubeMapPass, materials_buffer, settings: Ren
     rays[:, 0, :3] = origins
     rays[:, 0, 3] = np.broadcast_to(np.asarray(t_start, np.float32), (count,))
     rays[:, 1, :3] = directions
-    prog = shader_loader.compute(ctx, "trace/cube_march_probe.comp.glsl", {"LOCAL_SIZE": PROBE_LOCAL_SIZE})
+    prog = shader_loader.compute(ctx, "trace/cube_march_probe.comp.glsl",
+                                 {"LOCAL_SIZE": PROBE_LOCAL_SIZE, **cube_map.march_defines()})
     ray_buf = ctx.buffer(rays.tobytes() or bytes(32))
     out_buf = ctx.buffer(reserve=max(count, 1) * MARCH_RESULT_DTYPE.itemsize)
     try:

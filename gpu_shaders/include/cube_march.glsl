@@ -41,12 +41,14 @@
 // absorbs the quantisation of the depth to one value per texel, which otherwise makes a
 // surface seen at a grazing angle hit itself.
 //
-// Back layer (u_cube_back_layer, cube_map.py). Where T holds a front face and the texel
+// Back layer (CUBE_BACK_LAYER, cube_map.py). Where T holds a front face and the texel
 // res rows above it a back face of the same material, seen from behind at depth K > S (the
 // far side of the same closed object), the stretch S + thickness (F - S) is replaced by
 // K - b_K (b_K the bias at the back face): the object ends there. A ray that reaches the
 // object from behind (crossing K, or entering T nearer K than S) hits the back layer's
-// texel: the hidden side, with its own normal, material and UV.
+// texel: the hidden side, with its own normal, material and UV. A compile-time switch, not a
+// uniform: its code, even switched off, slowed every step of the marches by a third to a
+// half on llvmpipe (the loops' register pressure), so without it the shaders hold none.
 //
 // Hierarchical march (settings.cube_march HIERARCHICAL, the default). The same rule made
 // continuous: the ray is followed through every texel T of the face it crosses, entering T
@@ -79,8 +81,9 @@
 // u_face_inv_view_proj[6], u_face_to_face[36] (index i * 6 + j), u_cube_center, u_cube_near,
 // u_cube_far, u_cube_res, u_n_min, u_n_max; the pyramid u_cube_hiz (faces u_cube_hiz_res
 // texels apart at level 0, a power of two >= u_cube_res) and u_cube_hiz_levels;
-// u_cube_hierarchical (1: hierarchical march, 0: sampled); u_cube_back_layer (1: the atlas
-// holds the back layer in its second row of faces).
+// u_cube_hierarchical (1: hierarchical march, 0: sampled).
+// Host define: CUBE_BACK_LAYER (1: the atlas holds the back layer in its second row of
+// faces; default 0; cube_map.CubeMapPass.march_defines).
 #ifndef HYBRID_CUBE_MARCH_GLSL
 #define HYBRID_CUBE_MARCH_GLSL
 
@@ -99,7 +102,9 @@ uniform sampler2D u_cube_hiz;
 uniform int u_cube_hiz_res;
 uniform int u_cube_hiz_levels;
 uniform int u_cube_hierarchical;
-uniform int u_cube_back_layer;
+#ifndef CUBE_BACK_LAYER
+#define CUBE_BACK_LAYER 0
+#endif
 
 #define CUBE_SKY 0
 #define CUBE_HIT 1
@@ -198,7 +203,7 @@ float cube_max_hit_overshoot() {
 
 // The hit interval (A, B] of front-layer atlas texel `atlas_texel` as linear depths (see the
 // header), whose stored normal/material `nm` (w != 0) and NDC depth `stored_z` the caller
-// fetched. `back` says whether B is the texel's back-layer surface (u_cube_back_layer)
+// fetched. `back` says whether B is the texel's back-layer surface (CUBE_BACK_LAYER)
 // rather than the thickness rule's stretch: its atlas texel is atlas_texel + (0, res).
 vec2 cube_texel_interval(ivec2 atlas_texel, vec4 nm, float stored_z, out bool back) {
     int face = cube_face_of_column(atlas_texel.x, u_cube_res);
@@ -207,7 +212,8 @@ vec2 cube_texel_interval(ivec2 atlas_texel, vec4 nm, float stored_z, out bool ba
     float surface = cube_linear_depth(stored_z);
     float a = surface + cube_depth_bias(face, vec3(xy, stored_z), surface, normalize(nm.xyz));
     back = false;
-    if (u_cube_back_layer != 0 && nm.w > 0.0) {
+#if CUBE_BACK_LAYER
+    if (nm.w > 0.0) {
         // A front face with a back face of the same material behind it: the two sides of one
         // closed object (along a line of sight the nearest front face of a closed solid is
         // followed by its own back face). The ray hits it where it is inside the solid,
@@ -224,6 +230,7 @@ vec2 cube_texel_interval(ivec2 atlas_texel, vec4 nm, float stored_z, out bool ba
             }
         }
     }
+#endif
     int material = int(abs(nm.w) + 0.5) - 1;
     float thickness = clamp(materials[material].params.y, 0.0, 1.0);
     return vec2(a, max(a, surface + thickness * (u_cube_far - surface)));
@@ -244,12 +251,16 @@ vec2 cube_hit_interval(ivec2 atlas_texel) {
 // when the ray comes `from_behind` and the texel has a back-layer surface (see
 // cube_texel_interval), otherwise the texel itself.
 ivec2 cube_layer_hit(ivec2 front_texel, bool from_behind) {
-    if (!from_behind || u_cube_back_layer == 0) return front_texel;
+#if CUBE_BACK_LAYER
+    if (!from_behind) return front_texel;
     vec4 nm = texelFetch(u_cube_normal_material, front_texel, 0);
     float stored_z = texelFetch(u_cube_depth, front_texel, 0).r * 2.0 - 1.0;
     bool back;
     cube_texel_interval(front_texel, nm, stored_z, back);
     return back ? front_texel + ivec2(0, u_cube_res) : front_texel;
+#else
+    return front_texel;
+#endif
 }
 
 // The hierarchical march of one face (see the header) along the map ray a + dm t,
@@ -270,6 +281,8 @@ bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
     int top = u_cube_hiz_levels - 1;
     int level = 0;
     float t = 0.0;
+    bool found = false;
+    bool hit_from_behind = false;
     for (int step = 0; step < CUBE_HIZ_MAX_STEPS; ++step) {
         int size = 1 << level;
         ivec2 c = cell >> level;
@@ -291,9 +304,11 @@ bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
                 float target = z0 <= ab.x ? ab.x : ab.y;
                 t_hit = clamp(t + (target - z0) / dm.z, t, t_end);
             }
-            hit_texel = cube_layer_hit(ivec2(face * u_cube_res, 0) + cell, from_behind);
+            hit_texel = ivec2(face * u_cube_res, 0) + cell;
             hit_xy = a.xy + dm.xy * t_hit;
-            return true;
+            hit_from_behind = from_behind;
+            found = true;
+            break;
         }
         if (t_end >= t_exit) return false;
         // Step into the neighbouring cell of this level; the coordinate that does not step
@@ -306,7 +321,9 @@ bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
         if (any(lessThan(cell, ivec2(0))) || any(greaterThanEqual(cell, ivec2(u_cube_res)))) return false;
         level = min(level + 1, top);
     }
-    return false;
+    // The back layer's choice once, after the loop (out of the loop's registers).
+    if (found) hit_texel = cube_layer_hit(hit_texel, hit_from_behind);
+    return found;
 }
 
 // The hit test of one sample (see the header). prev_lin: linear depth of the previous sample.

@@ -47,8 +47,8 @@
 // K - b_K (b_K the bias at the back face): the object ends there. A ray that reaches the
 // object from behind (crossing K, or entering T nearer K than S) hits the back layer's
 // texel: the hidden side, with its own normal, material and UV. A compile-time switch, not a
-// uniform: its code, even switched off, slowed every step of the marches by a third to a
-// half on llvmpipe (the loops' register pressure), so without it the shaders hold none.
+// uniform: its code, even switched off, made the marches 40-50 % slower on llvmpipe (the
+// loops' register pressure), so without it the shaders hold none of it.
 //
 // Hierarchical march (settings.cube_march HIERARCHICAL, the default). The same rule made
 // continuous: the ray is followed through every texel T of the face it crosses, entering T

@@ -50,25 +50,14 @@ class CubeFaceTargets(RenderTargets):
     coordinates far past [0, 1]."""
 
     def __init__(self, ctx, width: int, height: int) -> None:
+        # clear() resets depth and ``normal_material`` only. A texel is empty where its
+        # material word is 0, and the march reads ``surface`` and ``geometric`` only at texels
+        # it hits, so what those two hold elsewhere is never read; clearing them would be more
+        # than half of the 40 bytes per texel written (4 of 8 ms at 6 x 512², more when
+        # memory is contended, llvmpipe).
         super().__init__(ctx, width, height,
-                         colour={"normal_material": (4, "f4"), "surface": (4, "f4"), "geometric": (2, "f2")})
-        # What clear() resets: depth and the material word that marks a texel empty.
-        self._clear_fbo = ctx.framebuffer(color_attachments=[self.normal_material],
-                                          depth_attachment=self.depth)
-
-    def clear(self) -> None:
-        """Reset depth and ``normal_material`` only. A texel is empty where its material
-        word is 0, and the march reads ``surface`` and ``geometric`` only at texels it hits,
-        so what those two hold elsewhere is never read; leaving them costs nothing, where
-        clearing them is more than half of the 40 bytes per texel the clear would write
-        (4 of 8 ms at 6 x 512², more when memory is contended, llvmpipe)."""
-        self._clear_fbo.use()
-        self._clear_fbo.viewport = (0, 0, *self.size)
-        self._clear_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-
-    def release(self) -> None:
-        self._clear_fbo.release()
-        super().release()
+                         colour={"normal_material": (4, "f4"), "surface": (4, "f4"), "geometric": (2, "f2")},
+                         cleared=("normal_material",))
 
 
 @dataclass(frozen=True)

@@ -178,10 +178,12 @@ class RasterView:
 class RenderTargets:
     """Textures of one size rendered together: a depth texture and colour targets in one
     framebuffer, plus textures the passes fill otherwise (``extra``), all sampled texel by
-    texel (NEAREST). Subclasses name them."""
+    texel (NEAREST). Subclasses name them. :meth:`clear` resets depth and the colour targets
+    named in ``cleared`` (all when None)."""
 
     def __init__(self, ctx, width: int, height: int, colour: dict[str, tuple[int, str]],
-                 extra: dict[str, tuple[int, str]] | None = None) -> None:
+                 extra: dict[str, tuple[int, str]] | None = None,
+                 cleared: tuple[str, ...] | None = None) -> None:
         self.size = (int(width), int(height))
         self.depth = ctx.depth_texture(self.size)
         self._textures = {"depth": self.depth}
@@ -192,11 +194,13 @@ class RenderTargets:
             tex.filter = (ctx.NEAREST, ctx.NEAREST)
         self.fbo = ctx.framebuffer(color_attachments=[self._textures[name] for name in colour],
                                    depth_attachment=self.depth)
+        self._clear_fbo = self.fbo if cleared is None else ctx.framebuffer(
+            color_attachments=[self._textures[name] for name in cleared], depth_attachment=self.depth)
 
     def clear(self) -> None:
-        self.fbo.use()
-        self.fbo.viewport = (0, 0, *self.size)
-        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self._clear_fbo.use()
+        self._clear_fbo.viewport = (0, 0, *self.size)
+        self._clear_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
 
     def read(self, name: str) -> np.ndarray:
         """Texture ``name`` as (H, W, C) float32, row 0 at the bottom (tests, diagnostics)."""
@@ -206,7 +210,8 @@ class RenderTargets:
         return np.frombuffer(tex.read(), dtype).reshape(h, w, -1).astype(np.float32)
 
     def release(self) -> None:
-        _release_all((self.fbo, *self._textures.values()))
+        extra_fbo = () if self._clear_fbo is self.fbo else (self._clear_fbo,)
+        _release_all((self.fbo, *extra_fbo, *self._textures.values()))
 
 
 class GBufferTargets(RenderTargets):

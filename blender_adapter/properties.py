@@ -31,6 +31,7 @@ _LABELS = {
     "mode": "Mode",
     "cube_march": "March",
     "cube_back_layer": "Back Faces",
+    "cube_hidden_exit": "Hidden Exits Hit",
     "near_size": "Near Size",
     "max_depth": "Max Depth",
     "cube_resolution": "Face Resolution",

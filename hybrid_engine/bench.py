@@ -77,6 +77,10 @@ FRAME_NUMBER = 0
 WARM_UP_FRAMES = 2  # the first frame uploads everything; the second teaches the shadow cache what moves
 FRAME_NEAR_SIZE = 3.5
 FRAME_MAX_DEPTH = 4  # the paper's "maximum of four ray recursions" (Figure 5)
+# HYBRID's cube map holds the back layer: with the hidden-exit rule (both on the settings'
+# side, cube_march.glsl) it takes Chess's FLIP from 0.066 to 0.049 for ~90 ms of raster on
+# the 2-core CPU (docs/BENCHMARKS.md); --no-back-layer measures the paper's single layer.
+FRAME_BACK_LAYER = True
 # The bars of issue 6 (reported, never enforced here).
 FRAME_SPEEDUP_BAR = 2.0
 FRAME_FLIP_BAR = 0.05
@@ -349,7 +353,7 @@ def frame_section(detail: float = FULL_FRAME["detail"],
                   rounds: int = ROUNDS, cube_resolution: int = FULL_FRAME["cube_resolution"],
                   near_size: float = FRAME_NEAR_SIZE, max_depth: int = FRAME_MAX_DEPTH,
                   frame: int = FRAME_NUMBER, cube_march: str = "HIERARCHICAL",
-                  cube_back_layer: bool = False) -> dict:
+                  cube_back_layer: bool = FRAME_BACK_LAYER) -> dict:
     """HYBRID vs FULL_BVH on consecutive frames of the procedural Chess animation, side by
     side in one process (:func:`compare_modes`): frames ``frame`` and ``frame + 1`` warm the
     renderers up, frames ``frame + 2 .. frame + rounds + 1`` are timed."""
@@ -531,7 +535,8 @@ SECTIONS = ("lbvh", "trace", "frame")
 
 def run(quick: bool = False, sections=SECTIONS, rounds: int = ROUNDS,
         resolution: tuple[int, int] | None = None, near_size: float = FRAME_NEAR_SIZE,
-        detail: float | None = None, cube_march: str = "HIERARCHICAL", cube_back_layer: bool = False) -> dict:
+        detail: float | None = None, cube_march: str = "HIERARCHICAL",
+        cube_back_layer: bool = FRAME_BACK_LAYER) -> dict:
     """Run the requested sections and return the report dictionary (``resolution``: the
     frame section's image size, default :func:`default_frame_resolution`; ``near_size``: its
     near-cube half-size; ``detail``: the Chess scene's detail, default 1.0 (0.02 quick);
@@ -580,8 +585,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="Chess scene detail of the frame section (default 1.0, 0.02 with --quick)")
     parser.add_argument("--cube-march", choices=CUBE_MARCHES, default="HIERARCHICAL",
                         help="how HYBRID marches the cube map in the frame section")
-    parser.add_argument("--back-layer", action="store_true",
-                        help="HYBRID's cube map with the back layer (settings.cube_back_layer)")
+    parser.add_argument("--back-layer", action=argparse.BooleanOptionalAction, default=FRAME_BACK_LAYER,
+                        help="HYBRID's cube map with the back layer (settings.cube_back_layer; "
+                        "default on: --no-back-layer for the paper's single layer)")
     parser.add_argument("--sections", default=",".join(SECTIONS),
                         help=f"comma-separated subset of {', '.join(SECTIONS)}")
     args = parser.parse_args(argv)

@@ -118,6 +118,7 @@ class CubeMapPass:
         self.culled_back: CulledDraws | None = None  # the same for the back layer
         self.resolution = 0
         self.back_layer = False
+        self.hidden_exit = False
 
     def _ensure_targets(self, resolution: int, layers: int) -> CubeFaceTargets:
         size = (6 * resolution, layers * resolution)
@@ -139,6 +140,7 @@ class CubeMapPass:
         res = int(settings.cube_resolution)
         geo = scene.geometry
         self.back_layer = bool(settings.cube_back_layer)
+        self.hidden_exit = bool(settings.cube_hidden_exit)
         targets = self._ensure_targets(res, 2 if self.back_layer else 1)
         self.faces = CubeFaces.at(center, settings.near_size, settings.cube_far)
         self.resolution = res
@@ -151,16 +153,17 @@ class CubeMapPass:
         if triangles is not None and geo.triangle_count:
             if self.culler is None:
                 self.culler = ViewTriangleCuller(self.ctx)
-            self.culled = self.culler.cull(
-                triangles[0], triangles[1], [CullView(v.view_proj, v.width, v.height) for v in views],
-                geo.object_ranges, geo.object_bounds, closed)
+            cull_views = [CullView(v.view_proj, v.width, v.height) for v in views]
             if draw_back:
+                # One test per triangle for both layers' lists.
                 if self.back_culler is None:
                     self.back_culler = ViewTriangleCuller(self.ctx)
-                self.culled_back = self.back_culler.cull(
-                    triangles[0], triangles[1],
-                    [CullView(v.view_proj, v.width, v.height, back_faces=True) for v in views],
-                    geo.object_ranges, geo.object_bounds, closed, include=closed)
+                self.culled, self.culled_back = self.culler.cull_with_back(
+                    self.back_culler, triangles[0], triangles[1], cull_views,
+                    geo.object_ranges, geo.object_bounds, closed)
+            else:
+                self.culled = self.culler.cull(triangles[0], triangles[1], cull_views,
+                                               geo.object_ranges, geo.object_bounds, closed)
         for i, view in enumerate(views):
             # Refractive surfaces are left out: the faces hold what lies behind them
             # (paper Figure 8; gbuffer.frag.glsl).
@@ -173,7 +176,7 @@ class CubeMapPass:
                                                  back_faces=True)
         if settings.cube_march == "HIERARCHICAL":
             self.pyramid.build(targets.depth, targets.normal_material, gpu.materials.buffer,
-                               self.march_uniforms(settings), res, self.march_defines())
+                               self.march_uniforms(settings), res, self.layer_defines())
         return submitted
 
     def march_uniforms(self, settings: RenderSettings) -> dict:
@@ -196,10 +199,15 @@ class CubeMapPass:
                                        and self.pyramid.texture is not None),
         }
 
-    def march_defines(self) -> dict:
-        """Defines of the shaders that include cube_march.glsl, for the last render: the
-        back layer is compiled in only when the atlas holds one (cube_march.glsl)."""
+    def layer_defines(self) -> dict:
+        """The back layer's define (cube_march.glsl), for the last render: compiled in only
+        when the atlas holds one. All the hit-interval pyramid needs."""
         return {"CUBE_BACK_LAYER": 1} if self.back_layer else {}
+
+    def march_defines(self) -> dict:
+        """Defines of the marching shaders (cube_march.glsl), for the last render: the
+        layer's, and the hidden-exit rule when the settings ask for it."""
+        return {**self.layer_defines(), **({"CUBE_HIDDEN_EXIT": 1} if self.hidden_exit else {})}
 
     def march_textures(self) -> dict:
         """cube_march.glsl's samplers → textures of the last render."""

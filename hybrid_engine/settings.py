@@ -40,6 +40,9 @@ FIELD_DOCS = {
     "cube_back_layer": "Also store the far side of closed objects in the cube map (a second layer "
     "of back faces): a ray that passes behind a surface meets its hidden side instead of a "
     "surface stretched by the material's thickness",
+    "cube_hidden_exit": "A ray that leaves the cube map at a point the camera cannot see (under a "
+    "floor, behind an object) hits the surface that hides the point instead of seeing the sky, "
+    "which the paper gives it",
     "n_min": "SAMPLED march: samples per cube-map face for rays grazing the face "
     "(paper 3.4: n = n_min + (N.r)(n_max - n_min))",
     "n_max": "SAMPLED march: samples per cube-map face for rays entering it head-on "
@@ -75,6 +78,7 @@ class RenderSettings:
     cube_far: float = 1000.0
     cube_march: str = "HIERARCHICAL"
     cube_back_layer: bool = False
+    cube_hidden_exit: bool = True
     n_min: int = 16
     n_max: int = 64
     shadow_resolution: int = 1024

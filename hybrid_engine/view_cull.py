@@ -13,6 +13,10 @@ and compacts the survivors into an index buffer with one indirect draw command p
 triangle only where the GL would rasterize nothing of it and the survivors keep their
 order, so the G-buffers are bit-identical to drawing the lists directly (tested).
 
+For the cube map's back layer (cube_map.py) one test per triangle fills two lists
+(:meth:`ViewTriangleCuller.cull_with_back`): the faces' own, and the back layer's, which holds
+the back faces of the closed objects.
+
 Everything stays on the GPU: the host builds the per-view segment lists from object bounds
 (no per-triangle work) and never reads the result back. A draw list whose index buffer
 would exceed one storage block returns None, and the caller draws directly (the documented
@@ -54,13 +58,15 @@ class CullView:
 
 def view_segments(views: list[CullView], object_ranges: np.ndarray, object_bounds: np.ndarray,
                   object_closed: np.ndarray | None,
-                  include: np.ndarray | None = None) -> tuple[np.ndarray, list[int]]:
+                  include: np.ndarray | None = None,
+                  tag_closed: bool = False) -> tuple[np.ndarray, list[int]]:
     """The work list of :mod:`view_cull.comp.glsl`: per view, the triangle runs of the
     objects whose bounds touch it (and, given ``include``, that it selects; a shadow
     layer draws some objects only), adjacent objects of the same back-face class merged,
-    each tagged with the view and whether its back faces may be culled; each view's work
-    starts at a multiple of CHUNK_ITEMS. Returns the segments and the first chunk of each
-    view plus the total chunk count (V + 1 entries)."""
+    each tagged with the view and whether its back faces may be culled (bit 8), and with
+    ``tag_closed`` whether the object is closed (bit 9: it belongs in the back layer's
+    list); each view's work starts at a multiple of CHUNK_ITEMS. Returns the segments and
+    the first chunk of each view plus the total chunk count (V + 1 entries)."""
     ranges = np.asarray(object_ranges, np.int64).reshape(-1, 2)
     closed_objects = (np.zeros(len(ranges), bool) if object_closed is None
                       else np.asarray(object_closed, bool).reshape(-1))
@@ -74,7 +80,10 @@ def view_segments(views: list[CullView], object_ranges: np.ndarray, object_bound
             visible &= include
         cullable = visible & closed_objects & beyond_near_plane(view.view_proj, object_bounds)
         picked = order[visible[order]]
-        first, count, flag = ranges[picked, 0], ranges[picked, 1], cullable[picked]
+        flags = cullable.astype(np.uint32) << 8
+        if tag_closed:
+            flags |= closed_objects.astype(np.uint32) << 9
+        first, count, flag = ranges[picked, 0], ranges[picked, 1], flags[picked]
         if len(picked):
             # Merge runs: same flag and contiguous triangles.
             starts = np.ones(len(picked), bool)
@@ -88,7 +97,7 @@ def view_segments(views: list[CullView], object_ranges: np.ndarray, object_bound
             block["first"] = run_first
             block["count"] = run_count
             block["work"] = run_work
-            block["tag"] = index | (run_flag.astype(np.uint32) << 8)
+            block["tag"] = index | run_flag
             rows.append(block)
             work += int(run_count.sum())
         work = math.ceil(work / CHUNK_ITEMS) * CHUNK_ITEMS
@@ -156,27 +165,50 @@ class ViewTriangleCuller:
         are in the GL buffer ``triangles`` (of the objects ``include`` selects, all when
         None). None when the index buffer would exceed one storage block (draw directly
         then)."""
+        return self._cull(triangles, triangle_count, views, object_ranges, object_bounds, object_closed,
+                          include, None)[0]
+
+    def cull_with_back(self, back: "ViewTriangleCuller", triangles, triangle_count: int,
+                       views: list[CullView], object_ranges: np.ndarray, object_bounds: np.ndarray,
+                       object_closed: np.ndarray) -> tuple[CulledDraws | None, CulledDraws | None]:
+        """:meth:`cull` of ``views``, and with the same test of each triangle the back
+        layer's lists into ``back``'s buffers: what ``back.cull`` would keep of the same
+        views as ``CullView(..., back_faces=True)`` with ``include=object_closed`` (the
+        closed objects' back faces; all their triangles where an object is cut by a near
+        plane and the GL culls front faces). Both None when either index buffer would
+        exceed one storage block (draw directly then)."""
+        return self._cull(triangles, triangle_count, views, object_ranges, object_bounds, object_closed,
+                          None, back)
+
+    def _cull(self, triangles, triangle_count: int, views: list[CullView], object_ranges: np.ndarray,
+              object_bounds: np.ndarray, object_closed: np.ndarray | None, include: np.ndarray | None,
+              back: "ViewTriangleCuller | None") -> tuple[CulledDraws | None, CulledDraws | None]:
         if not 1 <= len(views) <= MAX_VIEWS:
             raise ValueError(f"between 1 and {MAX_VIEWS} views can be culled at once, got {len(views)}")
-        segments, view_chunks = view_segments(views, object_ranges, object_bounds, object_closed, include)
-        submitted = np.bincount(segments["tag"] & 0xFF, weights=segments["count"],
+        paired = back is not None
+        segments, view_chunks = view_segments(views, object_ranges, object_bounds, object_closed, include,
+                                              tag_closed=paired)
+        view_of = segments["tag"] & 0xFF
+        submitted = np.bincount(view_of, weights=segments["count"],
                                 minlength=len(views)).astype(np.int64).tolist()
+        back_submitted = np.bincount(view_of, weights=segments["count"] * ((segments["tag"] >> 9) & 1),
+                                     minlength=len(views)).astype(np.int64).tolist()
         num_chunks = view_chunks[-1]
         total = sum(submitted)
         if 3 * 4 * total > max_block_bytes() or (num_chunks + 1) * 4 > max_block_bytes():
-            return None
+            return None, None
         ctx = self.ctx
-        commands = self.commands.ensure(COMMAND_BYTES * MAX_VIEWS)
+        pairs = [(self, submitted)] + ([(back, back_submitted)] if paired else [])
+        for culler, _ in pairs:
+            culler.commands.ensure(COMMAND_BYTES * MAX_VIEWS)
+        results = tuple(CulledDraws(culler, counts) for culler, counts in pairs) + ((None,) if not paired else ())
         if num_chunks == 0:
-            return CulledDraws(self, submitted)
+            return results
         split = input_split(int(triangle_count))
         cull = shader_loader.compute(ctx, "raster/view_cull.comp.glsl", {
             "LOCAL_SIZE": LOCAL_SIZE, "MAX_VIEWS": MAX_VIEWS, "TRI_INPUT_BINDING": 0,
-            "TRI_INDEX_BINDING": 5, **input_defines(split)})
+            "TRI_INDEX_BINDING": 5, "PAIRED": int(paired), **input_defines(split)})
         self._segments.upload(segments.tobytes())
-        masks = self._masks.ensure(num_chunks * 4)
-        counts = self._counts.ensure((num_chunks + 1) * 4)
-        indices = self.indices.ensure(3 * 4 * max(total, 1))
 
         view_proj = np.zeros((MAX_VIEWS, 4, 4), np.float32)
         sizes = np.ones((MAX_VIEWS, 2), np.float32)
@@ -196,25 +228,32 @@ class ViewTriangleCuller:
                                                    "u_num_views": len(views)})
         shader_loader.set_uniforms(self._scan, {"u_count": num_chunks})
 
-        # 1. One bit per item, a count per chunk.
+        # 1. One bit per item (per list), a count per chunk.
         bind_input(triangles, split)
         bind_storage(self._segments.buffer, 1, 0, len(segments) * SEGMENT_DTYPE.itemsize)
-        bind_storage(masks, 2, 0, num_chunks * 4)
-        bind_storage(counts, 3, 0, (num_chunks + 1) * 4)
+        for culler, (mask_binding, count_binding) in zip((self, back), ((2, 3), (7, 8))):
+            if culler is not None:
+                bind_storage(culler._masks.ensure(num_chunks * 4), mask_binding, 0, num_chunks * 4)
+                bind_storage(culler._counts.ensure((num_chunks + 1) * 4), count_binding, 0, (num_chunks + 1) * 4)
         dispatch(cull, num_chunks, LOCAL_SIZE)
         storage_barrier(ctx)
-        # 2. Offsets (total at [num_chunks]).
+        for culler, counts in pairs:
+            self._compact_into(culler, num_chunks, max(sum(counts), 1))
+        ctx.memory_barrier(moderngl.ELEMENT_ARRAY_BARRIER_BIT | moderngl.COMMAND_BARRIER_BIT)
+        return results
+
+    def _compact_into(self, culler: "ViewTriangleCuller", num_chunks: int, capacity: int) -> None:
+        """Steps 2 and 3 for the masks and counts in ``culler``'s buffers (this culler's
+        programs, whose uniforms _cull set): offsets by a scan, then indices and commands."""
+        masks, counts = culler._masks.buffer, culler._counts.buffer
         bind_storage(counts, 0, 0, (num_chunks + 1) * 4)
         self._scan.run(1, 1, 1)
-        storage_barrier(ctx)
-        # 3. Indices and commands.
+        storage_barrier(self.ctx)
         bind_storage(masks, 2, 0, num_chunks * 4)
         bind_storage(counts, 3, 0, (num_chunks + 1) * 4)
-        bind_storage(indices, 4, 0, 3 * 4 * max(total, 1))
-        bind_storage(commands, 6, 0, COMMAND_BYTES * MAX_VIEWS)
+        bind_storage(culler.indices.ensure(3 * 4 * capacity), 4, 0, 3 * 4 * capacity)
+        bind_storage(culler.commands.buffer, 6, 0, COMMAND_BYTES * MAX_VIEWS)
         dispatch(self._compact, num_chunks, LOCAL_SIZE)
-        ctx.memory_barrier(moderngl.ELEMENT_ARRAY_BARRIER_BIT | moderngl.COMMAND_BARRIER_BIT)
-        return CulledDraws(self, submitted)
 
     def _release_vaos(self) -> None:
         for vao in self._vaos.values():

@@ -12,6 +12,8 @@ texel-edge crossings, not by walking a pyramid) is tested against its hit interv
 surface has a back face of its own material behind it, B is that back face (less its bias)
 instead of the thickness stretch, and a ray reaching the interval from behind hits the back
 layer's texel.
+``hidden_exit=True`` adds the hidden-exit rule: a ray leaving through a far plane at a point
+behind the surface stored at that point's texel hits that surface instead of the sky.
 Tests feed it the same atlas the GPU marched (read back from the GL textures) and compare
 outcomes ray by ray.
 """
@@ -70,7 +72,7 @@ class CubeMapReference:
     empty); thickness: per-material thickness."""
 
     def __init__(self, depth, normal_material, thickness, center, near, far, n_min, n_max,
-                 hierarchical: bool = False, back_layer: bool = False):
+                 hierarchical: bool = False, back_layer: bool = False, hidden_exit: bool = False):
         self.depth = np.asarray(depth, np.float64)
         self.nm = np.asarray(normal_material, np.float64)
         self.res = self.depth.shape[1] // 6
@@ -83,6 +85,7 @@ class CubeMapReference:
         self.vp = face_matrices(center, near, far)
         self.inv = np.linalg.inv(self.vp)
         self.hierarchical = hierarchical
+        self.hidden_exit = hidden_exit
 
     def ndc(self, r):
         n, f = self.near, self.far
@@ -250,6 +253,12 @@ class CubeMapReference:
             e = a + dm * t_exit
             if axis == 2:
                 if dm[2] > 0:
+                    tx, ty = self.texel(face, e[:2])
+                    z = self.depth[ty, tx] * 2 - 1
+                    if self.hidden_exit and self.nm[ty, tx, 3] != 0 and e[2] > z:
+                        position = self.unproject(face, np.r_[e[:2], z])
+                        return MarchResult(HIT, face, (tx, ty), position, float((position - o) @ d),
+                                           result.switches)
                     return result
                 position = self.unproject(face, e)
                 return MarchResult(TO_BVH, face, (-1, -1), position, float((position - o) @ d),

@@ -69,7 +69,7 @@ def march_both(cube_setup, scene, origins, dirs, t_start, march="HIERARCHICAL", 
     nm = np.frombuffer(cube.targets.normal_material.read(), np.float32).reshape(h, w, 4)
     ref = CubeMapReference(depth, nm, scene.materials.thickness, CENTER, NEAR, FAR,
                            settings.n_min, settings.n_max, hierarchical=march == "HIERARCHICAL",
-                           back_layer=settings.cube_back_layer)
+                           back_layer=settings.cube_back_layer, hidden_exit=settings.cube_hidden_exit)
     t_start = np.broadcast_to(np.asarray(t_start, float), (len(origins),))
     refs = [ref.march(o, d, t) for o, d, t in zip(origins, dirs, t_start)]
     return gpu_rows, refs
@@ -119,6 +119,34 @@ def test_march_agrees_with_the_numpy_reference_on_random_rays(cube_setup, rng, m
     texel_ok = (np.abs(gpu_rows["texel"][hits] - ref_texels) <= TEXEL_TOLERANCE).all(axis=1)
     assert texel_ok.mean() >= MIN_AGREEMENT
     assert (gpu_rows["face"][hits] == np.array([r.face for r in refs])[hits]).mean() >= MIN_AGREEMENT
+
+
+@pytest.mark.parametrize("march", ["SAMPLED", "HIERARCHICAL"])
+@pytest.mark.parametrize("hidden_exit", [False, True])
+def test_a_ray_leaving_the_map_hidden_under_the_ground_hits_the_ground_only_with_the_hidden_exit_rule(
+        cube_setup, rng, hidden_exit, march):
+    """Rays that start under the ground quad (a sheet: thickness 0) and head down and away
+    never cross a surface the map holds; they leave through the far plane at points hidden
+    by the ground. The paper's rule gives them the sky; the hidden-exit rule, the ground
+    stored at their exit texels. The reference agrees ray by ray either way."""
+    origins = CENTER + np.c_[rng.uniform(-4, 4, (80, 2)), np.full(80, -3.5)]
+    dirs = np.c_[rng.uniform(-0.4, 0.4, (80, 2)), -np.ones(80)]
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    gpu_rows, refs = march_both(cube_setup, boxes_scene(1.0), origins, dirs, 0.0, march,
+                                cube_hidden_exit=hidden_exit)
+    kinds = np.array([r.kind for r in refs])
+    assert (gpu_rows["kind"] == kinds).mean() >= MIN_AGREEMENT
+    if not hidden_exit:
+        assert (gpu_rows["kind"] == MARCH_SKY).all()
+        return
+    hits = gpu_rows["kind"] == MARCH_HIT
+    assert hits.mean() > 0.9
+    assert (gpu_rows["material"][hits] == 1).all()  # the ground, the only surface stored below
+    both = hits & (kinds == HIT)
+    ref_texels = np.array([r.texel for r in refs])[both]
+    assert (np.abs(gpu_rows["texel"][both] - ref_texels) <= TEXEL_TOLERANCE).all()
+    # Hit where the ray left: on the ground's stored surface, far below the ray's origin.
+    assert (gpu_rows["position"][hits][:, 2] == pytest.approx(CENTER[2] - 3.0, abs=1e-3))
 
 
 @pytest.mark.parametrize("march", ["SAMPLED", "HIERARCHICAL"])

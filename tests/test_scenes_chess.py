@@ -8,6 +8,7 @@ recomputation of what the builder vectorises (object bounds), the animation's ow
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections import Counter
 
@@ -254,3 +255,21 @@ def test_hybrid_stays_close_to_full_bvh_on_a_reduced_chess_scene(renderer, near_
     if error > bound:
         save_failure_images(f"chess_near_{near_size}", test=hybrid.image, reference=full.image)
     assert error <= bound, f"near size {near_size}: FLIP {error:.4f}"
+
+
+def test_the_hidden_exit_rule_brings_hybrid_closer_to_full_bvh_on_chess(renderer):
+    """Distant mirror spheres and pieces reflect the board beneath and behind them, which
+    they hide from the camera: those rays pass under the board and leave the scene hidden.
+    The paper's rule gives them the sky; the hidden-exit rule (cube_march.glsl) the board
+    that hides them. Reduced chess, frame 3, near size 3.5, FLIP against FULL_BVH (measured:
+    one layer 0.075 -> 0.066, back layer 0.076 -> 0.054)."""
+    scene, camera = build_chess(0.05, 3, 160, 90)
+    full = renderer.render(scene, camera, settings("FULL_BVH", 3.5, 256)).image
+    flip = {}
+    for back in (False, True):
+        for hidden_exit in (False, True):
+            s = dataclasses.replace(settings("HYBRID", 3.5, 256), cube_back_layer=back,
+                                    cube_hidden_exit=hidden_exit)
+            flip[back, hidden_exit] = flip_mean(full, renderer.render(scene, camera, s).image)
+    assert flip[False, True] < 0.95 * flip[False, False], flip
+    assert flip[True, True] < 0.8 * flip[True, False], flip

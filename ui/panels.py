@@ -114,6 +114,7 @@ class RENDER_PT_hybrid_rt_cube_map(HybridRTPanel, bpy.types.Panel):
         col.prop(settings, "cube_resolution")
         col.prop(settings, "cube_far")
         layout.prop(settings, "cube_back_layer")
+        layout.prop(settings, "cube_hidden_exit")
         layout.prop(settings, "cube_march")
         col = layout.column(align=True)
         col.active = settings.cube_march == "SAMPLED"

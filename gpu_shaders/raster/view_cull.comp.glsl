@@ -22,11 +22,19 @@
 // 32-item chunk never spans two views. Invocation c tests the items of chunk c in order and
 // writes one bit per item (1 = draw) and the chunk's count for the prefix sum.
 //
+// Paired lists (PAIRED = 1: the cube map's two layers). One test per triangle serves two
+// draw lists: the front list as above, and the back list of the back layer (cube_map.py),
+// which holds what the same views would draw of the closed objects with front faces culled
+// instead: the same clip and pixel tests, the opposite facing. The back layer's own cull
+// would transform every triangle of the closed objects a second time.
+//
 // Host defines: LOCAL_SIZE, MAX_VIEWS, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 5 (unused),
-//   TRI_INPUT_BLOCKS, TRI_INPUT_BLOCK_SIZE (triangle_input.glsl).
+//   TRI_INPUT_BLOCKS, TRI_INPUT_BLOCK_SIZE (triangle_input.glsl), PAIRED (0 or 1).
 // Bindings: 0 tri_input (read; blocks 1..3 of a split scene at 40..42), 1 segments (read:
-//   uvec4[S] = first triangle, count, first work item, view | closed << 8; sorted by work
-//   item), 2 masks (write: uint[C]), 3 counts (write: uint[C + 1]).
+//   uvec4[S] = first triangle, count, first work item, view | cullable << 8 | closed << 9
+//   (closed: the object belongs in the back list; read when PAIRED); sorted by work item),
+//   2 masks (write: uint[C]), 3 counts (write: uint[C + 1]); when PAIRED also 7 the back
+//   list's masks and 8 its counts.
 // Uniforms: u_num_chunks (C), u_num_segments (S), u_view_proj[MAX_VIEWS], u_view_size
 //   (pixels), u_front_sign (+1: counter-clockwise front faces, -1: clockwise; negated for
 //   a view that keeps back faces instead, the cube map's back layer: view_cull.CullView).
@@ -42,6 +50,17 @@ layout(std430, binding = 2) writeonly buffer ChunkMasks {
 layout(std430, binding = 3) writeonly buffer ChunkCounts {
     uint chunk_counts[];
 };
+#ifndef PAIRED
+#define PAIRED 0
+#endif
+#if PAIRED
+layout(std430, binding = 7) writeonly buffer BackChunkMasks {
+    uint back_chunk_masks[];
+};
+layout(std430, binding = 8) writeonly buffer BackChunkCounts {
+    uint back_chunk_counts[];
+};
+#endif
 
 uniform uint u_num_chunks;
 uniform mat4 u_view_proj[MAX_VIEWS];
@@ -53,7 +72,15 @@ uniform float u_front_sign[MAX_VIEWS];
 // the rasterizer could sample.
 const float CULL_PIXEL_EPS = 1.0 / 64.0;
 
-bool may_rasterize(uint tri, mat4 m, vec2 size, float front_sign, bool closed) {
+// What the GL may rasterize of a triangle: nothing, or fragments of a face that faces the
+// view (CULL_FRONT), of one that faces away from it (CULL_BACK; both only for a cullable
+// object), or either (CULL_ANY: its facing is not tested).
+const uint CULL_NONE = 0u;
+const uint CULL_FRONT = 1u;
+const uint CULL_BACK = 2u;
+const uint CULL_ANY = 3u;
+
+uint raster_class(uint tri, mat4 m, vec2 size, float front_sign, bool cullable) {
     vec4 c0 = m * vec4(input_vertex(tri, 0u), 1.0);
     vec4 c1 = m * vec4(input_vertex(tri, 1u), 1.0);
     vec4 c2 = m * vec4(input_vertex(tri, 2u), 1.0);
@@ -66,10 +93,10 @@ bool may_rasterize(uint tri, mat4 m, vec2 size, float front_sign, bool closed) {
                   below0.z && below1.z && below2.z)) ||
         any(bvec3(above0.x && above1.x && above2.x, above0.y && above1.y && above2.y,
                   above0.z && above1.z && above2.z))) {
-        return false;
+        return CULL_NONE;
     }
     if (!(c0.w > 0.0 && c1.w > 0.0 && c2.w > 0.0)) {
-        return true;  // crosses the camera plane (or is NaN): let the clipper decide
+        return CULL_ANY;  // crosses the camera plane (or is NaN): let the clipper decide
     }
     vec2 s0 = (c0.xy / c0.w * 0.5 + 0.5) * size - 0.5;  // pixel centres at integers
     vec2 s1 = (c1.xy / c1.w * 0.5 + 0.5) * size - 0.5;
@@ -77,17 +104,16 @@ bool may_rasterize(uint tri, mat4 m, vec2 size, float front_sign, bool closed) {
     vec2 lo = max(min(s0, min(s1, s2)) - CULL_PIXEL_EPS, vec2(0.0));
     vec2 hi = min(max(s0, max(s1, s2)) + CULL_PIXEL_EPS, size - 1.0);
     if (any(greaterThan(ceil(lo), floor(hi)))) {
-        return false;  // no pixel centre inside the bounding box
+        return CULL_NONE;  // no pixel centre inside the bounding box
     }
-    if (closed) {
+    if (cullable) {
         vec2 e1 = s1 - s0;
         vec2 e2 = s2 - s0;
-        float area = e1.x * e2.y - e1.y * e2.x;
-        if (!(area * front_sign > 0.0)) {
-            return false;  // a back face of a closed object (or zero area)
-        }
+        float signed_area = (e1.x * e2.y - e1.y * e2.x) * front_sign;
+        // Zero (or NaN) area: no side is rasterized.
+        return signed_area > 0.0 ? CULL_FRONT : (signed_area < 0.0 ? CULL_BACK : CULL_NONE);
     }
-    return true;
+    return CULL_ANY;
 }
 
 void main() {
@@ -105,6 +131,7 @@ void main() {
     vec2 size = u_view_size[view];
     float front_sign = u_front_sign[view];
     uint mask = 0u;
+    uint back_mask = 0u;
     // The segment of the current item, and the first item of the next one (the segments
     // are read when the walk crosses into them, not per item).
     uvec4 s = segments[seg];
@@ -120,10 +147,20 @@ void main() {
         if (local >= s.y) {
             continue;  // padding between views
         }
-        if (may_rasterize(s.x + local, m, size, front_sign, (s.w >> 8) != 0u)) {
+        uint sides = raster_class(s.x + local, m, size, front_sign, ((s.w >> 8) & 1u) != 0u);
+        if ((sides & CULL_FRONT) != 0u) {
             mask |= 1u << b;
         }
+#if PAIRED
+        if ((sides & CULL_BACK) != 0u && ((s.w >> 9) & 1u) != 0u) {
+            back_mask |= 1u << b;
+        }
+#endif
     }
     chunk_masks[chunk] = mask;
     chunk_counts[chunk] = uint(bitCount(mask));
+#if PAIRED
+    back_chunk_masks[chunk] = back_mask;
+    back_chunk_counts[chunk] = uint(bitCount(back_mask));
+#endif
 }

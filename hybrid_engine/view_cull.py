@@ -189,19 +189,24 @@ class ViewTriangleCuller:
         segments, view_chunks = view_segments(views, object_ranges, object_bounds, object_closed, include,
                                               tag_closed=paired)
         view_of = segments["tag"] & 0xFF
-        submitted = np.bincount(view_of, weights=segments["count"],
-                                minlength=len(views)).astype(np.int64).tolist()
-        back_submitted = np.bincount(view_of, weights=segments["count"] * ((segments["tag"] >> 9) & 1),
-                                     minlength=len(views)).astype(np.int64).tolist()
+
+        def per_view(weights: np.ndarray) -> list[int]:
+            return np.bincount(view_of, weights=weights, minlength=len(views)).astype(np.int64).tolist()
+
+        submitted = per_view(segments["count"])
+        pairs = [(self, submitted)]
+        if paired:  # the back list tests the closed objects' triangles (tag bit 9)
+            pairs.append((back, per_view(segments["count"] * ((segments["tag"] >> 9) & 1))))
         num_chunks = view_chunks[-1]
         total = sum(submitted)
         if 3 * 4 * total > max_block_bytes() or (num_chunks + 1) * 4 > max_block_bytes():
             return None, None
         ctx = self.ctx
-        pairs = [(self, submitted)] + ([(back, back_submitted)] if paired else [])
         for culler, _ in pairs:
             culler.commands.ensure(COMMAND_BYTES * MAX_VIEWS)
-        results = tuple(CulledDraws(culler, counts) for culler, counts in pairs) + ((None,) if not paired else ())
+        results = tuple(CulledDraws(culler, counts) for culler, counts in pairs)
+        if not paired:
+            results += (None,)
         if num_chunks == 0:
             return results
         split = input_split(int(triangle_count))

@@ -56,11 +56,26 @@ def test_normal_material_and_uv_edits_are_changes(rng):
     tracker.update(geo)
     geo.normals[10, 1, 2] = 7.0
     geo.material_ids[20_000 - 1] = 5
-    geo.uvs[15_000, 0, 0] += 1.0
+    geo.uvs[15_003, 0, 0] += 1.0  # none of them an object's first triangle: compared row by row
     delta = tracker.update(geo)
     changed = {i for first, count in delta.ranges for i in range(first, first + count)}
-    assert {10, 15_000, 19_999} <= changed
+    assert {10, 15_003, 19_999} <= changed
     assert delta.changed_triangles == 3
+
+
+def test_an_object_whose_first_triangle_changed_is_taken_whole_and_no_other_object_is(rng):
+    """A moved or deformed object is taken whole without comparing the rest of its rows
+    (all of them changed, in an animation); the objects around it stay out of the delta."""
+    tracker = GeometryTracker()
+    geo = geometry(rng, uvs=True)
+    tracker.update(geo)
+    first, count = (int(v) for v in geo.object_ranges[2])
+    geo.uvs[first, 2, 1] += 1.0
+    geo.normals[3, 0, 0] = 2.0
+    delta = tracker.update(geo)
+    assert delta.ranges == ((3, 1), (first, count))
+    assert delta.changed_triangles == count + 1
+    assert tracker.update(geo).unchanged  # the whole object was remembered
 
 
 def test_nan_triangles_that_stay_the_same_are_not_changes(rng):

@@ -13,7 +13,8 @@ surface has a back face of its own material behind it, B is that back face (less
 instead of the thickness stretch, and a ray reaching the interval from behind hits the back
 layer's texel.
 ``hidden_exit=True`` adds the hidden-exit rule: a ray leaving through a far plane at a point
-behind the surface stored at that point's texel hits that surface instead of the sky.
+behind the surface stored at that point's texel (past A, its depth bias included) hits that
+surface instead of the sky.
 Tests feed it the same atlas the GPU marched (read back from the GL textures) and compare
 outcomes ray by ray.
 """
@@ -255,7 +256,8 @@ class CubeMapReference:
                 if dm[2] > 0:
                     tx, ty = self.texel(face, e[:2])
                     z = self.depth[ty, tx] * 2 - 1
-                    if self.hidden_exit and self.nm[ty, tx, 3] != 0 and e[2] > z:
+                    ab = self.interval_linear(tx, ty) if self.hidden_exit else None
+                    if ab is not None and self.linear(e[2]) > ab[0]:  # behind A, the biased surface
                         position = self.unproject(face, np.r_[e[:2], z])
                         return MarchResult(HIT, face, (tx, ty), position, float((position - o) @ d),
                                            result.switches)

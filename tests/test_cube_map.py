@@ -255,6 +255,33 @@ def test_a_mirror_wall_behind_a_ball_shows_the_balls_lit_back_through_the_back_l
     assert error["two"] < 0.25 * error["one"], error
 
 
+# Display-value difference (gamma 2.2, clipped) that marks a pixel as wrong, not as shaded
+# slightly differently: the artifact below is black against a sky-lit mirror (about 0.95).
+WRONG_PIXEL = 0.3
+
+
+def test_rays_leaving_a_mirror_balls_top_just_behind_its_outline_see_the_sky_not_the_ball(gl):
+    """Rays reflected up off the top of a mirror ball leave the bounds of the scene a little
+    way above it, at points the camera sees just behind the ball's outline: behind the raw
+    depth stored there, but within the depth bias the march allows any hit on that surface.
+    The hidden-exit rule counts a point as hidden only past the surface's hit interval start
+    (its bias included), so these rays see the sky as in FULL_BVH; compared with the raw depth
+    they hit the ball there and showed as a black dash (12 pixels of this view)."""
+    scene = mirror_ball_over_floor_scene()
+    camera = Camera(matrix_world=look_at((0.0, -6.0, 4.0), (0.0, 0.0, 2.1)), width=96, height=64, lens=200.0)
+    renderer = Renderer(gl)
+    try:
+        images = {mode: renderer.render(scene, camera, RenderSettings(
+            mode=mode, near_size=0.3, cube_far=50.0, cube_resolution=256, max_depth=4)).image[..., :3]
+            for mode in ("HYBRID", "FULL_BVH")}
+    finally:
+        renderer.release()
+    assert RenderSettings().cube_hidden_exit  # the rule under test is on by default
+    display = {mode: np.clip(image, 0.0, 1.0) ** (1 / 2.2) for mode, image in images.items()}
+    wrong = np.abs(display["HYBRID"] - display["FULL_BVH"]).max(axis=-1) > WRONG_PIXEL
+    assert not wrong.any(), np.argwhere(wrong)
+
+
 def test_a_frame_sees_nothing_of_the_previous_frames_cube_map(gl):
     """The faces are cleared to depth and material only (CubeFaceTargets.clear): UVs and
     geometric normals of the previous frame stay in texels this frame leaves empty, and must

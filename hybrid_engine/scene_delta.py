@@ -14,9 +14,10 @@ full upload.
 An object whose first triangle changed is taken whole without reading the rest of it: in an
 animation that is an object that moved or deformed, nearly all of whose triangles changed,
 and comparing them row by row cost more than writing them (Sponza's turning 871 k-triangle
-dragon and bunny: 63 -> 20 ms per frame for the tracker, Chess 35 -> 28). The ranges then hold some unchanged rows of
-such an object, which costs only a few megabytes of writing; they never hold a row of an
-object that did not change, which the shadow layers rely on (shadow_cache.py).
+dragon and twisting bunny: 63 -> 20 ms per frame for the tracker; Chess 35 -> 28). The
+ranges then hold some unchanged rows of such an object, which costs only a few megabytes of
+writing; they never hold a row of an object that did not change, which the shadow layers
+rely on (shadow_cache.py).
 """
 from __future__ import annotations
 
@@ -145,7 +146,7 @@ class GeometryTracker:
         for name, a in arrays.items():
             first_changed |= changed_rows(last[name][firsts], a[firsts])
         mask = range_mask(objects[first_changed], n)
-        for first, count in merge_ranges(~mask, gap=1):
+        for first, count in merge_ranges(~mask, gap=1):  # gap 1: exact runs, none merged
             end = first + count
             for name, a in arrays.items():
                 mask[first:end] |= changed_rows(last[name][first:end], a[first:end])

@@ -54,14 +54,15 @@ class CubeHitPyramid:
         return self.texture
 
     def build(self, depth, normal_material, materials_buffer, march_uniforms: dict,
-              resolution: int, march_defines: dict | None = None) -> None:
+              resolution: int, layer_defines: dict | None = None) -> None:
         """Fill every level from the cube atlas textures (``depth``, ``normal_material``)
         and the material table (thickness). ``march_uniforms`` are the cube_march.glsl
-        uniform values of this frame's faces."""
+        uniform values of this frame's faces, ``layer_defines`` its back-layer define
+        (CubeMapPass.layer_defines)."""
         texture = self._ensure_texture(resolution)
         size = self.face_size
-        prog = (shader_loader.compute(self.ctx, "trace/cube_hiz_base.comp.glsl", march_defines)
-                if march_defines else self.base_prog)
+        prog = (shader_loader.compute(self.ctx, "trace/cube_hiz_base.comp.glsl", layer_defines)
+                if layer_defines else self.base_prog)
         materials_buffer.bind_to_storage_buffer(0)
         depth.use(location=0)
         normal_material.use(location=1)

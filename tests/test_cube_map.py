@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
-from hybrid_engine.bench import flip_mean
+from hybrid_engine.bench import flip_mean, to_srgb_ldr
 from hybrid_engine.camera import CUBE_FACE_DIRECTIONS, CUBE_FACE_UPS, look_at
 from hybrid_engine.cube_map import CUBE_FACE_FOV, CubeFaces, CubeMapPass, face_of_direction
 from hybrid_engine.gpu_scene import GPUScene
@@ -255,7 +255,7 @@ def test_a_mirror_wall_behind_a_ball_shows_the_balls_lit_back_through_the_back_l
     assert error["two"] < 0.25 * error["one"], error
 
 
-# Display-value difference (gamma 2.2, clipped) that marks a pixel as wrong, not as shaded
+# Display-value difference (sRGB-encoded, clipped) that marks a pixel as wrong, not as shaded
 # slightly differently: the artifact below is black against a sky-lit mirror (about 0.95).
 WRONG_PIXEL = 0.3
 
@@ -277,7 +277,7 @@ def test_rays_leaving_a_mirror_balls_top_just_behind_its_outline_see_the_sky_not
     finally:
         renderer.release()
     assert RenderSettings().cube_hidden_exit  # the rule under test is on by default
-    display = {mode: np.clip(image, 0.0, 1.0) ** (1 / 2.2) for mode, image in images.items()}
+    display = {mode: to_srgb_ldr(image) for mode, image in images.items()}
     wrong = np.abs(display["HYBRID"] - display["FULL_BVH"]).max(axis=-1) > WRONG_PIXEL
     assert not wrong.any(), np.argwhere(wrong)
 

@@ -119,6 +119,7 @@ class CubeMapPass:
         self.resolution = 0
         self.back_layer = False
         self.hidden_exit = False
+        self.sampled = False
 
     def _ensure_targets(self, resolution: int, layers: int) -> CubeFaceTargets:
         size = (6 * resolution, layers * resolution)
@@ -141,6 +142,7 @@ class CubeMapPass:
         geo = scene.geometry
         self.back_layer = bool(settings.cube_back_layer)
         self.hidden_exit = bool(settings.cube_hidden_exit)
+        self.sampled = settings.cube_march != "HIERARCHICAL"
         targets = self._ensure_targets(res, 2 if self.back_layer else 1)
         self.faces = CubeFaces.at(center, settings.near_size, settings.cube_far)
         self.resolution = res
@@ -195,8 +197,6 @@ class CubeMapPass:
             "u_n_max": int(settings.n_max),
             "u_cube_hiz_res": int(self.pyramid.face_size),
             "u_cube_hiz_levels": int(self.pyramid.levels),
-            "u_cube_hierarchical": int(settings.cube_march == "HIERARCHICAL"
-                                       and self.pyramid.texture is not None),
         }
 
     def layer_defines(self) -> dict:
@@ -206,8 +206,10 @@ class CubeMapPass:
 
     def march_defines(self) -> dict:
         """Defines of the marching shaders (cube_march.glsl), for the last render: the
-        layer's, and the hidden-exit rule when the settings ask for it."""
-        return {**self.layer_defines(), **({"CUBE_HIDDEN_EXIT": 1} if self.hidden_exit else {})}
+        sampled march when the settings ask for it (the hierarchical one, the default, needs
+        none), the layer's, and the hidden-exit rule when the settings ask for it."""
+        return {**({"CUBE_SAMPLED": 1} if self.sampled else {}), **self.layer_defines(),
+                **({"CUBE_HIDDEN_EXIT": 1} if self.hidden_exit else {})}
 
     def march_textures(self) -> dict:
         """cube_march.glsl's samplers → textures of the last render."""

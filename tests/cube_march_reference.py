@@ -4,8 +4,8 @@
 It re-derives everything from the paper and the documented rule in
 gpu_shaders/include/cube_march.glsl without importing hybrid_engine: the six 90.2° face
 cameras (GL cube-map orientation), the map ray in NDC, the n = n_min + |d_m.z| (n_max - n_min)
-samples, the thickness hit rule with its depth bias and bisection, and face switching to the
-first face that contains the exit point. ``hierarchical=True`` gives the continuous rule of
+samples, the thickness hit rule with its depth bias (one texel of the axial depth's slope)
+and bisection, and face switching to the first face that contains the exit point. ``hierarchical=True`` gives the continuous rule of
 the hierarchical march instead: every texel the map ray crosses (found by listing all
 texel-edge crossings, not by walking a pyramid) is tested against its hit interval (A, B].
 ``back_layer=True`` reads the atlas's second row of faces as the back layer: where a front
@@ -36,6 +36,14 @@ BIAS_RELATIVE = 1e-4
 MAX_SLOPE = 8.0
 
 
+def face_axes(face: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World directions of a face's image right and up and of its forward axis."""
+    back = -DIRECTIONS[face]
+    right = np.cross(UPS[face], back)
+    right /= np.linalg.norm(right)
+    return right, np.cross(back, right), DIRECTIONS[face]
+
+
 def face_matrices(center, near: float, far: float) -> np.ndarray:
     """(6, 4, 4) world -> clip of the six faces."""
     f = 1.0 / math.tan(FOV / 2)
@@ -44,12 +52,9 @@ def face_matrices(center, near: float, far: float) -> np.ndarray:
                      [0, 0, -1, 0]])
     out = []
     c = np.asarray(center, float)
-    for d, up in zip(DIRECTIONS, UPS):
-        back = -d
-        right = np.cross(up, back)
-        right /= np.linalg.norm(right)
-        true_up = np.cross(back, right)
-        rot = np.stack([right, true_up, back])  # rows: camera axes in world
+    for face in range(6):
+        right, true_up, forward = face_axes(face)
+        rot = np.stack([right, true_up, -forward])  # rows: camera axes in world
         view = np.eye(4)
         view[:3, :3] = rot
         view[:3, 3] = -rot @ c
@@ -93,10 +98,14 @@ class CubeMapReference:
         return ((f + n) - 2 * f * n / r) / (f - n)
 
     def bias(self, face, ndc, surface, normal):
-        view = self.unproject(face, ndc) - self.center
-        view /= np.linalg.norm(view)
-        c = abs(view @ normal)
-        slope = min(math.sqrt(max(1 - c * c, 0.0)) / c, MAX_SLOPE) if c > 0 else MAX_SLOPE
+        """One texel of the axial depth's slope: the plane n.x = c seen along
+        w = u right + v up + forward ((u, v) tangent coordinates) lies at depth c / (n.w),
+        whose derivatives in u and v are the depth times -(n.right, n.up) / (n.w)."""
+        right, up, forward = face_axes(face)
+        u, v = np.asarray(ndc[:2], float) * math.tan(FOV / 2)
+        facing = abs(normal @ (u * right + v * up + forward))
+        lateral = math.hypot(normal @ right, normal @ up)
+        slope = lateral / facing if lateral < facing * MAX_SLOPE else MAX_SLOPE
         texel_angle = 2 * math.tan(FOV / 2) / self.res
         return surface * (BIAS_RELATIVE + texel_angle * slope)
 

@@ -260,6 +260,19 @@ def test_a_mirror_wall_behind_a_ball_shows_the_balls_lit_back_through_the_back_l
 WRONG_PIXEL = 0.3
 
 
+def mirror_ball_close_up(gl, scene: SceneData, target, max_depth: int) -> dict:
+    """HYBRID's and FULL_BVH's display values (sRGB, clipped) of a 96x64 close-up (lens 200)
+    of ``target`` from (0, -6, 4), the camera of the mirror-ball tests, with 256² faces."""
+    camera = Camera(matrix_world=look_at((0.0, -6.0, 4.0), target), width=96, height=64, lens=200.0)
+    renderer = Renderer(gl)
+    try:
+        return {mode: to_srgb_ldr(renderer.render(scene, camera, RenderSettings(
+            mode=mode, near_size=0.3, cube_far=50.0, cube_resolution=256, max_depth=max_depth)).image[..., :3])
+            for mode in ("HYBRID", "FULL_BVH")}
+    finally:
+        renderer.release()
+
+
 def test_rays_leaving_a_mirror_balls_top_just_behind_its_outline_see_the_sky_not_the_ball(gl):
     """Rays reflected up off the top of a mirror ball leave the bounds of the scene a little
     way above it, at points the camera sees just behind the ball's outline: behind the raw
@@ -267,17 +280,24 @@ def test_rays_leaving_a_mirror_balls_top_just_behind_its_outline_see_the_sky_not
     The hidden-exit rule counts a point as hidden only past the surface's hit interval start
     (its bias included), so these rays see the sky as in FULL_BVH; compared with the raw depth
     they hit the ball there and showed as a black dash (12 pixels of this view)."""
-    scene = mirror_ball_over_floor_scene()
-    camera = Camera(matrix_world=look_at((0.0, -6.0, 4.0), (0.0, 0.0, 2.1)), width=96, height=64, lens=200.0)
-    renderer = Renderer(gl)
-    try:
-        images = {mode: renderer.render(scene, camera, RenderSettings(
-            mode=mode, near_size=0.3, cube_far=50.0, cube_resolution=256, max_depth=4)).image[..., :3]
-            for mode in ("HYBRID", "FULL_BVH")}
-    finally:
-        renderer.release()
     assert RenderSettings().cube_hidden_exit  # the rule under test is on by default
-    display = {mode: to_srgb_ldr(image) for mode, image in images.items()}
+    display = mirror_ball_close_up(gl, mirror_ball_over_floor_scene(), (0.0, 0.0, 2.1), max_depth=4)
+    wrong = np.abs(display["HYBRID"] - display["FULL_BVH"]).max(axis=-1) > WRONG_PIXEL
+    assert not wrong.any(), np.argwhere(wrong)
+
+
+def test_rays_a_mirror_ball_reflects_back_at_the_camera_see_the_sky_not_the_ball(gl):
+    """Where a mirror ball faces the camera (the cube map's centre) it reflects rays back
+    past the camera, at the sky. The ball lies below the centre of its cube face, and there
+    the stored depth (along the face's axis) changes across a texel even where the surface
+    faces the centre; the depth bias took the tangent of the angle of incidence instead,
+    about zero there, and these rays hit the ball itself: a ring of dashes around its centre
+    of reflection (81 pixels of this view). With the bias from the slope of the stored depth
+    none is left."""
+    scene = mirror_ball_over_floor_scene()
+    display = mirror_ball_close_up(gl, scene, (0.0, 0.0, 1.6), max_depth=1)
+    sky = np.abs(display["FULL_BVH"] - to_srgb_ldr(np.asarray(scene.sky.color, np.float32))).max(axis=-1) < 0.05
+    assert sky.mean() > 0.9  # the ball fills the view and mirrors the sky (the floor would not)
     wrong = np.abs(display["HYBRID"] - display["FULL_BVH"]).max(axis=-1) > WRONG_PIXEL
     assert not wrong.any(), np.argwhere(wrong)
 

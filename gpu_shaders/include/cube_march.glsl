@@ -38,9 +38,16 @@
 //   otherwise                                  -> the ray passes behind the stored surface
 // where thickness is the hit material's params.y. A piercing hit is refined by bisection
 // between the two samples (CUBE_REFINE_STEPS) so that the texel is the first one behind.
-// The bias b = S (CUBE_BIAS_RELATIVE + texel angle * min(tan(angle of incidence), CUBE_MAX_SLOPE))
-// absorbs the quantisation of the depth to one value per texel, which otherwise makes a
-// surface seen at a grazing angle hit itself.
+// The bias b = S (CUBE_BIAS_RELATIVE + texel angle * min(slope, CUBE_MAX_SLOPE)) absorbs the
+// quantisation of the depth to one value per texel, which otherwise makes a surface seen at
+// an angle hit itself. The slope is that of the stored depth itself, the view depth along
+// the face's axis, per unit of the face's tangent plane: for the plane with normal n through
+// the point seen along w = u right + v up + forward ((u, v) the texel's tangent
+// coordinates), |(n.right, n.up)| / |n.w|. It is not the tangent of the angle between n and
+// the line of sight: off a face's centre the axial depth of a surface facing the centre
+// still changes across a texel (by u / (1 + u^2) of it at v = 0), and with that tangent the
+// rays a tessellated mirror ball reflects back where it faces the camera hit the ball
+// itself (a ring of dashes around its centre of reflection; tests/test_cube_map.py).
 //
 // Back layer (CUBE_BACK_LAYER, cube_map.py). Where T holds a front face and the texel
 // res rows above it a back face of the same material, seen from behind at depth K > S (the
@@ -100,11 +107,12 @@
 // Uniforms: u_cube_depth, u_cube_normal_material (the atlas), u_face_view_proj[6],
 // u_face_inv_view_proj[6], u_face_to_face[36] (index i * 6 + j), u_cube_center, u_cube_near,
 // u_cube_far, u_cube_res, u_n_min, u_n_max; the pyramid u_cube_hiz (faces u_cube_hiz_res
-// texels apart at level 0, a power of two >= u_cube_res) and u_cube_hiz_levels;
-// u_cube_hierarchical (1: hierarchical march, 0: sampled).
-// Host defines (cube_map.CubeMapPass.march_defines): CUBE_BACK_LAYER (1: the atlas holds the
-// back layer in its second row of faces; default 0); CUBE_HIDDEN_EXIT (1: the hidden-exit
-// rule above; default 0).
+// texels apart at level 0, a power of two >= u_cube_res) and u_cube_hiz_levels.
+// Host defines (cube_map.CubeMapPass.march_defines): CUBE_SAMPLED (1: the sampled march;
+// default 0: the hierarchical one), CUBE_BACK_LAYER (1: the atlas holds the back layer in
+// its second row of faces; default 0); CUBE_HIDDEN_EXIT (1: the hidden-exit rule above;
+// default 0). The march is a define, like the layer, for the same reason: the other march's
+// code, even never run, slows the loops on llvmpipe.
 #ifndef HYBRID_CUBE_MARCH_GLSL
 #define HYBRID_CUBE_MARCH_GLSL
 
@@ -122,7 +130,9 @@ uniform int u_n_max;
 uniform sampler2D u_cube_hiz;
 uniform int u_cube_hiz_res;
 uniform int u_cube_hiz_levels;
-uniform int u_cube_hierarchical;
+#ifndef CUBE_SAMPLED
+#define CUBE_SAMPLED 0
+#endif
 #ifndef CUBE_BACK_LAYER
 #define CUBE_BACK_LAYER 0
 #endif
@@ -206,12 +216,18 @@ float cube_ndc_depth(float r) {
 }
 
 // The depth bias b of a stored surface at linear depth `surface`, seen at NDC point `ndc` of
-// `face`, with unit normal `normal` (see the header): the incidence angle is that of the
-// line of sight from the centre.
+// `face`, with unit normal `normal`: one texel of its axial depth's slope (see the header).
 float cube_depth_bias(int face, vec3 ndc, float surface, vec3 normal) {
-    vec3 view = normalize(cube_unproject(face, ndc) - u_cube_center);
-    float c = abs(dot(view, normal));
-    float slope = c > 0.0 ? min(sqrt(max(1.0 - c * c, 0.0)) / c, CUBE_MAX_SLOPE) : CUBE_MAX_SLOPE;
+    // The face's axes are the rows of its view-projection: x and y scaled by the focal
+    // length, w the forward axis (w = the view depth).
+    mat4 m = u_face_view_proj[face];
+    vec3 right = normalize(vec3(m[0][0], m[1][0], m[2][0]));
+    vec3 up = normalize(vec3(m[0][1], m[1][1], m[2][1]));
+    vec3 forward = vec3(m[0][3], m[1][3], m[2][3]);
+    vec2 uv = ndc.xy * CUBE_TAN_HALF_FOV;
+    float facing = abs(dot(normal, uv.x * right + uv.y * up + forward));
+    float lateral = length(vec2(dot(normal, right), dot(normal, up)));
+    float slope = lateral < facing * CUBE_MAX_SLOPE ? lateral / facing : CUBE_MAX_SLOPE;
     float texel_angle = 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
     return surface * (CUBE_BIAS_RELATIVE + texel_angle * slope);
 }
@@ -225,36 +241,51 @@ float cube_max_hit_overshoot() {
     return CUBE_BIAS_RELATIVE + texel_angle * (CUBE_MAX_SLOPE + 1.5);
 }
 
-// The hit interval (A, B] of front-layer atlas texel `atlas_texel` as linear depths (see the
-// header), whose stored normal/material `nm` (w != 0) and NDC depth `stored_z` the caller
-// fetched. `back` says whether B is the texel's back-layer surface (CUBE_BACK_LAYER)
-// rather than the thickness rule's stretch: its atlas texel is atlas_texel + (0, res).
-vec2 cube_texel_interval(ivec2 atlas_texel, vec4 nm, float stored_z, out bool back) {
-    int face = cube_face_of_column(atlas_texel.x, u_cube_res);
+// NDC xy of the centre of atlas texel `atlas_texel` on `face`.
+vec2 cube_texel_center(ivec2 atlas_texel, int face) {
     vec2 local = vec2(atlas_texel - ivec2(face * u_cube_res, 0)) + 0.5;
-    vec2 xy = local / float(u_cube_res) * 2.0 - 1.0;
-    float surface = cube_linear_depth(stored_z);
-    float a = surface + cube_depth_bias(face, vec3(xy, stored_z), surface, normalize(nm.xyz));
-    back = false;
+    return local / float(u_cube_res) * 2.0 - 1.0;
+}
+
+// Whether front-layer atlas texel `atlas_texel` of `face` (normal/material `nm`, linear depth
+// `surface`) has a back-layer surface (CUBE_BACK_LAYER): a front face with a back face of
+// the same material behind it, the two sides of one closed object (along a line of sight
+// the nearest front face of a closed solid is followed by its own back face). Then
+// `far_side` is that back face's linear depth less its own bias, so that a ray leaving that
+// face does not hit it.
+bool cube_back_surface(ivec2 atlas_texel, int face, vec4 nm, float surface, out float far_side) {
+    far_side = surface;
 #if CUBE_BACK_LAYER
     if (nm.w > 0.0) {
-        // A front face with a back face of the same material behind it: the two sides of one
-        // closed object (along a line of sight the nearest front face of a closed solid is
-        // followed by its own back face). The ray hits it where it is inside the solid,
-        // shrunk by the back face's own bias so that a ray leaving that face does not hit it.
         ivec2 back_texel = atlas_texel + ivec2(0, u_cube_res);
         vec4 back_nm = texelFetch(u_cube_normal_material, back_texel, 0);
         if (back_nm.w == -nm.w) {
             float back_z = texelFetch(u_cube_depth, back_texel, 0).r * 2.0 - 1.0;
             float k = cube_linear_depth(back_z);
             if (k > surface) {
-                back = true;
-                float b = k - cube_depth_bias(face, vec3(xy, back_z), k, normalize(back_nm.xyz));
-                return vec2(a, max(a, b));
+                vec3 ndc = vec3(cube_texel_center(atlas_texel, face), back_z);
+                far_side = k - cube_depth_bias(face, ndc, k, normalize(back_nm.xyz));
+                return true;
             }
         }
     }
 #endif
+    return false;
+}
+
+// The hit interval (A, B] of front-layer atlas texel `atlas_texel` as linear depths (see the
+// header), whose stored normal/material `nm` (w != 0) and NDC depth `stored_z` the caller
+// fetched. `back` says whether B is the texel's back-layer surface (CUBE_BACK_LAYER)
+// rather than the thickness rule's stretch: its atlas texel is atlas_texel + (0, res).
+vec2 cube_texel_interval(ivec2 atlas_texel, vec4 nm, float stored_z, out bool back) {
+    int face = cube_face_of_column(atlas_texel.x, u_cube_res);
+    vec3 ndc = vec3(cube_texel_center(atlas_texel, face), stored_z);
+    float surface = cube_linear_depth(stored_z);
+    float a = surface + cube_depth_bias(face, ndc, surface, normalize(nm.xyz));
+    // The ray hits a closed object where it is inside it: from A to its back layer's surface.
+    float far_side;
+    back = cube_back_surface(atlas_texel, face, nm, surface, far_side);
+    if (back) return vec2(a, max(a, far_side));
     int material = int(abs(nm.w) + 0.5) - 1;
     float thickness = clamp(materials[material].params.y, 0.0, 1.0);
     return vec2(a, max(a, surface + thickness * (u_cube_far - surface)));
@@ -278,9 +309,9 @@ ivec2 cube_layer_hit(ivec2 front_texel, bool from_behind) {
 #if CUBE_BACK_LAYER
     if (!from_behind) return front_texel;
     vec4 nm = texelFetch(u_cube_normal_material, front_texel, 0);
-    float stored_z = texelFetch(u_cube_depth, front_texel, 0).r * 2.0 - 1.0;
-    bool back;
-    cube_texel_interval(front_texel, nm, stored_z, back);
+    float surface = cube_linear_depth(texelFetch(u_cube_depth, front_texel, 0).r * 2.0 - 1.0);
+    float far_side;
+    bool back = cube_back_surface(front_texel, cube_face_of_column(front_texel.x, u_cube_res), nm, surface, far_side);
     return back ? front_texel + ivec2(0, u_cube_res) : front_texel;
 #else
     return front_texel;
@@ -396,12 +427,24 @@ void cube_set_hit(inout CubeMarch res, int face, ivec2 texel, vec4 nm, vec3 ndc,
 // true then.
 bool cube_hidden_exit(int face, vec3 e, vec3 o, vec3 d, inout CubeMarch res) {
     ivec2 texel = cube_texel(face, e.xy);
-    vec4 nm = texelFetch(u_cube_normal_material, texel, 0);
+    vec4 nm;
+    float stored_z;
+#if CUBE_SAMPLED
+    nm = texelFetch(u_cube_normal_material, texel, 0);
     if (nm.w == 0.0) return false;  // nothing stored: the point is in sight, the sky
-    float stored_z = texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0;
+    stored_z = texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0;
     bool back;
     vec2 ab = cube_texel_interval(texel, nm, stored_z, back);
     if (!(cube_linear_depth(e.z) > ab.x)) return false;
+#else
+    // A as the pyramid's level 0 holds it, in NDC (an empty texel's compares greater than
+    // any point): one fetch instead of the interval's.
+    ivec2 local = texel - ivec2(face * u_cube_res, 0);
+    float a = texelFetch(u_cube_hiz, ivec2(face * u_cube_hiz_res, 0) + local, 0).r;
+    if (!(e.z > a)) return false;
+    nm = texelFetch(u_cube_normal_material, texel, 0);
+    stored_z = texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0;
+#endif
     cube_set_hit(res, face, texel, nm, vec3(e.xy, stored_z), o, d);
     return true;
 }
@@ -463,16 +506,17 @@ CubeMarch cube_march_limited(vec3 o, vec3 d, float t_start, float t_limit) {
             }
         }
 
-        if (u_cube_hierarchical != 0) {
-            ivec2 texel;
-            vec2 hit_xy;
-            if (cube_march_face_hierarchical(face, a, dm, t_exit, texel, hit_xy)) {
-                vec4 nm = texelFetch(u_cube_normal_material, texel, 0);
-                float stored_z = texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0;
-                cube_set_hit(res, face, texel, nm, vec3(hit_xy, stored_z), o, d);
-                return res;
-            }
-        } else {
+#if !CUBE_SAMPLED
+        ivec2 texel;
+        vec2 hit_xy;
+        if (cube_march_face_hierarchical(face, a, dm, t_exit, texel, hit_xy)) {
+            vec4 nm = texelFetch(u_cube_normal_material, texel, 0);
+            float stored_z = texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0;
+            cube_set_hit(res, face, texel, nm, vec3(hit_xy, stored_z), o, d);
+            return res;
+        }
+#else
+        {
             // March (n samples, the paper's sampling rate).
             int n = max(1, int(float(u_n_min) + abs(dm.z) * float(u_n_max - u_n_min) + 0.5));
             float prev_lin = cube_linear_depth(a.z);
@@ -517,6 +561,7 @@ CubeMarch cube_march_limited(vec3 o, vec3 d, float t_start, float t_limit) {
                 t_prev = t_k;
             }
         }
+#endif
 
         vec3 e = a + dm * t_exit;
         bool leaves = limited || (axis == 2 && dm.z > 0.0);

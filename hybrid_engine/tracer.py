@@ -215,8 +215,9 @@ class HybridTracer:
         raster = self.raster
         built = self.built if mode != "PROVENANCE" else None
         # A BVH whose arrays span several storage blocks needs the kernel compiled for them,
-        # and so does a cube map with a back layer (cached per define set; none for a BVH
-        # within one block and a single-layer map: then this is self.program).
+        # and the cube-map march its own defines (CubeMapPass.march_defines: the march kind,
+        # the back layer, the hidden-exit rule); compiled once per define set, and without
+        # any this is self.program.
         normal_split = split_blocks(self.triangle_count, NORMAL_BYTES, "tracer's shading normals")
         defines = {**(built.traversal_defines() if built is not None else {}),
                    **normal_split.defines("TRI_NORMAL_BLOCKS", "TRI_NORMAL_BLOCK_SIZE"),

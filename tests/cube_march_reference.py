@@ -5,9 +5,10 @@ It re-derives everything from the paper and the documented rule in
 gpu_shaders/include/cube_march.glsl without importing hybrid_engine: the six 90.2° face
 cameras (GL cube-map orientation), the map ray in NDC, the n = n_min + |d_m.z| (n_max - n_min)
 samples, the thickness hit rule with its depth bias (one texel of the axial depth's slope)
-and bisection, and face switching to the first face that contains the exit point. ``hierarchical=True`` gives the continuous rule of
-the hierarchical march instead: every texel the map ray crosses (found by listing all
-texel-edge crossings, not by walking a pyramid) is tested against its hit interval (A, B].
+and bisection, and face switching to the first face that contains the exit point.
+``hierarchical=True`` gives the continuous rule of the hierarchical march instead: every
+texel the map ray crosses (found by listing all texel-edge crossings, not by walking a
+pyramid) is tested against its hit interval (A, B].
 ``back_layer=True`` reads the atlas's second row of faces as the back layer: where a front
 surface has a back face of its own material behind it, B is that back face (less its bias)
 instead of the thickness stretch, and a ray reaching the interval from behind hits the back

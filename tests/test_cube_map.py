@@ -266,9 +266,10 @@ def mirror_ball_close_up(gl, scene: SceneData, target, max_depth: int) -> dict:
     camera = Camera(matrix_world=look_at((0.0, -6.0, 4.0), target), width=96, height=64, lens=200.0)
     renderer = Renderer(gl)
     try:
-        return {mode: to_srgb_ldr(renderer.render(scene, camera, RenderSettings(
-            mode=mode, near_size=0.3, cube_far=50.0, cube_resolution=256, max_depth=max_depth)).image[..., :3])
-            for mode in ("HYBRID", "FULL_BVH")}
+        settings = dict(near_size=0.3, cube_far=50.0, cube_resolution=256, max_depth=max_depth)
+        images = {mode: renderer.render(scene, camera, RenderSettings(mode=mode, **settings)).image
+                  for mode in ("HYBRID", "FULL_BVH")}
+        return {mode: to_srgb_ldr(image[..., :3]) for mode, image in images.items()}
     finally:
         renderer.release()
 
@@ -296,7 +297,8 @@ def test_rays_a_mirror_ball_reflects_back_at_the_camera_see_the_sky_not_the_ball
     none is left."""
     scene = mirror_ball_over_floor_scene()
     display = mirror_ball_close_up(gl, scene, (0.0, 0.0, 1.6), max_depth=1)
-    sky = np.abs(display["FULL_BVH"] - to_srgb_ldr(np.asarray(scene.sky.color, np.float32))).max(axis=-1) < 0.05
+    sky_colour = to_srgb_ldr(np.asarray(scene.sky.color, np.float32))
+    sky = np.abs(display["FULL_BVH"] - sky_colour).max(axis=-1) < 0.05
     assert sky.mean() > 0.9  # the ball fills the view and mirrors the sky (the floor would not)
     wrong = np.abs(display["HYBRID"] - display["FULL_BVH"]).max(axis=-1) > WRONG_PIXEL
     assert not wrong.any(), np.argwhere(wrong)

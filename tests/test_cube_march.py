@@ -260,7 +260,8 @@ def test_reference_bias_is_one_texel_of_a_planes_axial_depth_change():
     through the face's own projection: a plane's view depth along the face axis changes
     across one texel by the bias less its relative term, for planes facing the centre
     off a face's centre (where the angle of incidence is 0 and the depth still changes)."""
-    ref = CubeMapReference(np.ones((RES, 6 * RES)), np.zeros((RES, 6 * RES, 4)), [0.0], CENTER, NEAR, FAR, 16, 64)
+    ref = CubeMapReference(np.ones((RES, 6 * RES)), np.zeros((RES, 6 * RES, 4)), [0.0],
+                           CENTER, NEAR, FAR, 16, 64)
     vp = face_matrices(CENTER, NEAR, FAR)
     rng = np.random.default_rng(5)
     for face in range(6):

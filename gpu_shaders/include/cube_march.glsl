@@ -310,8 +310,9 @@ ivec2 cube_layer_hit(ivec2 front_texel, bool from_behind) {
     if (!from_behind) return front_texel;
     vec4 nm = texelFetch(u_cube_normal_material, front_texel, 0);
     float surface = cube_linear_depth(texelFetch(u_cube_depth, front_texel, 0).r * 2.0 - 1.0);
-    float far_side;
-    bool back = cube_back_surface(front_texel, cube_face_of_column(front_texel.x, u_cube_res), nm, surface, far_side);
+    int face = cube_face_of_column(front_texel.x, u_cube_res);
+    float far_side;  // unused here: only whether there is a back-layer surface
+    bool back = cube_back_surface(front_texel, face, nm, surface, far_side);
     return back ? front_texel + ivec2(0, u_cube_res) : front_texel;
 #else
     return front_texel;

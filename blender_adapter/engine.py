@@ -15,6 +15,9 @@ from dataclasses import replace
 import bpy
 import numpy as np
 
+from ..hybrid_engine import film
+from ..hybrid_engine.camera import Camera
+from ..hybrid_engine.film import FrameOutputs
 from ..hybrid_engine.renderer import FrameResult, RenderCancelled, Renderer, RenderModeUnavailable
 from . import extract, properties, viewport
 from .gl_host import gl_block
@@ -41,27 +44,62 @@ def release_renderer() -> None:
             _renderer = None
 
 
-def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None) -> FrameResult:
+# The view layer's data passes this engine writes: (property of ViewLayer, Blender's pass
+# name, channels, channel ids, pass type), as register_pass and the render result name them.
+DATA_PASSES = {
+    "depth": ("use_pass_z", "Depth", 1, "Z", "VALUE"),
+    "normal": ("use_pass_normal", "Normal", 3, "XYZ", "VECTOR"),
+}
+
+
+def frame_outputs(scene, view_layer) -> FrameOutputs:
+    """What the final render delivers besides the colour: the Film panel's transparency and
+    the view layer's Z and Normal passes (film.py gives their conventions)."""
+    wanted = {name: bool(getattr(view_layer, spec[0])) for name, spec in DATA_PASSES.items()}
+    return FrameOutputs(transparent=bool(scene.render.film_transparent), **wanted)
+
+
+def final_camera(scene, depsgraph) -> Camera:
+    """The camera of a final render: one that renders exactly the render region's pixels
+    (``render.use_border``), which is all Blender's pipeline asks the engine for, or the
+    scene camera when there is no region."""
+    camera = extract.camera_from_scene(scene, depsgraph)
+    render = scene.render
+    if not render.use_border:
+        return camera
+    rect = film.border_pixels(camera.width, camera.height, (render.border_min_x, render.border_min_y),
+                              (render.border_max_x, render.border_max_y))
+    return film.region_camera(camera, rect)
+
+
+def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, final=False) -> FrameResult:
     """Extract the evaluated scene and render one frame with the scene's settings.
 
-    Modes this build cannot render yet fall back to RASTER with a warning through
-    ``report(level, message)``, so a user always gets an image.
+    ``final``: as F12 renders it, the render region only and with the film's transparency
+    and the view layer's data passes (``frame_outputs``); otherwise the whole frame, opaque
+    (timing reports). Modes this build cannot render yet fall back to RASTER with a warning
+    through ``report(level, message)``, so a user always gets an image.
     """
     scene = depsgraph.scene
     settings = properties.settings_from_scene(scene)
     start = time.perf_counter()
     scene_data = extract.extract_scene(depsgraph)
-    camera = extract.camera_from_scene(scene, depsgraph)
+    if final:
+        camera = final_camera(scene, depsgraph)
+        outputs = frame_outputs(scene, depsgraph.view_layer)
+    else:
+        camera, outputs = extract.camera_from_scene(scene, depsgraph), FrameOutputs()
     extract_ms = (time.perf_counter() - start) * 1e3
     with gl_block():
         renderer = shared_renderer()
         try:
-            result = renderer.render(scene_data, camera, settings, cancel=cancel, progress=progress)
+            result = renderer.render(scene_data, camera, settings, cancel=cancel, progress=progress,
+                                     outputs=outputs)
         except RenderModeUnavailable as exc:
             if report is not None:
                 report({"WARNING"}, f"{exc}; rendering RASTER instead")
             result = renderer.render(scene_data, camera, replace(settings, mode="RASTER"),
-                                     cancel=cancel, progress=progress)
+                                     cancel=cancel, progress=progress, outputs=outputs)
     result.passes = {"extract": extract_ms, **result.passes}
     result.total_ms += extract_ms
     return result
@@ -96,13 +134,20 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
             self.update_stats("", f"Hybrid RT | {step}")
 
         global last_frame
-        result = render_depsgraph(depsgraph, cancel=self.test_break, progress=progress, report=self.report)
+        result = render_depsgraph(depsgraph, cancel=self.test_break, progress=progress, report=self.report,
+                                  final=True)
         last_frame = result
         height, width = result.image.shape[:2]
+        # The result's origin is the render region's corner: Blender places the region in the
+        # full frame itself (or crops to it).
         render_result = self.begin_result(0, 0, width, height)
         try:
-            combined = render_result.layers[0].passes["Combined"]
-            combined.rect.foreach_set(np.ascontiguousarray(result.image, np.float32).ravel())
+            passes = render_result.layers[0].passes
+            passes["Combined"].rect.foreach_set(np.ascontiguousarray(result.image, np.float32).ravel())
+            for name, data in result.data_passes.items():
+                target = passes.get(DATA_PASSES[name][1])
+                if target is not None:
+                    target.rect.foreach_set(np.ascontiguousarray(data, np.float32).ravel())
         finally:
             self.end_result(render_result)
         triangles = result.counts.get("triangles_total", 0)
@@ -110,6 +155,13 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
             "", f"Hybrid RT | {result.mode} | {result.total_ms:.1f} ms | {triangles:,} triangles"
         )
 
+    def update_render_passes(self, scene=None, renderlayer=None) -> None:
+        """The passes this engine writes for a view layer (the compositor's Render Layers
+        node shows them as sockets)."""
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        for flag, name, channels, chan_id, kind in DATA_PASSES.values():
+            if getattr(renderlayer, flag):
+                self.register_pass(scene, renderlayer, name, channels, chan_id, kind)
 
     # -- viewport (blender_adapter/viewport.py does the work) --------------------------------
     def view_update(self, context, depsgraph) -> None:

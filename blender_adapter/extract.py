@@ -777,6 +777,16 @@ def extract_scene(depsgraph) -> SceneData:
     )
 
 
+def render_resolution(render) -> tuple[int, int]:
+    """The frame's size in pixels as Blender's render pipeline computes it
+    (``BKE_render_resolution``: integer arithmetic, resolution * percentage / 100). A float
+    scale gets some sizes one pixel short (100 px at 29 % is 28.999... px), and Blender then
+    refuses the image."""
+    percentage = int(render.resolution_percentage)
+    return (max(int(render.resolution_x) * percentage // 100, 1),
+            max(int(render.resolution_y) * percentage // 100, 1))
+
+
 def camera_from_scene(scene, depsgraph=None) -> Camera:
     """The scene camera (evaluated when a depsgraph is given) and the render resolution.
 
@@ -789,9 +799,7 @@ def camera_from_scene(scene, depsgraph=None) -> Camera:
     if depsgraph is not None:
         camera_object = camera_object.evaluated_get(depsgraph)
     render = scene.render
-    scale = render.resolution_percentage / 100.0
-    width = max(int(render.resolution_x * scale), 1)
-    height = max(int(render.resolution_y * scale), 1)
+    width, height = render_resolution(render)
     common = dict(
         matrix_world=_matrix(camera_object),
         width=width,

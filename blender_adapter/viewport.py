@@ -38,6 +38,7 @@ from dataclasses import dataclass, replace
 import bpy
 import numpy as np
 
+from ..hybrid_engine.film import FrameOutputs
 from ..hybrid_engine.gl_context import GLUnavailableError
 from .gl_host import gl_block
 from ..hybrid_engine.renderer import RenderModeUnavailable
@@ -92,8 +93,9 @@ class ViewportSession:
         return report
 
     # -- view_draw -------------------------------------------------------------------------
-    def frame(self, region: RegionInput, settings: RenderSettings) -> ViewportFrame:
-        """Render one frame of ``region`` (never raises; see ``ViewportFrame.error``)."""
+    def frame(self, region: RegionInput, settings: RenderSettings, *, transparent: bool = False) -> ViewportFrame:
+        """Render one frame of ``region`` (never raises; see ``ViewportFrame.error``);
+        ``transparent``: the film's transparency, the background drawn through (alpha 0)."""
         start = time.perf_counter()
         rect = (0, 0, int(region.width), int(region.height))
         try:
@@ -102,7 +104,7 @@ class ViewportSession:
             if plan.view is None:
                 return ViewportFrame(None, rect, f"{ERROR_PREFIX} | render border outside the view")
             with gl_block():
-                result, note = self._render(plan.view, settings)
+                result, note = self._render(plan.view, settings, FrameOutputs(transparent=transparent))
         except Exception as exc:  # noqa: BLE001 - a viewport frame must never raise
             return self._failed(exc, rect)
         self.latch.clear()  # a later failure is news again
@@ -113,7 +115,7 @@ class ViewportSession:
         return ViewportFrame(result.image, rect, stats_line(result.mode, frame_ms, fps, result.counts, size, note),
                              mode=result.mode, counts=dict(result.counts))
 
-    def _render(self, view, settings: RenderSettings):
+    def _render(self, view, settings: RenderSettings, outputs: FrameOutputs):
         """Render with the scene's mode; a mode this build or this driver cannot render
         falls back to RASTER, and is not retried until the settings change."""
         scene = self.cache.scene_data
@@ -121,7 +123,7 @@ class ViewportSession:
         key = (settings.mode, settings)
         if settings.mode != "RASTER" and key not in self.failed_modes:
             try:
-                return renderer.render(scene, view, settings, timing=False), ""
+                return renderer.render(scene, view, settings, timing=False, outputs=outputs), ""
             except GLUnavailableError:
                 raise
             except Exception as exc:  # noqa: BLE001 - RenderModeUnavailable, shader errors: fall back
@@ -130,7 +132,7 @@ class ViewportSession:
                 self._tell(reason, exc, unexpected=not isinstance(exc, RenderModeUnavailable))
         note = self.failed_modes.get(key, "")
         settings = replace(settings, mode="RASTER")
-        return renderer.render(scene, view, settings, timing=False), note
+        return renderer.render(scene, view, settings, timing=False, outputs=outputs), note
 
     def _ensure_renderer(self):
         if self.renderer is None:
@@ -250,7 +252,7 @@ def view_draw(engine, context, depsgraph) -> None:
     except Exception as exc:  # noqa: BLE001 - bad settings or camera: show it, keep drawing
         frame = session._failed(exc, (0, 0, context.region.width, context.region.height))
     else:
-        frame = session.frame(region, settings)
+        frame = session.frame(region, settings, transparent=bool(depsgraph.scene.render.film_transparent))
     engine.update_stats("", frame.stats)
     _draw_frame(engine, depsgraph.scene, frame)
 

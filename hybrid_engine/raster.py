@@ -537,8 +537,10 @@ class RasterPasses:
         return per_light
 
     def shade(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
-              settings: RenderSettings, origin: tuple[int, int] = (0, 0)) -> None:
-        """Deferred shading of the G-buffer region at ``origin`` into ``targets.color``."""
+              settings: RenderSettings, origin: tuple[int, int] = (0, 0), *,
+              transparent: bool = False) -> None:
+        """Deferred shading of the G-buffer region at ``origin`` into ``targets.color``;
+        with ``transparent`` the background is (0, 0, 0, 0) instead of the sky (film.py)."""
         prog = self.shade_prog
         self._upload_sky(scene.sky)
         gpu.materials.buffer.bind_to_storage_buffer(0)
@@ -561,6 +563,7 @@ class RasterPasses:
             "u_sky_color": tuple(scene.sky.color),
             "u_sky_strength": float(scene.sky.strength),
             "u_sky_has_env": int(self._sky_texture is not None),
+            "u_transparent_background": int(transparent),
         }
         for name, value in values.items():
             if name not in prog:

@@ -25,6 +25,7 @@ import numpy as np
 
 from . import gl_context
 from .camera import Camera
+from .film import FrameOutputs, depth_pass, normal_pass
 from .gpu_scene import GPUScene, pack_lights
 from .raster import RasterPasses, RasterView
 from .scene_data import SceneData
@@ -61,8 +62,10 @@ class FrameResult:
     """One rendered frame.
 
     ``image`` is (H, W, 4) float32 linear RGBA, row 0 at the bottom (Blender's and OpenGL's
-    order). ``passes`` maps pass names to milliseconds (empty when timing is off);
-    ``counts`` holds triangle and ray counts; ``timing_source`` says how time was measured.
+    order), alpha 0 on the background with transparent film. ``passes`` maps pass names to
+    milliseconds (empty when timing is off); ``counts`` holds triangle and ray counts;
+    ``timing_source`` says how time was measured. ``data_passes`` holds the data passes the
+    frame was asked for (film.FrameOutputs: "depth" (H, W), "normal" (H, W, 3)), same rows.
     """
 
     image: np.ndarray
@@ -71,6 +74,7 @@ class FrameResult:
     timing_source: str = "off"
     total_ms: float = 0.0
     mode: str = "RASTER"
+    data_passes: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 class Renderer:
@@ -95,10 +99,14 @@ class Renderer:
         timing: bool = True,
         cancel: CancelCallback | None = None,
         progress: ProgressCallback | None = None,
+        outputs: FrameOutputs | None = None,
     ) -> FrameResult:
         """Render one frame. Raises RenderCancelled when ``cancel()`` returns True between
-        passes; the GPU state stays valid for the next frame."""
+        passes; the GPU state stays valid for the next frame. ``outputs`` asks for
+        transparent film and data passes (film.py); by default the frame is opaque and has
+        none."""
         settings = settings or RenderSettings()
+        outputs = outputs or FrameOutputs()
         steps = MODE_STEPS.get(settings.mode)
         if steps is None:
             raise RenderModeUnavailable(f"render mode {settings.mode} is not provided")
@@ -177,7 +185,8 @@ class Renderer:
                     tracer.build(culled)
             step("shade")
             with timer.measure("shade"):
-                self.raster.shade(self.gpu_scene, scene, view, targets, settings)
+                self.raster.shade(self.gpu_scene, scene, view, targets, settings,
+                                  transparent=outputs.transparent)
             if "trace" in steps:
                 step("trace")
                 with timer.measure("trace"):
@@ -185,6 +194,7 @@ class Renderer:
             step("readback")
             with timer.measure("readback"):
                 image = targets.read_color()
+                data = self._data_passes(targets, camera, outputs)
                 if traced and settings.mode != "PROVENANCE":
                     counts.update(tracer.read_stats(settings.max_depth).as_counts())
         finally:
@@ -201,7 +211,23 @@ class Renderer:
             **counts,
         }
         return FrameResult(image=image, passes=dict(timer.passes), counts=counts,
-                           timing_source=timer.source, total_ms=total, mode=settings.mode)
+                           timing_source=timer.source, total_ms=total, mode=settings.mode,
+                           data_passes=data)
+
+    @staticmethod
+    def _data_passes(targets, camera: Camera, outputs: FrameOutputs) -> dict[str, np.ndarray]:
+        """The data passes ``outputs`` asks for, from the primary G-buffer (read back only
+        then: a frame without passes reads nothing more)."""
+        if not outputs.data_passes:
+            return {}
+        normal_material = targets.read("normal_material")
+        data = {}
+        if outputs.depth:
+            hit = normal_material[..., 3] != 0.0
+            data["depth"] = depth_pass(targets.read("depth")[..., 0], camera, hit)
+        if outputs.normal:
+            data["normal"] = normal_pass(normal_material)
+        return data
 
     def release(self) -> None:
         """Free this renderer's GL objects (the shared context stays)."""

@@ -24,7 +24,7 @@ from typing import Iterator
 
 import bpy
 
-from ..blender_adapter import engine, properties
+from ..blender_adapter import engine, extract, properties
 from ..hybrid_engine import timing_report
 from ..hybrid_engine.settings import SettingsError
 
@@ -62,11 +62,10 @@ def target_fps(scene) -> float:
 
 
 def scene_info(scene) -> dict:
-    scale = scene.render.resolution_percentage / 100.0
     return {
         "name": scene.name,
         "blend_file": bpy.data.filepath,
-        "resolution": [max(int(scene.render.resolution_x * scale), 1), max(int(scene.render.resolution_y * scale), 1)],
+        "resolution": list(extract.render_resolution(scene.render)),
         "fps": scene.render.fps,
         "fps_base": scene.render.fps_base,
         "blender": bpy.app.version_string,

@@ -127,3 +127,117 @@ def test_a_failing_frame_is_reported_and_leaves_the_scene_untouched(addon, tmp_p
     with pytest.raises(RuntimeError, match="[Cc]amera"):
         bpy.ops.render.render(write_still=True)
     assert [tuple(v.co) for v in bpy.data.objects["Plane"].data.vertices] == before
+
+
+# ---------------------------------------------------------------------------------------------
+# The film: data passes, transparency and the render region, as a compositor receives them.
+
+def build_film_scene(bpy, size=(24, 16)):
+    """A perspective camera above two planes that leave part of the frame empty: a tilted one
+    seen from its front, and a lower one turned over, seen from its back side."""
+    import math
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=4, location=(-1.0, 0.0, 0.0), rotation=(math.radians(30), 0, 0))
+    bpy.ops.mesh.primitive_plane_add(size=2, location=(1.6, 0.5, -1.0), rotation=(math.pi, 0, 0))
+    bpy.ops.object.light_add(type="SUN", location=(0, 0, 5))
+    cam = bpy.data.cameras.new("cam")
+    cam_obj = bpy.data.objects.new("cam", cam)
+    cam_obj.location = (0.5, -1.0, 6.0)
+    scene.collection.objects.link(cam_obj)
+    scene.camera = cam_obj
+    scene.render.resolution_x, scene.render.resolution_y = size
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    return scene
+
+
+def render_multilayer(bpy, scene, path) -> dict[str, np.ndarray]:
+    """Render and save every pass to an uncompressed multilayer EXR, read back by channel."""
+    from exr_reader import read_exr_channels
+
+    settings = scene.render.image_settings
+    settings.media_type = "MULTI_LAYER_IMAGE"
+    settings.file_format = "OPEN_EXR_MULTILAYER"
+    settings.exr_codec = "NONE"
+    settings.color_depth = "32"
+    scene.render.filepath = str(path)
+    bpy.ops.render.render(write_still=True)
+    return read_exr_channels(path)
+
+
+def test_depth_normal_and_transparent_alpha_reach_a_multilayer_exr_as_cycles_writes_them(addon, tmp_path):
+    import bpy
+
+    scene = build_film_scene(bpy)
+    layer = scene.view_layers[0]
+    layer.use_pass_z = layer.use_pass_normal = True
+    scene.render.film_transparent = True
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 1
+    scene.cycles.filter_width = 0.01  # one sample at each pixel's centre, like a rasterizer
+    scene.cycles.device = "CPU"
+    cycles = render_multilayer(bpy, scene, tmp_path / "cycles.exr")
+    scene.render.engine = "HYBRID_RT"
+    ours = render_multilayer(bpy, scene, tmp_path / "ours.exr")
+
+    cycles_channels = {name for name in cycles if "Noisy" not in name}
+    assert set(ours) == cycles_channels
+    assert {"ViewLayer.Depth.Z", "ViewLayer.Normal.X"} <= set(ours)
+    alpha = ours["ViewLayer.Combined.A"]
+    assert ((alpha == 0) != (cycles["ViewLayer.Combined.A"] == 0)).sum() <= 2, "background masks differ"
+    empty, hit = alpha == 0, alpha == 1
+    assert empty.sum() > 20 and hit.sum() > 100 and (empty | hit).all()
+    for channel in "RGB":
+        assert (ours[f"ViewLayer.Combined.{channel}"][empty] == 0).all()
+    both = hit & (cycles["ViewLayer.Combined.A"] == 1)
+    np.testing.assert_allclose(ours["ViewLayer.Depth.Z"][both], cycles["ViewLayer.Depth.Z"][both], rtol=1e-4)
+    assert (ours["ViewLayer.Depth.Z"][empty] == cycles["ViewLayer.Depth.Z"][empty & ~hit][0]).all()
+    normal = np.stack([ours[f"ViewLayer.Normal.{c}"] for c in "XYZ"], axis=-1)
+    cycles_normal = np.stack([cycles[f"ViewLayer.Normal.{c}"] for c in "XYZ"], axis=-1)
+    np.testing.assert_allclose(normal[both], cycles_normal[both], atol=1e-5)
+    # Both sides are in view: the flipped plane shows its back, whose normal points up too.
+    assert (normal[both][:, 2] > 0.8).all()
+    assert (normal[both][:, 1] < -0.4).sum() > 20 and (np.abs(normal[both][:, 1]) < 1e-3).sum() > 20
+
+    layer.use_pass_z = layer.use_pass_normal = False
+    assert set(render_multilayer(bpy, scene, tmp_path / "combined.exr")) == {
+        f"ViewLayer.Combined.{c}" for c in "RGBA"}
+
+
+@pytest.mark.parametrize("crop", [False, True])
+def test_render_region_renders_the_regions_pixels_of_the_whole_frame(addon, tmp_path, crop):
+    import bpy
+
+    scene = build_film_scene(bpy, size=(37, 23))
+    scene.render.engine = "HYBRID_RT"
+    whole = render_exr(bpy, scene, tmp_path / "whole.exr")
+    render = scene.render
+    render.use_border, render.use_crop_to_border = True, crop
+    render.border_min_x, render.border_min_y, render.border_max_x, render.border_max_y = 0.13, 0.27, 0.71, 0.9
+    region = render_exr(bpy, scene, tmp_path / "region.exr")
+    x0, y0, x1, y1 = 4, 6, 26, 20  # Blender truncates fraction x resolution (test_film.py)
+    if crop:
+        assert region.shape == (y1 - y0, x1 - x0, 4)
+        inside = region
+    else:
+        assert region.shape == whole.shape
+        inside = region[y0:y1, x0:x1]
+        outside = region.copy()
+        outside[y0:y1, x0:x1] = 0
+        assert (outside == 0).all(), "Blender leaves the frame outside the region empty"
+    np.testing.assert_allclose(inside, whole[y0:y1, x0:x1], rtol=1e-4, atol=1e-5)
+
+
+def test_a_resolution_percentage_that_float_arithmetic_gets_one_pixel_short_renders_every_pixel(addon, tmp_path):
+    import bpy
+
+    scene = build_plane_scene(bpy, "SUN", 1.0, size=100)
+    scene.render.resolution_percentage = 29  # 100 * 0.29 = 28.999...; Blender renders 29 pixels
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.mode = "RASTER"
+    image = render_exr(bpy, scene, tmp_path / "frame.exr")
+    assert image.shape == (29, 29, 4)
+    # The plane fills the frame: a frame one pixel short leaves a column Blender fills with 0.
+    assert (image[..., 3] == 1).all() and (image[..., 0] > 0.1).all()

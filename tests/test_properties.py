@@ -128,8 +128,42 @@ def test_own_panels_show_only_for_this_engine(addon):
         engine = "BLENDER_EEVEE"
         material = bpy.data.materials.new("m")
 
-    assert not panels.RENDER_PT_hybrid_rt.poll(FakeContext)
-    assert not panels.MATERIAL_PT_hybrid_rt.poll(FakeContext)
+    own = (panels.RENDER_PT_hybrid_rt, panels.MATERIAL_PT_hybrid_rt, panels.RENDER_PT_hybrid_rt_film,
+           panels.VIEWLAYER_PT_hybrid_rt_passes)
+    assert not any(panel.poll(FakeContext) for panel in own)
     FakeContext.engine = "HYBRID_RT"
-    assert panels.RENDER_PT_hybrid_rt.poll(FakeContext)
-    assert panels.MATERIAL_PT_hybrid_rt.poll(FakeContext)
+    assert all(panel.poll(FakeContext) for panel in own)
+
+
+class RecordingLayout:
+    """Stands in for a panel's UILayout: records (data, property) pairs and checks that each
+    property exists, as Blender would when drawing (a misspelt name draws an error there)."""
+
+    def __init__(self, drawn: list) -> None:
+        self.drawn = drawn
+        self.use_property_split = self.use_property_decorate = self.active = False
+
+    def column(self, **_kwargs):
+        return self
+
+    def prop(self, data, name, **_kwargs):
+        assert name in data.bl_rna.properties, f"{type(data).__name__} has no property {name!r}"
+        self.drawn.append(name)
+
+
+def test_film_and_passes_panels_draw_the_properties_the_final_render_reads(addon):
+    panels = addon.ui.panels
+    drawn: list[str] = []
+
+    class FakeContext:
+        scene = bpy.context.scene
+        view_layer = bpy.context.view_layer
+
+    class FakePanel:
+        layout = RecordingLayout(drawn)
+
+    for panel in (panels.RENDER_PT_hybrid_rt_film, panels.VIEWLAYER_PT_hybrid_rt_passes):
+        panel.draw(FakePanel(), FakeContext)
+    engine = addon.blender_adapter.engine
+    assert "film_transparent" in drawn
+    assert {flag for flag, *_ in engine.DATA_PASSES.values()} <= set(drawn)

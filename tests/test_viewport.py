@@ -111,6 +111,21 @@ def test_moving_one_object_re_extracts_only_that_object_and_changes_the_image(ad
     np.testing.assert_array_equal(_frame(addon, bpy, session).image, after)
 
 
+def test_transparent_film_leaves_the_viewports_background_transparent(addon, viewport):
+    import bpy
+
+    _module, session, _reports = viewport
+    _two_object_scene(bpy)
+    _sync(bpy)
+    opaque = _frame(addon, bpy, session).image
+    clear = session.frame(_region(bpy), _settings(addon, bpy), transparent=True).image
+    background = clear[..., 3] == 0
+    assert (opaque[..., 3] == 1).all()
+    assert background.sum() > 10 and (~background).sum() > 10, "the view shows sky and objects"
+    assert (clear[background] == 0).all()
+    np.testing.assert_array_equal(clear[~background], opaque[~background])
+
+
 def test_editing_a_material_changes_the_next_frame(addon, viewport):
     """Base colour (a node edit, reported as a Material update) changes the image;
     thickness (set from a script, which Blender does not report) reaches the next frame's

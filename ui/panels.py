@@ -26,8 +26,9 @@ _EEVEE_PANELS_KEPT = frozenset({
     "DATA_PT_EEVEE_light_shadow",  # its header is light.use_shadow
     "NODE_DATA_PT_EEVEE_light",
 })
-# Panels for features this engine does not have (depth of field, light probes, render
-# passes, Freestyle, per-light influence, shadow terminator...).
+# Panels for features this engine does not have (depth of field, light probes, Freestyle,
+# per-light influence, shadow terminator...), and Blender's render-pass panels, which list
+# passes this engine does not write (its own Passes panel below lists those it does).
 _PANELS_SKIPPED_PREFIXES = (
     "DATA_PT_camera_dof",
     "DATA_PT_lightprobe",
@@ -154,6 +155,37 @@ class RENDER_PT_hybrid_rt_viewport(HybridRTPanel, bpy.types.Panel):
         layout.column().prop(context.scene.hybrid_rt, "viewport_scale")
 
 
+class RENDER_PT_hybrid_rt_film(HybridRTPanel, bpy.types.Panel):
+    """Film: a transparent background for compositing (hybrid_engine/film.py)."""
+
+    bl_label = "Film"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context) -> None:
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.column().prop(context.scene.render, "film_transparent", text="Transparent")
+
+
+class VIEWLAYER_PT_hybrid_rt_passes(HybridRTPanel, bpy.types.Panel):
+    """The data passes this engine writes besides Combined (hybrid_engine/film.py)."""
+
+    bl_label = "Passes"
+    bl_context = "view_layer"
+
+    def draw(self, context) -> None:
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        view_layer = context.view_layer
+        col = layout.column(heading="Data", align=True)
+        col.prop(view_layer, "use_pass_combined")
+        col.prop(view_layer, "use_pass_z")
+        col.prop(view_layer, "use_pass_normal")
+
+
 class MATERIAL_PT_hybrid_rt(HybridRTPanel, bpy.types.Panel):
     """The paper's per-material thickness and what the engine makes of the surface shader."""
 
@@ -189,6 +221,8 @@ _CLASSES = (
     RENDER_PT_hybrid_rt_cube_map,
     RENDER_PT_hybrid_rt_shadows,
     RENDER_PT_hybrid_rt_viewport,
+    RENDER_PT_hybrid_rt_film,
+    VIEWLAYER_PT_hybrid_rt_passes,
     MATERIAL_PT_hybrid_rt,
 )
 

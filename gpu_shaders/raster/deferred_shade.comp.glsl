@@ -6,7 +6,9 @@
 // default of an unset uniform) the mirror and glass lobes look up the sky in the reflected /
 // refracted direction (the classic environment-map approximation); with 1 they are left out,
 // because the hybrid tracer (trace/hybrid_trace.comp.glsl) adds them as traced rays -- on the
-// primary image and when it hits a cube-map face. Background pixels get the sky.
+// primary image and when it hits a cube-map face. Background pixels get the sky, or
+// (0, 0, 0, 0) with u_transparent_background = 1 (Blender's transparent film, film.py):
+// alpha 0 there, and premultiplied colour 0; reflections still see the sky.
 //
 // Bindings: u_depth (DEPTH32F), u_normal_material (RGBA32F), u_albedo (RGBA16F),
 //   u_emission_scale (RGBA16F: the emission texture's colour, multiplies the emission) read;
@@ -34,6 +36,7 @@ uniform int u_orthographic;
 uniform ivec2 u_size;    // size of the view being shaded
 uniform ivec2 u_origin;  // its texel origin inside the G-buffer (cube-map faces share an atlas)
 uniform int u_traced_specular;  // 1: specular lobes are traced elsewhere, leave them out
+uniform int u_transparent_background;  // 1: the background is transparent, not the sky
 
 vec3 unproject(vec2 ndc_xy, float ndc_z) {
     vec4 world = u_inv_view_proj * vec4(ndc_xy, ndc_z, 1.0);
@@ -51,7 +54,8 @@ void main() {
 
     vec4 nm = texelFetch(u_normal_material, pixel, 0);
     if (nm.w == 0.0) {
-        imageStore(u_output, pixel, vec4(sky_radiance(view_dir), 1.0));
+        imageStore(u_output, pixel, u_transparent_background != 0 ? vec4(0.0)
+                                                                   : vec4(sky_radiance(view_dir), 1.0));
         return;
     }
     float depth = texelFetch(u_depth, pixel, 0).r;

@@ -1,0 +1,147 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The film (hybrid_engine/film.py) through the renderer: transparent background, the Depth
+and Normal passes against analytic ray-plane intersections, and the render region's camera
+against the crop of a whole frame. Blender's side (the passes in a multilayer EXR, Cycles'
+conventions) is in test_engine.py."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
+from hybrid_engine.camera import look_at
+from hybrid_engine.film import (BACKGROUND_DEPTH, FilmError, FrameOutputs, border_pixels, normal_pass,
+                                region_camera)
+from hybrid_engine.renderer import Renderer
+from scenes_analytic import quad, ray_plane_z
+
+SMALL = dict(cube_resolution=32, shadow_resolution=128, near_size=2.0)
+SKY = (0.2, 0.3, 0.5)
+# The depth buffer holds 24 bits; the pass is exact up to that and float32.
+DEPTH_RTOL = 1e-4
+
+
+@pytest.fixture(scope="module")
+def renderer(gl):
+    r = Renderer(gl)
+    yield r
+    r.release()
+
+
+def floor_scene(mirror: bool = False) -> SceneData:
+    """A 6 x 6 floor at z = 0 facing up (diffuse, or a mirror), a sun, a blue sky."""
+    mats = MaterialTable.from_rows([dict(base_color=(0.8, 0.8, 0.8), reflectivity=1.0 if mirror else 0.0)])
+    floor = quad((0, 0, 0), (3, 0, 0), (0, 3, 0))
+    return SceneData(Geometry.from_objects([(floor, None, 0)]), mats,
+                     Lights.from_rows([dict(kind="SUN", direction=(0.2, 0.3, -1), color=(2, 2, 2))]),
+                     Sky(color=SKY))
+
+
+def cameras() -> dict[str, Camera]:
+    """Views that see the floor's edge against the sky: perspective (shifted, so the frustum
+    is off-axis), orthographic, and one from below, which sees the floor's back side."""
+    return {
+        "persp": Camera(matrix_world=look_at((1.0, -5.0, 3.0), (0.5, 0.0, 0.0)), width=32, height=20,
+                        lens=30.0, shift_x=0.1, shift_y=-0.05),
+        "ortho": Camera(matrix_world=look_at((0.5, -4.0, 4.0), (1.5, 0.0, 0.0)), width=32, height=20,
+                        projection="ORTHO", ortho_scale=8.0),
+        "below": Camera(matrix_world=look_at((0.5, -4.0, -2.0), (0.0, 1.0, 0.0)), width=32, height=20,
+                        lens=28.0),
+    }
+
+
+def analytic_floor(camera: Camera) -> tuple[np.ndarray, np.ndarray]:
+    """(hit mask, planar depth) of the floor quad at every pixel centre: rays through the
+    camera's pixels meet z = 0 inside |x|, |y| <= 3, depth along the view axis."""
+    origins, dirs = camera.pixel_rays()
+    t = ray_plane_z(origins.reshape(-1, 3), dirs.reshape(-1, 3)).reshape(origins.shape[:2])
+    points = origins + dirs * np.where(np.isfinite(t), t, 0.0)[..., None]
+    hit = np.isfinite(t) & (t > 0) & (np.abs(points[..., 0]) <= 3) & (np.abs(points[..., 1]) <= 3)
+    depth = (points - camera.position) @ camera.forward
+    return hit, depth
+
+
+@pytest.mark.parametrize("name", ["persp", "ortho", "below"])
+def test_depth_pass_is_the_distance_along_the_view_axis_and_1e10_on_the_background(renderer, name):
+    camera = cameras()[name]
+    result = renderer.render(floor_scene(), camera, RenderSettings(mode="RASTER", **SMALL),
+                             outputs=FrameOutputs(depth=True))
+    depth = result.data_passes["depth"]
+    assert depth.shape == (20, 32) and depth.dtype == np.float32
+    hit, expected = analytic_floor(camera)
+    # Pixels whose centre lies within a hair of the quad's edge may go either way.
+    agree = (depth < BACKGROUND_DEPTH) == hit
+    assert (~agree).sum() <= 2, f"{(~agree).sum()} pixels disagree on hit/background"
+    both = hit & (depth < BACKGROUND_DEPTH)
+    assert both.sum() > 100 and (~hit).sum() > 20, "the view must show floor and background"
+    np.testing.assert_allclose(depth[both], expected[both], rtol=DEPTH_RTOL)
+    assert (depth[~hit & agree] == BACKGROUND_DEPTH).all()
+
+
+def test_normal_pass_faces_the_camera_on_both_sides_of_a_surface(renderer):
+    views = cameras()
+    for name, expected_z in (("persp", 1.0), ("below", -1.0)):
+        result = renderer.render(floor_scene(), views[name], RenderSettings(mode="RASTER", **SMALL),
+                                 outputs=FrameOutputs(normal=True))
+        normal = result.data_passes["normal"]
+        hit, _ = analytic_floor(views[name])
+        inside = hit & (normal != 0).any(axis=-1)
+        assert inside.sum() > 100
+        np.testing.assert_allclose(normal[inside], np.broadcast_to((0.0, 0.0, expected_z), normal[inside].shape),
+                                   atol=1e-6, err_msg=name)
+        assert (normal[~hit & ~(normal != 0).any(axis=-1)] == 0).all()
+
+
+def test_normal_pass_normalises_and_uses_the_back_side_flag():
+    nm = np.zeros((1, 3, 4), np.float32)
+    nm[0, 0] = (0.0, 0.0, 2.0, 3.0)  # front side, unnormalised
+    nm[0, 1] = (0.0, 0.6, 0.8, -1.0)  # back side: reported flipped
+    np.testing.assert_allclose(normal_pass(nm)[0], [[0, 0, 1], [0, -0.6, -0.8], [0, 0, 0]], atol=1e-7)
+    with pytest.raises(FilmError, match=r"\(H, W, 4\)"):
+        normal_pass(np.zeros((2, 2, 3), np.float32))
+
+
+def test_frames_without_data_passes_carry_none(renderer):
+    result = renderer.render(floor_scene(), cameras()["persp"], RenderSettings(mode="RASTER", **SMALL))
+    assert result.data_passes == {}
+
+
+@pytest.mark.parametrize("mode", ["RASTER", "HYBRID", "FULL_BVH"])
+def test_transparent_film_clears_the_background_and_mirrors_still_see_the_sky(renderer, mode):
+    camera = cameras()["persp"]
+    settings = RenderSettings(mode=mode, **SMALL)
+    opaque = renderer.render(floor_scene(mirror=True), camera, settings).image
+    clear = renderer.render(floor_scene(mirror=True), camera, settings, outputs=FrameOutputs(transparent=True)).image
+    hit, _ = analytic_floor(camera)
+    background = clear[..., 3] == 0
+    assert abs(int(background.sum()) - int((~hit).sum())) <= 2
+    assert (clear[background] == 0).all(), "transparent pixels are premultiplied: colour 0"
+    assert (opaque[..., 3] == 1).all()
+    # The mirror floor reflects the sky (the sun's highlight aside, the floor is a mirror):
+    # the same colour with and without the transparent background.
+    np.testing.assert_allclose(clear[~background], opaque[~background], rtol=1e-6, atol=1e-7)
+    assert (clear[~background][:, 3] == 1).all()
+    assert np.allclose(clear[~background][:, :3].mean(axis=0), np.multiply(SKY, 0.8), rtol=0.05)
+
+
+def test_border_pixels_truncate_like_blenders_pipeline():
+    # 0.13 * 37 = 4.81 -> 4, 0.71 * 37 = 26.27 -> 26; 0.27 * 23 = 6.21 -> 6, 0.9 * 23 = 20.7 -> 20.
+    assert border_pixels(37, 23, (0.13, 0.27), (0.71, 0.9)) == (4, 6, 26, 20)
+    assert border_pixels(40, 20, (0.0, 0.0), (1.0, 1.0)) == (0, 0, 40, 20)
+    with pytest.raises(FilmError, match="covers no pixel"):
+        border_pixels(40, 20, (0.5, 0.2), (0.51, 0.8))
+
+
+@pytest.mark.parametrize("name", ["persp", "ortho"])
+def test_region_camera_renders_exactly_the_regions_pixels_of_the_whole_frame(renderer, name):
+    camera = cameras()[name]
+    settings = RenderSettings(mode="HYBRID", **SMALL)
+    outputs = FrameOutputs(depth=True)
+    whole = renderer.render(floor_scene(mirror=True), camera, settings, outputs=outputs)
+    rect = border_pixels(camera.width, camera.height, (0.13, 0.27), (0.71, 0.9))
+    x0, y0, x1, y1 = rect
+    part = renderer.render(floor_scene(mirror=True), region_camera(camera, rect), settings, outputs=outputs)
+    assert part.image.shape == (y1 - y0, x1 - x0, 4)
+    np.testing.assert_allclose(part.image, whole.image[y0:y1, x0:x1], rtol=1e-4, atol=1e-5)
+    np.testing.assert_allclose(part.data_passes["depth"], whole.data_passes["depth"][y0:y1, x0:x1], rtol=DEPTH_RTOL)
+    assert region_camera(camera, (0, 0, camera.width, camera.height)) is camera

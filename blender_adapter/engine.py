@@ -139,8 +139,9 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
         last_frame = result
         height, width = result.image.shape[:2]
         # The result's origin is the render region's corner: Blender places the region in the
-        # full frame itself (or crops to it).
-        render_result = self.begin_result(0, 0, width, height)
+        # full frame itself (or crops to it). Blender calls render() once per view layer, each
+        # with that layer's depsgraph: the result must be that layer's, not the first one.
+        render_result = self.begin_result(0, 0, width, height, layer=depsgraph.view_layer.name)
         try:
             passes = render_result.layers[0].passes
             passes["Combined"].rect.foreach_set(np.ascontiguousarray(result.image, np.float32).ravel())

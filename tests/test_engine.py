@@ -206,6 +206,33 @@ def test_depth_normal_and_transparent_alpha_reach_a_multilayer_exr_as_cycles_wri
         f"ViewLayer.Combined.{c}" for c in "RGBA"}
 
 
+def test_each_view_layer_gets_its_own_render_as_in_cycles(addon, tmp_path):
+    import bpy
+
+    scene = build_film_scene(bpy)
+    scene.render.film_transparent = True
+    # A second view layer without the tilted plane.
+    hidden = bpy.data.collections.new("hidden")
+    scene.collection.children.link(hidden)
+    tilted = bpy.data.objects["Plane"]
+    scene.collection.objects.unlink(tilted)
+    hidden.objects.link(tilted)
+    scene.view_layers.new("Second").layer_collection.children["hidden"].exclude = True
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 1
+    scene.cycles.filter_width = 0.01
+    scene.cycles.device = "CPU"
+    cycles = render_multilayer(bpy, scene, tmp_path / "cycles.exr")
+    scene.render.engine = "HYBRID_RT"
+    ours = render_multilayer(bpy, scene, tmp_path / "ours.exr")
+    covered = {}
+    for layer in ("ViewLayer", "Second"):
+        alpha, expected = ours[f"{layer}.Combined.A"], cycles[f"{layer}.Combined.A"]
+        assert ((alpha > 0) != (expected > 0)).sum() <= 2, layer
+        covered[layer] = int((alpha > 0).sum())
+    assert covered["ViewLayer"] > covered["Second"] + 50 and covered["Second"] > 20
+
+
 @pytest.mark.parametrize("crop", [False, True])
 def test_render_region_renders_the_regions_pixels_of_the_whole_frame(addon, tmp_path, crop):
     import bpy

@@ -16,6 +16,7 @@ import bpy
 import numpy as np
 
 from ..hybrid_engine import film
+from ..hybrid_engine.antialias import render_antialiased
 from ..hybrid_engine.camera import Camera
 from ..hybrid_engine.film import FrameOutputs
 from ..hybrid_engine.renderer import FrameResult, RenderCancelled, Renderer, RenderModeUnavailable
@@ -75,9 +76,10 @@ def final_camera(scene, depsgraph) -> Camera:
 def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, final=False) -> FrameResult:
     """Extract the evaluated scene and render one frame with the scene's settings.
 
-    ``final``: as F12 renders it, the render region only and with the film's transparency
-    and the view layer's data passes (``frame_outputs``); otherwise the whole frame, opaque
-    (timing reports). Modes this build cannot render yet fall back to RASTER with a warning
+    ``final``: as F12 renders it, the render region only, ``render_samples`` samples per
+    pixel, with the film's transparency and the view layer's data passes
+    (``frame_outputs``); otherwise one sample of the whole frame, opaque (timing reports,
+    which time the frame the viewport and the paper render). Modes this build cannot render yet fall back to RASTER with a warning
     through ``report(level, message)``, so a user always gets an image.
     """
     scene = depsgraph.scene
@@ -87,19 +89,20 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
     if final:
         camera = final_camera(scene, depsgraph)
         outputs = frame_outputs(scene, depsgraph.view_layer)
+        samples = settings.render_samples
     else:
-        camera, outputs = extract.camera_from_scene(scene, depsgraph), FrameOutputs()
+        camera, outputs, samples = extract.camera_from_scene(scene, depsgraph), FrameOutputs(), 1
     extract_ms = (time.perf_counter() - start) * 1e3
     with gl_block():
         renderer = shared_renderer()
         try:
-            result = renderer.render(scene_data, camera, settings, cancel=cancel, progress=progress,
-                                     outputs=outputs)
+            result = render_antialiased(renderer, scene_data, camera, settings, samples, outputs=outputs,
+                                        cancel=cancel, progress=progress)
         except RenderModeUnavailable as exc:
             if report is not None:
                 report({"WARNING"}, f"{exc}; rendering RASTER instead")
-            result = renderer.render(scene_data, camera, replace(settings, mode="RASTER"),
-                                     cancel=cancel, progress=progress, outputs=outputs)
+            result = render_antialiased(renderer, scene_data, camera, replace(settings, mode="RASTER"), samples,
+                                        outputs=outputs, cancel=cancel, progress=progress)
     result.passes = {"extract": extract_ms, **result.passes}
     result.total_ms += extract_ms
     return result

@@ -41,6 +41,7 @@ _LABELS = {
     "shadow_resolution": "Resolution",
     "shadow_bias": "Bias",
     "viewport_scale": "Resolution Scale",
+    "render_samples": "Render Samples",
 }
 
 THICKNESS_DOC = (

@@ -89,6 +89,8 @@ class Renderer:
         # maps only the layer whose objects changed is re-rendered (shadow_cache.py).
         self.geometry_tracker = GeometryTracker()
         self.shadow_cache = ShadowCache()
+        # What the tracer's cube map and BVH were built for (render(reuse_world=True)).
+        self._world_key: tuple | None = None
 
     def render(
         self,
@@ -100,11 +102,18 @@ class Renderer:
         cancel: CancelCallback | None = None,
         progress: ProgressCallback | None = None,
         outputs: FrameOutputs | None = None,
+        reuse_world: bool = False,
     ) -> FrameResult:
         """Render one frame. Raises RenderCancelled when ``cancel()`` returns True between
         passes; the GPU state stays valid for the next frame. ``outputs`` asks for
         transparent film and data passes (film.py); by default the frame is opaque and has
-        none."""
+        none.
+
+        ``reuse_world``: this frame sees the last frame's scene from the same point (another
+        sample of one pixel grid, antialias.py), so the cube map and the BVH, which depend
+        only on the geometry, the settings and the camera's position, are kept instead of
+        rebuilt. Honoured only when that holds: the same ``scene`` object and settings, the
+        same position, no triangle changed and the last frame completed."""
         settings = settings or RenderSettings()
         outputs = outputs or FrameOutputs()
         steps = MODE_STEPS.get(settings.mode)
@@ -125,6 +134,9 @@ class Renderer:
 
         counts: dict[str, int] = {}
         center = np.asarray(camera.position, np.float64)
+        world_key = (id(scene), settings, center)
+        kept_world = reuse_world and traced and self._same_world(world_key)
+        self._world_key = None  # set again once this frame's world is complete
         # Shaded G-buffers leave the specular lobes to the tracer in every traced mode. The
         # shading program is shared (cached per context), so the flag is reset after the frame.
         shade_flag = self.raster.shade_prog["u_traced_specular"]
@@ -137,6 +149,7 @@ class Renderer:
                 if traced:
                     tracer.upload(self.gpu_scene, scene, delta)
             counts["triangles_uploaded"] = int(delta.changed_triangles)
+            kept_world = kept_world and delta.unchanged
             step("shadow_maps")
             with timer.measure("shadow_maps"):
                 views, per_light = self.raster.shadow_views(scene)
@@ -166,20 +179,20 @@ class Renderer:
                 targets = self.raster.primary_targets(view.width, view.height)
                 targets.clear()
                 submitted = self.raster.gbuffer(self.gpu_scene, scene, view, targets)
-            if "cube_map_raster" in steps:
+            if "cube_map_raster" in steps and not kept_world:
                 step("cube_map_raster")
                 with timer.measure("cube_map_raster"):
                     counts["triangles_cube_map_submitted"] = int(
                         tracer.render_cube_map(self.gpu_scene, scene, center, settings))
             culled = None
-            if "cull" in steps:
+            if "cull" in steps and not kept_world:
                 step("cull")
                 with timer.measure("cull"):
                     culled = tracer.cull(scene, center, settings)
                 counts.update(objects_near_inside=culled.objects_inside,
                               objects_near_straddling=culled.objects_straddling,
                               objects_near_outside=culled.objects_outside)
-            if "lbvh_build" in steps:
+            if "lbvh_build" in steps and not kept_world:
                 step("lbvh_build")
                 with timer.measure("lbvh_build"):
                     tracer.build(culled)
@@ -199,6 +212,7 @@ class Renderer:
                     counts.update(tracer.read_stats(settings.max_depth).as_counts())
         finally:
             shade_flag.value = 0
+        self._world_key = world_key if traced else None
         if gl_context.debug_checks_enabled():
             gl_context.check_error(f"{settings.mode} frame")
         if progress is not None:
@@ -213,6 +227,18 @@ class Renderer:
         return FrameResult(image=image, passes=dict(timer.passes), counts=counts,
                            timing_source=timer.source, total_ms=total, mode=settings.mode,
                            data_passes=data)
+
+    def _same_world(self, key: tuple) -> bool:
+        """Whether ``key`` (scene object, settings, eye) is what the kept cube map and BVH
+        were built for. The eye is compared to a relative 1e-9: a jittered camera's position
+        comes back through a matrix inverse (antialias.jittered_camera)."""
+        if self._world_key is None:
+            return False
+        scene_id, settings, center = key
+        old_id, old_settings, old_center = self._world_key
+        scale = 1.0 + float(np.max(np.abs(center)))
+        return (scene_id == old_id and settings == old_settings
+                and float(np.max(np.abs(center - old_center))) <= 1e-9 * scale)
 
     @staticmethod
     def _data_passes(targets, camera: Camera, outputs: FrameOutputs) -> dict[str, np.ndarray]:

@@ -50,6 +50,9 @@ FIELD_DOCS = {
     "shadow_resolution": "Resolution of each shadow map, in pixels",
     "shadow_bias": "Depth bias of shadow-map tests, in scene units, against shadow acne",
     "viewport_scale": "Fraction of the viewport's resolution that is rendered (lower is faster)",
+    "render_samples": "Final renders: samples per pixel, each with the camera moved by a different "
+    "fraction of a pixel, averaged (anti-aliasing; each sample after the first costs a primary "
+    "raster, the shading and the trace). The viewport takes one",
 }
 
 FIELD_LIMITS = {
@@ -62,6 +65,7 @@ FIELD_LIMITS = {
     "shadow_resolution": (64, 8192),
     "shadow_bias": (0.0, 10.0),
     "viewport_scale": (0.1, 1.0),
+    "render_samples": (1, 256),
 }
 
 
@@ -84,6 +88,7 @@ class RenderSettings:
     shadow_resolution: int = 1024
     shadow_bias: float = 0.02
     viewport_scale: float = 1.0
+    render_samples: int = 4
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:

@@ -150,6 +150,7 @@ def build_film_scene(bpy, size=(24, 16)):
     scene.render.resolution_x, scene.render.resolution_y = size
     scene.render.resolution_percentage = 100
     scene.view_settings.view_transform = "Standard"
+    scene.hybrid_rt.render_samples = 1  # each pixel sampled at its centre, as Cycles is below
     return scene
 
 
@@ -268,3 +269,23 @@ def test_a_resolution_percentage_that_float_arithmetic_gets_one_pixel_short_rend
     assert image.shape == (29, 29, 4)
     # The plane fills the frame: a frame one pixel short leaves a column Blender fills with 0.
     assert (image[..., 3] == 1).all() and (image[..., 0] > 0.1).all()
+
+
+def test_render_samples_antialias_edges_and_keep_the_data_passes_at_pixel_centres(addon, tmp_path):
+    import bpy
+
+    scene = build_film_scene(bpy)
+    scene.render.engine = "HYBRID_RT"
+    scene.render.film_transparent = True
+    layer = scene.view_layers[0]
+    layer.use_pass_z = True
+    one = render_multilayer(bpy, scene, tmp_path / "one.exr")
+    scene.hybrid_rt.render_samples = 8
+    eight = render_multilayer(bpy, scene, tmp_path / "eight.exr")
+    assert set(np.unique(one["ViewLayer.Combined.A"])) == {0.0, 1.0}
+    alpha = eight["ViewLayer.Combined.A"]
+    partial = (alpha > 0) & (alpha < 1)
+    assert partial.sum() >= 10, "edge pixels are partly covered"
+    assert (np.round(alpha * 8) == alpha * 8).all(), "alpha is a count of covered samples out of 8"
+    np.testing.assert_array_equal(eight["ViewLayer.Depth.Z"], one["ViewLayer.Depth.Z"])
+    assert addon.blender_adapter.engine.last_frame.counts["samples"] == 8

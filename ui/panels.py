@@ -91,6 +91,7 @@ class RENDER_PT_hybrid_rt(HybridRTPanel, bpy.types.Panel):
         settings = context.scene.hybrid_rt
         col = layout.column()
         col.prop(settings, "mode")
+        col.prop(settings, "render_samples")
         col.prop(settings, "max_depth")
         col.prop(settings, "near_size")
         col.operator("hybrid_rt.show_near_cube", icon="CUBE", depress=near_cube_overlay.is_enabled())

@@ -1,0 +1,106 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Anti-aliased final renders: several samples of each pixel, averaged.
+
+The paper's frame takes one primary sample per pixel (its G-buffer is rasterized at the
+image's resolution), which is what a real-time viewport wants; a final render of the same
+frame shows stair-stepped edges and, worse on this method's mirrors, reflections that
+crawl between frames. A final render therefore renders the frame ``render_samples`` times,
+each time with the projection moved by a different fraction of a pixel, and averages the
+images: a box filter over the pixel, so an edge pixel gets the fraction of it that each
+side covers, in colour and (with transparent film) in alpha, premultiplied as Blender
+expects.
+
+The samples see the scene from the same point, so the cube map and the near-cube BVH of
+the first are kept for the others (``Renderer.render(reuse_world=True)``); each further
+sample costs a primary raster, the shading and the trace. The Depth and Normal passes are
+taken from the first sample, which lies at the pixels' centres (data passes are not
+averaged: the mean of two depths is a depth nothing lies at).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .camera import Camera
+from .film import FrameOutputs
+from .renderer import CancelCallback, FrameResult, ProgressCallback, Renderer
+from .scene_data import SceneData
+from .settings import RenderSettings
+from .viewport_frame import ViewportView, crop_projection
+
+
+def _radical_inverse(index: int, base: int) -> float:
+    result, scale = 0.0, 1.0 / base
+    while index > 0:
+        index, digit = divmod(index, base)
+        result += digit * scale
+        scale /= base
+    return result
+
+
+def sample_offsets(count: int) -> np.ndarray:
+    """(count, 2) offsets of the samples from the pixels' centres, in pixels, inside
+    (-0.5, 0.5)^2: the centre first, then the Halton (2, 3) points, which spread evenly over
+    the pixel for any count (a progressive sequence: the first n of 2n are a good set)."""
+    if count < 1:
+        raise ValueError(f"a frame needs at least one sample, got {count}")
+    points = [(0.0, 0.0)]
+    points += [(_radical_inverse(i, 2) - 0.5, _radical_inverse(i, 3) - 0.5) for i in range(1, count)]
+    return np.asarray(points, np.float64)
+
+
+def jittered_camera(camera: Camera, dx: float, dy: float) -> Camera:
+    """``camera`` with its image moved by (dx, dy) pixels: pixel (i, j) of the new image is
+    the point (i + dx, j + dy) of the old one, i.e. the projection translated in NDC."""
+    if dx == 0.0 and dy == 0.0:
+        return camera
+    w, h = camera.width, camera.height
+    window = crop_projection(camera.projection_matrix(), (dx, dy, w + dx, h + dy), w, h)
+    return ViewportView.from_matrices(camera.view_matrix(), window, w, h)
+
+
+def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, settings: RenderSettings,
+                       samples: int, *, outputs: FrameOutputs | None = None, timing: bool = True,
+                       cancel: CancelCallback | None = None,
+                       progress: ProgressCallback | None = None) -> FrameResult:
+    """The frame averaged over ``samples`` sub-pixel positions (``sample_offsets``).
+
+    The result's ``passes`` sum each pass over the samples (the kept cube map and BVH are
+    timed once), ``total_ms`` is the whole render, ``counts`` are the first sample's with
+    ``samples`` added, and ``data_passes`` are the first sample's. Raises RenderCancelled
+    between samples as between passes.
+    """
+    outputs = outputs or FrameOutputs()
+    # Only the first sample reads the data passes back.
+    later_outputs = FrameOutputs(transparent=outputs.transparent)
+    first: FrameResult | None = None
+    total = None
+    passes: dict[str, float] = {}
+    total_ms = 0.0
+    for index, (dx, dy) in enumerate(sample_offsets(samples)):
+        result = renderer.render(
+            scene, jittered_camera(camera, float(dx), float(dy)), settings, timing=timing,
+            cancel=cancel, progress=_sample_progress(progress, index, samples),
+            outputs=outputs if index == 0 else later_outputs, reuse_world=index > 0)
+        if first is None:
+            first, total = result, result.image.astype(np.float64)
+        else:
+            total += result.image
+        for name, ms in result.passes.items():
+            passes[name] = passes.get(name, 0.0) + ms
+        total_ms += result.total_ms
+    image = (total / samples).astype(np.float32)
+    counts = {**first.counts, "samples": int(samples)}
+    return FrameResult(image=image, passes=passes, counts=counts, timing_source=first.timing_source,
+                       total_ms=total_ms, mode=first.mode, data_passes=first.data_passes)
+
+
+def _sample_progress(progress: ProgressCallback | None, index: int, samples: int) -> ProgressCallback | None:
+    """Progress of one sample as a share of the whole render."""
+    if progress is None:
+        return None
+
+    def report(step: str, fraction: float) -> None:
+        progress(f"sample {index + 1}/{samples}: {step}", (index + fraction) / samples)
+
+    return report
+

@@ -148,10 +148,9 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
         try:
             passes = render_result.layers[0].passes
             passes["Combined"].rect.foreach_set(np.ascontiguousarray(result.image, np.float32).ravel())
+            # update_render_passes registered every pass the view layer asked for.
             for name, data in result.data_passes.items():
-                target = passes.get(DATA_PASSES[name][1])
-                if target is not None:
-                    target.rect.foreach_set(np.ascontiguousarray(data, np.float32).ravel())
+                passes[DATA_PASSES[name][1]].rect.foreach_set(np.ascontiguousarray(data, np.float32).ravel())
         finally:
             self.end_result(render_result)
         triangles = result.counts.get("triangles_total", 0)

@@ -21,11 +21,10 @@ from __future__ import annotations
 import numpy as np
 
 from .camera import Camera
-from .film import FrameOutputs
+from .film import FrameOutputs, cropped_camera
 from .renderer import CancelCallback, FrameResult, ProgressCallback, Renderer
 from .scene_data import SceneData
 from .settings import RenderSettings
-from .viewport_frame import ViewportView, crop_projection
 
 
 def _radical_inverse(index: int, base: int) -> float:
@@ -54,8 +53,7 @@ def jittered_camera(camera: Camera, dx: float, dy: float) -> Camera:
     if dx == 0.0 and dy == 0.0:
         return camera
     w, h = camera.width, camera.height
-    window = crop_projection(camera.projection_matrix(), (dx, dy, w + dx, h + dy), w, h)
-    return ViewportView.from_matrices(camera.view_matrix(), window, w, h)
+    return cropped_camera(camera, (dx, dy, w + dx, h + dy), w, h)
 
 
 def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, settings: RenderSettings,

@@ -28,13 +28,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from .camera import Camera
-from .viewport_frame import ViewportView
+from .viewport_frame import ViewportView, crop_projection
 
 # Cycles' Depth of a pixel that hit nothing (kernel film: "no hit" leaves the 1e10 it
 # starts the pass with); compositing setups test for it.
 BACKGROUND_DEPTH = 1.0e10
-
-DATA_PASSES = ("depth", "normal")
 
 
 class FilmError(ValueError):
@@ -54,22 +52,18 @@ class FrameOutputs:
     depth: bool = False
     normal: bool = False
 
-    @property
-    def data_passes(self) -> tuple[str, ...]:
-        return tuple(name for name in DATA_PASSES if getattr(self, name))
 
-
-def depth_pass(window_depth: np.ndarray, camera: Camera, hit: np.ndarray) -> np.ndarray:
+def depth_pass(window_depth: np.ndarray, camera: Camera) -> np.ndarray:
     """The Depth pass from the primary depth buffer.
 
-    ``window_depth`` is the (H, W) depth buffer ([0, 1], the camera's projection), ``hit``
-    the (H, W) mask of pixels with a primary hit. Each pixel centre is taken back through
-    the inverse projection, which serves perspective, orthographic and shifted or cropped
-    frustums alike, and its view-space z negated (the camera looks down -z).
+    ``window_depth`` is the (H, W) depth buffer ([0, 1], the camera's projection), cleared
+    to 1 and written only where a fragment passed the LESS test, so the pixels with a
+    primary hit are those below 1. Each pixel centre is taken back through the inverse
+    projection, which serves perspective, orthographic and shifted or cropped frustums
+    alike, and its view-space z negated (the camera looks down -z).
     """
     h, w = window_depth.shape
-    if hit.shape != (h, w):
-        raise FilmError(f"hit mask {hit.shape} does not match the depth buffer {window_depth.shape}")
+    hit = window_depth < 1.0
     ndc_x = (np.arange(w, dtype=np.float64) + 0.5) / w * 2.0 - 1.0
     ndc_y = (np.arange(h, dtype=np.float64) + 0.5) / h * 2.0 - 1.0
     ndc_z = np.asarray(window_depth, np.float64) * 2.0 - 1.0
@@ -122,12 +116,19 @@ def border_pixels(width: int, height: int, border_min: tuple[float, float],
     return x0, y0, x1, y1
 
 
+def cropped_camera(camera: Camera, rect: tuple[float, float, float, float], width: int, height: int) -> Camera:
+    """A ``width`` x ``height`` camera whose image spans the rectangle ``rect = (x0, y0, x1,
+    y1)`` of ``camera``'s image, in its pixels (fractions allowed): the same view with the
+    projection cropped (viewport_frame.crop_projection). A render region and a sub-pixel
+    sample (antialias.py) are both such crops."""
+    window = crop_projection(camera.projection_matrix(), rect, camera.width, camera.height)
+    return ViewportView.from_matrices(camera.view_matrix(), window, width, height)
+
+
 def region_camera(camera: Camera, rect: tuple[int, int, int, int]) -> Camera:
-    """A camera whose image is exactly the pixels ``rect`` of ``camera``'s image: the same view,
-    with the projection cropped to the region (the viewport's render border does the same)."""
+    """A camera whose image is exactly the pixels ``rect`` of ``camera``'s image (the
+    viewport's render border does the same)."""
     x0, y0, x1, y1 = rect
     if (x0, y0, x1, y1) == (0, 0, camera.width, camera.height):
         return camera
-    full = ViewportView.from_matrices(camera.view_matrix(), camera.projection_matrix(),
-                                      camera.width, camera.height)
-    return full.cropped(rect)
+    return cropped_camera(camera, rect, x1 - x0, y1 - y0)

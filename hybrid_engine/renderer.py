@@ -244,15 +244,11 @@ class Renderer:
     def _data_passes(targets, camera: Camera, outputs: FrameOutputs) -> dict[str, np.ndarray]:
         """The data passes ``outputs`` asks for, from the primary G-buffer (read back only
         then: a frame without passes reads nothing more)."""
-        if not outputs.data_passes:
-            return {}
-        normal_material = targets.read("normal_material")
         data = {}
         if outputs.depth:
-            hit = normal_material[..., 3] != 0.0
-            data["depth"] = depth_pass(targets.read("depth")[..., 0], camera, hit)
+            data["depth"] = depth_pass(targets.read("depth")[..., 0], camera)
         if outputs.normal:
-            data["normal"] = normal_pass(normal_material)
+            data["normal"] = normal_pass(targets.read("normal_material"))
         return data
 
     def release(self) -> None:

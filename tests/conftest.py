@@ -38,6 +38,16 @@ def ctx(gl):
     assert gl.error == "GL_NO_ERROR", "this test left a GL error behind"
 
 
+@pytest.fixture(scope="module")
+def renderer(gl):
+    """One Renderer per test module (its GPU state kept across the module's frames)."""
+    from hybrid_engine.renderer import Renderer
+
+    r = Renderer(gl)
+    yield r
+    r.release()
+
+
 @pytest.fixture
 def rng():
     """A fixed-seed generator: random inputs are reproducible."""

@@ -11,19 +11,11 @@ from hybrid_engine import Camera, RenderSettings
 from hybrid_engine.camera import look_at
 from hybrid_engine.antialias import jittered_camera, render_antialiased, sample_offsets
 from hybrid_engine.film import FrameOutputs
-from hybrid_engine.renderer import Renderer
 from test_film import SMALL, analytic_floor, cameras, floor_scene
 
 # A coverage estimate from n samples errs by about 1 / sqrt(n) at worst on one pixel and far
 # less on average over an edge (the Halton points are stratified).
 COVERAGE_MEAN_ERROR = 0.08
-
-
-@pytest.fixture(scope="module")
-def renderer(gl):
-    r = Renderer(gl)
-    yield r
-    r.release()
 
 
 def test_sample_offsets_start_at_the_centre_and_spread_over_the_pixel():

@@ -12,20 +12,12 @@ from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSetting
 from hybrid_engine.camera import look_at
 from hybrid_engine.film import (BACKGROUND_DEPTH, FilmError, FrameOutputs, border_pixels, normal_pass,
                                 region_camera)
-from hybrid_engine.renderer import Renderer
 from scenes_analytic import quad, ray_plane_z
 
 SMALL = dict(cube_resolution=32, shadow_resolution=128, near_size=2.0)
 SKY = (0.2, 0.3, 0.5)
 # The depth buffer holds 24 bits; the pass is exact up to that and float32.
 DEPTH_RTOL = 1e-4
-
-
-@pytest.fixture(scope="module")
-def renderer(gl):
-    r = Renderer(gl)
-    yield r
-    r.release()
 
 
 def floor_scene(mirror: bool = False) -> SceneData:

@@ -27,13 +27,6 @@ MAX_SHADOW_MISMATCH_FRACTION = 0.02
 ALBEDO = 0.8
 
 
-@pytest.fixture(scope="module")
-def renderer(gl):
-    r = Renderer(gl)
-    yield r
-    r.release()
-
-
 def diffuse_scene(objects, lights, materials=None, sky=Sky(color=(0.1, 0.2, 0.3))):
     geo = Geometry.from_objects(objects)
     mats = materials or MaterialTable.from_rows([dict(base_color=(ALBEDO,) * 3)])

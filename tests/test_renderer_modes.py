@@ -8,17 +8,10 @@ import pytest
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, MODES, RenderSettings, SceneData, Sky
 from hybrid_engine.camera import look_at
-from hybrid_engine.renderer import MODE_STEPS, RenderCancelled, Renderer
+from hybrid_engine.renderer import MODE_STEPS, RenderCancelled
 from scenes_analytic import quad, uv_sphere
 
 SMALL = dict(cube_resolution=32, shadow_resolution=128, near_size=2.0)
-
-
-@pytest.fixture(scope="module")
-def renderer(gl):
-    r = Renderer(gl)
-    yield r
-    r.release()
 
 
 def scene():

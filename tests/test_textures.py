@@ -22,8 +22,7 @@ from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSetting
 from hybrid_engine.camera import look_at
 from hybrid_engine.cube_map import CubeMapPass
 from hybrid_engine.gpu_scene import GPUScene
-from hybrid_engine.raster import RasterPasses, RasterView
-from hybrid_engine.renderer import Renderer
+from hybrid_engine.raster import RasterPasses
 from hybrid_engine.scene_data import MATERIAL_DTYPE, SceneDataError
 from hybrid_engine.textures import (
     HALF_MAX,
@@ -96,13 +95,6 @@ def scene_of(quads, rows, textures, lights=(), sky=(0.0, 0.0, 0.0)) -> SceneData
                    geo.object_names, uvs=np.concatenate([uv for _, uv, _ in quads]))
     return SceneData(geo, MaterialTable.from_rows(rows, textures=textures), Lights.from_rows(list(lights)),
                      Sky(color=sky))
-
-
-@pytest.fixture(scope="module")
-def renderer(gl):
-    r = Renderer(gl)
-    yield r
-    r.release()
 
 
 # -- scene data ------------------------------------------------------------------------------

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..hybrid_engine.blackbody import blackbody_rgb
 from ..hybrid_engine.camera import Camera, CameraError
 from ..hybrid_engine.materials import DEFAULT_THICKNESS, principled_to_params
 from ..hybrid_engine.scene_data import Geometry, Lights, MaterialTable, SceneData, Sky
@@ -300,6 +301,7 @@ def material_inputs(material, textures: dict | None = None) -> dict:
             roughness=_socket_value(node, "Roughness", 0.5),
             transmission=_socket_value(node, "Transmission Weight", 0.0),
             ior=_socket_value(node, "IOR", 1.5),
+            specular_level=_socket_value(node, "Specular IOR Level", 0.5),
             emission=color("Emission Color", (0.0, 0.0, 0.0), "emission_texture"),
             emission_strength=_socket_value(node, "Emission Strength", 0.0),
             thickness=thickness,
@@ -310,7 +312,7 @@ def material_inputs(material, textures: dict | None = None) -> dict:
     if kind in ("BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_ANISOTROPIC", "BSDF_GLASS"):
         base = color("Color", (0.8, 0.8, 0.8), "base_color_texture")
     if kind == "BSDF_DIFFUSE":
-        return dict(base_color=base, roughness=1.0, thickness=thickness)
+        return dict(base_color=base, roughness=1.0, specular_level=0.0, thickness=thickness)
     if kind in ("BSDF_GLOSSY", "BSDF_ANISOTROPIC"):
         return dict(base_color=base, metallic=1.0, roughness=_socket_value(node, "Roughness", 0.5),
                     thickness=thickness)
@@ -641,6 +643,43 @@ def _geometry(objects: list[_ObjectArrays]) -> Geometry:
 # ---------------------------------------------------------------------------------------
 # Lights and world
 # ---------------------------------------------------------------------------------------
+def _light_size(light) -> float:
+    """Light.size of scene_data: point/spot radius, sun angular diameter, area half-size."""
+    if light.type == "SUN":
+        return float(getattr(light, "angle", 0.0))
+    if light.type == "AREA":
+        width = float(light.size)
+        height = float(light.size_y) if light.shape in ("RECTANGLE", "ELLIPSE") else width
+        return 0.5 * max(width, height)
+    return float(getattr(light, "shadow_soft_size", 0.0))
+
+
+def _unnormalized_area(light) -> float:
+    """What Blender multiplies a lamp's power by when Normalize is off: the emitting area
+    (the disc of a point or spot radius, the sun's disc in the sky), 1 without one."""
+    if light.type == "AREA":
+        width = float(light.size)
+        height = float(light.size_y) if light.shape in ("RECTANGLE", "ELLIPSE") else width
+        area = width * height * (np.pi / 4.0 if light.shape in ("DISK", "ELLIPSE") else 1.0)
+    elif light.type == "SUN":
+        area = np.pi * np.tan(0.5 * float(getattr(light, "angle", 0.0))) ** 2
+    else:
+        area = np.pi * float(getattr(light, "shadow_soft_size", 0.0)) ** 2
+    return area if area > 0.0 else 1.0
+
+
+def light_color(light) -> np.ndarray:
+    """The lamp's colour times its power as Blender defines it: Power or Strength, times
+    2^Exposure, times the black-body colour of its Temperature when that is in use, times
+    the emitting area when Normalize is off."""
+    color = np.asarray(light.color, np.float64) * float(light.energy) * 2.0 ** float(getattr(light, "exposure", 0.0))
+    if getattr(light, "use_temperature", False):
+        color = color * np.asarray(blackbody_rgb(float(light.temperature)))
+    if not getattr(light, "normalize", True):
+        color = color * _unnormalized_area(light)
+    return color.astype(np.float32)
+
+
 def _light_row(name: str, light, matrix: np.ndarray) -> dict:
     forward = -matrix[:3, 2]
     length = float(np.linalg.norm(forward))
@@ -649,8 +688,8 @@ def _light_row(name: str, light, matrix: np.ndarray) -> dict:
         kind=light.type,
         position=matrix[:3, 3],
         direction=direction,
-        color=np.asarray(light.color, np.float32) * float(light.energy),
-        radius=float(getattr(light, "shadow_soft_size", 0.0)),
+        color=light_color(light),
+        radius=_light_size(light),
         spot_size=float(getattr(light, "spot_size", np.pi / 4)),
         spot_blend=float(getattr(light, "spot_blend", 0.15)),
         cast_shadow=bool(getattr(light, "use_shadow", True)),

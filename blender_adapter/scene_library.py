@@ -410,13 +410,17 @@ def _set_inputs(material, **values: float) -> None:
 
 def _light(scene, collection, name: str, kind: str, color, *, position=(0.0, 0.0, 0.0),
            direction=(0.0, 0.0, -1.0), radius: float = 0.0):
-    """A light whose colour x power equals ``color`` (the core's Lights convention)."""
+    """A light whose colour x power equals ``color`` and whose size is ``radius`` (the core's
+    Lights convention: a sun's angle, a point or spot radius)."""
     color = np.asarray(color, np.float64)
     power = float(color.max())
     light = bpy.data.lights.new(name, kind)
     light.energy = power
     light.color = tuple(color / power) if power > 0 else (1.0, 1.0, 1.0)
-    light.shadow_soft_size = radius
+    if kind == "SUN":
+        light.angle = radius
+    else:
+        light.shadow_soft_size = radius
     obj = bpy.data.objects.new(name, light)
     obj.location = position
     # A light shines along its -Z axis.

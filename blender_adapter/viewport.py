@@ -38,6 +38,8 @@ from dataclasses import dataclass, replace
 import bpy
 import numpy as np
 
+from ..hybrid_engine.accumulation import SampleAccumulator
+from ..hybrid_engine.antialias import jittered_camera
 from ..hybrid_engine.film import FrameOutputs
 from ..hybrid_engine.gl_context import GLUnavailableError
 from .gl_host import gl_block
@@ -48,6 +50,7 @@ from ..hybrid_engine.viewport_frame import (
     MessageLatch,
     RegionInput,
     plan_frame,
+    accumulation_key,
     stats_line,
 )
 from . import extract, properties
@@ -70,6 +73,7 @@ class ViewportFrame:
     error: str | None = None
     mode: str = ""
     counts: dict | None = None
+    converged: bool = True  # False: more samples are due, so the viewport asks for a redraw
 
 
 class ViewportSession:
@@ -84,12 +88,18 @@ class ViewportSession:
         self.failed_modes: dict[tuple, str] = {}  # (mode, settings) -> why it fell back
         self.last_sync: SyncReport | None = None
         self.frames = 0
+        self._last: ViewportFrame | None = None
+        # Samples of the view while nothing changes (accumulation.py); every view_update
+        # is a change of the scene and starts them over.
+        self.accumulator = SampleAccumulator()
+        self.scene_version = 0
 
     # -- view_update -----------------------------------------------------------------------
     def update(self, depsgraph, *, full: bool = False) -> SyncReport:
         """Apply ``depsgraph.updates`` to the cache (``full`` re-reads every mesh)."""
         report = self.cache.sync(depsgraph, Changes.from_updates(depsgraph.updates), full=full)
         self.last_sync = report
+        self.scene_version += 1
         return report
 
     # -- view_draw -------------------------------------------------------------------------
@@ -103,27 +113,40 @@ class ViewportSession:
             rect = plan.rect
             if plan.view is None:
                 return ViewportFrame(None, rect, f"{ERROR_PREFIX} | render border outside the view")
+            key = accumulation_key(plan.view, settings, self.scene_version, transparent)
+            target = settings.viewport_samples
+            if not self.accumulator.wants(key, target) and self._last is not None:
+                return replace(self._last, rect=rect, converged=True)  # nothing changed: no render
+            index = self.accumulator.count
+            view = jittered_camera(plan.view, *self.accumulator.offset())
             with gl_block():
-                result, note = self._render(plan.view, settings, FrameOutputs(transparent=transparent))
+                result, note = self._render(view, settings, FrameOutputs(transparent=transparent), index)
+            image = self.accumulator.add(result.image)
         except Exception as exc:  # noqa: BLE001 - a viewport frame must never raise
+            self.accumulator.restart()
             return self._failed(exc, rect)
         self.latch.clear()  # a later failure is news again
         self.frames += 1
         fps = self.clock.tick()
         frame_ms = (time.perf_counter() - start) * 1e3
         size = (plan.view.width, plan.view.height)
-        return ViewportFrame(result.image, rect, stats_line(result.mode, frame_ms, fps, result.counts, size, note),
-                             mode=result.mode, counts=dict(result.counts))
+        samples = f"sample {self.accumulator.count}/{target}"
+        stats = stats_line(result.mode, frame_ms, fps, result.counts, size, note, samples=samples)
+        self._last = ViewportFrame(image, rect, stats, mode=result.mode, counts=dict(result.counts),
+                                   converged=self.accumulator.count >= target)
+        return self._last
 
-    def _render(self, view, settings: RenderSettings, outputs: FrameOutputs):
-        """Render with the scene's mode; a mode this build or this driver cannot render
+    def _render(self, view, settings: RenderSettings, outputs: FrameOutputs, sample: int = 0):
+        """Render sample ``sample`` of the view with the scene's mode (later samples keep
+        the first's cube map and BVH); a mode this build or this driver cannot render
         falls back to RASTER, and is not retried until the settings change."""
         scene = self.cache.scene_data
         renderer = self._ensure_renderer()
         key = (settings.mode, settings)
+        kw = dict(timing=False, outputs=outputs, sample=sample, reuse_world=sample > 0)
         if settings.mode != "RASTER" and key not in self.failed_modes:
             try:
-                return renderer.render(scene, view, settings, timing=False, outputs=outputs), ""
+                return renderer.render(scene, view, settings, **kw), ""
             except GLUnavailableError:
                 raise
             except Exception as exc:  # noqa: BLE001 - RenderModeUnavailable, shader errors: fall back
@@ -132,7 +155,7 @@ class ViewportSession:
                 self._tell(reason, exc, unexpected=not isinstance(exc, RenderModeUnavailable))
         note = self.failed_modes.get(key, "")
         settings = replace(settings, mode="RASTER")
-        return renderer.render(scene, view, settings, timing=False, outputs=outputs), note
+        return renderer.render(scene, view, settings, **kw), note
 
     def _ensure_renderer(self):
         if self.renderer is None:
@@ -255,6 +278,8 @@ def view_draw(engine, context, depsgraph) -> None:
         frame = session.frame(region, settings, transparent=bool(depsgraph.scene.render.film_transparent))
     engine.update_stats("", frame.stats)
     _draw_frame(engine, depsgraph.scene, frame)
+    if not frame.converged:
+        engine.tag_redraw()  # the next sample of the same view
 
 
 def _draw_frame(engine, scene, frame: ViewportFrame) -> None:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .accumulation import SampleAccumulator, sample_offset
 from .camera import Camera
 from .film import FrameOutputs, cropped_camera
 from .renderer import CancelCallback, FrameResult, ProgressCallback, Renderer
@@ -27,24 +28,11 @@ from .scene_data import SceneData
 from .settings import RenderSettings
 
 
-def _radical_inverse(index: int, base: int) -> float:
-    result, scale = 0.0, 1.0 / base
-    while index > 0:
-        index, digit = divmod(index, base)
-        result += digit * scale
-        scale /= base
-    return result
-
-
 def sample_offsets(count: int) -> np.ndarray:
-    """(count, 2) offsets of the samples from the pixels' centres, in pixels, inside
-    (-0.5, 0.5)^2: the centre first, then the Halton (2, 3) points, which spread evenly over
-    the pixel for any count (a progressive sequence: the first n of 2n are a good set)."""
+    """(count, 2) offsets of the first ``count`` samples (``sample_offset``)."""
     if count < 1:
         raise ValueError(f"a frame needs at least one sample, got {count}")
-    points = [(0.0, 0.0)]
-    points += [(_radical_inverse(i, 2) - 0.5, _radical_inverse(i, 3) - 0.5) for i in range(1, count)]
-    return np.asarray(points, np.float64)
+    return np.asarray([sample_offset(i) for i in range(count)], np.float64)
 
 
 def jittered_camera(camera: Camera, dx: float, dy: float) -> Camera:
@@ -64,29 +52,33 @@ def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, set
 
     The result's ``passes`` sum each pass over the samples (the kept cube map and BVH are
     timed once), ``total_ms`` is the whole render, ``counts`` are the first sample's with
-    ``samples`` added, and ``data_passes`` are the first sample's. Raises RenderCancelled
-    between samples as between passes.
+    ``samples`` added, and ``data_passes`` are the first sample's. Each sample draws its own
+    directions in the glossy lobes and the ambient occlusion (``Renderer.render``'s
+    ``sample``), so the average converges there too. Raises RenderCancelled between samples
+    as between passes.
     """
+    if samples < 1:
+        raise ValueError(f"a frame needs at least one sample, got {samples}")
     outputs = outputs or FrameOutputs()
     # Only the first sample reads the data passes back.
     later_outputs = FrameOutputs(transparent=outputs.transparent)
     first: FrameResult | None = None
-    total = None
     passes: dict[str, float] = {}
     total_ms = 0.0
-    for index, (dx, dy) in enumerate(sample_offsets(samples)):
+    accumulator = SampleAccumulator()
+    while accumulator.wants("frame", samples):
+        index = accumulator.count
+        dx, dy = accumulator.offset()
         result = renderer.render(
             scene, jittered_camera(camera, float(dx), float(dy)), settings, timing=timing,
             cancel=cancel, progress=_sample_progress(progress, index, samples),
-            outputs=outputs if index == 0 else later_outputs, reuse_world=index > 0)
-        if first is None:
-            first, total = result, result.image.astype(np.float64)
-        else:
-            total += result.image
+            outputs=outputs if index == 0 else later_outputs, reuse_world=index > 0, sample=index)
+        first = first or result
+        accumulator.add(result.image)
         for name, ms in result.passes.items():
             passes[name] = passes.get(name, 0.0) + ms
         total_ms += result.total_ms
-    image = (total / samples).astype(np.float32)
+    image = accumulator.mean
     counts = {**first.counts, "samples": int(samples)}
     return FrameResult(image=image, passes=passes, counts=counts, timing_source=first.timing_source,
                        total_ms=total_ms, mode=first.mode, data_passes=first.data_passes)

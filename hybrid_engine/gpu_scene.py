@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Scene data on the GPU: vertex attributes, material and light buffers, image textures.
+"""Scene data on the GPU: vertex attributes, the material buffer, image textures.
 
 Buffers are persistent and grow-only: a frame whose data fits reuses last frame's buffer
 objects and only writes into them, which matters in the viewport where every redraw
@@ -117,9 +117,8 @@ class GPUScene:
         self.uvs = GrowBuffer(ctx, "scene uvs", 24)
         self.triangle_materials = GrowBuffer(ctx, "scene triangle materials", 4)
         self.materials = GrowBuffer(ctx, "scene materials", MATERIAL_DTYPE.itemsize)
-        self.lights = GrowBuffer(ctx, "scene lights", 64)
         self._geometry_buffers = (self.positions, self.normals, self.uvs, self.triangle_materials)
-        for buf in (*self._geometry_buffers, self.materials, self.lights):
+        for buf in (*self._geometry_buffers, self.materials):
             buf.ensure(0)  # passes bind these before the first upload
         self.generation = 0  # bumps when a vertex attribute's buffer object changes
         self.triangle_count = 0
@@ -159,10 +158,7 @@ class GPUScene:
         self.materials.upload(bytes_of(scene.materials.packed()))
         self.textures.upload(scene.materials.textures)
 
-    def upload_lights(self, lights: Lights, shadow_slots: list[tuple[int, int]]) -> None:
-        self.lights.upload(bytes_of(pack_lights(lights, shadow_slots)))
-
     def release(self) -> None:
-        for buf in (*self._geometry_buffers, self.materials, self.lights):
+        for buf in (*self._geometry_buffers, self.materials):
             buf.release()
         self.textures.release()

@@ -38,14 +38,12 @@ from .camera import (
 )
 from .frustum import beyond_near_plane, draw_ranges, front_face_winding, visible_objects
 from .gpu_scene import GPUScene, needs_cube_shadow
-from .scene_data import LIGHT_SPOT, LIGHT_SUN, SceneData, Sky
+from .scene_data import LIGHT_SPOT, LIGHT_SUN, SceneData
+from .frame_resources import FrameResources
 from .settings import RenderSettings
+from .shadow_atlas import ShadowAtlas, ShadowView
 from .shadow_cache import snapped_bounds
 from .view_cull import MAX_VIEWS, CullView, ViewTriangleCuller
-
-# struct ShadowSlot (gpu_shaders/include/scene_layout.glsl)           // total: 80 bytes
-SHADOW_SLOT_DTYPE = np.dtype([("view_proj", np.float32, (4, 4)), ("rect", np.int32, 4), ("texel", np.float32, 4)])
-assert SHADOW_SLOT_DTYPE.itemsize == 96
 
 # Spots wider than this get a cube shadow: a single perspective map degenerates near 180°.
 MAX_SPOT_SHADOW_FOV = math.radians(150.0)
@@ -87,16 +85,6 @@ class SceneBounds:
         return cls(b[valid, 0].min(axis=0), b[valid, 1].max(axis=0))
 
 
-@dataclass
-class ShadowView:
-    """One shadow slot: its view-projection and the angular or world size of its frustum
-    (full width at unit distance for perspective slots, full world width for orthographic)."""
-
-    view_proj: np.ndarray
-    extent: float
-    perspective: bool
-
-
 def shadow_views(scene: SceneData, bounds: SceneBounds) -> tuple[list[ShadowView], list[tuple[int, int]]]:
     """Every shadow slot's view and each light's (first, count) slots.
 
@@ -123,7 +111,7 @@ def shadow_views(scene: SceneData, bounds: SceneBounds) -> tuple[list[ShadowView
             eye = center - direction * radius * 2.0
             view = view_from_world(look_at(eye, center))
             proj = orthographic_matrix(radius, radius, radius * 0.5, radius * 3.5)
-            matrices.append(ShadowView(proj @ view, 2.0 * radius, False))
+            matrices.append(ShadowView(proj @ view, 2.0 * radius, False, radius * 0.5, radius * 3.5))
         else:
             far = float(np.linalg.norm(pos - center) + radius) * 1.01
             near = max(far * 1e-4, 1e-3)
@@ -131,11 +119,12 @@ def shadow_views(scene: SceneData, bounds: SceneBounds) -> tuple[list[ShadowView
             if kind == LIGHT_SPOT and spot_fov <= MAX_SPOT_SHADOW_FOV:
                 view = view_from_world(look_at(pos, pos + direction))
                 fov = spot_fov * 1.02
-                matrices.append(ShadowView(perspective_matrix(fov, 1.0, near, far) @ view, 2.0 * math.tan(fov / 2), True))
+                matrices.append(ShadowView(perspective_matrix(fov, 1.0, near, far) @ view, 2.0 * math.tan(fov / 2), True,
+                                           near, far))
             else:
                 assert needs_cube_shadow(kind) or kind == LIGHT_SPOT
                 proj = perspective_matrix(math.radians(90.0), 1.0, near, far)
-                matrices.extend(ShadowView(proj @ v, 2.0, True) for v in cube_face_views(pos))
+                matrices.extend(ShadowView(proj @ v, 2.0, True, near, far) for v in cube_face_views(pos))
         per_light.append((first, len(matrices) - first))
     return matrices, per_light
 
@@ -264,18 +253,6 @@ class RasterPasses:
         self._cube_gbuffer_vao = None
         self._shadow_vao = None
         self._vao_generation = -1
-        # Two depth layers per shadow slot (hybrid_engine/shadow_cache.py): objects at rest
-        # and moving objects; the lookup takes the nearer depth.
-        self._shadow_atlas = None
-        self._shadow_fbo = None
-        self._shadow_dynamic = None
-        self._shadow_dynamic_fbo = None
-        self._atlas_size: tuple[int, int] | None = None
-        self._slot_buffer = ctx.buffer(reserve=SHADOW_SLOT_DTYPE.itemsize)
-        self._slots = np.zeros(1, SHADOW_SLOT_DTYPE)
-        self._sky_texture = None
-        self._sky_key = None
-        self._dummy_env = ctx.texture((1, 1), 3, dtype="f4")
         self.primary: GBufferTargets | None = None
         # Per-triangle culling of the primary and shadow draws (module doc). One culler per
         # layer and batch of views, so that no index buffer is rewritten in a frame while an
@@ -306,48 +283,6 @@ class RasterPasses:
                                                        gpu.vertex_content(self.cube_gbuffer_prog))
         self._shadow_vao = self.ctx.vertex_array(self.shadow_prog, gpu.vertex_content(self.shadow_prog))
         self._vao_generation = gpu.generation
-
-    def _ensure_atlas(self, slots: int, resolution: int) -> int:
-        """Allocate the shadow atlas for ``slots`` square maps; returns the slot size, reduced
-        (documented fallback) when the atlas would exceed the driver's texture size."""
-        cols = max(1, math.ceil(math.sqrt(slots)))
-        rows = max(1, math.ceil(slots / cols))
-        max_size = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 8192))
-        res = min(resolution, max_size // cols, max_size // rows)
-        size = (cols * res, rows * res)
-        if self._atlas_size != size:
-            old = (self._shadow_fbo, self._shadow_atlas, self._shadow_dynamic_fbo, self._shadow_dynamic)
-            layers = []
-            for _ in range(2):
-                tex = self.ctx.depth_texture(size)
-                tex.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
-                tex.compare_func = ""
-                fbo = self.ctx.framebuffer(depth_attachment=tex)
-                fbo.use()
-                fbo.viewport = (0, 0, *size)
-                fbo.clear(depth=1.0)
-                layers += [tex, fbo]
-            self._shadow_atlas, self._shadow_fbo, self._shadow_dynamic, self._shadow_dynamic_fbo = layers
-            _release_all(old)
-            self._atlas_size = size
-        self._atlas_cols = cols
-        return res
-
-    def _upload_sky(self, sky: Sky) -> None:
-        env = sky.environment
-        key = None if env is None else (env.shape, id(env))
-        if key == self._sky_key:
-            return
-        if self._sky_texture is not None:
-            self._sky_texture.release()
-            self._sky_texture = None
-        if env is not None:
-            h, w = env.shape[:2]
-            tex = self.ctx.texture((w, h), 3, np.ascontiguousarray(env, np.float32).tobytes(), dtype="f4")
-            tex.repeat_x, tex.repeat_y = True, False
-            tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
-            self._sky_texture = tex
-        self._sky_key = key
 
     # -- passes ----------------------------------------------------------------------------
     def draw_world(self, vao, view_proj: np.ndarray, scene: SceneData, include: np.ndarray | None = None,
@@ -482,32 +417,13 @@ class RasterPasses:
         bounds = SceneBounds.of(scene)
         return shadow_views(scene, SceneBounds(*snapped_bounds(bounds.lo, bounds.hi)))
 
-    def shadow_layout(self, views: list[ShadowView], settings: RenderSettings) -> None:
-        """Allocate both atlas layers for ``views`` and write the slot table (§3.5)."""
-        slots = np.zeros(max(len(views), 1), SHADOW_SLOT_DTYPE)
-        if views:
-            res = self._ensure_atlas(len(views), int(settings.shadow_resolution))
-            for i, view in enumerate(views):
-                x, y = (i % self._atlas_cols) * res, (i // self._atlas_cols) * res
-                slots[i]["view_proj"] = np.asarray(view.view_proj, np.float32).T  # column-major for GLSL
-                slots[i]["rect"] = (x, y, res, 0)
-                slots[i]["texel"] = (view.extent / res, float(view.perspective), 0.0, 0.0)
-        elif self._shadow_atlas is None:
-            self._ensure_atlas(1, 1)  # keep valid textures bound for the shading pass
-        self._slot_buffer.orphan(slots.nbytes)
-        self._slot_buffer.write(slots.tobytes())
-        self._slots = slots
-
-    def render_shadow_layer(self, gpu: GPUScene, scene: SceneData, views: list[ShadowView], dynamic: bool,
-                            include: np.ndarray | None = None) -> int:
-        """Clear one atlas layer (static or dynamic) and draw the objects ``include`` selects
-        (all when None) into every slot laid out by :meth:`shadow_layout`; returns triangles
-        submitted."""
+    def render_shadow_layer(self, gpu: GPUScene, scene: SceneData, atlas: ShadowAtlas, views: list[ShadowView],
+                            dynamic: bool, include: np.ndarray | None = None) -> int:
+        """Clear one layer of ``atlas`` (static or dynamic) and draw the objects ``include``
+        selects (all when None) into every slot laid out for ``views``
+        (ShadowAtlas.layout); returns triangles submitted."""
         ctx = self.ctx
-        fbo = self._shadow_dynamic_fbo if dynamic else self._shadow_fbo
-        fbo.use()
-        fbo.viewport = (0, 0, *self._atlas_size)
-        fbo.clear(depth=1.0)
+        fbo = atlas.begin_layer(dynamic)
         if not views or (include is not None and not include.any()):
             return 0
         self._ensure_vaos(gpu)
@@ -516,71 +432,52 @@ class RasterPasses:
             ctx.enable(ctx.DEPTH_TEST)
             ctx.disable(ctx.CULL_FACE)
 
-        rects = [tuple(int(v) for v in self._slots[i]["rect"]) for i in range(len(views))]
-        draws = [(view.view_proj, (x, y, res, res)) for view, (x, y, res, _) in zip(views, rects)]
+        draws = [(view.view_proj, atlas.rect(i)) for i, view in enumerate(views)]
         return self.draw_views("shadow_dynamic" if dynamic else "shadow_static", self.shadow_prog,
                                self._shadow_vao, gpu, scene, fbo, draws, bind, include)
 
-    def read_shadow_layers(self) -> tuple[np.ndarray, np.ndarray]:
-        """The static and dynamic layers' depths ((H, W) float32 each; for tests)."""
-        w, h = self._atlas_size
-        return tuple(np.frombuffer(tex.read(), np.float32).reshape(h, w).copy()
-                     for tex in (self._shadow_atlas, self._shadow_dynamic))
-
-    def shadows(self, gpu: GPUScene, scene: SceneData, settings: RenderSettings) -> list[tuple[int, int]]:
-        """Render every light's shadow slots from scratch, all objects in the static layer
-        (§3.5); returns each light's (first, count) slots."""
+    def shadows(self, gpu: GPUScene, scene: SceneData, settings: RenderSettings,
+                atlas: ShadowAtlas) -> list[tuple[int, int]]:
+        """Render every light's shadow slots into ``atlas`` from scratch, all objects in the
+        static layer (§3.5); returns each light's (first, count) slots."""
         views, per_light = self.shadow_views(scene)
-        self.shadow_layout(views, settings)
-        self.render_shadow_layer(gpu, scene, views, dynamic=False)
-        self.render_shadow_layer(gpu, scene, views, dynamic=True, include=np.zeros(0, bool))
+        atlas.layout(views, int(settings.shadow_resolution))
+        self.render_shadow_layer(gpu, scene, atlas, views, dynamic=False)
+        self.render_shadow_layer(gpu, scene, atlas, views, dynamic=True, include=np.zeros(0, bool))
         return per_light
 
     def shade(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
-              settings: RenderSettings, origin: tuple[int, int] = (0, 0), *,
-              transparent: bool = False) -> None:
-        """Deferred shading of the G-buffer region at ``origin`` into ``targets.color``;
-        with ``transparent`` the background is (0, 0, 0, 0) instead of the sky (film.py)."""
+              resources: FrameResources, origin: tuple[int, int] = (0, 0), *,
+              traced_specular: bool = False, transparent: bool = False, sample: int = 0) -> None:
+        """Deferred shading of the G-buffer region at ``origin`` into ``targets.color``, lit
+        by ``resources``. ``traced_specular`` leaves the lobes the tracer follows out (every
+        traced mode); ``transparent`` makes the background (0, 0, 0, 0) instead of the sky
+        (film.py). ``sample`` picks this sample's rotation of the stochastic estimates
+        (ambient occlusion), so that samples of one view average to more than one."""
         prog = self.shade_prog
-        self._upload_sky(scene.sky)
         gpu.materials.buffer.bind_to_storage_buffer(0)
-        gpu.lights.buffer.bind_to_storage_buffer(1)
-        self._slot_buffer.bind_to_storage_buffer(2)
         units = {"u_depth": targets.depth, "u_normal_material": targets.normal_material, "u_albedo": targets.albedo,
-                 "u_emission_scale": targets.emission_scale,
-                 "u_shadow_atlas": self._shadow_atlas, "u_shadow_dynamic": self._shadow_dynamic,
-                 "u_sky_env": self._sky_texture or self._dummy_env}
+                 "u_emission_scale": targets.emission_scale}
         for unit, (name, tex) in enumerate(units.items()):
             tex.use(location=unit)
             if name in prog:
                 prog[name].value = unit
+        resources.bind(prog, len(units))
         targets.color.bind_to_image(0, read=False, write=True)
-        values = {
+        shader_loader.set_uniforms(prog, {
             **view.uniforms(),
+            "u_view_proj": gl_matrix(view.view_proj),
             "u_origin": (int(origin[0]), int(origin[1])),
-            "u_light_count": len(scene.lights),
-            "u_shadow_bias": float(settings.shadow_bias),
-            "u_sky_color": tuple(scene.sky.color),
-            "u_sky_strength": float(scene.sky.strength),
-            "u_sky_has_env": int(self._sky_texture is not None),
+            "u_traced_specular": int(traced_specular),
             "u_transparent_background": int(transparent),
-        }
-        for name, value in values.items():
-            if name not in prog:
-                continue
-            if isinstance(value, bytes):
-                prog[name].write(value)
-            else:
-                prog[name].value = value
+            "u_sample": int(sample),
+        })
         prog.run(math.ceil(view.width / 8), math.ceil(view.height / 8), 1)
 
     def release(self) -> None:
         if self.primary is not None:
             self.primary.release()
-        _release_all((self._gbuffer_vao, self._cube_gbuffer_vao,
-                      self._shadow_vao, self._shadow_fbo, self._shadow_atlas, self._shadow_dynamic_fbo,
-                      self._shadow_dynamic, self._slot_buffer,
-                      self._sky_texture, self._dummy_env))
+        _release_all((self._gbuffer_vao, self._cube_gbuffer_vao, self._shadow_vao))
         for culler in self._cullers.values():
             culler.release()
         self._cullers.clear()

@@ -26,6 +26,7 @@ import numpy as np
 from . import gl_context
 from .camera import Camera
 from .film import FrameOutputs, depth_pass, normal_pass
+from .frame_resources import FrameResources
 from .gpu_scene import GPUScene, pack_lights
 from .raster import RasterPasses, RasterView
 from .scene_data import SceneData
@@ -84,6 +85,7 @@ class Renderer:
         self.ctx = ctx if ctx is not None else gl_context.get_context()
         self.gpu_scene = GPUScene(self.ctx)
         self.raster = RasterPasses(self.ctx)
+        self.resources = FrameResources(self.ctx)  # lights, shadow atlas, World light
         self.tracer: HybridTracer | None = None  # created on the first non-RASTER frame
         # Frame-to-frame reuse: only changed triangles are re-uploaded, and of the shadow
         # maps only the layer whose objects changed is re-rendered (shadow_cache.py).
@@ -103,6 +105,7 @@ class Renderer:
         progress: ProgressCallback | None = None,
         outputs: FrameOutputs | None = None,
         reuse_world: bool = False,
+        sample: int = 0,
     ) -> FrameResult:
         """Render one frame. Raises RenderCancelled when ``cancel()`` returns True between
         passes; the GPU state stays valid for the next frame. ``outputs`` asks for
@@ -113,7 +116,12 @@ class Renderer:
         sample of one pixel grid, antialias.py), so the cube map and the BVH, which depend
         only on the geometry, the settings and the camera's position, are kept instead of
         rebuilt. Honoured only when that holds: the same ``scene`` object and settings, the
-        same position, no triangle changed and the last frame completed."""
+        same position, no triangle changed and the last frame completed.
+
+        ``sample`` numbers this frame among the samples of one view (antialias.py, the
+        viewport's accumulation): the stochastic parts of the shading (glossy lobes,
+        ambient occlusion) draw different directions for each, so that their average
+        converges."""
         settings = settings or RenderSettings()
         outputs = outputs or FrameOutputs()
         steps = MODE_STEPS.get(settings.mode)
@@ -137,81 +145,77 @@ class Renderer:
         world_key = (id(scene), settings, center)
         kept_world = reuse_world and traced and self._same_world(world_key)
         self._world_key = None  # set again once this frame's world is complete
-        # Shaded G-buffers leave the specular lobes to the tracer in every traced mode. The
-        # shading program is shared (cached per context), so the flag is reset after the frame.
-        shade_flag = self.raster.shade_prog["u_traced_specular"]
-        shade_flag.value = int(traced)
-        try:
-            step("upload")
-            with timer.measure("upload"):
-                delta = self.geometry_tracker.update(scene.geometry)
-                self.gpu_scene.upload(scene, delta)
-                if traced:
-                    tracer.upload(self.gpu_scene, scene, delta)
-            counts["triangles_uploaded"] = int(delta.changed_triangles)
-            kept_world = kept_world and delta.unchanged
-            step("shadow_maps")
-            with timer.measure("shadow_maps"):
-                views, per_light = self.raster.shadow_views(scene)
-                key = (pack_lights(scene.lights).tobytes(), int(settings.shadow_resolution),
-                       b"".join(np.asarray(v.view_proj, np.float64).tobytes() for v in views))
-                plan = self.shadow_cache.plan(scene.geometry.object_ranges, delta, key)
-                submitted_shadow = 0
-                if plan.anything:
-                    try:
-                        self.raster.shadow_layout(views, settings)
-                        if plan.render_static:
-                            submitted_shadow += self.raster.render_shadow_layer(
-                                self.gpu_scene, scene, views, dynamic=False, include=plan.static_mask)
-                        if plan.render_dynamic:
-                            submitted_shadow += self.raster.render_shadow_layer(
-                                self.gpu_scene, scene, views, dynamic=True, include=~plan.static_mask)
-                    except BaseException:
-                        self.shadow_cache.reset()  # the layers are incomplete
-                        raise
-                counts["shadow_maps_rendered"] = int(plan.anything)
-                counts["shadow_static_rendered"] = int(plan.render_static)
-                counts["shadow_triangles_submitted"] = submitted_shadow
-                self.gpu_scene.upload_lights(scene.lights, per_light)
-            step("primary_raster")
-            view = RasterView.from_camera(camera)
-            with timer.measure("primary_raster"):
-                targets = self.raster.primary_targets(view.width, view.height)
-                targets.clear()
-                submitted = self.raster.gbuffer(self.gpu_scene, scene, view, targets)
-            if "cube_map_raster" in steps and not kept_world:
-                step("cube_map_raster")
-                with timer.measure("cube_map_raster"):
-                    counts["triangles_cube_map_submitted"] = int(
-                        tracer.render_cube_map(self.gpu_scene, scene, center, settings))
-            culled = None
-            if "cull" in steps and not kept_world:
-                step("cull")
-                with timer.measure("cull"):
-                    culled = tracer.cull(scene, center, settings)
-                counts.update(objects_near_inside=culled.objects_inside,
-                              objects_near_straddling=culled.objects_straddling,
-                              objects_near_outside=culled.objects_outside)
-            if "lbvh_build" in steps and not kept_world:
-                step("lbvh_build")
-                with timer.measure("lbvh_build"):
-                    tracer.build(culled)
-            step("shade")
-            with timer.measure("shade"):
-                self.raster.shade(self.gpu_scene, scene, view, targets, settings,
-                                  transparent=outputs.transparent)
-            if "trace" in steps:
-                step("trace")
-                with timer.measure("trace"):
-                    tracer.trace(self.gpu_scene, scene, view, targets, settings, center)
-            step("readback")
-            with timer.measure("readback"):
-                image = targets.read_color()
-                data = self._data_passes(targets, camera, outputs)
-                if traced and settings.mode != "PROVENANCE":
-                    counts.update(tracer.read_stats(settings.max_depth).as_counts())
-        finally:
-            shade_flag.value = 0
+        step("upload")
+        with timer.measure("upload"):
+            delta = self.geometry_tracker.update(scene.geometry)
+            self.gpu_scene.upload(scene, delta)
+            if traced:
+                tracer.upload(self.gpu_scene, scene, delta)
+        counts["triangles_uploaded"] = int(delta.changed_triangles)
+        kept_world = kept_world and delta.unchanged
+        step("shadow_maps")
+        with timer.measure("shadow_maps"):
+            views, per_light = self.raster.shadow_views(scene)
+            key = (pack_lights(scene.lights).tobytes(), int(settings.shadow_resolution),
+                   b"".join(np.asarray(v.view_proj, np.float64).tobytes() for v in views))
+            plan = self.shadow_cache.plan(scene.geometry.object_ranges, delta, key)
+            submitted_shadow = 0
+            if plan.anything:
+                try:
+                    atlas = self.resources.shadows
+                    atlas.layout(views, int(settings.shadow_resolution))
+                    if plan.render_static:
+                        submitted_shadow += self.raster.render_shadow_layer(
+                            self.gpu_scene, scene, atlas, views, dynamic=False, include=plan.static_mask)
+                    if plan.render_dynamic:
+                        submitted_shadow += self.raster.render_shadow_layer(
+                            self.gpu_scene, scene, atlas, views, dynamic=True, include=~plan.static_mask)
+                except BaseException:
+                    self.shadow_cache.reset()  # the layers are incomplete
+                    raise
+            counts["shadow_maps_rendered"] = int(plan.anything)
+            counts["shadow_static_rendered"] = int(plan.render_static)
+            counts["shadow_triangles_submitted"] = submitted_shadow
+            self.resources.update_lights(scene.lights, per_light, settings)
+            self.resources.update_sky(scene.sky)
+        step("primary_raster")
+        view = RasterView.from_camera(camera)
+        with timer.measure("primary_raster"):
+            targets = self.raster.primary_targets(view.width, view.height)
+            targets.clear()
+            submitted = self.raster.gbuffer(self.gpu_scene, scene, view, targets)
+        if "cube_map_raster" in steps and not kept_world:
+            step("cube_map_raster")
+            with timer.measure("cube_map_raster"):
+                counts["triangles_cube_map_submitted"] = int(
+                    tracer.render_cube_map(self.gpu_scene, scene, center, settings))
+        culled = None
+        if "cull" in steps and not kept_world:
+            step("cull")
+            with timer.measure("cull"):
+                culled = tracer.cull(scene, center, settings)
+            counts.update(objects_near_inside=culled.objects_inside,
+                          objects_near_straddling=culled.objects_straddling,
+                          objects_near_outside=culled.objects_outside)
+        if "lbvh_build" in steps and not kept_world:
+            step("lbvh_build")
+            with timer.measure("lbvh_build"):
+                tracer.build(culled)
+        step("shade")
+        with timer.measure("shade"):
+            self.raster.shade(self.gpu_scene, scene, view, targets, self.resources,
+                              traced_specular=traced, transparent=outputs.transparent, sample=sample)
+        if "trace" in steps:
+            step("trace")
+            with timer.measure("trace"):
+                tracer.trace(self.gpu_scene, scene, view, targets, self.resources, settings, center,
+                             sample=sample)
+        step("readback")
+        with timer.measure("readback"):
+            image = targets.read_color()
+            data = self._data_passes(targets, camera, outputs)
+            if traced and settings.mode != "PROVENANCE":
+                counts.update(tracer.read_stats(settings.max_depth).as_counts())
         self._world_key = world_key if traced else None
         if gl_context.debug_checks_enabled():
             gl_context.check_error(f"{settings.mode} frame")
@@ -257,4 +261,5 @@ class Renderer:
             self.tracer.release()
             self.tracer = None
         self.raster.release()
+        self.resources.release()
         self.gpu_scene.release()

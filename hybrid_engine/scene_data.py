@@ -164,10 +164,13 @@ def finite_bounds(triangles: np.ndarray) -> np.ndarray:
 class MaterialTable:
     """Per-material parameters, derived from Blender's Principled BSDF (see DESIGN.md).
 
-    ``reflectivity`` is the weight of the mirror lobe (metallic with zero roughness), tinted
-    by ``base_color``; ``transmission`` the weight of the clear-glass lobe of index ``ior``;
-    what remains is diffuse. ``thickness`` is the paper's per-material thickness (§3.4):
-    0 thin, 1 solid to the cube map's far plane.
+    ``reflectivity`` is the weight of the metal lobe (Metallic), tinted by ``base_color``;
+    ``transmission`` the weight of the glass lobe of index ``ior``; what remains is diffuse,
+    under a dielectric specular coat whose reflectance at normal incidence is ``specular``
+    (0: none; Blender's Specular IOR Level folded in by materials.py). ``roughness`` (GGX)
+    applies to every specular lobe: 0 is a perfect mirror or clear glass
+    (gpu_shaders/include/shading.glsl). ``thickness`` is the paper's per-material
+    thickness (§3.4): 0 thin, 1 solid to the cube map's far plane.
 
     Image textures: ``textures`` holds the scene's images and ``base_color_texture[i]`` /
     ``emission_texture[i]`` index it (-1: none). A texture *multiplies* the material's
@@ -195,6 +198,8 @@ class MaterialTable:
     ior: np.ndarray  # (M,) float32 >= 1
     thickness: np.ndarray  # (M,) float32 in [0, 1]
     names: list[str] = field(default_factory=list)
+    roughness: np.ndarray | None = None  # (M,) float32 in [0, 1]; None: all 0
+    specular: np.ndarray | None = None  # (M,) float32 in [0, 1], coat reflectance; None: all 0
     base_color_texture: np.ndarray | None = None  # (M,) int32 index into textures, -1 none
     emission_texture: np.ndarray | None = None  # (M,) int32 index into textures, -1 none
     textures: list[np.ndarray] = field(default_factory=list)  # (H, W, 4) float32 linear
@@ -203,9 +208,12 @@ class MaterialTable:
         self.base_color = _as(self.base_color, np.float32, (3,), "base_color")
         m = len(self.base_color)
         self.emission = _as(self.emission, np.float32, (3,), "emission")
-        for name in ("reflectivity", "transmission", "ior", "thickness"):
+        for name in ("roughness", "specular"):
+            if getattr(self, name) is None:
+                setattr(self, name, np.zeros(m, np.float32))
+        for name in ("reflectivity", "transmission", "ior", "thickness", "roughness", "specular"):
             setattr(self, name, _as(getattr(self, name), np.float32, (), name))
-        for name in ("emission", "reflectivity", "transmission", "ior", "thickness"):
+        for name in ("emission", "reflectivity", "transmission", "ior", "thickness", "roughness", "specular"):
             if len(getattr(self, name)) != m:
                 raise SceneDataError(f"material {name} has {len(getattr(self, name))} rows, expected {m}")
         if not self.names:
@@ -241,7 +249,8 @@ class MaterialTable:
     @classmethod
     def from_rows(cls, rows: list[dict], textures: list[np.ndarray] | None = None) -> "MaterialTable":
         """Build from dicts with keys base_color, emission, reflectivity, transmission, ior,
-        thickness, name, base_color_texture, emission_texture (all optional).
+        thickness, roughness, specular, name, base_color_texture, emission_texture (all
+        optional).
 
         A texture key holds an index into ``textures``, None (no texture) or the image
         array itself; arrays are appended to the texture list once per array object, so
@@ -268,6 +277,8 @@ class MaterialTable:
             transmission=np.array(get("transmission", 0.0), np.float32),
             ior=np.array(get("ior", 1.45), np.float32),
             thickness=np.array(get("thickness", 0.5), np.float32),
+            roughness=np.array(get("roughness", 0.0), np.float32),
+            specular=np.array(get("specular", 0.0), np.float32),
             names=[str(n) for n in get("name", "material")],
             base_color_texture=np.array([texture_index(v) for v in get("base_color_texture", None)], np.int32),
             emission_texture=np.array([texture_index(v) for v in get("emission_texture", None)], np.int32),
@@ -283,6 +294,8 @@ class MaterialTable:
         out["emission"][:, 3] = self.transmission
         out["params"][:, 0] = self.ior
         out["params"][:, 1] = self.thickness
+        out["params"][:, 2] = np.clip(self.roughness, 0.0, 1.0)
+        out["params"][:, 3] = np.clip(self.specular, 0.0, 1.0)
         out["textures"][:] = -1  # zw reserved: -1 like "no texture"
         out["textures"][:, 0] = self.base_color_texture
         out["textures"][:, 1] = self.emission_texture
@@ -318,8 +331,10 @@ class Lights:
 
     ``power`` is watts for point/spot/area (Blender's "Power") and W/m² for sun ("Strength"),
     already multiplied into ``color``. ``direction`` is where the light points (sun, spot,
-    area: the light's -Z axis). ``radius`` is the soft-shadow size (unused by hard shadow
-    maps but kept for the report); ``spot_size`` is the full cone angle in radians and
+    area: the light's -Z axis). ``radius`` is the lamp's size: the radius of a point or spot,
+    the half-size of an area lamp, the angular diameter of a sun in radians; it softens the
+    shadows and widens the highlights (gpu_shaders/include/lighting.glsl). ``spot_size`` is
+    the full cone angle in radians and
     ``spot_blend`` Blender's blend factor. Area lights are approximated as spot-like emitters
     with a cosine falloff over the hemisphere (documented approximation).
     """

@@ -50,6 +50,10 @@ FIELD_DOCS = {
     "shadow_resolution": "Resolution of each shadow map, in pixels",
     "shadow_bias": "Depth bias of shadow-map tests, in scene units, against shadow acne",
     "viewport_scale": "Fraction of the viewport's resolution that is rendered (lower is faster)",
+    "viewport_samples": "Viewport: samples accumulated while nothing changes (each moved by a "
+    "fraction of a pixel, with fresh glossy and shadow directions); any change starts over",
+    "ao_distance": "How far (scene units) a surface looks for geometry that hides the World's "
+    "light from it (ambient occlusion); 0 lights every surface by the whole sky",
     "render_samples": "Final renders: samples per pixel, each with the camera moved by a different "
     "fraction of a pixel, averaged (anti-aliasing; each sample after the first costs a primary "
     "raster, the shading and the trace). The viewport takes one",
@@ -66,6 +70,8 @@ FIELD_LIMITS = {
     "shadow_bias": (0.0, 10.0),
     "viewport_scale": (0.1, 1.0),
     "render_samples": (1, 256),
+    "ao_distance": (0.0, 1.0e4),
+    "viewport_samples": (1, 4096),
 }
 
 
@@ -89,6 +95,8 @@ class RenderSettings:
     shadow_bias: float = 0.02
     viewport_scale: float = 1.0
     render_samples: int = 4
+    ao_distance: float = 1.0
+    viewport_samples: int = 16
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:

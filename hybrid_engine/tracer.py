@@ -25,6 +25,7 @@ import numpy as np
 
 from . import gl_context, shader_loader
 from .cube_map import CubeMapPass
+from .frame_resources import FrameResources
 from .gpu_scene import GPUScene, bytes_of
 from .gpu_dispatch import GrowBuffer, bind_blocks, split_blocks, storage_barrier
 from .lbvh import BuiltLBVH, LBVHBuilder
@@ -207,12 +208,13 @@ class HybridTracer:
         return self.built
 
     def trace(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
-              settings: RenderSettings, center) -> None:
-        """Run the megakernel over the primary G-buffer; adds the traced radiance to
-        ``targets.color`` (or writes the provenance colours)."""
+              resources: FrameResources, settings: RenderSettings, center, sample: int = 0) -> None:
+        """Run the megakernel over the primary G-buffer, lit by ``resources`` (the same
+        lighting the deferred shading used); adds the traced radiance to ``targets.color``
+        (or writes the provenance colours). ``sample`` picks this sample's directions in
+        the glossy lobes (Renderer.render)."""
         ctx = self.ctx
         mode = settings.mode
-        raster = self.raster
         built = self.built if mode != "PROVENANCE" else None
         # A BVH whose arrays span several storage blocks needs the kernel compiled for them,
         # and the cube-map march its own defines (CubeMapPass.march_defines: the march kind,
@@ -225,12 +227,8 @@ class HybridTracer:
         prog = shader_loader.compute(ctx, "trace/hybrid_trace.comp.glsl", defines) if defines else self.program
         self._counters.write(self._zero_counters)
 
-        # Storage buffers.
-        # The shadow atlas, its slot table and the sky texture belong to the raster passes
-        # (the deferred shading reads them too); the tracer binds the same objects.
+        # Storage buffers (the lighting's are bound with its textures below).
         gpu.materials.buffer.bind_to_storage_buffer(0)
-        gpu.lights.buffer.bind_to_storage_buffer(1)
-        raster._slot_buffer.bind_to_storage_buffer(2)
         if built is not None:
             built.bind(3, 4)  # BVH_NODES_BINDING, BVH_TRIANGLES_BINDING (+ 43..48 when split)
         else:
@@ -253,9 +251,6 @@ class HybridTracer:
             "u_cube_surface": cube.surface if cube is not None else self._dummy_rgba,
             "u_cube_geometric": cube.geometric if cube is not None else self._dummy_rg,
             "u_cube_hiz": self._dummy_rg,
-            "u_shadow_atlas": raster._shadow_atlas,
-            "u_shadow_dynamic": raster._shadow_dynamic,
-            "u_sky_env": raster._sky_texture or raster._dummy_env,
             "u_textures": gpu.textures.array,
         }
         if cube is not None:
@@ -263,6 +258,7 @@ class HybridTracer:
         for unit, tex in enumerate(units.values()):
             tex.use(location=unit)
         shader_loader.set_uniforms(prog, {name: unit for unit, name in enumerate(units)})
+        resources.bind(prog, len(units))
         targets.color.bind_to_image(0, read=True, write=True)
 
         # Uniforms.
@@ -274,11 +270,7 @@ class HybridTracer:
             "u_near_center": tuple(center),
             "u_near_half": float(settings.near_size),
             "u_bvh_half": float(settings.near_size + overlap_margin(settings.near_size)),
-            "u_light_count": len(scene.lights),
-            "u_shadow_bias": float(settings.shadow_bias),
-            "u_sky_color": tuple(scene.sky.color),
-            "u_sky_strength": float(scene.sky.strength),
-            "u_sky_has_env": int(raster._sky_texture is not None),
+            "u_sample": int(sample),
         }
         values.update(scene_bound_uniforms(SceneBounds.of(scene)))
         values["u_pixel_width"], values["u_pixel_spread"] = pixel_footprint(

@@ -246,16 +246,26 @@ class FrameClock:
 
 
 def stats_line(mode: str, frame_ms: float, fps: float | None, counts: dict, size: tuple[int, int],
-               note: str = "") -> str:
-    """The viewport's one-line statistics: mode, render size, frame time, FPS and the BVH
-    (near-cube) and total triangle counts."""
+               note: str = "", samples: str = "") -> str:
+    """The viewport's one-line statistics: mode, render size, the accumulated samples
+    ("sample 3/16"), frame time, FPS and the BVH (near-cube) and total triangle counts."""
     total = int(counts.get("triangles_total", 0))
     bvh = counts.get("triangles_bvh", counts.get("triangles_near", None))
     bvh_text = f"{int(bvh):,}" if bvh is not None else "-"
     fps_text = f"{fps:.1f} fps" if fps is not None else "- fps"
-    line = (f"Hybrid RT | {mode} | {size[0]}x{size[1]} | {frame_ms:.1f} ms | {fps_text} | "
+    sample_text = f"{samples} | " if samples else ""
+    line = (f"Hybrid RT | {mode} | {size[0]}x{size[1]} | {sample_text}{frame_ms:.1f} ms | {fps_text} | "
             f"BVH {bvh_text} / {total:,} tris")
     return f"{line} | {note}" if note else line
+
+
+def accumulation_key(view: Camera, settings, scene_version: int, transparent: bool) -> tuple:
+    """What the viewport's accumulated samples show (accumulation.py): the view's matrices
+    and size, the settings, the scene's version (bumped by every depsgraph update) and the
+    film's transparency. Any change of these starts the samples over."""
+    return (np.asarray(view.view_matrix(), np.float64).tobytes(),
+            np.asarray(view.projection_matrix(), np.float64).tobytes(),
+            int(view.width), int(view.height), settings, int(scene_version), bool(transparent))
 
 
 class MessageLatch:

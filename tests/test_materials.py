@@ -41,14 +41,23 @@ def test_default_principled_bsdf_is_diffuse():
 
 
 def test_blend_follows_the_documented_formulas_and_never_exceeds_one():
-    """reflectivity = m (1 - r), transmission = t (1 - r)(1 - m), on a grid of inputs."""
+    """reflectivity = m, transmission = t (1 - m), roughness as given, on a grid of inputs."""
     grid = np.linspace(0.0, 1.0, 6)
     for m, r, t in itertools.product(grid, grid, grid):
         row = principled_to_params(metallic=m, roughness=r, transmission=t)
-        assert abs(row["reflectivity"] - m * (1 - r)) < EXACT
-        assert abs(row["transmission"] - t * (1 - r) * (1 - m)) < EXACT
+        assert abs(row["reflectivity"] - m) < EXACT
+        assert abs(row["transmission"] - t * (1 - m)) < EXACT
+        assert row["roughness"] == r
         diffuse = 1.0 - row["reflectivity"] - row["transmission"]
         assert diffuse >= -EXACT
+
+
+def test_the_specular_coat_follows_fresnel_and_the_specular_ior_level():
+    # IOR 1.5: ((1.5 - 1) / (1.5 + 1))^2 = 0.04 at level 0.5; level 0 removes it, 1 doubles it.
+    assert principled_to_params(ior=1.5)["specular"] == pytest.approx(0.04)
+    assert principled_to_params(ior=1.5, specular_level=0.0)["specular"] == 0.0
+    assert principled_to_params(ior=1.5, specular_level=1.0)["specular"] == pytest.approx(0.08)
+    assert principled_to_params(ior=2.0)["specular"] == pytest.approx(1.0 / 9.0)
 
 
 def test_emission_is_color_times_strength():
@@ -59,7 +68,8 @@ def test_emission_is_color_times_strength():
 def test_out_of_range_inputs_are_clamped_to_blender_ranges():
     row = principled_to_params(metallic=2.0, roughness=-1.0, transmission=5.0, ior=0.5,
                                base_color=(-1.0, 0.5, 2.0), thickness=3.0)
-    assert row["reflectivity"] == 1.0  # metallic 1, roughness 0
+    assert row["reflectivity"] == 1.0  # metallic 1
+    assert row["roughness"] == 0.0
     assert row["transmission"] == 0.0  # fully metallic: no transmission left
     assert row["ior"] == MIN_IOR
     assert row["base_color"] == (0.0, 0.5, 2.0)  # colours only lose negatives (HDR allowed)

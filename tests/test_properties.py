@@ -113,11 +113,12 @@ def test_repeated_register_unregister_leaves_nothing_behind(addon):
 
 def test_standard_panels_that_apply_are_enabled_and_eevee_specific_ones_are_not(addon):
     for name in ("RENDER_PT_format", "RENDER_PT_output", "RENDER_PT_color_management",
-                 "EEVEE_MATERIAL_PT_surface", "EEVEE_WORLD_PT_surface", "DATA_PT_EEVEE_light",
+                 "EEVEE_MATERIAL_PT_surface", "EEVEE_WORLD_PT_surface",
                  "DATA_PT_camera", "DATA_PT_lens"):
         assert "HYBRID_RT" in getattr(bpy.types, name).COMPAT_ENGINES, name
     for name in ("RENDER_PT_eevee_sampling", "DATA_PT_camera_dof", "VIEWLAYER_PT_layer_passes",
-                 "DATA_PT_lightprobe_bake", "EEVEE_MATERIAL_PT_settings"):
+                 "DATA_PT_lightprobe_bake", "EEVEE_MATERIAL_PT_settings", "DATA_PT_EEVEE_light",
+                 "DATA_PT_EEVEE_light_shadow", "DATA_PT_EEVEE_light_distance"):
         assert "HYBRID_RT" not in getattr(bpy.types, name).COMPAT_ENGINES, name
 
 
@@ -146,6 +147,9 @@ class RecordingLayout:
     def column(self, **_kwargs):
         return self
 
+    def row(self, **_kwargs):
+        return self
+
     def prop(self, data, name, **_kwargs):
         assert name in data.bl_rna.properties, f"{type(data).__name__} has no property {name!r}"
         self.drawn.append(name)
@@ -167,3 +171,30 @@ def test_film_and_passes_panels_draw_the_properties_the_final_render_reads(addon
     engine = addon.blender_adapter.engine
     assert "film_transparent" in drawn
     assert {flag for flag, *_ in engine.DATA_PASSES.values()} <= set(drawn)
+
+
+@pytest.mark.parametrize("kind", ["POINT", "SPOT", "SUN", "AREA"])
+def test_light_panel_draws_the_lamp_controls_the_engine_renders_and_no_other(addon, kind):
+    light = bpy.data.lights.new(f"panel_{kind}", kind)
+    light.use_temperature = True
+    drawn: list[str] = []
+
+    class FakeContext:
+        engine = "HYBRID_RT"
+
+    FakeContext.light = light
+
+    class FakePanel:
+        layout = RecordingLayout(drawn)
+
+    panel = addon.ui.light_panel.DATA_PT_hybrid_rt_light
+    assert panel.poll(FakeContext)
+    panel.draw(FakePanel(), FakeContext)
+    supported = {"type", "color", "use_temperature", "temperature", "energy", "exposure", "normalize",
+                 "shadow_soft_size", "spot_size", "spot_blend", "angle", "shape", "size", "size_y", "use_shadow"}
+    assert set(drawn) <= supported
+    assert {"exposure", "temperature", "normalize", "energy"} <= set(drawn)
+    size = {"POINT": "shadow_soft_size", "SPOT": "shadow_soft_size", "SUN": "angle", "AREA": "size"}[kind]
+    assert size in drawn
+    # Controls Blender shows for EEVEE that change nothing here stay hidden.
+    assert not {"use_soft_falloff", "spread", "shadow_jitter", "shadow_resolution_limit"} & set(drawn)

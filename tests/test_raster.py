@@ -27,7 +27,8 @@ MAX_SHADOW_MISMATCH_FRACTION = 0.02
 ALBEDO = 0.8
 
 
-def diffuse_scene(objects, lights, materials=None, sky=Sky(color=(0.1, 0.2, 0.3))):
+# Lamp tests see a black World unless they ask for a sky: the World lights diffuse surfaces too.
+def diffuse_scene(objects, lights, materials=None, sky=Sky(color=(0.0, 0.0, 0.0))):
     geo = Geometry.from_objects(objects)
     mats = materials or MaterialTable.from_rows([dict(base_color=(ALBEDO,) * 3)])
     return SceneData(geo, mats, Lights.from_rows(lights), sky)
@@ -46,10 +47,13 @@ def test_sunlit_plane_has_the_radiance_of_a_lambertian_surface(renderer):
     sun_dir = np.array([0.3, 0.2, -1.0])
     sun_dir /= np.linalg.norm(sun_dir)
     scene = diffuse_scene([(quad((0, 0, 0), (5, 0, 0), (0, 5, 0)), None, 0)],
-                          [dict(kind="SUN", direction=sun_dir, color=(2.0, 3.0, 4.0))])
+                          [dict(kind="SUN", direction=sun_dir, color=(2.0, 3.0, 4.0))],
+                          sky=Sky(color=(0.1, 0.2, 0.3)))
     image = renderer.render(scene, camera, RASTER).image
     on_plane, _, _ = plane_hits(camera)
-    expected = ALBEDO / np.pi * np.array([2.0, 3.0, 4.0]) * -sun_dir[2]
+    # The sun, plus the World's uniform sky over the whole upper hemisphere (irradiance pi L).
+    sky = np.asarray(scene.sky.color) * scene.sky.strength
+    expected = ALBEDO / np.pi * (np.array([2.0, 3.0, 4.0]) * -sun_dir[2] + np.pi * sky)
     np.testing.assert_allclose(image[on_plane][:, :3], np.broadcast_to(expected, (on_plane.sum(), 3)), rtol=RADIANCE_RTOL)
 
 
@@ -250,7 +254,7 @@ def frames_rendered(gl, frames, settings, cull: bool) -> dict:
     try:
         for scene, camera in frames:
             result = r.render(scene, camera, settings)
-        static, dynamic = r.raster.read_shadow_layers()
+        static, dynamic = r.resources.shadows.read_layers()
         return {
             "targets": {name: getattr(r.raster.primary, name).read() for name in GBUFFER_TARGETS},
             "static": static, "dynamic": dynamic, "counts": result.counts, "image": result.image,

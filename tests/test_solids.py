@@ -84,7 +84,8 @@ def test_culling_is_active_a_face_turned_away_and_wrongly_marked_closed_disappea
                         object_ranges=np.array([[0, 2]]),
                         object_bounds=np.array([[[-1.0, -1.0, 0.0], [1.0, 1.0, 0.0]]]),
                         object_closed=np.array([True]))
-    scene = SceneData(geometry=geometry, materials=MaterialTable.from_rows([dict(base_color=(1, 1, 1))]),
+    # A red face under a blue sky: the World lights it black, unlike the sky behind it.
+    scene = SceneData(geometry=geometry, materials=MaterialTable.from_rows([dict(base_color=(1, 0, 0))]),
                       lights=Lights.from_rows([]), sky=Sky(color=(0.0, 0.0, 1.0)))
     camera = Camera(matrix_world=look_at((0.0, -0.5, 3.0), (0.0, 0.0, 0.0)), width=32, height=32)
     renderer = Renderer(gl)

@@ -106,6 +106,7 @@ def test_moving_one_object_re_extracts_only_that_object_and_changes_the_image(ad
     assert np.abs(after - before).max() > IMAGE_CHANGE
 
     reports.clear()
+    bpy.context.scene.hybrid_rt.viewport_samples = 1  # one sample: a still view is not re-rendered
     _sync(bpy)  # nothing changed: nothing is redone and the image stays
     assert not reports or (reports[-1].extracted == [] and reports[-1].transformed == [])
     np.testing.assert_array_equal(_frame(addon, bpy, session).image, after)
@@ -411,3 +412,89 @@ def test_near_cube_overlay_toggles_in_background_and_surrounds_the_eye(addon):
     edges = overlay.overlay_edges(scene, RegionData())
     np.testing.assert_allclose(edges.reshape(-1, 3).mean(axis=0), (1.0, 2.0, 3.0), atol=1e-5)
     overlay.set_enabled(True)  # unregister (fixture teardown) must remove the handler
+
+
+def _accumulating(bpy, session, monkeypatch, samples: int):
+    """The two-object scene with ``samples`` viewport samples, synced; returns the scene, the
+    cube and the list that records the sample index of every render the session makes."""
+    scene, cube, _material = _two_object_scene(bpy)
+    scene.hybrid_rt.viewport_samples = samples
+    _sync(bpy)
+    return scene, cube, _count_renders(session, monkeypatch)
+
+
+def _count_renders(session, monkeypatch) -> list:
+    renderer = session._ensure_renderer()
+    calls = []
+    original = renderer.render
+
+    def counted(*args, **kwargs):
+        calls.append(kwargs.get("sample"))
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(renderer, "render", counted)
+    return calls
+
+
+def test_still_redraws_accumulate_samples_up_to_viewport_samples_then_render_nothing(addon, viewport, monkeypatch):
+    import bpy
+
+    _module, session, _reports = viewport
+    _scene, _cube, calls = _accumulating(bpy, session, monkeypatch, 4)
+    frames = [_frame(addon, bpy, session) for _ in range(6)]
+    assert calls == [0, 1, 2, 3]  # one new sample per redraw, then none
+    assert [f.converged for f in frames] == [False, False, False, True, True, True]
+    assert "sample 1/4" in frames[0].stats and "sample 4/4" in frames[3].stats
+    assert np.abs(frames[1].image - frames[0].image).max() > 0  # the jittered sample joined the mean
+    np.testing.assert_array_equal(frames[5].image, frames[3].image)
+
+
+def test_accumulation_restarts_when_the_view_an_object_or_a_setting_changes(addon, viewport, monkeypatch):
+    import bpy
+
+    _module, session, _reports = viewport
+    scene, cube, calls = _accumulating(bpy, session, monkeypatch, 8)
+    settings = _settings(addon, bpy)
+    for _ in range(3):
+        session.frame(_region(bpy), settings)
+    session.frame(_region(bpy, eye=(6.0, -7.5, 5.0)), settings)  # the view moved
+    session.frame(_region(bpy, eye=(6.0, -7.5, 5.0)), settings)
+    cube.location.z += 0.5  # an object moved
+    _sync(bpy)
+    session.frame(_region(bpy, eye=(6.0, -7.5, 5.0)), settings)
+    scene.hybrid_rt.shadow_bias = 0.05  # a setting changed
+    _sync(bpy)
+    session.frame(_region(bpy, eye=(6.0, -7.5, 5.0)), _settings(addon, bpy))
+    assert calls == [0, 1, 2, 0, 1, 0, 0]
+
+
+def test_sixteen_still_redraws_converge_to_a_64_sample_final_render_of_the_view(addon, viewport):
+    import bpy
+
+    from hybrid_engine.antialias import render_antialiased
+    from hybrid_engine.viewport_frame import RegionInput
+    from whitted_reference import flip_mean
+
+    _module, session, _reports = viewport
+    scene, cube, material = _two_object_scene(bpy)
+    scene.hybrid_rt.mode = "HYBRID"
+    bsdf = material.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Metallic"].default_value = 1.0
+    bsdf.inputs["Roughness"].default_value = 0.3  # a glossy lobe: noisy in one sample
+    scene.hybrid_rt.viewport_samples = 16
+    _sync(bpy)
+    from hybrid_engine.camera import Camera
+
+    camera = Camera(matrix_world=look_at((4.0, -5.0, 3.5), (0.0, 0.0, 0.7)), width=64, height=48, lens=35.0)
+    region = RegionInput(camera.view_matrix(), camera.projection_matrix(), 64, 48)
+    settings = _settings(addon, bpy)
+    frames = [session.frame(region, settings) for _ in range(16)]
+    assert frames[-1].converged and not frames[-2].converged
+    from hybrid_engine.viewport_frame import plan_frame
+
+    reference = render_antialiased(session.renderer, session.cache.scene_data, plan_frame(region, 1.0).view,
+                                   settings, 64, timing=False).image
+    first = flip_mean(reference[..., :3], frames[0].image[..., :3])
+    last = flip_mean(reference[..., :3], frames[-1].image[..., :3])
+    assert last < 0.02, (first, last)
+    assert last < 0.5 * first, (first, last)

@@ -56,7 +56,8 @@ def _scene() -> SceneData:
     return SceneData(geometry, materials, lights, Sky(color=(0.1, 0.2, 0.4)))
 
 
-RASTER = RenderSettings(mode="RASTER", shadow_resolution=256)
+# Screen-space ambient occlusion would see only a cropped view's own depths: off here.
+RASTER = RenderSettings(mode="RASTER", shadow_resolution=256, ao_distance=0.0)
 
 
 def _differing_fraction(a: np.ndarray, b: np.ndarray) -> float:

@@ -3,11 +3,11 @@
 
 It shares no code with the GPU path (no shaders, no LBVH, no rasterizer): embree finds the
 closest hits, numpy shades them with the same surface model as
-``gpu_shaders/include/shading.glsl`` (emission + Lambertian diffuse lit directly, a mirror
-lobe tinted by the base colour, a clear-glass lobe with exact Fresnel, Snell refraction and
-total internal reflection), and rays are followed breadth-first as wavefronts up to
-``max_depth`` bounces; the specular lobes of a hit at depth ``max_depth`` are black, as in
-the tracer. Direct light uses shadow RAYS from embree where the GPU uses shadow maps:
+``gpu_shaders/include/shading.glsl`` for smooth materials without a specular coat (emission +
+Lambertian diffuse lit directly and by the uniform sky, a mirror lobe tinted by the base
+colour, a clear-glass lobe with exact Fresnel, Snell refraction and total internal
+reflection), and rays are followed breadth-first as wavefronts up to ``max_depth`` bounces;
+the rays a hit at depth ``max_depth`` would spawn see the sky, as in the tracer. Direct light uses shadow RAYS from embree where the GPU uses shadow maps:
 scenes compared with it either have no occluder between a light and a visible diffuse
 surface, or lights with ``cast_shadow`` off (then neither side tests visibility).
 
@@ -171,8 +171,10 @@ class WhittedReference:
             local = self.emission[mat].copy()
             lit = diffuse > 0
             if lit.any():
+                # Lamps with shadow rays, and the uniform sky over the whole hemisphere
+                # (irradiance pi L, unoccluded: the tracer's hits take no ambient occlusion).
                 local[lit] += (diffuse[lit, None] * albedo[lit] / np.pi
-                               * self.direct_irradiance(p[lit], n_f[lit]))
+                               * (self.direct_irradiance(p[lit], n_f[lit]) + np.pi * self.sky))
             np.add.at(image, pixel, weight * local)
             # Specular lobes (shading.glsl specular_split).
             cos_i = np.clip(-(ray_d * n_f).sum(-1), 0.0, 1.0)
@@ -189,6 +191,9 @@ class WhittedReference:
             child = depth + 1
             new = []
             for dir_, w_, towards in ((reflect_dir, reflect_w, n_f), (refract_dir, refract_w, -n_f)):
+                # Rays past the depth limit see the sky in their direction (hybrid_trace.comp.glsl).
+                cut = (child > max_depth) & ((weight * w_).max(-1) > 0.0)
+                np.add.at(image, pixel[cut], (weight * w_)[cut] * self.sky)
                 keep = (child <= max_depth) & ((weight * w_).max(-1) > 0.0)
                 if keep.any():
                     new.append((pixel[keep], _offset(p[keep], towards[keep]), dir_[keep],

@@ -13,6 +13,7 @@ import bpy
 
 from ..blender_adapter.extract import material_params
 from ..operators import near_cube_overlay
+from .light_panel import DATA_PT_hybrid_rt_light
 
 ENGINE_ID = "HYBRID_RT"
 _EEVEE_IDS = frozenset({"BLENDER_EEVEE", "BLENDER_EEVEE_NEXT"})
@@ -22,12 +23,10 @@ _EEVEE_PANELS_KEPT = frozenset({
     "EEVEE_MATERIAL_PT_context_material",
     "EEVEE_MATERIAL_PT_surface",
     "EEVEE_WORLD_PT_surface",
-    "DATA_PT_EEVEE_light",
-    "DATA_PT_EEVEE_light_shadow",  # its header is light.use_shadow
-    "NODE_DATA_PT_EEVEE_light",
 })
 # Panels for features this engine does not have (depth of field, light probes, Freestyle,
-# per-light influence, shadow terminator...), and Blender's render-pass panels, which list
+# per-light influence, shadow terminator...), EEVEE's light panels (ui/light_panel.py draws
+# the lamp controls this engine renders, and only those), and Blender's render-pass panels, which list
 # passes this engine does not write (its own Passes panel below lists those it does).
 _PANELS_SKIPPED_PREFIXES = (
     "DATA_PT_camera_dof",
@@ -225,6 +224,7 @@ _CLASSES = (
     RENDER_PT_hybrid_rt_film,
     VIEWLAYER_PT_hybrid_rt_passes,
     MATERIAL_PT_hybrid_rt,
+    DATA_PT_hybrid_rt_light,
 )
 
 

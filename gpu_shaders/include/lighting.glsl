@@ -1,12 +1,19 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-// Direct lighting of a diffuse surface with shadow maps (paper §3.5: the hybrid renderer is a
-// deferred renderer, so shadows come from shadow maps rather than shadow rays).
+// Direct lighting from Blender's lamps with shadow maps (paper §3.5), shared by the deferred
+// shading and the tracer's hits.
 //
-// Units follow Blender (checked against Cycles): a sun of strength S gives irradiance S; a
-// point or spot light of power P has intensity P / (4 pi) W/sr; an area light of power P is
-// approximated as a Lambertian point emitter of intensity P cos(theta) / pi. Outgoing
+// Units follow Blender: a point or spot lamp of power P watts is an isotropic emitter of
+// intensity P / (4 pi) W/sr; a sun of strength S gives irradiance S on a surface facing it;
+// an area lamp of power P is a Lambertian emitter of intensity P cos(theta) / pi. Outgoing
 // diffuse radiance is albedo / pi * irradiance.
+//
+// Lamps have a size (Light.position.w: point and spot radius, area half-size, sun angular
+// diameter in radians), which softens shadows (percentage-closer soft shadows, Fernando
+// 2005: a blocker search gives the penumbra's width, a rotated Poisson filter of that width
+// the visibility) and widens glossy highlights (a sphere light's roughness widening, Karis
+// 2013).
 #include "scene_layout.glsl"
+#include "random.glsl"
 
 layout(std430, binding = 1) readonly buffer LightBuffer { Light lights[]; };
 layout(std430, binding = 2) readonly buffer ShadowSlotBuffer { ShadowSlot shadow_slots[]; };
@@ -15,6 +22,7 @@ uniform sampler2D u_shadow_atlas;    // objects at rest (hybrid_engine/shadow_ca
 uniform sampler2D u_shadow_dynamic;  // moving objects: same slots, the nearer depth wins
 uniform int u_light_count;
 uniform float u_shadow_bias;
+uniform int u_sample;                // sample index of this view (random.glsl)
 
 int cube_face(vec3 d) {
     vec3 a = abs(d);
@@ -23,7 +31,34 @@ int cube_face(vec3 d) {
     return d.z >= 0.0 ? 4 : 5;
 }
 
-// 1 when lit, 0 when a shadow map says an occluder lies between p and the light.
+const vec2 POISSON16[16] = vec2[16](
+    vec2(-0.94201624, -0.39906216), vec2(0.94558609, -0.76890725), vec2(-0.09418410, -0.92938870),
+    vec2(0.34495938, 0.29387760), vec2(-0.91588581, 0.45771432), vec2(-0.81544232, -0.87912464),
+    vec2(-0.38277543, 0.27676845), vec2(0.97484398, 0.75648379), vec2(0.44323325, -0.97511554),
+    vec2(0.53742981, -0.47373420), vec2(-0.26496911, -0.41893023), vec2(0.79197514, 0.19090188),
+    vec2(-0.24188840, 0.99706507), vec2(-0.81409955, 0.91437590), vec2(0.19984126, 0.78641367),
+    vec2(0.14383161, -0.14100790));
+#define SHADOW_MAX_FILTER_TEXELS 48.0
+
+float shadow_depth_at(ShadowSlot slot, vec2 texel_f) {
+    int size = slot.rect.z;
+    ivec2 texel = clamp(ivec2(texel_f), ivec2(0), ivec2(size - 1));
+    ivec2 at = slot.rect.xy + texel;
+    return min(texelFetch(u_shadow_atlas, at, 0).r, texelFetch(u_shadow_dynamic, at, 0).r);
+}
+
+// Distance along the slot's view axis of a stored depth (window depth in [0, 1]).
+float shadow_linear_depth(ShadowSlot slot, float window_depth) {
+    float near = slot.texel.z, far = slot.texel.w;
+    if (slot.texel.y > 0.5) {
+        float z_ndc = window_depth * 2.0 - 1.0;
+        return 2.0 * near * far / max(far + near - z_ndc * (far - near), 1e-30);
+    }
+    return near + window_depth * (far - near);
+}
+
+// 1 when lit, 0 when a shadow map says an occluder lies between p and the light; in between
+// in the penumbra of a lamp of `size` (Light.position.w).
 // Normal-offset bias: the lookup point moves off the surface by the bias setting plus
 // one and a half shadow texels (their world size grows with distance for perspective
 // slots), which removes acne at any map resolution without detaching contact shadows.
@@ -33,34 +68,97 @@ float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light) {
     int slot_index = first;
     if (light.info.z == 6) slot_index += cube_face(p - light.position.xyz);
     ShadowSlot slot = shadow_slots[slot_index];
-    float texel_world = slot.texel.x * (slot.texel.y > 0.5 ? distance(p, light.position.xyz) : 1.0);
+    bool perspective = slot.texel.y > 0.5;
+    float texel_world = slot.texel.x * (perspective ? distance(p, light.position.xyz) : 1.0);
     float sin_angle = sqrt(max(0.0, 1.0 - dot(n, to_light) * dot(n, to_light)));
     vec3 offset = n * (u_shadow_bias + 1.5 * texel_world * sin_angle + 0.5 * texel_world) + to_light * (0.25 * u_shadow_bias);
     vec4 q = slot.view_proj * vec4(p + offset, 1.0);
     if (q.w <= 0.0) return 1.0;
     vec3 ndc = q.xyz / q.w;
     if (any(greaterThan(abs(ndc.xy), vec2(1.0))) || ndc.z > 1.0) return 1.0;
-    int size = slot.rect.z;
-    ivec2 texel = clamp(ivec2((ndc.xy * 0.5 + 0.5) * float(size)), ivec2(0), ivec2(size - 1));
-    ivec2 at = slot.rect.xy + texel;
-    float stored = min(texelFetch(u_shadow_atlas, at, 0).r, texelFetch(u_shadow_dynamic, at, 0).r);
-    return (ndc.z * 0.5 + 0.5) <= stored + 1e-5 ? 1.0 : 0.0;
+    float size = float(slot.rect.z);
+    vec2 texel_f = (ndc.xy * 0.5 + 0.5) * size;
+    float receiver = ndc.z * 0.5 + 0.5;
+    float lamp = light.position.w;
+    if (!(lamp > 0.0)) {
+        return receiver <= shadow_depth_at(slot, texel_f) + 1e-5 ? 1.0 : 0.0;
+    }
+    // World width of the penumbra per unit of receiver-to-blocker distance: the sun's
+    // angular diameter, or the lamp's diameter over the blocker's distance from it.
+    float d_receiver = shadow_linear_depth(slot, receiver);
+    float angle = float(u_sample) * 2.39996323 + 6.2831853 * random2(uvec4(floatBitsToUint(p.xy), uint(slot_index), 7u)).x;
+    mat2 rot = mat2(cos(angle), sin(angle), -sin(angle), cos(angle));
+    // Blocker search over the widest penumbra a blocker half-way to the lamp would cast.
+    float widest = perspective ? 2.0 * lamp : lamp * 0.5 * d_receiver;
+    float search = clamp(widest / texel_world, 1.0, SHADOW_MAX_FILTER_TEXELS);
+    float blockers = 0.0, blocker_depth = 0.0;
+    for (int i = 0; i < 8; ++i) {
+        float stored = shadow_depth_at(slot, texel_f + rot * POISSON16[i * 2] * search);
+        if (stored + 1e-5 < receiver) {
+            blockers += 1.0;
+            blocker_depth += shadow_linear_depth(slot, stored);
+        }
+    }
+    if (blockers == 0.0) return 1.0;
+    float d_blocker = blocker_depth / blockers;
+    float penumbra_world = perspective ? 2.0 * lamp * (d_receiver - d_blocker) / max(d_blocker, 1e-6)
+                                       : 2.0 * tan(0.5 * lamp) * (d_receiver - d_blocker);
+    float radius = clamp(0.5 * penumbra_world / texel_world, 0.5, SHADOW_MAX_FILTER_TEXELS);
+    float lit = 0.0;
+    for (int i = 0; i < 16; ++i) {
+        float stored = shadow_depth_at(slot, texel_f + rot * POISSON16[i] * radius);
+        lit += receiver <= stored + 1e-5 ? 1.0 : 0.0;
+    }
+    return lit / 16.0;
 }
 
-// Irradiance arriving at p (normal n, facing the viewer) from all lights, with shadows.
-vec3 direct_irradiance(vec3 p, vec3 n) {
-    vec3 total = vec3(0.0);
+// The glossy response of a lamp: GGX distribution with Smith's height-correlated
+// visibility, for roughness alpha widened by the lamp's angular size `spread`. The widened
+// lobe still integrates to one, so a mirror shows a lamp of radius r as a disc carrying the
+// lamp's whole reflected light, and a lamp of no size in a mirror shows nothing (as in Cycles).
+float ggx_lamp(vec3 n, vec3 v, vec3 l, float alpha, float spread) {
+    vec3 h = normalize(v + l);
+    float n_h = max(dot(n, h), 0.0);
+    float n_v = max(dot(n, v), 1e-4);
+    float n_l = max(dot(n, l), 1e-4);
+    float wide = min(alpha + spread, 1.0);
+    if (wide < 1e-3) return 0.0;
+    float a2 = wide * wide;
+    float denom = n_h * n_h * (a2 - 1.0) + 1.0;
+    float d = a2 / (PI * denom * denom);
+    float vis = 0.5 / (n_l * sqrt(n_v * n_v * (1.0 - a2) + a2) + n_v * sqrt(n_l * n_l * (1.0 - a2) + a2));
+    return d * vis;
+}
+
+// Light arriving at p (normal n facing the viewer, unit v towards the viewer) from all
+// lamps, with shadows: `irradiance` for the diffuse lobe, and the lamps' glossy reflection
+// (already times the BRDF) for a specular layer of reflectance f0 at normal incidence,
+// rising to `f90` at grazing (Schlick), and roughness `roughness`.
+struct DirectLight {
+    vec3 irradiance;
+    vec3 glossy;
+};
+
+DirectLight direct_lighting(vec3 p, vec3 n, vec3 v, vec3 f0, float f90, float roughness) {
+    DirectLight result;
+    result.irradiance = vec3(0.0);
+    result.glossy = vec3(0.0);
+    bool glossy = max(max(f0.r, f0.g), max(f0.b, f90)) > 0.0;
+    float alpha = roughness * roughness;
     for (int i = 0; i < u_light_count; ++i) {
         Light light = lights[i];
         int kind = light.info.x;
         vec3 to_light;
         float dist2 = 1.0;
+        float spread;
         if (kind == LIGHT_SUN) {
             to_light = -light.direction.xyz;
+            spread = 0.5 * tan(0.5 * light.position.w);
         } else {
             vec3 delta = light.position.xyz - p;
             dist2 = max(dot(delta, delta), 1e-12);
             to_light = delta * inversesqrt(dist2);
+            spread = 0.5 * light.position.w * inversesqrt(dist2);
         }
         float cos_surface = dot(n, to_light);
         if (cos_surface <= 0.0) continue;
@@ -82,7 +180,18 @@ vec3 direct_irradiance(vec3 p, vec3 n) {
             }
         }
         if (dot(e, e) == 0.0) continue;
-        total += e * shadow_visibility(light, p, n, to_light);
+        e *= shadow_visibility(light, p, n, to_light);
+        result.irradiance += e;
+        if (glossy) {
+            float v_h = clamp(dot(v, normalize(v + to_light)), 0.0, 1.0);
+            vec3 fresnel = f0 + (vec3(f90) - f0) * pow(1.0 - v_h, 5.0);
+            result.glossy += e * fresnel * ggx_lamp(n, v, to_light, alpha, spread);
+        }
     }
-    return total;
+    return result;
+}
+
+// Irradiance arriving at p (normal n, facing the viewer) from all lights, with shadows.
+vec3 direct_irradiance(vec3 p, vec3 n) {
+    return direct_lighting(p, n, n, vec3(0.0), 0.0, 1.0).irradiance;
 }

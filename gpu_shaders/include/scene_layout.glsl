@@ -4,9 +4,11 @@
 // SHADOW_SLOT_DTYPE); the byte sizes are asserted on the Python side.
 
 // struct Material                                           // total: 64 bytes
-//   vec4 base_color_refl;  rgb = linear base colour, a = reflectivity (mirror lobe weight)
+//   vec4 base_color_refl;  rgb = linear base colour, a = reflectivity (metal lobe weight)
 //   vec4 emission_trans;   rgb = emitted radiance,   a = transmission (glass lobe weight)
-//   vec4 params;           x = IOR, y = thickness (paper §3.4), zw unused
+//   vec4 params;           x = IOR, y = thickness (paper §3.4), z = roughness (GGX),
+//                          w = reflectance of the diffuse layer's specular coat at normal
+//                          incidence (0: none)
 //   ivec4 textures;        x = base colour texture layer, y = emission texture layer
 //                          (-1 = none; the texture multiplies the colour above, see
 //                          textures.glsl), zw reserved (-1)
@@ -18,7 +20,8 @@ struct Material {
 };
 
 // struct Light                                              // total: 64 bytes
-//   vec4 position;   xyz = world position, w = radius (soft size, informational)
+//   vec4 position;   xyz = world position, w = size: point/spot radius, area half-size, sun
+//                    angular diameter (radians); softens shadows and widens highlights
 //   vec4 direction;  xyz = unit direction the light points to, w = cos(spot half angle)
 //   vec4 color;      rgb = colour * power (W, or W/m^2 for sun), w = spot blend
 //   ivec4 info;      x = kind (0 point, 1 sun, 2 spot, 3 area), y = first shadow slot

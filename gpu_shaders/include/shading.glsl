@@ -3,15 +3,25 @@
 // faces, paper §3.5) and by the hybrid tracer's hits in the BVH (§3.4), so that a surface
 // looks the same whichever structure found it.
 //
-// A material (scene_layout.glsl) splits into three lobes whose weights sum to 1:
-//   mirror  = reflectivity            perfect reflection tinted by the base colour
-//   glass   = transmission            clear dielectric of index IOR: Fresnel-weighted mix of
-//                                     the reflected ray and the refracted ray (tinted)
-//   diffuse = 1 - mirror - glass      Lambertian, lit directly (lighting.glsl, shadow maps)
-// plus emission. The local part (emission + diffuse) is `shade_local`; the two specular
-// lobes become secondary rays with the weights of `specular_split`.
+// A material (scene_layout.glsl, hybrid_engine/materials.py) is the Principled BSDF folded
+// into three layers whose weights sum to 1, plus emission:
+//   metal   = metallic                 reflection tinted by the base colour
+//   glass   = transmission             dielectric of index IOR: exact Fresnel mix of the
+//                                      reflected and the refracted ray (tinted)
+//   diffuse = 1 - metal - glass        Lambertian under a dielectric specular coat of
+//                                      reflectance f0 at normal incidence (Specular IOR
+//                                      Level); the coat takes its Fresnel share of the light
+// all with one roughness (GGX). A reflection smoother than ROUGH_TRACE_LIMIT, and every
+// refraction, becomes a secondary ray (its direction drawn from the GGX lobe per sample,
+// exact when the roughness is 0); a rougher reflection looks up the sky prefiltered to its
+// roughness (sky.glsl), times the sky's visibility. Diffuse surfaces take the lamps with
+// shadow maps (lighting.glsl) and the World's irradiance (world_light.glsl), times the
+// sky's visibility; every specular layer takes the lamps' glossy highlights.
 #include "scene_layout.glsl"
 #include "lighting.glsl"
+#include "sky.glsl"
+#include "world_light.glsl"
+#include "random.glsl"
 
 // Exact unpolarised Fresnel reflectance; eta = n_transmitted / n_incident.
 float fresnel_dielectric(float cos_i, float eta) {
@@ -30,30 +40,56 @@ vec3 safe_normalize(vec3 v, vec3 fallback) {
     return v * inversesqrt(len2);
 }
 
+// Reflections this smooth are traced; rougher ones look the prefiltered sky up.
+const float ROUGH_TRACE_LIMIT = 0.5;
+
 float material_reflectivity(Material m) { return clamp(m.base_color_refl.a, 0.0, 1.0); }
 float material_transmission(Material m) { return clamp(m.emission_trans.a, 0.0, 1.0); }
+float material_roughness(Material m) { return clamp(m.params.z, 0.0, 1.0); }
+float material_coat_f0(Material m) { return clamp(m.params.w, 0.0, 1.0); }
 float material_diffuse(Material m) {
     return max(0.0, 1.0 - material_reflectivity(m) - material_transmission(m));
 }
+bool material_reflection_traced(Material m) { return material_roughness(m) < ROUGH_TRACE_LIMIT; }
+// Whether the tracer follows rays from this material at all.
 bool material_is_specular(Material m) {
-    return material_reflectivity(m) > 0.0 || material_transmission(m) > 0.0;
+    bool reflects = material_reflectivity(m) > 0.0 || material_coat_f0(m) > 0.0;
+    return material_transmission(m) > 0.0 || (reflects && material_reflection_traced(m));
 }
 
-// Emission plus the diffuse lobe lit by all lights (with shadow maps) at p, n_facing being
-// the shading normal turned towards the viewer (two-sided shading, like Blender). `albedo`
-// and `emission` are the material's colours with its image textures applied (textures.glsl).
-vec3 shade_local_emission(Material m, vec3 albedo, vec3 emission, vec3 p, vec3 n_facing) {
-    vec3 color = emission;
-    float diffuse_weight = material_diffuse(m);
-    if (diffuse_weight > 0.0) {
-        color += diffuse_weight * albedo / PI * direct_irradiance(p, n_facing);
-    }
-    return color;
+// The specular coat's directional albedo (Karis 2014's fit of the split-sum DFG term): the
+// share of light it reflects at cos_v and roughness, scale * f0 + bias. Reflectances below
+// 2 % fade the grazing bias out with them (a coat of level 0 reflects nothing).
+float coat_reflectance(float f0, float cos_v, float roughness) {
+    if (!(f0 > 0.0)) return 0.0;
+    const vec4 c0 = vec4(-1.0, -0.0275, -0.572, 0.022);
+    const vec4 c1 = vec4(1.0, 0.0425, 1.04, -0.04);
+    vec4 r = roughness * c0 + c1;
+    float a004 = min(r.x * r.x, exp2(-9.28 * cos_v)) * r.x + r.y;
+    vec2 ab = vec2(-1.04, 1.04) * a004 + r.zw;
+    return clamp(f0 * ab.x + clamp(50.0 * f0, 0.0, 1.0) * ab.y, 0.0, 1.0);
 }
 
-// The same for an untextured emission.
-vec3 shade_local(Material m, vec3 albedo, vec3 p, vec3 n_facing) {
-    return shade_local_emission(m, albedo, m.emission_trans.rgb, p, n_facing);
+// A microfacet normal of the GGX lobe of roughness alpha around n, seen from v (unit, towards
+// the viewer): Heitz 2018's sampling of the visible normals, from two uniform numbers xi.
+vec3 sample_ggx_visible_normal(vec3 n, vec3 v, float alpha, vec2 xi) {
+    if (alpha < 1e-4) return n;
+    vec3 t, b;
+    basis_around(n, t, b);
+    vec3 vl = vec3(dot(v, t), dot(v, b), max(dot(v, n), 1e-4));
+    vec3 vh = normalize(vec3(alpha * vl.x, alpha * vl.y, vl.z));
+    float len2 = vh.x * vh.x + vh.y * vh.y;
+    vec3 t1 = len2 > 0.0 ? vec3(-vh.y, vh.x, 0.0) * inversesqrt(len2) : vec3(1.0, 0.0, 0.0);
+    vec3 t2 = cross(vh, t1);
+    float r = sqrt(xi.x);
+    float phi = 2.0 * PI * xi.y;
+    float p1 = r * cos(phi);
+    float p2 = r * sin(phi);
+    float s = 0.5 * (1.0 + vh.z);
+    p2 = (1.0 - s) * sqrt(max(0.0, 1.0 - p1 * p1)) + s * p2;
+    vec3 nh = p1 * t1 + p2 * t2 + sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2)) * vh;
+    vec3 hl = normalize(vec3(alpha * nh.x, alpha * nh.y, max(nh.z, 0.0)));
+    return normalize(hl.x * t + hl.y * b + hl.z * n);
 }
 
 // The specular lobes of a hit seen along `view_dir` (unit, towards the surface) with shading
@@ -75,6 +111,11 @@ struct SpecularSplit {
     vec3 refract_weight;
     vec3 n_facing;  // the shading normal on the viewer's side
     vec3 g_facing;  // the geometric normal on the viewer's side (n_facing when g is unknown)
+    float diffuse_weight;  // the diffuse layer's share after its coat took its reflection
+    vec3 glossy_local;     // weight of the reflection not traced (too rough): prefiltered sky
+    vec3 glossy_dir;       // its direction (the mirror direction about the shading normal)
+    vec3 lamp_f0;          // reflectance of all specular layers at normal incidence (lamps)
+    float lamp_f90;        // ... and at grazing incidence
 };
 
 // d turned towards `side` (unit) until it leaves the plane at an elevation of at least
@@ -85,7 +126,7 @@ vec3 keep_on_side(vec3 d, vec3 side, float min_cos) {
     return safe_normalize(d + side * (min_cos - c), side);
 }
 
-SpecularSplit specular_split_geometric(Material m, vec3 albedo, vec3 view_dir, vec3 n, vec3 g) {
+SpecularSplit specular_split_sampled(Material m, vec3 albedo, vec3 view_dir, vec3 n, vec3 g, vec2 xi) {
     SpecularSplit s;
     bool known = dot(g, g) > 0.5;
     // The plane normal oriented like the shading normal (outwards, as modelled).
@@ -95,20 +136,38 @@ SpecularSplit specular_split_geometric(Material m, vec3 albedo, vec3 view_dir, v
     s.g_facing = entering ? g_out : -g_out;
     // Cycles' threshold: 0.01, or less for a ray arriving almost along the plane.
     float min_cos = min(0.9 * max(-dot(view_dir, s.g_facing), 0.0), 0.01);
-    s.reflect_dir = reflect(view_dir, s.n_facing);
+    float roughness = material_roughness(m);
+    // This sample's microfacet normal (the shading normal itself when smooth).
+    vec3 h = sample_ggx_visible_normal(s.n_facing, -view_dir, roughness * roughness, xi);
+    s.reflect_dir = reflect(view_dir, h);
+    if (dot(s.reflect_dir, s.n_facing) <= 0.0) s.reflect_dir = reflect(view_dir, s.n_facing);
     if (known) s.reflect_dir = keep_on_side(s.reflect_dir, s.g_facing, min_cos);
+    s.glossy_dir = reflect(view_dir, s.n_facing);
     float reflectivity = material_reflectivity(m);
     float transmission = material_transmission(m);
-    s.reflect_weight = reflectivity * albedo;
+    float cos_v = clamp(-dot(view_dir, s.n_facing), 0.0, 1.0);
+    float f0 = material_coat_f0(m);
+    float coat = coat_reflectance(f0, cos_v, roughness);
+    float diffuse = material_diffuse(m);
+    s.diffuse_weight = diffuse * (1.0 - coat);
+    vec3 reflection = reflectivity * albedo + vec3(diffuse * coat);
+    s.lamp_f0 = reflectivity * albedo + vec3(diffuse * f0);
+    s.lamp_f90 = reflectivity + (f0 > 0.0 ? diffuse : 0.0);
+    bool traced = material_reflection_traced(m);
+    s.reflect_weight = traced ? reflection : vec3(0.0);
+    s.glossy_local = traced ? vec3(0.0) : reflection;
     s.refract_weight = vec3(0.0);
     s.refract_dir = view_dir;
     if (transmission > 0.0) {
         float ior = max(m.params.x, 1.0);
         float eta = entering ? ior : 1.0 / ior;
-        float cos_i = clamp(-dot(view_dir, s.n_facing), 0.0, 1.0);
+        float cos_i = clamp(-dot(view_dir, h), 0.0, 1.0);
         float f = fresnel_dielectric(cos_i, eta);
-        vec3 refracted = refract(view_dir, s.n_facing, 1.0 / eta);
+        vec3 refracted = refract(view_dir, h, 1.0 / eta);
         s.reflect_weight += vec3(transmission * f);
+        float f_normal = (ior - 1.0) / (ior + 1.0);
+        s.lamp_f0 += vec3(transmission * f_normal * f_normal);
+        s.lamp_f90 += transmission;
         if (f < 1.0 && dot(refracted, refracted) > 0.0) {
             s.refract_dir = normalize(refracted);
             if (known) s.refract_dir = keep_on_side(s.refract_dir, -s.g_facing, min_cos);
@@ -118,7 +177,34 @@ SpecularSplit specular_split_geometric(Material m, vec3 albedo, vec3 view_dir, v
     return s;
 }
 
+// The smooth (unsampled) split: the mirror and refraction directions about the shading normal.
+SpecularSplit specular_split_geometric(Material m, vec3 albedo, vec3 view_dir, vec3 n, vec3 g) {
+    return specular_split_sampled(m, albedo, view_dir, n, g, vec2(0.0));
+}
+
 // The same where only the shading normal is known.
 SpecularSplit specular_split(Material m, vec3 albedo, vec3 view_dir, vec3 n) {
     return specular_split_geometric(m, albedo, view_dir, n, vec3(0.0));
+}
+
+// Everything of a surface that is not a secondary ray: emission, the diffuse layer lit by the
+// lamps and the World, the lamps' glossy highlights on every specular layer, and the
+// reflections too rough to trace (prefiltered sky). `view_dir` points at the surface; `split`
+// is its specular_split; `sky_visibility` the share of the sky the point sees (ambient
+// occlusion: 1 where unknown). `albedo` and `emission` are the material's colours with its
+// image textures applied (textures.glsl).
+vec3 shade_surface(Material m, vec3 albedo, vec3 emission, vec3 p, vec3 view_dir, SpecularSplit split,
+                   float sky_visibility) {
+    vec3 color = emission;
+    vec3 n = split.n_facing;
+    DirectLight direct = direct_lighting(p, n, -view_dir, split.lamp_f0, split.lamp_f90, material_roughness(m));
+    if (split.diffuse_weight > 0.0) {
+        vec3 irradiance = direct.irradiance + sky_irradiance(n) * sky_visibility;
+        color += split.diffuse_weight * albedo / PI * irradiance;
+    }
+    color += direct.glossy;
+    if (max(max(split.glossy_local.r, split.glossy_local.g), split.glossy_local.b) > 0.0) {
+        color += split.glossy_local * sky_radiance_rough(split.glossy_dir, material_roughness(m)) * sky_visibility;
+    }
+    return color;
 }

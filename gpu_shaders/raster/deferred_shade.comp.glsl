@@ -1,24 +1,30 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Deferred shading of primary hits (paper §3.5 and the first half of step 4 of §3).
 //
-// Reads a G-buffer and writes its shaded colour: emission + diffuse lobe lit by all lights
-// with shadow maps (include/shading.glsl). With u_traced_specular = 0 (RASTER mode, and the
-// default of an unset uniform) the mirror and glass lobes look up the sky in the reflected /
-// refracted direction (the classic environment-map approximation); with 1 they are left out,
-// because the hybrid tracer (trace/hybrid_trace.comp.glsl) adds them as traced rays -- on the
-// primary image and when it hits a cube-map face. Background pixels get the sky, or
+// Reads a G-buffer and writes its shaded colour: everything of the surface that is not a
+// traced ray (include/shading.glsl shade_surface: emission, the diffuse layer lit by the
+// lamps with shadow maps and by the World, lamp highlights, too-rough reflections). With
+// u_traced_specular = 0 (RASTER mode, and the default of an unset uniform) the traced lobes
+// look the sky up in the reflected / refracted direction (the classic environment-map
+// approximation); with 1 they are left out, because the hybrid tracer
+// (trace/hybrid_trace.comp.glsl) adds them as traced rays.
+//
+// The sky's visibility is screen-space ambient occlusion: cosine-distributed points within
+// u_ao_distance above the surface, projected into the depth buffer; a point hidden behind a
+// stored surface that rises above p's tangent plane within reach of p is occluded. Each sample (u_sample) rotates the
+// points, so accumulated samples converge to a smooth estimate. Background pixels get the sky, or
 // (0, 0, 0, 0) with u_transparent_background = 1 (Blender's transparent film, film.py):
 // alpha 0 there, and premultiplied colour 0; reflections still see the sky.
 //
 // Bindings: u_depth (DEPTH32F), u_normal_material (RGBA32F), u_albedo (RGBA16F),
 //   u_emission_scale (RGBA16F: the emission texture's colour, multiplies the emission) read;
-//   SSBO 0 materials, 1 lights, 2 shadow slots read; image unit 0 (RGBA32F) written.
+//   SSBO 0 materials, 1 lights, 2 shadow slots, 9 sky irradiance read; image unit 0 (RGBA32F)
+//   written.
 // Workgroup 8x8: square tiles keep neighbouring pixels (and their G-buffer rows) together.
 #include "scene_layout.glsl"
-#include "sky.glsl"
-#include "lighting.glsl"
 #include "shading.glsl"
 #include "octahedral.glsl"
+#include "random.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -30,6 +36,8 @@ uniform sampler2D u_normal_material;
 uniform sampler2D u_albedo;
 uniform sampler2D u_emission_scale;
 uniform mat4 u_inv_view_proj;
+uniform mat4 u_view_proj;
+uniform float u_ao_distance;  // reach of the ambient occlusion (0: off)
 uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
 uniform int u_orthographic;
@@ -41,6 +49,46 @@ uniform int u_transparent_background;  // 1: the background is transparent, not 
 vec3 unproject(vec2 ndc_xy, float ndc_z) {
     vec4 world = u_inv_view_proj * vec4(ndc_xy, ndc_z, 1.0);
     return world.xyz / world.w;
+}
+
+#define AO_POINTS 8
+
+// The share of the sky that p (unit normal n facing the viewer) sees, from the depth buffer.
+float screen_space_sky_visibility(vec3 p, vec3 n) {
+    if (!(u_ao_distance > 0.0)) return 1.0;
+    vec3 t, b;
+    basis_around(n, t, b);
+    uvec3 at = position_key(p);
+    vec2 shift = random2(uvec4(at.x, at.y ^ pcg_hash(at.z), uint(u_sample), 0x41u));
+    float camera_dist = u_orthographic != 0 ? 0.0 : distance(p, u_camera_position);
+    float occluded = 0.0;
+    for (int i = 0; i < AO_POINTS; ++i) {
+        // A rotated Fibonacci spiral: cosine-distributed directions, lengths spread over the reach.
+        vec2 xi = fract(vec2((float(i) + 0.5) / float(AO_POINTS), float(i) * 0.618034) + shift);
+        float r = sqrt(xi.x);
+        float phi = 2.0 * PI * xi.y;
+        vec3 dir = r * cos(phi) * t + r * sin(phi) * b + sqrt(max(0.0, 1.0 - xi.x)) * n;
+        float reach = u_ao_distance * mix(0.15, 1.0, fract(float(i) * 0.38197 + shift.x));
+        // Lifted off the surface a little, so that points along the plane never sink into it.
+        vec3 q = p + (dir + 0.05 * n) * reach;
+        vec4 clip = u_view_proj * vec4(q, 1.0);
+        if (clip.w <= 0.0) continue;
+        vec3 ndc = clip.xyz / clip.w;
+        if (any(greaterThan(abs(ndc.xy), vec2(1.0)))) continue;
+        ivec2 texel = clamp(ivec2((ndc.xy * 0.5 + 0.5) * vec2(u_size)), ivec2(0), u_size - 1);
+        float stored = texelFetch(u_depth, u_origin + texel, 0).r;
+        if (stored >= ndc.z * 0.5 + 0.5) continue;
+        vec3 s = unproject((vec2(texel) + 0.5) / vec2(u_size) * 2.0 - 1.0, stored * 2.0 - 1.0);  // the stored point
+        // In front of the point, above p's tangent plane (a texel of the plane p lies on,
+        // whose depth differs from q's by the texel's slope, never occludes) and within reach.
+        float ahead = u_orthographic != 0 ? dot(q - s, u_camera_forward)
+                                          : distance(q, u_camera_position) - distance(s, u_camera_position);
+        float height = dot(s - p, n);
+        if (ahead > 0.0 && height > 0.05 * reach + 1e-4 * camera_dist && distance(s, p) < 2.0 * u_ao_distance) {
+            occluded += 1.0;
+        }
+    }
+    return 1.0 - occluded / float(AO_POINTS);
 }
 
 void main() {
@@ -72,10 +120,12 @@ void main() {
     vec3 g = gbuffer_geometric(albedo_g.a, emission_g.a, n);
     SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n, g);
     vec3 emission = m.emission_trans.rgb * emission_g.rgb;
-    vec3 color = shade_local_emission(m, albedo, emission, p, split.n_facing);
+    float visibility = screen_space_sky_visibility(p, split.n_facing);
+    vec3 color = shade_surface(m, albedo, emission, p, view_dir, split, visibility);
     if (u_traced_specular == 0) {
-        color += split.reflect_weight * sky_radiance(split.reflect_dir);
-        color += split.refract_weight * sky_radiance(split.refract_dir);
+        float roughness = material_roughness(m);
+        color += split.reflect_weight * sky_radiance_rough(split.reflect_dir, roughness) * visibility;
+        color += split.refract_weight * sky_radiance_rough(split.refract_dir, roughness);
     }
     if (any(isnan(color)) || any(isinf(color))) color = vec3(0.0);
     imageStore(u_output, pixel, vec4(color, 1.0));

@@ -25,8 +25,13 @@
 //     sky(refract(d, n, 1 / ior)) weighted by (1 - F) and the base colour. The same holds
 //     for any refractive hit outside the near cube in HYBRID (a primary hit there: its
 //     refracted ray would start in the cube map, inside the very object the map stores);
-//   * a ray of depth max_depth spawns nothing: the specular lobes of its hit are black
-//     (Whitted's cut-off; tests/whitted_reference.py does the same).
+//   * a hit is shaded like the deferred pass (shading.glsl shade_surface: the lamps with
+//     shadow maps, the World's irradiance, lamp highlights, too-rough reflections as the
+//     prefiltered sky); its reflected and refracted directions come from the GGX lobe,
+//     drawn per sample (random.glsl, u_sample) and exact when the roughness is 0;
+//   * a ray that would pass max_depth is not traced: it takes the sky in its direction, so
+//     glass and mirrors at the depth limit show the environment, not black
+//     (tests/whitted_reference.py does the same).
 // PROVENANCE mode writes, instead of tracing, blue (0, 0, 1) for specular pixels whose
 // first secondary rays start in the BVH, red (1, 0, 0) for those starting in the cube map,
 // and grey 0.5 elsewhere (paper Figure 4).
@@ -39,7 +44,8 @@
 // Bindings: SSBO 0 materials, 1 lights, 2 shadow slots, 3 BVH nodes, 4 BVH triangles
 //   (bvh_layout.glsl), 5 shading normals (float[9 N], the scene's normal buffer), 6 counters
 //   (read/write), 7 triangle UVs (TriangleUV[N]; read only for materials with image
-//   textures), 8 material ids (int[N]); all per-triangle arrays in original triangle order. Image unit 0: the primary colour (RGBA32F,
+//   textures), 8 material ids (int[N]), 9 sky irradiance (world_light.glsl); all
+//   per-triangle arrays in original triangle order. Image unit 0: the primary colour (RGBA32F,
 //   read and written). Textures: u_textures (textures.glsl; BVH hits sample it at the
 //   interpolated UV, mip level from the ray cone u_pixel_width + u_pixel_spread * distance).
 //   Cube-map hits sample it the same way at the UV their face texel stores.
@@ -50,8 +56,6 @@
 #define BVH_TRIANGLES_BINDING 4
 #include "scene_layout.glsl"
 #include "storage_blocks.glsl"
-#include "sky.glsl"
-#include "lighting.glsl"
 #include "shading.glsl"
 #include "octahedral.glsl"
 #include "float_order.glsl"
@@ -334,9 +338,13 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
 // The pending rays of this invocation (file-scope variables are private per invocation).
 PendingRay stack[STACK_SIZE];
 int stack_size = 0;
+// What the rays past the depth limit see: the sky along their direction.
+vec3 past_depth_limit = vec3(0.0);
 
 void push(vec3 origin, vec3 dir, vec3 weight, int depth) {
-    if (stack_size >= STACK_SIZE || depth > u_max_depth || !(max(max(weight.r, weight.g), weight.b) > 0.0)) {
+    if (!(max(max(weight.r, weight.g), weight.b) > 0.0)) return;
+    if (stack_size >= STACK_SIZE || depth > u_max_depth) {
+        past_depth_limit += weight * sky_radiance(dir);
         return;
     }
     stack[stack_size].origin = origin;
@@ -353,6 +361,13 @@ void push(vec3 origin, vec3 dir, vec3 weight, int depth) {
 void spawn_children(SpecularSplit split, vec3 p, vec3 weight, int depth) {
     push(offset_origin(p, split.g_facing), split.reflect_dir, weight * split.reflect_weight, depth);
     push(offset_origin(p, -split.g_facing), split.refract_dir, weight * split.refract_weight, depth);
+}
+
+// This sample's numbers for the lobes of the hit at bounce `depth` of the pixel whose
+// primary hit lies at pixel_key (position_key: a cropped view draws the same numbers).
+uvec3 pixel_key;
+vec2 lobe_random(int depth) {
+    return random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), uint(u_sample), uint(depth)));
 }
 
 void main() {
@@ -390,7 +405,8 @@ void main() {
     }
 
     vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
-    SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n, g);
+    pixel_key = position_key(p);
+    SpecularSplit split = specular_split_sampled(m, albedo, view_dir, n, g, lobe_random(0));
 
     vec3 traced = vec3(0.0);
     spawn_children(split, p, vec3(1.0), 1);
@@ -409,12 +425,13 @@ void main() {
         Material hm = materials[h.material];
         vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
         vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
-        SpecularSplit hs = specular_split_geometric(hm, h_albedo, ray.dir, h.normal, h.geometric);
-        traced += ray.weight * shade_local_emission(hm, h_albedo, h_emission, h.position, hs.n_facing);
+        SpecularSplit hs = specular_split_sampled(hm, h_albedo, ray.dir, h.normal, h.geometric,
+                                                  lobe_random(ray.depth));
+        traced += ray.weight * shade_surface(hm, h_albedo, h_emission, h.position, ray.dir, hs, 1.0);
         spawn_children(hs, h.position, ray.weight, ray.depth + 1);
     }
     vec4 base = imageLoad(u_color, pixel);
-    vec3 color = base.rgb + traced;
+    vec3 color = base.rgb + traced + past_depth_limit;
     if (any(isnan(color)) || any(isinf(color))) color = base.rgb;
     if (any(isnan(color)) || any(isinf(color))) color = vec3(0.0);
     imageStore(u_color, pixel, vec4(color, 1.0));

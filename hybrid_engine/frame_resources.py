@@ -1,0 +1,75 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The lighting data of a frame, in one owner: lights, shadow atlas, sky, irradiance and the
+reach of the ambient occlusion.
+
+Every pass that shades a surface (the deferred shading of the primary G-buffer, paper §3.5,
+and the tracer's BVH and cube-map hits, §3.4) must light it alike, or a surface would change
+its look with the structure that found it. So these passes receive one ``FrameResources``
+and bind it with :meth:`FrameResources.bind`, the only place that knows the bindings of
+include/lighting.glsl, sky.glsl and world_light.glsl; no pass reaches into another pass's
+objects for them.
+"""
+from __future__ import annotations
+
+from .gpu_dispatch import GrowBuffer
+from .gpu_scene import LIGHT_DTYPE, bytes_of, pack_lights
+from .scene_data import Lights, Sky
+from .settings import RenderSettings
+from .shadow_atlas import ShadowAtlas
+from .sky_light import SKY_SH_BINDING, SkyLight
+
+# Storage bindings of include/lighting.glsl.
+LIGHTS_BINDING = 1
+SHADOW_SLOTS_BINDING = 2
+
+
+class FrameResources:
+    """Lights, shadow atlas and World light on the shared context, kept across frames."""
+
+    def __init__(self, ctx) -> None:
+        self.ctx = ctx
+        self.lights = GrowBuffer(ctx, "scene lights", LIGHT_DTYPE.itemsize)
+        self.lights.ensure(0)
+        self.shadows = ShadowAtlas(ctx)
+        self.sky = SkyLight(ctx)
+        self.light_count = 0
+        self.shadow_bias = 0.0
+        self.ao_distance = 0.0
+
+    def update_lights(self, lights: Lights, shadow_slots: list[tuple[int, int]], settings: RenderSettings) -> None:
+        """This frame's lights with their shadow slots (laid out in ``shadows``), and the
+        settings of the lighting (shadow bias, ambient-occlusion reach)."""
+        self.lights.upload(bytes_of(pack_lights(lights, shadow_slots)))
+        self.light_count = len(lights)
+        self.shadow_bias = float(settings.shadow_bias)
+        self.ao_distance = float(settings.ao_distance)
+
+    def update_sky(self, sky: Sky) -> None:
+        """The World (recomputed only when it changed, sky_light.py)."""
+        self.sky.update(sky)
+
+    def bind(self, prog, first_unit: int) -> int:
+        """Bind the lighting storage blocks and textures for ``prog`` and set its lighting
+        uniforms; texture units from ``first_unit`` on. Returns the next free unit."""
+        from .shader_loader import set_uniforms
+
+        self.shadows.ensure_bindable()
+        self.lights.buffer.bind_to_storage_buffer(LIGHTS_BINDING)
+        self.shadows.slot_buffer.bind_to_storage_buffer(SHADOW_SLOTS_BINDING)
+        self.sky.sh_buffer.bind_to_storage_buffer(SKY_SH_BINDING)
+        textures = {"u_shadow_atlas": self.shadows.static, "u_shadow_dynamic": self.shadows.dynamic,
+                    "u_sky_env": self.sky.texture()}
+        values = {**self.sky.uniforms(), "u_light_count": self.light_count, "u_shadow_bias": self.shadow_bias,
+                  "u_ao_distance": self.ao_distance}
+        unit = first_unit
+        for name, tex in textures.items():
+            tex.use(location=unit)
+            values[name] = unit
+            unit += 1
+        set_uniforms(prog, values)
+        return unit
+
+    def release(self) -> None:
+        self.lights.release()
+        self.shadows.release()
+        self.sky.release()

@@ -1,0 +1,86 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The surface model (gpu_shaders/include/shading.glsl) as an artist sees it: glossy
+dielectrics, rough metals, glass at the depth limit. Measured on small FULL_BVH frames,
+whose rays see exactly the geometry (tracer oracles live in test_tracer.py)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hybrid_engine.camera import Camera, look_at
+from hybrid_engine.renderer import Renderer
+from hybrid_engine.scene_data import Geometry, MaterialTable, SceneData, Sky
+from hybrid_engine.settings import RenderSettings
+from scenes_analytic import quad, uv_sphere
+
+W, H = 64, 48
+EMITTER = 4.0
+
+
+@pytest.fixture(scope="module")
+def renderer(gl):
+    r = Renderer(gl)
+    yield r
+    r.release()
+
+
+def render(renderer, scene, camera, samples=1, **kw):
+    settings = RenderSettings(mode="FULL_BVH", cube_resolution=64, shadow_resolution=256, ao_distance=0.0,
+                              **kw)
+    images = [renderer.render(scene, camera, settings, timing=False, sample=i).image[..., :3]
+              for i in range(samples)]
+    return np.mean(images, axis=0)
+
+
+def floor_and_wall(floor_row):
+    """A floor (material 0) at z = 0 and an emissive wall (material 1) standing at y = 6."""
+    objects = [(quad((0, 0, 0), (20, 0, 0), (0, 20, 0)), None, 0),
+               (quad((0, 6, 3), (20, 0, 0), (0, 0, 3)), None, 1)]
+    mats = MaterialTable.from_rows([floor_row, dict(base_color=(0, 0, 0), emission=(EMITTER,) * 3)])
+    return SceneData(Geometry.from_objects(objects), mats, sky=Sky(color=(0.0, 0.0, 0.0)))
+
+
+def test_a_glossy_dielectric_floor_reflects_at_grazing_angles_and_hardly_at_normal_incidence(renderer):
+    # A black dielectric floor: all it shows is its specular coat (f0 4 %, IOR 1.5).
+    scene = floor_and_wall(dict(base_color=(0, 0, 0), roughness=0.05, specular=0.04))
+    grazing = render(renderer, scene, Camera(matrix_world=look_at((0, -6, 0.4), (0, 0, 0)), width=W, height=H))
+    # Under an emissive ceiling, looking straight down: the reflection at normal incidence.
+    ceiling = [(quad((0, 0, 0), (20, 0, 0), (0, 20, 0)), None, 0), (quad((0, 0, 4), (20, 0, 0), (0, 20, 0)), None, 1)]
+    lit_from_above = SceneData(Geometry.from_objects(ceiling), scene.materials, sky=scene.sky)
+    above = render(renderer, lit_from_above, Camera(matrix_world=look_at((0, 0, 2.0), (0, 0, 0.0), up=(0, 1, 0)),
+                                                    width=W, height=H))
+    floor_rows = grazing[: H // 2]  # below the horizon: the floor
+    reflected = floor_rows.max(axis=(0, 1)).mean()
+    head_on = above[H // 2 - 4: H // 2 + 4, W // 2 - 4: W // 2 + 4].mean()
+    assert reflected > 0.3 * EMITTER, reflected  # Fresnel rises towards 1 at grazing angles
+    assert head_on == pytest.approx(0.04 * EMITTER, rel=0.25), head_on  # f0 at normal incidence
+
+
+def test_a_rough_metal_blurs_its_reflection_more_as_roughness_grows(renderer):
+    # A metal floor reflecting a wall of emissive stripes; the reflection's contrast falls
+    # as the GGX lobe widens (each roughness averaged over the same samples).
+    stripes = [(quad((x, 6, 2), (0.25, 0, 0), (0, 0, 2)), None, 1) for x in np.arange(-6.0, 6.5, 1.0)]
+    objects = [(quad((0, 0, 0), (20, 0, 0), (0, 20, 0)), None, 0), *stripes]
+    contrasts = []
+    for roughness in (0.0, 0.15, 0.3, 0.45):
+        mats = MaterialTable.from_rows([dict(base_color=(0.9, 0.9, 0.9), reflectivity=1.0, roughness=roughness),
+                                        dict(base_color=(0, 0, 0), emission=(EMITTER,) * 3)])
+        scene = SceneData(Geometry.from_objects(objects), mats, sky=Sky(color=(0.0, 0.0, 0.0)))
+        camera = Camera(matrix_world=look_at((0, -2, 1.5), (0, 4, 0)), width=W, height=H)
+        image = render(renderer, scene, camera, samples=16)
+        band = image[4:12, :, :].mean(axis=2)  # rows of the floor reflecting the stripes
+        contrasts.append(float(band.std(axis=1).mean()))
+    assert all(b < a for a, b in zip(contrasts, contrasts[1:])), contrasts
+    assert contrasts[-1] < 0.5 * contrasts[0], contrasts
+
+
+def test_glass_at_the_depth_limit_shows_the_environment_not_black(renderer):
+    tris, normals = uv_sphere((0, 0, 0), 1.0, segments=32, rings=16)
+    mats = MaterialTable.from_rows([dict(base_color=(1, 1, 1), transmission=1.0, ior=1.5)])
+    sky = Sky(color=(0.3, 0.5, 0.8))
+    scene = SceneData(Geometry.from_objects([(tris, normals, 0)]), mats, sky=sky)
+    camera = Camera(matrix_world=look_at((0, -4, 0), (0, 0, 0)), width=W, height=H)
+    image = render(renderer, scene, camera, max_depth=1)
+    ball = image[H // 2 - 4: H // 2 + 4, W // 2 - 4: W // 2 + 4]
+    # Through the ball's centre nearly all light is transmitted: it shows the sky's colour.
+    np.testing.assert_allclose(ball.mean(axis=(0, 1)), sky.color, rtol=0.15)

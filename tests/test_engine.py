@@ -346,3 +346,31 @@ def test_lamp_temperature_gives_blenders_black_body_colour(addon, tmp_path, kelv
     ours_rgb, cycles_rgb = ours[centre].mean(axis=(0, 1)), cycles[centre].mean(axis=(0, 1))
     # The colour, and the brightness with it, per channel within 2 %.
     np.testing.assert_allclose(ours_rgb, cycles_rgb, rtol=0.02)
+
+
+def _penumbra_width(profile: np.ndarray, pixel_size: float) -> float:
+    """Distance between the 10 % and 90 % crossings of a shadow edge's brightness profile."""
+    p = (profile - profile.min()) / max(profile.max() - profile.min(), 1e-12)
+    x = np.arange(len(p)) * pixel_size
+    rising = p if p[-1] > p[0] else p[::-1]
+    return float(np.interp(0.9, rising, x) - np.interp(0.1, rising, x))
+
+
+def test_a_sun_with_an_angle_casts_a_penumbra_as_wide_as_cycles_does(addon, tmp_path):
+    import bpy
+
+    scene = build_plane_scene(bpy, "SUN", energy=3.0, size=96)
+    scene.render.resolution_y = 8
+    scene.camera.data.ortho_scale = 1.6  # 96 pixels across 1.6 m: 1/60 m a pixel
+    light = bpy.data.lights["light"]
+    light.angle = np.radians(10.0)
+    # A slab 2 m above the floor covering x < 0: its edge's shadow on the floor is straight below.
+    bpy.ops.mesh.primitive_cube_add(location=(-3.0, 0.0, 2.0), scale=(3.0, 3.0, 0.05))
+    scene.hybrid_rt.shadow_resolution = 4096
+    ours, cycles = _render_both(bpy, scene, tmp_path)
+    pixel = 1.6 / 96
+    widths = {name: _penumbra_width(image[2:-2, :, 1].mean(axis=0), pixel)
+              for name, image in (("ours", ours), ("cycles", cycles))}
+    expected = 2 * 1.95 * np.tan(np.radians(5.0))  # the sun's disc seen past the edge: about 0.34 m
+    assert 0.5 * expected < widths["cycles"] < 1.5 * expected, widths  # the scene does what it should
+    assert abs(widths["ours"] - widths["cycles"]) < 0.25 * widths["cycles"], widths

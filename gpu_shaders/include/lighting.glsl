@@ -9,7 +9,7 @@
 //
 // Lamps have a size (Light.position.w: point and spot radius, area half-size, sun angular
 // diameter in radians), which softens shadows (percentage-closer soft shadows, Fernando
-// 2005: a blocker search gives the penumbra's width, a rotated Poisson filter of that width
+// 2005: a blocker search gives the penumbra's width, a rotated disc filter of that width
 // the visibility) and widens glossy highlights (a sphere light's roughness widening, Karis
 // 2013).
 #include "scene_layout.glsl"
@@ -31,13 +31,13 @@ int cube_face(vec3 d) {
     return d.z >= 0.0 ? 4 : 5;
 }
 
-const vec2 POISSON16[16] = vec2[16](
-    vec2(-0.94201624, -0.39906216), vec2(0.94558609, -0.76890725), vec2(-0.09418410, -0.92938870),
-    vec2(0.34495938, 0.29387760), vec2(-0.91588581, 0.45771432), vec2(-0.81544232, -0.87912464),
-    vec2(-0.38277543, 0.27676845), vec2(0.97484398, 0.75648379), vec2(0.44323325, -0.97511554),
-    vec2(0.53742981, -0.47373420), vec2(-0.26496911, -0.41893023), vec2(0.79197514, 0.19090188),
-    vec2(-0.24188840, 0.99706507), vec2(-0.81409955, 0.91437590), vec2(0.19984126, 0.78641367),
-    vec2(0.14383161, -0.14100790));
+// Point i of n spread evenly over the unit disc (Vogel's golden-angle spiral): the filter
+// taps, as uniform over the disc as the lamp they stand for.
+vec2 disc_point(int i, int n) {
+    float r = sqrt((float(i) + 0.5) / float(n));
+    float a = float(i) * 2.39996323;
+    return r * vec2(cos(a), sin(a));
+}
 #define SHADOW_MAX_FILTER_TEXELS 48.0
 
 float shadow_depth_at(ShadowSlot slot, vec2 texel_f) {
@@ -93,7 +93,7 @@ float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light) {
     float search = clamp(widest / texel_world, 1.0, SHADOW_MAX_FILTER_TEXELS);
     float blockers = 0.0, blocker_depth = 0.0;
     for (int i = 0; i < 8; ++i) {
-        float stored = shadow_depth_at(slot, texel_f + rot * POISSON16[i * 2] * search);
+        float stored = shadow_depth_at(slot, texel_f + rot * disc_point(i, 8) * search);
         if (stored + 1e-5 < receiver) {
             blockers += 1.0;
             blocker_depth += shadow_linear_depth(slot, stored);
@@ -106,7 +106,7 @@ float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light) {
     float radius = clamp(0.5 * penumbra_world / texel_world, 0.5, SHADOW_MAX_FILTER_TEXELS);
     float lit = 0.0;
     for (int i = 0; i < 16; ++i) {
-        float stored = shadow_depth_at(slot, texel_f + rot * POISSON16[i] * radius);
+        float stored = shadow_depth_at(slot, texel_f + rot * disc_point(i, 16) * radius);
         lit += receiver <= stored + 1e-5 ? 1.0 : 0.0;
     }
     return lit / 16.0;

@@ -31,14 +31,25 @@ int cube_face(vec3 d) {
     return d.z >= 0.0 ? 4 : 5;
 }
 
-// Point i of n spread evenly over the unit disc (Vogel's golden-angle spiral): the filter
-// taps, as uniform over the disc as the lamp they stand for.
-vec2 disc_point(int i, int n) {
-    float r = sqrt((float(i) + 0.5) / float(n));
-    float a = float(i) * 2.39996323;
-    return r * vec2(cos(a), sin(a));
-}
+// 16 points spread evenly over the unit disc (Vogel's golden-angle spiral: point i at radius
+// sqrt((i + 0.5) / 16), angle 2.39996 i): the filter taps, as uniform over the disc as the
+// lamp they stand for. Any prefix of the spiral covers the disc evenly too.
+const vec2 DISC16[16] = vec2[16](
+    vec2(0.176777, 0.000000), vec2(-0.225772, 0.206826), vec2(0.034558, -0.393771),
+    vec2(0.284571, 0.371173), vec2(-0.522223, -0.092374), vec2(0.494695, -0.314685),
+    vec2(-0.165466, 0.615525), vec2(-0.315561, -0.607594), vec2(0.684642, 0.250030),
+    vec2(-0.712256, 0.294009), vec2(0.343355, -0.733729), vec2(0.253730, 0.808932),
+    vec2(-0.764746, -0.443186), vec2(0.897134, -0.197232), vec2(-0.547507, 0.778772),
+    vec2(-0.126487, -0.976090));
 #define SHADOW_MAX_FILTER_TEXELS 48.0
+// Taps of the blocker search and of the penumbra filter (powers of two up to 16); each
+// sample rotates them, so accumulated samples smooth the penumbra.
+#ifndef SHADOW_SEARCH_TAPS
+#define SHADOW_SEARCH_TAPS 4
+#endif
+#ifndef SHADOW_FILTER_TAPS
+#define SHADOW_FILTER_TAPS 8
+#endif
 
 float shadow_depth_at(ShadowSlot slot, vec2 texel_f) {
     int size = slot.rect.z;
@@ -58,11 +69,11 @@ float shadow_linear_depth(ShadowSlot slot, float window_depth) {
 }
 
 // 1 when lit, 0 when a shadow map says an occluder lies between p and the light; in between
-// in the penumbra of a lamp of `size` (Light.position.w).
+// in the penumbra of a lamp of size Light.position.w (with `soft`; hard otherwise).
 // Normal-offset bias: the lookup point moves off the surface by the bias setting plus
 // one and a half shadow texels (their world size grows with distance for perspective
 // slots), which removes acne at any map resolution without detaching contact shadows.
-float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light) {
+float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light, bool soft) {
     int first = light.info.y;
     if (first < 0) return 1.0;
     int slot_index = first;
@@ -80,7 +91,7 @@ float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light) {
     vec2 texel_f = (ndc.xy * 0.5 + 0.5) * size;
     float receiver = ndc.z * 0.5 + 0.5;
     float lamp = light.position.w;
-    if (!(lamp > 0.0)) {
+    if (!(lamp > 0.0) || !soft) {
         return receiver <= shadow_depth_at(slot, texel_f) + 1e-5 ? 1.0 : 0.0;
     }
     // World width of the penumbra per unit of receiver-to-blocker distance: the sun's
@@ -92,24 +103,25 @@ float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light) {
     float widest = perspective ? 2.0 * lamp : lamp * 0.5 * d_receiver;
     float search = clamp(widest / texel_world, 1.0, SHADOW_MAX_FILTER_TEXELS);
     float blockers = 0.0, blocker_depth = 0.0;
-    for (int i = 0; i < 8; ++i) {
-        float stored = shadow_depth_at(slot, texel_f + rot * disc_point(i, 8) * search);
+    for (int i = 0; i < SHADOW_SEARCH_TAPS; ++i) {
+        float stored = shadow_depth_at(slot, texel_f + rot * DISC16[i * (16 / SHADOW_SEARCH_TAPS)] * search);
         if (stored + 1e-5 < receiver) {
             blockers += 1.0;
             blocker_depth += shadow_linear_depth(slot, stored);
         }
     }
     if (blockers == 0.0) return 1.0;
+    if (blockers == float(SHADOW_SEARCH_TAPS)) return 0.0;  // every tap blocked: the umbra
     float d_blocker = blocker_depth / blockers;
     float penumbra_world = perspective ? 2.0 * lamp * (d_receiver - d_blocker) / max(d_blocker, 1e-6)
                                        : 2.0 * tan(0.5 * lamp) * (d_receiver - d_blocker);
     float radius = clamp(0.5 * penumbra_world / texel_world, 0.5, SHADOW_MAX_FILTER_TEXELS);
     float lit = 0.0;
-    for (int i = 0; i < 16; ++i) {
-        float stored = shadow_depth_at(slot, texel_f + rot * disc_point(i, 16) * radius);
+    for (int i = 0; i < SHADOW_FILTER_TAPS; ++i) {
+        float stored = shadow_depth_at(slot, texel_f + rot * DISC16[i * (16 / SHADOW_FILTER_TAPS)] * radius);
         lit += receiver <= stored + 1e-5 ? 1.0 : 0.0;
     }
-    return lit / 16.0;
+    return lit / float(SHADOW_FILTER_TAPS);
 }
 
 // The glossy response of a lamp: GGX distribution with Smith's height-correlated
@@ -131,19 +143,20 @@ float ggx_lamp(vec3 n, vec3 v, vec3 l, float alpha, float spread) {
 }
 
 // Light arriving at p (normal n facing the viewer, unit v towards the viewer) from all
-// lamps, with shadows: `irradiance` for the diffuse lobe, and the lamps' glossy reflection
-// (already times the BRDF) for a specular layer of reflectance f0 at normal incidence,
-// rising to `f90` at grazing (Schlick), and roughness `roughness`.
+// lamps, with shadows: `irradiance` for the diffuse lobe (when `diffuse`), and the lamps'
+// glossy reflection (already times the BRDF) for a specular layer of reflectance f0 at
+// normal incidence, rising to `f90` at grazing (Schlick), and roughness `roughness`.
 struct DirectLight {
     vec3 irradiance;
     vec3 glossy;
 };
 
-DirectLight direct_lighting(vec3 p, vec3 n, vec3 v, vec3 f0, float f90, float roughness) {
+DirectLight direct_lighting(vec3 p, vec3 n, vec3 v, vec3 f0, float f90, float roughness, bool diffuse) {
     DirectLight result;
     result.irradiance = vec3(0.0);
     result.glossy = vec3(0.0);
     bool glossy = max(max(f0.r, f0.g), max(f0.b, f90)) > 0.0;
+    if (!diffuse && !glossy) return result;
     float alpha = roughness * roughness;
     for (int i = 0; i < u_light_count; ++i) {
         Light light = lights[i];
@@ -162,6 +175,9 @@ DirectLight direct_lighting(vec3 p, vec3 n, vec3 v, vec3 f0, float f90, float ro
         }
         float cos_surface = dot(n, to_light);
         if (cos_surface <= 0.0) continue;
+        // A smooth surface shows a lamp of no size nowhere: skip the shadow test for it.
+        float lobe = glossy ? ggx_lamp(n, v, to_light, alpha, spread) : 0.0;
+        if (!diffuse && lobe == 0.0) continue;
         vec3 e = light.color.rgb * cos_surface;
         if (kind == LIGHT_SUN) {
             // strength is irradiance on a surface facing the sun
@@ -180,18 +196,14 @@ DirectLight direct_lighting(vec3 p, vec3 n, vec3 v, vec3 f0, float f90, float ro
             }
         }
         if (dot(e, e) == 0.0) continue;
-        e *= shadow_visibility(light, p, n, to_light);
+        // Highlights alone (a mirror) take the hard test: their lobe already blurs the edge.
+        e *= shadow_visibility(light, p, n, to_light, diffuse);
         result.irradiance += e;
-        if (glossy) {
+        if (lobe > 0.0) {
             float v_h = clamp(dot(v, normalize(v + to_light)), 0.0, 1.0);
             vec3 fresnel = f0 + (vec3(f90) - f0) * pow(1.0 - v_h, 5.0);
-            result.glossy += e * fresnel * ggx_lamp(n, v, to_light, alpha, spread);
+            result.glossy += e * fresnel * lobe;
         }
     }
     return result;
-}
-
-// Irradiance arriving at p (normal n, facing the viewer) from all lights, with shadows.
-vec3 direct_irradiance(vec3 p, vec3 n) {
-    return direct_lighting(p, n, n, vec3(0.0), 0.0, 1.0).irradiance;
 }

@@ -197,7 +197,8 @@ vec3 shade_surface(Material m, vec3 albedo, vec3 emission, vec3 p, vec3 view_dir
                    float sky_visibility) {
     vec3 color = emission;
     vec3 n = split.n_facing;
-    DirectLight direct = direct_lighting(p, n, -view_dir, split.lamp_f0, split.lamp_f90, material_roughness(m));
+    DirectLight direct = direct_lighting(p, n, -view_dir, split.lamp_f0, split.lamp_f90, material_roughness(m),
+                                         split.diffuse_weight > 0.0);
     if (split.diffuse_weight > 0.0) {
         vec3 irradiance = direct.irradiance + sky_irradiance(n) * sky_visibility;
         color += split.diffuse_weight * albedo / PI * irradiance;

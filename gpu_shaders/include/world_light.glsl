@@ -10,14 +10,15 @@
 #define SKY_SH_BINDING 9
 #endif
 layout(std430, binding = SKY_SH_BINDING) readonly buffer SkyIrradiance { vec4 sky_sh[9]; };
-#include "sh9.glsl"
 
 // Irradiance (W/m^2 per unit radiance) arriving at a surface of unit normal n from the whole
 // unoccluded sky.
 vec3 sky_irradiance(vec3 n) {
-    float y[9];
-    sh9_basis(n, y);
-    vec3 e = vec3(0.0);
-    for (int i = 0; i < 9; ++i) e += sky_sh[i].rgb * y[i];
+    // sh9_basis written out: an indexed array would live in memory on a software GL.
+    vec3 e = 0.282095 * sky_sh[0].rgb
+           + 0.488603 * (n.y * sky_sh[1].rgb + n.z * sky_sh[2].rgb + n.x * sky_sh[3].rgb)
+           + 1.092548 * (n.x * n.y * sky_sh[4].rgb + n.y * n.z * sky_sh[5].rgb + n.x * n.z * sky_sh[7].rgb)
+           + 0.315392 * (3.0 * n.z * n.z - 1.0) * sky_sh[6].rgb
+           + 0.546274 * (n.x * n.x - n.y * n.y) * sky_sh[8].rgb;
     return max(e, vec3(0.0));
 }

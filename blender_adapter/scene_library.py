@@ -60,7 +60,7 @@ from ..hybrid_engine.scenes import chess as chess_core
 
 log = logging.getLogger(__name__)
 
-SCENES = ("chess", "chess_real", "sponza", "large")
+SCENES = ("chess", "chess_real", "sponza", "large", "room")
 DEFAULT_FRAMES = chess_core.CHESS_FRAMES  # the paper's sequences are 200 frames long (§4)
 DEFAULT_RESOLUTION = (1280, 720)  # the paper's 720p
 MAX_DETAIL = chess_core.MAX_DETAIL
@@ -80,10 +80,12 @@ BUDDHA_OBJ = "stanford/happy-buddha-100k.obj"  # decimated to 100 k triangles at
 BUNNY_OBJ = "stanford/stanford-bunny.obj"
 DRAGON_PLY_GZ = "stanford/dragon_vrip.ply.gz"  # ASCII PLY, gunzipped to a temporary folder
 _SPONZA_FILES = (SPONZA_GLTF, BUDDHA_OBJ, BUNNY_OBJ, DRAGON_PLY_GZ)
-ASSETS = {"chess": (), "chess_real": (CHESS_SET_GLTF,), "sponza": _SPONZA_FILES, "large": _SPONZA_FILES}
+ASSETS = {"chess": (), "chess_real": (CHESS_SET_GLTF,), "sponza": _SPONZA_FILES, "large": _SPONZA_FILES,
+          "room": ()}
 
 CREDITS = {
     "chess": "procedural (hybrid_engine/scenes/chess.py)",
+    "room": "procedural (blender_adapter/scene_library.py)",
     "chess_real": "Chess Set by Poly Haven (CC0)",
     "sponza": "Crytek Sponza: Marko Dabrovic, Frank Meinl/Crytek, Morgan McGuire, Matthew Oliver "
     "(CC BY 3.0); Happy Buddha (decimated to 100k), bunny and dragon: Stanford Computer "
@@ -1021,8 +1023,75 @@ def _build_large(scene, assets: Path, detail: float, frame_count: int) -> None:
     scene.name = f"large: San Miguel stand-in, {copies} x Sponza"
 
 
+# ---------------------------------------------------------------------------------------
+# room: a sky-lit room, the materials an artist compares engines with
+# ---------------------------------------------------------------------------------------
+ROOM_SIZE = (8.0, 8.0, 3.0)  # width (x), depth (y), wall height (z); open to the sky above
+ROOM_SUN_ANGLE = math.radians(4.0)
+ROOM_NEAR_SIZE = 6.0  # the whole room: every surface in the BVH
+
+
+def _box_mesh(name: str, lo, hi):
+    """An axis-aligned box as a closed mesh with flat faces."""
+    corners = np.array([[x, y, z] for z in (lo[2], hi[2]) for y in (lo[1], hi[1]) for x in (lo[0], hi[0])],
+                       np.float32)
+    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    return _new_mesh(name, corners, np.array(quads, np.int32).reshape(-1), np.arange(0, 24, 4, dtype=np.int32),
+                     smooth=False)
+
+
+def _build_room(scene, assets: Path | None, detail: float, frame_count: int) -> None:
+    """Three walls and a floor under an open sky and a sun: a mirror ball, a glass ball and a
+    brushed-metal ball on a glossy floor, with painted boxes; everything lit by the World
+    and the sun (soft shadows from its angle). Static, seen from the open side."""
+    collection = _new_collection(scene, "Room")
+    width, depth, height = ROOM_SIZE
+    wall = 0.2
+    parts = {
+        "Floor": ((-width / 2, -depth / 2, -wall), (width / 2, depth / 2, 0.0),
+                  _principled("Glossy floor", (0.35, 0.33, 0.3), roughness=0.15)),
+        "Back wall": ((-width / 2, depth / 2, 0.0), (width / 2, depth / 2 + wall, height),
+                      _principled("Plaster", (0.8, 0.78, 0.72), roughness=0.9)),
+        "Left wall": ((-width / 2 - wall, -depth / 2, 0.0), (-width / 2, depth / 2, height),
+                      _principled("Red paint", (0.7, 0.12, 0.08), roughness=0.6)),
+        "Right wall": ((width / 2, -depth / 2, 0.0), (width / 2 + wall, depth / 2, height),
+                       _principled("Green paint", (0.15, 0.5, 0.2), roughness=0.6)),
+        "Blue box": ((1.2, 1.0, 0.0), (2.4, 2.2, 1.2), _principled("Blue paint", (0.1, 0.2, 0.7), roughness=0.4)),
+        "Yellow box": ((-2.8, 1.6, 0.0), (-1.8, 2.6, 2.0),
+                       _principled("Yellow paint", (0.8, 0.6, 0.1), roughness=0.5)),
+    }
+    for name, (lo, hi, material) in parts.items():
+        obj = bpy.data.objects.new(name, _box_mesh(name, lo, hi))
+        obj.data.materials.append(material)
+        collection.objects.link(obj)
+    rings = uv_sphere_rings(max(200, int(8000 * detail)))
+    balls = {
+        "Mirror ball": ((-1.2, -0.2, 0.7), _principled("Mirror", (0.95, 0.95, 0.95), metallic=1.0, roughness=0.0)),
+        "Glass ball": ((0.4, -1.2, 0.7), _principled("Glass", (1.0, 1.0, 1.0), transmission=1.0, roughness=0.0,
+                                                     ior=1.5)),
+        "Brushed metal ball": ((0.6, 1.0, 0.7), _principled("Brushed metal", (0.9, 0.7, 0.5), metallic=1.0,
+                                                            roughness=0.35)),
+    }
+    for name, (centre, material) in balls.items():
+        obj = bpy.data.objects.new(name, _uv_sphere(name, rings))
+        obj.data.materials.append(material)
+        obj.location = centre
+        obj.scale = (0.7, 0.7, 0.7)
+        collection.objects.link(obj)
+    sun = _light(scene, collection, "Sun", "SUN", (3.0, 2.85, 2.6), direction=(0.35, 0.45, -0.82),
+                 radius=ROOM_SUN_ANGLE)
+    sun.data.angle = ROOM_SUN_ANGLE
+    _world(scene, (0.45, 0.6, 0.9), 1.0)
+    frames = _frames(frame_count)
+    matrices = np.repeat(look_at((0.5, -9.0, 3.2), (0.0, 0.5, 0.7))[None], len(frames), axis=0)
+    _add_camera(scene, collection, "Camera", matrices, frames, lens=30.0, clip_start=0.1, clip_end=100.0)
+    _settings(scene, near_size=ROOM_NEAR_SIZE, cube_far=100.0)
+    scene["hybrid_rt_label"] = "sky-lit room: mirror, glass and brushed-metal balls on a glossy floor"
+    scene.name = "room: sky-lit room"
+
+
 _BUILDERS = {"chess": _build_chess, "chess_real": _build_chess_real, "sponza": _build_sponza,
-             "large": _build_large}
+             "large": _build_large, "room": _build_room}
 
 
 # ---------------------------------------------------------------------------------------

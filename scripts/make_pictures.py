@@ -50,7 +50,7 @@ REPO_ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_OUT = REPO_ROOT / "docs" / "pictures"
 DEFAULT_ASSETS = REPO_ROOT.parent / "shared" / "scenes"
 ASSETS_ENV = "HYBRID_RT_SCENES"  # as blender_adapter.scene_library.ASSETS_ENV (not importable before bpy)
-SCENE_NAMES = ("chess", "chess_real", "sponza", "large")
+SCENE_NAMES = ("chess", "chess_real", "sponza", "large", "room")
 DEFAULT_RESOLUTION = (640, 360)  # the software renderer's size in the demo and benchmarks
 DEFAULT_FRAME = 0  # every scene's first frame: the demo's chess view, the atrium seen from its +x end
 FRAME_COUNT = 200  # the library's animations (the paper's 200-frame sequences)
@@ -59,10 +59,11 @@ FRAME_COUNT = 200  # the library's animations (the paper's 200-frame sequences)
 # triangle counts they give. ``large`` keeps 10 of its 40 Sponzas (2.9 M triangles): on
 # llvmpipe, FULL_BVH (the FLIP reference) over 8 M triangles or more needs more storage
 # blocks than the driver has, and EEVEE's time grows with every copy.
-DEFAULT_DETAIL = {"chess": 1.0, "chess_real": 1.0, "sponza": 1.0, "large": 0.25}
+DEFAULT_DETAIL = {"chess": 1.0, "chess_real": 1.0, "sponza": 1.0, "large": 0.25, "room": 1.0}
 MODES = ("HYBRID", "FULL_BVH", "PROVENANCE")
-CYCLES_SAMPLES = 32
-EEVEE_SAMPLES = 16
+# Cycles, denoised, is the reference for the look: HYBRID and EEVEE are both measured against it.
+CYCLES_SAMPLES = 256
+EEVEE_SAMPLES = 32
 CYCLES_DENOISER = "OPENIMAGEDENOISE"
 EEVEE_ENGINE = "BLENDER_EEVEE"  # EEVEE's engine id in Blender 5
 # Sheet layout: two rows of three equal tiles under a title bar.
@@ -415,6 +416,16 @@ def render_scene(request: SceneRequest, assets: Path) -> SceneResult:
             result.labels["eevee"] = f"EEVEE {request.eevee_samples} SAMPLES, {eevee_s:.0f} S"
             print(f"pictures: {request.name} EEVEE {eevee_s:.1f} s", flush=True)
         numbers["eevee"] = {"seconds": round(eevee_s, 1), **eevee_info}
+
+        # The look: HYBRID and its peer EEVEE against Cycles, FLIP on the same LDR encoding.
+        _, hybrid_vs_cycles = flip_map(cycles_image, linear["HYBRID"])
+        numbers["flip_vs_cycles"] = {"HYBRID": round(hybrid_vs_cycles, 5)}
+        result.labels["hybrid"] += f", FLIP VS CYCLES {hybrid_vs_cycles:.4f}"
+        if eevee_image is not None:
+            _, eevee_vs_cycles = flip_map(cycles_image, eevee_image)
+            numbers["flip_vs_cycles"]["EEVEE"] = round(eevee_vs_cycles, 5)
+            result.labels["eevee"] += f", FLIP VS CYCLES {eevee_vs_cycles:.4f}"
+        print(f"pictures: {request.name} FLIP against Cycles: {numbers['flip_vs_cycles']}", flush=True)
 
     hybrid = frames["HYBRID"]
     numbers.update(

@@ -91,6 +91,9 @@ def test_the_tiles_are_pictures_and_the_json_holds_the_numbers(chess_run):
         frame = numbers["hybrid_rt"][mode]
         assert frame["total_ms"] > 0 and "trace" in frame["passes_ms"], mode
     assert numbers["cycles"]["samples"] == 1 and numbers["cycles"]["seconds"] > 0
+    # The look against Cycles: HYBRID always, EEVEE when it could render.
+    assert 0.0 < numbers["flip_vs_cycles"]["HYBRID"] < 1.0
+    assert ("EEVEE" in numbers["flip_vs_cycles"]) == numbers["eevee"]["available"]
     assert f"FLIP mean {numbers['flip_mean']:.4f}" in run.stdout
 
     tiles = {key: read_png(out / f"chess_{key}.png") for key in TILE_KEYS}

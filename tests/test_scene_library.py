@@ -464,11 +464,11 @@ def test_cluster_decimation_reaches_its_target_inside_the_original_bounds(addon,
 
 
 # -- rendering ------------------------------------------------------------------------------------
-@pytest.mark.parametrize("scene_name", ["chess", "chess_real", "sponza", "large"])
+@pytest.mark.parametrize("scene_name", ["chess", "chess_real", "sponza", "large", "room"])
 def test_each_small_scene_renders_a_hybrid_frame_through_blender(addon, lib, tmp_path, scene_name):
     import bpy
 
-    if scene_name != "chess" and not SHARED_SCENES.is_dir():
+    if scene_name not in ("chess", "room") and not SHARED_SCENES.is_dir():
         pytest.skip(f"third-party scenes folder {SHARED_SCENES} is absent")
     detail = TINY if scene_name == "chess" else SMALL
     scene = lib.build_scene(scene_name, SHARED_SCENES, detail=detail, resolution=RENDER_SIZE)

@@ -165,9 +165,13 @@ SpecularSplit specular_split_sampled(Material m, vec3 albedo, vec3 view_dir, vec
         float f = fresnel_dielectric(cos_i, eta);
         vec3 refracted = refract(view_dir, h, 1.0 / eta);
         s.reflect_weight += vec3(transmission * f);
-        float f_normal = (ior - 1.0) / (ior + 1.0);
-        s.lamp_f0 += vec3(transmission * f_normal * f_normal);
-        s.lamp_f90 += transmission;
+        // Lamps light glass from outside only: inside it, its own surface hides them (a
+        // shadow map cannot tell, its depth bias lifts the point off that very surface).
+        if (entering) {
+            float f_normal = (ior - 1.0) / (ior + 1.0);
+            s.lamp_f0 += vec3(transmission * f_normal * f_normal);
+            s.lamp_f90 += transmission;
+        }
         if (f < 1.0 && dot(refracted, refracted) > 0.0) {
             s.refract_dir = normalize(refracted);
             if (known) s.refract_dir = keep_on_side(s.refract_dir, -s.g_facing, min_cos);
@@ -191,13 +195,15 @@ SpecularSplit specular_split(Material m, vec3 albedo, vec3 view_dir, vec3 n) {
 // lamps and the World, the lamps' glossy highlights on every specular layer, and the
 // reflections too rough to trace (prefiltered sky). `view_dir` points at the surface; `split`
 // is its specular_split; `sky_visibility` the share of the sky the point sees (ambient
-// occlusion: 1 where unknown). `albedo` and `emission` are the material's colours with its
+// occlusion: 1 where unknown); `highlight_blur` a roughness the lamps' highlights take at
+// least (that of the lobes the point is seen through). `albedo` and `emission` are the material's colours with its
 // image textures applied (textures.glsl).
 vec3 shade_surface(Material m, vec3 albedo, vec3 emission, vec3 p, vec3 view_dir, SpecularSplit split,
-                   float sky_visibility) {
+                   float sky_visibility, float highlight_blur) {
     vec3 color = emission;
     vec3 n = split.n_facing;
-    DirectLight direct = direct_lighting(p, n, -view_dir, split.lamp_f0, split.lamp_f90, material_roughness(m),
+    float highlight_roughness = max(material_roughness(m), highlight_blur);
+    DirectLight direct = direct_lighting(p, n, -view_dir, split.lamp_f0, split.lamp_f90, highlight_roughness,
                                          split.diffuse_weight > 0.0);
     if (split.diffuse_weight > 0.0) {
         vec3 irradiance = direct.irradiance + sky_irradiance(n) * sky_visibility;

@@ -121,7 +121,7 @@ void main() {
     SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n, g);
     vec3 emission = m.emission_trans.rgb * emission_g.rgb;
     float visibility = screen_space_sky_visibility(p, split.n_facing);
-    vec3 color = shade_surface(m, albedo, emission, p, view_dir, split, visibility);
+    vec3 color = shade_surface(m, albedo, emission, p, view_dir, split, visibility, 0.0);
     if (u_traced_specular == 0) {
         float roughness = material_roughness(m);
         color += split.reflect_weight * sky_radiance_rough(split.reflect_dir, roughness) * visibility;

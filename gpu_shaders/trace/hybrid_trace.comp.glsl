@@ -194,6 +194,7 @@ struct PendingRay {
     vec3 dir;
     vec3 weight;
     int depth;
+    float blur;  // the roughest lobe on the ray's path (filters the lamp highlights it sees)
 };
 
 vec3 unproject_primary(vec2 ndc_xy, float ndc_z) {
@@ -345,7 +346,7 @@ int stack_size = 0;
 // What the rays past the depth limit see: the sky along their direction.
 vec3 past_depth_limit = vec3(0.0);
 
-void push(vec3 origin, vec3 dir, vec3 weight, int depth) {
+void push(vec3 origin, vec3 dir, vec3 weight, int depth, float blur) {
     if (!(max(max(weight.r, weight.g), weight.b) > 0.0)) return;
     if (stack_size >= STACK_SIZE || depth > u_max_depth) {
         past_depth_limit += weight * sky_radiance(dir);
@@ -355,6 +356,7 @@ void push(vec3 origin, vec3 dir, vec3 weight, int depth) {
     stack[stack_size].dir = dir;
     stack[stack_size].weight = weight;
     stack[stack_size].depth = depth;
+    stack[stack_size].blur = blur;
     stack_size += 1;
 }
 
@@ -362,9 +364,10 @@ void push(vec3 origin, vec3 dir, vec3 weight, int depth) {
 // near cube a refraction is the paper's thin fallback (§3.4, Figure 8): the ray refracts
 // once and looks the scene up in the cube map, whose faces hold what lies behind refractive
 // surfaces (cube_map.py: they are left out of the faces), not the surfaces themselves.
-void spawn_children(SpecularSplit split, vec3 p, vec3 weight, int depth) {
-    push(offset_origin(p, split.g_facing), split.reflect_dir, weight * split.reflect_weight, depth);
-    push(offset_origin(p, -split.g_facing), split.refract_dir, weight * split.refract_weight, depth);
+// `blur`: the roughest lobe of the path up to and including this hit.
+void spawn_children(SpecularSplit split, vec3 p, vec3 weight, int depth, float blur) {
+    push(offset_origin(p, split.g_facing), split.reflect_dir, weight * split.reflect_weight, depth, blur);
+    push(offset_origin(p, -split.g_facing), split.refract_dir, weight * split.refract_weight, depth, blur);
 }
 
 // This sample's numbers for the lobes of the hit at bounce `depth` of the pixel whose
@@ -413,7 +416,7 @@ void main() {
     SpecularSplit split = specular_split_sampled(m, albedo, view_dir, n, g, lobe_random(0));
 
     vec3 traced = vec3(0.0);
-    spawn_children(split, p, vec3(1.0), 1);
+    spawn_children(split, p, vec3(1.0), 1, material_roughness(m));
     while (stack_size > 0) {
         stack_size -= 1;
         PendingRay ray = stack[stack_size];
@@ -431,8 +434,10 @@ void main() {
         vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
         SpecularSplit hs = specular_split_sampled(hm, h_albedo, ray.dir, h.normal, h.geometric,
                                                   lobe_random(ray.depth));
-        traced += ray.weight * shade_surface(hm, h_albedo, h_emission, h.position, ray.dir, hs, 1.0);
-        spawn_children(hs, h.position, ray.weight, ray.depth + 1);
+        // Seen through a rough lobe, a sharp lamp highlight is a firefly: widen it to that
+        // lobe's roughness (Cycles' Filter Glossy does the same).
+        traced += ray.weight * shade_surface(hm, h_albedo, h_emission, h.position, ray.dir, hs, 1.0, ray.blur);
+        spawn_children(hs, h.position, ray.weight, ray.depth + 1, max(ray.blur, material_roughness(hm)));
     }
     vec4 base = imageLoad(u_color, pixel);
     vec3 color = base.rgb + traced + past_depth_limit;

@@ -1028,7 +1028,7 @@ def _build_large(scene, assets: Path, detail: float, frame_count: int) -> None:
 # ---------------------------------------------------------------------------------------
 ROOM_SIZE = (8.0, 8.0, 3.0)  # width (x), depth (y), wall height (z); open to the sky above
 ROOM_SUN_ANGLE = math.radians(4.0)
-ROOM_NEAR_SIZE = 6.0  # the whole room: every surface in the BVH
+ROOM_NEAR_SIZE = 10.0  # the balls and boxes in the BVH, the back wall in the cube map
 
 
 def _box_mesh(name: str, lo, hi):

@@ -152,6 +152,10 @@ class RasterView:
         return cls(camera.view_projection(), camera.position, camera.forward,
                    camera.projection == "ORTHO", int(camera.width), int(camera.height))
 
+    def view_proj_bytes(self) -> bytes:
+        """The view-projection as a GLSL mat4 (passes that project points into the view)."""
+        return gl_matrix(self.view_proj)
+
     def uniforms(self) -> dict:
         """The camera uniforms that the passes reconstructing positions from a G-buffer
         share (deferred_shade.comp.glsl, hybrid_trace.comp.glsl)."""
@@ -204,8 +208,8 @@ class RenderTargets:
 
 
 class GBufferTargets(RenderTargets):
-    """A G-buffer (depth, normal + material, albedo, emission scale) and its shaded colour,
-    W x H texels. ``emission_scale`` holds the colour of the material's emission texture
+    """A G-buffer (depth, normal + material, albedo, emission scale), its sky visibility
+    (screen_ao.py) and its shaded colour, W x H texels. ``emission_scale`` holds the colour of the material's emission texture
     (1 without one); the shading multiplies the material's emission by it.
 
     The primary camera owns one; the cube map's faces keep UVs instead of colours
@@ -215,7 +219,7 @@ class GBufferTargets(RenderTargets):
     def __init__(self, ctx, width: int, height: int) -> None:
         super().__init__(ctx, width, height,
                          colour={"normal_material": (4, "f4"), "albedo": (4, "f2"), "emission_scale": (4, "f2")},
-                         extra={"color": (4, "f4")})
+                         extra={"color": (4, "f4"), "sky_visibility": (1, "f4")})
 
     def read_color(self) -> np.ndarray:
         """The shaded colour as (H, W, 4) float32, row 0 at the bottom."""
@@ -452,12 +456,13 @@ class RasterPasses:
         """Deferred shading of the G-buffer region at ``origin`` into ``targets.color``, lit
         by ``resources``. ``traced_specular`` leaves the lobes the tracer follows out (every
         traced mode); ``transparent`` makes the background (0, 0, 0, 0) instead of the sky
-        (film.py). ``sample`` picks this sample's rotation of the stochastic estimates
-        (ambient occlusion), so that samples of one view average to more than one."""
+        (film.py). ``sample`` is this sample's index among the samples of one view.
+        The sky visibility is read from ``targets.sky_visibility`` (screen_ao.py, run
+        first)."""
         prog = self.shade_prog
         gpu.materials.buffer.bind_to_storage_buffer(0)
         units = {"u_depth": targets.depth, "u_normal_material": targets.normal_material, "u_albedo": targets.albedo,
-                 "u_emission_scale": targets.emission_scale}
+                 "u_emission_scale": targets.emission_scale, "u_sky_visibility": targets.sky_visibility}
         for unit, (name, tex) in enumerate(units.items()):
             tex.use(location=unit)
             if name in prog:
@@ -466,7 +471,6 @@ class RasterPasses:
         targets.color.bind_to_image(0, read=False, write=True)
         shader_loader.set_uniforms(prog, {
             **view.uniforms(),
-            "u_view_proj": gl_matrix(view.view_proj),
             "u_origin": (int(origin[0]), int(origin[1])),
             "u_traced_specular": int(traced_specular),
             "u_transparent_background": int(transparent),

@@ -14,6 +14,10 @@ FULL_BVH    as HYBRID without the cube map and the culling: the LBVH holds the w
 PROVENANCE  upload, shadow_maps, primary_raster, shade, trace (which only decides where each
             specular pixel's first secondary ray starts: BVH blue, cube map red; Figure 4)
 ==========  ===================================================================================
+
+``shade`` is the screen-space ambient occlusion (screen_ao.py) and the deferred shading of
+the primary G-buffer, lit by one FrameResources (lights, shadow atlas, World light) that the
+trace pass receives too.
 """
 from __future__ import annotations
 
@@ -31,6 +35,7 @@ from .gpu_scene import GPUScene, pack_lights
 from .raster import RasterPasses, RasterView
 from .scene_data import SceneData
 from .scene_delta import GeometryTracker
+from .screen_ao import ScreenSpaceOcclusion
 from .settings import RenderSettings
 from .shadow_cache import ShadowCache
 from .timing import PassTimer
@@ -86,6 +91,7 @@ class Renderer:
         self.gpu_scene = GPUScene(self.ctx)
         self.raster = RasterPasses(self.ctx)
         self.resources = FrameResources(self.ctx)  # lights, shadow atlas, World light
+        self.occlusion = ScreenSpaceOcclusion(self.ctx)
         self.tracer: HybridTracer | None = None  # created on the first non-RASTER frame
         # Frame-to-frame reuse: only changed triangles are re-uploaded, and of the shadow
         # maps only the layer whose objects changed is re-rendered (shadow_cache.py).
@@ -203,6 +209,7 @@ class Renderer:
                 tracer.build(culled)
         step("shade")
         with timer.measure("shade"):
+            self.occlusion.run(targets, view, self.resources, sample)
             self.raster.shade(self.gpu_scene, scene, view, targets, self.resources,
                               traced_specular=traced, transparent=outputs.transparent, sample=sample)
         if "trace" in steps:

@@ -94,32 +94,42 @@ float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light, bool soft) {
     if (!(lamp > 0.0) || !soft) {
         return receiver <= shadow_depth_at(slot, texel_f) + 1e-5 ? 1.0 : 0.0;
     }
-    // World width of the penumbra per unit of receiver-to-blocker distance: the sun's
-    // angular diameter, or the lamp's diameter over the blocker's distance from it.
     float d_receiver = shadow_linear_depth(slot, receiver);
     float angle = float(u_sample) * 2.39996323 + 6.2831853 * random2(uvec4(floatBitsToUint(p.xy), uint(slot_index), 7u)).x;
     mat2 rot = mat2(cos(angle), sin(angle), -sin(angle), cos(angle));
-    // Blocker search over the widest penumbra a blocker half-way to the lamp would cast.
-    float widest = perspective ? 2.0 * lamp : lamp * 0.5 * d_receiver;
+    // The receiver's own surface, tilted against the light, rises towards it across the
+    // filter: a tap r texels away finds it up to r texels times the tilt's slope nearer.
+    // Taps compare distances along the light (linear depths) with that much slack, or a lit
+    // slope would shadow itself in speckles (receiver-plane depth bias).
+    float cos_light = max(dot(n, to_light), 0.1);
+    float slope = texel_world * sqrt(max(0.0, 1.0 - cos_light * cos_light)) / cos_light;
+    float slack = texel_world;
+    // Blocker search over the widest penumbra a blocker could cast: for a sun, one at the
+    // map's near plane; for a lamp, one half-way to it.
+    float widest = perspective ? 2.0 * lamp : 2.0 * tan(0.5 * lamp) * (d_receiver - slot.texel.z);
     float search = clamp(widest / texel_world, 1.0, SHADOW_MAX_FILTER_TEXELS);
     float blockers = 0.0, blocker_depth = 0.0;
     for (int i = 0; i < SHADOW_SEARCH_TAPS; ++i) {
-        float stored = shadow_depth_at(slot, texel_f + rot * DISC16[i * (16 / SHADOW_SEARCH_TAPS)] * search);
-        if (stored + 1e-5 < receiver) {
+        vec2 tap = DISC16[i * (16 / SHADOW_SEARCH_TAPS)] * search;
+        float d = shadow_linear_depth(slot, shadow_depth_at(slot, texel_f + rot * tap));
+        if (d < d_receiver - slack - length(tap) * slope) {
             blockers += 1.0;
-            blocker_depth += shadow_linear_depth(slot, stored);
+            blocker_depth += d;
         }
     }
     if (blockers == 0.0) return 1.0;
     if (blockers == float(SHADOW_SEARCH_TAPS)) return 0.0;  // every tap blocked: the umbra
+    // World width of the penumbra: the sun's angular diameter times the receiver-to-blocker
+    // distance, or the lamp's diameter scaled by that distance over the blocker's from it.
     float d_blocker = blocker_depth / blockers;
     float penumbra_world = perspective ? 2.0 * lamp * (d_receiver - d_blocker) / max(d_blocker, 1e-6)
                                        : 2.0 * tan(0.5 * lamp) * (d_receiver - d_blocker);
     float radius = clamp(0.5 * penumbra_world / texel_world, 0.5, SHADOW_MAX_FILTER_TEXELS);
     float lit = 0.0;
     for (int i = 0; i < SHADOW_FILTER_TAPS; ++i) {
-        float stored = shadow_depth_at(slot, texel_f + rot * DISC16[i * (16 / SHADOW_FILTER_TAPS)] * radius);
-        lit += receiver <= stored + 1e-5 ? 1.0 : 0.0;
+        vec2 tap = DISC16[i * (16 / SHADOW_FILTER_TAPS)] * radius;
+        float d = shadow_linear_depth(slot, shadow_depth_at(slot, texel_f + rot * tap));
+        lit += d >= d_receiver - slack - length(tap) * slope ? 1.0 : 0.0;
     }
     return lit / float(SHADOW_FILTER_TAPS);
 }

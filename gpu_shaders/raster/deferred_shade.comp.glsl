@@ -9,10 +9,8 @@
 // approximation); with 1 they are left out, because the hybrid tracer
 // (trace/hybrid_trace.comp.glsl) adds them as traced rays.
 //
-// The sky's visibility is screen-space ambient occlusion: cosine-distributed points within
-// u_ao_distance above the surface, projected into the depth buffer; a point hidden behind a
-// stored surface that rises above p's tangent plane within reach of p is occluded. Each sample (u_sample) rotates the
-// points, so accumulated samples converge to a smooth estimate. Background pixels get the sky, or
+// The sky's visibility is screen_ao.comp.glsl's ambient occlusion, smoothed here over the
+// pixels of the same surface around each pixel. Background pixels get the sky, or
 // (0, 0, 0, 0) with u_transparent_background = 1 (Blender's transparent film, film.py):
 // alpha 0 there, and premultiplied colour 0; reflections still see the sky.
 //
@@ -24,7 +22,6 @@
 #include "scene_layout.glsl"
 #include "shading.glsl"
 #include "octahedral.glsl"
-#include "random.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -36,7 +33,7 @@ uniform sampler2D u_normal_material;
 uniform sampler2D u_albedo;
 uniform sampler2D u_emission_scale;
 uniform mat4 u_inv_view_proj;
-uniform mat4 u_view_proj;
+uniform sampler2D u_sky_visibility;  // screen_ao.comp.glsl's estimate, per pixel
 uniform float u_ao_distance;  // reach of the ambient occlusion (0: off)
 uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
@@ -51,44 +48,27 @@ vec3 unproject(vec2 ndc_xy, float ndc_z) {
     return world.xyz / world.w;
 }
 
-#define AO_POINTS 8
-
-// The share of the sky that p (unit normal n facing the viewer) sees, from the depth buffer.
-float screen_space_sky_visibility(vec3 p, vec3 n) {
+// The sky visibility of screen_ao.comp.glsl, averaged over the 4x4 pixels around `local`
+// that lie on p's surface (near its tangent plane, facing alike): each pixel's few rotated
+// points are noisy, sixteen neighbours' together are smooth.
+float smoothed_sky_visibility(ivec2 local, vec3 p, vec3 n) {
     if (!(u_ao_distance > 0.0)) return 1.0;
-    vec3 t, b;
-    basis_around(n, t, b);
-    uvec3 at = position_key(p);
-    vec2 shift = random2(uvec4(at.x, at.y ^ pcg_hash(at.z), uint(u_sample), 0x41u));
-    float camera_dist = u_orthographic != 0 ? 0.0 : distance(p, u_camera_position);
-    float occluded = 0.0;
-    for (int i = 0; i < AO_POINTS; ++i) {
-        // A rotated Fibonacci spiral: cosine-distributed directions, lengths spread over the reach.
-        vec2 xi = fract(vec2((float(i) + 0.5) / float(AO_POINTS), float(i) * 0.618034) + shift);
-        float r = sqrt(xi.x);
-        float phi = 2.0 * PI * xi.y;
-        vec3 dir = r * cos(phi) * t + r * sin(phi) * b + sqrt(max(0.0, 1.0 - xi.x)) * n;
-        float reach = u_ao_distance * mix(0.15, 1.0, fract(float(i) * 0.38197 + shift.x));
-        // Lifted off the surface a little, so that points along the plane never sink into it.
-        vec3 q = p + (dir + 0.05 * n) * reach;
-        vec4 clip = u_view_proj * vec4(q, 1.0);
-        if (clip.w <= 0.0) continue;
-        vec3 ndc = clip.xyz / clip.w;
-        if (any(greaterThan(abs(ndc.xy), vec2(1.0)))) continue;
-        ivec2 texel = clamp(ivec2((ndc.xy * 0.5 + 0.5) * vec2(u_size)), ivec2(0), u_size - 1);
-        float stored = texelFetch(u_depth, u_origin + texel, 0).r;
-        if (stored >= ndc.z * 0.5 + 0.5) continue;
-        vec3 s = unproject((vec2(texel) + 0.5) / vec2(u_size) * 2.0 - 1.0, stored * 2.0 - 1.0);  // the stored point
-        // In front of the point, above p's tangent plane (a texel of the plane p lies on,
-        // whose depth differs from q's by the texel's slope, never occludes) and within reach.
-        float ahead = u_orthographic != 0 ? dot(q - s, u_camera_forward)
-                                          : distance(q, u_camera_position) - distance(s, u_camera_position);
-        float height = dot(s - p, n);
-        if (ahead > 0.0 && height > 0.05 * reach + 1e-4 * camera_dist && distance(s, p) < 2.0 * u_ao_distance) {
-            occluded += 1.0;
+    float camera_dist = u_orthographic != 0 ? 1.0 : distance(p, u_camera_position);
+    float sum = 0.0, weight = 0.0;
+    for (int dy = -2; dy < 2; ++dy) {
+        for (int dx = -2; dx < 2; ++dx) {
+            ivec2 q = clamp(local + ivec2(dx, dy), ivec2(0), u_size - 1);
+            vec4 nm = texelFetch(u_normal_material, u_origin + q, 0);
+            if (nm.w == 0.0) continue;
+            float depth = texelFetch(u_depth, u_origin + q, 0).r;
+            vec3 pq = unproject((vec2(q) + 0.5) / vec2(u_size) * 2.0 - 1.0, depth * 2.0 - 1.0);
+            bool same = abs(dot(pq - p, n)) < 0.02 * camera_dist && abs(dot(nm.xyz, n)) > 0.9;
+            float w = same ? 1.0 : 0.0;
+            sum += w * texelFetch(u_sky_visibility, u_origin + q, 0).r;
+            weight += w;
         }
     }
-    return 1.0 - occluded / float(AO_POINTS);
+    return weight > 0.0 ? sum / weight : 1.0;
 }
 
 void main() {
@@ -120,7 +100,7 @@ void main() {
     vec3 g = gbuffer_geometric(albedo_g.a, emission_g.a, n);
     SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n, g);
     vec3 emission = m.emission_trans.rgb * emission_g.rgb;
-    float visibility = screen_space_sky_visibility(p, split.n_facing);
+    float visibility = smoothed_sky_visibility(local, p, split.n_facing);
     vec3 color = shade_surface(m, albedo, emission, p, view_dir, split, visibility, 0.0);
     if (u_traced_specular == 0) {
         float roughness = material_roughness(m);

@@ -1,0 +1,50 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Screen-space ambient occlusion: how much of the sky each primary pixel's surface sees.
+
+The World lights every diffuse surface (sky_light.py), and a surface under a table or in a
+corner sees less of it. This pass estimates that share from the primary G-buffer's depths
+(``gpu_shaders/raster/screen_ao.comp.glsl``: a few cosine-distributed points above the
+surface, projected into the depth buffer) into the G-buffer's ``sky_visibility`` target,
+which the deferred shading smooths over neighbouring pixels of the same surface and
+multiplies into the World's light. Its reach is the ``ao_distance`` setting, held with the
+rest of the lighting data in FrameResources.
+
+Screen space, not rays through the paper's BVH and cube map: it costs a few depth reads per
+pixel and is smooth after the shading's 4x4 average, while one occlusion ray per pixel
+through the hybrid structures costs as much as a reflection ray and stays noisy until many
+samples accumulate (docs/BENCHMARKS.md). What it cannot see (geometry off screen or behind
+the first surface) does not occlude.
+"""
+from __future__ import annotations
+
+import math
+
+from . import shader_loader
+from .frame_resources import FrameResources
+
+WORKGROUP = 8
+VISIBILITY_IMAGE_UNIT = 1
+
+
+class ScreenSpaceOcclusion:
+    """The occlusion pass on the shared context (its program is compiled once)."""
+
+    def __init__(self, ctx) -> None:
+        self.ctx = ctx
+        self.program = shader_loader.compute(ctx, "raster/screen_ao.comp.glsl")
+
+    def run(self, targets, view, resources: FrameResources, sample: int = 0,
+            origin: tuple[int, int] = (0, 0)) -> None:
+        """Fill ``targets.sky_visibility`` for the G-buffer region of ``view`` at ``origin``
+        (nothing to do when the reach is 0: the shading then takes the whole sky)."""
+        if not resources.ao_distance > 0.0:
+            return
+        prog = self.program
+        targets.depth.use(location=0)
+        targets.normal_material.use(location=1)
+        targets.sky_visibility.bind_to_image(VISIBILITY_IMAGE_UNIT, read=False, write=True)
+        shader_loader.set_uniforms(prog, {
+            **view.uniforms(), "u_view_proj": view.view_proj_bytes(), "u_depth": 0, "u_normal_material": 1,
+            "u_origin": (int(origin[0]), int(origin[1])), "u_ao_distance": resources.ao_distance,
+            "u_sample": int(sample)})
+        prog.run(math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)

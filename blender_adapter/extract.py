@@ -266,6 +266,34 @@ def _surface_node(node_tree):
     return None
 
 
+def _normal_map(node, textures: dict | None, owner: str) -> float:
+    """The strength of the tangent-space Normal Map node feeding ``node``'s Normal input
+    from an image texture, with the image's pixels put in ``textures["normal_texture"]``; 1
+    and nothing put when there is none (or no ``textures``). Other spaces and sources are
+    named in a warning and left out (the shading normal is used)."""
+    if textures is None or node is None:
+        return 1.0
+    source, _ = _linked_node(node.inputs.get("Normal"))
+    if source is None:
+        return 1.0
+    if source.type != "NORMAL_MAP" or source.mute:
+        _warn_once(("normal", owner), "%s: the Normal input is fed by %r, which is not a Normal Map "
+                   "node; the mesh's normals are used", owner, source.name)
+        return 1.0
+    if source.space != "TANGENT":
+        _warn_once(("normal space", owner), "%s: Normal Map %r is in %s space; only tangent space is "
+                   "read, the mesh's normals are used", owner, source.name, source.space)
+        return 1.0
+    image_source, from_socket = _linked_node(source.inputs.get("Color"))
+    image_node = _image_node(image_source, from_socket, owner)
+    if image_node is None or image_node.image is None:
+        return 1.0
+    pixels = image_pixels(image_node.image)
+    if pixels is not None:
+        textures["normal_texture"] = pixels
+    return float(_socket_value(source, "Strength", 1.0))
+
+
 def material_inputs(material, textures: dict | None = None) -> dict:
     """Keyword arguments of ``principled_to_params`` read from a Blender material.
 
@@ -304,6 +332,7 @@ def material_inputs(material, textures: dict | None = None) -> dict:
             specular_level=_socket_value(node, "Specular IOR Level", 0.5),
             emission=color("Emission Color", (0.0, 0.0, 0.0), "emission_texture"),
             emission_strength=_socket_value(node, "Emission Strength", 0.0),
+            normal_strength=_normal_map(node, textures, material.name),
             thickness=thickness,
         )
     if kind == "EMISSION":

@@ -57,6 +57,7 @@ def principled_to_params(
     emission_strength: float = 0.0,
     thickness: float = DEFAULT_THICKNESS,
     specular_level: float = DEFAULT_SPECULAR_LEVEL,
+    normal_strength: float = 1.0,
 ) -> dict:
     """Map Principled BSDF inputs to one ``MaterialTable.from_rows`` row.
 
@@ -69,7 +70,9 @@ def principled_to_params(
       ``specular`` at normal incidence (``coat_reflectance`` of the IOR and Specular IOR
       Level), which takes its Fresnel share of the light from the diffuse layer;
     * ``roughness`` (GGX) blurs every specular lobe: 0 is a perfect mirror or clear glass;
-    * ``emission = emission_color * emission_strength`` is added on top.
+    * ``emission = emission_color * emission_strength`` is added on top;
+    * ``normal_strength`` is the Normal Map node's strength (0 to 10), for a normal map
+      the extractor found.
 
     Inputs are clamped to their Blender ranges (weights to [0, 1], colours to >= 0, IOR to
     >= 1); a non-finite input falls back to Blender's default for that socket, so a broken
@@ -90,4 +93,5 @@ def principled_to_params(
         "specular": coat_reflectance(ior, _unit(specular_level, DEFAULT_SPECULAR_LEVEL)),
         "emission": tuple(c * strength for c in emission_rgb),
         "thickness": _unit(thickness, DEFAULT_THICKNESS),
+        "normal_strength": min(max(_finite(normal_strength, 1.0), 0.0), 10.0),
     }

@@ -178,6 +178,9 @@ class MaterialTable:
     Blender ignores a socket's own value once an Image Texture is linked to it, so the
     extractor stores a factor of 1 for a direct link (and the constant of a Multiply mix
     for a ``colour × image`` link); scenes built by hand can use the factor as a tint.
+    ``normal_texture[i]`` is a tangent-space normal map (Blender's Normal Map node: colour
+    ``n * 0.5 + 0.5`` in the frame of the UVs' directions, OpenGL's +Y), blended with the
+    shading normal by ``normal_strength``; its image is stored as is (Non-Color).
     Texture coordinates are the triangles' ``Geometry.uvs`` (zero when absent), wrapped
     by repetition; the alpha channel is not used.
 
@@ -203,6 +206,8 @@ class MaterialTable:
     base_color_texture: np.ndarray | None = None  # (M,) int32 index into textures, -1 none
     emission_texture: np.ndarray | None = None  # (M,) int32 index into textures, -1 none
     textures: list[np.ndarray] = field(default_factory=list)  # (H, W, 4) float32 linear
+    normal_texture: np.ndarray | None = None  # (M,) int32 tangent-space normal map, -1 none
+    normal_strength: np.ndarray | None = None  # (M,) float32 Normal Map strength; None: all 1
 
     def __post_init__(self) -> None:
         self.base_color = _as(self.base_color, np.float32, (3,), "base_color")
@@ -219,7 +224,12 @@ class MaterialTable:
         if not self.names:
             self.names = [f"material_{i}" for i in range(m)]
         self.textures = [_texture(t, i) for i, t in enumerate(self.textures)]
-        for name in ("base_color_texture", "emission_texture"):
+        if self.normal_strength is None:
+            self.normal_strength = np.ones(m, np.float32)
+        self.normal_strength = _as(self.normal_strength, np.float32, (), "normal_strength")
+        if len(self.normal_strength) != m:
+            raise SceneDataError(f"material normal_strength has {len(self.normal_strength)} rows, expected {m}")
+        for name in ("base_color_texture", "emission_texture", "normal_texture"):
             value = getattr(self, name)
             index = np.full(m, -1, np.int32) if value is None else _as(value, np.int32, (), name)
             if len(index) != m:
@@ -236,7 +246,8 @@ class MaterialTable:
     @property
     def has_textures(self) -> bool:
         """True when some material samples a texture."""
-        return bool((self.base_color_texture >= 0).any() or (self.emission_texture >= 0).any())
+        return bool((self.base_color_texture >= 0).any() or (self.emission_texture >= 0).any()
+                    or (self.normal_texture >= 0).any())
 
     def __len__(self) -> int:
         return int(len(self.base_color))
@@ -249,8 +260,8 @@ class MaterialTable:
     @classmethod
     def from_rows(cls, rows: list[dict], textures: list[np.ndarray] | None = None) -> "MaterialTable":
         """Build from dicts with keys base_color, emission, reflectivity, transmission, ior,
-        thickness, roughness, specular, name, base_color_texture, emission_texture (all
-        optional).
+        thickness, roughness, specular, name, base_color_texture, emission_texture,
+        normal_texture, normal_strength (all optional).
 
         A texture key holds an index into ``textures``, None (no texture) or the image
         array itself; arrays are appended to the texture list once per array object, so
@@ -282,6 +293,8 @@ class MaterialTable:
             names=[str(n) for n in get("name", "material")],
             base_color_texture=np.array([texture_index(v) for v in get("base_color_texture", None)], np.int32),
             emission_texture=np.array([texture_index(v) for v in get("emission_texture", None)], np.int32),
+            normal_texture=np.array([texture_index(v) for v in get("normal_texture", None)], np.int32),
+            normal_strength=np.array(get("normal_strength", 1.0), np.float32),
             textures=texture_list,
         )
 
@@ -296,9 +309,12 @@ class MaterialTable:
         out["params"][:, 1] = self.thickness
         out["params"][:, 2] = np.clip(self.roughness, 0.0, 1.0)
         out["params"][:, 3] = np.clip(self.specular, 0.0, 1.0)
-        out["textures"][:] = -1  # zw reserved: -1 like "no texture"
         out["textures"][:, 0] = self.base_color_texture
         out["textures"][:, 1] = self.emission_texture
+        out["textures"][:, 2] = self.normal_texture
+        # The Normal Map strength in thousandths (an int slot: the float ones are all used).
+        strength = np.nan_to_num(np.clip(self.normal_strength, 0.0, 100.0))
+        out["textures"][:, 3] = np.where(self.normal_texture >= 0, np.round(strength * 1000.0), -1)
         return out
 
 

@@ -86,7 +86,8 @@ def pack_triangle_uvs(scene: SceneData, geometry: Geometry | None = None) -> np.
     out = np.zeros(max(n, 1), TRIANGLE_UV_DTYPE)
     if n == 0 or geo.uvs is None or not materials.has_textures:
         return out
-    textured = (materials.base_color_texture >= 0) | (materials.emission_texture >= 0)
+    textured = ((materials.base_color_texture >= 0) | (materials.emission_texture >= 0)
+                | (materials.normal_texture >= 0))
     rows = np.flatnonzero(textured[geo.material_ids])
     if len(rows) == 0:
         return out

@@ -374,3 +374,25 @@ def test_a_sun_with_an_angle_casts_a_penumbra_as_wide_as_cycles_does(addon, tmp_
     expected = 2 * 1.95 * np.tan(np.radians(5.0))  # the sun's disc seen past the edge: about 0.34 m
     assert 0.5 * expected < widths["cycles"] < 1.5 * expected, widths  # the scene does what it should
     assert abs(widths["ours"] - widths["cycles"]) < 0.25 * widths["cycles"], widths
+
+
+def test_a_tangent_space_normal_map_shades_a_plane_as_cycles_does(addon, tmp_path):
+    import bpy
+
+    scene = build_plane_scene(bpy, "SUN", energy=3.0)
+    angle = np.radians(35.0)
+    image = bpy.data.images.new("tilt", 4, 4, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    texel = (np.sin(angle) * 0.5 + 0.5, 0.5, np.cos(angle) * 0.5 + 0.5, 1.0)
+    image.pixels.foreach_set(np.tile(np.asarray(texel, np.float32), 16))
+    material = bpy.data.objects["Plane"].data.materials[0]
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    tex, normal_map = nodes.new("ShaderNodeTexImage"), nodes.new("ShaderNodeNormalMap")
+    tex.image = image
+    links.new(tex.outputs["Color"], normal_map.inputs["Color"])
+    links.new(normal_map.outputs["Normal"], nodes["Principled BSDF"].inputs["Normal"])
+    ours, cycles = _render_both(bpy, scene, tmp_path)
+    centre = (slice(2, -2), slice(2, -2), slice(0, 3))
+    flat = 0.8 / np.pi * 3.0  # red channel without the map
+    assert cycles[centre][..., 0].mean() < 0.95 * flat  # the map tilts Cycles' normal too
+    np.testing.assert_allclose(ours[centre].mean(axis=(0, 1)), cycles[centre].mean(axis=(0, 1)), rtol=0.03)

@@ -35,6 +35,7 @@ from hybrid_engine.textures import (
     srgb_to_linear,
 )
 from hybrid_engine.tracer import TRIANGLE_UV_DTYPE, pack_triangle_uvs
+from scenes_analytic import ray_plane_z
 
 # GPUs filter with a fixed-point sub-texel weight (8 bits on current hardware and on
 # llvmpipe), so a bilinear sample may differ from the exact one by contrast / 256.
@@ -505,3 +506,49 @@ def test_bvh_hits_on_a_minified_checker_sample_a_coarser_mip_level(renderer):
     scene = mirror_and_wall_scene(binary_checker(32), np.zeros((1, 1, 4), np.float32), span)
     image = renderer.render(scene, mirror_camera(), RenderSettings(mode="FULL_BVH", max_depth=1)).image
     np.testing.assert_allclose(image[..., :3], 0.5 / np.pi * SUN_IRRADIANCE, rtol=0.03)
+
+
+# -- normal maps -----------------------------------------------------------------------------
+def tilted_normal_map(angle: float, size: int = 8) -> np.ndarray:
+    """A normal map whose every texel leans the normal by ``angle`` towards the UVs' +u."""
+    n = np.array([np.sin(angle), 0.0, np.cos(angle)])
+    return np.broadcast_to(np.append(n * 0.5 + 0.5, 1.0), (size, size, 4)).astype(np.float32).copy()
+
+
+@pytest.mark.parametrize("strength", [1.0, 0.5])
+def test_a_normal_map_tilts_the_lit_normal_of_primary_pixels_and_of_reflections(renderer, strength):
+    """A floor whose normal map leans its normal 40 degrees towards +x, under a sun straight
+    above: Lambert's cosine of the blended normal, seen directly (the G-buffer path) and in a
+    mirror (the tracer's BVH hits) alike."""
+    angle = np.radians(40.0)
+    floor = textured_quad((-4, -4, 0), (8, 0, 0), (0, 8, 0), (0, 0), (4, 4))  # u along +x
+    mirror = textured_quad((-4, 3, 0), (8, 0, 0), (0, -1.5, 4), (0, 0), (1, 1))  # leans over the floor
+    rows = [dict(base_color=(0.8, 0.8, 0.8), normal_texture=0, normal_strength=strength),
+            dict(base_color=(1, 1, 1), reflectivity=1.0)]
+    sun = dict(kind="SUN", direction=(0, 0, -1), color=(3.0, 3.0, 3.0), cast_shadow=False)
+    scene = scene_of([(*floor, 0), (*mirror, 1)], rows, [tilted_normal_map(angle)], lights=[sun])
+    mapped = np.array([np.sin(angle), 0.0, np.cos(angle)])
+    blended = (1 - strength) * np.array([0.0, 0.0, 1.0]) + strength * mapped
+    expected = 0.8 / np.pi * 3.0 * (blended / np.linalg.norm(blended))[2]
+    camera = Camera(matrix_world=look_at((0, -6, 2.5), (0, 1, 0.5)), width=64, height=48)
+    image = renderer.render(scene, camera, RenderSettings(mode="FULL_BVH", ao_distance=0.0), timing=False).image
+    origins, dirs = camera.pixel_rays()
+    t = ray_plane_z(origins, dirs)
+    hit = origins + dirs * np.where(np.isfinite(t), t, 0)[..., None]
+    direct = np.isfinite(t) & (np.abs(hit[..., 0]) < 3.5) & (hit[..., 1] > -3.5) & (hit[..., 1] < 1.0)
+    np.testing.assert_allclose(image[direct][:, 1].mean(), expected, rtol=0.02)
+    # Pixels that see the floor in the mirror: the same tilted shading, found by the tracer.
+    corner, eu, ev = np.array([-4.0, 3.0, 0.0]), np.array([8.0, 0.0, 0.0]), np.array([0.0, -1.5, 4.0])
+    normal = np.cross(eu, ev) / np.linalg.norm(np.cross(eu, ev))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tm = ((corner - origins) @ normal) / (dirs @ normal)
+    at = origins + dirs * tm[..., None]
+    s_, t_ = (at - corner) @ eu / (eu @ eu), (at - corner) @ ev / (ev @ ev)
+    bounced = dirs - 2.0 * (dirs @ normal)[..., None] * normal
+    tf = -at[..., 2] / bounced[..., 2]
+    floor_hit = at + bounced * tf[..., None]
+    in_mirror = ((tm > 0) & (s_ > 0.1) & (s_ < 0.9) & (t_ > 0.05) & (t_ < 0.95) & (tf > 0)
+                 & (np.abs(floor_hit[..., 0]) < 3.5) & (floor_hit[..., 1] > -3.5) & (floor_hit[..., 1] < 1.0))
+    assert in_mirror.sum() > 50
+    np.testing.assert_allclose(image[in_mirror][:, 1].mean(), expected, rtol=0.03)
+    assert abs(expected / (0.8 / np.pi * 3.0) - 1.0) > 0.05  # the map really changes the shading

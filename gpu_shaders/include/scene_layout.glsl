@@ -11,7 +11,8 @@
 //                          incidence (0: none)
 //   ivec4 textures;        x = base colour texture layer, y = emission texture layer
 //                          (-1 = none; the texture multiplies the colour above, see
-//                          textures.glsl), zw reserved (-1)
+//                          textures.glsl), z = tangent-space normal map layer (-1 = none),
+//                          w = its strength in thousandths
 struct Material {
     vec4 base_color_refl;
     vec4 emission_trans;

@@ -3,7 +3,7 @@
 // layer of u_textures (RGBA16F, mipmapped, repeat wrapping, linear colour). A material's
 // textures.x / textures.y (scene_layout.glsl) are the layers of its base-colour and emission
 // images, -1 for none; a texture multiplies the material's colour (base_color_refl.rgb,
-// emission_trans.rgb), and its alpha is not used.
+// emission_trans.rgb), and its alpha is not used. textures.z is its normal map.
 //
 // Two ways to pick the mip level: with UV derivatives (fragment shaders: the G-buffer pass,
 // trilinear + anisotropic), or an explicit level (compute shaders, which have no
@@ -47,6 +47,31 @@ vec3 material_albedo_lod(Material m, vec2 uv, float lod) {
 }
 vec3 material_emission_lod(Material m, vec2 uv, float lod) {
     return m.emission_trans.rgb * texture_rgb_lod(m.textures.y, uv, lod);
+}
+
+// Blender's Normal Map node (tangent space): the map's colour is a normal n * 0.5 + 0.5 in
+// the frame (t, b, n) of the UVs' u and v directions; strength blends it with the shading
+// normal n. t and b need not be unit or orthogonal to n (they are the surface's dp/du and
+// dp/dv directions); without a map, n comes back unchanged.
+bool material_has_normal_map(Material m) { return m.textures.z >= 0; }
+vec3 apply_normal_map(Material m, vec3 n, vec3 t, vec3 b, vec3 texel) {
+    vec3 ts = texel * 2.0 - 1.0;
+    t = t - n * dot(n, t);
+    b = b - n * dot(n, b);
+    float lt = dot(t, t), lb = dot(b, b);
+    if (!(lt > 1e-30) || !(lb > 1e-30)) return n;
+    vec3 mapped = normalize(t * inversesqrt(lt) * ts.x + b * inversesqrt(lb) * ts.y + n * max(ts.z, 1e-3));
+    float strength = float(m.textures.w) * 1e-3;
+    vec3 blended = mix(n, mapped, strength);
+    return dot(blended, blended) > 1e-12 ? normalize(blended) : n;
+}
+vec3 material_normal_grad(Material m, vec3 n, vec3 t, vec3 b, vec2 uv, vec2 duv_dx, vec2 duv_dy) {
+    if (!material_has_normal_map(m)) return n;
+    return apply_normal_map(m, n, t, b, textureGrad(u_textures, vec3(uv, float(m.textures.z)), duv_dx, duv_dy).rgb);
+}
+vec3 material_normal_lod(Material m, vec3 n, vec3 t, vec3 b, vec2 uv, float lod) {
+    if (!material_has_normal_map(m)) return n;
+    return apply_normal_map(m, n, t, b, textureLod(u_textures, vec3(uv, float(m.textures.z)), lod).rgb);
 }
 
 #endif

@@ -31,7 +31,8 @@
 //   hits (hybrid_trace.comp.glsl). Sampling them for all 6 x res^2 texels was a third of
 //   the faces' time on textured scenes (Sponza: 57 of 151 ms) on a software GL.
 // Samplers: u_textures (textures.glsl), sampled with the UV derivatives of the fragment
-// (mipmaps, anisotropic filtering).
+// (mipmaps, anisotropic filtering). A normal map bends the shading normal written at
+// location 0 (both variants).
 #include "scene_layout.glsl"
 #include "textures.glsl"
 #include "octahedral.glsl"
@@ -50,7 +51,9 @@ layout(location = 2) out vec4 out_emission_scale;
 void main() {
     Material m = materials[v_material];
     // Derivatives outside any branch (they are undefined in non-uniform control flow).
-    vec3 geometric = cross(dFdx(v_world), dFdy(v_world));
+    vec3 dp_dx = dFdx(v_world);
+    vec3 dp_dy = dFdy(v_world);
+    vec3 geometric = cross(dp_dx, dp_dy);
     float geometric_len2 = dot(geometric, geometric);
     vec2 duv_dx = dFdx(v_uv);
     vec2 duv_dy = dFdy(v_uv);
@@ -66,6 +69,15 @@ void main() {
     vec3 g = geometric_len2 > 1e-36 && !any(isnan(geometric)) && !any(isinf(geometric))
            ? geometric * inversesqrt(geometric_len2) : n;
     vec2 g_oct = octahedral_encode(g);
+    if (material_has_normal_map(m)) {
+        // The UVs' directions on the surface from the same derivatives (a cotangent frame,
+        // Schueler 2013): no tangents need storing, and the faces' variant gets them too.
+        vec3 dp2_perp = cross(dp_dy, n);
+        vec3 dp1_perp = cross(n, dp_dx);
+        vec3 t = dp2_perp * duv_dx.x + dp1_perp * duv_dy.x;
+        vec3 b = dp2_perp * duv_dx.y + dp1_perp * duv_dy.y;
+        n = material_normal_grad(m, n, t, b, v_uv, duv_dx, duv_dy);
+    }
     float id = float(v_material + 1);
     out_normal_material = vec4(n, gl_FrontFacing ? id : -id);
 #ifdef CUBE_FACE

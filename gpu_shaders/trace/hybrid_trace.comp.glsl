@@ -248,11 +248,25 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary) {
     h.uv = vec2(0.0);
     h.lod = 0.0;
     ivec4 tex = materials[h.material].textures;
-    if (max(tex.x, tex.y) >= 0) {
+    if (max(max(tex.x, tex.y), tex.z) >= 0) {
         // Texture coordinate by the hit's barycentrics.
         TriangleUV tuv = tri_uvs[tri];
         h.uv = (1.0 - bary.x - bary.y) * tuv.uv01.xy + bary.x * tuv.uv01.zw + bary.y * tuv.uv2_scale.xy;
         h.lod = texture_lod(ray_cone_footprint(o, t), tuv.uv2_scale.z);
+        if (tex.z >= 0) {
+            // The triangle's UV directions dp/du, dp/dv from its corners.
+            BVHTriangle tr = bvh_triangle(uint(leaf));
+            vec3 e1 = bvh_xyz(tr.v1) - bvh_xyz(tr.v0);
+            vec3 e2 = bvh_xyz(tr.v2) - bvh_xyz(tr.v0);
+            vec2 d1 = tuv.uv01.zw - tuv.uv01.xy;
+            vec2 d2 = tuv.uv2_scale.xy - tuv.uv01.xy;
+            float r = d1.x * d2.y - d2.x * d1.y;
+            if (abs(r) > 1e-20) {
+                vec3 tu = (e1 * d2.y - e2 * d1.y) / r;
+                vec3 tv = (e2 * d1.x - e1 * d2.x) / r;
+                h.normal = material_normal_lod(materials[h.material], h.normal, tu, tv, h.uv, h.lod);
+            }
+        }
     }
     return h;
 }

@@ -35,6 +35,7 @@ class FrameResources:
         self.light_count = 0
         self.shadow_bias = 0.0
         self.ao_distance = 0.0
+        self.sky_rays = False
 
     def update_lights(self, lights: Lights, shadow_slots: list[tuple[int, int]], settings: RenderSettings) -> None:
         """This frame's lights with their shadow slots (laid out in ``shadows``), and the
@@ -43,6 +44,12 @@ class FrameResources:
         self.light_count = len(lights)
         self.shadow_bias = float(settings.shadow_bias)
         self.ao_distance = float(settings.ao_distance)
+        self.sky_rays = bool(settings.sky_rays)
+
+    @property
+    def occludes(self) -> bool:
+        """Whether a pass estimates the sky's visibility (screen_ao.py, or rays)."""
+        return self.ao_distance > 0.0 or self.sky_rays
 
     def update_sky(self, sky: Sky) -> None:
         """The World (recomputed only when it changed, sky_light.py)."""
@@ -60,7 +67,7 @@ class FrameResources:
         textures = {"u_shadow_atlas": self.shadows.static, "u_shadow_dynamic": self.shadows.dynamic,
                     "u_sky_env": self.sky.texture()}
         values = {**self.sky.uniforms(), "u_light_count": self.light_count, "u_shadow_bias": self.shadow_bias,
-                  "u_ao_distance": self.ao_distance}
+                  "u_ao_distance": self.ao_distance, "u_sky_visibility_known": int(self.occludes)}
         unit = first_unit
         for name, tex in textures.items():
             tex.use(location=unit)

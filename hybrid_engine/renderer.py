@@ -209,7 +209,11 @@ class Renderer:
                 tracer.build(culled)
         step("shade")
         with timer.measure("shade"):
-            self.occlusion.run(targets, view, self.resources, sample)
+            if settings.sky_rays and settings.mode in ("HYBRID", "FULL_BVH"):
+                tracer.sky_visibility(self.gpu_scene, scene, view, targets, self.resources, settings, center,
+                                      sample=sample)
+            else:
+                self.occlusion.run(targets, view, self.resources, sample)
             self.raster.shade(self.gpu_scene, scene, view, targets, self.resources,
                               traced_specular=traced, transparent=outputs.transparent, sample=sample)
         if "trace" in steps:

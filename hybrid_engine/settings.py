@@ -50,6 +50,8 @@ FIELD_DOCS = {
     "shadow_resolution": "Resolution of each shadow map, in pixels",
     "shadow_bias": "Depth bias of shadow-map tests, in scene units, against shadow acne",
     "viewport_scale": "Fraction of the viewport's resolution that is rendered (lower is faster)",
+    "sky_rays": "Find how much of the sky each surface sees with rays through the BVH and the cube "
+    "map, at any distance (slower), instead of from the screen's depths within AO Distance",
     "viewport_samples": "Viewport: samples accumulated while nothing changes (each moved by a "
     "fraction of a pixel, with fresh glossy and shadow directions); any change starts over",
     "ao_distance": "How far (scene units) a surface looks for geometry that hides the World's "
@@ -97,6 +99,7 @@ class RenderSettings:
     render_samples: int = 4
     ao_distance: float = 1.0
     viewport_samples: int = 16
+    sky_rays: bool = False
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:

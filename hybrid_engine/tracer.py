@@ -214,6 +214,19 @@ class HybridTracer:
         lighting the deferred shading used); adds the traced radiance to ``targets.color``
         (or writes the provenance colours). ``sample`` picks this sample's directions in
         the glossy lobes (Renderer.render)."""
+        self._run(gpu, scene, view, targets, resources, settings, center, sample, visibility=False)
+
+    def sky_visibility(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
+                       resources: FrameResources, settings: RenderSettings, center, sample: int = 0) -> None:
+        """Fill ``targets.sky_visibility`` by rays: one cosine-distributed ray per diffuse
+        primary pixel through the BVH and the cube map, as the reflections are traced (the
+        hybrid ambient occlusion of Reinbothe et al., the paper's reference [14]), 1 where
+        it reaches the sky, 0 where it meets an opaque surface, at any distance. Runs before
+        the shading, which smooths it as it does the screen-space estimate."""
+        self._run(gpu, scene, view, targets, resources, settings, center, sample, visibility=True)
+
+    def _run(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
+             resources: FrameResources, settings: RenderSettings, center, sample: int, visibility: bool) -> None:
         ctx = self.ctx
         mode = settings.mode
         built = self.built if mode != "PROVENANCE" else None
@@ -224,7 +237,8 @@ class HybridTracer:
         normal_split = split_blocks(self.triangle_count, NORMAL_BYTES, "tracer's shading normals")
         defines = {**(built.traversal_defines() if built is not None else {}),
                    **normal_split.defines("TRI_NORMAL_BLOCKS", "TRI_NORMAL_BLOCK_SIZE"),
-                   **(self.cube_map.march_defines() if mode == "HYBRID" else {})}
+                   **(self.cube_map.march_defines() if mode == "HYBRID" else {}),
+                   **({"SKY_VISIBILITY_PASS": 1} if visibility else {})}
         prog = shader_loader.compute(ctx, "trace/hybrid_trace.comp.glsl", defines) if defines else self.program
         self._counters.write(self._zero_counters)
 
@@ -261,6 +275,7 @@ class HybridTracer:
         shader_loader.set_uniforms(prog, {name: unit for unit, name in enumerate(units)})
         resources.bind(prog, len(units))
         targets.color.bind_to_image(0, read=True, write=True)
+        targets.sky_visibility.bind_to_image(1, read=False, write=True)
 
         # Uniforms.
         center = np.asarray(center, np.float64)
@@ -282,7 +297,7 @@ class HybridTracer:
         prog.run(math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
         storage_barrier(ctx)
         if gl_context.debug_checks_enabled():
-            gl_context.check_error(f"{mode} trace")
+            gl_context.check_error(f"{mode} {'sky visibility' if visibility else 'trace'}")
 
     def read_stats(self, max_depth: int) -> TraceStats:
         raw = np.frombuffer(self._counters.read(), np.uint32).reshape(len(COUNTER_KINDS), COUNTER_DEPTHS)

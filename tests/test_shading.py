@@ -84,3 +84,23 @@ def test_glass_at_the_depth_limit_shows_the_environment_not_black(renderer):
     ball = image[H // 2 - 4: H // 2 + 4, W // 2 - 4: W // 2 + 4]
     # Through the ball's centre nearly all light is transmitted: it shows the sky's colour.
     np.testing.assert_allclose(ball.mean(axis=(0, 1)), sky.color, rtol=0.15)
+
+
+@pytest.mark.parametrize("mode", ["FULL_BVH", "HYBRID"])
+def test_sky_rays_darken_a_floor_under_a_distant_roof_that_screen_space_occlusion_misses(renderer, mode):
+    # A floor under a roof 6 m up (its underside out of view, beyond the occlusion's reach),
+    # lit by a white World only: rays through the BVH (and, in HYBRID, the cube map, which
+    # holds the roof beyond the near cube) find the roof; the screen's depths cannot.
+    objects = [(quad((0, 0, 0), (30, 0, 0), (0, 30, 0)), None, 0), (quad((0, 0, 6), (30, 0, 0), (0, 30, 0)), None, 0)]
+    scene = SceneData(Geometry.from_objects(objects), MaterialTable.from_rows([dict(base_color=(0.8, 0.8, 0.8))]),
+                      sky=Sky(color=(1.0, 1.0, 1.0)))
+    camera = Camera(matrix_world=look_at((0, -4, 1.5), (0, 0, 0)), width=W, height=H)
+    floor = (slice(0, H // 3), slice(W // 4, 3 * W // 4))
+    images = {}
+    for rays in (False, True):
+        settings = RenderSettings(mode=mode, near_size=3.0, cube_resolution=128, shadow_resolution=256,
+                                  sky_rays=rays)
+        images[rays] = np.mean([renderer.render(scene, camera, settings, timing=False, sample=i).image[..., :3]
+                                for i in range(4)], axis=0)
+    assert images[False][floor].mean() > 0.7  # the screen sees no roof: the whole sky (0.8)
+    assert images[True][floor].mean() < 0.25 * images[False][floor].mean()

@@ -9,8 +9,9 @@
 // approximation); with 1 they are left out, because the hybrid tracer
 // (trace/hybrid_trace.comp.glsl) adds them as traced rays.
 //
-// The sky's visibility is screen_ao.comp.glsl's ambient occlusion, smoothed here over the
-// pixels of the same surface around each pixel. Background pixels get the sky, or
+// The sky's visibility is screen_ao.comp.glsl's ambient occlusion, or the tracer's sky
+// rays (SKY_VISIBILITY_PASS), smoothed here over the pixels of the same surface around
+// each pixel. Background pixels get the sky, or
 // (0, 0, 0, 0) with u_transparent_background = 1 (Blender's transparent film, film.py):
 // alpha 0 there, and premultiplied colour 0; reflections still see the sky.
 //
@@ -34,7 +35,7 @@ uniform sampler2D u_albedo;
 uniform sampler2D u_emission_scale;
 uniform mat4 u_inv_view_proj;
 uniform sampler2D u_sky_visibility;  // screen_ao.comp.glsl's estimate, per pixel
-uniform float u_ao_distance;  // reach of the ambient occlusion (0: off)
+uniform int u_sky_visibility_known;  // 0: no pass estimated it, the whole sky is seen
 uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
 uniform int u_orthographic;
@@ -52,7 +53,7 @@ vec3 unproject(vec2 ndc_xy, float ndc_z) {
 // that lie on p's surface (near its tangent plane, facing alike): each pixel's few rotated
 // points are noisy, sixteen neighbours' together are smooth.
 float smoothed_sky_visibility(ivec2 local, vec3 p, vec3 n) {
-    if (!(u_ao_distance > 0.0)) return 1.0;
+    if (u_sky_visibility_known == 0) return 1.0;
     float camera_dist = u_orthographic != 0 ? 1.0 : distance(p, u_camera_position);
     float sum = 0.0, weight = 0.0;
     for (int dy = -2; dy < 2; ++dy) {

@@ -141,6 +141,9 @@ uniform float u_pixel_spread;  // its growth per metre of distance (perspective)
 layout(std430, binding = 6) buffer CounterBuffer { uint counters[]; };
 
 layout(rgba32f, binding = 0) uniform image2D u_color;
+#ifdef SKY_VISIBILITY_PASS
+layout(r32f, binding = 1) writeonly uniform image2D u_sky_visibility;
+#endif
 
 uniform sampler2D u_depth;
 uniform sampler2D u_normal_material;
@@ -391,6 +394,37 @@ vec2 lobe_random(int depth) {
     return random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), uint(u_sample), uint(depth)));
 }
 
+#ifdef SKY_VISIBILITY_PASS
+// The sky visibility of a diffuse primary pixel (HybridTracer.sky_visibility): one ray in a
+// cosine-distributed direction, traced like a reflection through the BVH and the cube map;
+// the sky is seen when it escapes, and through glass by the glass's transmission.
+void main() {
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(pixel, u_size))) return;
+    vec4 nm = texelFetch(u_normal_material, pixel, 0);
+    float visibility = 1.0;
+    if (nm.w != 0.0 && material_diffuse(materials[int(abs(nm.w) + 0.5) - 1]) > 0.0) {
+        vec2 ndc_xy = (vec2(pixel) + 0.5) / vec2(u_size) * 2.0 - 1.0;
+        vec3 p = unproject_primary(ndc_xy, texelFetch(u_depth, pixel, 0).r * 2.0 - 1.0);
+        vec3 view_dir = u_orthographic != 0 ? normalize(u_camera_forward) : normalize(p - u_camera_position);
+        vec3 n = safe_normalize(nm.xyz, -view_dir);
+        vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
+        vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
+        vec3 g_facing = dot(g, view_dir) < 0.0 ? g : -g;
+        vec3 n_facing = dot(n, g_facing) >= 0.0 ? n : -n;
+        pixel_key = position_key(p);
+        vec2 xi = lobe_random(0x5ca1);
+        vec3 t, b;
+        basis_around(n_facing, t, b);
+        float r = sqrt(xi.x);
+        vec3 d = keep_on_side(r * cos(2.0 * PI * xi.y) * t + r * sin(2.0 * PI * xi.y) * b
+                              + sqrt(max(0.0, 1.0 - xi.x)) * n_facing, g_facing, 0.01);
+        Hit h = trace_ray(offset_origin(p, g_facing), d, 0);
+        visibility = h.kind == HIT_SKY ? 1.0 : material_transmission(materials[h.material]);
+    }
+    imageStore(u_sky_visibility, pixel, vec4(visibility));
+}
+#else
 void main() {
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(pixel, u_size))) return;
@@ -459,3 +493,4 @@ void main() {
     if (any(isnan(color)) || any(isinf(color))) color = vec3(0.0);
     imageStore(u_color, pixel, vec4(color, 1.0));
 }
+#endif

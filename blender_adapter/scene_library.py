@@ -983,7 +983,8 @@ def _build_sponza(scene, assets: Path, detail: float, frame_count: int) -> None:
     """Sponza, Buddha, bunny and dragon (see the module docstring)."""
     _, sponza_meshes, models = _build_sponza_parts(scene, assets, detail, frame_count, SPONZA_CUBE_FAR)
     # The atrium sees its sky through the roof opening: its walls and arcades hide most of
-    # it at distances the screen's occlusion does not reach, so the sky is found by rays.
+    # it at distances the screen's occlusion does not reach, so the sky (and the light the
+    # sunlit floor bounces) is found by rays.
     _settings(scene, near_size=SPONZA_NEAR_SIZE, cube_far=SPONZA_CUBE_FAR, sky_rays=True)
     total = _mesh_triangle_count(sponza_meshes) + _mesh_triangle_count(models.values())
     scene["hybrid_rt_label"] = (f"Sponza + Buddha (decimated, 100k) + bunny + dragon: {total:,} triangles "
@@ -1087,7 +1088,8 @@ def _build_room(scene, assets: Path | None, detail: float, frame_count: int) -> 
     frames = _frames(frame_count)
     matrices = np.repeat(look_at((0.5, -9.0, 3.2), (0.0, 0.5, 0.7))[None], len(frames), axis=0)
     _add_camera(scene, collection, "Camera", matrices, frames, lens=30.0, clip_start=0.1, clip_end=100.0)
-    _settings(scene, near_size=ROOM_NEAR_SIZE, cube_far=100.0)
+    # Light bounces between the floor, the walls and the boxes: gathered by the sky rays.
+    _settings(scene, near_size=ROOM_NEAR_SIZE, cube_far=100.0, sky_rays=True)
     scene["hybrid_rt_label"] = "sky-lit room: mirror, glass and brushed-metal balls on a glossy floor"
     scene.name = "room: sky-lit room"
 

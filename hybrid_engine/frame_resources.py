@@ -44,7 +44,7 @@ class FrameResources:
         self.light_count = len(lights)
         self.shadow_bias = float(settings.shadow_bias)
         self.ao_distance = float(settings.ao_distance)
-        self.sky_rays = bool(settings.sky_rays)
+        self.sky_rays = settings.traces_sky
 
     @property
     def occludes(self) -> bool:
@@ -67,7 +67,8 @@ class FrameResources:
         textures = {"u_shadow_atlas": self.shadows.static, "u_shadow_dynamic": self.shadows.dynamic,
                     "u_sky_env": self.sky.texture()}
         values = {**self.sky.uniforms(), "u_light_count": self.light_count, "u_shadow_bias": self.shadow_bias,
-                  "u_ao_distance": self.ao_distance, "u_sky_visibility_known": int(self.occludes)}
+                  "u_ao_distance": self.ao_distance, "u_sky_visibility_known": int(self.occludes),
+                  "u_ambient_from_rays": int(self.sky_rays)}
         unit = first_unit
         for name, tex in textures.items():
             tex.use(location=unit)

@@ -208,8 +208,9 @@ class RenderTargets:
 
 
 class GBufferTargets(RenderTargets):
-    """A G-buffer (depth, normal + material, albedo, emission scale), its sky visibility
-    (screen_ao.py) and its shaded colour, W x H texels. ``emission_scale`` holds the colour of the material's emission texture
+    """A G-buffer (depth, normal + material, albedo, emission scale), its ambient estimate
+    (the World's light: alpha the sky's visibility from screen_ao.py, or rgb the light the
+    tracer's sky rays gathered as well) and its shaded colour, W x H texels. ``emission_scale`` holds the colour of the material's emission texture
     (1 without one); the shading multiplies the material's emission by it.
 
     The primary camera owns one; the cube map's faces keep UVs instead of colours
@@ -219,7 +220,7 @@ class GBufferTargets(RenderTargets):
     def __init__(self, ctx, width: int, height: int) -> None:
         super().__init__(ctx, width, height,
                          colour={"normal_material": (4, "f4"), "albedo": (4, "f2"), "emission_scale": (4, "f2")},
-                         extra={"color": (4, "f4"), "sky_visibility": (1, "f4")})
+                         extra={"color": (4, "f4"), "ambient": (4, "f4")})
 
     def read_color(self) -> np.ndarray:
         """The shaded colour as (H, W, 4) float32, row 0 at the bottom."""
@@ -457,12 +458,12 @@ class RasterPasses:
         by ``resources``. ``traced_specular`` leaves the lobes the tracer follows out (every
         traced mode); ``transparent`` makes the background (0, 0, 0, 0) instead of the sky
         (film.py). ``sample`` is this sample's index among the samples of one view.
-        The sky visibility is read from ``targets.sky_visibility`` (screen_ao.py, run
-        first)."""
+        The World's light is read from ``targets.ambient`` (screen_ao.py or the
+        tracer's sky rays, run first)."""
         prog = self.shade_prog
         gpu.materials.buffer.bind_to_storage_buffer(0)
         units = {"u_depth": targets.depth, "u_normal_material": targets.normal_material, "u_albedo": targets.albedo,
-                 "u_emission_scale": targets.emission_scale, "u_sky_visibility": targets.sky_visibility}
+                 "u_emission_scale": targets.emission_scale, "u_ambient": targets.ambient}
         for unit, (name, tex) in enumerate(units.items()):
             tex.use(location=unit)
             if name in prog:

@@ -209,7 +209,7 @@ class Renderer:
                 tracer.build(culled)
         step("shade")
         with timer.measure("shade"):
-            if settings.sky_rays and settings.mode in ("HYBRID", "FULL_BVH"):
+            if settings.traces_sky:
                 tracer.sky_visibility(self.gpu_scene, scene, view, targets, self.resources, settings, center,
                                       sample=sample)
             else:

@@ -4,16 +4,17 @@
 The World lights every diffuse surface (sky_light.py), and a surface under a table or in a
 corner sees less of it. This pass estimates that share from the primary G-buffer's depths
 (``gpu_shaders/raster/screen_ao.comp.glsl``: a few cosine-distributed points above the
-surface, projected into the depth buffer) into the G-buffer's ``sky_visibility`` target,
-which the deferred shading smooths over neighbouring pixels of the same surface and
+surface, projected into the depth buffer) into the alpha of the G-buffer's ``ambient``
+target, which the deferred shading smooths over neighbouring pixels of the same surface and
 multiplies into the World's light. Its reach is the ``ao_distance`` setting, held with the
 rest of the lighting data in FrameResources.
 
-Screen space, not rays through the paper's BVH and cube map: it costs a few depth reads per
-pixel and is smooth after the shading's 4x4 average, while one occlusion ray per pixel
-through the hybrid structures costs as much as a reflection ray and stays noisy until many
-samples accumulate (docs/BENCHMARKS.md). What it cannot see (geometry off screen or behind
-the first surface) does not occlude.
+The default, not rays through the paper's BVH and cube map (``sky_rays``,
+HybridTracer.sky_visibility): it costs a few depth reads per pixel and is smooth after the
+shading's 4x4 average, while a ray per pixel through the hybrid structures costs as much as
+a reflection ray; but what it cannot see (geometry off screen, behind the first surface or
+beyond its reach) does not occlude, which leaves enclosed spaces too bright
+(docs/BENCHMARKS.md).
 """
 from __future__ import annotations
 
@@ -35,14 +36,14 @@ class ScreenSpaceOcclusion:
 
     def run(self, targets, view, resources: FrameResources, sample: int = 0,
             origin: tuple[int, int] = (0, 0)) -> None:
-        """Fill ``targets.sky_visibility`` for the G-buffer region of ``view`` at ``origin``
+        """Fill ``targets.ambient``'s alpha for the G-buffer region of ``view`` at ``origin``
         (nothing to do when the reach is 0: the shading then takes the whole sky)."""
         if not resources.ao_distance > 0.0:
             return
         prog = self.program
         targets.depth.use(location=0)
         targets.normal_material.use(location=1)
-        targets.sky_visibility.bind_to_image(VISIBILITY_IMAGE_UNIT, read=False, write=True)
+        targets.ambient.bind_to_image(VISIBILITY_IMAGE_UNIT, read=False, write=True)
         shader_loader.set_uniforms(prog, {
             **view.uniforms(), "u_view_proj": view.view_proj_bytes(), "u_depth": 0, "u_normal_material": 1,
             "u_origin": (int(origin[0]), int(origin[1])), "u_ao_distance": resources.ao_distance,

@@ -50,8 +50,9 @@ FIELD_DOCS = {
     "shadow_resolution": "Resolution of each shadow map, in pixels",
     "shadow_bias": "Depth bias of shadow-map tests, in scene units, against shadow acne",
     "viewport_scale": "Fraction of the viewport's resolution that is rendered (lower is faster)",
-    "sky_rays": "Find how much of the sky each surface sees with rays through the BVH and the cube "
-    "map, at any distance (slower), instead of from the screen's depths within AO Distance",
+    "sky_rays": "Gather the World's light with rays through the BVH and the cube map: the sky each "
+    "surface sees at any distance, and the light of the surfaces that hide it (one bounce); "
+    "slower than the screen-space occlusion within AO Distance",
     "viewport_samples": "Viewport: samples accumulated while nothing changes (each moved by a "
     "fraction of a pixel, with fresh glossy and shadow directions); any change starts over",
     "ao_distance": "How far (scene units) a surface looks for geometry that hides the World's "
@@ -100,6 +101,11 @@ class RenderSettings:
     ao_distance: float = 1.0
     viewport_samples: int = 16
     sky_rays: bool = False
+
+    @property
+    def traces_sky(self) -> bool:
+        """Whether the World's light is gathered by sky rays (only where a BVH is built)."""
+        return self.sky_rays and self.mode in ("HYBRID", "FULL_BVH")
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:

@@ -218,11 +218,12 @@ class HybridTracer:
 
     def sky_visibility(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
                        resources: FrameResources, settings: RenderSettings, center, sample: int = 0) -> None:
-        """Fill ``targets.sky_visibility`` by rays: one cosine-distributed ray per diffuse
-        primary pixel through the BVH and the cube map, as the reflections are traced (the
-        hybrid ambient occlusion of Reinbothe et al., the paper's reference [14]), 1 where
-        it reaches the sky, 0 where it meets an opaque surface, at any distance. Runs before
-        the shading, which smooths it as it does the screen-space estimate."""
+        """Fill ``targets.ambient`` by rays: one cosine-distributed ray per diffuse primary
+        pixel through the BVH and the cube map, as the reflections are traced (the hybrid
+        ambient occlusion of Reinbothe et al., the paper's reference [14], extended to one
+        bounce): rgb the World's light it brings (the sky, or the light of the surface it
+        meets), alpha the sky's visibility, at any distance. Runs before the shading, which
+        smooths it as it does the screen-space estimate."""
         self._run(gpu, scene, view, targets, resources, settings, center, sample, visibility=True)
 
     def _run(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
@@ -275,7 +276,7 @@ class HybridTracer:
         shader_loader.set_uniforms(prog, {name: unit for unit, name in enumerate(units)})
         resources.bind(prog, len(units))
         targets.color.bind_to_image(0, read=True, write=True)
-        targets.sky_visibility.bind_to_image(1, read=False, write=True)
+        targets.ambient.bind_to_image(1, read=False, write=True)
 
         # Uniforms.
         center = np.asarray(center, np.float64)

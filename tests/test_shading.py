@@ -9,7 +9,7 @@ import pytest
 
 from hybrid_engine.camera import Camera, look_at
 from hybrid_engine.renderer import Renderer
-from hybrid_engine.scene_data import Geometry, MaterialTable, SceneData, Sky
+from hybrid_engine.scene_data import Geometry, Lights, MaterialTable, SceneData, Sky
 from hybrid_engine.settings import RenderSettings
 from scenes_analytic import quad, uv_sphere
 
@@ -88,12 +88,13 @@ def test_glass_at_the_depth_limit_shows_the_environment_not_black(renderer):
 
 @pytest.mark.parametrize("mode", ["FULL_BVH", "HYBRID"])
 def test_sky_rays_darken_a_floor_under_a_distant_roof_that_screen_space_occlusion_misses(renderer, mode):
-    # A floor under a roof 6 m up (its underside out of view, beyond the occlusion's reach),
-    # lit by a white World only: rays through the BVH (and, in HYBRID, the cube map, which
-    # holds the roof beyond the near cube) find the roof; the screen's depths cannot.
-    objects = [(quad((0, 0, 0), (30, 0, 0), (0, 30, 0)), None, 0), (quad((0, 0, 6), (30, 0, 0), (0, 30, 0)), None, 0)]
-    scene = SceneData(Geometry.from_objects(objects), MaterialTable.from_rows([dict(base_color=(0.8, 0.8, 0.8))]),
-                      sky=Sky(color=(1.0, 1.0, 1.0)))
+    # A floor under a black roof 6 m up (its underside out of view, beyond the occlusion's
+    # reach, reflecting nothing), lit by a white World only: rays through the BVH (and, in
+    # HYBRID, the cube map, which holds the roof beyond the near cube) find the roof; the
+    # screen's depths cannot.
+    objects = [(quad((0, 0, 0), (30, 0, 0), (0, 30, 0)), None, 0), (quad((0, 0, 6), (30, 0, 0), (0, 30, 0)), None, 1)]
+    rows = [dict(base_color=(0.8, 0.8, 0.8)), dict(base_color=(0.0, 0.0, 0.0))]
+    scene = SceneData(Geometry.from_objects(objects), MaterialTable.from_rows(rows), sky=Sky(color=(1.0, 1.0, 1.0)))
     camera = Camera(matrix_world=look_at((0, -4, 1.5), (0, 0, 0)), width=W, height=H)
     floor = (slice(0, H // 3), slice(W // 4, 3 * W // 4))
     images = {}
@@ -104,3 +105,23 @@ def test_sky_rays_darken_a_floor_under_a_distant_roof_that_screen_space_occlusio
                                 for i in range(4)], axis=0)
     assert images[False][floor].mean() > 0.7  # the screen sees no roof: the whole sky (0.8)
     assert images[True][floor].mean() < 0.25 * images[False][floor].mean()
+
+
+def test_sky_rays_bring_the_light_of_the_surfaces_they_meet(renderer):
+    # A white floor beside a red wall lit by a sun, no sky: without rays the floor gets only
+    # the sun; with them, also the wall's red light (one bounce), as in a path tracer.
+    objects = [(quad((0, 0, 0), (10, 0, 0), (0, 10, 0)), None, 0), (quad((0, 2, 2), (10, 0, 0), (0, 0, 2)), None, 1)]
+    rows = [dict(base_color=(0.8, 0.8, 0.8)), dict(base_color=(0.9, 0.1, 0.1))]
+    sun = dict(kind="SUN", direction=(0.0, 0.7, -0.7), color=(3.0, 3.0, 3.0), cast_shadow=False)
+    scene = SceneData(Geometry.from_objects(objects), MaterialTable.from_rows(rows),
+                      Lights.from_rows([sun]), Sky(color=(0.0, 0.0, 0.0)))
+    camera = Camera(matrix_world=look_at((0, -5, 2.0), (0, 1, 0)), width=W, height=H)
+    floor = (slice(0, H // 4), slice(W // 4, 3 * W // 4))
+    images = {}
+    for rays in (False, True):
+        settings = RenderSettings(mode="FULL_BVH", shadow_resolution=256, sky_rays=rays)
+        images[rays] = np.mean([renderer.render(scene, camera, settings, timing=False, sample=i).image[..., :3]
+                                for i in range(4)], axis=0)
+    plain, bounced = images[False][floor].mean(axis=(0, 1)), images[True][floor].mean(axis=(0, 1))
+    assert bounced[0] > plain[0] * 1.03  # red light from the wall
+    assert bounced[0] - plain[0] > 3 * (bounced[2] - plain[2])  # and red, not white

@@ -194,20 +194,21 @@ SpecularSplit specular_split(Material m, vec3 albedo, vec3 view_dir, vec3 n) {
 // Everything of a surface that is not a secondary ray: emission, the diffuse layer lit by the
 // lamps and the World, the lamps' glossy highlights on every specular layer, and the
 // reflections too rough to trace (prefiltered sky). `view_dir` points at the surface; `split`
-// is its specular_split; `sky_visibility` the share of the sky the point sees (ambient
-// occlusion: 1 where unknown); `highlight_blur` a roughness the lamps' highlights take at
-// least (that of the lobes the point is seen through). `albedo` and `emission` are the material's colours with its
-// image textures applied (textures.glsl).
+// is its specular_split; `world_irradiance` the World's light arriving at the surface (the
+// sky's irradiance times its visibility, or what the sky rays gathered);
+// `sky_visibility` the share of the sky the point sees (for the rough reflections; 1 where
+// unknown); `highlight_blur` a roughness the lamps' highlights take at least (that of the
+// lobes the point is seen through). `albedo` and `emission` are the material's colours
+// with its image textures applied (textures.glsl).
 vec3 shade_surface(Material m, vec3 albedo, vec3 emission, vec3 p, vec3 view_dir, SpecularSplit split,
-                   float sky_visibility, float highlight_blur) {
+                   vec3 world_irradiance, float sky_visibility, float highlight_blur) {
     vec3 color = emission;
     vec3 n = split.n_facing;
     float highlight_roughness = max(material_roughness(m), highlight_blur);
     DirectLight direct = direct_lighting(p, n, -view_dir, split.lamp_f0, split.lamp_f90, highlight_roughness,
                                          split.diffuse_weight > 0.0);
     if (split.diffuse_weight > 0.0) {
-        vec3 irradiance = direct.irradiance + sky_irradiance(n) * sky_visibility;
-        color += split.diffuse_weight * albedo / PI * irradiance;
+        color += split.diffuse_weight * albedo / PI * (direct.irradiance + world_irradiance);
     }
     color += direct.glossy;
     if (max(max(split.glossy_local.r, split.glossy_local.g), split.glossy_local.b) > 0.0) {

@@ -9,9 +9,10 @@
 // approximation); with 1 they are left out, because the hybrid tracer
 // (trace/hybrid_trace.comp.glsl) adds them as traced rays.
 //
-// The sky's visibility is screen_ao.comp.glsl's ambient occlusion, or the tracer's sky
-// rays (SKY_VISIBILITY_PASS), smoothed here over the pixels of the same surface around
-// each pixel. Background pixels get the sky, or
+// The World's light on primary pixels: the sky's irradiance times its visibility from
+// screen_ao.comp.glsl, or what the tracer's sky rays gathered (SKY_VISIBILITY_PASS: the sky,
+// and the light of the surfaces that hide it, one bounce), smoothed here over the pixels of
+// the same surface around each pixel. Background pixels get the sky, or
 // (0, 0, 0, 0) with u_transparent_background = 1 (Blender's transparent film, film.py):
 // alpha 0 there, and premultiplied colour 0; reflections still see the sky.
 //
@@ -34,7 +35,8 @@ uniform sampler2D u_normal_material;
 uniform sampler2D u_albedo;
 uniform sampler2D u_emission_scale;
 uniform mat4 u_inv_view_proj;
-uniform sampler2D u_sky_visibility;  // screen_ao.comp.glsl's estimate, per pixel
+uniform sampler2D u_ambient;  // per pixel: rgb the World's irradiance gathered by sky rays, a the sky's visibility
+uniform int u_ambient_from_rays;     // 1: rgb holds the World's light (sky rays), 0: only a
 uniform int u_sky_visibility_known;  // 0: no pass estimated it, the whole sky is seen
 uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
@@ -49,13 +51,14 @@ vec3 unproject(vec2 ndc_xy, float ndc_z) {
     return world.xyz / world.w;
 }
 
-// The sky visibility of screen_ao.comp.glsl, averaged over the 4x4 pixels around `local`
-// that lie on p's surface (near its tangent plane, facing alike): each pixel's few rotated
-// points are noisy, sixteen neighbours' together are smooth.
-float smoothed_sky_visibility(ivec2 local, vec3 p, vec3 n) {
-    if (u_sky_visibility_known == 0) return 1.0;
+// The ambient estimate of screen_ao.comp.glsl or of the sky rays (rgb irradiance, a sky
+// visibility), averaged over the 4x4 pixels around `local` that lie on p's surface (near
+// its tangent plane, facing alike): each pixel's few points or its one ray are noisy,
+// sixteen neighbours' together are smooth.
+vec4 smoothed_ambient(ivec2 local, vec3 p, vec3 n) {
     float camera_dist = u_orthographic != 0 ? 1.0 : distance(p, u_camera_position);
-    float sum = 0.0, weight = 0.0;
+    vec4 sum = vec4(0.0);
+    float weight = 0.0;
     for (int dy = -2; dy < 2; ++dy) {
         for (int dx = -2; dx < 2; ++dx) {
             ivec2 q = clamp(local + ivec2(dx, dy), ivec2(0), u_size - 1);
@@ -65,11 +68,11 @@ float smoothed_sky_visibility(ivec2 local, vec3 p, vec3 n) {
             vec3 pq = unproject((vec2(q) + 0.5) / vec2(u_size) * 2.0 - 1.0, depth * 2.0 - 1.0);
             bool same = abs(dot(pq - p, n)) < 0.02 * camera_dist && abs(dot(nm.xyz, n)) > 0.9;
             float w = same ? 1.0 : 0.0;
-            sum += w * texelFetch(u_sky_visibility, u_origin + q, 0).r;
+            sum += w * texelFetch(u_ambient, u_origin + q, 0);
             weight += w;
         }
     }
-    return weight > 0.0 ? sum / weight : 1.0;
+    return weight > 0.0 ? sum / weight : vec4(0.0, 0.0, 0.0, 1.0);
 }
 
 void main() {
@@ -101,8 +104,10 @@ void main() {
     vec3 g = gbuffer_geometric(albedo_g.a, emission_g.a, n);
     SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n, g);
     vec3 emission = m.emission_trans.rgb * emission_g.rgb;
-    float visibility = smoothed_sky_visibility(local, p, split.n_facing);
-    vec3 color = shade_surface(m, albedo, emission, p, view_dir, split, visibility, 0.0);
+    vec4 ambient = u_sky_visibility_known != 0 ? smoothed_ambient(local, p, split.n_facing) : vec4(0.0, 0.0, 0.0, 1.0);
+    float visibility = ambient.a;
+    vec3 world = u_ambient_from_rays != 0 ? ambient.rgb : sky_irradiance(split.n_facing) * visibility;
+    vec3 color = shade_surface(m, albedo, emission, p, view_dir, split, world, visibility, 0.0);
     if (u_traced_specular == 0) {
         float roughness = material_roughness(m);
         color += split.reflect_weight * sky_radiance_rough(split.reflect_dir, roughness) * visibility;

@@ -7,12 +7,13 @@
 // the shading pass averages neighbouring pixels of the same surface, and accumulated
 // samples average the rest.
 //
-// Bindings: u_depth (DEPTH32F), u_normal_material (RGBA32F) read; image unit 1 (R32F) written.
+// Bindings: u_depth (DEPTH32F), u_normal_material (RGBA32F) read; image unit 1 (RGBA32F,
+// the G-buffer's ambient target: alpha = visibility) written.
 #include "scene_layout.glsl"
 #include "random.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(r32f, binding = 1) writeonly uniform image2D u_visibility;
+layout(rgba32f, binding = 1) writeonly uniform image2D u_visibility;
 
 uniform sampler2D u_depth;
 uniform sampler2D u_normal_material;
@@ -83,5 +84,5 @@ void main() {
         vec3 n = normalize(nm.xyz);
         visibility = screen_space_sky_visibility(p, dot(n, view_dir) <= 0.0 ? n : -n);
     }
-    imageStore(u_visibility, pixel, vec4(visibility));
+    imageStore(u_visibility, pixel, vec4(0.0, 0.0, 0.0, visibility));  // a: the visibility
 }

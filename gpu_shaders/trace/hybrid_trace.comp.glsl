@@ -142,7 +142,7 @@ layout(std430, binding = 6) buffer CounterBuffer { uint counters[]; };
 
 layout(rgba32f, binding = 0) uniform image2D u_color;
 #ifdef SKY_VISIBILITY_PASS
-layout(r32f, binding = 1) writeonly uniform image2D u_sky_visibility;
+layout(rgba32f, binding = 1) writeonly uniform image2D u_ambient;
 #endif
 
 uniform sampler2D u_depth;
@@ -395,14 +395,17 @@ vec2 lobe_random(int depth) {
 }
 
 #ifdef SKY_VISIBILITY_PASS
-// The sky visibility of a diffuse primary pixel (HybridTracer.sky_visibility): one ray in a
-// cosine-distributed direction, traced like a reflection through the BVH and the cube map;
-// the sky is seen when it escapes, and through glass by the glass's transmission.
+// The World's light on a diffuse primary pixel (HybridTracer.sky_visibility): one ray in a
+// cosine-distributed direction, traced like a reflection through the BVH and the cube map.
+// Escaping, it brings the sky's radiance; meeting a surface, that surface's light (lamps
+// with shadows, emission, and the sky's irradiance if a second ray from there escapes: one
+// bounce of diffuse light), plus the sky through glass by the glass's transmission. rgb = pi times that radiance (a cosine-
+// distributed sample's irradiance estimate), a = the sky's visibility.
 void main() {
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(pixel, u_size))) return;
     vec4 nm = texelFetch(u_normal_material, pixel, 0);
-    float visibility = 1.0;
+    vec4 ambient = vec4(0.0, 0.0, 0.0, 1.0);
     if (nm.w != 0.0 && material_diffuse(materials[int(abs(nm.w) + 0.5) - 1]) > 0.0) {
         vec2 ndc_xy = (vec2(pixel) + 0.5) / vec2(u_size) * 2.0 - 1.0;
         vec3 p = unproject_primary(ndc_xy, texelFetch(u_depth, pixel, 0).r * 2.0 - 1.0);
@@ -420,9 +423,30 @@ void main() {
         vec3 d = keep_on_side(r * cos(2.0 * PI * xi.y) * t + r * sin(2.0 * PI * xi.y) * b
                               + sqrt(max(0.0, 1.0 - xi.x)) * n_facing, g_facing, 0.01);
         Hit h = trace_ray(offset_origin(p, g_facing), d, 0);
-        visibility = h.kind == HIT_SKY ? 1.0 : material_transmission(materials[h.material]);
+        if (h.kind == HIT_SKY) {
+            ambient = vec4(PI * sky_radiance(d), 1.0);
+        } else {
+            Material hm = materials[h.material];
+            vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
+            vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
+            SpecularSplit hs = specular_split_geometric(hm, h_albedo, d, h.normal, h.geometric);
+            // The surface met sees the sky only where nothing hides it either: a second
+            // cosine ray from it decides (an enclosed space's walls lit by the whole sky
+            // would bounce far too much light).
+            vec2 xi2 = lobe_random(0x5ca2);
+            basis_around(hs.n_facing, t, b);
+            float r2 = sqrt(xi2.x);
+            vec3 d2 = keep_on_side(r2 * cos(2.0 * PI * xi2.y) * t + r2 * sin(2.0 * PI * xi2.y) * b
+                                   + sqrt(max(0.0, 1.0 - xi2.x)) * hs.n_facing, hs.g_facing, 0.01);
+            Hit h2 = trace_ray(offset_origin(h.position, hs.g_facing), d2, 0);
+            float seen = h2.kind == HIT_SKY ? 1.0 : material_transmission(materials[h2.material]);
+            vec3 bounce = shade_surface(hm, h_albedo, h_emission, h.position, d, hs,
+                                        sky_irradiance(hs.n_facing) * seen, seen, 1.0);
+            float through = material_transmission(hm);
+            ambient = vec4(PI * (bounce + through * sky_radiance(d)), through);
+        }
     }
-    imageStore(u_sky_visibility, pixel, vec4(visibility));
+    imageStore(u_ambient, pixel, ambient);
 }
 #else
 void main() {
@@ -484,7 +508,8 @@ void main() {
                                                   lobe_random(ray.depth));
         // Seen through a rough lobe, a sharp lamp highlight is a firefly: widen it to that
         // lobe's roughness (Cycles' Filter Glossy does the same).
-        traced += ray.weight * shade_surface(hm, h_albedo, h_emission, h.position, ray.dir, hs, 1.0, ray.blur);
+        traced += ray.weight * shade_surface(hm, h_albedo, h_emission, h.position, ray.dir, hs,
+                                             sky_irradiance(hs.n_facing), 1.0, ray.blur);
         spawn_children(hs, h.position, ray.weight, ray.depth + 1, max(ray.blur, material_roughness(hm)));
     }
     vec4 base = imageLoad(u_color, pixel);

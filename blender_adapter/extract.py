@@ -266,6 +266,47 @@ def _surface_node(node_tree):
     return None
 
 
+# Separate Color outputs -> the channel of hybrid_engine.scene_data.TEXTURE_CHANNELS they read.
+_SEPARATED_CHANNELS = {"Red": 0, "Green": 1, "Blue": 2, "R": 0, "G": 1, "B": 2}
+
+
+def _value_image(node, name: str, textures: dict | None, slot: str, owner: str) -> None:
+    """Follow a value input (Roughness, Metallic) to the image that drives it: an Image
+    Texture's Color (read as its luminance, Blender's colour-to-value conversion) or one
+    channel of it through a Separate Color node (a glTF's packed image); the pixels go to
+    ``textures[slot]`` and the channel to ``textures[slot channel]``. Other links are named
+    in a warning and the socket's own value is used."""
+    if textures is None or node is None:
+        return
+    source, from_socket = _linked_node(node.inputs.get(name))
+    if source is None:
+        return
+    channel = 3
+    if source.type in ("SEPARATE_COLOR", "SEPRGB") and not source.mute and from_socket.name in _SEPARATED_CHANNELS:
+        if source.type == "SEPARATE_COLOR" and getattr(source, "mode", "RGB") != "RGB":
+            _warn_once(("separate", owner, name), "%s: %s reads a %s Separate Color; its own value is used",
+                       owner, name, source.mode)
+            return
+        channel = _SEPARATED_CHANNELS[from_socket.name]
+        source, from_socket = _linked_node(source.inputs[0])
+    image_node = _image_node(source, from_socket, owner)
+    if image_node is None or image_node.image is None:
+        _warn_once(("value link", owner, name), "%s: %s is linked to %r, which is not an image texture "
+                   "(or one channel of one); its own value is used", owner, name,
+                   source.name if source is not None else "nothing")
+        return
+    pixels = image_pixels(image_node.image)
+    if pixels is not None:
+        textures[slot] = pixels
+        textures[slot.replace("_texture", "_channel")] = channel
+
+
+def _value_images(node, textures: dict | None, owner: str) -> None:
+    """The Principled BSDF's Roughness and Metallic images (``_value_image``)."""
+    _value_image(node, "Roughness", textures, "roughness_texture", owner)
+    _value_image(node, "Metallic", textures, "metallic_texture", owner)
+
+
 def _normal_map(node, textures: dict | None, owner: str) -> float:
     """The strength of the tangent-space Normal Map node feeding ``node``'s Normal input
     from an image texture, with the image's pixels put in ``textures["normal_texture"]``; 1
@@ -323,6 +364,7 @@ def material_inputs(material, textures: dict | None = None) -> dict:
         return factor
 
     if kind == "BSDF_PRINCIPLED":
+        _value_images(node, textures, material.name)
         return dict(
             base_color=color("Base Color", (0.8, 0.8, 0.8), "base_color_texture"),
             metallic=_socket_value(node, "Metallic", 0.0),

@@ -208,7 +208,8 @@ class RenderTargets:
 
 
 class GBufferTargets(RenderTargets):
-    """A G-buffer (depth, normal + material, albedo, emission scale), its ambient estimate
+    """A G-buffer (depth, normal + material, albedo, emission scale, surface: the roughness
+    and metallic its images give, gbuffer.frag.glsl), its ambient estimate
     (the World's light: alpha the sky's visibility from screen_ao.py, or rgb the light the
     tracer's sky rays gathered as well) and its shaded colour, W x H texels. ``emission_scale`` holds the colour of the material's emission texture
     (1 without one); the shading multiplies the material's emission by it.
@@ -219,7 +220,8 @@ class GBufferTargets(RenderTargets):
 
     def __init__(self, ctx, width: int, height: int) -> None:
         super().__init__(ctx, width, height,
-                         colour={"normal_material": (4, "f4"), "albedo": (4, "f2"), "emission_scale": (4, "f2")},
+                         colour={"normal_material": (4, "f4"), "albedo": (4, "f2"), "emission_scale": (4, "f2"),
+                                 "surface": (2, "f2")},
                          extra={"color": (4, "f4"), "ambient": (4, "f4")})
 
     def read_color(self) -> np.ndarray:
@@ -463,7 +465,8 @@ class RasterPasses:
         prog = self.shade_prog
         gpu.materials.buffer.bind_to_storage_buffer(0)
         units = {"u_depth": targets.depth, "u_normal_material": targets.normal_material, "u_albedo": targets.albedo,
-                 "u_emission_scale": targets.emission_scale, "u_ambient": targets.ambient}
+                 "u_emission_scale": targets.emission_scale, "u_ambient": targets.ambient,
+                 "u_surface": targets.surface}
         for unit, (name, tex) in enumerate(units.items()):
             tex.use(location=unit)
             if name in prog:

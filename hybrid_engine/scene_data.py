@@ -178,6 +178,10 @@ class MaterialTable:
     Blender ignores a socket's own value once an Image Texture is linked to it, so the
     extractor stores a factor of 1 for a direct link (and the constant of a Multiply mix
     for a ``colour × image`` link); scenes built by hand can use the factor as a tint.
+    ``roughness_texture[i]`` / ``metallic_texture[i]`` give the roughness / metallic (the
+    factors are then unused, as Blender ignores a linked socket's value) from the channel
+    ``roughness_channel`` / ``metallic_channel`` (``TEXTURE_CHANNELS``: a glTF's packed
+    image reads green and blue) of a Non-Color image.
     ``normal_texture[i]`` is a tangent-space normal map (Blender's Normal Map node: colour
     ``n * 0.5 + 0.5`` in the frame of the UVs' directions, OpenGL's +Y), blended with the
     shading normal by ``normal_strength``; its image is stored as is (Non-Color).
@@ -208,6 +212,10 @@ class MaterialTable:
     textures: list[np.ndarray] = field(default_factory=list)  # (H, W, 4) float32 linear
     normal_texture: np.ndarray | None = None  # (M,) int32 tangent-space normal map, -1 none
     normal_strength: np.ndarray | None = None  # (M,) float32 Normal Map strength; None: all 1
+    roughness_texture: np.ndarray | None = None  # (M,) int32 image giving the roughness, -1 none
+    metallic_texture: np.ndarray | None = None  # (M,) int32 image giving the metallic, -1 none
+    roughness_channel: np.ndarray | None = None  # (M,) int32 TEXTURE_CHANNELS index; None: all 3
+    metallic_channel: np.ndarray | None = None  # (M,) int32 TEXTURE_CHANNELS index; None: all 3
 
     def __post_init__(self) -> None:
         self.base_color = _as(self.base_color, np.float32, (3,), "base_color")
@@ -229,7 +237,15 @@ class MaterialTable:
         self.normal_strength = _as(self.normal_strength, np.float32, (), "normal_strength")
         if len(self.normal_strength) != m:
             raise SceneDataError(f"material normal_strength has {len(self.normal_strength)} rows, expected {m}")
-        for name in ("base_color_texture", "emission_texture", "normal_texture"):
+        for name in ("roughness_channel", "metallic_channel"):
+            value = getattr(self, name)
+            channel = np.full(m, LUMINANCE_CHANNEL, np.int32) if value is None else _as(value, np.int32, (), name)
+            if len(channel) != m or ((channel < 0) | (channel >= len(TEXTURE_CHANNELS))).any():
+                raise SceneDataError(f"material {name} must hold {m} values in 0..{len(TEXTURE_CHANNELS) - 1} "
+                                     f"({', '.join(TEXTURE_CHANNELS)})")
+            setattr(self, name, channel)
+        for name in ("base_color_texture", "emission_texture", "normal_texture", "roughness_texture",
+                     "metallic_texture"):
             value = getattr(self, name)
             index = np.full(m, -1, np.int32) if value is None else _as(value, np.int32, (), name)
             if len(index) != m:
@@ -246,8 +262,7 @@ class MaterialTable:
     @property
     def has_textures(self) -> bool:
         """True when some material samples a texture."""
-        return bool((self.base_color_texture >= 0).any() or (self.emission_texture >= 0).any()
-                    or (self.normal_texture >= 0).any())
+        return bool(any((getattr(self, name) >= 0).any() for name in TEXTURE_SLOTS))
 
     def __len__(self) -> int:
         return int(len(self.base_color))
@@ -261,7 +276,8 @@ class MaterialTable:
     def from_rows(cls, rows: list[dict], textures: list[np.ndarray] | None = None) -> "MaterialTable":
         """Build from dicts with keys base_color, emission, reflectivity, transmission, ior,
         thickness, roughness, specular, name, base_color_texture, emission_texture,
-        normal_texture, normal_strength (all optional).
+        normal_texture, normal_strength, roughness_texture, roughness_channel,
+        metallic_texture, metallic_channel (all optional).
 
         A texture key holds an index into ``textures``, None (no texture) or the image
         array itself; arrays are appended to the texture list once per array object, so
@@ -295,6 +311,10 @@ class MaterialTable:
             emission_texture=np.array([texture_index(v) for v in get("emission_texture", None)], np.int32),
             normal_texture=np.array([texture_index(v) for v in get("normal_texture", None)], np.int32),
             normal_strength=np.array(get("normal_strength", 1.0), np.float32),
+            roughness_texture=np.array([texture_index(v) for v in get("roughness_texture", None)], np.int32),
+            metallic_texture=np.array([texture_index(v) for v in get("metallic_texture", None)], np.int32),
+            roughness_channel=np.array(get("roughness_channel", LUMINANCE_CHANNEL), np.int32),
+            metallic_channel=np.array(get("metallic_channel", LUMINANCE_CHANNEL), np.int32),
             textures=texture_list,
         )
 
@@ -315,15 +335,27 @@ class MaterialTable:
         # The Normal Map strength in thousandths (an int slot: the float ones are all used).
         strength = np.nan_to_num(np.clip(self.normal_strength, 0.0, 100.0))
         out["textures"][:, 3] = np.where(self.normal_texture >= 0, np.round(strength * 1000.0), -1)
+        # Roughness and metallic images: layer * 4 + the channel read (TEXTURE_CHANNELS).
+        out["textures2"][:] = -1
+        for column, (layer, channel) in enumerate(((self.roughness_texture, self.roughness_channel),
+                                                   (self.metallic_texture, self.metallic_channel))):
+            out["textures2"][:, column] = np.where(layer >= 0, layer * 4 + channel, -1)
         return out
 
 
-# struct Material { vec4 base_color_refl; vec4 emission_trans; vec4 params; ivec4 textures; }
+# struct Material { vec4 base_color_refl; vec4 emission_trans; vec4 params; ivec4 textures; ivec4 textures2; }
 MATERIAL_DTYPE = np.dtype(
     [("base_color", np.float32, 4), ("emission", np.float32, 4), ("params", np.float32, 4),
-     ("textures", np.int32, 4)]
+     ("textures", np.int32, 4), ("textures2", np.int32, 4)]
 )
-assert MATERIAL_DTYPE.itemsize == 64  # total: 64 bytes
+assert MATERIAL_DTYPE.itemsize == 80  # total: 80 bytes
+# The material's image slots (MaterialTable attributes holding texture indices).
+TEXTURE_SLOTS = ("base_color_texture", "emission_texture", "normal_texture", "roughness_texture",
+                 "metallic_texture")
+# What a roughness or metallic image gives: one channel, or the luminance (Blender's colour
+# to value conversion, Rec.709 weights) of its colour.
+TEXTURE_CHANNELS = ("red", "green", "blue", "luminance")
+LUMINANCE_CHANNEL = 3
 
 
 def _texture(array, index: int) -> np.ndarray:

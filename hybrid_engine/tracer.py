@@ -31,7 +31,7 @@ from .gpu_dispatch import GrowBuffer, bind_blocks, split_blocks, storage_barrier
 from .lbvh import BuiltLBVH, LBVHBuilder
 from .near_cube import CullResult, NearCubeCuller, overlap_margin
 from .raster import GBufferTargets, RasterPasses, RasterView, SceneBounds
-from .scene_data import Geometry, SceneData
+from .scene_data import TEXTURE_SLOTS, Geometry, SceneData
 from .scene_delta import GeometryDelta
 from .settings import FIELD_LIMITS, RenderSettings
 from .textures import pixel_footprint
@@ -86,8 +86,7 @@ def pack_triangle_uvs(scene: SceneData, geometry: Geometry | None = None) -> np.
     out = np.zeros(max(n, 1), TRIANGLE_UV_DTYPE)
     if n == 0 or geo.uvs is None or not materials.has_textures:
         return out
-    textured = ((materials.base_color_texture >= 0) | (materials.emission_texture >= 0)
-                | (materials.normal_texture >= 0))
+    textured = np.logical_or.reduce([getattr(materials, slot) >= 0 for slot in TEXTURE_SLOTS])
     rows = np.flatnonzero(textured[geo.material_ids])
     if len(rows) == 0:
         return out
@@ -262,6 +261,7 @@ class HybridTracer:
             "u_normal_material": targets.normal_material,
             "u_albedo": targets.albedo,
             "u_emission_scale": targets.emission_scale,
+            "u_surface": targets.surface,
             "u_cube_depth": self._dummy_depth,
             "u_cube_normal_material": self._dummy_rgba,
             "u_cube_surface": cube.surface if cube is not None else self._dummy_rgba,

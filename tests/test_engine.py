@@ -396,3 +396,38 @@ def test_a_tangent_space_normal_map_shades_a_plane_as_cycles_does(addon, tmp_pat
     flat = 0.8 / np.pi * 3.0  # red channel without the map
     assert cycles[centre][..., 0].mean() < 0.95 * flat  # the map tilts Cycles' normal too
     np.testing.assert_allclose(ours[centre].mean(axis=(0, 1)), cycles[centre].mean(axis=(0, 1)), rtol=0.03)
+
+
+def test_roughness_and_metallic_images_shade_as_in_cycles(addon, tmp_path):
+    """A plane whose Metallic comes from a packed image's blue channel (through Separate
+    Color, as glTF imports it) and whose Roughness from its green: half of it metal, half
+    of it a rough dielectric, lit by a sun and a bright World; the two halves match Cycles."""
+    import bpy
+
+    scene = build_plane_scene(bpy, "SUN", energy=2.0, size=32)
+    background = scene.world.node_tree.nodes["Background"]
+    background.inputs["Color"].default_value = (0.4, 0.5, 0.7, 1.0)
+    background.inputs["Strength"].default_value = 1.0
+    image = bpy.data.images.new("orm", 64, 32, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    texels = np.zeros((32, 64, 4), np.float32)
+    texels[:, :32] = (0.0, 0.3, 1.0, 1.0)  # left: metal, roughness 0.3
+    texels[:, 32:] = (0.0, 0.9, 0.0, 1.0)  # right: a rough dielectric
+    image.pixels.foreach_set(texels.ravel())
+    material = bpy.data.objects["Plane"].data.materials[0]
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    bsdf = nodes["Principled BSDF"]
+    bsdf.inputs["Specular IOR Level"].default_value = 0.5
+    tex, split = nodes.new("ShaderNodeTexImage"), nodes.new("ShaderNodeSeparateColor")
+    tex.image, tex.interpolation = image, "Closest"
+    links.new(tex.outputs["Color"], split.inputs["Color"])
+    links.new(split.outputs["Green"], bsdf.inputs["Roughness"])
+    links.new(split.outputs["Blue"], bsdf.inputs["Metallic"])
+    bpy.data.objects["Plane"].scale = (0.025, 0.025, 1.0)  # the image across the 1 m view
+    ours, cycles = _render_both(bpy, scene, tmp_path, mode="FULL_BVH")
+    halves = {"metal": (slice(4, -4), slice(3, 13)), "rough": (slice(4, -4), slice(19, 29))}
+    got = {k: ours[v][..., :3].mean(axis=(0, 1)) for k, v in halves.items()}
+    want = {k: cycles[v][..., :3].mean(axis=(0, 1)) for k, v in halves.items()}
+    assert np.abs(want["metal"] - want["rough"]).max() > 0.05  # the image makes two surfaces
+    for key in halves:
+        np.testing.assert_allclose(got[key], want[key], rtol=0.1, err_msg=key)

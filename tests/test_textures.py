@@ -100,7 +100,7 @@ def scene_of(quads, rows, textures, lights=(), sky=(0.0, 0.0, 0.0)) -> SceneData
 
 # -- scene data ------------------------------------------------------------------------------
 def test_material_struct_is_64_bytes_with_texture_indices_last():
-    assert MATERIAL_DTYPE.itemsize == 64
+    assert MATERIAL_DTYPE.itemsize == 80
     assert MATERIAL_DTYPE.fields["textures"][1] == 48
 
 

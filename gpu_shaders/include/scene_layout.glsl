@@ -3,7 +3,7 @@
 // hybrid_engine/scene_data.py (MATERIAL_DTYPE) or hybrid_engine/gpu_scene.py (LIGHT_DTYPE,
 // SHADOW_SLOT_DTYPE); the byte sizes are asserted on the Python side.
 
-// struct Material                                           // total: 64 bytes
+// struct Material                                           // total: 80 bytes
 //   vec4 base_color_refl;  rgb = linear base colour, a = reflectivity (metal lobe weight)
 //   vec4 emission_trans;   rgb = emitted radiance,   a = transmission (glass lobe weight)
 //   vec4 params;           x = IOR, y = thickness (paper §3.4), z = roughness (GGX),
@@ -13,11 +13,15 @@
 //                          (-1 = none; the texture multiplies the colour above, see
 //                          textures.glsl), z = tangent-space normal map layer (-1 = none),
 //                          w = its strength in thousandths
+//   ivec4 textures2;       x = roughness image, y = metallic image: layer * 4 + channel
+//                          (0..2 red, green, blue, 3 luminance), -1 = none (the factor above
+//                          holds); zw unused (-1)
 struct Material {
     vec4 base_color_refl;
     vec4 emission_trans;
     vec4 params;
     ivec4 textures;
+    ivec4 textures2;
 };
 
 // struct Light                                              // total: 64 bytes

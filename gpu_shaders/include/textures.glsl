@@ -49,6 +49,38 @@ vec3 material_emission_lod(Material m, vec2 uv, float lod) {
     return m.emission_trans.rgb * texture_rgb_lod(m.textures.y, uv, lod);
 }
 
+// The value a roughness or metallic image gives (textures2: layer * 4 + channel).
+float texture_value(vec4 texel, int selector) {
+    int channel = selector & 3;
+    return channel == 3 ? dot(texel.rgb, vec3(0.2126, 0.7152, 0.0722)) : texel[channel];
+}
+
+// The material with its roughness and metallic images applied at the texel fetches given
+// (the metal layer takes its weight from the image; the glass layer keeps what is left).
+Material material_with_surface(Material m, float roughness, float metallic) {
+    if (m.textures2.x >= 0) m.params.z = clamp(roughness, 0.0, 1.0);
+    if (m.textures2.y >= 0) {
+        m.base_color_refl.a = clamp(metallic, 0.0, 1.0);
+        m.emission_trans.a = min(m.emission_trans.a, 1.0 - m.base_color_refl.a);
+    }
+    return m;
+}
+bool material_has_surface_maps(Material m) { return max(m.textures2.x, m.textures2.y) >= 0; }
+// The material at uv (roughness and metallic images sampled at mip level lod).
+Material material_at_lod(Material m, vec2 uv, float lod) {
+    if (!material_has_surface_maps(m)) return m;
+    float r = m.params.z, k = m.base_color_refl.a;
+    if (m.textures2.x >= 0) r = texture_value(textureLod(u_textures, vec3(uv, float(m.textures2.x >> 2)), lod), m.textures2.x);
+    if (m.textures2.y >= 0) k = texture_value(textureLod(u_textures, vec3(uv, float(m.textures2.y >> 2)), lod), m.textures2.y);
+    return material_with_surface(m, r, k);
+}
+vec2 material_surface_grad(Material m, vec2 uv, vec2 duv_dx, vec2 duv_dy) {
+    float r = m.params.z, k = m.base_color_refl.a;
+    if (m.textures2.x >= 0) r = texture_value(textureGrad(u_textures, vec3(uv, float(m.textures2.x >> 2)), duv_dx, duv_dy), m.textures2.x);
+    if (m.textures2.y >= 0) k = texture_value(textureGrad(u_textures, vec3(uv, float(m.textures2.y >> 2)), duv_dx, duv_dy), m.textures2.y);
+    return vec2(r, k);
+}
+
 // Blender's Normal Map node (tangent space): the map's colour is a normal n * 0.5 + 0.5 in
 // the frame (t, b, n) of the UVs' u and v directions; strength blends it with the shading
 // normal n. t and b need not be unit or orthogonal to n (they are the surface's dp/du and

@@ -23,6 +23,7 @@
 // Workgroup 8x8: square tiles keep neighbouring pixels (and their G-buffer rows) together.
 #include "scene_layout.glsl"
 #include "shading.glsl"
+#include "textures.glsl"
 #include "octahedral.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -34,6 +35,7 @@ uniform sampler2D u_depth;
 uniform sampler2D u_normal_material;
 uniform sampler2D u_albedo;
 uniform sampler2D u_emission_scale;
+uniform sampler2D u_surface;  // roughness, metallic (gbuffer.frag.glsl location 3)
 uniform mat4 u_inv_view_proj;
 uniform sampler2D u_ambient;  // per pixel: rgb the World's irradiance gathered by sky rays, a the sky's visibility
 uniform int u_ambient_from_rays;     // 1: rgb holds the World's light (sky rays), 0: only a
@@ -94,6 +96,10 @@ void main() {
     vec3 p = unproject(ndc_xy, depth * 2.0 - 1.0);
     int material_index = int(abs(nm.w) + 0.5) - 1;
     Material m = materials[material_index];
+    if (material_has_surface_maps(m)) {
+        vec2 surface = texelFetch(u_surface, pixel, 0).rg;
+        m = material_with_surface(m, surface.x, surface.y);
+    }
     vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
     vec4 emission_g = texelFetch(u_emission_scale, pixel, 0);
     vec3 albedo = albedo_g.rgb;

@@ -11,6 +11,8 @@
 //   location 2 (RGBA16F): rgb = emission scale (the emission image texture's colour, 1
 //                         without one; the shading multiplies the material's emission),
 //                         a = second octahedral coordinate of the geometric normal
+//   location 3 (RG16F):   the roughness and metallic at the pixel (their images, or the
+//                         material's values without)
 // The geometric normal (the plane of the triangle, either orientation) lets the tracer keep
 // reflected rays above and refracted rays below the true surface: with interpolated shading
 // normals on a tessellated surface a mirror direction can point into the mesh, and the ray
@@ -47,6 +49,9 @@ flat in int v_material;
 layout(location = 0) out vec4 out_normal_material;
 layout(location = 1) out vec4 out_albedo;
 layout(location = 2) out vec4 out_emission_scale;
+#ifndef CUBE_FACE
+layout(location = 3) out vec4 out_surface;
+#endif
 
 void main() {
     Material m = materials[v_material];
@@ -91,5 +96,6 @@ void main() {
 #else
     out_albedo = vec4(material_albedo_grad(m, v_uv, duv_dx, duv_dy), g_oct.x);
     out_emission_scale = vec4(material_emission_scale_grad(m, v_uv, duv_dx, duv_dy), g_oct.y);
+    out_surface = vec4(material_surface_grad(m, v_uv, duv_dx, duv_dy), 0.0, 0.0);
 #endif
 }

@@ -149,6 +149,7 @@ uniform sampler2D u_depth;
 uniform sampler2D u_normal_material;
 uniform sampler2D u_albedo;
 uniform sampler2D u_emission_scale;
+uniform sampler2D u_surface;         // primary roughness, metallic (gbuffer.frag.glsl)
 uniform sampler2D u_cube_surface;    // xy UV, z UV density (cube_map.CubeFaceTargets)
 uniform sampler2D u_cube_geometric;  // xy octahedral geometric normal
 uniform mat4 u_inv_view_proj;
@@ -251,7 +252,7 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary) {
     h.uv = vec2(0.0);
     h.lod = 0.0;
     ivec4 tex = materials[h.material].textures;
-    if (max(max(tex.x, tex.y), tex.z) >= 0) {
+    if (max(max(tex.x, tex.y), tex.z) >= 0 || material_has_surface_maps(materials[h.material])) {
         // Texture coordinate by the hit's barycentrics.
         TriangleUV tuv = tri_uvs[tri];
         h.uv = (1.0 - bary.x - bary.y) * tuv.uv01.xy + bary.x * tuv.uv01.zw + bary.y * tuv.uv2_scale.xy;
@@ -333,7 +334,7 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
                 h.geometric = gbuffer_geometric(g_oct.x, g_oct.y, h.normal);
                 h.material = cm.material;
                 ivec4 tex = materials[h.material].textures;
-                if (max(tex.x, tex.y) >= 0) {
+                if (max(max(tex.x, tex.y), tex.z) >= 0 || material_has_surface_maps(materials[h.material])) {
                     // The face keeps the texel's UV and UV density (gbuffer.frag.glsl,
                     // CUBE_FACE): textured like a BVH hit, with the same ray cone.
                     vec4 surface = texelFetch(u_cube_surface, cm.texel, 0);
@@ -394,6 +395,14 @@ vec2 lobe_random(int depth) {
     return random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), uint(u_sample), uint(depth)));
 }
 
+// The material of a primary pixel, with the roughness and metallic its images give there.
+Material primary_material(int index, ivec2 pixel) {
+    Material m = materials[index];
+    if (!material_has_surface_maps(m)) return m;
+    vec2 surface = texelFetch(u_surface, pixel, 0).rg;
+    return material_with_surface(m, surface.x, surface.y);
+}
+
 #ifdef SKY_VISIBILITY_PASS
 // The World's light on a diffuse primary pixel (HybridTracer.sky_visibility): one ray in a
 // cosine-distributed direction, traced like a reflection through the BVH and the cube map.
@@ -406,7 +415,7 @@ void main() {
     if (any(greaterThanEqual(pixel, u_size))) return;
     vec4 nm = texelFetch(u_normal_material, pixel, 0);
     vec4 ambient = vec4(0.0, 0.0, 0.0, 1.0);
-    if (nm.w != 0.0 && material_diffuse(materials[int(abs(nm.w) + 0.5) - 1]) > 0.0) {
+    if (nm.w != 0.0 && material_diffuse(primary_material(int(abs(nm.w) + 0.5) - 1, pixel)) > 0.0) {
         vec2 ndc_xy = (vec2(pixel) + 0.5) / vec2(u_size) * 2.0 - 1.0;
         vec3 p = unproject_primary(ndc_xy, texelFetch(u_depth, pixel, 0).r * 2.0 - 1.0);
         vec3 view_dir = u_orthographic != 0 ? normalize(u_camera_forward) : normalize(p - u_camera_position);
@@ -426,7 +435,7 @@ void main() {
         if (h.kind == HIT_SKY) {
             ambient = vec4(PI * sky_radiance(d), 1.0);
         } else {
-            Material hm = materials[h.material];
+            Material hm = material_at_lod(materials[h.material], h.uv, h.lod);
             vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
             vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
             SpecularSplit hs = specular_split_geometric(hm, h_albedo, d, h.normal, h.geometric);
@@ -459,7 +468,7 @@ void main() {
     int material_index = 0;
     if (nm.w != 0.0) {
         material_index = int(abs(nm.w) + 0.5) - 1;
-        m = materials[material_index];
+        m = primary_material(material_index, pixel);
         specular = material_is_specular(m);
     }
     if (!specular) {
@@ -501,7 +510,7 @@ void main() {
         // the reconstructed position, so only the texels rays hit are shaded and textured;
         // reflection and refraction are traced from that position (no refractive surface
         // is stored in the faces, paper Figure 8: refraction finds none there).
-        Material hm = materials[h.material];
+        Material hm = material_at_lod(materials[h.material], h.uv, h.lod);
         vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
         vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
         SpecularSplit hs = specular_split_sampled(hm, h_albedo, ray.dir, h.normal, h.geometric,

@@ -1088,8 +1088,9 @@ def _build_room(scene, assets: Path | None, detail: float, frame_count: int) -> 
     frames = _frames(frame_count)
     matrices = np.repeat(look_at((0.5, -9.0, 3.2), (0.0, 0.5, 0.7))[None], len(frames), axis=0)
     _add_camera(scene, collection, "Camera", matrices, frames, lens=30.0, clip_start=0.1, clip_end=100.0)
-    # Light bounces between the floor, the walls and the boxes: gathered by the sky rays.
-    _settings(scene, near_size=ROOM_NEAR_SIZE, cube_far=100.0, sky_rays=True)
+    # Light bounces between the floor, the walls and the boxes: gathered by the sky rays,
+    # whose noise 16 samples of a final render smooth (the room is small: about a second each).
+    _settings(scene, near_size=ROOM_NEAR_SIZE, cube_far=100.0, sky_rays=True, render_samples=16)
     scene["hybrid_rt_label"] = "sky-lit room: mirror, glass and brushed-metal balls on a glossy floor"
     scene.name = "room: sky-lit room"
 

@@ -5,8 +5,8 @@ EEVEE's light panels show controls this engine does not read (soft falloff, area
 shadow jitter and resolution limits...), which would change nothing in the image. This
 panel draws only what blender_adapter/extract.py reads: colour, temperature, power or
 strength, exposure, normalize, the lamp's size (point and spot radius, sun angle, area
-shape and size, which soften shadows and widen highlights), the spot cone, and whether the
-lamp casts shadows.
+shape and size, which soften shadows and widen highlights) and whether the lamp casts
+shadows. The spot's cone is Blender's own Spot Shape panel, which this engine shows too.
 """
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ CONTROLS = {
     "POINT": ("color", "use_temperature", "temperature", "energy", "exposure", "normalize", "shadow_soft_size",
               "use_shadow"),
     "SPOT": ("color", "use_temperature", "temperature", "energy", "exposure", "normalize", "shadow_soft_size",
-             "spot_size", "spot_blend", "use_shadow"),
+             "use_shadow"),
     "SUN": ("color", "use_temperature", "temperature", "energy", "exposure", "normalize", "angle", "use_shadow"),
     "AREA": ("color", "use_temperature", "temperature", "energy", "exposure", "normalize", "shape", "size",
              "size_y", "use_shadow"),

@@ -11,7 +11,7 @@ rest of the lighting data in FrameResources.
 
 The default, not rays through the paper's BVH and cube map (``sky_rays``,
 HybridTracer.sky_visibility): it costs a few depth reads per pixel and is smooth after the
-shading's 4x4 average, while a ray per pixel through the hybrid structures costs as much as
+shading's 3x3 average, while a ray per pixel through the hybrid structures costs as much as
 a reflection ray; but what it cannot see (geometry off screen, behind the first surface or
 beyond its reach) does not occlude, which leaves enclosed spaces too bright
 (docs/BENCHMARKS.md).

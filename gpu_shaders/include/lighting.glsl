@@ -43,7 +43,8 @@ const vec2 DISC16[16] = vec2[16](
     vec2(-0.126487, -0.976090));
 #define SHADOW_MAX_FILTER_TEXELS 48.0
 // Taps of the blocker search and of the penumbra filter (powers of two up to 16); each
-// sample rotates them, so accumulated samples smooth the penumbra.
+// sample rotates them, so accumulated samples smooth the penumbra. HARD_SHADOWS defined:
+// every lookup is the single hard test.
 #ifndef SHADOW_SEARCH_TAPS
 #define SHADOW_SEARCH_TAPS 4
 #endif
@@ -207,7 +208,11 @@ DirectLight direct_lighting(vec3 p, vec3 n, vec3 v, vec3 f0, float f90, float ro
         }
         if (dot(e, e) == 0.0) continue;
         // Highlights alone (a mirror) take the hard test: their lobe already blurs the edge.
+#ifdef HARD_SHADOWS
+        e *= shadow_visibility(light, p, n, to_light, false);
+#else
         e *= shadow_visibility(light, p, n, to_light, diffuse);
+#endif
         result.irradiance += e;
         if (lobe > 0.0) {
             float v_h = clamp(dot(v, normalize(v + to_light)), 0.0, 1.0);

@@ -54,15 +54,15 @@ vec3 unproject(vec2 ndc_xy, float ndc_z) {
 }
 
 // The ambient estimate of screen_ao.comp.glsl or of the sky rays (rgb irradiance, a sky
-// visibility), averaged over the 4x4 pixels around `local` that lie on p's surface (near
-// its tangent plane, facing alike): each pixel's few points or its one ray are noisy,
-// sixteen neighbours' together are smooth.
+// visibility), averaged over the 3x3 pixels around `local` that lie on p's surface (near
+// its tangent plane, facing alike): each pixel's few points or its one ray are noisy, nine
+// neighbours' together much less, and accumulated samples smooth the rest.
 vec4 smoothed_ambient(ivec2 local, vec3 p, vec3 n) {
     float camera_dist = u_orthographic != 0 ? 1.0 : distance(p, u_camera_position);
     vec4 sum = vec4(0.0);
     float weight = 0.0;
-    for (int dy = -2; dy < 2; ++dy) {
-        for (int dx = -2; dx < 2; ++dx) {
+    for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
             ivec2 q = clamp(local + ivec2(dx, dy), ivec2(0), u_size - 1);
             vec4 nm = texelFetch(u_normal_material, u_origin + q, 0);
             if (nm.w == 0.0) continue;

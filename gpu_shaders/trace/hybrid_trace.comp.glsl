@@ -54,10 +54,10 @@
 // Workgroup 8x8: neighbouring pixels' rays are coherent for the first bounce.
 #define BVH_NODES_BINDING 3
 #define BVH_TRIANGLES_BINDING 4
-// Penumbrae seen in reflections and through glass take fewer taps (lighting.glsl): there
-// every pixel shades up to max_depth hits, and samples accumulate the rest.
-#define SHADOW_SEARCH_TAPS 4
-#define SHADOW_FILTER_TAPS 4
+// Shadows seen in reflections and through glass are hard (lighting.glsl HARD_SHADOWS): every
+// pixel shades up to max_depth hits there, and a penumbra's filter at each would cost more
+// than the rest of their shading.
+#define HARD_SHADOWS 1
 #include "scene_layout.glsl"
 #include "storage_blocks.glsl"
 #include "shading.glsl"

@@ -210,8 +210,8 @@ class Renderer:
         step("shade")
         with timer.measure("shade"):
             if settings.traces_sky:
-                tracer.sky_visibility(self.gpu_scene, scene, view, targets, self.resources, settings, center,
-                                      sample=sample)
+                tracer.gather_world_light(self.gpu_scene, scene, view, targets, self.resources, settings,
+                                          center, sample=sample)
             else:
                 self.occlusion.run(targets, view, self.resources, sample)
             self.raster.shade(self.gpu_scene, scene, view, targets, self.resources,

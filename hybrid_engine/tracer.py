@@ -213,20 +213,24 @@ class HybridTracer:
         lighting the deferred shading used); adds the traced radiance to ``targets.color``
         (or writes the provenance colours). ``sample`` picks this sample's directions in
         the glossy lobes (Renderer.render)."""
-        self._run(gpu, scene, view, targets, resources, settings, center, sample, visibility=False)
+        self._run(gpu, scene, view, targets, resources, settings, center, sample, world_light=False)
 
-    def sky_visibility(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
-                       resources: FrameResources, settings: RenderSettings, center, sample: int = 0) -> None:
+    def gather_world_light(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
+                           resources: FrameResources, settings: RenderSettings, center,
+                           sample: int = 0) -> None:
         """Fill ``targets.ambient`` by rays: one cosine-distributed ray per diffuse primary
         pixel through the BVH and the cube map, as the reflections are traced (the hybrid
         ambient occlusion of Reinbothe et al., the paper's reference [14], extended to one
         bounce): rgb the World's light it brings (the sky, or the light of the surface it
         meets), alpha the sky's visibility, at any distance. Runs before the shading, which
-        smooths it as it does the screen-space estimate."""
-        self._run(gpu, scene, view, targets, resources, settings, center, sample, visibility=True)
+        smooths it as it does the screen-space estimate (the one-bounce pass of the kernel,
+        WORLD_LIGHT_PASS)."""
+        self._run(gpu, scene, view, targets, resources, settings, center, sample, world_light=True)
 
     def _run(self, gpu: GPUScene, scene: SceneData, view: RasterView, targets: GBufferTargets,
-             resources: FrameResources, settings: RenderSettings, center, sample: int, visibility: bool) -> None:
+             resources: FrameResources, settings: RenderSettings, center, sample: int, world_light: bool) -> None:
+        """Bind the scene, the BVH, the cube map and the lighting, and run the kernel: the
+        reflections and refractions, or (``world_light``) its World-light variant."""
         ctx = self.ctx
         mode = settings.mode
         built = self.built if mode != "PROVENANCE" else None
@@ -238,7 +242,7 @@ class HybridTracer:
         defines = {**(built.traversal_defines() if built is not None else {}),
                    **normal_split.defines("TRI_NORMAL_BLOCKS", "TRI_NORMAL_BLOCK_SIZE"),
                    **(self.cube_map.march_defines() if mode == "HYBRID" else {}),
-                   **({"SKY_VISIBILITY_PASS": 1} if visibility else {})}
+                   **({"WORLD_LIGHT_PASS": 1} if world_light else {})}
         prog = shader_loader.compute(ctx, "trace/hybrid_trace.comp.glsl", defines) if defines else self.program
         self._counters.write(self._zero_counters)
 
@@ -298,7 +302,7 @@ class HybridTracer:
         prog.run(math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
         storage_barrier(ctx)
         if gl_context.debug_checks_enabled():
-            gl_context.check_error(f"{mode} {'sky visibility' if visibility else 'trace'}")
+            gl_context.check_error(f"{mode} {'world light' if world_light else 'trace'}")
 
     def read_stats(self, max_depth: int) -> TraceStats:
         raw = np.frombuffer(self._counters.read(), np.uint32).reshape(len(COUNTER_KINDS), COUNTER_DEPTHS)

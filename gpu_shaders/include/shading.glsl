@@ -186,11 +186,6 @@ SpecularSplit specular_split_geometric(Material m, vec3 albedo, vec3 view_dir, v
     return specular_split_sampled(m, albedo, view_dir, n, g, vec2(0.0));
 }
 
-// The same where only the shading normal is known.
-SpecularSplit specular_split(Material m, vec3 albedo, vec3 view_dir, vec3 n) {
-    return specular_split_geometric(m, albedo, view_dir, n, vec3(0.0));
-}
-
 // Everything of a surface that is not a secondary ray: emission, the diffuse layer lit by the
 // lamps and the World, the lamps' glossy highlights on every specular layer, and the
 // reflections too rough to trace (prefiltered sky). `view_dir` points at the surface; `split`

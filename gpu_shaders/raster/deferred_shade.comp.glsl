@@ -10,7 +10,7 @@
 // (trace/hybrid_trace.comp.glsl) adds them as traced rays.
 //
 // The World's light on primary pixels: the sky's irradiance times its visibility from
-// screen_ao.comp.glsl, or what the tracer's sky rays gathered (SKY_VISIBILITY_PASS: the sky,
+// screen_ao.comp.glsl, or what the tracer's sky rays gathered (WORLD_LIGHT_PASS: the sky,
 // and the light of the surfaces that hide it, one bounce), smoothed here over the pixels of
 // the same surface around each pixel. Background pixels get the sky, or
 // (0, 0, 0, 0) with u_transparent_background = 1 (Blender's transparent film, film.py):

@@ -141,7 +141,7 @@ uniform float u_pixel_spread;  // its growth per metre of distance (perspective)
 layout(std430, binding = 6) buffer CounterBuffer { uint counters[]; };
 
 layout(rgba32f, binding = 0) uniform image2D u_color;
-#ifdef SKY_VISIBILITY_PASS
+#ifdef WORLD_LIGHT_PASS
 layout(rgba32f, binding = 1) writeonly uniform image2D u_ambient;
 #endif
 
@@ -403,8 +403,18 @@ Material primary_material(int index, ivec2 pixel) {
     return material_with_surface(m, surface.x, surface.y);
 }
 
-#ifdef SKY_VISIBILITY_PASS
-// The World's light on a diffuse primary pixel (HybridTracer.sky_visibility): one ray in a
+#ifdef WORLD_LIGHT_PASS
+// A cosine-distributed direction around the shading normal n from two uniform numbers,
+// kept above the true surface (g, the geometric normal on the same side).
+vec3 cosine_direction(vec3 n, vec3 g, vec2 xi) {
+    vec3 t, b;
+    basis_around(n, t, b);
+    float r = sqrt(xi.x);
+    vec3 d = r * cos(2.0 * PI * xi.y) * t + r * sin(2.0 * PI * xi.y) * b + sqrt(max(0.0, 1.0 - xi.x)) * n;
+    return keep_on_side(d, g, 0.01);
+}
+
+// The World's light on a diffuse primary pixel (HybridTracer.gather_world_light): one ray in a
 // cosine-distributed direction, traced like a reflection through the BVH and the cube map.
 // Escaping, it brings the sky's radiance; meeting a surface, that surface's light (lamps
 // with shadows, emission, and the sky's irradiance if a second ray from there escapes: one
@@ -425,12 +435,7 @@ void main() {
         vec3 g_facing = dot(g, view_dir) < 0.0 ? g : -g;
         vec3 n_facing = dot(n, g_facing) >= 0.0 ? n : -n;
         pixel_key = position_key(p);
-        vec2 xi = lobe_random(0x5ca1);
-        vec3 t, b;
-        basis_around(n_facing, t, b);
-        float r = sqrt(xi.x);
-        vec3 d = keep_on_side(r * cos(2.0 * PI * xi.y) * t + r * sin(2.0 * PI * xi.y) * b
-                              + sqrt(max(0.0, 1.0 - xi.x)) * n_facing, g_facing, 0.01);
+        vec3 d = cosine_direction(n_facing, g_facing, lobe_random(0x5ca1));
         Hit h = trace_ray(offset_origin(p, g_facing), d, 0);
         if (h.kind == HIT_SKY) {
             ambient = vec4(PI * sky_radiance(d), 1.0);
@@ -442,11 +447,7 @@ void main() {
             // The surface met sees the sky only where nothing hides it either: a second
             // cosine ray from it decides (an enclosed space's walls lit by the whole sky
             // would bounce far too much light).
-            vec2 xi2 = lobe_random(0x5ca2);
-            basis_around(hs.n_facing, t, b);
-            float r2 = sqrt(xi2.x);
-            vec3 d2 = keep_on_side(r2 * cos(2.0 * PI * xi2.y) * t + r2 * sin(2.0 * PI * xi2.y) * b
-                                   + sqrt(max(0.0, 1.0 - xi2.x)) * hs.n_facing, hs.g_facing, 0.01);
+            vec3 d2 = cosine_direction(hs.n_facing, hs.g_facing, lobe_random(0x5ca2));
             Hit h2 = trace_ray(offset_origin(h.position, hs.g_facing), d2, 0);
             float seen = h2.kind == HIT_SKY ? 1.0 : material_transmission(materials[h2.material]);
             vec3 bounce = shade_surface(hm, h_albedo, h_emission, h.position, d, hs,

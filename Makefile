@@ -37,7 +37,7 @@ test: setup
 
 bench: setup
 	@mkdir -p out
-	$(PYTHON_VENV) -m hybrid_engine.bench --json out/bench.json
+	$(PYTHON_VENV) -m benchmarks.bench --json out/bench.json
 
 pictures: setup
 	$(PYTHON_VENV) scripts/make_pictures.py

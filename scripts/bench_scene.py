@@ -6,9 +6,9 @@ Usage: python scripts/bench_scene.py --scene sponza [--assets DIR] [--detail D] 
                                      [--cube-far F] [--cube-resolution N] [--max-depth N]
                                      [--cube-march HIERARCHICAL|SAMPLED] [--json PATH]
 
-The benchmark's frame comparison (``hybrid_engine/bench.py`` ``compare_modes``, the same
-method and figures as ``python -m hybrid_engine.bench --sections frame`` gives for the
-procedural Chess scene) on a scene built by ``blender_adapter/scene_library.py``: frames
+The benchmark's frame comparison (``benchmarks/bench.py`` ``compare_modes``, the same
+method and figures as ``python -m benchmarks.bench --sections frame`` gives for the
+procedural Chess scene) on a scene built by ``benchmarks/scene_library.py``: frames
 F .. F + 1 warm the two renderers up, frames F + 2 .. F + N + 1 are timed, the modes
 alternating frame by frame. Every frame reaches the core as an F12 render's would: the scene
 is set to the frame, the evaluated depsgraph is extracted (``extract.extract_scene``) and the
@@ -43,7 +43,7 @@ FULL_DETAIL = 1.0  # the paper's size
 
 
 def parse_args(argv: list[str] | None, bench: ModuleType) -> argparse.Namespace:
-    """The command line, checked; ``bench`` is the add-on's hybrid_engine.bench (its
+    """The command line, checked; ``bench`` is the add-on's benchmarks.bench (its
     resolution parser and defaults, so both benchmarks read their options alike)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", choices=SCENE_NAMES, default="sponza", help="scene of the library")
@@ -116,9 +116,9 @@ def blender_frames(scene, first: int, count: int, extract_ms: list[float]) -> It
 def run_comparison(args: argparse.Namespace, assets: Path) -> dict:
     """Build the scene and compare the modes on its frames; the report of
     ``bench.compare_modes`` with the scene's description and extraction times added."""
-    from hybrid_rt.blender_adapter import scene_library
+    from benchmarks import scene_library
     from hybrid_rt.blender_adapter.gl_host import gl_block
-    from hybrid_rt.hybrid_engine import bench
+    from benchmarks import bench
 
     start = time.perf_counter()
     scene = scene_library.build_scene(args.scene, assets, detail=args.detail, frame_count=FRAME_COUNT,
@@ -140,7 +140,7 @@ def run_comparison(args: argparse.Namespace, assets: Path) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     addon = load_addon()
-    from hybrid_rt.hybrid_engine import bench
+    from benchmarks import bench
     from hybrid_rt.hybrid_engine.settings import SettingsError
 
     args = parse_args(argv, bench)
@@ -151,7 +151,7 @@ def main(argv: list[str] | None = None) -> int:
     bpy.ops.wm.read_factory_settings(use_empty=True)
     addon.register()
     try:
-        from hybrid_rt.blender_adapter import scene_library
+        from benchmarks import scene_library
 
         try:
             check_scene_assets([args.scene], assets, skip_missing=False)

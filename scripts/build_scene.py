@@ -4,7 +4,7 @@
 Usage: python scripts/build_scene.py {chess,chess_real,sponza,large} [--assets ../shared/scenes]
        [--detail 1.0] [--frames 200] [--width 1280 --height 720] --save out/sponza.blend
 
-The scenes are those of ``blender_adapter/scene_library.py`` (the paper's Chess, Sponza with
+The scenes are those of ``benchmarks/scene_library.py`` (the paper's Chess, Sponza with
 Buddha, bunny and dragon, and a labelled San Miguel stand-in); the add-on is registered from
 this checkout exactly as Blender would import it. The saved file renders with Hybrid RT,
 EEVEE or Cycles; its textures stay where the assets folder keeps them (never copied).
@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
     bpy.ops.wm.read_factory_settings(use_empty=True)
     addon.register()
     try:
-        from hybrid_rt.blender_adapter import scene_library
+        from benchmarks import scene_library
 
         if args.scene not in scene_library.SCENES:
             parser.error(f"unknown scene {args.scene!r}: choose one of {', '.join(scene_library.SCENES)}")

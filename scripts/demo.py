@@ -5,7 +5,7 @@ Usage: python scripts/demo.py [--output out/demo.png] [--width W --height H] [--
                               [--report-frames N] [--simple]
 
 Registers the add-on from this checkout exactly as Blender would import it, builds the
-procedural Chess scene (blender_adapter/scene_library.py: 288 pieces, nine mirror spheres,
+procedural Chess scene (benchmarks/scene_library.py: 288 pieces, nine mirror spheres,
 nothing read from outside the repository) and renders frame 0 with ``bpy.ops.render.render``
 in HYBRID mode, then the same frame in PROVENANCE mode (paper Figure 4), then a timing report
 over the first frames of the animation (paper Figure 5). On a hardware GPU: the paper's full
@@ -136,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
             scene = build_demo_scene(width, height)
             label = "the five-object demo scene"
         else:
-            from hybrid_rt.blender_adapter import scene_library
+            from benchmarks import scene_library
 
             detail = args.detail or (CPU_DETAIL if software else 1.0)
             scene = scene_library.build_scene("chess", detail=detail, resolution=(width, height))

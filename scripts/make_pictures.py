@@ -7,7 +7,7 @@ Usage: python scripts/make_pictures.py [--scenes chess,chess_real,sponza,large] 
                                        [--cycles-samples N] [--eevee-samples N] [--tiles]
                                        [--skip-missing]
 
-For each scene of the scene library (blender_adapter/scene_library.py) the same frame is
+For each scene of the scene library (benchmarks/scene_library.py) the same frame is
 rendered through Blender's render path (``bpy.ops.render.render``) six ways: Hybrid RT in
 HYBRID, FULL_BVH and PROVENANCE mode, then Cycles and EEVEE, and the FLIP error map of HYBRID
 against FULL_BVH is computed (the paper's Figure 4 shows exactly these: the hybrid image, the
@@ -19,7 +19,7 @@ each tile alone (``<scene>_hybrid.png`` ...); off by default, because the sheets
 them pixel for pixel and they are kept in git.
 
 Every tile is the renderer's linear Render Result (read back from a 32-bit EXR) clamped to
-[0, 1] and sRGB-encoded, the encoding FLIP is given (hybrid_engine/bench.py ``to_srgb_ldr``):
+[0, 1] and sRGB-encoded, the encoding FLIP is given (benchmarks/bench.py ``to_srgb_ldr``):
 Blender's default view transform (AgX) is not applied, so the six tiles and the FLIP map
 compare like for like. Scenes other than ``chess`` load files from the assets folder
 (``--assets``, else ``$HYBRID_RT_SCENES``, else ``../shared/scenes`` beside this checkout);
@@ -49,7 +49,7 @@ from addon_loader import load_addon
 REPO_ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_OUT = REPO_ROOT / "docs" / "pictures"
 DEFAULT_ASSETS = REPO_ROOT.parent / "shared" / "scenes"
-ASSETS_ENV = "HYBRID_RT_SCENES"  # as blender_adapter.scene_library.ASSETS_ENV (not importable before bpy)
+ASSETS_ENV = "HYBRID_RT_SCENES"  # as benchmarks.scene_library.ASSETS_ENV (not importable before bpy)
 SCENE_NAMES = ("chess", "chess_real", "sponza", "large", "room")
 DEFAULT_RESOLUTION = (640, 360)  # the software renderer's size in the demo and benchmarks
 DEFAULT_FRAME = 0  # every scene's first frame: the demo's chess view, the atrium seen from its +x end
@@ -145,7 +145,7 @@ def check_scene_assets(scenes: list[str], assets: Path, skip_missing: bool) -> t
     """(scenes to render, messages of scenes left out); raises SceneAssetError for the first
     scene whose files are missing unless ``skip_missing``. Runs before anything renders, so
     a missing file costs seconds, not the scenes rendered before it."""
-    from hybrid_rt.blender_adapter import scene_library
+    from benchmarks import scene_library
 
     kept, skipped = [], []
     for name in scenes:
@@ -166,7 +166,7 @@ def check_scene_assets(scenes: list[str], assets: Path, skip_missing: bool) -> t
 def display_bytes(linear: np.ndarray) -> np.ndarray:
     """(H, W, 3) uint8 sRGB, row 0 at the top, from a linear (H, W, 3|4) image with row 0 at
     the bottom (Blender's order): the encoding FLIP compares (bench.to_srgb_ldr)."""
-    from hybrid_rt.hybrid_engine.bench import to_srgb_ldr
+    from benchmarks.bench import to_srgb_ldr
 
     return np.ascontiguousarray((to_srgb_ldr(linear)[::-1] * 255.0 + 0.5).astype(np.uint8))
 
@@ -178,7 +178,7 @@ def flip_map(reference_linear: np.ndarray, test_linear: np.ndarray) -> tuple[np.
     reference = FULL_BVH), with flip_evaluator's own magma colour map switched on, so the mean
     equals the benchmark's figure for the same pair of images.
     """
-    from hybrid_rt.hybrid_engine.bench import flip_error
+    from benchmarks.bench import flip_error
 
     error_map, mean = flip_error(reference_linear, test_linear, magma=True)
     colours = np.clip(np.asarray(error_map, np.float64)[..., :3], 0.0, 1.0)
@@ -366,7 +366,7 @@ def render_eevee(scene, samples: int, folder: Path) -> tuple[np.ndarray | None, 
 def render_scene(request: SceneRequest, assets: Path) -> SceneResult:
     """Build one scene and render its frame six ways (see the module docstring)."""
     import bpy
-    from hybrid_rt.blender_adapter import scene_library
+    from benchmarks import scene_library
 
     result = SceneResult()
     numbers = result.numbers
@@ -435,7 +435,7 @@ def render_scene(request: SceneRequest, assets: Path) -> SceneResult:
         triangles_bvh=int(hybrid.counts.get("triangles_bvh", 0)),
         near_size=round(float(scene.hybrid_rt.near_size), 3), cube_far=round(float(scene.hybrid_rt.cube_far), 3),
         max_depth=int(scene.hybrid_rt.max_depth), flip_reference="FULL_BVH", flip_test="HYBRID",
-        flip_range="LDR: clamped to [0, 1], sRGB-encoded (hybrid_engine/bench.py to_srgb_ldr)",
+        flip_range="LDR: clamped to [0, 1], sRGB-encoded (benchmarks/bench.py to_srgb_ldr)",
         blender=bpy.app.version_string)
     return result
 
@@ -530,8 +530,8 @@ def main(argv: list[str] | None = None) -> int:
     addon = load_addon()
     addon.register()
     try:
-        from hybrid_rt.blender_adapter import scene_library
-        from hybrid_rt.hybrid_engine import bench
+        from benchmarks import scene_library
+        from benchmarks import bench
 
         try:
             scenes, skipped = check_scene_assets(scenes, assets, args.skip_missing)

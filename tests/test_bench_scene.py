@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The scene-library benchmark (scripts/bench_scene.py): HYBRID against FULL_BVH on frames
 extracted from a Blender scene, in a child process as a user runs it, must write every
-figure the Chess benchmark reports (hybrid_engine/bench.py frame section) with a finite
+figure the Chess benchmark reports (benchmarks/bench.py frame section) with a finite
 speedup and FLIP; a scene without its files must stop the run with status 2, naming the file,
 before anything is measured.
 """

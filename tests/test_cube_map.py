@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
-from hybrid_engine.bench import flip_mean, to_srgb_ldr
+from benchmarks.bench import flip_mean, to_srgb_ldr
 from hybrid_engine.camera import CUBE_FACE_DIRECTIONS, CUBE_FACE_UPS, look_at
 from hybrid_engine.cube_map import CUBE_FACE_FOV, CubeFaces, CubeMapPass, face_of_direction
 from hybrid_engine.gpu_scene import GPUScene

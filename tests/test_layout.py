@@ -6,6 +6,8 @@
 * The import order is hybrid_engine < blender_adapter < operators < ui < root ``__init__``:
   a package never imports a later one, and inside the add-on only relative imports are
   used, so it works under whatever name Blender installs it (``bl_ext.<repo>.hybrid_rt``).
+* What an artist's Blender runs never imports the tooling: no runtime module imports the
+  benchmarks, Embree (``embreex``) or FLIP (``flip_evaluator``), which the zip does not carry.
 * Every entry shader in ``gpu_shaders/`` compiles through the shader loader.
 """
 from __future__ import annotations
@@ -33,6 +35,8 @@ BLENDER_ONLY_MODULES = frozenset({
 })
 # The add-on's own top-level names: importing them absolutely would break once installed.
 OWN_TOP_LEVEL = frozenset({*IMPORT_ORDER, "hybrid_rt", "gpu_shaders"})
+# Development-only packages: the benchmarks and tests use them, the installed add-on has none.
+TOOLING_MODULES = frozenset({"benchmarks", "scripts", "tests", "embreex", "flip_evaluator", "pytest"})
 
 
 # ---------------------------------------------------------------------------------------------
@@ -147,6 +151,8 @@ def import_violations(path: Path, source: str | None = None) -> list[str]:
         if isinstance(node, ast.Import):
             for alias in node.names:
                 top = alias.name.split(".")[0]
+                if top in TOOLING_MODULES:
+                    problems.append(f"{rel}:{node.lineno}: imports the tooling module {alias.name!r}")
                 if top in OWN_TOP_LEVEL:
                     problems.append(f"{rel}:{node.lineno}: absolute import of the add-on's own {alias.name!r}")
                 if layer == 0 and top in BLENDER_ONLY_MODULES:
@@ -155,6 +161,8 @@ def import_violations(path: Path, source: str | None = None) -> list[str]:
             text = "from " + "." * node.level + (node.module or "") + " import ..."
             if node.level == 0:
                 top = (node.module or "").split(".")[0]
+                if top in TOOLING_MODULES:
+                    problems.append(f"{rel}:{node.lineno}: imports the tooling module {node.module!r}")
                 if top in OWN_TOP_LEVEL:
                     problems.append(f"{rel}:{node.lineno}: absolute import of the add-on's own {node.module!r}")
                 if layer == 0 and top in BLENDER_ONLY_MODULES:
@@ -176,7 +184,7 @@ def import_violations(path: Path, source: str | None = None) -> list[str]:
     return problems
 
 
-def test_import_order_and_relative_imports():
+def test_runtime_imports_keep_the_order_are_relative_and_never_reach_the_tooling():
     files = python_files()
     assert any(f.parent.name == "hybrid_engine" for f in files)
     problems = [p for f in files for p in import_violations(f)]
@@ -196,6 +204,10 @@ def test_import_order_and_relative_imports():
         ("ui/x.py", "from hybrid_engine.settings import MODES\n", "absolute import"),
         ("ui/x.py", "from ... import anything\n", "climbs above"),
         ("operators/x.py", "from ..scripts import demo\n", "no place in the import order"),
+        ("hybrid_engine/x.py", "def f():\n    import embreex.rtcore_scene\n", "tooling module 'embreex"),
+        ("blender_adapter/x.py", "import flip_evaluator as flip\n", "tooling module 'flip_evaluator'"),
+        ("ui/x.py", "from benchmarks.scenes import chess\n", "tooling module 'benchmarks.scenes'"),
+        ("hybrid_engine/x.py", "from ..benchmarks import bench\n", "no place in the import order"),
     ],
 )
 def test_import_checker_reports_each_kind_of_violation(file, source, expected):

@@ -5,7 +5,7 @@ files, a FLIP mean in [0, 1] that is the benchmark's figure, a PROVENANCE tile w
 colours, and Cycles in the same orientation as Hybrid RT; a file-based scene without its
 files must stop the run, naming the file, before anything is rendered.
 
-Oracles: the benchmark's ``flip_mean`` (hybrid_engine/bench.py) for the FLIP convention,
+Oracles: the benchmark's ``flip_mean`` (benchmarks/bench.py) for the FLIP convention,
 chart_png's PNG decoder for the encoder, the single tile files for the sheet's layout.
 """
 from __future__ import annotations
@@ -138,7 +138,7 @@ def test_skip_missing_leaves_out_only_the_scenes_without_files(tmp_path, picture
 
 def test_flip_map_gives_the_benchmarks_mean_with_the_error_where_the_images_differ(rng, pictures):
     load_addon()
-    from hybrid_rt.hybrid_engine import bench
+    from benchmarks import bench
 
     reference = rng.uniform(0.0, 1.0, (40, 64, 4)).astype(np.float32)
     test = reference.copy()

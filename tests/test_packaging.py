@@ -87,7 +87,18 @@ def test_zip_holds_exactly_the_addon_files_and_wheels(package_zip):
     expected = expected_zip_entries(manifest())
     assert sorted(names - expected) == [], "files that must stay out of the package"
     assert sorted(expected - names) == [], "add-on files missing from the package"
-    assert not any(n.startswith(("tests/", ".ci/", ".venv/", "scripts/", "docs/")) for n in names)
+    assert not any(n.startswith(("tests/", ".ci/", ".venv/", "scripts/", "docs/", "benchmarks/")) for n in names)
+
+
+def test_zip_holds_no_test_or_benchmark_module(package_zip):
+    """The benchmark, the scene builders and the LBVH reference are development tooling: the
+    artist's Blender never runs them, so the zip must not carry them under any folder."""
+    with zipfile.ZipFile(package_zip) as zf:
+        modules = [Path(n) for n in zf.namelist() if n.endswith(".py")]
+    tooling = [m.as_posix() for m in modules
+               if m.name.startswith("test_") or m.name in ("conftest.py", "bench.py", "lbvh_reference.py",
+                                                            "scene_library.py", "chess.py")]
+    assert modules and tooling == []
 
 
 def test_zip_passes_blenders_archive_validation(package_zip):

@@ -279,7 +279,7 @@ def test_culled_primary_and_shadow_draws_equal_the_object_lists_on_moving_chess_
     its include mask; seven shadow slots make two batches): the G-buffer, both shadow
     layers and the image are bit-identical to drawing the object lists, with the same
     triangles submitted, and most primary triangles never reach the rasterizer."""
-    from hybrid_engine.scenes.chess import build_chess
+    from benchmarks.scenes.chess import build_chess
     from hybrid_engine.view_cull import MAX_VIEWS
 
     frames = [build_chess(detail=0.05, frame=f, width=96, height=54) for f in (3, 4)]
@@ -318,7 +318,7 @@ def test_draws_past_the_storage_block_limit_fall_back_to_the_object_lists(gl):
     """An index buffer larger than one storage block is not built: the primary view and the
     shadow slots draw their object lists, with the same image."""
     from hybrid_engine.gpu_dispatch import forced_limits
-    from hybrid_engine.scenes.chess import build_chess
+    from benchmarks.scenes.chess import build_chess
 
     frames = [build_chess(detail=0.03, frame=0, width=48, height=27)]
     normal = frames_rendered(gl, frames, RASTER, cull=True)

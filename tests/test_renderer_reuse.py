@@ -11,7 +11,7 @@ import pytest
 
 from hybrid_engine import RenderSettings
 from hybrid_engine.renderer import Renderer
-from hybrid_engine.scenes.chess import build_chess
+from benchmarks.scenes.chess import build_chess
 
 DETAIL = 0.02  # ~35k triangles: several objects move from frame to frame
 SIZE = (64, 36)

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The scene library (blender_adapter/scene_library.py): the paper's scenes as Blender scenes.
+"""The scene library (benchmarks/scene_library.py): the paper's scenes as Blender scenes.
 
 Oracles: the core Chess scene itself (``build_chess(detail, frame)``, object by object, for
 the Blender ``chess`` scene extracted through the user path); triangle counts read from the
@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from conftest import SHARED_SCENES
-from hybrid_engine.scenes import chess as chess_core
+from benchmarks.scenes import chess as chess_core
 
 needs_assets = pytest.mark.skipif(not SHARED_SCENES.is_dir(),
                                   reason=f"third-party scenes folder {SHARED_SCENES} is absent")
@@ -50,7 +50,7 @@ FLOOR_TOLERANCE_M = 0.01  # models stand on the floor to within a centimetre
 
 @pytest.fixture
 def lib(addon):
-    return importlib.import_module("hybrid_rt.blender_adapter.scene_library")
+    return importlib.import_module("benchmarks.scene_library")
 
 
 # -- file counts, read without Blender ---------------------------------------------------------

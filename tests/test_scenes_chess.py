@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The procedural Chess scene (hybrid_engine/scenes/chess.py): the paper's pathological case.
+"""The procedural Chess scene (benchmarks/scenes/chess.py): the paper's pathological case.
 
 Oracles: counting (pieces per set and type, the paper's 288 + 9), geometry that has a closed
 form (a sphere's normals point away from its centre; a piece stands on the board), numpy
@@ -18,8 +18,8 @@ import pytest
 from hybrid_engine import RenderSettings
 from hybrid_engine.renderer import Renderer
 from hybrid_engine.scene_data import finite_bounds, flat_normals
-from hybrid_engine.scenes import CHESS_CUBE_FAR, CHESS_FRAMES, build_chess, chess_triangle_count
-from hybrid_engine.scenes import chess
+from benchmarks.scenes import CHESS_CUBE_FAR, CHESS_FRAMES, build_chess, chess_triangle_count
+from benchmarks.scenes import chess
 from conftest import save_failure_images
 from whitted_reference import flip_mean
 

@@ -10,7 +10,7 @@ import pytest
 from hybrid_engine import Geometry, RenderSettings
 from hybrid_engine.renderer import Renderer
 from hybrid_engine.scene_delta import GeometryDelta, GeometryTracker
-from hybrid_engine.scenes.chess import build_chess
+from benchmarks.scenes.chess import build_chess
 from hybrid_engine.shadow_cache import PROMOTE_AFTER_FRAMES, ShadowCache, changed_objects, snapped_bounds
 
 RANGES = np.array([[0, 10], [10, 5], [15, 0], [15, 20]], np.int32)

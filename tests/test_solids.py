@@ -10,7 +10,7 @@ import pytest
 
 from hybrid_engine import RenderSettings
 from hybrid_engine.renderer import Renderer
-from hybrid_engine.scenes.chess import box, build_chess, piece_templates, quad
+from benchmarks.scenes.chess import box, build_chess, piece_templates, quad
 from hybrid_engine.solids import closed_outward
 
 CUBE = box((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))

@@ -11,7 +11,7 @@ from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSetting
 from hybrid_engine.camera import look_at
 from hybrid_engine.gpu_dispatch import forced_limits
 from hybrid_engine.renderer import Renderer
-from hybrid_engine.scenes.chess import CHESS_CUBE_FAR, build_chess
+from benchmarks.scenes.chess import CHESS_CUBE_FAR, build_chess
 from hybrid_engine.view_cull import CHUNK_ITEMS, CullView, view_segments
 from scenes_analytic import box, quad, uv_sphere
 

@@ -20,7 +20,7 @@
 // as two dvec4 of an aliasing view of the node array and takes their bits back with
 // unpackDouble2x32 (no arithmetic touches them, so every bit pattern survives): two lane loops
 // where the four uvec4 rows of bvh_node() take four. Measured on llvmpipe (200k reflection
-// rays, 300k triangles, the trace section of hybrid_engine/bench.py): 20% less traversal time
+// rays, 300k triangles, the trace section of benchmarks/bench.py): 20% less traversal time
 // on sorted rays, 6% on unsorted ones, where cache misses dominate. The triangles keep their
 // three rows: a dvec4 + dvec2 fetch (the 48-byte stride leaves every other triangle 16 bytes
 // off a dvec4) was slower.

@@ -2,7 +2,7 @@
 //
 // The quantisation uses only operations that IEEE 754 rounds exactly (add, subtract, multiply
 // by a power of two, frexp/ldexp, truncation), so the numpy reference in
-// hybrid_engine/lbvh_reference.py reproduces every code bit for bit on any conforming driver.
+// benchmarks/lbvh_reference.py reproduces every code bit for bit on any conforming driver.
 // The price: the scale is a power of two, so each axis uses between 512 and 1024 of its 1024
 // cells.
 //

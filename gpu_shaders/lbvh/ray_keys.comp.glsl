@@ -7,7 +7,7 @@
 // is done, and each lane fetches its own nodes. Rays that start close together (and, for
 // reflection rays off a smooth surface, leave in similar directions) visit similar nodes: the
 // vector's lanes finish together and share cached nodes. On the bench's incoherent reflection
-// rays (hybrid_engine/bench.py, trace section) the trace, sort included, got 1.7-1.8x faster.
+// rays (benchmarks/bench.py, trace section) the trace, sort included, got 1.7-1.8x faster.
 // 8 bits per axis traced within 3% of 10 bits at three sort passes instead of four; adding
 // the direction's octant or a coarse direction code to the key did not help.
 //

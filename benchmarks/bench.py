@@ -1,9 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Benchmarks of the renderer core against its peers: ``python -m hybrid_engine.bench``.
+"""Benchmarks of the renderer core against its peers: ``python -m benchmarks.bench``.
 
 Usage::
 
-    python -m hybrid_engine.bench [--quick] [--json PATH] [--rounds N] [--resolution WxH]
+    python -m benchmarks.bench [--quick] [--json PATH] [--rounds N] [--resolution WxH]
                                   [--sections lbvh,trace,frame]
 
 Sections (one function each; :func:`main` assembles them):
@@ -11,7 +11,7 @@ Sections (one function each; :func:`main` assembles them):
 ``lbvh``
     Per-frame LBVH build on the GPU versus Embree's BVH build (the first ``scene.run()`` after
     the mesh is attached commits the scene, i.e. builds it; attaching the mesh is not timed)
-    and versus the numpy reference build (:mod:`hybrid_engine.lbvh_reference`).
+    and versus the numpy reference build (:mod:`benchmarks.lbvh_reference`).
 ``trace``
     Closest-hit traversal of reflection rays (rays leaving random surface points of a
     mesh-like scene in mirrored directions, as the hybrid tracer's secondary rays do) on the
@@ -19,7 +19,7 @@ Sections (one function each; :func:`main` assembles them):
     ``LBVHBuilder.trace_buffers``, which first sorts the rays by their origins' Morton codes
     (counted in the time); the same trace without the sort is reported too.
 ``frame``
-    Whole frames of the procedural Chess scene (:mod:`hybrid_engine.scenes.chess`, the
+    Whole frames of the procedural Chess scene (:mod:`benchmarks.scenes.chess`, the
     paper's pathological case, §4 and Figure 6) in HYBRID and in FULL_BVH, the paper's
     ground truth: median frame and per-pass times, the speedup, and the mean FLIP error of
     HYBRID against FULL_BVH (both tone-mapped by clamping to [0, 1] and the sRGB OETF, as
@@ -48,11 +48,13 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from . import gl_context, lbvh, lbvh_reference
-from .camera import Camera
-from .scene_data import SceneData
+from hybrid_engine import gl_context, lbvh
+from hybrid_engine.camera import Camera
+from hybrid_engine.scene_data import SceneData
+from hybrid_engine.settings import CUBE_MARCHES, RenderSettings
+
+from . import lbvh_reference
 from .scenes.chess import CHESS_CUBE_FAR, build_chess
-from .settings import CUBE_MARCHES, RenderSettings
 
 FULL_BUILD_SIZES = (100_000, 300_000, 1_000_000)
 QUICK_BUILD_SIZES = (2_000, 10_000)
@@ -388,7 +390,7 @@ def compare_modes(frames: Iterable[tuple[SceneData, Camera]], base_settings: dic
     shadow layer exactly as playback would. Frame and per-pass figures are medians over the
     timed frames; ``flip_mean`` is the mean FLIP over them.
     """
-    from .renderer import Renderer
+    from hybrid_engine.renderer import Renderer
 
     settings = {mode: RenderSettings(**{**base_settings, "mode": mode}) for mode in ("HYBRID", "FULL_BVH")}
     ctx = gl_context.get_context()
@@ -571,7 +573,7 @@ def parse_resolution(text: str) -> tuple[int, int]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m hybrid_engine.bench", description=__doc__,
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.bench", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="tiny sizes (seconds, for tests)")
     parser.add_argument("--json", metavar="PATH", help="write the report as JSON to PATH")

@@ -11,7 +11,7 @@ frame reaches the renderer along the user's path: depsgraph â†’ ``extract.py`` â
 new ``bpy`` Scene of the running session (nothing of the user's is touched) and makes it the
 window's active scene:
 
-* ``chess`` -- the procedural Chess scene of ``hybrid_engine.scenes.chess``, needing no
+* ``chess`` -- the procedural Chess scene of ``benchmarks.scenes.chess``, needing no
   files: one object per piece, sphere, board, board frame and the floor, named as in the
   core; pieces of a type share one mesh (the core's template), moving objects are keyframed
   at every frame from the core's own placement functions, so a frame extracted from Blender
@@ -53,10 +53,11 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
-from ..hybrid_engine.bench import FRAME_NEAR_SIZE
-from ..hybrid_engine.camera import look_at
-from ..hybrid_engine.scene_data import LIGHT_KINDS
-from ..hybrid_engine.scenes import chess as chess_core
+from hybrid_engine.camera import look_at
+from hybrid_engine.scene_data import LIGHT_KINDS
+
+from .bench import FRAME_NEAR_SIZE
+from .scenes import chess as chess_core
 
 log = logging.getLogger(__name__)
 
@@ -84,8 +85,8 @@ ASSETS = {"chess": (), "chess_real": (CHESS_SET_GLTF,), "sponza": _SPONZA_FILES,
           "room": ()}
 
 CREDITS = {
-    "chess": "procedural (hybrid_engine/scenes/chess.py)",
-    "room": "procedural (blender_adapter/scene_library.py)",
+    "chess": "procedural (benchmarks/scenes/chess.py)",
+    "room": "procedural (benchmarks/scene_library.py)",
     "chess_real": "Chess Set by Poly Haven (CC0)",
     "sponza": "Crytek Sponza: Marko Dabrovic, Frank Meinl/Crytek, Morgan McGuire, Matthew Oliver "
     "(CC BY 3.0); Happy Buddha (decimated to 100k), bunny and dragon: Stanford Computer "
@@ -96,7 +97,7 @@ CREDITS["large"] = CREDITS["sponza"]
 # -- chess_real ---------------------------------------------------------------------------------
 CHESS_SETS = chess_core.SETS
 MIN_SPHERE_RINGS = 8
-# Materials as the core Chess scene's table (hybrid_engine/scenes/chess.py chess_materials):
+# Materials as the core Chess scene's table (benchmarks/scenes/chess.py chess_materials):
 # the Poly Haven board is one material, so it takes the mean of the two board rows.
 CHESS_REAL_BOARD_REFLECTIVITY = 0.25
 
@@ -598,7 +599,7 @@ def _sphere_motion(frames: np.ndarray, frame_count: int) -> tuple[np.ndarray, np
 
 
 def _build_chess(scene, assets: Path | None, detail: float, frame_count: int) -> None:
-    """The core Chess scene (hybrid_engine/scenes/chess.py) as Blender objects.
+    """The core Chess scene (benchmarks/scenes/chess.py) as Blender objects.
 
     Static parts (floor, boards, board frames) are taken from ``build_chess(detail, 0)`` in
     world space. Pieces and spheres are instances of the core's templates: one mesh per piece

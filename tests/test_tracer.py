@@ -139,15 +139,17 @@ SCENES = {
 
 
 # -- FULL_BVH against the CPU reference ---------------------------------------------------------
+@pytest.mark.parametrize("max_depth", [1, 4])
 @pytest.mark.parametrize("name", sorted(SCENES))
-def test_full_bvh_agrees_with_the_cpu_whitted_reference(renderer, name):
+def test_full_bvh_agrees_with_the_cpu_whitted_reference(renderer, name, max_depth):
+    """At max_depth 1 most rays end one past the limit: traced and shaded there, spawning none."""
     make, cam = SCENES[name]
     scene, camera = make(), cam()
-    image = render(renderer, scene, camera, "FULL_BVH").image
-    reference = WhittedReference(scene).render(camera, max_depth=4)
+    image = render(renderer, scene, camera, "FULL_BVH", max_depth=max_depth).image
+    reference = WhittedReference(scene).render(camera, max_depth=max_depth)
     error = flip_mean(reference, image)
     if error > MAX_FLIP_FULL_BVH:
-        save_failure_images(f"full_bvh_{name}", test=image, reference=reference)
+        save_failure_images(f"full_bvh_{name}_{max_depth}", test=image, reference=reference)
     assert error <= MAX_FLIP_FULL_BVH, f"{name}: FLIP {error:.4f}"
 
 
@@ -255,6 +257,20 @@ def test_a_glass_ball_shows_the_backdrop_upside_down(renderer, mode, near_size):
     assert below[0] > below[2], f"below centre {below}: expected red"
     red_side, blue_side = image[pixel_of(camera, (2.5, 8, 1.0))], image[pixel_of(camera, (2.5, 8, -0.7))]
     assert red_side[0] > red_side[2] and blue_side[2] > blue_side[0]
+
+
+@pytest.mark.parametrize("mode,near_size", [("FULL_BVH", 5.0), ("HYBRID", 7.0)])
+def test_a_glass_ball_at_max_depth_1_shows_the_backdrop_not_the_sky(renderer, mode, near_size):
+    """Through a ball of glass the backdrop is two refractions away: at max_depth 1 the rays
+    leaving the ball are past the limit, and they still find the backdrop (in the BVH, or in
+    the cube map with near_size 7) instead of returning the sky."""
+    scene, camera = glass_scene(), glass_camera()
+    image = render(renderer, scene, camera, mode, near_size=near_size, max_depth=1).image[..., :3]
+    cy, cx = pixel_of(camera, (0, 3, 0))
+    disc = image[cy - 3:cy + 4, cx - 3:cx + 4].reshape(-1, 3)
+    backdrop = (disc[:, 0] > 0.3) | (disc[:, 2] > 0.3)
+    sky = np.abs(disc - np.array(SKY)).max(axis=1) < 0.05
+    assert backdrop.all() and not sky.any(), disc
 
 
 def test_a_glass_ball_in_the_cube_map_shows_the_backdrop_behind_it_not_the_sky(renderer):

@@ -7,7 +7,8 @@ closest hits, numpy shades them with the same surface model as
 Lambertian diffuse lit directly and by the uniform sky, a mirror lobe tinted by the base
 colour, a clear-glass lobe with exact Fresnel, Snell refraction and total internal
 reflection), and rays are followed breadth-first as wavefronts up to ``max_depth`` bounces;
-the rays a hit at depth ``max_depth`` would spawn see the sky, as in the tracer. Direct light uses shadow RAYS from embree where the GPU uses shadow maps:
+the rays a hit at depth ``max_depth`` spawns are traced once more and the surfaces they meet
+shaded without spawning rays, as in the tracer. Direct light uses shadow RAYS from embree where the GPU uses shadow maps:
 scenes compared with it either have no occluder between a light and a visible diffuse
 surface, or lights with ``cast_shadow`` off (then neither side tests visibility).
 
@@ -149,6 +150,7 @@ class WhittedReference:
         pixel = np.arange(h * w)
         weight = np.ones((h * w, 3))
         depth = np.zeros(h * w, np.int64)
+        last_depth = max_depth + min(max_depth, 1)
         while len(pixel):
             t, tri, u, v, ng = self.intersect(ray_o, ray_d)
             miss = tri < 0
@@ -189,12 +191,16 @@ class WhittedReference:
             refract_dir = _normalize(refract_dir, ray_d)
             refract_w = np.where(refract_ok[:, None], (trans * (1 - f))[:, None] * albedo, 0.0)
             child = depth + 1
+            if (depth > max_depth).all():
+                break  # rays past the limit spawn none
             new = []
             for dir_, w_, towards in ((reflect_dir, reflect_w, n_f), (refract_dir, refract_w, -n_f)):
-                # Rays past the depth limit see the sky in their direction (hybrid_trace.comp.glsl).
-                cut = (child > max_depth) & ((weight * w_).max(-1) > 0.0)
+                # Rays one past the depth limit are traced and shaded, and spawn none; with
+                # max_depth 0 there are no secondary rays and they see the sky
+                # (hybrid_trace.comp.glsl push).
+                cut = (child > last_depth) & ((weight * w_).max(-1) > 0.0)
                 np.add.at(image, pixel[cut], (weight * w_)[cut] * self.sky)
-                keep = (child <= max_depth) & ((weight * w_).max(-1) > 0.0)
+                keep = (child <= last_depth) & ((weight * w_).max(-1) > 0.0)
                 if keep.any():
                     new.append((pixel[keep], _offset(p[keep], towards[keep]), dir_[keep],
                                 (weight * w_)[keep], child[keep]))

@@ -361,12 +361,17 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
 // The pending rays of this invocation (file-scope variables are private per invocation).
 PendingRay stack[STACK_SIZE];
 int stack_size = 0;
-// What the rays past the depth limit see: the sky along their direction.
+// What rays see that find no room on the stack: the sky along their direction.
 vec3 past_depth_limit = vec3(0.0);
 
+// A ray one bounce past the depth limit (depth u_max_depth + 1) is still traced, through the
+// BVH and the cube map, and the surface it meets is shaded without spawning rays: the depth
+// limit then shows the environment along the last ray (as Cycles shades the last vertex of a
+// path with its lamps and emission), not the sky through every wall. Depth 0 keeps its
+// meaning, no secondary rays: there the sky is all a mirror shows.
 void push(vec3 origin, vec3 dir, vec3 weight, int depth, float blur) {
     if (!(max(max(weight.r, weight.g), weight.b) > 0.0)) return;
-    if (stack_size >= STACK_SIZE || depth > u_max_depth) {
+    if (stack_size >= STACK_SIZE || depth > u_max_depth + min(u_max_depth, 1)) {
         past_depth_limit += weight * sky_radiance(dir);
         return;
     }
@@ -520,7 +525,8 @@ void main() {
         // lobe's roughness (Cycles' Filter Glossy does the same).
         traced += ray.weight * shade_surface(hm, h_albedo, h_emission, h.position, ray.dir, hs,
                                              sky_irradiance(hs.n_facing), 1.0, ray.blur);
-        spawn_children(hs, h.position, ray.weight, ray.depth + 1, max(ray.blur, material_roughness(hm)));
+        if (ray.depth <= u_max_depth)
+            spawn_children(hs, h.position, ray.weight, ray.depth + 1, max(ray.blur, material_roughness(hm)));
     }
     vec4 base = imageLoad(u_color, pixel);
     vec3 color = base.rgb + traced + past_depth_limit;

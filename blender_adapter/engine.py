@@ -20,11 +20,17 @@ from ..hybrid_engine.antialias import render_antialiased
 from ..hybrid_engine.camera import Camera
 from ..hybrid_engine.film import FrameOutputs
 from ..hybrid_engine.renderer import FrameResult, RenderCancelled, Renderer, RenderModeUnavailable
+from ..hybrid_engine.scene_data import SceneData
 from . import extract, properties, viewport
 from .gl_host import gl_block
+from .scene_cache import Changes, SceneCache, SyncReport, TrackedScene, extract_scene
 
 _renderer: Renderer | None = None
 last_frame: FrameResult | None = None  # the most recent final render's result (image, passes, counts)
+# F12's synced scene per view layer, (render depsgraph pointer, cache), kept while Persistent
+# Data is on (``final_scene_data``).
+_final_scenes: dict[str, tuple[int, SceneCache]] = {}
+last_final_sync: SyncReport | None = None  # what the most recent F12 re-read
 
 
 def shared_renderer() -> Renderer:
@@ -35,8 +41,31 @@ def shared_renderer() -> Renderer:
     return _renderer
 
 
+def final_scene_data(depsgraph) -> SceneData:
+    """The scene of a final render. With Persistent Data (``render.use_persistent_data``, as in
+    Cycles) Blender hands every render of a view layer the same depsgraph and its
+    ``updates`` say what changed since the last: the cache kept for it re-reads only that,
+    so a second F12 or the next frame of an animation render re-reads nothing that stood
+    still. Without it each render reads the scene afresh and nothing is kept."""
+    global last_final_sync
+    layer = depsgraph.view_layer.name
+    if not depsgraph.scene.render.use_persistent_data:
+        _final_scenes.clear()
+        cache, changes, full = SceneCache(), Changes(), True
+    else:
+        key = depsgraph.as_pointer()
+        kept = _final_scenes.get(layer)
+        full = kept is None or kept[0] != key
+        cache = SceneCache() if full else kept[1]
+        changes = Changes() if full else Changes.from_updates(depsgraph.updates)
+        _final_scenes[layer] = (key, cache)
+    last_final_sync = cache.sync(depsgraph, changes, full=full)
+    return cache.scene_data
+
+
 def release_renderer() -> None:
     global _renderer
+    _final_scenes.clear()
     if _renderer is not None:
         try:
             with gl_block():
@@ -73,8 +102,12 @@ def final_camera(scene, depsgraph) -> Camera:
     return film.region_camera(camera, rect)
 
 
-def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, final=False) -> FrameResult:
-    """Extract the evaluated scene and render one frame with the scene's settings.
+def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, final=False,
+                     source: TrackedScene | None = None) -> FrameResult:
+    """Export the evaluated scene and render one frame with the scene's settings.
+
+    The scene comes from ``source`` (a job's tracked scene: only what changed is re-read),
+    else from F12's kept scene (``final``, ``final_scene_data``), else it is read afresh.
 
     ``final``: as F12 renders it, the render region only, ``render_samples`` samples per
     pixel, with the film's transparency and the view layer's data passes
@@ -85,7 +118,12 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
     scene = depsgraph.scene
     settings = properties.settings_from_scene(scene)
     start = time.perf_counter()
-    scene_data = extract.extract_scene(depsgraph)
+    if source is not None:
+        scene_data = source.scene_data(depsgraph)
+    elif final:
+        scene_data = final_scene_data(depsgraph)
+    else:
+        scene_data = extract_scene(depsgraph)
     if final:
         camera = final_camera(scene, depsgraph)
         outputs = frame_outputs(scene, depsgraph.view_layer)

@@ -28,7 +28,7 @@ import numpy as np
 from ..hybrid_engine.blackbody import blackbody_rgb
 from ..hybrid_engine.camera import Camera, CameraError
 from ..hybrid_engine.materials import DEFAULT_THICKNESS, principled_to_params
-from ..hybrid_engine.scene_data import Geometry, Lights, MaterialTable, SceneData, Sky
+from ..hybrid_engine.scene_data import Geometry, MaterialTable, Sky
 from ..hybrid_engine.solids import closed_outward_indexed
 from ..hybrid_engine.textures import srgb_to_linear
 
@@ -632,6 +632,12 @@ class _ObjectArrays:
     closed: bool = False  # solids.py: back faces may be culled
 
 
+def _column_bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-axis min and max of (n, 3) points, a column at a time: numpy reduces a strided
+    column far faster than it reduces over axis 0 of a three-wide array."""
+    return (np.array([points[:, k].min() for k in range(3)]), np.array([points[:, k].max() for k in range(3)]))
+
+
 def _instance_arrays(name: str, data: _MeshData, matrix: np.ndarray, slot_ids: np.ndarray) -> _ObjectArrays | None:
     """World-space triangles of one instance of a mesh."""
     linear = matrix[:3, :3].astype(np.float64)
@@ -658,9 +664,12 @@ def _instance_arrays(name: str, data: _MeshData, matrix: np.ndarray, slot_ids: n
     if (slots >= len(slot_ids)).any() or (slots < 0).any():  # missing slots: fallback material 0
         material_ids = np.where((slots >= 0) & (slots < len(slot_ids)), material_ids, 0)
 
-    finite_vertices = np.isfinite(world).all(axis=1)
+    # Bounds of the vertices first: min/max carry any NaN or inf along, so finite bounds
+    # prove every vertex finite without a second pass over them.
+    lo, hi = _column_bounds(world)  # a mesh with faces has vertices
+    finite_vertices = None if np.isfinite(lo).all() and np.isfinite(hi).all() else np.isfinite(world).all(axis=1)
     keep = None
-    if not finite_vertices.all():
+    if finite_vertices is not None and not finite_vertices.all():
         # Documented fallback: triangles with a NaN/inf corner cannot be rasterized or put in
         # a BVH; they are dropped (with a warning), the rest of the object renders.
         keep = finite_vertices[tri_vertices].reshape(n, 3).all(axis=1)
@@ -674,12 +683,11 @@ def _instance_arrays(name: str, data: _MeshData, matrix: np.ndarray, slot_ids: n
     if keep is not None:
         triangles, tri_normals, material_ids = triangles[keep], tri_normals[keep], material_ids[keep]
         tri_uvs = tri_uvs[keep] if tri_uvs is not None else None
-        pts = triangles.reshape(-1, 3)
+        bounds = np.array(_column_bounds(triangles.reshape(-1, 3)), np.float32)
     elif data.all_vertices_used:
-        pts = world
+        bounds = np.array([lo, hi], np.float32)
     else:
-        pts = triangles.reshape(-1, 3)
-    bounds = np.array([[pts[:, k].min() for k in range(3)], [pts[:, k].max() for k in range(3)]], np.float32)
+        bounds = np.array(_column_bounds(triangles.reshape(-1, 3)), np.float32)
     # The mirror swap above keeps the winding outward; dropped triangles open the surface.
     closed = keep is None and data.closed
     return _ObjectArrays(name, triangles, tri_normals, material_ids.astype(np.int32, copy=False), tri_uvs, bounds,
@@ -818,73 +826,6 @@ def extract_sky(world) -> Sky:
 # ---------------------------------------------------------------------------------------
 def _matrix(instance_or_object) -> np.ndarray:
     return np.array(instance_or_object.matrix_world, np.float64)
-
-
-def extract_scene(depsgraph) -> SceneData:
-    """Everything visible in the evaluated depsgraph as plain arrays (see module docstring).
-
-    Objects without faces contribute nothing; triangles with non-finite vertices are
-    skipped with a warning; empty material slots use material 0 (the grey fallback).
-    """
-    materials = _MaterialTableBuilder()
-    objects: list[_ObjectArrays] = []
-    light_rows: list[dict] = []
-    mesh_cache: dict[int, _MeshData | None] = {}
-    producers: set[int] = set()  # originals whose geometry arrived as mesh instances
-    convertible = []  # (original object, matrix, name) of curves/text/metaballs
-
-    def add_mesh(name: str, obj, mesh, matrix: np.ndarray, data: _MeshData | None) -> None:
-        if data is None:
-            return
-        arrays = _instance_arrays(name, data, matrix, _slot_lookup(obj, mesh, materials))
-        if arrays is not None:
-            objects.append(arrays)
-
-    for instance in depsgraph.object_instances:
-        if not instance.show_self:
-            continue
-        obj = instance.object  # only valid during this iteration step
-        kind = obj.type
-        if instance.is_instance:
-            name = f"{instance.parent.name}/{obj.name}" if instance.parent else obj.name
-        else:
-            name = obj.name
-        if kind == "MESH":
-            mesh = obj.data
-            key = mesh.as_pointer()
-            if key not in mesh_cache:
-                mesh_cache[key] = _read_mesh(mesh)
-            add_mesh(name, obj, mesh, _matrix(instance), mesh_cache[key])
-            if instance.is_instance and instance.parent is not None:
-                producers.add(instance.parent.original.as_pointer())
-        elif kind == "LIGHT" and obj.data.type in _LIGHT_TYPES:
-            light_rows.append(_light_row(name, obj.data, _matrix(instance)))
-        elif kind in _CONVERTIBLE_TYPES and not instance.is_instance:
-            convertible.append((obj.original, _matrix(instance), name))
-
-    # Curves, text and metaballs usually evaluate to mesh instances (handled above); those
-    # that did not are converted here. to_mesh() data is temporary and released at once.
-    for original, matrix, name in convertible:
-        if original.as_pointer() in producers:
-            continue
-        evaluated = original.evaluated_get(depsgraph)
-        try:
-            mesh = evaluated.to_mesh()
-        except RuntimeError as error:
-            log.warning("%s: cannot convert to a mesh (%s); skipped", name, error)
-            continue
-        try:
-            if mesh is not None:
-                add_mesh(name, evaluated, mesh, matrix, _read_mesh(mesh))
-        finally:
-            evaluated.to_mesh_clear()
-
-    return SceneData(
-        geometry=_geometry(objects),
-        materials=materials.table(),
-        lights=Lights.from_rows(light_rows),
-        sky=extract_sky(depsgraph.scene.world),
-    )
 
 
 def render_resolution(render) -> tuple[int, int]:

@@ -1,10 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Per-object extraction cache for the viewport.
+"""The exporter: the evaluated depsgraph as ``SceneData``, re-read only where it changed.
 
-``extract.extract_scene`` reads the whole depsgraph; the viewport cannot afford that on
-every edit. This cache keeps, per object instance, the local mesh data read from Blender
-(``extract._MeshData``) and its world-space arrays, and refreshes only what the depsgraph
-says changed (``depsgraph.updates``):
+Every path reads the scene through this cache: the viewport (one per view layer), a timing
+report (``TrackedScene``), F12 (kept across renders with Persistent Data, ``engine.py``) and
+a one-off read (``extract_scene``). It keeps, per object instance, the local mesh data read
+from Blender (``extract._MeshData``) and its world-space arrays, and refreshes only what
+the depsgraph says changed (``depsgraph.updates``):
 
 - ``is_updated_geometry`` on an object or its mesh: the mesh is read again (modifiers, shape
   keys, armatures, geometry nodes and simulations all arrive this way, also on frame changes
@@ -18,15 +19,22 @@ says changed (``depsgraph.updates``):
 Every sync still walks ``depsgraph.object_instances`` once (cheap: no per-vertex work) so
 that added, removed, hidden and instanced objects are seen without trusting the update list
 for structure. The assembled ``SceneData`` is reused as long as nothing changed.
+
+The world-space geometry is one set of arrays kept across syncs: while the instances and
+their triangle counts stay the same, a sync writes the rows of the instances it refreshed
+into it in place and says which (``Geometry.edit``), so neither this cache nor the
+renderer's upload touches the rows of objects that did not change. Anything else (an object
+added, removed or re-ordered, a changed triangle count) rebuilds the arrays.
 """
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..hybrid_engine.scene_data import Lights, SceneData, Sky
+from ..hybrid_engine.scene_data import Geometry, GeometryEdit, Lights, SceneData, Sky
 from . import extract
 
 # Depsgraph update id types (bpy.types names) and what they refresh.
@@ -44,6 +52,17 @@ class Changes:
     lights: bool = False
     world: bool = False
     scene: bool = False
+
+    def merge(self, other: "Changes") -> None:
+        """Add ``other``'s changes to these (updates that arrive in several batches before
+        one sync: a frame change and the edits of a frame_change handler)."""
+        self.geometry |= other.geometry
+        self.meshes |= other.meshes
+        self.transforms |= other.transforms
+        self.materials |= other.materials
+        self.lights = self.lights or other.lights
+        self.world = self.world or other.world
+        self.scene = self.scene or other.scene
 
     @classmethod
     def from_updates(cls, updates) -> "Changes":
@@ -81,6 +100,7 @@ class SyncReport:
     transformed: list[str] = field(default_factory=list)
     reused: int = 0
     removed: int = 0
+    rebuilt: bool = False  # the world-space arrays were assembled anew (not edited in place)
     materials_refreshed: int = 0
     sky_refreshed: bool = False
     changed: bool = False
@@ -158,8 +178,14 @@ class SceneCache:
     def __init__(self) -> None:
         self.reset()
 
+    _sources = itertools.count(1)  # tells caches apart in Geometry.edit
+
     def reset(self) -> None:
         """Forget everything; the next sync reads the whole scene."""
+        self._source = next(SceneCache._sources)
+        self._generation = 0
+        self._geometry: Geometry | None = None
+        self._rows: dict[tuple, int] = {}  # instance key -> object index in self._geometry
         self._entries: dict[tuple, _Entry] = {}
         self._order: list[tuple] = []
         self._materials = _PersistentMaterials()
@@ -187,13 +213,15 @@ class SceneCache:
         full = full or not self.synced
         report = SyncReport()
         dirty_objects = changes.geometry
-        dirty_meshes = changes.meshes
 
         # Materials first: their rows must be current before instances look up their ids.
         report.materials_refreshed = self._materials.refresh(changes.materials)
 
         mesh_reads: dict[int, object] = {}  # evaluated mesh pointer -> _MeshData (this sync)
         seen: list[tuple] = []
+        refreshed: list[tuple] = []  # instances whose world-space arrays were made anew
+        producers: set[int] = set()  # originals whose geometry arrived as mesh instances
+        convertible: list[tuple] = []  # (key, original, matrix, name) of curves/text/metaballs
         light_rows: list[dict] = []
         changed = full or bool(report.materials_refreshed)
         for instance in depsgraph.object_instances:
@@ -205,43 +233,52 @@ class SceneCache:
                 name = _instance_name(instance, obj)
                 light_rows.append(extract._light_row(name, obj.data, np.array(instance.matrix_world, np.float64)))
                 continue
+            if kind in extract._CONVERTIBLE_TYPES and not instance.is_instance:
+                # Curves, text and metaballs usually evaluate to mesh instances (below);
+                # those that did not are converted after the walk.
+                convertible.append((_instance_key(instance, obj), obj.original,
+                                    np.array(instance.matrix_world, np.float64), _instance_name(instance, obj)))
+                continue
             if kind != "MESH":
-                continue  # curves/text/metaballs reach us as mesh instances of their evaluation
+                continue
+            if instance.is_instance and instance.parent is not None:
+                producers.add(instance.parent.original.as_pointer())
             key = _instance_key(instance, obj)
             seen.append(key)
-            matrix = np.array(instance.matrix_world, np.float64)
-            mesh = obj.data
-            entry = self._entries.get(key)
             owner = instance.parent.original.as_pointer() if instance.is_instance and instance.parent else 0
-            geometry_dirty = (
-                full or entry is None
-                or obj.original.as_pointer() in dirty_objects
-                or owner in dirty_objects
-                or mesh.original.as_pointer() in dirty_meshes
-            )
-            slot_ids = extract._slot_lookup(obj, mesh, self._materials)
-            if geometry_dirty:
-                mesh_key = mesh.as_pointer()
-                if mesh_key not in mesh_reads:
-                    mesh_reads[mesh_key] = extract._read_mesh(mesh)
-                data = mesh_reads[mesh_key]
-                arrays = extract._instance_arrays(_instance_name(instance, obj), data, matrix, slot_ids) if data else None
-                self._entries[key] = _Entry(_instance_name(instance, obj), data, matrix, slot_ids, arrays)
-                report.extracted.append(_instance_name(instance, obj))
-                changed = True
-            elif not np.array_equal(entry.matrix, matrix) or not np.array_equal(entry.slot_ids, slot_ids):
-                entry.matrix, entry.slot_ids = matrix, slot_ids
-                entry.arrays = extract._instance_arrays(entry.name, entry.data, matrix, slot_ids) if entry.data else None
-                report.transformed.append(entry.name)
-                changed = True
-            else:
-                report.reused += 1
+            changed |= self._visit(key, _instance_name(instance, obj), obj, obj.data,
+                                   np.array(instance.matrix_world, np.float64), full, changes, owner,
+                                   mesh_reads, report, refreshed)
+
+        for key, original, matrix, name in convertible:
+            if original.as_pointer() in producers:
+                continue
+            evaluated = original.evaluated_get(depsgraph)
+            entry = self._entries.get(key)
+            if not (full or entry is None or original.as_pointer() in dirty_objects):
+                seen.append(key)  # unchanged: no conversion needed
+                changed |= self._visit(key, name, evaluated, None, matrix, False, changes, 0, mesh_reads,
+                                       report, refreshed)
+                continue
+            try:
+                mesh = evaluated.to_mesh()
+            except RuntimeError as error:
+                extract._warn_once(("convert", name), "%s: cannot convert to a mesh (%s); skipped", name, error)
+                continue
+            try:  # to_mesh() data is temporary: read at once, released at once
+                if mesh is not None:
+                    seen.append(key)
+                    changed |= self._visit(key, name, evaluated, mesh, matrix, True, changes, 0, {},
+                                           report, refreshed)
+            finally:
+                evaluated.to_mesh_clear()
 
         removed = set(self._entries) - set(seen)
         for key in removed:
             del self._entries[key]
         report.removed = len(removed)
-        changed = changed or bool(removed) or seen != self._order
+        same_instances = seen == self._order and not removed
+        changed = changed or not same_instances
         self._order = seen
 
         lights = Lights.from_rows(light_rows)
@@ -252,8 +289,11 @@ class SceneCache:
             self._world_key = world_key
             report.sky_refreshed = changed = True
         if changed or self._scene is None or not _same_lights(lights, self._lights):
-            objects = [self._entries[k].arrays for k in seen if self._entries[k].arrays is not None]
-            self._scene = SceneData(geometry=extract._geometry(objects), materials=self._materials.table(),
+            edited = same_instances and self._edit_in_place(refreshed)
+            if not edited:
+                self._rebuild(seen)
+                report.rebuilt = True
+            self._scene = SceneData(geometry=self._geometry, materials=self._materials.table(),
                                     lights=lights, sky=self._sky)
             changed = True
         self._lights = lights
@@ -261,6 +301,145 @@ class SceneCache:
         report.changed = changed
         report.ms = (time.perf_counter() - start) * 1e3
         return report
+
+
+    def _visit(self, key: tuple, name: str, obj, mesh, matrix: np.ndarray, full: bool, changes: Changes,
+               owner: int, mesh_reads: dict, report: SyncReport, refreshed: list[tuple]) -> bool:
+        """Bring one instance's entry up to date; True when its arrays were made anew.
+        ``mesh`` None: the entry's mesh is known unchanged (a converted object)."""
+        entry = self._entries.get(key)
+        geometry_dirty = mesh is not None and (
+            full or entry is None
+            or obj.original.as_pointer() in changes.geometry
+            or owner in changes.geometry
+            or mesh.original.as_pointer() in changes.meshes
+        )
+        slot_ids = extract._slot_lookup(obj, mesh if mesh is not None else obj.data, self._materials) \
+            if mesh is not None or entry is None else entry.slot_ids
+        if geometry_dirty:
+            mesh_key = mesh.as_pointer()
+            if mesh_key not in mesh_reads:
+                mesh_reads[mesh_key] = extract._read_mesh(mesh)
+            data = mesh_reads[mesh_key]
+            arrays = extract._instance_arrays(name, data, matrix, slot_ids) if data else None
+            self._entries[key] = _Entry(name, data, matrix, slot_ids, arrays)
+            report.extracted.append(name)
+        elif not np.array_equal(entry.matrix, matrix) or not np.array_equal(entry.slot_ids, slot_ids):
+            entry.matrix, entry.slot_ids = matrix, slot_ids
+            entry.arrays = extract._instance_arrays(entry.name, entry.data, matrix, slot_ids) if entry.data else None
+            report.transformed.append(entry.name)
+        else:
+            report.reused += 1
+            return False
+        refreshed.append(key)
+        return True
+
+    def _rebuild(self, order: list[tuple]) -> None:
+        """Assemble the world-space arrays from every instance's (a new layout)."""
+        keys = [k for k in order if self._entries[k].arrays is not None]
+        objects = [self._entries[k].arrays for k in keys]
+        geometry = extract._geometry(objects)
+        if len(objects) == 1:  # _geometry hands a single object's arrays over uncopied
+            geometry.triangles, geometry.normals = geometry.triangles.copy(), geometry.normals.copy()
+            geometry.material_ids = geometry.material_ids.copy()
+            geometry.uvs = None if geometry.uvs is None else geometry.uvs.copy()
+        self._rows = {k: i for i, k in enumerate(keys)}
+        self._generation += 1
+        geometry.edit = GeometryEdit(self._source, self._generation, None)
+        self._geometry = geometry
+
+    def _edit_in_place(self, refreshed: list[tuple]) -> bool:
+        """Write the refreshed instances' rows into the kept arrays; False (nothing written)
+        when one of them no longer fits its rows."""
+        geometry = self._geometry
+        if geometry is None:
+            return False
+        updates = []
+        for key in refreshed:
+            arrays, row = self._entries[key].arrays, self._rows.get(key)
+            if row is None and arrays is None:
+                continue  # still without triangles
+            if row is None or arrays is None or len(arrays.triangles) != geometry.object_ranges[row, 1]:
+                return False
+            if arrays.uvs is not None and geometry.uvs is None:
+                return False
+            updates.append((row, arrays))
+        for row, arrays in updates:
+            first, count = (int(v) for v in geometry.object_ranges[row])
+            end = first + count
+            geometry.triangles[first:end] = arrays.triangles
+            geometry.normals[first:end] = arrays.normals
+            geometry.material_ids[first:end] = arrays.material_ids
+            if geometry.uvs is not None:
+                geometry.uvs[first:end] = 0.0 if arrays.uvs is None else arrays.uvs
+            geometry.object_bounds[row] = arrays.bounds
+            if geometry.object_closed is not None:
+                geometry.object_closed[row] = arrays.closed
+        self._generation += 1
+        geometry.edit = GeometryEdit(self._source, self._generation, tuple(sorted(r for r, _ in updates)))
+        return True
+
+
+class TrackedScene:
+    """A cache kept in sync over the frames of one job (a timing report) from what Blender
+    tells its ``depsgraph_update_post`` and ``frame_change_post`` handlers: outside them
+    ``depsgraph.updates`` is empty, so the changes are gathered where Blender gives them and
+    applied at the next frame. The first frame, or a frame of another depsgraph, reads
+    everything."""
+
+    def __init__(self) -> None:
+        self.cache = SceneCache()
+        self.last_sync: SyncReport | None = None
+        self._pending = Changes()
+        self._depsgraph: int | None = None
+        self._listening = False
+
+    def listen(self) -> None:
+        """Start gathering changes (idempotent); ``close`` stops."""
+        if self._listening:
+            return
+        import bpy  # here, not at import: the cache itself needs only the depsgraph it is given
+
+        for handlers in (bpy.app.handlers.depsgraph_update_post, bpy.app.handlers.frame_change_post):
+            handlers.append(self._on_update)
+        self._listening = True
+
+    def close(self) -> None:
+        """Stop gathering changes and let the cached arrays go."""
+        if self._listening:
+            import bpy
+
+            for handlers in (bpy.app.handlers.depsgraph_update_post, bpy.app.handlers.frame_change_post):
+                if self._on_update in handlers:
+                    handlers.remove(self._on_update)
+            self._listening = False
+        self.cache.reset()
+        self._depsgraph = None
+        self._pending = Changes()
+
+    def _on_update(self, _scene, depsgraph) -> None:
+        if self._depsgraph is None or depsgraph.as_pointer() == self._depsgraph:
+            self._pending.merge(Changes.from_updates(depsgraph.updates))
+
+    def scene_data(self, depsgraph) -> SceneData:
+        """The scene of ``depsgraph`` now, synced with the changes gathered since the last."""
+        key = depsgraph.as_pointer()
+        changes, self._pending = self._pending, Changes()
+        self.last_sync = self.cache.sync(depsgraph, changes, full=key != self._depsgraph)
+        self._depsgraph = key
+        return self.cache.scene_data
+
+
+def extract_scene(depsgraph) -> SceneData:
+    """Everything visible in the evaluated depsgraph as plain arrays, read from scratch: a
+    sync of a new cache, so a one-off read and every kept cache export alike.
+
+    Objects without faces contribute nothing; triangles with non-finite vertices are
+    skipped with a warning; empty material slots use material 0 (the grey fallback).
+    """
+    cache = SceneCache()
+    cache.sync(depsgraph, Changes(), full=True)
+    return cache.scene_data
 
 
 def _instance_name(instance, obj) -> str:

@@ -32,6 +32,20 @@ def _as(array, dtype, shape_tail: tuple[int, ...], name: str) -> np.ndarray:
     return arr
 
 
+@dataclass(frozen=True)
+class GeometryEdit:
+    """How a producer that keeps one geometry up to date (the Blender adapter's scene cache)
+    made this version of it: ``generation`` counts its versions, and ``objects`` lists the
+    objects whose rows it rewrote in place since ``generation - 1``, with the layout (object
+    ranges, triangle count, UVs present) unchanged; None when it rebuilt the arrays. A
+    consumer that uploaded ``generation - 1`` of the same ``source`` re-sends just those
+    objects' rows instead of comparing every triangle (scene_delta.GeometryTracker)."""
+
+    source: int
+    generation: int
+    objects: tuple[int, ...] | None = None
+
+
 @dataclass
 class Geometry:
     """World-space triangles of all visible objects, grouped by object.
@@ -54,6 +68,7 @@ class Geometry:
     object_names: list[str] = field(default_factory=list)
     uvs: np.ndarray | None = None  # (N, 3, 2) float32
     object_closed: np.ndarray | None = None  # (K,) bool
+    edit: GeometryEdit | None = None  # set by a producer that edits the arrays in place
 
     def __post_init__(self) -> None:
         self.triangles = _as(self.triangles, np.float32, (3, 3), "triangles")

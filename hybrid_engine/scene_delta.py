@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .scene_data import Geometry
+from .scene_data import Geometry, GeometryEdit
 
 # Changed triangles closer than this are uploaded as one range: one buffer write per range
 # costs more than a few kilobytes of unchanged data.
@@ -112,21 +112,62 @@ class GeometryTracker:
 
     def __init__(self) -> None:
         self._last: dict[str, np.ndarray] | None = None
+        self._edit: tuple[int, int] | None = None  # (source, generation) of the last geometry
         self.sequence = 0
+        self.compared = False  # whether the last update compared triangles bit for bit
 
     def reset(self) -> None:
         """Forget the last geometry (the next update is a full upload)."""
         self._last = None
+        self._edit = None
 
     def update(self, geometry: Geometry) -> GeometryDelta:
-        """Compare with the last call's geometry, remember this one, return the delta."""
+        """The delta from the last call's geometry, which is remembered. A geometry that says
+        which objects its producer rewrote since the version this tracker saw last
+        (``Geometry.edit``) is taken at its word: only those objects' rows are copied; any
+        other is compared bit for bit."""
         self.sequence += 1
-        seq = self.sequence
+        edit = geometry.edit
+        delta = self._edited(geometry, edit)
+        self.compared = delta is None
+        if delta is None:
+            delta = self._compared(geometry)
+        self._edit = (edit.source, edit.generation) if edit is not None else None
+        return delta
+
+    def _edited(self, geometry: Geometry, edit: GeometryEdit | None) -> GeometryDelta | None:
+        """The delta of an in-place edit that follows the last geometry, else None."""
+        last = self._last
+        if (edit is None or edit.objects is None or last is None
+                or self._edit != (edit.source, edit.generation - 1)
+                or len(last["triangles"]) != geometry.triangle_count
+                or ("uvs" in last) != (geometry.uvs is not None)
+                or not np.array_equal(last["object_ranges"], geometry.object_ranges)):
+            return None
         n = geometry.triangle_count
+        objects = geometry.object_ranges[np.asarray(edit.objects, np.int64)].reshape(-1, 2)
+        mask = range_mask(objects[objects[:, 1] > 0], n)
+        changed = int(mask.sum())
+        if changed == 0:
+            return GeometryDelta(full=False, sequence=self.sequence)
+        ranges = merge_ranges(mask)
+        for name, a in self._arrays(geometry).items():
+            for first, count in ranges:
+                last[name][first:first + count] = a[first:first + count]
+        return GeometryDelta(full=False, ranges=tuple(ranges), changed_triangles=changed, sequence=self.sequence)
+
+    @staticmethod
+    def _arrays(geometry: Geometry) -> dict[str, np.ndarray]:
         arrays = {"triangles": geometry.triangles, "normals": geometry.normals,
                   "material_ids": geometry.material_ids}
         if geometry.uvs is not None:
             arrays["uvs"] = geometry.uvs
+        return arrays
+
+    def _compared(self, geometry: Geometry) -> GeometryDelta:
+        seq = self.sequence
+        n = geometry.triangle_count
+        arrays = self._arrays(geometry)
         last = self._last
         same_layout = (
             last is not None

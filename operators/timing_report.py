@@ -24,7 +24,7 @@ from typing import Iterator
 
 import bpy
 
-from ..blender_adapter import engine, extract, properties
+from ..blender_adapter import engine, extract, properties, scene_cache
 from ..hybrid_engine import timing_report
 from ..hybrid_engine.settings import SettingsError
 
@@ -158,6 +158,8 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
             self.report({"ERROR"}, f"Timing report failed{where}: {exc}")
             return {"CANCELLED"}
         finally:
+            main.source.close()
+            compare.source.close()
             scene.frame_set(saved_frame, subframe=saved_subframe)
             if window_manager is not None:
                 window_manager.progress_end()
@@ -222,6 +224,8 @@ class _FrameRenderer:
         self.expected_mode = expected_mode
         self.frame: int | None = None
         self.warnings: list[str] = []
+        # The scene kept across the run's frames: each re-reads what its frame changed.
+        self.source = scene_cache.TrackedScene()
 
     def warn(self, _levels, message: str) -> None:
         if message not in self.warnings:
@@ -230,8 +234,10 @@ class _FrameRenderer:
     def render(self, frame: int):
         self.frame = frame
         scene = self.context.scene
+        self.source.listen()
         scene.frame_set(frame)
-        result = engine.render_depsgraph(self.context.evaluated_depsgraph_get(), report=self.warn)
+        result = engine.render_depsgraph(self.context.evaluated_depsgraph_get(), report=self.warn,
+                                         source=self.source)
         if self.expected_mode is not None and result.mode != self.expected_mode:
             raise ModeNotRendered(f"{self.expected_mode} is not available in this build "
                                   f"(the engine rendered {result.mode} instead)")

@@ -11,7 +11,7 @@ method and figures as ``python -m benchmarks.bench --sections frame`` gives for 
 procedural Chess scene) on a scene built by ``benchmarks/scene_library.py``: frames
 F .. F + 1 warm the two renderers up, frames F + 2 .. F + N + 1 are timed, the modes
 alternating frame by frame. Every frame reaches the core as an F12 render's would: the scene
-is set to the frame, the evaluated depsgraph is extracted (``extract.extract_scene``) and the
+is set to the frame, the evaluated depsgraph is extracted (``scene_cache.extract_scene``) and the
 camera read (``extract.camera_from_scene``); extraction is not part of the frame times (it is
 the same for both modes) and is reported on its own as ``extract_ms``.
 
@@ -99,7 +99,7 @@ def blender_frames(scene, first: int, count: int, extract_ms: list[float]) -> It
     ``extract_ms``.
     """
     import bpy
-    from hybrid_rt.blender_adapter import extract
+    from hybrid_rt.blender_adapter import extract, scene_cache
 
     for frame in range(first, first + count):
         scene.frame_set(frame)
@@ -107,7 +107,7 @@ def blender_frames(scene, first: int, count: int, extract_ms: list[float]) -> It
         depsgraph = bpy.context.evaluated_depsgraph_get()
         if depsgraph.scene != scene:
             raise RuntimeError(f"the active scene is {depsgraph.scene.name!r}, not the benchmarked {scene.name!r}")
-        data = extract.extract_scene(depsgraph)
+        data = scene_cache.extract_scene(depsgraph)
         camera = extract.camera_from_scene(scene, depsgraph)
         extract_ms.append((time.perf_counter() - start) * 1e3)
         yield data, camera

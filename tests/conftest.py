@@ -73,3 +73,28 @@ def save_failure_images(name: str, **images: np.ndarray) -> Path:
     for key, img in images.items():
         np.save(FAILURE_DIR / f"{name}_{key}.npy", img)
     return FAILURE_DIR
+
+
+@pytest.fixture
+def fed_session(addon):
+    """A viewport session fed by Blender's depsgraph handlers, as ``view_update`` is fed in a
+    viewport (``depsgraph.updates`` is only filled inside them), and its sync reports."""
+    import bpy
+
+    session = addon.blender_adapter.viewport.ViewportSession()
+    reports = []
+
+    @bpy.app.handlers.persistent  # the tests load factory settings after installing it
+    def on_update(_scene, depsgraph):
+        reports.append(session.update(depsgraph))
+
+    handlers = (bpy.app.handlers.depsgraph_update_post, bpy.app.handlers.frame_change_post)
+    for handler_list in handlers:
+        handler_list.append(on_update)
+    try:
+        yield session, reports
+    finally:
+        for handler_list in handlers:
+            if on_update in handler_list:
+                handler_list.remove(on_update)
+        session.release()

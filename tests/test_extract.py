@@ -46,7 +46,7 @@ def mesh_object(name: str, verts, faces, matrix=None, link=True):
 def extract(addon):
     depsgraph = bpy.context.evaluated_depsgraph_get()
     depsgraph.update()
-    return addon.blender_adapter.extract.extract_scene(depsgraph)
+    return addon.blender_adapter.scene_cache.extract_scene(depsgraph)
 
 
 def transform(matrix, points):
@@ -467,7 +467,7 @@ def test_objects_disabled_for_render_are_excluded_in_a_final_render(addon):
     """The final render's depsgraph drops hide_render objects; checked with a tiny engine
     that only extracts."""
     clear_scene()
-    extract_scene = addon.blender_adapter.extract.extract_scene
+    extract_scene = addon.blender_adapter.scene_cache.extract_scene
     mesh_object("shown", TETRA_VERTS, TETRA_FACES)
     mesh_object("hidden", TETRA_VERTS, TETRA_FACES, trs((5, 0, 0))).hide_render = True
     seen = {}
@@ -514,7 +514,7 @@ def test_one_million_triangles_extract_within_budget(addon):
         empty.location = (12 + 3 * i, 0, 0)
         bpy.context.scene.collection.objects.link(empty)
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    extract_scene = addon.blender_adapter.extract.extract_scene
+    extract_scene = addon.blender_adapter.scene_cache.extract_scene
     count = extract_scene(depsgraph).geometry.triangle_count  # warm-up: Blender's lazy caches
     timings = []
     for _ in range(BENCH_REPEATS):

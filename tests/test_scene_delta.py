@@ -118,3 +118,38 @@ def test_changed_rows_finds_exactly_the_rows_that_differ_in_any_bit(rng, shape):
     expected = (old.reshape(len(old), -1).view(np.uint32) != new.reshape(len(new), -1).view(np.uint32)).any(axis=1)
     np.testing.assert_array_equal(changed_rows(old, new), expected)
     assert expected.sum() == len(rows)
+
+
+def _edited(geo: Geometry, source: int, generation: int, objects) -> Geometry:
+    from hybrid_engine.scene_data import GeometryEdit
+
+    geo.edit = GeometryEdit(source, generation, None if objects is None else tuple(objects))
+    return geo
+
+
+def test_an_edit_that_follows_the_last_generation_is_taken_without_comparing(rng):
+    """The producer says object 1 was rewritten: its range is re-sent and no row is compared
+    (a change it does not mention, in object 3, is not seen: the producer is trusted)."""
+    tracker = GeometryTracker()
+    geo = _edited(geometry(rng), source=7, generation=1, objects=None)
+    assert tracker.update(geo).full
+    first, count = (int(v) for v in geo.object_ranges[1])
+    geo.triangles[first:first + count] += np.float32(1.0)
+    other = int(geo.object_ranges[3, 0])
+    geo.triangles[other] += np.float32(1.0)
+    delta = tracker.update(_edited(geo, 7, 2, [1]))
+    assert not tracker.compared
+    assert delta.ranges == ((first, count),) and delta.changed_triangles == count
+    assert tracker.update(_edited(geo, 7, 3, [])).unchanged
+
+
+@pytest.mark.parametrize("source,generation", [(7, 3), (8, 2)])
+def test_an_edit_after_a_missed_generation_or_from_another_source_is_compared(rng, source, generation):
+    tracker = GeometryTracker()
+    geo = _edited(geometry(rng), source=7, generation=1, objects=None)
+    tracker.update(geo)
+    first, count = (int(v) for v in geo.object_ranges[2])
+    geo.triangles[first:first + count] += np.float32(1.0)
+    delta = tracker.update(_edited(geo, source, generation, [0]))  # the claim is not trusted
+    assert tracker.compared
+    assert delta.ranges == ((first, count),)

@@ -99,8 +99,8 @@ def extract_frame(addon, scene, frame: int):
 
     scene.frame_set(frame)
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    extract = addon.blender_adapter.extract
-    return extract.extract_scene(depsgraph), extract.camera_from_scene(scene, depsgraph)
+    adapter = addon.blender_adapter
+    return adapter.scene_cache.extract_scene(depsgraph), adapter.extract.camera_from_scene(scene, depsgraph)
 
 
 def object_triangles(geometry, name: str) -> np.ndarray:

@@ -227,12 +227,12 @@ def extraction_log(addon, monkeypatch):
     """Every extraction the engine does: (scene frame, bounds of the cube's triangles)."""
     import bpy
 
-    extract = addon.blender_adapter.extract
-    original = extract.extract_scene
+    tracked = addon.blender_adapter.scene_cache.TrackedScene
+    original = tracked.scene_data
     log = []
 
-    def logged(depsgraph):
-        data = original(depsgraph)
+    def logged(self, depsgraph):
+        data = original(self, depsgraph)
         geometry = data.geometry
         index = geometry.object_names.index("Cube")
         first, count = geometry.object_ranges[index]
@@ -240,7 +240,7 @@ def extraction_log(addon, monkeypatch):
         log.append((bpy.context.scene.frame_current, triangles.min(axis=0), triangles.max(axis=0)))
         return data
 
-    monkeypatch.setattr(extract, "extract_scene", logged)
+    monkeypatch.setattr(tracked, "scene_data", logged)
     return log
 
 

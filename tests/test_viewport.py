@@ -25,28 +25,10 @@ RSS_GROWTH_LIMIT_BYTES = 24 * 2**20
 
 
 @pytest.fixture
-def viewport(addon):
+def viewport(addon, fed_session):
     """The add-on's viewport module with a session fed by depsgraph handlers."""
-    import bpy
-
-    module = addon.blender_adapter.viewport
-    session = module.ViewportSession()
-    reports = []
-
-    @bpy.app.handlers.persistent  # the tests load factory settings after installing it
-    def on_update(_scene, depsgraph):
-        reports.append(session.update(depsgraph))
-
-    handlers = (bpy.app.handlers.depsgraph_update_post, bpy.app.handlers.frame_change_post)
-    for handler_list in handlers:
-        handler_list.append(on_update)
-    try:
-        yield module, session, reports
-    finally:
-        for handler_list in handlers:
-            if on_update in handler_list:
-                handler_list.remove(on_update)
-        session.release()
+    session, reports = fed_session
+    return addon.blender_adapter.viewport, session, reports
 
 
 def _region(bpy, eye=(6.0, -7.0, 5.0), target=(0.0, 0.0, 0.5)):

@@ -4,7 +4,7 @@
 Usage::
 
     python -m benchmarks.bench [--quick] [--json PATH] [--rounds N] [--resolution WxH]
-                                  [--sections lbvh,trace,frame]
+                                  [--sections lbvh,trace,frame,host]
 
 Sections (one function each; :func:`main` assembles them):
 
@@ -26,6 +26,11 @@ Sections (one function each; :func:`main` assembles them):
     FLIP's LDR mode expects). The comparison itself (:func:`compare_modes`) takes any
     sequence of frames; ``scripts/bench_scene.py`` feeds it the scene library's Blender
     scenes (Sponza ...), extracted frame by frame as the render engine does.
+``host``
+    What a frame costs the CPU before the GPU passes (``scripts/bench_host.py``): the scene
+    sync and the upload per frame of a static scene with a moving camera, Chess, a deformed
+    100k-vertex mesh and 10,000 instances, followed through Blender's change sets. Needs bpy;
+    skipped, with the reason in the report, where it is absent (a GPU machine's Python).
 
 Method: all contenders run side by side in one process on the same data, warmed up first
 (shader compilation, buffer growth, page faults), then in interleaved rounds so that load
@@ -505,6 +510,16 @@ def format_tables(report: dict) -> str:
     frame = report.get("frame")
     if frame:
         lines.extend(["", format_frame_table(frame)])
+    host = report.get("host")
+    if host:
+        lines.append("")
+        if "skipped" in host:
+            lines.append(f"host: skipped ({host['skipped']})")
+        else:
+            lines.append("host: per frame after the first (ms, mean): scene sync + upload")
+            for name, row in host.items():
+                lines.append(f"  {name:<10} {row['triangles']:>10,} triangles  extract {row['extract_ms']:8.2f}  "
+                             f"upload {row['upload_ms']:7.2f}  host {row['host_ms']:8.2f}")
     return "\n".join(lines)
 
 
@@ -532,7 +547,26 @@ def format_frame_table(frame: dict) -> str:
     return "\n".join(lines)
 
 
-SECTIONS = ("lbvh", "trace", "frame")
+SECTIONS = ("lbvh", "trace", "frame", "host")
+# The host section follows Blender scenes (scripts/bench_host.py): it runs where bpy does, in a
+# process of its own that imports this checkout as the add-on.
+HOST_SCRIPT = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "scripts", "bench_host.py")
+
+
+def host_section(quick: bool) -> dict:
+    """Per-frame host milliseconds (scene sync + upload) of four Blender scenes, or why not."""
+    import importlib.util
+    import subprocess
+    import tempfile
+
+    if importlib.util.find_spec("bpy") is None:
+        return {"skipped": "needs bpy (Blender as a Python module), which this Python lacks"}
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "host.json")
+        command = [sys.executable, HOST_SCRIPT, "--json", path] + (["--quick"] if quick else [])
+        subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+        with open(path, encoding="utf-8") as handle:
+            return json.load(handle)
 
 
 def run(quick: bool = False, sections=SECTIONS, rounds: int = ROUNDS,
@@ -557,6 +591,8 @@ def run(quick: bool = False, sections=SECTIONS, rounds: int = ROUNDS,
             resolution=resolution or default_frame_resolution(quick),
             rounds=rounds, cube_resolution=params["cube_resolution"], near_size=near_size,
             cube_march=cube_march, cube_back_layer=cube_back_layer)
+    if "host" in sections:
+        report["host"] = host_section(quick)
     return report
 
 

@@ -16,9 +16,10 @@ the depsgraph says changed (``depsgraph.updates``):
   table keeps one row per material for the cache's lifetime);
 - the world: the sky is read again; lights are re-read on every sync (a handful of values).
 
-Every sync still walks ``depsgraph.object_instances`` once (cheap: no per-vertex work) so
-that added, removed, hidden and instanced objects are seen without trusting the update list
-for structure. The assembled ``SceneData`` is reused as long as nothing changed.
+A sync walks ``depsgraph.object_instances`` once (no per-vertex work) so that added,
+removed, hidden and instanced objects are seen without trusting the update list for
+structure; only when nothing but cameras changed does it skip the walk, and the assembled
+``SceneData`` is reused as long as nothing changed.
 
 The world-space geometry is one set of arrays kept across syncs: while the instances and
 their triangle counts stay the same, a sync writes the rows of the instances it refreshed
@@ -52,6 +53,9 @@ class Changes:
     lights: bool = False
     world: bool = False
     scene: bool = False
+    # Only cameras changed (or nothing did): no datablock the exported scene is made of, so a
+    # sync can skip its walk over the instances (a static scene seen by a moving camera).
+    cameras_only: bool = True
 
     def merge(self, other: "Changes") -> None:
         """Add ``other``'s changes to these (updates that arrive in several batches before
@@ -63,6 +67,7 @@ class Changes:
         self.lights = self.lights or other.lights
         self.world = self.world or other.world
         self.scene = self.scene or other.scene
+        self.cameras_only = self.cameras_only and other.cameras_only
 
     @classmethod
     def from_updates(cls, updates) -> "Changes":
@@ -73,6 +78,8 @@ class Changes:
             kind = type(datablock).__name__
             original = getattr(datablock, "original", None) or datablock
             key = original.as_pointer()
+            if not _about_cameras(kind, datablock):
+                changes.cameras_only = False
             if kind == _OBJECT:
                 if update.is_updated_geometry:
                     changes.geometry.add(key)
@@ -91,6 +98,14 @@ class Changes:
         return changes
 
 
+def _about_cameras(kind: str, datablock) -> bool:
+    """Whether an update can only concern cameras: a camera object, camera data, or an action
+    (its animated objects arrive as updates of their own)."""
+    if kind == _OBJECT:
+        return getattr(datablock, "type", None) == "CAMERA"
+    return kind in ("Camera", "Action")
+
+
 @dataclass
 class SyncReport:
     """What one sync did: names of instances whose mesh was read again (``extracted``) or
@@ -101,6 +116,7 @@ class SyncReport:
     reused: int = 0
     removed: int = 0
     rebuilt: bool = False  # the world-space arrays were assembled anew (not edited in place)
+    walked: bool = False  # the instances were visited (not skipped: Changes.cameras_only)
     materials_refreshed: int = 0
     sky_refreshed: bool = False
     changed: bool = False
@@ -216,6 +232,11 @@ class SceneCache:
 
         # Materials first: their rows must be current before instances look up their ids.
         report.materials_refreshed = self._materials.refresh(changes.materials)
+        if not full and changes.cameras_only and not report.materials_refreshed and self._scene is not None:
+            report.reused = len(self._order)
+            report.ms = (time.perf_counter() - start) * 1e3
+            return report
+        report.walked = True
 
         mesh_reads: dict[int, object] = {}  # evaluated mesh pointer -> _MeshData (this sync)
         seen: list[tuple] = []

@@ -136,8 +136,11 @@ class GeometryTracker:
         return delta
 
     def _edited(self, geometry: Geometry, edit: GeometryEdit | None) -> GeometryDelta | None:
-        """The delta of an in-place edit that follows the last geometry, else None."""
+        """The delta of an in-place edit that follows the last geometry (or is the same
+        version of it: nothing changed), else None."""
         last = self._last
+        if edit is not None and last is not None and self._edit == (edit.source, edit.generation):
+            return GeometryDelta(full=False, sequence=self.sequence)
         if (edit is None or edit.objects is None or last is None
                 or self._edit != (edit.source, edit.generation - 1)
                 or len(last["triangles"]) != geometry.triangle_count

@@ -197,3 +197,26 @@ def test_the_viewport_sees_curves_text_and_metaballs_as_f12_does_and_follows_the
     bpy.context.evaluated_depsgraph_get()
     after = session.cache.scene_data.geometry.object_bounds[index]
     np.testing.assert_allclose(after[:, 1] - before[:, 1], 2.0, atol=1e-5)
+
+
+def test_a_moving_camera_skips_the_walk_and_a_view_layer_hide_does_not(addon, fed_session):
+    """Moving the scene camera or changing its lens touches nothing the exported scene holds:
+    the sync visits no instance. Hiding an object in the view layer arrives as a bare Scene
+    update: the walk runs and the object is gone."""
+    import bpy
+
+    session, reports = fed_session
+    scene, cube = _scene(bpy)
+    _small_render(bpy, scene)
+    bpy.context.evaluated_depsgraph_get()
+    scene_data = session.cache.scene_data
+    scene.camera.location.x += 1.0
+    bpy.context.evaluated_depsgraph_get()
+    scene.camera.data.lens = 30.0
+    bpy.context.evaluated_depsgraph_get()
+    assert reports[-2:] and all(not r.walked and not r.changed for r in reports[-2:])
+    assert session.cache.scene_data is scene_data
+    cube.hide_set(True)
+    bpy.context.evaluated_depsgraph_get()
+    assert reports[-1].walked and reports[-1].removed == 1
+    assert "Cube" not in session.cache.scene_data.geometry.object_names

@@ -141,6 +141,7 @@ def test_an_edit_that_follows_the_last_generation_is_taken_without_comparing(rng
     assert not tracker.compared
     assert delta.ranges == ((first, count),) and delta.changed_triangles == count
     assert tracker.update(_edited(geo, 7, 3, [])).unchanged
+    assert tracker.update(geo).unchanged and not tracker.compared  # the same version again
 
 
 @pytest.mark.parametrize("source,generation", [(7, 3), (8, 2)])

@@ -596,6 +596,17 @@ def run(quick: bool = False, sections=SECTIONS, rounds: int = ROUNDS,
     return report
 
 
+def choice_list(choices: tuple[str, ...]) -> Callable[[str], list[str]]:
+    """An argparse type: a comma-separated subset of ``choices``."""
+    def parse(text: str) -> list[str]:
+        names = [name.strip() for name in text.split(",") if name.strip()]
+        unknown = sorted(set(names) - set(choices))
+        if unknown:
+            raise argparse.ArgumentTypeError(f"unknown: {', '.join(unknown)} (choose from {', '.join(choices)})")
+        return names
+    return parse
+
+
 def parse_resolution(text: str) -> tuple[int, int]:
     """'640x360' -> (640, 360); argparse reports the ValueError's message."""
     parts = text.lower().split("x")
@@ -626,13 +637,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--back-layer", action=argparse.BooleanOptionalAction, default=FRAME_BACK_LAYER,
                         help="HYBRID's cube map with the back layer (settings.cube_back_layer; "
                         "default on: --no-back-layer for the paper's single layer)")
-    parser.add_argument("--sections", default=",".join(SECTIONS),
+    parser.add_argument("--sections", type=choice_list(SECTIONS), default=list(SECTIONS),
                         help=f"comma-separated subset of {', '.join(SECTIONS)}")
     args = parser.parse_args(argv)
-    sections = [s.strip() for s in args.sections.split(",") if s.strip()]
-    unknown = sorted(set(sections) - set(SECTIONS))
-    if unknown:
-        parser.error(f"unknown sections: {', '.join(unknown)}")
+    sections = args.sections
     if args.rounds < 1:
         parser.error("--rounds must be >= 1")
     if not (math.isfinite(args.near_size) and 0 < args.near_size < CHESS_CUBE_FAR):

@@ -31,7 +31,9 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from addon_loader import load_addon  # noqa: E402
+from addon_loader import load_addon  # noqa: E402 - also puts the repository root on sys.path
+
+from benchmarks.bench import choice_list  # noqa: E402
 
 SCENES = ("static", "chess", "deform", "instances")
 FULL = {"static_spheres": 100, "static_subdivisions": 6, "deform_grid": 316, "instances": 10_000, "chess_detail": 1.0}
@@ -187,13 +189,11 @@ def main(argv: list[str] | None = None) -> int:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--frames", type=int, default=6, help="frames followed per scene (>= 2)")
     parser.add_argument("--quick", action="store_true", help="small scenes (seconds, for tests)")
-    parser.add_argument("--scenes", default=",".join(SCENES), help=f"comma-separated subset of {', '.join(SCENES)}")
+    parser.add_argument("--scenes", type=choice_list(SCENES), default=list(SCENES),
+                        help=f"comma-separated subset of {', '.join(SCENES)}")
     parser.add_argument("--json", metavar="PATH", help="write the figures as JSON to PATH")
     args = parser.parse_args(argv)
-    scenes = [s.strip() for s in args.scenes.split(",") if s.strip()]
-    unknown = sorted(set(scenes) - set(SCENES))
-    if unknown:
-        parser.error(f"unknown scenes: {', '.join(unknown)}")
+    scenes = args.scenes
     if args.frames < 2:
         parser.error("--frames must be >= 2 (the first frame reads everything and is not counted)")
     report = run(scenes, args.frames, args.quick)

@@ -75,6 +75,8 @@ def _socket_value(node, name: str, default):
 # (tens of milliseconds per megapixel). Least recently used images are dropped beyond this.
 IMAGE_CACHE_BYTES = 1 << 30
 _image_cache: OrderedDict[tuple, np.ndarray] = OrderedDict()
+# The environment's RGB pixels, kept as one array per image content (``_environment_pixels``).
+_environment_cache: dict[tuple, np.ndarray] = {}
 _warned: set[tuple] = set()  # (what, name) pairs already reported: warn once, not per frame
 
 # Colour spaces whose byte values are linear already (Blender 5.0 names); ``is_data``
@@ -93,6 +95,7 @@ def forget_image_pixels() -> None:
     """Drop the cached image pixels (for callers that know an image was painted: in-memory
     edits of an already modified image do not change its cache key)."""
     _image_cache.clear()
+    _environment_cache.clear()
 
 
 def _image_key(image) -> tuple:
@@ -776,25 +779,24 @@ def _light_row(name: str, light, matrix: np.ndarray) -> dict:
     )
 
 
-def _srgb_to_linear(values: np.ndarray) -> np.ndarray:
-    return np.where(values <= 0.04045, values / 12.92, ((values + 0.055) / 1.055) ** 2.4).astype(np.float32)
-
-
 def _environment_pixels(image) -> np.ndarray | None:
-    """(H, W, 3) linear float32 pixels of an environment image (row 0 = bottom), or None."""
-    width, height = (int(v) for v in image.size)
-    channels = int(image.channels)
-    if width < 1 or height < 1 or channels < 3:
-        log.warning("environment image %r has no usable pixels (%dx%d, %d channels); "
-                    "using the background colour", image.name, width, height, channels)
+    """(H, W, 3) linear float32 pixels of an environment image (row 0 = bottom), or None.
+    Read by ``image_pixels`` (one read per image content, the textures' colour-space rule)
+    and kept as the same array while the image stays the same, so that the GPU side (sky
+    irradiance, mipmapped environment: sky_light.py) is not rebuilt by a render that only
+    read the World again."""
+    key = _image_key(image)
+    cached = _environment_cache.get(key)
+    if cached is not None:
+        return cached
+    pixels = image_pixels(image)
+    if pixels is None:
         return None
-    pixels = np.empty(width * height * channels, np.float32)
-    image.pixels.foreach_get(pixels)
-    rgb = pixels.reshape(height, width, channels)[:, :, :3]
-    # Byte images come back in their own colour space; float images are scene linear.
-    if not image.is_float and image.colorspace_settings.name.lower() in ("srgb", "srgb display"):
-        rgb = _srgb_to_linear(rgb)
-    return np.ascontiguousarray(rgb)
+    rgb = np.ascontiguousarray(pixels[..., :3])
+    rgb.flags.writeable = False
+    _environment_cache.clear()  # one World at a time is rendered
+    _environment_cache[key] = rgb
+    return rgb
 
 
 def extract_sky(world) -> Sky:

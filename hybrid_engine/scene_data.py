@@ -476,7 +476,12 @@ class Sky:
             env = np.ascontiguousarray(np.asarray(self.environment, np.float32))
             if env.ndim != 3 or env.shape[2] not in (3, 4) or env.shape[0] < 1 or env.shape[1] < 1:
                 raise SceneDataError(f"environment must be (H, W, 3|4), got {env.shape}")
-            self.environment = np.nan_to_num(env[:, :, :3], nan=0.0, posinf=0.0, neginf=0.0)
+            if env.shape[2] == 4:
+                env = np.ascontiguousarray(env[:, :, :3])
+            # The caller's array itself when it is clean: its identity tells the GPU side
+            # (sky_light.py) that the environment did not change.
+            self.environment = env if np.isfinite(env).all() else np.nan_to_num(env, nan=0.0, posinf=0.0,
+                                                                                 neginf=0.0)
 
 
 @dataclass

@@ -423,6 +423,13 @@ def test_equirectangular_environment_texture_becomes_the_sky_image(addon, rng):
     world.node_tree.links.new(environment.outputs["Color"], world.node_tree.nodes["Background"].inputs["Color"])
     sky = extract(addon).sky
     np.testing.assert_allclose(sky.environment, pixels[:, :, :3], atol=1e-6)
+    # Read once per image content: a second export hands over the same array (the GPU keeps
+    # its irradiance and mipmaps), another image a new one.
+    assert extract(addon).sky.environment is sky.environment
+    other = bpy.data.images.new("sky2", width=8, height=4, float_buffer=True)
+    other.pixels.foreach_set(rng.random(8 * 4 * 4).astype(np.float32))
+    environment.image = other
+    assert extract(addon).sky.environment is not sky.environment
 
 
 def test_camera_from_scene_reads_optics_and_scaled_resolution(addon):

@@ -111,8 +111,7 @@ class GeometryTracker:
     """Remembers the geometry last uploaded and tells what a new frame changed."""
 
     def __init__(self) -> None:
-        self._last: dict[str, np.ndarray] | None = None
-        self._edit: tuple[int, int] | None = None  # (source, generation) of the last geometry
+        self.reset()
         self.sequence = 0
         self.compared = False  # whether the last update compared triangles bit for bit
 
@@ -120,6 +119,7 @@ class GeometryTracker:
         """Forget the last geometry (the next update is a full upload)."""
         self._last = None
         self._edit = None
+        self._layout: tuple | None = None  # (triangles, UVs present, object ranges) last seen
 
     def update(self, geometry: Geometry) -> GeometryDelta:
         """The delta from the last call's geometry, which is remembered. A geometry that says
@@ -132,32 +132,39 @@ class GeometryTracker:
         self.compared = delta is None
         if delta is None:
             delta = self._compared(geometry)
+        if edit is not None:
+            # A producer's geometry comes with its edits: no copy of the rows is kept to
+            # compare with (a later geometry without edits is uploaded whole).
+            self._last = None
         self._edit = (edit.source, edit.generation) if edit is not None else None
+        self._layout = (geometry.triangle_count, geometry.uvs is not None, geometry.object_ranges.copy())
         return delta
 
     def _edited(self, geometry: Geometry, edit: GeometryEdit | None) -> GeometryDelta | None:
         """The delta of an in-place edit that follows the last geometry (or is the same
-        version of it: nothing changed), else None."""
-        last = self._last
-        if edit is not None and last is not None and self._edit == (edit.source, edit.generation):
-            return GeometryDelta(full=False, sequence=self.sequence)
-        if (edit is None or edit.objects is None or last is None
-                or self._edit != (edit.source, edit.generation - 1)
-                or len(last["triangles"]) != geometry.triangle_count
-                or ("uvs" in last) != (geometry.uvs is not None)
-                or not np.array_equal(last["object_ranges"], geometry.object_ranges)):
+        version of it: nothing changed), else None. The rows are not compared, nor kept."""
+        layout = self._layout
+        if (edit is None or layout is None or layout[0] != geometry.triangle_count
+                or layout[1] != (geometry.uvs is not None)
+                or not np.array_equal(layout[2], geometry.object_ranges)):
             return None
-        n = geometry.triangle_count
-        objects = geometry.object_ranges[np.asarray(edit.objects, np.int64)].reshape(-1, 2)
-        mask = range_mask(objects[objects[:, 1] > 0], n)
-        changed = int(mask.sum())
-        if changed == 0:
+        if self._edit == (edit.source, edit.generation):
             return GeometryDelta(full=False, sequence=self.sequence)
-        ranges = merge_ranges(mask)
-        for name, a in self._arrays(geometry).items():
-            for first, count in ranges:
-                last[name][first:first + count] = a[first:first + count]
-        return GeometryDelta(full=False, ranges=tuple(ranges), changed_triangles=changed, sequence=self.sequence)
+        if edit.objects is None or self._edit != (edit.source, edit.generation - 1):
+            return None
+        objects = geometry.object_ranges[np.asarray(edit.objects, np.int64)].reshape(-1, 2).astype(np.int64)
+        objects = objects[objects[:, 1] > 0]
+        if len(objects) == 0:
+            return GeometryDelta(full=False, sequence=self.sequence)
+        objects = objects[np.argsort(objects[:, 0], kind="stable")]
+        starts, ends = objects[:, 0], objects[:, 0] + objects[:, 1]
+        # Objects closer than MERGE_GAP_TRIANGLES are sent as one range (as merge_ranges).
+        breaks = np.flatnonzero(starts[1:] - ends[:-1] > MERGE_GAP_TRIANGLES)
+        firsts = np.r_[starts[0], starts[breaks + 1]]
+        lasts = np.r_[ends[breaks], ends[-1]]
+        ranges = tuple((int(a), int(b - a)) for a, b in zip(firsts, lasts))
+        return GeometryDelta(full=False, ranges=ranges, changed_triangles=int(objects[:, 1].sum()),
+                             sequence=self.sequence)
 
     @staticmethod
     def _arrays(geometry: Geometry) -> dict[str, np.ndarray]:

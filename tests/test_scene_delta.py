@@ -145,12 +145,24 @@ def test_an_edit_that_follows_the_last_generation_is_taken_without_comparing(rng
 
 
 @pytest.mark.parametrize("source,generation", [(7, 3), (8, 2)])
-def test_an_edit_after_a_missed_generation_or_from_another_source_is_compared(rng, source, generation):
+def test_an_edit_after_a_missed_generation_or_from_another_source_is_uploaded_whole(rng, source, generation):
+    """The claim does not follow what this tracker saw: everything is sent (no copy of a
+    producer's rows is kept to compare with)."""
     tracker = GeometryTracker()
     geo = _edited(geometry(rng), source=7, generation=1, objects=None)
     tracker.update(geo)
     first, count = (int(v) for v in geo.object_ranges[2])
     geo.triangles[first:first + count] += np.float32(1.0)
-    delta = tracker.update(_edited(geo, source, generation, [0]))  # the claim is not trusted
-    assert tracker.compared
-    assert delta.ranges == ((first, count),)
+    delta = tracker.update(_edited(geo, source, generation, [0]))
+    assert delta.full and delta.changed_triangles == geo.triangle_count
+
+
+def test_an_edit_sends_nearby_objects_as_one_range_and_distant_ones_apart(rng):
+    tracker = GeometryTracker()
+    small = Geometry.from_objects([(rng.normal(size=(10, 3, 3)), None, 0) for _ in range(4)]
+                                  + [(rng.normal(size=(MERGE_GAP_TRIANGLES + 5, 3, 3)), None, 0)]
+                                  + [(rng.normal(size=(10, 3, 3)), None, 0)])
+    tracker.update(_edited(small, 1, 1, None))
+    delta = tracker.update(_edited(small, 1, 2, [2, 0, 5]))
+    assert delta.ranges == ((0, 30), (int(small.object_ranges[5, 0]), 10))
+    assert delta.changed_triangles == 30

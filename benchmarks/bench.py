@@ -84,11 +84,11 @@ FRAME_NUMBER = 0
 WARM_UP_FRAMES = 2  # the first frame uploads everything; the second teaches the shadow cache what moves
 FRAME_NEAR_SIZE = 3.5
 FRAME_MAX_DEPTH = 4  # the paper's "maximum of four ray recursions" (Figure 5)
-# HYBRID's cube map holds the back layer: with the hidden-exit rule (both on the settings'
-# side, cube_march.glsl) it takes Chess's FLIP from 0.066 to 0.049 for ~90 ms of raster on
-# the 2-core CPU (docs/BENCHMARKS.md); --no-back-layer measures the paper's single layer.
+# HYBRID's cube map holds the back layer: with the hidden-exit rule (cube_march.glsl) it
+# brings HYBRID closer to FULL_BVH for some raster time (docs/BENCHMARKS.md);
+# --no-back-layer measures the paper's single layer.
 FRAME_BACK_LAYER = True
-# The bars of issue 6 (reported, never enforced here).
+# The bars the frame section reports (never enforced here).
 FRAME_SPEEDUP_BAR = 2.0
 FRAME_FLIP_BAR = 0.05
 # A hit agrees when both report the same triangle and t within this relative tolerance

@@ -53,8 +53,7 @@ class CubeFaceTargets(RenderTargets):
         # clear() resets depth and ``normal_material`` only. A texel is empty where its
         # material word is 0, and the march reads ``surface`` and ``geometric`` only at texels
         # it hits, so what those two hold elsewhere is never read; clearing them would be more
-        # than half of the 40 bytes per texel written (4 of 8 ms at 6 x 512², more when
-        # memory is contended, llvmpipe).
+        # than half of the 40 bytes per texel written.
         super().__init__(ctx, width, height,
                          colour={"normal_material": (4, "f4"), "surface": (4, "f4"), "geometric": (2, "f2")},
                          cleared=("normal_material",))

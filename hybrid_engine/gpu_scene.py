@@ -11,9 +11,8 @@ The triangle soup is uploaded as it arrives, one array per attribute, with no pa
 the tracer's LBVH input, ``Geometry.normals`` both the shading-normal attribute and the
 normals the tracer interpolates at BVH hits, and the per-triangle material ids are read by
 the G-buffer vertex stage (``gl_VertexID / 3``) and the tracer alike. Interleaving them into
-vertex rows and packing separate tracer rows cost three passes over every moved triangle
-per frame (about 110 ms for the 0.67 M moving triangles of the Chess animation); a raw
-range write costs one memcpy.
+vertex rows and packing separate tracer rows would cost three passes over every moved
+triangle per frame; a raw range write costs one memcpy.
 
 Non-finite input never reaches the rasterizer: a triangle with a NaN/inf corner is collapsed
 to the origin (zero area: no fragments, and no ray hits it), and non-finite normals and UVs

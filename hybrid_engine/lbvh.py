@@ -87,9 +87,8 @@ KEYS_PER_CHUNK_HARDWARE = 256
 BOUNDS_ITEMS_PER_INVOCATION = 16
 # Ray sorting before tracing (ray_keys.comp.glsl): from this many rays on, trace_buffers
 # orders the rays by a Morton code of their origins (a 3-pass radix sort of 24-bit keys) so
-# that the 8 lanes of a SIMD vector trace neighbouring rays. On the bench's 200k incoherent
-# reflection rays (300k triangles, llvmpipe) the sort takes ~12 ms and the whole trace gets
-# 1.7-1.8x faster; at 5k rays sorting breaks even, at 2k it loses (its ten dispatches).
+# that the 8 lanes of a SIMD vector trace neighbouring rays. Below a few thousand rays its
+# ten dispatches cost more than the coherence saves (docs/BENCHMARKS.md, Traversal).
 RAY_SORT_MIN_RAYS = 4096
 RAY_KEY_BITS = 24
 RAY_SORT_PASSES = math.ceil(RAY_KEY_BITS / RADIX_BITS)

@@ -10,10 +10,10 @@ The benchmark's frame comparison (``benchmarks/bench.py`` ``compare_modes``, the
 method and figures as ``python -m benchmarks.bench --sections frame`` gives for the
 procedural Chess scene) on a scene built by ``benchmarks/scene_library.py``: frames
 F .. F + 1 warm the two renderers up, frames F + 2 .. F + N + 1 are timed, the modes
-alternating frame by frame. Every frame reaches the core as an F12 render's would: the scene
-is set to the frame, the evaluated depsgraph is extracted (``scene_cache.extract_scene``) and the
-camera read (``extract.camera_from_scene``); extraction is not part of the frame times (it is
-the same for both modes) and is reported on its own as ``extract_ms``.
+alternating frame by frame. Every frame reaches the core as a timing report's does: the scene
+is set to the frame, the evaluated depsgraph is synced (``scene_cache.TrackedScene``: what the
+frame changed) and the camera read (``extract.camera_from_scene``); the sync is not part of
+the frame times (it is the same for both modes) and is reported on its own as ``extract_ms``.
 
 Render settings are the scene's own (near size and cube-map far plane as the library sets
 them, the Hybrid RT defaults otherwise) with the paper's maximum depth of 4; each can be
@@ -89,28 +89,32 @@ def mode_settings(scene, args: argparse.Namespace) -> dict:
 
 
 def blender_frames(scene, first: int, count: int, extract_ms: list[float]) -> Iterator[tuple]:
-    """(SceneData, Camera) of frames ``first .. first + count - 1``, each extracted only when
+    """(SceneData, Camera) of frames ``first .. first + count - 1``, each synced only when
     the comparison asks for it.
 
-    Each frame is rendered before the next ``frame_set``, and extraction copies everything
-    out of Blender (``foreach_get`` into numpy arrays, world-space triangles computed anew),
-    so nothing the renderer holds can change under it; one frame's arrays at a time also
-    keeps a full-size Sponza's memory flat. Appends each extraction's milliseconds to
-    ``extract_ms``.
+    The scene is followed as a timing report follows it (``scene_cache.TrackedScene``: the
+    first frame reads everything, later ones what their frame changed); each frame is
+    rendered before the next ``frame_set``, so the arrays edited in place are never changed
+    under a render. Appends each sync's milliseconds to ``extract_ms``.
     """
     import bpy
     from hybrid_rt.blender_adapter import extract, scene_cache
 
-    for frame in range(first, first + count):
-        scene.frame_set(frame)
-        start = time.perf_counter()
-        depsgraph = bpy.context.evaluated_depsgraph_get()
-        if depsgraph.scene != scene:
-            raise RuntimeError(f"the active scene is {depsgraph.scene.name!r}, not the benchmarked {scene.name!r}")
-        data = scene_cache.extract_scene(depsgraph)
-        camera = extract.camera_from_scene(scene, depsgraph)
-        extract_ms.append((time.perf_counter() - start) * 1e3)
-        yield data, camera
+    tracked = scene_cache.TrackedScene()
+    tracked.listen()
+    try:
+        for frame in range(first, first + count):
+            scene.frame_set(frame)
+            start = time.perf_counter()
+            depsgraph = bpy.context.evaluated_depsgraph_get()
+            if depsgraph.scene != scene:
+                raise RuntimeError(f"the active scene is {depsgraph.scene.name!r}, not the benchmarked {scene.name!r}")
+            data = tracked.scene_data(depsgraph)
+            camera = extract.camera_from_scene(scene, depsgraph)
+            extract_ms.append((time.perf_counter() - start) * 1e3)
+            yield data, camera
+    finally:
+        tracked.close()
 
 
 def run_comparison(args: argparse.Namespace, assets: Path) -> dict:

@@ -19,18 +19,14 @@
 // cost of a fetch is the number of loads, not of bytes. bvh_fetch_node() reads the 64-byte node
 // as two dvec4 of an aliasing view of the node array and takes their bits back with
 // unpackDouble2x32 (no arithmetic touches them, so every bit pattern survives): two lane loops
-// where the four uvec4 rows of bvh_node() take four. Measured on llvmpipe (200k reflection
-// rays, 300k triangles, the trace section of benchmarks/bench.py): 20% less traversal time
-// on sorted rays, 6% on unsorted ones, where cache misses dominate. The triangles keep their
-// three rows: a dvec4 + dvec2 fetch (the 48-byte stride leaves every other triangle 16 bytes
-// off a dvec4) was slower.
+// where the four uvec4 rows of bvh_node() take four. The triangles keep their three rows: the
+// 48-byte stride leaves every other triangle 16 bytes off a dvec4.
 //
-// Measured and rejected on llvmpipe (same bench): while-while traversal (Aila & Laine 2009;
-// +30%), postponing leaf tests until a lane holds two (+30%), one leaf block for both children
-// (+13%), a stack whose top 2, 4 or 8 entries live in registers (+25%), a 32- or 48-entry stack
-// (+15%), a dvec4 + dvec2 triangle fetch (+13%), workgroups of 32 or 128 (same), an FMA slab
-// test on a precomputed origin * inverse direction (same, and it would void Ize's bound). The node
-// fetch's cache misses, the per-lane load loops and the triangle tests take most of the time.
+// Kept simple on purpose: while-while traversal (Aila & Laine 2009), postponed leaf tests, a
+// register short stack, a shorter stack and an FMA slab test on a precomputed origin *
+// inverse direction (which would void Ize's bound) were each slower or no faster on
+// llvmpipe (docs/BENCHMARKS.md). The node fetch's cache misses, the per-lane load loops and
+// the triangle tests take most of the time.
 //
 // Ray-triangle test: the watertight algorithm of Woop, Benthin and Wald, "Watertight
 // Ray/Triangle Intersection", JCGT 2(1), 2013: shear the triangle into ray space, decide

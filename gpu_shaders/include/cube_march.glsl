@@ -89,9 +89,8 @@
 // object leaves the bounds a little way above it, at points just behind the object's
 // outline, within the depth bias that keeps any ray from hitting the surface it leaves;
 // compared with the raw depth such rays hit the object (a dark dash on a mirror ball,
-// tests/test_cube_map.py). (Chess, FLIP against FULL_BVH:
-// 0.071 -> 0.066 with one layer, 0.067 -> 0.051 with the back layer, whose rays pass behind
-// objects instead of stopping at their stretch.) It errs where a ray passes behind an object
+// tests/test_cube_map.py). It helps most with the back layer, whose rays pass behind
+// objects instead of stopping at their stretch. It errs where a ray passes behind an object
 // and leaves the scene still hidden by it (a camera below the top of the scene, a ray
 // going up past the far side of a tall object): such a ray shows the object, not the sky.
 //

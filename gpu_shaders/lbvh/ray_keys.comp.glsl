@@ -6,10 +6,9 @@
 // Why: llvmpipe runs 8 invocations per SIMD vector and a vector loops until its slowest lane
 // is done, and each lane fetches its own nodes. Rays that start close together (and, for
 // reflection rays off a smooth surface, leave in similar directions) visit similar nodes: the
-// vector's lanes finish together and share cached nodes. On the bench's incoherent reflection
-// rays (benchmarks/bench.py, trace section) the trace, sort included, got 1.7-1.8x faster.
-// 8 bits per axis traced within 3% of 10 bits at three sort passes instead of four; adding
-// the direction's octant or a coarse direction code to the key did not help.
+// vector's lanes finish together and share cached nodes (docs/BENCHMARKS.md, Traversal).
+// 8 bits per axis order the rays about as well as 10 at three sort passes instead of four;
+// adding the direction's octant or a coarse direction code to the key did not help.
 //
 // Host defines: LOCAL_SIZE (the root is node 0, always in the first block of a split node
 //   array, so the split defines are not needed).

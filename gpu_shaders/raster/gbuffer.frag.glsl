@@ -30,8 +30,7 @@
 //   of UV area per world area, as tracer.pack_triangle_uvs gives BVH triangles), and
 //   location 2 (RG16F) the geometric normal's octahedral coordinates. The tracer samples
 //   the textures at the few texels its rays hit, with the ray cone's mip level, as at BVH
-//   hits (hybrid_trace.comp.glsl). Sampling them for all 6 x res^2 texels was a third of
-//   the faces' time on textured scenes (Sponza: 57 of 151 ms) on a software GL.
+//   hits (hybrid_trace.comp.glsl), instead of sampling them for all 6 x res^2 texels.
 // Samplers: u_textures (textures.glsl), sampled with the UV derivatives of the fragment
 // (mipmaps, anisotropic filtering). A normal map bends the shading normal written at
 // location 0 (both variants).

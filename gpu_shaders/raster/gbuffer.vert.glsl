@@ -10,8 +10,7 @@
 // outside the clip volume, all three vertices alike, so the clipper drops it whole and it
 // writes nothing (gbuffer.frag.glsl: the faces hold what lies behind refractive surfaces).
 // Dropping it here rather than discarding its fragments keeps the early depth test for the
-// fragment stage, which a shader that can discard loses: a third of the faces' raster time
-// on a software GL (Chess: 99 -> about 70 ms). Same G-buffers either way.
+// fragment stage, which a shader that can discard loses. Same G-buffers either way.
 #include "scene_layout.glsl"
 
 uniform mat4 u_view_proj;

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import time
 import traceback
-from dataclasses import replace
 
 import bpy
 import numpy as np
@@ -19,7 +18,7 @@ from ..hybrid_engine import film
 from ..hybrid_engine.antialias import render_antialiased
 from ..hybrid_engine.camera import Camera
 from ..hybrid_engine.film import FrameOutputs
-from ..hybrid_engine.renderer import FrameResult, RenderCancelled, Renderer, RenderModeUnavailable
+from ..hybrid_engine.renderer import FrameResult, RenderCancelled, Renderer
 from ..hybrid_engine.scene_data import SceneData
 from . import extract, properties, viewport
 from .gl_host import gl_block
@@ -112,8 +111,7 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
     ``final``: as F12 renders it, the render region only, ``render_samples`` samples per
     pixel, with the film's transparency and the view layer's data passes
     (``frame_outputs``); otherwise one sample of the whole frame, opaque (timing reports,
-    which time the frame the viewport and the paper render). Modes this build cannot render yet fall back to RASTER with a warning
-    through ``report(level, message)``, so a user always gets an image.
+    which time the frame the viewport and the paper render).
     """
     scene = depsgraph.scene
     settings = properties.settings_from_scene(scene)
@@ -133,14 +131,8 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
     extract_ms = (time.perf_counter() - start) * 1e3
     with gl_block():
         renderer = shared_renderer()
-        try:
-            result = render_antialiased(renderer, scene_data, camera, settings, samples, outputs=outputs,
-                                        cancel=cancel, progress=progress)
-        except RenderModeUnavailable as exc:
-            if report is not None:
-                report({"WARNING"}, f"{exc}; rendering RASTER instead")
-            result = render_antialiased(renderer, scene_data, camera, replace(settings, mode="RASTER"), samples,
-                                        outputs=outputs, cancel=cancel, progress=progress)
+        result = render_antialiased(renderer, scene_data, camera, settings, samples, outputs=outputs,
+                                    cancel=cancel, progress=progress)
     result.passes = {"extract": extract_ms, **result.passes}
     result.total_ms += extract_ms
     return result

@@ -11,14 +11,15 @@ Everything here is stored in the .blend as ID properties of the scene and the ma
 """
 from __future__ import annotations
 
+import re
 from dataclasses import MISSING, fields
 
 import bpy
 import numpy as np
 
 from ..hybrid_engine.materials import DEFAULT_THICKNESS
-from ..hybrid_engine.settings import (CUBE_MARCH_DOCS, CUBE_MARCHES, FIELD_DOCS, FIELD_LIMITS, MODE_DOCS,
-                                      MODES, RenderSettings)
+from ..hybrid_engine.settings import (CUBE_MARCH_DOCS, CUBE_MARCH_LABELS, CUBE_MARCHES, FIELD_DOCS, FIELD_LIMITS,
+                                      MODE_DOCS, MODE_LABELS, MODES, RenderSettings, SettingsError)
 
 # Blender display details the core does not know about (units and sliders).
 _FLOAT_SUBTYPES = {
@@ -27,13 +28,13 @@ _FLOAT_SUBTYPES = {
     "shadow_bias": "DISTANCE",
     "viewport_scale": "FACTOR",
 }
-_LABELS = {
+LABELS = {
     "mode": "Mode",
-    "cube_march": "March",
+    "cube_march": "Search",
     "cube_back_layer": "Back Faces",
-    "cube_hidden_exit": "Hidden Exits Hit",
+    "cube_hidden_exit": "Hidden Exits",
     "near_size": "Near Size",
-    "max_depth": "Max Depth",
+    "max_depth": "Max Bounces",
     "cube_resolution": "Face Resolution",
     "cube_far": "Far Clip",
     "n_min": "Min Samples",
@@ -42,7 +43,27 @@ _LABELS = {
     "shadow_bias": "Bias",
     "viewport_scale": "Resolution Scale",
     "render_samples": "Render Samples",
+    "viewport_samples": "Viewport Samples",
+    "ao_distance": "AO Distance",
+    "sky_rays": "World Light Rays",
 }
+# The range a slider drags over; typing can go on to the hard limits (FIELD_LIMITS).
+SOFT_LIMITS = {
+    "near_size": (0.1, 100.0),
+    "max_depth": (0, 8),
+    "cube_resolution": (64, 2048),
+    "cube_far": (1.0, 10_000.0),
+    "n_min": (4, 256),
+    "n_max": (4, 512),
+    "shadow_resolution": (256, 4096),
+    "shadow_bias": (0.0, 0.2),
+    "viewport_scale": (0.25, 1.0),
+    "render_samples": (1, 64),
+    "ao_distance": (0.0, 10.0),
+    "viewport_samples": (1, 256),
+}
+# cube_far is kept past near_size by this factor when either is edited.
+_CUBE_FAR_MARGIN = 1.01
 
 THICKNESS_DOC = (
     "How far behind its visible surface this material extends, as seen by rays marched "
@@ -63,33 +84,48 @@ def _keep_n_max_above_n_min(settings, _context) -> None:
         settings.n_min = settings.n_max
 
 
-# String fields of RenderSettings: their allowed values and each value's tooltip.
-_ENUMS = {"mode": (MODES, MODE_DOCS), "cube_march": (CUBE_MARCHES, CUBE_MARCH_DOCS)}
+def _keep_cube_far_past_near_size(settings, _context) -> None:
+    # The cube map starts at the near cube's faces: its far plane must lie beyond them.
+    if settings.cube_far <= settings.near_size:
+        settings.cube_far = settings.near_size * _CUBE_FAR_MARGIN
 
-_UPDATES = {"n_min": _keep_n_min_below_n_max, "n_max": _keep_n_max_above_n_min}
+
+def _keep_near_size_within_cube_far(settings, _context) -> None:
+    if settings.near_size >= settings.cube_far:
+        settings.near_size = settings.cube_far / _CUBE_FAR_MARGIN
+
+
+# String fields of RenderSettings: their allowed values and each value's tooltip.
+_ENUMS = {"mode": (MODES, MODE_LABELS, MODE_DOCS), "cube_march": (CUBE_MARCHES, CUBE_MARCH_LABELS, CUBE_MARCH_DOCS)}
+
+_UPDATES = {"n_min": _keep_n_min_below_n_max, "n_max": _keep_n_max_above_n_min,
+            "near_size": _keep_cube_far_past_near_size, "cube_far": _keep_near_size_within_cube_far}
 
 
 def _property_for(name: str, default):
     """One bpy property definition for a RenderSettings field."""
-    label = _LABELS.get(name, name.replace("_", " ").title())
+    label = LABELS.get(name, name.replace("_", " ").title())
     doc = FIELD_DOCS[name]
     if name in _ENUMS:
-        values, docs = _ENUMS[name]
-        items = [(value, value.replace("_", " ").title(), docs[value]) for value in values]
+        values, labels, docs = _ENUMS[name]
+        items = [(value, labels[value], docs[value]) for value in values]
         return bpy.props.EnumProperty(name=label, description=doc, items=items, default=default)
     if isinstance(default, bool):
         return bpy.props.BoolProperty(name=label, description=doc, default=default)
     lo, hi = FIELD_LIMITS[name]
+    soft_lo, soft_hi = SOFT_LIMITS.get(name, (lo, hi))
     extra = {}
     if name in _UPDATES:
         extra["update"] = _UPDATES[name]
     if isinstance(default, int):
         return bpy.props.IntProperty(
-            name=label, description=doc, default=default, min=int(lo), max=int(hi), **extra
+            name=label, description=doc, default=default, min=int(lo), max=int(hi),
+            soft_min=int(soft_lo), soft_max=int(soft_hi), **extra
         )
     if isinstance(default, float):
         return bpy.props.FloatProperty(
             name=label, description=doc, default=default, min=float(lo), max=float(hi),
+            soft_min=float(soft_lo), soft_max=float(soft_hi),
             subtype=_FLOAT_SUBTYPES.get(name, "NONE"), precision=3, **extra,
         )
     raise TypeError(f"RenderSettings.{name}: no Blender property for {type(default).__name__}")
@@ -141,8 +177,9 @@ _POINTERS = ((bpy.types.Scene, HybridRTSceneSettings), (bpy.types.Material, Hybr
 def settings_from_scene(scene) -> RenderSettings:
     """The scene's stored settings as the core's frozen dataclass.
 
-    Raises ``hybrid_engine.settings.SettingsError`` with the field's name when the stored
-    values are inconsistent (e.g. a cube-map far plane inside the near cube).
+    Raises ``hybrid_engine.settings.SettingsError`` naming the settings by the labels the
+    artist sees when the stored values are inconsistent (e.g. a cube-map far plane inside
+    the near cube, set from a script: the panel's fields push each other apart).
     """
     stored = scene.hybrid_rt
     values = {}
@@ -154,7 +191,17 @@ def settings_from_scene(scene) -> RenderSettings:
             # (the renderer decides what to rebuild by comparing settings).
             value = float(np.format_float_positional(np.float32(value)))
         values[f.name] = value
-    return RenderSettings(**values)
+    try:
+        return RenderSettings(**values)
+    except SettingsError as exc:
+        raise SettingsError(labelled(str(exc))) from None
+
+
+def labelled(message: str) -> str:
+    """A core message with each setting's identifier replaced by its label in quotes."""
+    for name in sorted(LABELS, key=len, reverse=True):  # n_max before max, cube_far before far
+        message = re.sub(rf"\b{name}\b", f"'{LABELS[name]}'", message)
+    return message
 
 
 def register() -> None:

@@ -43,7 +43,6 @@ from ..hybrid_engine.antialias import jittered_camera
 from ..hybrid_engine.film import FrameOutputs
 from ..hybrid_engine.gl_context import GLUnavailableError
 from .gl_host import gl_block
-from ..hybrid_engine.renderer import RenderModeUnavailable
 from ..hybrid_engine.settings import RenderSettings
 from ..hybrid_engine.viewport_frame import (
     FrameClock,
@@ -85,7 +84,6 @@ class ViewportSession:
         self.renderer = None
         self.clock = FrameClock()
         self.latch = MessageLatch()
-        self.failed_modes: dict[tuple, str] = {}  # (mode, settings) -> why it fell back
         self.last_sync: SyncReport | None = None
         self.frames = 0
         self._last: ViewportFrame | None = None
@@ -120,7 +118,7 @@ class ViewportSession:
             index = self.accumulator.count
             view = jittered_camera(plan.view, *self.accumulator.offset())
             with gl_block():
-                result, note = self._render(view, settings, FrameOutputs(transparent=transparent), index)
+                result = self._render(view, settings, FrameOutputs(transparent=transparent), index)
             image = self.accumulator.add(result.image)
         except Exception as exc:  # noqa: BLE001 - a viewport frame must never raise
             self.accumulator.restart()
@@ -131,31 +129,17 @@ class ViewportSession:
         frame_ms = (time.perf_counter() - start) * 1e3
         size = (plan.view.width, plan.view.height)
         samples = f"sample {self.accumulator.count}/{target}"
-        stats = stats_line(result.mode, frame_ms, fps, result.counts, size, note, samples=samples)
+        stats = stats_line(result.mode, frame_ms, fps, result.counts, size, samples=samples)
         self._last = ViewportFrame(image, rect, stats, mode=result.mode, counts=dict(result.counts),
                                    converged=self.accumulator.count >= target)
         return self._last
 
     def _render(self, view, settings: RenderSettings, outputs: FrameOutputs, sample: int = 0):
         """Render sample ``sample`` of the view with the scene's mode (later samples keep
-        the first's cube map and BVH); a mode this build or this driver cannot render
-        falls back to RASTER, and is not retried until the settings change."""
-        scene = self.cache.scene_data
+        the first's cube map and BVH)."""
         renderer = self._ensure_renderer()
-        key = (settings.mode, settings)
-        kw = dict(timing=False, outputs=outputs, sample=sample, reuse_world=sample > 0)
-        if settings.mode != "RASTER" and key not in self.failed_modes:
-            try:
-                return renderer.render(scene, view, settings, **kw), ""
-            except GLUnavailableError:
-                raise
-            except Exception as exc:  # noqa: BLE001 - RenderModeUnavailable, shader errors: fall back
-                reason = f"{settings.mode} unavailable ({exc}); showing RASTER"
-                self.failed_modes[key] = reason
-                self._tell(reason, exc, unexpected=not isinstance(exc, RenderModeUnavailable))
-        note = self.failed_modes.get(key, "")
-        settings = replace(settings, mode="RASTER")
-        return renderer.render(scene, view, settings, **kw), note
+        return renderer.render(self.cache.scene_data, view, settings, timing=False, outputs=outputs,
+                               sample=sample, reuse_world=sample > 0)
 
     def _ensure_renderer(self):
         if self.renderer is None:

@@ -49,11 +49,6 @@ class RenderCancelled(Exception):
     """The caller's cancel callback asked to stop (Blender's test_break())."""
 
 
-class RenderModeUnavailable(NotImplementedError):
-    """The requested mode needs passes that this build does not provide (every mode of
-    settings.MODES is provided now; kept because callers catch it)."""
-
-
 MODE_STEPS = {
     "RASTER": ("upload", "shadow_maps", "primary_raster", "shade", "readback"),
     "HYBRID": ("upload", "shadow_maps", "primary_raster", "cube_map_raster", "cull", "lbvh_build",
@@ -130,9 +125,7 @@ class Renderer:
         converges."""
         settings = settings or RenderSettings()
         outputs = outputs or FrameOutputs()
-        steps = MODE_STEPS.get(settings.mode)
-        if steps is None:
-            raise RenderModeUnavailable(f"render mode {settings.mode} is not provided")
+        steps = MODE_STEPS[settings.mode]  # RenderSettings admits no other mode
         traced = settings.mode != "RASTER"
         if traced and self.tracer is None:
             self.tracer = HybridTracer(self.ctx, self.raster)

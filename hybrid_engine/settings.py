@@ -16,39 +16,45 @@ MODES = ("HYBRID", "FULL_BVH", "PROVENANCE", "RASTER")
 CUBE_MARCHES = ("HIERARCHICAL", "SAMPLED")
 
 CUBE_MARCH_DOCS = {
-    "HIERARCHICAL": "Visit every cube-map texel the ray crosses, skipping empty and unreachable "
-    "regions with a min/max depth pyramid: exact and fast",
-    "SAMPLED": "The paper's march: n_min to n_max equally spaced depth samples per face (3.4)",
+    "HIERARCHICAL": "Visit every cube-map texel a ray crosses, skipping empty regions: exact and fast",
+    "SAMPLED": "Take a fixed number of equally spaced samples per face, as the paper does: "
+    "faster on simple scenes, but thin objects can be stepped over",
 }
 
 MODE_DOCS = {
-    "HYBRID": "The paper's method: BVH near the camera, G-buffer cube map beyond it",
-    "FULL_BVH": "One BVH over the whole scene, no cube map: the ground truth the hybrid approximates",
-    "PROVENANCE": "Reflective and refractive pixels coloured by where their first secondary ray "
-    "started: BVH blue, cube map red (paper Figure 4)",
-    "RASTER": "Primary visibility only: deferred shading with shadow maps, no secondary rays",
+    "HYBRID": "Reflections and refractions traced exactly near the camera and looked up in a "
+    "cube map beyond it: fast, and close to Full BVH",
+    "FULL_BVH": "Every reflection and refraction traced exactly through the whole scene: the "
+    "reference Hybrid is compared with, and slower",
+    "PROVENANCE": "Shows where each reflection starts: blue near the camera (traced exactly), "
+    "red farther away (looked up in the cube map)",
+    "RASTER": "No reflections or refractions: the lit surfaces only, fastest",
 }
+MODE_LABELS = {"HYBRID": "Hybrid", "FULL_BVH": "Full BVH", "PROVENANCE": "Provenance", "RASTER": "Raster"}
+CUBE_MARCH_LABELS = {"HIERARCHICAL": "Hierarchical", "SAMPLED": "Sampled"}
 
 FIELD_DOCS = {
-    "mode": "What the engine renders",
-    "near_size": "Half-size of the near cube around the camera (scene units): geometry inside is "
-    "ray traced through a per-frame BVH, geometry outside is ray marched in the cube map",
-    "max_depth": "Maximum number of secondary bounces (reflections and refractions) per pixel",
-    "cube_resolution": "Resolution of each of the six G-buffer cube-map faces, in pixels",
-    "cube_far": "Far plane of the cube-map faces (scene units); rays that pass it see the sky",
-    "cube_march": "How rays are marched through the cube-map faces",
+    "mode": "How reflections and refractions are rendered",
+    "near_size": "Half the size of the box around the camera whose objects reflections and "
+    "refractions meet exactly; beyond it they are looked up in the cube map. Larger is more "
+    "exact and slower",
+    "max_depth": "How many times a ray may be reflected or refracted; past the last bounce the "
+    "surface it meets is lit but reflects nothing more",
+    "cube_resolution": "Size of each of the cube map's six faces: sharper distant reflections, "
+    "more memory and time",
+    "cube_far": "How far the cube map reaches; reflections of anything beyond show the World",
+    "cube_march": "How rays search the cube map for what they meet",
     "cube_back_layer": "Also store the far side of closed objects in the cube map (a second layer "
     "of back faces): a ray that passes behind a surface meets its hidden side instead of a "
     "surface stretched by the material's thickness",
     "cube_hidden_exit": "A ray that leaves the cube map at a point the camera cannot see (under a "
     "floor, behind an object) hits the surface that hides the point instead of seeing the sky, "
     "which the paper gives it",
-    "n_min": "SAMPLED march: samples per cube-map face for rays grazing the face "
-    "(paper 3.4: n = n_min + (N.r)(n_max - n_min))",
-    "n_max": "SAMPLED march: samples per cube-map face for rays entering it head-on "
-    "(paper 3.4: n = n_min + (N.r)(n_max - n_min))",
-    "shadow_resolution": "Resolution of each shadow map, in pixels",
-    "shadow_bias": "Depth bias of shadow-map tests, in scene units, against shadow acne",
+    "n_min": "Sampled search: samples per cube-map face for rays that run along the face",
+    "n_max": "Sampled search: samples per cube-map face for rays that cross it head-on",
+    "shadow_resolution": "Size of each shadow map: sharper shadows, more memory and time",
+    "shadow_bias": "How far shadows start behind the surfaces that cast them: raise it if "
+    "lit surfaces show dark speckles, lower it if shadows come loose from their objects",
     "viewport_scale": "Fraction of the viewport's resolution that is rendered (lower is faster)",
     "sky_rays": "Gather the World's light with rays through the BVH and the cube map: the sky each "
     "surface sees at any distance, and the light of the surfaces that hide it (one bounce); "

@@ -246,7 +246,7 @@ class FrameClock:
 
 
 def stats_line(mode: str, frame_ms: float, fps: float | None, counts: dict, size: tuple[int, int],
-               note: str = "", samples: str = "") -> str:
+               samples: str = "") -> str:
     """The viewport's one-line statistics: mode, render size, the accumulated samples
     ("sample 3/16"), frame time, FPS and the BVH (near-cube) and total triangle counts."""
     total = int(counts.get("triangles_total", 0))
@@ -254,9 +254,8 @@ def stats_line(mode: str, frame_ms: float, fps: float | None, counts: dict, size
     bvh_text = f"{int(bvh):,}" if bvh is not None else "-"
     fps_text = f"{fps:.1f} fps" if fps is not None else "- fps"
     sample_text = f"{samples} | " if samples else ""
-    line = (f"Hybrid RT | {mode} | {size[0]}x{size[1]} | {sample_text}{frame_ms:.1f} ms | {fps_text} | "
+    return (f"Hybrid RT | {mode} | {size[0]}x{size[1]} | {sample_text}{frame_ms:.1f} ms | {fps_text} | "
             f"BVH {bvh_text} / {total:,} tris")
-    return f"{line} | {note}" if note else line
 
 
 def accumulation_key(view: Camera, settings, scene_version: int, transparent: bool) -> tuple:

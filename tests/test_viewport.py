@@ -304,34 +304,6 @@ def test_missing_opengl_is_a_clear_message_not_an_exception(addon, capsys):
     assert capsys.readouterr().out.count("OpenGL 4.3") == 1
 
 
-def test_a_mode_that_cannot_render_falls_back_to_raster_once(addon, viewport, capsys, monkeypatch):
-    """A mode the renderer rejects (not built, or a shader that fails to compile) shows
-    RASTER with a note, and is not retried on every redraw."""
-    import bpy
-    from hybrid_engine.renderer import RenderModeUnavailable
-
-    _module, session, _reports = viewport
-    scene, _cube, _material = _two_object_scene(bpy)
-    scene.hybrid_rt.mode = "HYBRID"
-    _sync(bpy)
-    renderer = session._ensure_renderer()
-    real_render = renderer.render
-    attempts = []
-
-    def raster_only(scene_data, view, settings, **kwargs):
-        attempts.append(settings.mode)
-        if settings.mode != "RASTER":
-            raise RenderModeUnavailable(f"{settings.mode} is not available in this test")
-        return real_render(scene_data, view, settings, **kwargs)
-
-    monkeypatch.setattr(renderer, "render", raster_only)
-    frames = [session.frame(_region(bpy), _settings(addon, bpy)) for _ in range(3)]
-    assert all(f.error is None and f.mode == "RASTER" for f in frames)
-    assert "HYBRID unavailable" in frames[-1].stats
-    assert attempts == ["HYBRID", "RASTER", "RASTER", "RASTER"]
-    assert capsys.readouterr().out.count("HYBRID unavailable") == 1
-
-
 def test_callback_errors_reach_the_header_every_time_and_the_console_once(addon, capsys):
     module = addon.blender_adapter.viewport
 

@@ -77,50 +77,65 @@ class HybridRTPanel:
         return context.engine == ENGINE_ID
 
 
-class RENDER_PT_hybrid_rt(HybridRTPanel, bpy.types.Panel):
-    """Render mode and recursion."""
+def _split(layout):
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    return layout
 
-    bl_label = "Hybrid RT"
+
+class RENDER_PT_hybrid_rt_sampling(HybridRTPanel, bpy.types.Panel):
+    """Samples per pixel, as Cycles' Sampling panel: the viewport's while nothing changes,
+    the final render's always."""
+
+    bl_label = "Sampling"
     bl_context = "render"
 
     def draw(self, context) -> None:
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
         settings = context.scene.hybrid_rt
+        col = _split(self.layout).column(align=True)
+        col.prop(settings, "viewport_samples", text="Viewport")
+        col.prop(settings, "render_samples", text="Render")
+
+
+class RENDER_PT_hybrid_rt_light_paths(HybridRTPanel, bpy.types.Panel):
+    """How far reflections and refractions are followed, and how the World's light is found."""
+
+    bl_label = "Light Paths"
+    bl_context = "render"
+
+    def draw(self, context) -> None:
+        settings = context.scene.hybrid_rt
+        layout = _split(self.layout)
+        layout.prop(settings, "mode")
         col = layout.column()
-        col.prop(settings, "mode")
-        col.prop(settings, "render_samples")
         col.prop(settings, "max_depth")
-        col.prop(settings, "near_size")
-        col.operator("hybrid_rt.show_near_cube", icon="CUBE", depress=near_cube_overlay.is_enabled())
-        # Per-pass frame times of the scene's frame range (JSON, CSV and a chart).
-        layout.operator("hybrid_rt.timing_report", icon="TIME")
+        col = layout.column(heading="World Light")
+        col.prop(settings, "ao_distance")
+        col.prop(settings, "sky_rays", text="Trace Rays")
 
 
-class RENDER_PT_hybrid_rt_cube_map(HybridRTPanel, bpy.types.Panel):
-    """The G-buffer cube map and its ray marching (paper §3.2, §3.4)."""
+class RENDER_PT_hybrid_rt_hybrid(HybridRTPanel, bpy.types.Panel):
+    """The paper's two structures: the near cube, traced exactly, and the cube map beyond it
+    (§3.2-3.4)."""
 
-    bl_label = "Cube Map"
+    bl_label = "Hybrid"
     bl_context = "render"
-    bl_parent_id = "RENDER_PT_hybrid_rt"
 
     def draw(self, context) -> None:
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
         settings = context.scene.hybrid_rt
+        layout = _split(self.layout)
         layout.active = settings.mode in ("HYBRID", "PROVENANCE")
-        col = layout.column()
+        layout.prop(settings, "near_size")
+        col = layout.column(heading="Cube Map")
         col.prop(settings, "cube_resolution")
         col.prop(settings, "cube_far")
-        layout.prop(settings, "cube_back_layer")
-        layout.prop(settings, "cube_hidden_exit")
-        layout.prop(settings, "cube_march")
-        col = layout.column(align=True)
-        col.active = settings.cube_march == "SAMPLED"
-        col.prop(settings, "n_min", text="Ray March Samples Min")
-        col.prop(settings, "n_max", text="Max")
+        col.prop(settings, "cube_back_layer")
+        col.prop(settings, "cube_hidden_exit")
+        col.prop(settings, "cube_march")
+        sub = col.column(align=True)
+        sub.active = settings.cube_march == "SAMPLED"
+        sub.prop(settings, "n_min", text="Samples Min")
+        sub.prop(settings, "n_max", text="Max")
 
 
 class RENDER_PT_hybrid_rt_shadows(HybridRTPanel, bpy.types.Panel):
@@ -128,31 +143,13 @@ class RENDER_PT_hybrid_rt_shadows(HybridRTPanel, bpy.types.Panel):
 
     bl_label = "Shadows"
     bl_context = "render"
-    bl_parent_id = "RENDER_PT_hybrid_rt"
+    bl_parent_id = "RENDER_PT_hybrid_rt_hybrid"
 
     def draw(self, context) -> None:
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
         settings = context.scene.hybrid_rt
-        col = layout.column()
+        col = _split(self.layout).column()
         col.prop(settings, "shadow_resolution")
         col.prop(settings, "shadow_bias")
-
-
-class RENDER_PT_hybrid_rt_viewport(HybridRTPanel, bpy.types.Panel):
-    """Viewport-only settings."""
-
-    bl_label = "Viewport"
-    bl_context = "render"
-    bl_parent_id = "RENDER_PT_hybrid_rt"
-    bl_options = {"DEFAULT_CLOSED"}
-
-    def draw(self, context) -> None:
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
-        layout.column().prop(context.scene.hybrid_rt, "viewport_scale")
 
 
 class RENDER_PT_hybrid_rt_film(HybridRTPanel, bpy.types.Panel):
@@ -163,10 +160,25 @@ class RENDER_PT_hybrid_rt_film(HybridRTPanel, bpy.types.Panel):
     bl_options = {"DEFAULT_CLOSED"}
 
     def draw(self, context) -> None:
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = _split(self.layout)
         layout.column().prop(context.scene.render, "film_transparent", text="Transparent")
+        layout.column().prop(context.scene.hybrid_rt, "viewport_scale", text="Viewport Scale")
+
+
+class RENDER_PT_hybrid_rt_diagnostics(HybridRTPanel, bpy.types.Panel):
+    """Where rays and time go: the provenance view, the near cube drawn in the viewport and
+    the timing report of the frame range."""
+
+    bl_label = "Diagnostics"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context) -> None:
+        layout = _split(self.layout)
+        col = layout.column()
+        col.operator("hybrid_rt.show_near_cube", icon="CUBE", depress=near_cube_overlay.is_enabled())
+        # Per-pass frame times of the scene's frame range (JSON, CSV and a chart).
+        col.operator("hybrid_rt.timing_report", icon="TIME")
 
 
 class VIEWLAYER_PT_hybrid_rt_passes(HybridRTPanel, bpy.types.Panel):
@@ -203,8 +215,9 @@ class MATERIAL_PT_hybrid_rt(HybridRTPanel, bpy.types.Panel):
         material = context.material
         layout.column().prop(material.hybrid_rt, "thickness")
 
-        # The values the renderer uses, derived with the extractor's own mapping (read-only).
-        params = material_params(material)
+        # The values the renderer uses, derived with the extractor's own mapping (read-only);
+        # images are not read (a draw must not wait for pixels).
+        params = material_params(material, textures=False)
         col = layout.column(align=True)
         col.label(text="Derived from the surface shader:")
         grid = col.grid_flow(columns=2, even_columns=True, align=True)
@@ -217,11 +230,12 @@ class MATERIAL_PT_hybrid_rt(HybridRTPanel, bpy.types.Panel):
 
 
 _CLASSES = (
-    RENDER_PT_hybrid_rt,
-    RENDER_PT_hybrid_rt_cube_map,
+    RENDER_PT_hybrid_rt_sampling,
+    RENDER_PT_hybrid_rt_light_paths,
+    RENDER_PT_hybrid_rt_hybrid,
     RENDER_PT_hybrid_rt_shadows,
-    RENDER_PT_hybrid_rt_viewport,
     RENDER_PT_hybrid_rt_film,
+    RENDER_PT_hybrid_rt_diagnostics,
     VIEWLAYER_PT_hybrid_rt_passes,
     MATERIAL_PT_hybrid_rt,
     DATA_PT_hybrid_rt_light,

@@ -20,7 +20,7 @@ from ..hybrid_engine.camera import Camera
 from ..hybrid_engine.film import FrameOutputs
 from ..hybrid_engine.renderer import FrameResult, RenderCancelled, Renderer
 from ..hybrid_engine.scene_data import SceneData
-from . import extract, properties, viewport
+from . import extract, messages, properties, viewport
 from .gl_host import gl_block
 from .scene_cache import Changes, SceneCache, SyncReport, TrackedScene, extract_scene
 
@@ -111,17 +111,20 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
     ``final``: as F12 renders it, the render region only, ``render_samples`` samples per
     pixel, with the film's transparency and the view layer's data passes
     (``frame_outputs``); otherwise one sample of the whole frame, opaque (timing reports,
-    which time the frame the viewport and the paper render).
+    which time the frame the viewport and the paper render). What the export found for
+    the artist (a missing image, an unsupported node) goes to ``report(levels, message)``.
     """
     scene = depsgraph.scene
     settings = properties.settings_from_scene(scene)
     start = time.perf_counter()
-    if source is not None:
-        scene_data = source.scene_data(depsgraph)
-    elif final:
-        scene_data = final_scene_data(depsgraph)
-    else:
-        scene_data = extract_scene(depsgraph)
+    with messages.collecting() as gathered:
+        if source is not None:
+            scene_data = source.scene_data(depsgraph)
+        elif final:
+            scene_data = final_scene_data(depsgraph)
+        else:
+            scene_data = extract_scene(depsgraph)
+    messages.report_all(report, gathered)
     if final:
         camera = final_camera(scene, depsgraph)
         outputs = frame_outputs(scene, depsgraph.view_layer)

@@ -19,7 +19,6 @@ not read pixels again. Nothing here writes to Blender data.
 from __future__ import annotations
 
 import functools
-import logging
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -31,8 +30,8 @@ from ..hybrid_engine.materials import DEFAULT_THICKNESS, principled_to_params
 from ..hybrid_engine.scene_data import Geometry, MaterialTable, Sky
 from ..hybrid_engine.solids import closed_outward_indexed
 from ..hybrid_engine.textures import srgb_to_linear
+from . import messages
 
-log = logging.getLogger(__name__)
 
 # Object types whose evaluated geometry becomes a mesh through Object.to_mesh().
 _CONVERTIBLE_TYPES = frozenset({"CURVE", "SURFACE", "FONT", "META"})
@@ -77,7 +76,6 @@ IMAGE_CACHE_BYTES = 1 << 30
 _image_cache: OrderedDict[tuple, np.ndarray] = OrderedDict()
 # The environment's RGB pixels, kept as one array per image content (``_environment_pixels``).
 _environment_cache: dict[tuple, np.ndarray] = {}
-_warned: set[tuple] = set()  # (what, name) pairs already reported: warn once, not per frame
 
 # Colour spaces whose byte values are linear already (Blender 5.0 names); ``is_data``
 # (Non-Color) images are read as they are too.
@@ -85,10 +83,9 @@ _LINEAR_SPACES = frozenset({"Linear Rec.709", "Working Space"})
 _SRGB_SPACES = frozenset({"sRGB"})
 
 
-def _warn_once(key: tuple, message: str, *args) -> None:
-    if key not in _warned:
-        _warned.add(key)
-        log.warning(message, *args)
+def _tell(message: str, *args) -> None:
+    """A message for the artist (messages.py: it reaches ``report``)."""
+    messages.tell(message % args if args else message)
 
 
 def forget_image_pixels() -> None:
@@ -120,7 +117,7 @@ def _byte_image_is_srgb(image) -> bool:
     if name in _SRGB_SPACES:
         return True
     linear = name.startswith("Linear") or name in ("ACEScg", "ACES2065-1")
-    _warn_once(("colorspace", image.name_full),
+    _tell(
                "image %r: colour space %r is read as %s (its gamut is taken as Rec.709)",
                image.name_full, name, "linear" if linear else "sRGB")
     return not linear
@@ -131,7 +128,7 @@ def image_pixels(image) -> np.ndarray | None:
     every caller), or None when it has no pixels (missing file, empty image). Read once per
     image content (``_image_key``) with one ``foreach_get``."""
     if image.source not in ("FILE", "GENERATED"):
-        _warn_once(("source", image.name_full), "image %r: %s images are not supported; the "
+        _tell("image %r: %s images are not supported; the "
                    "socket's colour is used", image.name_full, image.source)
         return None
     key = _image_key(image)
@@ -142,7 +139,7 @@ def image_pixels(image) -> np.ndarray | None:
     width, height = (int(v) for v in image.size)
     channels = int(image.channels)
     if width < 1 or height < 1 or channels < 1:
-        _warn_once(("empty", image.name_full), "image %r has no pixels (missing file %r?); the "
+        _tell("image %r has no pixels (missing file %r?); the "
                    "socket's colour is used", image.name_full, image.filepath)
         return None
     flat = np.empty(width * height * channels, np.float32)
@@ -183,14 +180,14 @@ def _image_node(node, from_socket, owner: str):
         return None
     name = node.image.name_full if node.image is not None else "<none>"
     if node.extension != "REPEAT":
-        _warn_once(("extension", owner, node.name), "%s: image texture %r uses %s extension; it is "
+        _tell("%s: image texture %r uses %s extension; it is "
                    "sampled with REPEAT", owner, name, node.extension)
     if node.projection != "FLAT":
-        _warn_once(("projection", owner, node.name), "%s: image texture %r uses %s projection; it "
+        _tell("%s: image texture %r uses %s projection; it "
                    "is sampled as FLAT", owner, name, node.projection)
     vector, _ = _linked_node(node.inputs.get("Vector"))
     if vector is not None and not (vector.type == "UVMAP" and not vector.uv_map) and vector.type != "TEX_COORD":
-        _warn_once(("vector", owner, node.name), "%s: the vector input of image texture %r is "
+        _tell("%s: the vector input of image texture %r is "
                    "ignored; the active render UV map is used", owner, name)
     return node
 
@@ -243,11 +240,11 @@ def _color_input(node, name: str, default, owner: str):
             image_node = b_node
             factor = tuple(tuple(a.default_value)[:3])
     if image_node is None:
-        _warn_once(("link", owner, name), "%s: %s is linked to %r, which is not an image texture "
+        _tell("%s: %s is linked to %r, which is not an image texture "
                    "(or a Multiply of one); its own colour is used", owner, name, source.name)
         return own, None, own
     if image_node.image is None:
-        _warn_once(("no image", owner, name), "%s: the image texture on %s has no image; the "
+        _tell("%s: the image texture on %s has no image; the "
                    "socket's colour is used", owner, name)
         return own, None, own
     return factor, image_node.image, own
@@ -287,14 +284,14 @@ def _value_image(node, name: str, textures: dict | None, slot: str, owner: str) 
     channel = 3
     if source.type in ("SEPARATE_COLOR", "SEPRGB") and not source.mute and from_socket.name in _SEPARATED_CHANNELS:
         if source.type == "SEPARATE_COLOR" and getattr(source, "mode", "RGB") != "RGB":
-            _warn_once(("separate", owner, name), "%s: %s reads a %s Separate Color; its own value is used",
+            _tell("%s: %s reads a %s Separate Color; its own value is used",
                        owner, name, source.mode)
             return
         channel = _SEPARATED_CHANNELS[from_socket.name]
         source, from_socket = _linked_node(source.inputs[0])
     image_node = _image_node(source, from_socket, owner)
     if image_node is None or image_node.image is None:
-        _warn_once(("value link", owner, name), "%s: %s is linked to %r, which is not an image texture "
+        _tell("%s: %s is linked to %r, which is not an image texture "
                    "(or one channel of one); its own value is used", owner, name,
                    source.name if source is not None else "nothing")
         return
@@ -321,11 +318,11 @@ def _normal_map(node, textures: dict | None, owner: str) -> float:
     if source is None:
         return 1.0
     if source.type != "NORMAL_MAP" or source.mute:
-        _warn_once(("normal", owner), "%s: the Normal input is fed by %r, which is not a Normal Map "
+        _tell("%s: the Normal input is fed by %r, which is not a Normal Map "
                    "node; the mesh's normals are used", owner, source.name)
         return 1.0
     if source.space != "TANGENT":
-        _warn_once(("normal space", owner), "%s: Normal Map %r is in %s space; only tangent space is "
+        _tell("%s: Normal Map %r is in %s space; only tangent space is "
                    "read, the mesh's normals are used", owner, source.name, source.space)
         return 1.0
     image_source, from_socket = _linked_node(source.inputs.get("Color"))
@@ -676,7 +673,7 @@ def _instance_arrays(name: str, data: _MeshData, matrix: np.ndarray, slot_ids: n
         # Documented fallback: triangles with a NaN/inf corner cannot be rasterized or put in
         # a BVH; they are dropped (with a warning), the rest of the object renders.
         keep = finite_vertices[tri_vertices].reshape(n, 3).all(axis=1)
-        log.warning("%s: %d triangle(s) with non-finite vertices skipped", name, int(n - keep.sum()))
+        _tell("%s: %d triangle(s) with non-finite vertices skipped", name, int(n - keep.sum()))
         if not keep.any():
             return None
 
@@ -818,8 +815,8 @@ def extract_sky(world) -> Sky:
             if source.projection == "EQUIRECTANGULAR":
                 environment = _environment_pixels(source.image)
             else:
-                log.warning("environment projection %s is not supported; using the background "
-                            "colour", source.projection)
+                _tell("World: environment projection %s is not supported; the background colour "
+                      "is used", source.projection)
     return Sky(color=color, strength=strength, environment=environment)
 
 

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..hybrid_engine.scene_data import Geometry, GeometryEdit, Lights, SceneData, Sky
-from . import extract
+from . import extract, messages
 
 # Depsgraph update id types (bpy.types names) and what they refresh.
 _OBJECT, _MESH, _MATERIAL, _LIGHT, _WORLD, _SCENE = "Object", "Mesh", "Material", "Light", "World", "Scene"
@@ -284,7 +284,7 @@ class SceneCache:
             try:
                 mesh = evaluated.to_mesh()
             except RuntimeError as error:
-                extract._warn_once(("convert", name), "%s: cannot convert to a mesh (%s); skipped", name, error)
+                messages.tell(f"{name}: cannot convert to a mesh ({error}); skipped")
                 continue
             try:  # to_mesh() data is temporary: read at once, released at once
                 if mesh is not None:

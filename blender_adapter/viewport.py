@@ -42,7 +42,6 @@ from ..hybrid_engine.accumulation import SampleAccumulator
 from ..hybrid_engine.antialias import jittered_camera
 from ..hybrid_engine.film import FrameOutputs
 from ..hybrid_engine.gl_context import GLUnavailableError
-from .gl_host import gl_block
 from ..hybrid_engine.settings import RenderSettings
 from ..hybrid_engine.viewport_frame import (
     FrameClock,
@@ -52,7 +51,8 @@ from ..hybrid_engine.viewport_frame import (
     accumulation_key,
     stats_line,
 )
-from . import extract, properties
+from . import extract, messages, properties
+from .gl_host import gl_block
 from .scene_cache import Changes, SceneCache, SyncReport
 
 log = logging.getLogger(__name__)
@@ -211,8 +211,12 @@ def view_update(engine, context, depsgraph) -> None:
     session = session_for(depsgraph)
     # A new engine instance may have missed updates consumed by none: read everything once.
     first = not getattr(engine, "_hybrid_rt_synced", False)
-    session.update(depsgraph, full=first)
+    with messages.collecting() as gathered:
+        session.update(depsgraph, full=first)
     engine._hybrid_rt_synced = True
+    # Reported when found: a sync re-reads only what changed, so a missing image is told
+    # when its material is read, not on every redraw.
+    messages.report_all(engine.report, gathered)
 
 
 _callback_latch = MessageLatch()

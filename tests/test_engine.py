@@ -103,6 +103,42 @@ def test_render_reports_stats_and_keeps_the_frame_result(addon, tmp_path):
     assert frame.counts["triangles_total"] == 2
 
 
+def test_a_missing_image_reaches_the_artists_report_with_its_name(addon, tmp_path, capfd):
+    """Blender's report (Info editor, status bar; in background mode a "Warning:" line)
+    hears of a texture whose file is missing, named, on F12 and in the viewport."""
+    import bpy
+
+    scene = build_plane_scene(bpy, "SUN", 1.0, size=8)
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.mode = "RASTER"
+    material = bpy.data.materials.new("painted")
+    image = bpy.data.images.new("lost texture", 4, 4)
+    image.source, image.filepath = "FILE", str(tmp_path / "gone.png")  # no such file
+    texture = material.node_tree.nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    material.node_tree.links.new(texture.outputs["Color"],
+                                 material.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    plane = next(obj for obj in scene.objects if obj.type == "MESH")
+    plane.data.materials.clear()
+    plane.data.materials.append(material)
+    capfd.readouterr()
+    render_exr(bpy, scene, tmp_path / "frame.exr")
+    assert "Warning: Hybrid RT: image 'lost texture' has no pixels" in capfd.readouterr().out
+
+    reported = []
+
+    class FakeEngine:
+        def report(self, levels, text):
+            reported.append((levels, text))
+
+    viewport = addon.blender_adapter.viewport
+    try:
+        viewport.view_update(FakeEngine(), bpy.context, bpy.context.evaluated_depsgraph_get())
+    finally:
+        viewport.release_all()
+    assert any(levels == {"WARNING"} and "'lost texture'" in text for levels, text in reported), reported
+
+
 def test_hybrid_mode_renders_through_blenders_render_path(addon, tmp_path):
     import bpy
 

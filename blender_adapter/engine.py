@@ -19,6 +19,7 @@ from ..hybrid_engine.antialias import render_antialiased
 from ..hybrid_engine.camera import Camera
 from ..hybrid_engine.film import FrameOutputs
 from ..hybrid_engine.renderer import FrameResult, RenderCancelled, Renderer
+from ..hybrid_engine.near_budget import NearCubeSizer
 from ..hybrid_engine.scene_data import SceneData
 from . import extract, messages, properties, viewport
 from .gl_host import gl_block
@@ -102,7 +103,7 @@ def final_camera(scene, depsgraph) -> Camera:
 
 
 def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, final=False,
-                     source: TrackedScene | None = None) -> FrameResult:
+                     source: TrackedScene | None = None, sizer: NearCubeSizer | None = None) -> FrameResult:
     """Export the evaluated scene and render one frame with the scene's settings.
 
     The scene comes from ``source`` (a job's tracked scene: only what changed is re-read),
@@ -113,9 +114,16 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
     (``frame_outputs``); otherwise one sample of the whole frame, opaque (timing reports,
     which time the frame the viewport and the paper render). What the export found for
     the artist (a missing image, an unsupported node) goes to ``report(levels, message)``.
+
+    The near cube's size: with *Frame Budget*, a job's ``sizer`` chooses it frame by frame
+    from the frames it timed; F12 takes the size the viewport settled on.
     """
     scene = depsgraph.scene
     settings = properties.settings_from_scene(scene)
+    if sizer is not None:
+        settings = sizer.settings_for_frame(settings)
+    elif final:
+        settings = viewport.budgeted_settings(scene, settings)
     start = time.perf_counter()
     with messages.collecting() as gathered:
         if source is not None:
@@ -138,6 +146,8 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
                                     cancel=cancel, progress=progress)
     result.passes = {"extract": extract_ms, **result.passes}
     result.total_ms += extract_ms
+    if sizer is not None:
+        sizer.observe(result.total_ms, settings)
     return result
 
 

@@ -19,11 +19,14 @@ import numpy as np
 
 from ..hybrid_engine.materials import DEFAULT_THICKNESS
 from ..hybrid_engine.settings import (CUBE_MARCH_DOCS, CUBE_MARCH_LABELS, CUBE_MARCHES, FIELD_DOCS, FIELD_LIMITS,
-                                      MODE_DOCS, MODE_LABELS, MODES, RenderSettings, SettingsError)
+                                      MODE_DOCS, MODE_LABELS, MODES, NEAR_CUBE_MODE_DOCS, NEAR_CUBE_MODE_LABELS,
+                                      NEAR_CUBE_MODES, RenderSettings, SettingsError)
 
 # Blender display details the core does not know about (units and sliders).
 _FLOAT_SUBTYPES = {
     "near_size": "DISTANCE",
+    "near_min": "DISTANCE",
+    "near_max": "DISTANCE",
     "cube_far": "DISTANCE",
     "shadow_bias": "DISTANCE",
     "viewport_scale": "FACTOR",
@@ -46,6 +49,10 @@ LABELS = {
     "viewport_samples": "Viewport Samples",
     "ao_distance": "AO Distance",
     "sky_rays": "World Light Rays",
+    "near_cube_mode": "Near Cube",
+    "frame_budget_ms": "Frame Budget",
+    "near_min": "Min Size",
+    "near_max": "Max Size",
 }
 # The range a slider drags over; typing can go on to the hard limits (FIELD_LIMITS).
 SOFT_LIMITS = {
@@ -61,6 +68,9 @@ SOFT_LIMITS = {
     "render_samples": (1, 64),
     "ao_distance": (0.0, 10.0),
     "viewport_samples": (1, 256),
+    "frame_budget_ms": (5.0, 2000.0),
+    "near_min": (0.1, 100.0),
+    "near_max": (0.1, 100.0),
 }
 # cube_far is kept past near_size by this factor when either is edited.
 _CUBE_FAR_MARGIN = 1.01
@@ -73,33 +83,34 @@ THICKNESS_DOC = (
 )
 
 
-def _keep_n_min_below_n_max(settings, _context) -> None:
-    # Like Blender's frame range: raising the minimum pushes the maximum along.
-    if settings.n_min > settings.n_max:
-        settings.n_max = settings.n_min
+def _pushing(edited: str, other: str, *, above: bool, margin: float = 1.0):
+    """An update callback that keeps ``edited`` below (``above`` False) or above ``other``
+    by pushing ``other`` along, as Blender's frame range does: raising a minimum past its
+    maximum raises the maximum. ``margin`` > 1 keeps the two strictly apart."""
+    strict = margin > 1.0
 
-
-def _keep_n_max_above_n_min(settings, _context) -> None:
-    if settings.n_max < settings.n_min:
-        settings.n_min = settings.n_max
-
-
-def _keep_cube_far_past_near_size(settings, _context) -> None:
-    # The cube map starts at the near cube's faces: its far plane must lie beyond them.
-    if settings.cube_far <= settings.near_size:
-        settings.cube_far = settings.near_size * _CUBE_FAR_MARGIN
-
-
-def _keep_near_size_within_cube_far(settings, _context) -> None:
-    if settings.near_size >= settings.cube_far:
-        settings.near_size = settings.cube_far / _CUBE_FAR_MARGIN
+    def update(settings, _context) -> None:
+        value, limit = getattr(settings, edited), getattr(settings, other)
+        crossed = (value < limit or strict and value == limit) if above else \
+            (value > limit or strict and value == limit)
+        if crossed:  # the pushed value no longer crosses back, so its own update stops
+            setattr(settings, other, value if not strict else value / margin if above else value * margin)
+    return update
 
 
 # String fields of RenderSettings: their allowed values and each value's tooltip.
-_ENUMS = {"mode": (MODES, MODE_LABELS, MODE_DOCS), "cube_march": (CUBE_MARCHES, CUBE_MARCH_LABELS, CUBE_MARCH_DOCS)}
+_ENUMS = {"mode": (MODES, MODE_LABELS, MODE_DOCS), "cube_march": (CUBE_MARCHES, CUBE_MARCH_LABELS, CUBE_MARCH_DOCS),
+          "near_cube_mode": (NEAR_CUBE_MODES, NEAR_CUBE_MODE_LABELS, NEAR_CUBE_MODE_DOCS)}
 
-_UPDATES = {"n_min": _keep_n_min_below_n_max, "n_max": _keep_n_max_above_n_min,
-            "near_size": _keep_cube_far_past_near_size, "cube_far": _keep_near_size_within_cube_far}
+_UPDATES = {
+    "n_min": _pushing("n_min", "n_max", above=False),
+    "n_max": _pushing("n_max", "n_min", above=True),
+    "near_min": _pushing("near_min", "near_max", above=False),
+    "near_max": _pushing("near_max", "near_min", above=True),
+    # The cube map starts at the near cube's faces: its far plane must lie beyond them.
+    "near_size": _pushing("near_size", "cube_far", above=False, margin=_CUBE_FAR_MARGIN),
+    "cube_far": _pushing("cube_far", "near_size", above=True, margin=_CUBE_FAR_MARGIN),
+}
 
 
 def _property_for(name: str, default):

@@ -42,6 +42,7 @@ from ..hybrid_engine.accumulation import SampleAccumulator
 from ..hybrid_engine.antialias import jittered_camera
 from ..hybrid_engine.film import FrameOutputs
 from ..hybrid_engine.gl_context import GLUnavailableError
+from ..hybrid_engine.near_budget import NearCubeSizer
 from ..hybrid_engine.settings import RenderSettings
 from ..hybrid_engine.viewport_frame import (
     FrameClock,
@@ -90,6 +91,9 @@ class ViewportSession:
         # Samples of the view while nothing changes (accumulation.py); every view_update
         # is a change of the scene and starts them over.
         self.accumulator = SampleAccumulator()
+        # Frame Budget: the near cube sized from this viewport's frame times (later samples
+        # of a view reuse the cube map and BVH, so only first samples are timed).
+        self.sizer = NearCubeSizer()
         self.scene_version = 0
 
     # -- view_update -----------------------------------------------------------------------
@@ -109,6 +113,7 @@ class ViewportSession:
         try:
             plan = plan_frame(region, settings.viewport_scale)
             rect = plan.rect
+            settings = self.sizer.settings_for_frame(settings)
             if plan.view is None:
                 return ViewportFrame(None, rect, f"{ERROR_PREFIX} | render border outside the view")
             key = accumulation_key(plan.view, settings, self.scene_version, transparent)
@@ -119,6 +124,8 @@ class ViewportSession:
             view = jittered_camera(plan.view, *self.accumulator.offset())
             with gl_block():
                 result = self._render(view, settings, FrameOutputs(transparent=transparent), index)
+            if index == 0:
+                self.sizer.observe(result.total_ms, settings)
             image = self.accumulator.add(result.image)
         except Exception as exc:  # noqa: BLE001 - a viewport frame must never raise
             self.accumulator.restart()
@@ -129,6 +136,8 @@ class ViewportSession:
         frame_ms = (time.perf_counter() - start) * 1e3
         size = (plan.view.width, plan.view.height)
         samples = f"sample {self.accumulator.count}/{target}"
+        if settings.near_cube_mode == "BUDGET":
+            samples += f" | near {settings.near_size:.2f}"
         stats = stats_line(result.mode, frame_ms, fps, result.counts, size, samples=samples)
         self._last = ViewportFrame(image, rect, stats, mode=result.mode, counts=dict(result.counts),
                                    converged=self.accumulator.count >= target)
@@ -191,6 +200,18 @@ def session_for(depsgraph) -> ViewportSession:
     if session is None:
         session = _sessions[key] = ViewportSession()
     return session
+
+
+def budgeted_settings(scene, settings: RenderSettings) -> RenderSettings:
+    """A final render's settings: with *Frame Budget*, the near size this scene's viewport
+    settled on, else the fixed size held within the budget's limits."""
+    if settings.near_cube_mode != "BUDGET":
+        return settings
+    pointer = scene.original.as_pointer()
+    sizes = [session.sizer.size for key, session in _sessions.items()
+             if key[0] == pointer and session.sizer.size is not None]
+    size = sizes[0] if sizes else min(max(settings.near_size, settings.near_min), settings.near_max)
+    return replace(settings, near_size=size)
 
 
 def release_all() -> None:

@@ -81,7 +81,8 @@ def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, set
     image = accumulator.mean
     counts = {**first.counts, "samples": int(samples)}
     return FrameResult(image=image, passes=passes, counts=counts, timing_source=first.timing_source,
-                       total_ms=total_ms, mode=first.mode, data_passes=first.data_passes)
+                       total_ms=total_ms, mode=first.mode, data_passes=first.data_passes,
+                       near_size=first.near_size)
 
 
 def _sample_progress(progress: ProgressCallback | None, index: int, samples: int) -> ProgressCallback | None:

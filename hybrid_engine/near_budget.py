@@ -8,7 +8,9 @@ triangles inside the cube, the cube-map side shrinks as its near planes move out
 than model them, the controller measures: it watches the frames rendered at one size, and
 when their median leaves the budget's tolerance band it steps the size in log space by the
 amount the last two sizes' medians say it takes (a secant on log frame time over log size),
-bounded per step and by the artist's limits. Three things keep it from flickering:
+bounded per step and by the artist's limits. It takes a larger cube to cost more, as it does
+where the BVH side dominates (the scenes measured); a secant that says otherwise is taken for
+noise. Three things keep it from flickering:
 
 - the hysteresis band: inside ``budget * (1 ± tolerance)`` nothing changes;
 - a decision needs ``window`` frames at the current size (one frame when the budget is
@@ -19,15 +21,18 @@ from __future__ import annotations
 
 import math
 import statistics
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 # Bounds of the measured elasticity d ln(frame) / d ln(size): a secant that says the frame
-# barely depends on the size would ask for huge steps, one past these for a sign flip.
+# barely depends on the size would ask for huge steps.
 MIN_ELASTICITY = 0.2
 MAX_ELASTICITY = 3.0
 DEFAULT_ELASTICITY = 1.0
 # A frame this far over budget is acted on without waiting for a full window.
 URGENT_RATIO = 1.5
+# Frame-time changes below this (in log ratio, about 5 %) between two sizes are taken for
+# noise, and the default elasticity holds.
+NOISE_LOG_RATIO = 0.05
 
 
 class BudgetError(ValueError):
@@ -96,6 +101,9 @@ class NearCubeBudget:
         return self.size
 
     def _elasticity(self, median: float) -> float:
+        """How strongly the frame time follows the size, from the last two sizes' medians;
+        the default where they tell nothing (a first change, noise, or a frame that got no
+        faster with a smaller cube)."""
         if self._previous is None:
             return DEFAULT_ELASTICITY
         size, frame = self._previous
@@ -103,8 +111,9 @@ class NearCubeBudget:
         if abs(d_size) < 1e-9 or frame <= 0 or median <= 0:
             return DEFAULT_ELASTICITY
         e = math.log(median / frame) / d_size
-        sign = 1.0 if e >= 0 else -1.0
-        return sign * min(max(abs(e), MIN_ELASTICITY), MAX_ELASTICITY)
+        if e <= 0 or abs(math.log(median / frame)) < NOISE_LOG_RATIO:
+            return DEFAULT_ELASTICITY
+        return min(max(e, MIN_ELASTICITY), MAX_ELASTICITY)
 
     def _next_size(self, median: float) -> float:
         if median <= 0:
@@ -113,3 +122,36 @@ class NearCubeBudget:
         limit = math.log(self.max_step)
         step = min(max(step, -limit), limit)
         return min(max(self.size * math.exp(step), self.min_size), self.max_size)
+
+
+class NearCubeSizer:
+    """A RenderSettings' near-cube mode applied frame after frame: *Fixed* passes the settings
+    through; *Frame Budget* keeps a :class:`NearCubeBudget` across frames (made anew when the
+    budget or the limits change, from the size reached so far) and hands each frame the
+    size it chose. Its owner (a viewport session, a timing report) reports each frame's time."""
+
+    def __init__(self) -> None:
+        self.controller: NearCubeBudget | None = None
+        self._key: tuple | None = None
+
+    def settings_for_frame(self, settings):
+        """``settings`` with the near size this frame renders at."""
+        if settings.near_cube_mode != "BUDGET":
+            self.controller, self._key = None, None
+            return settings
+        key = (settings.frame_budget_ms, settings.near_min, settings.near_max)
+        if self.controller is None or key != self._key:
+            start = self.controller.size if self.controller is not None else settings.near_size
+            self.controller = NearCubeBudget(settings.frame_budget_ms, settings.near_min, settings.near_max, start)
+            self._key = key
+        return replace(settings, near_size=self.controller.size)
+
+    def observe(self, frame_ms: float, settings_used) -> None:
+        """The time of a frame rendered with ``settings_used`` (from settings_for_frame)."""
+        if self.controller is not None and settings_used.near_cube_mode == "BUDGET":
+            self.controller.observe(frame_ms, settings_used.near_size)
+
+    @property
+    def size(self) -> float | None:
+        """The size the next frame would take, None in Fixed mode."""
+        return None if self.controller is None else self.controller.size

@@ -76,6 +76,7 @@ class FrameResult:
     total_ms: float = 0.0
     mode: str = "RASTER"
     data_passes: dict[str, np.ndarray] = field(default_factory=dict)
+    near_size: float | None = None  # the near cube's half-size the frame used (HYBRID)
 
 
 class Renderer:
@@ -234,7 +235,8 @@ class Renderer:
         }
         return FrameResult(image=image, passes=dict(timer.passes), counts=counts,
                            timing_source=timer.source, total_ms=total, mode=settings.mode,
-                           data_passes=data)
+                           data_passes=data,
+                           near_size=float(settings.near_size) if "cube_map_raster" in steps else None)
 
     def _same_world(self, key: tuple) -> bool:
         """Whether ``key`` (scene object, settings, eye) is what the kept cube map and BVH

@@ -15,6 +15,14 @@ MODES = ("HYBRID", "FULL_BVH", "PROVENANCE", "RASTER")
 
 CUBE_MARCHES = ("HIERARCHICAL", "SAMPLED")
 
+NEAR_CUBE_MODES = ("FIXED", "BUDGET")
+NEAR_CUBE_MODE_DOCS = {
+    "FIXED": "The near cube keeps the size you set",
+    "BUDGET": "The near cube is resized every frame to keep the frame time near the budget, "
+    "between the minimum and maximum you set",
+}
+NEAR_CUBE_MODE_LABELS = {"FIXED": "Fixed", "BUDGET": "Frame Budget"}
+
 CUBE_MARCH_DOCS = {
     "HIERARCHICAL": "Visit every cube-map texel a ray crosses, skipping empty regions: exact and fast",
     "SAMPLED": "Take a fixed number of equally spaced samples per face, as the paper does: "
@@ -44,6 +52,11 @@ FIELD_DOCS = {
     "more memory and time",
     "cube_far": "How far the cube map reaches; reflections of anything beyond show the World",
     "cube_march": "How rays search the cube map for what they meet",
+    "near_cube_mode": "Whether the near cube keeps its size or follows a frame-time budget",
+    "frame_budget_ms": "The frame time the near cube is sized for, in milliseconds (33.3 for "
+    "30 frames per second)",
+    "near_min": "Frame Budget: the smallest size the near cube may shrink to",
+    "near_max": "Frame Budget: the largest size the near cube may grow to",
     "cube_back_layer": "Also store the far side of closed objects in the cube map (a second layer "
     "of back faces): a ray that passes behind a surface meets its hidden side instead of a "
     "surface stretched by the material's thickness",
@@ -70,6 +83,9 @@ FIELD_DOCS = {
 
 FIELD_LIMITS = {
     "near_size": (0.01, 1.0e5),
+    "frame_budget_ms": (1.0, 1.0e5),
+    "near_min": (0.01, 1.0e5),
+    "near_max": (0.01, 1.0e5),
     "max_depth": (0, 16),
     "cube_resolution": (16, 4096),
     "cube_far": (0.1, 1.0e7),
@@ -107,6 +123,10 @@ class RenderSettings:
     ao_distance: float = 1.0
     viewport_samples: int = 16
     sky_rays: bool = False
+    near_cube_mode: str = "FIXED"
+    frame_budget_ms: float = 33.3
+    near_min: float = 0.5
+    near_max: float = 20.0
 
     @property
     def traces_sky(self) -> bool:
@@ -116,6 +136,9 @@ class RenderSettings:
     def __post_init__(self) -> None:
         if self.mode not in MODES:
             raise SettingsError(f"mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        if self.near_cube_mode not in NEAR_CUBE_MODES:
+            raise SettingsError(f"near_cube_mode must be one of {', '.join(NEAR_CUBE_MODES)}, "
+                                f"got {self.near_cube_mode!r}")
         if self.cube_march not in CUBE_MARCHES:
             raise SettingsError(
                 f"cube_march must be one of {', '.join(CUBE_MARCHES)}, got {self.cube_march!r}")
@@ -130,6 +153,11 @@ class RenderSettings:
                 raise SettingsError(f"{f.name} must lie in [{lo}, {hi}], got {value}")
         if self.n_min > self.n_max:
             raise SettingsError(f"n_min ({self.n_min}) must not exceed n_max ({self.n_max})")
+        if self.near_min > self.near_max:
+            raise SettingsError(f"near_min ({self.near_min}) must not exceed near_max ({self.near_max})")
+        if self.near_cube_mode == "BUDGET" and self.cube_far <= self.near_max:
+            raise SettingsError(
+                f"cube_far ({self.cube_far}) must lie beyond the largest near cube (near_max {self.near_max})")
         if self.cube_far <= self.near_size:
             raise SettingsError(
                 f"cube_far ({self.cube_far}) must lie beyond the near cube (near_size {self.near_size})"

@@ -160,6 +160,7 @@ class FrameRecord:
     counts: dict[str, int]
     mode: str
     timing_source: str
+    near_size: float | None = None  # the near cube's half-size the frame used
 
     @classmethod
     def from_result(cls, frame: int, result: FrameResultLike) -> "FrameRecord":
@@ -171,6 +172,7 @@ class FrameRecord:
             counts=counts,
             mode=str(result.mode),
             timing_source=str(result.timing_source),
+            near_size=None if getattr(result, "near_size", None) is None else float(result.near_size),
         )
 
     def to_dict(self, pass_names: Sequence[str], count_names: Sequence[str]) -> dict[str, Any]:
@@ -184,6 +186,7 @@ class FrameRecord:
             "triangles_total": int(self.counts.get("triangles_total", 0)),
             "triangles_bvh": int(self.counts.get("triangles_bvh", 0)),
             "counts": {name: self.counts[name] for name in count_names if name in self.counts},
+            "near_size": self.near_size,
         }
 
 
@@ -378,8 +381,9 @@ def write_json(report: TimingReport, path: str | os.PathLike) -> None:
 
 
 def csv_header(report: TimingReport) -> list[str]:
-    """``frame, mode, total_ms, <pass>_ms..., <count>...`` in report order."""
-    return (["frame", "mode", "total_ms"] + [f"{name}_ms" for name in report.pass_names]
+    """``frame, mode, total_ms, near_size, <pass>_ms..., <count>...`` in report order
+    (``near_size``: the near cube's half-size each frame used, empty where it used none)."""
+    return (["frame", "mode", "total_ms", "near_size"] + [f"{name}_ms" for name in report.pass_names]
             + list(report.count_names))
 
 
@@ -391,7 +395,8 @@ def write_csv(report: TimingReport, path: str | os.PathLike) -> None:
         writer.writerow(csv_header(report))
         for record in report.records:
             writer.writerow(
-                [record.frame, record.mode, f"{record.total_ms:.6f}"]
+                [record.frame, record.mode, f"{record.total_ms:.6f}",
+                 "" if record.near_size is None else f"{record.near_size:.6f}"]
                 + [f"{record.passes[name]:.6f}" if name in record.passes else "" for name in pass_names]
                 + [record.counts.get(name, "") for name in count_names]
             )

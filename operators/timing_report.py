@@ -26,6 +26,7 @@ import bpy
 
 from ..blender_adapter import engine, extract, properties, scene_cache
 from ..hybrid_engine import timing_report
+from ..hybrid_engine.near_budget import NearCubeSizer
 from ..hybrid_engine.settings import SettingsError
 
 COMPARE_MODE = "FULL_BVH"
@@ -216,6 +217,8 @@ class _FrameRenderer:
         self.warnings: list[str] = []
         # The scene kept across the run's frames: each re-reads what its frame changed.
         self.source = scene_cache.TrackedScene()
+        # Frame Budget: the near cube's size chosen from the run's own frame times.
+        self.sizer = NearCubeSizer()
 
     def warn(self, _levels, message: str) -> None:
         if message not in self.warnings:
@@ -227,7 +230,7 @@ class _FrameRenderer:
         self.source.listen()
         scene.frame_set(frame)
         return engine.render_depsgraph(self.context.evaluated_depsgraph_get(), report=self.warn,
-                                       source=self.source)
+                                       source=self.source, sizer=self.sizer)
 
     def progress(self, done: int, _total: int) -> None:
         if self.window_manager is not None:

@@ -188,8 +188,13 @@ def test_the_render_panels_draw_every_setting_once_the_report_and_the_overlay_qu
     expect: together they show every setting once, the timing report and the near-cube
     overlay, each within 5 ms."""
     drawn: list[str] = []
-    for panel in RENDER_PANELS(addon.ui.panels):
-        assert _draw(panel, drawn) < 5.0, panel.__name__
+    stored = bpy.context.scene.hybrid_rt
+    for near_cube_mode in ("FIXED", "BUDGET"):  # the near cube's fields follow its mode
+        stored.near_cube_mode = near_cube_mode
+        for panel in RENDER_PANELS(addon.ui.panels):
+            assert _draw(panel, drawn) < 5.0, panel.__name__
+    stored.near_cube_mode = "FIXED"
+    drawn = list(dict.fromkeys(drawn))
     settings = [f.name for f in fields(RenderSettings)]
     assert sorted(name for name in drawn if name in settings) == sorted(settings)
     assert {"hybrid_rt.timing_report", "hybrid_rt.show_near_cube", "film_transparent"} <= set(drawn)
@@ -283,3 +288,12 @@ def test_light_panel_draws_the_lamp_controls_the_engine_renders_and_no_other(add
     assert size in drawn
     # Controls Blender shows for EEVEE that change nothing here stay hidden.
     assert not {"use_soft_falloff", "spread", "shadow_jitter", "shadow_resolution_limit"} & set(drawn)
+
+
+def test_raising_the_budgets_minimum_above_its_maximum_pushes_the_maximum_and_back(addon):
+    stored = bpy.context.scene.hybrid_rt
+    stored.near_max = 3.0
+    stored.near_min = 8.0
+    assert stored.near_max == pytest.approx(8.0)
+    stored.near_max = 1.0
+    assert stored.near_min == pytest.approx(1.0)

@@ -172,10 +172,11 @@ def test_report_files_carry_whatever_passes_and_counts_the_frames_have(tmp_path)
 
     with open(paths["csv"], newline="") as handle:
         rows = list(csv.reader(handle))
-    assert rows[0] == ["frame", "mode", "total_ms", "extract_ms", "cube_map_raster_ms", "trace_ms",
+    assert rows[0] == ["frame", "mode", "total_ms", "near_size", "extract_ms", "cube_map_raster_ms", "trace_ms",
                        "composite_ms", "triangles_total", "triangles_bvh", "rays_bounce_2", "rays_bounce_10"]
     assert [int(row[0]) for row in rows[1:]] == [3, 4, 5, 6]
-    assert float(rows[2][5]) == pytest.approx(12.0)
+    assert float(rows[2][6]) == pytest.approx(12.0)
+    assert all(row[3] == "" for row in rows[1:])  # these frames used no near cube
 
     image = chart_png.decode_png(paths["png"].read_bytes())
     assert image.shape == (520, 1000, 3)
@@ -427,3 +428,27 @@ def test_script_writes_a_report_of_a_saved_blend(addon, tmp_path):
     data = json.loads((tmp_path / "out" / "report.json").read_text())
     assert [f["frame"] for f in data["frames"]] == [2, 3, 4]
     assert blend.read_bytes() == blend_bytes  # the .blend is never saved
+
+
+@pytest.mark.parametrize("budget_ms,expected", [(0.001, "near_min"), (1.0e5, "near_max")])
+def test_a_frame_budget_report_sizes_the_near_cube_per_frame_and_writes_it(addon, tmp_path, budget_ms, expected):
+    """Frame Budget in a timing report: an unreachable budget shrinks the near cube to its
+    minimum, a generous one grows it to its maximum, and the CSV and JSON say the size each
+    frame used."""
+    import bpy
+
+    scene = build_animated_scene(bpy)
+    settings = scene.hybrid_rt
+    settings.mode = "HYBRID"
+    settings.cube_resolution = 32
+    settings.near_cube_mode = "BUDGET"
+    settings.near_min, settings.near_max, settings.near_size = 0.5, 4.0, 2.0
+    settings.frame_budget_ms = budget_ms
+    bpy.ops.hybrid_rt.timing_report(filepath=str(tmp_path / "r"), frame_start=1, frame_end=16, warmup_frames=0)
+    with open(tmp_path / "r.csv", newline="") as handle:
+        sizes = [float(row["near_size"]) for row in csv.DictReader(handle)]
+    assert sizes[0] == pytest.approx(2.0), sizes
+    assert all(0.5 - 1e-6 <= size <= 4.0 + 1e-6 for size in sizes)
+    assert sizes[-1] == pytest.approx(getattr(settings, expected)), sizes
+    frames = json.loads((tmp_path / "r.json").read_text())["frames"]
+    assert [f["near_size"] for f in frames] == pytest.approx(sizes)

@@ -452,3 +452,36 @@ def test_sixteen_still_redraws_converge_to_a_64_sample_final_render_of_the_view(
     last = flip_mean(reference[..., :3], frames[-1].image[..., :3])
     assert last < 0.02, (first, last)
     assert last < 0.5 * first, (first, last)
+
+
+def test_frame_budget_sizes_the_viewports_near_cube_and_f12_takes_the_size_it_settled_on(addon):
+    """Navigating (every redraw a new view) with an unreachable budget shrinks the near cube
+    to its minimum, shown in the stats line; a final render then uses that size."""
+    import bpy
+
+    module = addon.blender_adapter.viewport
+    scene, _cube, _material = _two_object_scene(bpy)
+    scene.hybrid_rt.mode = "HYBRID"
+    scene.hybrid_rt.cube_resolution = 32
+    scene.hybrid_rt.near_cube_mode = "BUDGET"
+    scene.hybrid_rt.near_min, scene.hybrid_rt.near_max, scene.hybrid_rt.near_size = 0.5, 4.0, 2.0
+    scene.hybrid_rt.frame_budget_ms = 0.001
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    session = module.session_for(depsgraph)  # the session view_draw would use
+    try:
+        session.update(depsgraph, full=True)
+        for step in range(12):
+            frame = session.frame(_region(bpy, eye=(6.0 + 0.01 * step, -7.0, 5.0)), _settings(addon, bpy))
+            assert frame.error is None, frame.error
+        assert session.sizer.size == pytest.approx(0.5)
+        assert "near 0.50" in frame.stats
+        camera = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+        scene.collection.objects.link(camera)
+        scene.camera = camera
+        camera.location, camera.rotation_euler = (6.0, -7.0, 5.0), (1.0, 0.0, 0.7)
+        scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 16, 12, 100
+        scene.render.engine = "HYBRID_RT"
+        bpy.ops.render.render()
+        assert addon.blender_adapter.engine.last_frame.near_size == pytest.approx(0.5)
+    finally:
+        module.release_all()

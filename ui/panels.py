@@ -125,7 +125,14 @@ class RENDER_PT_hybrid_rt_hybrid(HybridRTPanel, bpy.types.Panel):
         settings = context.scene.hybrid_rt
         layout = _split(self.layout)
         layout.active = settings.mode in ("HYBRID", "PROVENANCE")
-        layout.prop(settings, "near_size")
+        layout.prop(settings, "near_cube_mode")
+        if settings.near_cube_mode == "BUDGET":
+            col = layout.column(align=True)
+            col.prop(settings, "frame_budget_ms")
+            col.prop(settings, "near_min")
+            col.prop(settings, "near_max")
+        else:
+            layout.prop(settings, "near_size")
         col = layout.column(heading="Cube Map")
         col.prop(settings, "cube_resolution")
         col.prop(settings, "cube_far")

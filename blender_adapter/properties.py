@@ -142,12 +142,24 @@ def _property_for(name: str, default):
     raise TypeError(f"RenderSettings.{name}: no Blender property for {type(default).__name__}")
 
 
+def _redraw_3d_views(_settings, context) -> None:
+    screen = getattr(context, "screen", None)
+    for area in (screen.areas if screen is not None else ()):
+        if area.type == "VIEW_3D":
+            area.tag_redraw()
+
+
 def _scene_annotations() -> dict:
     annotations = {}
     for f in fields(RenderSettings):
         if f.default is MISSING:
             raise TypeError(f"RenderSettings.{f.name} needs a default to become a Blender property")
         annotations[f.name] = _property_for(f.name, f.default)
+    # Interface state saved with the file, not a render setting (operators/near_cube_overlay.py).
+    annotations["show_near_cube"] = bpy.props.BoolProperty(
+        name="Show Near Cube", default=False, update=_redraw_3d_views,
+        description="Draw the near cube's bounds in the 3D viewport: what lies inside is traced "
+        "exactly, what lies outside is looked up in the cube map")
     return annotations
 
 

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Hybrid RT operators: ``hybrid_rt.timing_report`` (per-pass timings of a frame range),
-``hybrid_rt.show_near_cube`` (near-cube viewport overlay)."""
+"""Hybrid RT operators and viewport drawing: ``hybrid_rt.timing_report`` (per-pass timings
+of a frame range) and the near-cube overlay (``scene.hybrid_rt.show_near_cube``)."""
 from __future__ import annotations
 
 from . import near_cube_overlay, timing_report

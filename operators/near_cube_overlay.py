@@ -1,29 +1,34 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""``hybrid_rt.show_near_cube``: toggle a 3D-viewport overlay of the near cube's bounds.
+"""The near-cube overlay: the near cube's bounds drawn in the 3D viewport.
 
-The near cube (paper §3: half-size ``scene.hybrid_rt.near_size`` around the eye) decides
-which geometry is ray traced through the per-frame BVH and which is ray marched in the cube
-map; seeing it helps choose ``near_size``. It is centred where the frame is rendered from:
+The near cube (paper §3: half-size ``scene.hybrid_rt.near_size`` around the eye, or the size
+Frame Budget chose) decides which geometry is ray traced through the per-frame BVH and which
+is ray marched in the cube map; seeing it helps choose its size. Whether it is drawn is
+``scene.hybrid_rt.show_near_cube``, saved with the .blend and shown in the viewport's
+Overlays popover and the Diagnostics panel. It is centred where the frame is rendered from:
 the scene camera in camera view (and when no viewport is at hand), otherwise the viewport's
 own eye. The 12 edges come from ``hybrid_engine.viewport_frame.near_cube_edges``; only the
-line drawing uses Blender's ``gpu`` module, imported when a viewport actually draws, so the
-operator registers and toggles in background Blender too.
+line drawing uses Blender's ``gpu`` module, imported when a viewport actually draws.
 """
 from __future__ import annotations
 
 import bpy
 import numpy as np
 
+from ..blender_adapter import properties, viewport
 from ..hybrid_engine.viewport_frame import near_cube_edges
 
 OVERLAY_COLOR = (1.0, 0.55, 0.1, 0.9)
 OVERLAY_LINE_WIDTH = 1.5
 
-_handle = None  # the SpaceView3D draw handler while the overlay is shown
+_handle = None  # the SpaceView3D draw handler while the add-on is registered
+_failures: set[str] = set()
 
 
-def is_enabled() -> bool:
-    return _handle is not None
+def is_shown(scene) -> bool:
+    """Whether the scene asks for the overlay (``scene.hybrid_rt.show_near_cube``)."""
+    settings = getattr(scene, "hybrid_rt", None)
+    return bool(getattr(settings, "show_near_cube", False))
 
 
 def overlay_center(scene, region_data=None) -> np.ndarray | None:
@@ -41,14 +46,15 @@ def overlay_edges(scene, region_data=None) -> np.ndarray | None:
     center = overlay_center(scene, region_data)
     if center is None:
         return None
-    return near_cube_edges(center, float(scene.hybrid_rt.near_size))
+    settings = viewport.budgeted_settings(scene, properties.settings_from_scene(scene))
+    return near_cube_edges(center, float(settings.near_size))
 
 
 def _draw() -> None:
     """POST_VIEW draw callback (world space): the cube's edges as lines."""
     context = bpy.context
     scene = context.scene
-    if scene is None or scene.render.engine != "HYBRID_RT":
+    if scene is None or scene.render.engine != "HYBRID_RT" or not is_shown(scene):
         return
     try:
         edges = overlay_edges(scene, context.region_data)
@@ -66,44 +72,31 @@ def _draw() -> None:
         gpu.state.blend_set("NONE")
         gpu.state.line_width_set(1.0)
     except Exception as exc:  # noqa: BLE001 - a draw callback must not raise into Blender
-        print(f"Hybrid RT near cube overlay: {exc}")
-        set_enabled(False)
+        message = f"Hybrid RT near cube overlay: {exc}"
+        if message not in _failures:  # once, not on every redraw
+            _failures.add(message)
+            print(message)
 
 
-def set_enabled(enabled: bool) -> None:
-    global _handle
-    if enabled and _handle is None:
-        _handle = bpy.types.SpaceView3D.draw_handler_add(_draw, (), "WINDOW", "POST_VIEW")
-    elif not enabled and _handle is not None:
-        bpy.types.SpaceView3D.draw_handler_remove(_handle, "WINDOW")
-        _handle = None
-
-
-def _redraw_viewports(context) -> None:
-    screen = getattr(context, "screen", None)
-    for area in (screen.areas if screen is not None else ()):
-        if area.type == "VIEW_3D":
-            area.tag_redraw()
-
-
-class HYBRID_RT_OT_show_near_cube(bpy.types.Operator):
-    """Show or hide the near cube (ray traced region around the eye) in the 3D viewport"""
-
-    bl_idname = "hybrid_rt.show_near_cube"
-    bl_label = "Show Near Cube"
-    bl_options = {"REGISTER"}
-
-    def execute(self, context):
-        set_enabled(not is_enabled())
-        _redraw_viewports(context)
-        self.report({"INFO"}, f"Near cube overlay {'shown' if is_enabled() else 'hidden'}")
-        return {"FINISHED"}
+def _overlay_popover(self, context) -> None:
+    """The toggle in the 3D viewport's Overlays popover, under Guides."""
+    if context.scene is not None and context.engine == "HYBRID_RT":
+        self.layout.prop(context.scene.hybrid_rt, "show_near_cube", text="Hybrid RT Near Cube")
 
 
 def register() -> None:
-    bpy.utils.register_class(HYBRID_RT_OT_show_near_cube)
+    global _handle
+    _handle = bpy.types.SpaceView3D.draw_handler_add(_draw, (), "WINDOW", "POST_VIEW")
+    popover = getattr(bpy.types, "VIEW3D_PT_overlay_guides", None)
+    if popover is not None:
+        popover.append(_overlay_popover)
 
 
 def unregister() -> None:
-    set_enabled(False)
-    bpy.utils.unregister_class(HYBRID_RT_OT_show_near_cube)
+    global _handle
+    popover = getattr(bpy.types, "VIEW3D_PT_overlay_guides", None)
+    if popover is not None:
+        popover.remove(_overlay_popover)
+    if _handle is not None:
+        bpy.types.SpaceView3D.draw_handler_remove(_handle, "WINDOW")
+        _handle = None

@@ -341,7 +341,7 @@ def test_engine_has_viewport_callbacks_and_sessions_are_freed(addon, viewport):
     assert module.session_for(depsgraph) is not shared
 
 
-def test_near_cube_overlay_toggles_in_background_and_surrounds_the_eye(addon):
+def test_near_cube_overlay_is_a_saved_setting_and_surrounds_the_eye(addon, tmp_path):
     import bpy
     from mathutils import Matrix
 
@@ -349,9 +349,15 @@ def test_near_cube_overlay_toggles_in_background_and_surrounds_the_eye(addon):
     scene = bpy.context.scene
     scene.render.engine = "HYBRID_RT"
     scene.hybrid_rt.near_size = 2.5
-    assert not overlay.is_enabled()
-    assert bpy.ops.hybrid_rt.show_near_cube() == {"FINISHED"} and overlay.is_enabled()
-    assert bpy.ops.hybrid_rt.show_near_cube() == {"FINISHED"} and not overlay.is_enabled()
+    assert not overlay.is_shown(scene) and overlay._handle is not None  # drawn only when asked
+    scene.hybrid_rt.show_near_cube = True
+    path = tmp_path / "overlay.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    assert not overlay.is_shown(bpy.context.scene)
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    scene = bpy.context.scene
+    assert overlay.is_shown(scene)  # saved with the file
 
     # Without a viewport (and in camera view) the cube surrounds the scene camera.
     edges = overlay.overlay_edges(scene)
@@ -365,7 +371,11 @@ def test_near_cube_overlay_toggles_in_background_and_surrounds_the_eye(addon):
 
     edges = overlay.overlay_edges(scene, RegionData())
     np.testing.assert_allclose(edges.reshape(-1, 3).mean(axis=0), (1.0, 2.0, 3.0), atol=1e-5)
-    overlay.set_enabled(True)  # unregister (fixture teardown) must remove the handler
+    # With Frame Budget the cube drawn is the size the budget holds within its limits.
+    scene.hybrid_rt.near_cube_mode = "BUDGET"
+    scene.hybrid_rt.near_min, scene.hybrid_rt.near_max = 0.5, 1.0
+    edges = overlay.overlay_edges(scene)
+    np.testing.assert_allclose(np.abs(edges.reshape(-1, 3) - camera_position), 1.0, atol=1e-5)
 
 
 def _accumulating(bpy, session, monkeypatch, samples: int):

@@ -12,7 +12,6 @@ from __future__ import annotations
 import bpy
 
 from ..blender_adapter.extract import material_params
-from ..operators import near_cube_overlay
 from .light_panel import DATA_PT_hybrid_rt_light
 
 ENGINE_ID = "HYBRID_RT"
@@ -183,7 +182,7 @@ class RENDER_PT_hybrid_rt_diagnostics(HybridRTPanel, bpy.types.Panel):
     def draw(self, context) -> None:
         layout = _split(self.layout)
         col = layout.column()
-        col.operator("hybrid_rt.show_near_cube", icon="CUBE", depress=near_cube_overlay.is_enabled())
+        col.prop(context.scene.hybrid_rt, "show_near_cube", icon="CUBE")
         # Per-pass frame times of the scene's frame range (JSON, CSV and a chart).
         col.operator("hybrid_rt.timing_report", icon="TIME")
 

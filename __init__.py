@@ -14,7 +14,15 @@ _MODULES = (blender_adapter, operators, ui)
 
 
 def register() -> None:
-    """Register properties, the render engine, operators and panels, in dependency order."""
+    """Register properties, the render engine, operators and panels, in dependency order.
+    On macOS, whose OpenGL stops at 4.1 (no compute shaders), enabling the extension fails
+    with a message that says so, and nothing is registered."""
+    import sys
+
+    from .hybrid_engine.gl_context import MACOS_MESSAGE
+
+    if sys.platform == "darwin":
+        raise RuntimeError(MACOS_MESSAGE)
     done = []
     try:
         for module in _MODULES:

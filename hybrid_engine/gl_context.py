@@ -54,6 +54,30 @@ if not hasattr(_state, "lock"):
     _state.parking_fbo = None
 
 
+# glcontext's backend for a standalone context on each platform: EGL on Linux (no window
+# system needed, headless renders included), WGL on Windows. macOS stops at OpenGL 4.1,
+# which has no compute shaders.
+PLATFORM_BACKENDS = {"linux": "egl", "win32": "wgl"}
+MACOS_MESSAGE = ("Hybrid RT needs OpenGL 4.3 (compute shaders and storage buffers); macOS "
+                 "provides OpenGL 4.1 at most, so Hybrid RT cannot run on this Mac")
+
+
+def platform_backend(platform: str | None = None) -> str:
+    """The glcontext backend for ``platform`` (default ``sys.platform``); HYBRID_RT_GL_BACKEND
+    overrides it. Raises GLUnavailableError on a platform without OpenGL 4.3."""
+    override = os.environ.get("HYBRID_RT_GL_BACKEND")
+    if override:
+        return override
+    platform = sys.platform if platform is None else platform
+    if platform == "darwin":
+        raise GLUnavailableError(MACOS_MESSAGE)
+    for prefix, backend in PLATFORM_BACKENDS.items():
+        if platform.startswith(prefix):
+            return backend
+    raise GLUnavailableError(f"Hybrid RT has no OpenGL backend for the platform {platform!r}; "
+                             "set HYBRID_RT_GL_BACKEND to a glcontext backend to try one")
+
+
 def _create_context():
     try:
         import moderngl
@@ -63,10 +87,8 @@ def _create_context():
             f"importing it failed: {exc}"
         ) from exc
 
-    backend = os.environ.get("HYBRID_RT_GL_BACKEND", "egl")
-    kwargs = {"standalone": True, "require": REQUIRED_GL_VERSION}
-    if backend:
-        kwargs["backend"] = backend
+    backend = platform_backend()
+    kwargs = {"standalone": True, "require": REQUIRED_GL_VERSION, "backend": backend}
     try:
         ctx = moderngl.create_context(**kwargs)
     except Exception as exc:
@@ -78,9 +100,10 @@ def _create_context():
             ) from exc
         raise GLUnavailableError(
             f"Could not create a standalone OpenGL context with the '{backend}' backend: {text}. "
-            "On Linux install the Mesa EGL libraries (apt-get install libegl1 libegl-mesa0 "
-            "libgl1-mesa-dri libgbm1) or a GPU driver that provides EGL; set "
-            "HYBRID_RT_GL_BACKEND to another glcontext backend to override."
+            + ("On Linux install the Mesa EGL libraries (apt-get install libegl1 libegl-mesa0 "
+               "libgl1-mesa-dri libgbm1) or a GPU driver that provides EGL; "
+               if sys.platform.startswith("linux") else "Update the graphics driver; ")
+            + "set HYBRID_RT_GL_BACKEND to another glcontext backend to override."
         ) from exc
     if ctx.version_code < REQUIRED_GL_VERSION:
         version = ctx.info.get("GL_VERSION", ctx.version_code)
@@ -149,9 +172,13 @@ def debug_checks_enabled() -> bool:
 
 class _NativeGL:
     """Just enough of EGL and GLX (through ctypes) to save and restore a host's current
-    context. Missing libraries simply disable that half."""
+    context on Linux. Missing libraries simply disable that half; elsewhere (Windows) both
+    halves stay off and glcontext saves and restores the host's context itself."""
 
-    def __init__(self) -> None:
+    def __init__(self, linux: bool = True) -> None:
+        self.egl = self.glx = None
+        if not linux:
+            return
         self.egl = self._load("libEGL.so.1", ("eglGetCurrentDisplay", "eglGetCurrentSurface",
                                               "eglGetCurrentContext", "eglMakeCurrent"))
         self.glx = self._load("libGL.so.1", ("glXGetCurrentDisplay", "glXGetCurrentDrawable",
@@ -191,7 +218,7 @@ class _NativeGL:
                 g.glXGetCurrentReadDrawable(), g.glXGetCurrentContext())
 
 
-_native = _NativeGL()
+_native = _NativeGL(linux=sys.platform.startswith("linux"))
 
 
 @contextmanager
@@ -205,6 +232,13 @@ def activated(release_after: bool = False) -> Iterator[object]:
     interactive Blender (viewport on the main thread, F12 renders on a render thread) every
     block hands the context back; background runs keep it current.
     """
+    if not (_native.egl or _native.glx) and not sys.platform.startswith("linux"):
+        # Windows: glcontext's WGL context saves the host's current context when it is made
+        # current and restores it on exit.
+        ctx = get_context()
+        with ctx:
+            yield ctx
+        return
     # Record the host's context first: creating ours on first use makes ours current.
     saved_egl = _native.egl_current() if _native.egl else None
     saved_glx = _native.glx_current() if _native.glx else None

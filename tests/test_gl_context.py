@@ -165,3 +165,56 @@ def test_the_addon_and_the_core_imported_under_two_names_share_one_context(gl):
     addon = load_addon()
     assert addon.hybrid_engine.gl_context is not __import__("hybrid_engine.gl_context").gl_context
     assert addon.hybrid_engine.gl_context.get_context() is gl
+
+
+@pytest.mark.parametrize("platform,backend", [("linux", "egl"), ("win32", "wgl")])
+def test_each_platform_gets_its_own_backend_and_the_override_wins(monkeypatch, platform, backend):
+    from hybrid_engine import gl_context
+
+    monkeypatch.delenv("HYBRID_RT_GL_BACKEND", raising=False)
+    assert gl_context.platform_backend(platform) == backend
+    monkeypatch.setenv("HYBRID_RT_GL_BACKEND", "x11")
+    assert gl_context.platform_backend(platform) == "x11"
+
+
+def test_macos_is_refused_with_a_message_that_says_why(monkeypatch):
+    from hybrid_engine import gl_context
+
+    monkeypatch.delenv("HYBRID_RT_GL_BACKEND", raising=False)
+    with pytest.raises(gl_context.GLUnavailableError, match="OpenGL 4.1"):
+        gl_context.platform_backend("darwin")
+
+
+def test_the_native_context_switch_is_linux_only():
+    """Off Linux the EGL/GLX ctypes path is never loaded: glcontext's own save and restore
+    of the host's context (WGL on Windows) is used instead."""
+    from hybrid_engine import gl_context
+
+    elsewhere = gl_context._NativeGL(linux=False)
+    assert elsewhere.egl is None and elsewhere.glx is None
+    assert gl_context._NativeGL(linux=True).egl is not None  # this Linux machine has libEGL
+
+
+def test_enabling_the_extension_on_macos_fails_with_the_reason_and_registers_nothing(monkeypatch):
+    import bpy
+
+    from addon_loader import load_addon
+
+    addon = load_addon()
+    monkeypatch.setattr(sys, "platform", "darwin")
+    with pytest.raises(RuntimeError, match="macOS provides OpenGL 4.1"):
+        addon.register()
+    assert not hasattr(bpy.types.Scene, "hybrid_rt")
+
+
+def test_off_linux_a_gl_block_enters_and_leaves_through_glcontext(monkeypatch, gl):
+    from hybrid_engine import gl_context
+
+    calls = []
+    monkeypatch.setattr(gl_context, "_native", gl_context._NativeGL(linux=False))
+    monkeypatch.setattr(sys, "platform", "win32")
+    monkeypatch.setattr(type(gl), "__enter__", lambda self: calls.append("enter") or self)
+    monkeypatch.setattr(type(gl), "__exit__", lambda self, *exc: calls.append("exit"))
+    with gl_context.activated(release_after=True) as ctx:
+        assert ctx is gl
+    assert calls == ["enter", "exit"]

@@ -15,7 +15,7 @@ help:
 	@echo "make test       run the test suite"
 	@echo "make bench      run the benchmark, results in out/bench.json"
 	@echo "make pictures   render docs/pictures/*.png: each scene in every mode next to EEVEE and Cycles (~11 min)"
-	@echo "make package    build the installable extension zip into dist/"
+	@echo "make package    build the installable extension zips (Linux, Windows) into dist/"
 	@echo "make clean      remove build outputs (dist/, wheels/, out/, caches)"
 	@echo "make distclean  clean, and remove the virtual environment .venv"
 

@@ -1,12 +1,13 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Build the installable Blender extension zip into ``dist/``.
+"""Build the installable Blender extension zips, one per platform, into ``dist/``.
 
 Blender extensions bundle their Python dependencies as wheels listed in
 ``blender_manifest.toml``. This script fetches exactly those wheels (cp311, because Blender
 4.2+ runs Python 3.11) with ``pip download`` into ``wheels/`` (git-ignored, never committed),
-then builds the zip with Blender's own extension tool (``blender_ext.py build``, shipped with
-the ``bpy`` module), so the manifest's ``[build] paths_exclude_pattern`` is applied by the
-same code Blender uses, and finally checks the zip's contents.
+then builds the zips with Blender's own extension tool (``blender_ext.py build
+--split-platforms``, shipped with the ``bpy`` module: each zip carries only its platform's
+wheels), so the manifest's ``[build] paths_exclude_pattern`` is applied by the same code
+Blender uses, and finally checks each zip's contents.
 
 Usage: ``python scripts/build_extension.py [--offline] [--output-dir DIR]``.
 """
@@ -167,15 +168,20 @@ def check_zip(path: Path) -> list[str]:
     return names
 
 
-def build(output_dir: Path = DIST_DIR, offline: bool = False) -> Path:
-    """Fetch wheels, build the zip with Blender's tool, check it; return the zip's path."""
+def platform_zip(output_dir: Path, manifest: dict, platform: str) -> Path:
+    """Where ``blender_ext.py build --split-platforms`` writes ``platform``'s zip."""
+    return output_dir / f"{manifest['id']}-{manifest['version']}-{platform.replace('-', '_')}.zip"
+
+
+def build(output_dir: Path = DIST_DIR, offline: bool = False) -> dict[str, Path]:
+    """Fetch wheels, build one zip per manifest platform with Blender's tool, check each;
+    returns {platform: zip path}."""
     manifest = read_manifest()
     download_wheels(manifest, offline)
     tool, tags = blender_ext_tool()
     output_dir.mkdir(parents=True, exist_ok=True)
-    out = output_dir / f"{manifest['id']}-{manifest['version']}.zip"
     for step in (["validate", str(REPO_ROOT)],
-                 ["build", "--source-dir", str(REPO_ROOT), "--output-filepath", str(out)]):
+                 ["build", "--source-dir", str(REPO_ROOT), "--output-dir", str(output_dir), "--split-platforms"]):
         result = subprocess.run(
             [sys.executable, str(tool), *step, f"--valid-tags={tags}"],
             capture_output=True, text=True,
@@ -184,12 +190,17 @@ def build(output_dir: Path = DIST_DIR, offline: bool = False) -> Path:
             raise BuildError(
                 f"blender_ext.py {step[0]} failed:\n{(result.stdout + result.stderr).strip()}"
             )
+    zips = {platform: platform_zip(output_dir, manifest, platform) for platform in manifest["platforms"]}
     try:
-        check_zip(out)
+        for platform, path in zips.items():
+            if not path.is_file():
+                raise BuildError(f"Blender's tool wrote no zip for {platform} ({path.name})")
+            check_zip(path)
     except BuildError:
-        out.unlink()  # never leave a package behind that would install a broken add-on
+        for path in zips.values():  # never leave a package behind that would install a broken add-on
+            path.unlink(missing_ok=True)
         raise
-    return out
+    return zips
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -198,12 +209,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--output-dir", type=Path, default=DIST_DIR)
     args = parser.parse_args(argv)
     try:
-        out = build(args.output_dir, offline=args.offline)
+        zips = build(args.output_dir, offline=args.offline)
     except BuildError as exc:
         print(f"build_extension: {exc}", file=sys.stderr)
         return 1
-    print(f"built {out.relative_to(REPO_ROOT) if out.is_relative_to(REPO_ROOT) else out} "
-          f"({out.stat().st_size / 1024:.0f} KiB)")
+    for out in zips.values():
+        print(f"built {out.relative_to(REPO_ROOT) if out.is_relative_to(REPO_ROOT) else out} "
+              f"({out.stat().st_size / 1024:.0f} KiB)")
     return 0
 
 

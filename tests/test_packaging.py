@@ -44,11 +44,22 @@ def load_build_script():
     return module
 
 
+# The platform tag of each manifest platform's wheels.
+WHEEL_PLATFORM_TAGS = {"linux-x64": "manylinux", "windows-x64": "win_amd64"}
+
+
 @pytest.fixture(scope="module")
-def package_zip(tmp_path_factory) -> Path:
-    """The extension zip, built once for this module (wheels are downloaded if absent)."""
+def package_zips(tmp_path_factory) -> dict[str, Path]:
+    """The extension's zips, one per platform, built once for this module (wheels are
+    downloaded if absent)."""
     build = load_build_script()
     return build.build(output_dir=tmp_path_factory.mktemp("dist"))
+
+
+@pytest.fixture(scope="module")
+def package_zip(package_zips) -> Path:
+    """The Linux zip: the one this machine installs and runs."""
+    return package_zips["linux-x64"]
 
 
 def manifest() -> dict:
@@ -65,15 +76,17 @@ def test_manifest_declares_the_fixed_names_and_python_311_wheels():
     assert data["type"] == "add-on"
     assert data["license"] == ["SPDX:GPL-3.0-or-later"]
     wheels = [Path(w).name for w in data["wheels"]]
-    assert sorted(w.split("-")[0] for w in wheels) == sorted(BUNDLED_MODULES)
+    assert data["platforms"] == list(WHEEL_PLATFORM_TAGS)
+    for platform, tag in WHEEL_PLATFORM_TAGS.items():  # each bundled module once per platform
+        assert sorted(w.split("-")[0] for w in wheels if tag in w) == sorted(BUNDLED_MODULES), platform
     assert all("-cp311-cp311-" in w for w in wheels), wheels
 
 
-def expected_zip_entries(data: dict) -> set[str]:
-    """Every file the package must hold: the add-on's own files, manifest, licence, wheels;
-    nothing else (GPL-3.0 asks for its text to travel with the program)."""
+def expected_zip_entries(data: dict, platform: str = "linux-x64") -> set[str]:
+    """Every file ``platform``'s package must hold: the add-on's own files, manifest, licence,
+    that platform's wheels; nothing else (GPL-3.0 asks for its text to travel with the program)."""
     expected = {"__init__.py", "blender_manifest.toml", "LICENSE"}
-    expected |= {w.removeprefix("./") for w in data["wheels"]}
+    expected |= {w.removeprefix("./") for w in data["wheels"] if WHEEL_PLATFORM_TAGS[platform] in w}
     for package in ADDON_PACKAGES:
         for path in (REPO_ROOT / package).rglob("*"):
             if path.is_file() and "__pycache__" not in path.parts and path.suffix != ".pyc":
@@ -101,14 +114,29 @@ def test_zip_holds_no_test_or_benchmark_module(package_zip):
     assert modules and tooling == []
 
 
-def test_zip_passes_blenders_archive_validation(package_zip):
+@pytest.mark.parametrize("platform", ["linux-x64", "windows-x64"])
+def test_each_platforms_zip_passes_blenders_archive_validation(package_zips, platform):
     build = load_build_script()
     tool, tags = build.blender_ext_tool()
     result = subprocess.run(
-        [sys.executable, str(tool), "validate", str(package_zip), f"--valid-tags={tags}"],
+        [sys.executable, str(tool), "validate", str(package_zips[platform]), f"--valid-tags={tags}"],
         capture_output=True, text=True,
     )
     assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_the_windows_zip_carries_the_addon_and_only_windows_wheels(package_zips):
+    """Blender's installer on Windows takes the windows_x64 zip: the same add-on files, and
+    moderngl and glcontext built for win_amd64, no Linux shared library."""
+    with zipfile.ZipFile(package_zips["windows-x64"]) as zf:
+        names = set(zf.namelist())
+    assert names == expected_zip_entries(manifest(), "windows-x64")
+    wheels = sorted(n for n in names if n.endswith(".whl"))
+    assert [Path(w).name.split("-")[0] for w in wheels] == ["glcontext", "moderngl"]
+    assert all(w.endswith("-cp311-cp311-win_amd64.whl") for w in wheels), wheels
+    assert not any(n.endswith(".so") or "manylinux" in n for n in names)
+    sizes = {platform: path.stat().st_size for platform, path in package_zips.items()}
+    print(f"\nzip sizes: {sizes}")
 
 
 # ---------------------------------------------------------------------------------------------

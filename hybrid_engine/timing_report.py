@@ -34,7 +34,7 @@ from typing import Any, Callable, Iterable, Mapping, Protocol, Sequence
 
 import numpy as np
 
-from . import chart_png
+from . import chart_png, chart_svg
 
 # The passes of one frame in the order they run (paper §3): host extraction, upload, shadow
 # maps (§3.5), primary G-buffer (§3.1), cube map (§3.2), near-cube culling and LBVH (§3.3),
@@ -51,7 +51,7 @@ DEFAULT_COUNTS = {"triangles_bvh": 0}
 MAX_FRAMES = 100_000  # longer ranges are almost certainly a typing error
 MAX_WARMUP_FRAMES = 100
 P95 = 95.0  # percentile of the frame-time summary
-SUFFIXES = (".json", ".csv", ".png")
+SUFFIXES = (".json", ".csv", ".png", ".svg")
 
 
 class TimingReportError(ValueError):
@@ -105,7 +105,7 @@ def validate_frame_range(frame_start: int, frame_end: int, max_frames: int = MAX
 
 
 def output_paths(prefix: str | os.PathLike) -> dict[str, Path]:
-    """``{'json': PREFIX.json, 'csv': PREFIX.csv, 'png': PREFIX.png}``."""
+    """``{'json': PREFIX.json, 'csv': PREFIX.csv, 'png': PREFIX.png, 'svg': PREFIX.svg}``."""
     base = str(prefix)
     return {suffix[1:]: Path(base + suffix) for suffix in SUFFIXES}
 
@@ -434,12 +434,35 @@ def render_chart(report: TimingReport, **chart_options) -> np.ndarray:
     )
 
 
+def chart_summary(report: TimingReport) -> str:
+    """One line under the chart: mean and 95th-percentile frame time, the slowest pass."""
+    summary = report.summary()
+    frame = summary["frame_ms"]
+    passes = summary.get("pass_mean_ms", {})
+    slowest = max(passes, key=passes.get) if passes else None
+    text = f"mean {frame['mean']:.1f} ms ({1000.0 / frame['mean']:.1f} fps), 95th percentile {frame['p95']:.1f} ms"
+    if slowest is not None:
+        text += f", slowest pass {slowest} ({passes[slowest]:.1f} ms mean)"
+    return text
+
+
+def render_chart_svg(report: TimingReport) -> str:
+    """The chart of ``render_chart`` as SVG, with axes, legend and summary (chart_svg.py)."""
+    pass_names = report.pass_names
+    series = {name: [record.passes.get(name, 0.0) for record in report.records] for name in pass_names}
+    return chart_svg.stacked_bar_svg(
+        [record.frame for record in report.records], series, pass_colors(pass_names),
+        title=chart_title(report), summary=chart_summary(report), target_ms=report.target_ms,
+        target_fps=report.target_fps, near_sizes=[record.near_size for record in report.records])
+
+
 def write_report(report: TimingReport, prefix: str | os.PathLike) -> dict[str, Path]:
-    """Write PREFIX.json, PREFIX.csv and PREFIX.png; return their paths."""
+    """Write PREFIX.json, PREFIX.csv, PREFIX.png and PREFIX.svg; return their paths."""
     paths = output_paths(prefix)
     write_json(report, paths["json"])
     write_csv(report, paths["csv"])
     chart_png.write_png(paths["png"], render_chart(report))
+    paths["svg"].write_text(render_chart_svg(report), encoding="utf-8")
     return paths
 
 

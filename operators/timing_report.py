@@ -145,7 +145,7 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
                 scene=scene_info(scene), progress=main.progress, warnings=main.warnings,
                 warmup_frames=self.warmup_frames,
             )
-            written = [paths["json"], paths["csv"], paths["png"]]
+            written = [paths["json"], paths["csv"], paths["png"], paths["svg"]]
             if self.compare_full_bvh:
                 written += self._compare(scene, prefix, frames, settings, report, compare)
         except Exception as exc:  # noqa: BLE001 - any failure is reported, the scene restored
@@ -201,7 +201,7 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
         chart = timing_report.write_comparison_chart(
             {label: report, COMPARE_MODE: compare_report}, f"{prefix}{COMPARISON_CHART_SUFFIX}"
         )
-        return [compare_paths["json"], compare_paths["csv"], compare_paths["png"], chart]
+        return [compare_paths["json"], compare_paths["csv"], compare_paths["png"], compare_paths["svg"], chart]
 
 
 class _FrameRenderer:

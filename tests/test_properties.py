@@ -115,6 +115,9 @@ def test_standard_panels_that_apply_are_enabled_and_eevee_specific_ones_are_not(
                  "EEVEE_MATERIAL_PT_surface", "EEVEE_WORLD_PT_surface",
                  "DATA_PT_camera", "DATA_PT_lens"):
         assert "HYBRID_RT" in getattr(bpy.types, name).COMPAT_ENGINES, name
+    for name in ("MATERIAL_PT_preview", "DATA_PT_preview", "TEXTURE_PT_preview"):  # would stay blank
+        assert "HYBRID_RT" not in getattr(bpy.types, name).COMPAT_ENGINES, name
+    assert not addon.blender_adapter.engine.HybridRTRenderEngine.bl_use_preview
     for name in ("RENDER_PT_eevee_sampling", "DATA_PT_camera_dof", "VIEWLAYER_PT_layer_passes",
                  "DATA_PT_lightprobe_bake", "EEVEE_MATERIAL_PT_settings", "DATA_PT_EEVEE_light",
                  "DATA_PT_EEVEE_light_shadow", "DATA_PT_EEVEE_light_distance"):

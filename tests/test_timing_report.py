@@ -137,6 +137,26 @@ def test_unwritable_output_paths_fail_before_any_frame_is_rendered(tmp_path, cas
     assert renderer.calls == []
 
 
+def test_the_svg_chart_parses_and_names_every_pass_the_axes_the_target_and_the_summary(tmp_path):
+    import xml.etree.ElementTree as ElementTree
+
+    renderer = CountingRenderer()
+    _report, paths = run_timing_report(tmp_path / "r", 3, 6, renderer, requested_mode="HYBRID",
+                                       settings={"mode": "HYBRID"}, target_fps=30.0, scene={"name": "Test"})
+    root = ElementTree.fromstring(paths["svg"].read_text())
+    ns = "{http://www.w3.org/2000/svg}"
+    texts = ["".join(t.itertext()) for t in root.iter(f"{ns}text")]
+    legend = [t.text for t in root.iter(f"{ns}text") if t.get("class") == "pass"]
+    assert legend == ["extract", "cube_map_raster", "trace", "composite"]
+    assert "frame time (ms)" in texts and "frames per second" in texts and "30" in texts
+    assert any(line.get("class") == "target" for line in root.iter(f"{ns}line"))
+    summary = next(t.text for t in root.iter(f"{ns}text") if t.get("class") == "summary")
+    # Frames 3-6 cost 3.5 + 3 f ms: mean 17.0; the trace (3 f) is the slowest pass.
+    assert "mean 17.0 ms" in summary and "slowest pass trace" in summary
+    bars = [r for r in root.iter(f"{ns}rect") if r.find(f"{ns}title") is not None]
+    assert len(bars) == 4 * 4  # a bar segment per pass and frame
+
+
 def test_reversed_range_fails_before_any_frame_is_rendered(tmp_path):
     renderer = CountingRenderer()
     with pytest.raises(FrameRangeError):
@@ -392,7 +412,8 @@ def test_full_bvh_comparison_writes_its_own_report_and_a_comparison_chart(addon,
                                     compare_full_bvh=True, warmup_frames=0)
     assert modes_seen == ["RASTER"] * 3 + ["FULL_BVH"] * 3
     assert sorted(p.name for p in tmp_path.iterdir()) == [
-        "r.csv", "r.json", "r.png", "r_compare.png", "r_full_bvh.csv", "r_full_bvh.json", "r_full_bvh.png"]
+        "r.csv", "r.json", "r.png", "r.svg", "r_compare.png", "r_full_bvh.csv", "r_full_bvh.json",
+        "r_full_bvh.png", "r_full_bvh.svg"]
     compare = json.loads((tmp_path / "r_full_bvh.json").read_text())
     assert compare["requested_mode"] == "FULL_BVH" and compare["rendered_modes"] == ["FULL_BVH"]
     assert compare["settings"]["mode"] == "FULL_BVH"

@@ -28,6 +28,13 @@ _EEVEE_PANELS_KEPT = frozenset({
 # the lamp controls this engine renders, and only those), and Blender's render-pass panels, which list
 # passes this engine does not write (its own Passes panel below lists those it does).
 _PANELS_SKIPPED_PREFIXES = (
+    # Preview panels: the engine renders no material or light previews (bl_use_preview is
+    # off: a preview render needs Blender's preview jobs, which background runs cannot
+    # exercise), so their panels would stay blank.
+    "DATA_PT_preview",
+    "MATERIAL_PT_preview",
+    "TEXTURE_PT_preview",
+    "WORLD_PT_preview",
     "DATA_PT_camera_dof",
     "DATA_PT_lightprobe",
     "DATA_PT_context_lightprobe",

@@ -1,14 +1,14 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Timing reports of an animation: per-frame pass times, summary statistics, JSON/CSV/PNG.
+"""Timing reports of an animation: per-frame pass times, summary statistics, JSON/CSV/PNG/SVG.
 
 The paper evaluates the method on animations (§4, Figures 5 and 6): every frame of a
 200-frame sequence broken down into its passes, and the hybrid method's frame time next to a
 full-BVH tracer's. This module reproduces those measurements from whatever renders frames:
-``collect_frames`` calls a ``render_frame(frame_number)`` callback (the Blender operator
-passes one that steps the scene and renders through the engine; the benchmark passes one
-that renders synthetic scenes) and keeps each ``FrameResult``'s passes and counts, which
-``write_report`` turns into ``PREFIX.json``, ``PREFIX.csv`` and the stacked-bar chart
-``PREFIX.png``.
+a ``TimingReportJob`` calls a ``render_frame(frame_number)`` callback one frame per step
+(the Blender operator passes one that steps the scene and renders through the engine, from
+a modal handler that can cancel between frames; ``run_timing_report`` steps it to the end)
+and keeps each ``FrameResult``'s passes and counts, which ``write_report`` turns into
+``PREFIX.json``, ``PREFIX.csv`` and the stacked-bar charts ``PREFIX.png`` and ``PREFIX.svg``.
 
 Pass names and counts are not fixed here: a report carries whatever the frames carry.
 Passes are ordered by ``PIPELINE_PASSES`` (the order of paper §3's frame), names it does not
@@ -210,18 +210,6 @@ def ordered_count_names(names: Iterable[str]) -> list[str]:
     return leading + sorted(unique.difference(LEADING_COUNTS), key=_natural_key)
 
 
-def collect_frames(frames: Iterable[int], render_frame: RenderFrame,
-                   progress: ProgressCallback | None = None) -> list[FrameRecord]:
-    """Render each frame with ``render_frame(frame)`` and keep its timings and counts."""
-    frames = list(frames)
-    records = []
-    for done, frame in enumerate(frames):
-        records.append(FrameRecord.from_result(frame, render_frame(frame)))
-        if progress is not None:
-            progress(done + 1, len(frames))
-    return records
-
-
 # ---------------------------------------------------------------------------------------------
 # Statistics.
 
@@ -317,6 +305,7 @@ class TimingReport:
     gl_renderer: str = ""
     warnings: list[str] = field(default_factory=list)
     warmup_frames: int = 0  # unrecorded renders of the first frame before the measured ones
+    complete: bool = True  # False: cancelled, the records cover the frames rendered before
 
     @property
     def pass_names(self) -> list[str]:
@@ -358,6 +347,7 @@ class TimingReport:
             "machine": self.machine,
             "gl_renderer": self.gl_renderer,
             "warnings": list(self.warnings),
+            "complete": self.complete,
         }
 
 
@@ -420,7 +410,8 @@ def pass_colors(pass_names: Sequence[str]) -> list[chart_png.RGB]:
 def chart_title(report: TimingReport) -> str:
     name = report.scene.get("name", "")
     modes = "+".join(report.rendered_modes)
-    return " - ".join(part for part in (name, modes, f"{len(report.records)} frames") if part)
+    frames = f"{len(report.records)} frames" + ("" if report.complete else " (cancelled: incomplete)")
+    return " - ".join(part for part in (name, modes, frames) if part)
 
 
 def render_chart(report: TimingReport, **chart_options) -> np.ndarray:
@@ -486,6 +477,64 @@ def write_comparison_chart(reports: Mapping[str, TimingReport], path: str | os.P
     return Path(path)
 
 
+class TimingReportJob:
+    """A timing report rendered one frame per ``step()``, so that an interactive caller (the
+    operator's modal handler) returns to Blender between frames and can cancel: ``finish()``
+    writes the report of the frames rendered so far, marked incomplete when it stopped early.
+    Everything that can fail before rendering (range, output path, warm-up count) fails in
+    the constructor."""
+
+    def __init__(self, prefix: str | os.PathLike, frame_start: int, frame_end: int, render_frame: RenderFrame, *,
+                 requested_mode: str = "", settings: Mapping[str, Any] | None = None,
+                 target_fps: float | None = None, scene: Mapping[str, Any] | None = None,
+                 progress: ProgressCallback | None = None, warnings: Sequence[str] | None = None,
+                 warmup_frames: int = 0) -> None:
+        self.frames = validate_frame_range(frame_start, frame_end)
+        if isinstance(warmup_frames, bool) or not 0 <= int(warmup_frames) <= MAX_WARMUP_FRAMES:
+            raise TimingReportError(f"warmup_frames must lie in [0, {MAX_WARMUP_FRAMES}], got {warmup_frames!r}")
+        self.base = prepare_output_prefix(prefix)
+        self.render_frame, self.progress = render_frame, progress
+        self.warmup_frames = int(warmup_frames)
+        self._warmups_left = self.warmup_frames
+        self._next = 0  # index into frames of the next recorded frame
+        self.records: list[FrameRecord] = []
+        self._meta = dict(requested_mode=requested_mode, settings=dict(settings or {}), target_fps=target_fps,
+                          scene=dict(scene or {}))
+        self._warnings = warnings  # read when finishing: render_frame may add to it
+
+    @property
+    def done(self) -> bool:
+        return self._next >= len(self.frames)
+
+    @property
+    def current_frame(self) -> int | None:
+        """The frame the next step renders (None when done)."""
+        return None if self.done else self.frames[self._next]
+
+    def step(self) -> bool:
+        """Render the next warm-up or recorded frame; True while frames remain."""
+        if self._warmups_left:
+            self.render_frame(self.frames.start)
+            self._warmups_left -= 1
+            return True
+        if not self.done:
+            frame = self.frames[self._next]
+            self.records.append(FrameRecord.from_result(frame, self.render_frame(frame)))
+            self._next += 1
+            if self.progress is not None:
+                self.progress(self._next, len(self.frames))
+        return not self.done
+
+    def finish(self) -> tuple[TimingReport, dict[str, Path]]:
+        """Write the report of the frames rendered so far (incomplete unless all were)."""
+        if not self.records:
+            raise TimingReportError("the timing report was cancelled before its first frame: nothing to write")
+        report = TimingReport(records=list(self.records), gl_renderer=gl_renderer_name(),
+                              warnings=list(self._warnings or ()), warmup_frames=self.warmup_frames,
+                              complete=self.done, **self._meta)
+        return report, write_report(report, self.base)
+
+
 def run_timing_report(
     prefix: str | os.PathLike,
     frame_start: int,
@@ -508,16 +557,9 @@ def run_timing_report(
     measurement (the paper's) leaves out. ``warnings`` is read after the last frame, so
     ``render_frame`` may add to it.
     """
-    frames = validate_frame_range(frame_start, frame_end)
-    if isinstance(warmup_frames, bool) or not 0 <= int(warmup_frames) <= MAX_WARMUP_FRAMES:
-        raise TimingReportError(f"warmup_frames must lie in [0, {MAX_WARMUP_FRAMES}], got {warmup_frames!r}")
-    base = prepare_output_prefix(prefix)
-    for _ in range(int(warmup_frames)):
-        render_frame(frames.start)
-    records = collect_frames(frames, render_frame, progress)
-    report = TimingReport(
-        records=records, requested_mode=requested_mode, settings=dict(settings or {}),
-        target_fps=target_fps, scene=dict(scene or {}), gl_renderer=gl_renderer_name(),
-        warnings=list(warnings or ()), warmup_frames=int(warmup_frames),
-    )
-    return report, write_report(report, base)
+    job = TimingReportJob(prefix, frame_start, frame_end, render_frame, requested_mode=requested_mode,
+                          settings=settings, target_fps=target_fps, scene=scene, progress=progress,
+                          warnings=warnings, warmup_frames=warmup_frames)
+    while job.step():
+        pass
+    return job.finish()

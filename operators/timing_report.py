@@ -70,7 +70,7 @@ def scene_info(scene) -> dict:
 
 
 class HYBRID_RT_OT_timing_report(bpy.types.Operator):
-    """Render every frame of a range with Hybrid RT and write per-pass frame times (JSON, CSV) and a chart (PNG)"""
+    """Render every frame of a range with Hybrid RT and write per-pass frame times (JSON, CSV) and charts (PNG, SVG); Esc cancels"""
 
     bl_idname = "hybrid_rt.timing_report"
     bl_label = "Timing Report"
@@ -78,8 +78,8 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
 
     filepath: bpy.props.StringProperty(
         name="File Prefix",
-        description="Path and file name prefix of the report: PREFIX.json, PREFIX.csv and PREFIX.png "
-        "are written ('//' is the .blend's folder)",
+        description="Path and file name prefix of the report: PREFIX.json, PREFIX.csv, PREFIX.png and "
+        "PREFIX.svg are written ('//' is the .blend's folder)",
         subtype="FILE_PATH",
         options={"PATH_SUPPORTS_BLEND_RELATIVE"},
         default="",
@@ -131,7 +131,13 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
         except (timing_report.TimingReportError, SettingsError) as exc:
             self.report({"ERROR"}, f"Timing report: {exc}")
             return {"CANCELLED"}
+        if not bpy.app.background and context.window is not None:
+            return self._start_modal(context, prefix, frames, settings)
+        return self._run_blocking(context, prefix, frames, settings)
 
+    def _run_blocking(self, context, prefix, frames, settings):
+        """All frames in one call: headless runs (``blender --background``, scripts)."""
+        scene = context.scene
         window_manager = context.window_manager
         if window_manager is not None:
             window_manager.progress_begin(0, (2 if self.compare_full_bvh else 1) * len(frames))
@@ -161,14 +167,7 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
             if window_manager is not None:
                 window_manager.progress_end()
 
-        for message in main.warnings:
-            self.report({"WARNING"}, message)
-        summary = report.summary()
-        self.report(
-            {"INFO"},
-            f"Timing report: {len(report.records)} frames, mean {summary['frame_ms']['mean']:.2f} ms "
-            f"({summary['fps']['mean'] or 0.0:.1f} FPS), written to {', '.join(str(p) for p in written)}",
-        )
+        self._announce(report, written, main.warnings)
         return {"FINISHED"}
 
     def _validate(self, scene):
@@ -202,6 +201,112 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
             {label: report, COMPARE_MODE: compare_report}, f"{prefix}{COMPARISON_CHART_SUFFIX}"
         )
         return [compare_paths["json"], compare_paths["csv"], compare_paths["png"], compare_paths["svg"], chart]
+
+
+    # -- interactive: one frame per timer event, Esc cancels -------------------------------------
+    def _start_modal(self, context, prefix, frames, settings):
+        """Render from a modal, timer-driven handler: Blender stays responsive between frames,
+        the status bar shows the progress and Esc stops the report (its frames so far are
+        written, marked incomplete)."""
+        scene = context.scene
+        self._frames, self._saved = frames, (scene.frame_current, scene.frame_subframe)
+        self._runs = [(prefix, settings)]
+        if self.compare_full_bvh:
+            self._runs.append((f"{prefix}{COMPARE_SUFFIX}", replace(settings, mode=COMPARE_MODE)))
+        self._reports, self._written, self._job = [], [], None
+        window_manager = context.window_manager
+        window_manager.progress_begin(0, len(self._runs) * len(frames))
+        self._start_job(context)
+        self._timer = window_manager.event_timer_add(0.001, window=context.window)
+        window_manager.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _start_job(self, context) -> None:
+        scene = context.scene
+        prefix, settings = self._runs[len(self._reports)]
+        self._stored_mode, scene.hybrid_rt.mode = scene.hybrid_rt.mode, settings.mode
+        self._renderer = _FrameRenderer(context, context.window_manager,
+                                        progress_offset=len(self._reports) * len(self._frames))
+        self._job = timing_report.TimingReportJob(
+            prefix, self._frames.start, self._frames.stop - 1, self._renderer.render,
+            requested_mode=settings.mode, settings=asdict(settings), target_fps=target_fps(scene),
+            scene=scene_info(scene), progress=self._renderer.progress, warnings=self._renderer.warnings,
+            warmup_frames=self.warmup_frames)
+
+    def _close_job(self, context) -> None:
+        """Write the current job's report (partial when cancelled) and put the scene back."""
+        job, self._job = self._job, None
+        context.scene.hybrid_rt.mode = self._stored_mode
+        self._renderer.source.close()
+        if job is not None and job.records:
+            report, paths = job.finish()
+            self._reports.append(report)
+            self._written += [paths["json"], paths["csv"], paths["png"], paths["svg"]]
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            return self._end(context, cancelled=True)
+        if event.type != "TIMER" or self._job is None:
+            return {"PASS_THROUGH"}
+        try:
+            more = self._job.step()
+        except Exception as exc:  # noqa: BLE001 - reported, the scene restored
+            traceback.print_exc()
+            self.report({"ERROR"}, f"Timing report failed at frame {self._renderer.frame}: {exc}")
+            return self._end(context, cancelled=True)
+        done = len(self._reports) * len(self._frames) + len(self._job.records)
+        context.workspace.status_text_set(
+            f"Hybrid RT timing report: {done} of {len(self._runs) * len(self._frames)} frames - Esc to cancel")
+        if more:
+            return {"RUNNING_MODAL"}
+        self._close_job(context)
+        if len(self._reports) < len(self._runs):
+            self._start_job(context)
+            return {"RUNNING_MODAL"}
+        return self._end(context, cancelled=False)
+
+    def _end(self, context, *, cancelled: bool):
+        if self._job is not None:
+            self._close_job(context)
+        window_manager = context.window_manager
+        window_manager.event_timer_remove(self._timer)
+        window_manager.progress_end()
+        context.workspace.status_text_set(None)
+        context.scene.frame_set(self._saved[0], subframe=self._saved[1])
+        if len(self._reports) == 2 and not cancelled:
+            label = "+".join(self._reports[0].rendered_modes)
+            self._written.append(timing_report.write_comparison_chart(
+                {label if label != COMPARE_MODE else f"{label} (SCENE)": self._reports[0],
+                 COMPARE_MODE: self._reports[1]}, f"{self._runs[0][0]}{COMPARISON_CHART_SUFFIX}"))
+        if not self._reports:
+            self.report({"WARNING"}, "Timing report cancelled before its first frame: nothing written")
+            return {"CANCELLED"}
+        self._announce(self._reports[0], self._written, self._renderer.warnings, incomplete=cancelled)
+        _show_in_image_editor(context, self._written[2])
+        return {"CANCELLED"} if cancelled else {"FINISHED"}
+
+    def _announce(self, report, written, warnings, *, incomplete: bool = False) -> None:
+        """The run's warnings, then what was written, in Blender's report."""
+        for message in warnings:
+            self.report({"WARNING"}, message)
+        summary = report.summary()
+        self.report(
+            {"WARNING" if incomplete else "INFO"},
+            f"Timing report{' cancelled' if incomplete else ''}: {len(report.records)} frames, mean "
+            f"{summary['frame_ms']['mean']:.2f} ms ({summary['fps']['mean'] or 0.0:.1f} FPS), written to "
+            f"{', '.join(str(p) for p in written)}",
+        )
+
+
+def _show_in_image_editor(context, png_path) -> None:
+    """Open the chart in an Image Editor of the current screen, when there is one."""
+    screen = getattr(context, "screen", None)
+    editors = [area for area in (screen.areas if screen is not None else ()) if area.type == "IMAGE_EDITOR"]
+    if not editors:
+        return
+    image = bpy.data.images.load(str(png_path), check_existing=True)
+    image.reload()
+    editors[0].spaces.active.image = image
 
 
 class _FrameRenderer:

@@ -157,6 +157,47 @@ def test_the_svg_chart_parses_and_names_every_pass_the_axes_the_target_and_the_s
     assert len(bars) == 4 * 4  # a bar segment per pass and frame
 
 
+def test_a_job_cancelled_after_two_frames_writes_them_and_says_it_is_incomplete(tmp_path):
+    from hybrid_engine.timing_report import TimingReportJob
+
+    renderer = CountingRenderer()
+    job = TimingReportJob(tmp_path / "r", 1, 5, renderer, warmup_frames=1, target_fps=24.0)
+    assert job.current_frame == 1
+    while len(job.records) < 2:
+        assert job.step()
+    report, paths = job.finish()  # the caller stops here: Esc
+    assert renderer.calls == [1, 1, 2]  # one warm-up, then frames 1 and 2
+    data = json.loads(paths["json"].read_text())
+    assert data["complete"] is False and [f["frame"] for f in data["frames"]] == [1, 2]
+    with open(paths["csv"], newline="") as handle:
+        assert [row["frame"] for row in csv.DictReader(handle)] == ["1", "2"]
+    assert "incomplete" in paths["svg"].read_text()
+
+
+def test_a_job_stepped_to_the_end_writes_what_the_one_call_report_writes(tmp_path):
+    from hybrid_engine.timing_report import TimingReportJob
+
+    job = TimingReportJob(tmp_path / "a", 2, 4, CountingRenderer())
+    while job.step():
+        pass
+    _report, stepped = job.finish()
+    _report, called = run_timing_report(tmp_path / "b", 2, 4, CountingRenderer())
+    stepped_data, called_data = (json.loads(p["json"].read_text()) for p in (stepped, called))
+    assert stepped_data["complete"] is True and called_data["complete"] is True
+    assert stepped_data["frames"] == called_data["frames"]
+    assert stepped["csv"].read_text() == called["csv"].read_text()
+
+
+def test_a_job_cancelled_before_its_first_frame_writes_nothing_and_says_so(tmp_path):
+    from hybrid_engine.timing_report import TimingReportJob
+
+    job = TimingReportJob(tmp_path / "r", 1, 3, CountingRenderer(), warmup_frames=2)
+    job.step()  # a warm-up only
+    with pytest.raises(TimingReportError, match="before its first frame"):
+        job.finish()
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_reversed_range_fails_before_any_frame_is_rendered(tmp_path):
     renderer = CountingRenderer()
     with pytest.raises(FrameRangeError):
@@ -473,3 +514,71 @@ def test_a_frame_budget_report_sizes_the_near_cube_per_frame_and_writes_it(addon
     assert sizes[-1] == pytest.approx(getattr(settings, expected)), sizes
     frames = json.loads((tmp_path / "r.json").read_text())["frames"]
     assert [f["near_size"] for f in frames] == pytest.approx(sizes)
+
+
+class _FakeWindowManager:
+    """The window manager calls of the modal report, recorded (background Blender has no
+    event loop, so the test plays Blender: it sends the timer and Esc events itself)."""
+
+    def __init__(self) -> None:
+        self.calls = []
+
+    def __getattr__(self, name):
+        return lambda *args, **kwargs: self.calls.append(name)
+
+
+def _modal_context(bpy):
+    import types
+
+    status = []
+    return types.SimpleNamespace(
+        scene=bpy.context.scene, window=object(), screen=None, window_manager=_FakeWindowManager(),
+        workspace=types.SimpleNamespace(status_text_set=status.append),
+        evaluated_depsgraph_get=bpy.context.evaluated_depsgraph_get), status
+
+
+def _modal_operator(addon, tmp_path, reports, **properties):
+    """The operator's methods on a plain object: what Blender's instance would hold."""
+    import types
+
+    operator = addon.operators.timing_report.HYBRID_RT_OT_timing_report
+    fake = types.SimpleNamespace(filepath=str(tmp_path / "r"), frame_start=1, frame_end=5, compare_full_bvh=False,
+                                 warmup_frames=0, report=lambda levels, text: reports.append((levels, text)),
+                                 **properties)
+    for name in ("_start_modal", "_start_job", "_close_job", "modal", "_end", "_announce"):
+        setattr(fake, name, types.MethodType(getattr(operator, name), fake))
+    return fake
+
+
+@pytest.mark.parametrize("cancel_after", [None, 2])
+def test_the_interactive_report_renders_a_frame_per_timer_event_and_esc_writes_what_it_has(
+        addon, tmp_path, cancel_after):
+    import types
+
+    import bpy
+
+    scene = build_animated_scene(bpy)
+    reports = []
+    fake = _modal_operator(addon, tmp_path, reports)
+    context, status = _modal_context(bpy)
+    settings = addon.blender_adapter.properties.settings_from_scene(scene)
+    assert fake._start_modal(context, tmp_path / "r", range(1, 6), settings) == {"RUNNING_MODAL"}
+    assert {"modal_handler_add", "event_timer_add", "progress_begin"} <= set(context.window_manager.calls)
+    timer, esc = types.SimpleNamespace(type="TIMER"), types.SimpleNamespace(type="ESC")
+    results = []
+    for step in range(10):
+        event = esc if cancel_after is not None and step == cancel_after else timer
+        results.append(fake.modal(context, event))
+        if results[-1] != {"RUNNING_MODAL"}:
+            break
+    data = json.loads((tmp_path / "r.json").read_text())
+    if cancel_after is None:
+        assert results[-1] == {"FINISHED"} and len(results) == 5  # the UI had the loop back after every frame
+        assert data["complete"] is True and [f["frame"] for f in data["frames"]] == [1, 2, 3, 4, 5]
+    else:
+        assert results[-1] == {"CANCELLED"}
+        assert data["complete"] is False and [f["frame"] for f in data["frames"]] == [1, 2]
+        assert any("cancelled" in text for _levels, text in reports)
+    assert status[-1] is None and "Esc to cancel" in status[0]  # the status bar was used, then cleared
+    assert {"event_timer_remove", "progress_end"} <= set(context.window_manager.calls)
+    assert scene.frame_current == 3 and scene.hybrid_rt.mode == "RASTER"  # put back

@@ -29,8 +29,7 @@ from ..hybrid_engine.camera import Camera, CameraError
 from ..hybrid_engine.materials import DEFAULT_THICKNESS, principled_to_params
 from ..hybrid_engine.scene_data import Geometry, MaterialTable, Sky
 from ..hybrid_engine.solids import closed_outward_indexed
-from ..hybrid_engine.textures import srgb_to_linear
-from . import messages
+from . import colour, messages
 
 
 # Object types whose evaluated geometry becomes a mesh through Object.to_mesh().
@@ -77,10 +76,9 @@ _image_cache: OrderedDict[tuple, np.ndarray] = OrderedDict()
 # The environment's RGB pixels, kept as one array per image content (``_environment_pixels``).
 _environment_cache: dict[tuple, np.ndarray] = {}
 
-# Colour spaces whose byte values are linear already (Blender 5.0 names); ``is_data``
-# (Non-Color) images are read as they are too.
-_LINEAR_SPACES = frozenset({"Linear Rec.709", "Working Space"})
-_SRGB_SPACES = frozenset({"sRGB"})
+# Byte images in this space, and ``is_data`` (Non-Color) ones, are read as they are: Blender
+# 5's name for "whatever the scene works in".
+_WORKING_SPACE_ALIAS = "Working Space"
 
 
 def _tell(message: str, *args) -> None:
@@ -107,20 +105,17 @@ def _image_key(image) -> tuple:
     return key
 
 
-def _byte_image_is_srgb(image) -> bool:
-    """Whether a byte image's values must be decoded from sRGB. Blender hands back byte
-    pixels in the image's own colour space (value / 255) but float pixels in scene linear."""
+def _byte_image_to_working_space(image, rgb: np.ndarray) -> np.ndarray:
+    """A byte image's colours (in its own colour space, as Blender hands them back) in the
+    scene's working space (colour.py); an unknown space is read as it is, and said so."""
     settings = image.colorspace_settings
-    name = settings.name
-    if settings.is_data or name in _LINEAR_SPACES:
-        return False
-    if name in _SRGB_SPACES:
-        return True
-    linear = name.startswith("Linear") or name in ("ACEScg", "ACES2065-1")
-    _tell(
-               "image %r: colour space %r is read as %s (its gamut is taken as Rec.709)",
-               image.name_full, name, "linear" if linear else "sRGB")
-    return not linear
+    if settings.is_data or settings.name == _WORKING_SPACE_ALIAS:
+        return rgb
+    try:
+        return colour.to_working_space(rgb, settings.name)
+    except colour.ColourSpaceError as exc:
+        _tell("image %r: %s; its values are used as they are", image.name_full, exc)
+        return rgb
 
 
 def image_pixels(image) -> np.ndarray | None:
@@ -149,8 +144,8 @@ def image_pixels(image) -> np.ndarray | None:
     out[..., :3] = pixels[..., :3] if channels >= 3 else pixels[..., :1]
     if channels in (2, 4):
         out[..., 3] = pixels[..., -1]
-    if not image.is_float and _byte_image_is_srgb(image):
-        out[..., :3] = srgb_to_linear(out[..., :3])
+    if not image.is_float:
+        out[..., :3] = _byte_image_to_working_space(image, out[..., :3])
     out.flags.writeable = False  # shared by the cache and every scene that uses it
     _image_cache[key] = out
     total = sum(a.nbytes for a in _image_cache.values())

@@ -6,8 +6,7 @@ has numpy but no matplotlib), headless on a build machine, in tests. So the char
 paper's evaluation (Figure 5: per-pass time of every frame of an animation as stacked bars;
 Figure 6: the frame time of two modes as lines) are rasterized here straight into an
 (H, W, 3) uint8 array, text included (a 3x5 bitmap font, scaled by whole pixels), and
-encoded with ``zlib`` + ``struct``. ``decode_png`` reads PNGs back (all five scanline
-filters) so tests can check what was written without Blender.
+encoded with ``zlib`` + ``struct`` (the tests read them back with Blender's OpenImageIO).
 
 Arrays are row 0 at the top, as PNG stores them. Drawing is vectorised per image, not per
 bar or per pixel, so a 100 000-frame chart takes as long as a 10-frame one.
@@ -470,81 +469,3 @@ def encode_png(pixels: np.ndarray, compression: int = 6, adaptive_filter: bool =
 def write_png(path, pixels: np.ndarray) -> None:
     with open(path, "wb") as handle:
         handle.write(encode_png(pixels))
-
-
-class PNGDecodeError(ValueError):
-    """The data is not a PNG this decoder reads (8-bit grey/RGB/RGBA, not interlaced)."""
-
-
-def _paeth(a: int, b: int, c: int) -> int:
-    p = a + b - c
-    pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
-    if pa <= pb and pa <= pc:
-        return a
-    return b if pb <= pc else c
-
-
-def decode_png(data: bytes) -> np.ndarray:
-    """Pixels of an 8-bit grey, RGB or RGBA PNG as an (H, W, C) uint8 array, row 0 at the top.
-
-    Checks every chunk's CRC and undoes all five scanline filters, so PNGs written by other
-    programs (Blender's, for one) decode too. Sub/Average/Paeth are undone byte by byte in
-    Python: fine for test images, slow for photographs.
-    """
-    if not data.startswith(PNG_SIGNATURE):
-        raise PNGDecodeError("missing PNG signature")
-    offset = len(PNG_SIGNATURE)
-    header = None
-    idat = []
-    while offset < len(data):
-        if offset + 8 > len(data):
-            raise PNGDecodeError("truncated chunk header")
-        length, tag = struct.unpack(">I4s", data[offset:offset + 8])
-        body = data[offset + 8: offset + 8 + length]
-        (crc,) = struct.unpack(">I", data[offset + 8 + length: offset + 12 + length])
-        if zlib.crc32(tag + body) & 0xFFFFFFFF != crc:
-            raise PNGDecodeError(f"CRC mismatch in chunk {tag!r}")
-        offset += 12 + length
-        if tag == b"IHDR":
-            header = struct.unpack(">IIBBBBB", body)
-        elif tag == b"IDAT":
-            idat.append(body)
-        elif tag == b"IEND":
-            break
-    if header is None:
-        raise PNGDecodeError("no IHDR chunk")
-    width, height, depth, color_type, _compression, _filter, interlace = header
-    if depth != 8 or color_type not in _CHANNELS or interlace != 0:
-        raise PNGDecodeError(f"unsupported PNG: bit depth {depth}, colour type {color_type}, interlace {interlace}")
-    channels = _CHANNELS[color_type]
-    stride = width * channels
-    raw = np.frombuffer(zlib.decompress(b"".join(idat)), dtype=np.uint8)
-    if raw.size != height * (stride + 1):
-        raise PNGDecodeError(f"image data holds {raw.size} bytes, expected {height * (stride + 1)}")
-    rows = raw.reshape(height, stride + 1)
-    out = np.zeros((height, stride), dtype=np.uint8)
-    previous = np.zeros(stride, dtype=np.uint8)
-    for y in range(height):
-        kind, line = rows[y, 0], rows[y, 1:].astype(np.int64)
-        if kind == 0:
-            current = line
-        elif kind == 2:  # Up
-            current = line + previous
-        elif kind in (1, 3, 4):  # Sub, Average, Paeth: sequential within the row
-            current = line.copy()
-            for i in range(stride):
-                left = int(current[i - channels]) & 0xFF if i >= channels else 0
-                up = int(previous[i])
-                up_left = int(previous[i - channels]) if i >= channels else 0
-                if kind == 1:
-                    predictor = left
-                elif kind == 3:
-                    predictor = (left + up) // 2
-                else:
-                    predictor = _paeth(left, up, up_left)
-                current[i] = (current[i] + predictor) & 0xFF
-        else:
-            raise PNGDecodeError(f"unknown filter type {kind} on row {y}")
-        out[y] = (current & 0xFF).astype(np.uint8)
-        previous = out[y]
-    return out.reshape(height, width, channels)

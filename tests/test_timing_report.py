@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from conftest import REPO_ROOT
+from image_io import read_png
 from hybrid_engine import chart_png, timing_report
 from hybrid_engine.renderer import FrameResult
 from hybrid_engine.timing import TIMING_SOURCE_WALL
@@ -239,7 +240,7 @@ def test_report_files_carry_whatever_passes_and_counts_the_frames_have(tmp_path)
     assert float(rows[2][6]) == pytest.approx(12.0)
     assert all(row[3] == "" for row in rows[1:])  # these frames used no near cube
 
-    image = chart_png.decode_png(paths["png"].read_bytes())
+    image = read_png(paths["png"])
     assert image.shape == (520, 1000, 3)
     # Every pass's colour appears in the chart.
     for color in timing_report.pass_colors(data["pass_order"]):
@@ -258,7 +259,7 @@ def test_comparison_chart_draws_each_run(tmp_path):
     fast, _ = run_timing_report(tmp_path / "fast", 1, 4, CountingRenderer(lambda f: {"trace": 5.0}))
     slow, _ = run_timing_report(tmp_path / "slow", 1, 4, CountingRenderer(lambda f: {"trace": 20.0}))
     path = timing_report.write_comparison_chart({"HYBRID": fast, "FULL_BVH": slow}, tmp_path / "cmp.png")
-    image = chart_png.decode_png(path.read_bytes())
+    image = read_png(path)
     for color in chart_png.PALETTE[:2]:
         assert np.all(image == np.array(color, np.uint8), axis=-1).sum() > 50
 
@@ -337,7 +338,7 @@ def test_operator_writes_a_row_per_frame_whose_passes_sum_to_the_total(addon, ex
         assert float(row["extract_ms"]) == pytest.approx(frame["passes"]["extract"], rel=1e-5)
 
     png = tmp_path / "report.png"
-    decoded = chart_png.decode_png(png.read_bytes())
+    decoded = read_png(png)
     image = bpy.data.images.load(str(png))
     try:
         assert tuple(image.size) == (decoded.shape[1], decoded.shape[0])
@@ -459,7 +460,7 @@ def test_full_bvh_comparison_writes_its_own_report_and_a_comparison_chart(addon,
     assert compare["requested_mode"] == "FULL_BVH" and compare["rendered_modes"] == ["FULL_BVH"]
     assert compare["settings"]["mode"] == "FULL_BVH"
     assert [f["frame"] for f in compare["frames"]] == [1, 2, 3]
-    assert chart_png.decode_png((tmp_path / "r_compare.png").read_bytes()).shape == (520, 1000, 3)
+    assert read_png(tmp_path / "r_compare.png").shape == (520, 1000, 3)
     assert scene.hybrid_rt.mode == "RASTER" and scene.frame_current == 3
 
 

@@ -143,7 +143,8 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
     with gl_block():
         renderer = shared_renderer()
         result = render_antialiased(renderer, scene_data, camera, settings, samples, outputs=outputs,
-                                    cancel=cancel, progress=progress)
+                                    cancel=cancel, progress=progress,
+                                    filter_width=float(scene.render.filter_size))
     result.passes = {"extract": extract_ms, **result.passes}
     result.total_ms += extract_ms
     if sizer is not None:

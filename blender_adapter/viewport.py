@@ -38,7 +38,7 @@ from dataclasses import dataclass, replace
 import bpy
 import numpy as np
 
-from ..hybrid_engine.accumulation import SampleAccumulator
+from ..hybrid_engine.accumulation import DEFAULT_FILTER_WIDTH, SampleAccumulator
 from ..hybrid_engine.antialias import jittered_camera
 from ..hybrid_engine.film import FrameOutputs
 from ..hybrid_engine.gl_context import GLUnavailableError
@@ -105,9 +105,11 @@ class ViewportSession:
         return report
 
     # -- view_draw -------------------------------------------------------------------------
-    def frame(self, region: RegionInput, settings: RenderSettings, *, transparent: bool = False) -> ViewportFrame:
+    def frame(self, region: RegionInput, settings: RenderSettings, *, transparent: bool = False,
+              filter_width: float = DEFAULT_FILTER_WIDTH) -> ViewportFrame:
         """Render one frame of ``region`` (never raises; see ``ViewportFrame.error``);
-        ``transparent``: the film's transparency, the background drawn through (alpha 0)."""
+        ``transparent``: the film's transparency, the background drawn through (alpha 0);
+        ``filter_width``: the pixel filter the accumulated samples are spread over."""
         start = time.perf_counter()
         rect = (0, 0, int(region.width), int(region.height))
         try:
@@ -116,7 +118,8 @@ class ViewportSession:
             settings = self.sizer.settings_for_frame(settings)
             if plan.view is None:
                 return ViewportFrame(None, rect, f"{ERROR_PREFIX} | render border outside the view")
-            key = accumulation_key(plan.view, settings, self.scene_version, transparent)
+            key = (accumulation_key(plan.view, settings, self.scene_version, transparent), filter_width)
+            self.accumulator.filter_width = filter_width
             target = settings.viewport_samples
             if not self.accumulator.wants(key, target) and self._last is not None:
                 return replace(self._last, rect=rect, converged=True)  # nothing changed: no render
@@ -284,7 +287,9 @@ def view_draw(engine, context, depsgraph) -> None:
     except Exception as exc:  # noqa: BLE001 - bad settings or camera: show it, keep drawing
         frame = session._failed(exc, (0, 0, context.region.width, context.region.height))
     else:
-        frame = session.frame(region, settings, transparent=bool(depsgraph.scene.render.film_transparent))
+        render = depsgraph.scene.render
+        frame = session.frame(region, settings, transparent=bool(render.film_transparent),
+                              filter_width=float(render.filter_size))
     engine.update_stats("", frame.stats)
     _draw_frame(engine, depsgraph.scene, frame)
     if not frame.converged:

@@ -12,9 +12,14 @@ render adds ``render_samples`` of them at once.
 """
 from __future__ import annotations
 
+import functools
 from collections.abc import Hashable
 
 import numpy as np
+
+# Blender's default pixel filter: Blackman-Harris, 1.5 pixels wide (Film > Pixel Filter).
+DEFAULT_FILTER_WIDTH = 1.5
+_FILTER_TABLE_SIZE = 1024
 
 
 def _radical_inverse(index: int, base: int) -> float:
@@ -26,22 +31,47 @@ def _radical_inverse(index: int, base: int) -> float:
     return result
 
 
-def sample_offset(index: int) -> tuple[float, float]:
-    """Offset of sample ``index`` from the pixels' centres, in pixels, inside (-0.5, 0.5)^2:
-    the centre first, then the Halton (2, 3) points, which spread evenly over the pixel for
-    any count (a progressive sequence: the first n of 2n are a good set)."""
+@functools.lru_cache(maxsize=8)
+def _filter_inverse_cdf(width: float) -> tuple[np.ndarray, np.ndarray]:
+    """(cdf, x): the cumulative distribution of a Blackman-Harris window ``width`` pixels
+    wide, tabulated, to map uniform numbers to offsets distributed like the filter."""
+    x = np.linspace(-0.5 * width, 0.5 * width, _FILTER_TABLE_SIZE)
+    t = (x / width + 0.5) * 2.0 * np.pi
+    weight = np.maximum(0.35875 - 0.48829 * np.cos(t) + 0.14128 * np.cos(2 * t) - 0.01168 * np.cos(3 * t), 0.0)
+    cdf = np.cumsum(weight)
+    cdf = (cdf - cdf[0]) / (cdf[-1] - cdf[0])
+    return cdf, x
+
+
+def filter_offset(u: float, width: float) -> float:
+    """A uniform number in [0, 1) as an offset from the pixel's centre drawn from the pixel
+    filter (Blackman-Harris of ``width`` pixels, as Cycles' default): samples are placed by
+    the filter's weight, so their plain mean is the filtered pixel (filter importance
+    sampling). ``width`` <= 0 keeps every sample at the centre."""
+    if width <= 0.0:
+        return 0.0
+    cdf, x = _filter_inverse_cdf(float(width))
+    return float(np.interp(u, cdf, x))
+
+
+def sample_offset(index: int, filter_width: float = DEFAULT_FILTER_WIDTH) -> tuple[float, float]:
+    """Offset of sample ``index`` from the pixels' centres, in pixels: the centre first, then
+    the Halton (2, 3) points, which spread evenly for any count (a progressive sequence: the
+    first n of 2n are a good set), each axis mapped through the pixel filter."""
     if index == 0:
         return 0.0, 0.0
-    return _radical_inverse(index, 2) - 0.5, _radical_inverse(index, 3) - 0.5
+    return (filter_offset(_radical_inverse(index, 2), filter_width),
+            filter_offset(_radical_inverse(index, 3), filter_width))
 
 
 class SampleAccumulator:
     """The running mean of the samples rendered for one key (what the samples show)."""
 
-    def __init__(self) -> None:
+    def __init__(self, filter_width: float = DEFAULT_FILTER_WIDTH) -> None:
         self.key: Hashable | None = None
         self.count = 0
         self._sum: np.ndarray | None = None
+        self.filter_width = filter_width  # the pixel filter's width (Film > Pixel Filter)
 
     def wants(self, key: Hashable, target: int) -> bool:
         """Whether another sample of ``key`` is due (fewer than ``target`` so far); a key
@@ -56,7 +86,7 @@ class SampleAccumulator:
 
     def offset(self) -> tuple[float, float]:
         """The next sample's offset from the pixels' centres, in pixels."""
-        return sample_offset(self.count)
+        return sample_offset(self.count, self.filter_width)
 
     def add(self, image: np.ndarray) -> np.ndarray:
         """Add the next sample's image; returns the mean so far."""

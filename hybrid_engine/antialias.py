@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .accumulation import SampleAccumulator, sample_offset
+from .accumulation import DEFAULT_FILTER_WIDTH, SampleAccumulator, sample_offset
 from .camera import Camera
 from .film import FrameOutputs, cropped_camera
 from .renderer import CancelCallback, FrameResult, ProgressCallback, Renderer
@@ -28,11 +28,11 @@ from .scene_data import SceneData
 from .settings import RenderSettings
 
 
-def sample_offsets(count: int) -> np.ndarray:
+def sample_offsets(count: int, filter_width: float = DEFAULT_FILTER_WIDTH) -> np.ndarray:
     """(count, 2) offsets of the first ``count`` samples (``sample_offset``)."""
     if count < 1:
         raise ValueError(f"a frame needs at least one sample, got {count}")
-    return np.asarray([sample_offset(i) for i in range(count)], np.float64)
+    return np.asarray([sample_offset(i, filter_width) for i in range(count)], np.float64)
 
 
 def jittered_camera(camera: Camera, dx: float, dy: float) -> Camera:
@@ -47,7 +47,8 @@ def jittered_camera(camera: Camera, dx: float, dy: float) -> Camera:
 def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, settings: RenderSettings,
                        samples: int, *, outputs: FrameOutputs | None = None, timing: bool = True,
                        cancel: CancelCallback | None = None,
-                       progress: ProgressCallback | None = None) -> FrameResult:
+                       progress: ProgressCallback | None = None,
+                       filter_width: float = DEFAULT_FILTER_WIDTH) -> FrameResult:
     """The frame averaged over ``samples`` sub-pixel positions (``sample_offsets``).
 
     The result's ``passes`` sum each pass over the samples (the kept cube map and BVH are
@@ -65,7 +66,7 @@ def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, set
     first: FrameResult | None = None
     passes: dict[str, float] = {}
     total_ms = 0.0
-    accumulator = SampleAccumulator()
+    accumulator = SampleAccumulator(filter_width)
     while accumulator.wants("frame", samples):
         index = accumulator.count
         dx, dy = accumulator.offset()

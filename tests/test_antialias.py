@@ -16,6 +16,7 @@ from test_film import SMALL, analytic_floor, cameras, floor_scene
 # A coverage estimate from n samples errs by about 1 / sqrt(n) at worst on one pixel and far
 # less on average over an edge (the Halton points are stratified).
 COVERAGE_MEAN_ERROR = 0.08
+PIXEL_FILTER = 1.5  # Blender's default Film > Pixel Filter width
 
 
 def test_sample_offsets_start_at_the_centre_and_spread_over_the_pixel():
@@ -47,29 +48,41 @@ def test_a_jittered_camera_moves_the_image_by_the_offset_in_pixels(name, rng):
     assert jittered_camera(camera, 0.0, 0.0) is camera
 
 
-def analytic_coverage(camera, grid: int = 8) -> np.ndarray:
-    """The fraction of each pixel that sees the floor, from a grid x grid sub-pixel lattice."""
+def blackman_harris(x: np.ndarray, width: float) -> np.ndarray:
+    """The 4-term Blackman-Harris window ``width`` pixels wide, centred at 0 (Cycles' pixel filter)."""
+    t = 2.0 * np.pi * (x / width + 0.5)
+    return 0.35875 - 0.48829 * np.cos(t) + 0.14128 * np.cos(2 * t) - 0.01168 * np.cos(3 * t)
+
+
+def analytic_coverage(camera, width: float = PIXEL_FILTER, grid: int = 12) -> np.ndarray:
+    """The floor's share of each pixel weighted by the pixel filter: the filtered coverage
+    integrated over a grid x grid lattice of sub-pixel positions across the filter's width."""
+    positions = ((np.arange(grid) + 0.5) / grid - 0.5) * width
+    weights = blackman_harris(positions, width)
     total = np.zeros((camera.height, camera.width))
-    for sx in (np.arange(grid) + 0.5) / grid - 0.5:
-        for sy in (np.arange(grid) + 0.5) / grid - 0.5:
+    for sx, wx in zip(positions, weights):
+        for sy, wy in zip(positions, weights):
             hit, _ = analytic_floor(jittered_camera(camera, sx, sy))
-            total += hit
-    return total / grid ** 2
+            total += wx * wy * hit
+    return total / weights.sum() ** 2
 
 
-def test_averaged_samples_give_edge_pixels_the_fraction_each_side_covers(renderer):
+def test_averaged_samples_give_edge_pixels_the_filtered_fraction_each_side_covers(renderer):
     camera = cameras()["persp"]
     coverage = analytic_coverage(camera)
-    edge = (coverage > 0) & (coverage < 1)
+    edge = (coverage > 0.1) & (coverage < 0.9)  # clearly partial: the filter's tails aside
+    solid = (coverage == 0) | (coverage == 1)
     assert edge.sum() > 20
     outputs = FrameOutputs(transparent=True)
     settings = RenderSettings(mode="RASTER", **SMALL)
-    one = render_antialiased(renderer, floor_scene(), camera, settings, 1, outputs=outputs).image[..., 3]
-    many = render_antialiased(renderer, floor_scene(), camera, settings, 32, outputs=outputs).image[..., 3]
+    one = render_antialiased(renderer, floor_scene(), camera, settings, 1, outputs=outputs,
+                             filter_width=PIXEL_FILTER).image[..., 3]
+    many = render_antialiased(renderer, floor_scene(), camera, settings, 32, outputs=outputs,
+                              filter_width=PIXEL_FILTER).image[..., 3]
     assert set(np.unique(one)) <= {0.0, 1.0}
     assert np.abs(one[edge] - coverage[edge]).mean() > 2 * COVERAGE_MEAN_ERROR, "one sample cannot resolve edges"
     assert np.abs(many[edge] - coverage[edge]).mean() < COVERAGE_MEAN_ERROR
-    np.testing.assert_array_equal(many[~edge], coverage[~edge])
+    np.testing.assert_array_equal(many[solid], coverage[solid])
 
 
 def test_later_samples_keep_the_cube_map_and_bvh_and_give_the_same_image(renderer, monkeypatch):

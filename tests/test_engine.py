@@ -327,6 +327,10 @@ def test_render_samples_antialias_edges_and_keep_the_data_passes_at_pixel_centre
     assert (np.round(alpha * 8) == alpha * 8).all(), "alpha is a count of covered samples out of 8"
     np.testing.assert_array_equal(eight["ViewLayer.Depth.Z"], one["ViewLayer.Depth.Z"])
     assert addon.blender_adapter.engine.last_frame.counts["samples"] == 8
+    # Film > Pixel Filter spreads the samples: a wider filter softens the edges more.
+    scene.render.filter_size = 6.0
+    wide = render_multilayer(bpy, scene, tmp_path / "wide.exr")["ViewLayer.Combined.A"]
+    assert ((wide > 0) & (wide < 1)).sum() > partial.sum()
 
 
 def _render_both(bpy, scene, tmp_path, mode="RASTER"):

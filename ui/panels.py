@@ -174,6 +174,7 @@ class RENDER_PT_hybrid_rt_film(HybridRTPanel, bpy.types.Panel):
 
     def draw(self, context) -> None:
         layout = _split(self.layout)
+        layout.column().prop(context.scene.render, "filter_size", text="Pixel Filter")
         layout.column().prop(context.scene.render, "film_transparent", text="Transparent")
         layout.column().prop(context.scene.hybrid_rt, "viewport_scale", text="Viewport Scale")
 

@@ -177,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
             if result != {"FINISHED"}:
                 print("demo: the timing report failed; see the messages above", file=sys.stderr)
                 return 1
-            print(f"demo: wrote {prefix}.json, .csv and .png (frames {scene.frame_start}-{last})")
+            print(f"demo: wrote {prefix}.json, .csv, .png and .svg (frames {scene.frame_start}-{last})")
             summary = json.loads(prefix.with_suffix(".json").read_text())["summary"]
             print(f"demo: median frame {summary['frame_ms']['median']:.1f} ms "
                   f"({summary['fps']['median']:.2f} FPS), per-pass means:")

@@ -24,7 +24,7 @@ from addon_loader import load_addon
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--blend", required=True, help=".blend file to open")
-    parser.add_argument("--prefix", required=True, help="output prefix: PREFIX.json, .csv and .png")
+    parser.add_argument("--prefix", required=True, help="output prefix: PREFIX.json, .csv, .png and .svg")
     parser.add_argument("--start", type=int, help="first frame (default: the scene's start frame)")
     parser.add_argument("--end", type=int, help="last frame (default: the scene's end frame)")
     parser.add_argument("--scene", help="scene name (default: the file's active scene)")

@@ -158,6 +158,10 @@ class RecordingLayout:
     def operator(self, idname, **_kwargs):
         self.drawn.append(idname)
 
+    def prop_enum(self, data, name, value, **_kwargs):
+        assert value in [item.identifier for item in data.bl_rna.properties[name].enum_items], value
+        self.drawn.append(f"{name}={value}")
+
     def label(self, **_kwargs):
         pass
 
@@ -200,7 +204,8 @@ def test_the_render_panels_draw_every_setting_once_the_report_and_the_overlay_qu
     drawn = list(dict.fromkeys(drawn))
     settings = [f.name for f in fields(RenderSettings)]
     assert sorted(name for name in drawn if name in settings) == sorted(settings)
-    assert {"hybrid_rt.timing_report", "show_near_cube", "film_transparent"} <= set(drawn)
+    assert {"hybrid_rt.timing_report", "show_near_cube", "film_transparent", "filter_size",
+            "mode=PROVENANCE"} <= set(drawn)
     assert addon.ui.panels.RENDER_PT_hybrid_rt_shadows.bl_parent_id == "RENDER_PT_hybrid_rt_hybrid"
 
 

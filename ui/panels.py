@@ -189,6 +189,9 @@ class RENDER_PT_hybrid_rt_diagnostics(HybridRTPanel, bpy.types.Panel):
 
     def draw(self, context) -> None:
         layout = _split(self.layout)
+        col = layout.column(heading="Debug View")
+        # The render mode's diagnostic view (Light Paths > Mode holds them all).
+        col.prop_enum(context.scene.hybrid_rt, "mode", "PROVENANCE")
         col = layout.column()
         col.prop(context.scene.hybrid_rt, "show_near_cube", icon="CUBE")
         # Per-pass frame times of the scene's frame range (JSON, CSV and a chart).

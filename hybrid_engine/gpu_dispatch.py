@@ -192,6 +192,10 @@ def bind_blocks(buffer, bindings: Sequence[int], split: BlockSplit) -> None:
         bind_storage(buffer, binding, offset, size)
 
 
+class GPUMemoryError(RuntimeError):
+    """The GPU could not hold a buffer the scene needs; the message names it and its size."""
+
+
 class GrowBuffer:
     """A GL buffer that is re-allocated only when a request exceeds its capacity.
 
@@ -219,9 +223,22 @@ class GrowBuffer:
             capacity = (capacity + 255) // 256 * 256
             if self.buffer is not None:
                 self.buffer.release()
-            self.buffer = self._ctx.buffer(reserve=capacity)
+                self.buffer = None
+            self.buffer = self._allocate(capacity, nbytes)
             self.allocations += 1
         return self.buffer
+
+    def _allocate(self, capacity: int, needed: int):
+        """A new buffer of ``capacity`` bytes, or a GPUMemoryError naming what did not fit when
+        the driver refuses it (a scene past the GPU's memory)."""
+        try:
+            return self._ctx.buffer(reserve=capacity)
+        except Exception as exc:  # noqa: BLE001 - the driver's own words go into the message
+            raise GPUMemoryError(self._too_large(needed, str(exc))) from exc
+
+    def _too_large(self, needed: int, reason: str) -> str:
+        return (f"the GPU cannot hold the {self.label} ({needed / 2**20:,.1f} MiB): {reason}. The scene "
+                "is too large for this GPU's memory: hide or decimate objects, or lower resolutions")
 
     def upload(self, data: bytes | memoryview) -> object:
         """Copy ``data`` to the start of the buffer, growing it if needed."""

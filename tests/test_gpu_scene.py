@@ -110,3 +110,16 @@ def test_a_triangle_with_a_non_finite_corner_collapses_to_the_origin_and_bad_nor
     np.testing.assert_array_equal(got["normals"][1:], normals[1:])
     clean = tris[:1]
     assert finite_positions(clean) is clean  # no copy when there is nothing to sanitise
+
+
+def test_a_scene_past_the_gpus_memory_fails_with_a_message_naming_the_buffer_and_its_size(ctx):
+    from hybrid_engine import gpu_dispatch
+
+    class RefusingContext:
+        def buffer(self, reserve):
+            raise RuntimeError("glBufferData: out of memory")
+
+    grow = gpu_dispatch.GrowBuffer(RefusingContext(), "scene positions")
+    with pytest.raises(gpu_dispatch.GPUMemoryError, match=r"scene positions \(3,072\.0 MiB\).*out of memory"):
+        grow.ensure(3 * 2**30)
+    assert grow.buffer is None and grow.allocations == 0

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import functools
 from collections import OrderedDict
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -453,6 +454,9 @@ class _MeshData:
     # Every edge borders two face corners' worth of loops (corners == 2 x edges): necessary
     # for a closed 2-manifold and free to test, so open meshes skip the full check.
     maybe_closed: bool = False
+    # (vertices, corners, faces, triangles, normals domain): what a deformed re-read must
+    # find unchanged to keep the topology (``reread_deformed``).
+    shape: tuple = ()
 
     @property
     def triangle_count(self) -> int:
@@ -596,6 +600,7 @@ def _read_mesh(mesh) -> _MeshData | None:
     used = np.zeros(n_verts, bool)
     used[corner_verts] = True  # every corner of a face belongs to one of its triangles
     return _MeshData(
+        shape=(n_verts, n_corners, n_faces, n_tris, domain),
         positions=positions,
         tri_vertices=tri_vertices.astype(np.int32, copy=False),
         normals=_sanitize_normals(normals),
@@ -605,6 +610,34 @@ def _read_mesh(mesh) -> _MeshData | None:
         all_vertices_used=bool(used.all()),
         maybe_closed=n_corners == 2 * len(mesh.edges),
     )
+
+
+def _mesh_shape(mesh) -> tuple:
+    return (len(mesh.vertices), len(mesh.loops), len(mesh.polygons), len(mesh.loop_triangle_polygons),
+            mesh.normals_domain)
+
+
+def reread_deformed(mesh, previous: _MeshData | None) -> _MeshData | None:
+    """A deformed mesh read again as positions and normals only, the topology (triangles,
+    material slots, UVs) kept from ``previous`` when the mesh's counts and normal domain are
+    unchanged: what an armature, a shape key or a Wave modifier changes. None when they
+    differ (a new topology: read it whole with ``_read_mesh``)."""
+    if previous is None or not previous.shape or _mesh_shape(mesh) != previous.shape:
+        return None
+    n_verts, n_corners, n_faces, _n_tris, domain = previous.shape
+    position_attr = _attribute(mesh, "position", "POINT", "FLOAT_VECTOR")
+    positions = _read(position_attr.data if position_attr else mesh.vertices,
+                      "vector" if position_attr else "co", n_verts, 3, np.float32)
+    if domain == "POINT":
+        normals = _read(mesh.vertex_normals, "vector", n_verts, 3, np.float32)
+    elif domain == "FACE":
+        normals = _read(mesh.polygon_normals, "vector", n_faces, 3, np.float32)
+    else:
+        normals = _read(mesh.corner_normals, "vector", n_corners, 3, np.float32)
+    data = dataclasses.replace(previous, positions=positions, normals=_sanitize_normals(normals))
+    if "closed" in previous.__dict__:  # closedness is topology: keep the cached answer
+        data.__dict__["closed"] = previous.__dict__["closed"]
+    return data
 
 
 def _normal_matrix(linear: np.ndarray) -> np.ndarray:

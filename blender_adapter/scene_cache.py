@@ -340,7 +340,10 @@ class SceneCache:
         if geometry_dirty:
             mesh_key = mesh.as_pointer()
             if mesh_key not in mesh_reads:
-                mesh_reads[mesh_key] = extract._read_mesh(mesh)
+                # A deformed mesh keeps its topology: only positions and normals are read
+                # again (never on a full sync, which trusts nothing kept).
+                kept = None if full or entry is None else extract.reread_deformed(mesh, entry.data)
+                mesh_reads[mesh_key] = kept if kept is not None else extract._read_mesh(mesh)
             data = mesh_reads[mesh_key]
             arrays = extract._instance_arrays(name, data, matrix, slot_ids) if data else None
             self._entries[key] = _Entry(name, data, matrix, slot_ids, arrays)

@@ -74,21 +74,28 @@ def test_moving_one_object_rewrites_and_uploads_only_its_rows(addon, fed_session
     np.testing.assert_array_equal(frame.image, _from_scratch(addon, bpy))
 
 
-def test_deforming_a_mesh_keeps_the_layout_and_a_new_topology_rebuilds_it(addon, fed_session):
+def test_deforming_a_mesh_rereads_only_its_positions_and_a_new_topology_rebuilds_it(addon, fed_session,
+                                                                                    monkeypatch):
     import bpy
 
+    extract = addon.blender_adapter.extract
+    whole_reads = []
+    read_mesh = extract._read_mesh
+    monkeypatch.setattr(extract, "_read_mesh", lambda mesh: whole_reads.append(mesh.name) or read_mesh(mesh))
     session, reports = fed_session
     scene, cube = _scene(bpy)
     _frame(addon, bpy, session)
+    whole_reads.clear()
     cube.data.vertices[0].co.z += 0.3
     cube.data.update()
     bpy.context.evaluated_depsgraph_get()
     assert reports[-1].extracted == ["Cube"] and not reports[-1].rebuilt
+    assert whole_reads == []  # positions and normals only: the topology was kept
     np.testing.assert_array_equal(_frame(addon, bpy, session).image, _from_scratch(addon, bpy))
 
     cube.modifiers.new("more", "SUBSURF").levels = 1
     bpy.context.evaluated_depsgraph_get()
-    assert reports[-1].rebuilt
+    assert reports[-1].rebuilt and whole_reads  # new counts: read whole
     frame = _frame(addon, bpy, session)
     assert frame.counts["triangles_uploaded"] == session.cache.scene_data.geometry.triangle_count
     np.testing.assert_array_equal(frame.image, _from_scratch(addon, bpy))

@@ -7,6 +7,8 @@ SHELL := /bin/bash
 
 PYTHON_VENV := .venv/bin/python
 PYTEST_ARGS ?=
+# Test worker processes (pytest-xdist); 0 runs the suite in this process.
+TEST_WORKERS ?= 2
 
 .PHONY: help setup demo test bench pictures package clean distclean
 
@@ -30,7 +32,7 @@ demo: setup
 # pytest's exit status is also written to $PYTEST_STATUS_FILE when set (.ci/run reads it to
 # tell "no tests collected" (5) from failures).
 test: setup
-	@status=0; $(PYTHON_VENV) -m pytest tests -q --durations=15 $(PYTEST_ARGS) || status=$$?; \
+	@status=0; $(PYTHON_VENV) -m pytest tests -q -n $(TEST_WORKERS) --durations=15 $(PYTEST_ARGS) || status=$$?; \
 	if [ -n "$${PYTEST_STATUS_FILE:-}" ]; then echo $$status > "$$PYTEST_STATUS_FILE"; fi; \
 	if [ $$status -eq 5 ]; then echo "make test: pytest collected no tests (exit status 5)" >&2; fi; \
 	exit $$status

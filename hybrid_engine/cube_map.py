@@ -29,7 +29,9 @@ import numpy as np
 from .camera import CUBE_FACE_DIRECTIONS, cube_face_views, perspective_matrix
 from .cube_pyramid import CubeHitPyramid
 from .gpu_scene import GPUScene
-from .raster import RasterPasses, RasterView, RenderTargets, gl_matrix
+from .gbuffer import GBufferPass
+from .raster_view import RasterView, gl_matrix
+from .render_targets import RenderTargets
 from .scene_data import SceneData
 from .settings import RenderSettings
 from .view_cull import CulledDraws, CullView, ViewTriangleCuller
@@ -40,7 +42,7 @@ FACE_NAMES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
 
 class CubeFaceTargets(RenderTargets):
     """The six faces' G-buffers as one atlas (face i covers texels [i * res, (i + 1) * res)
-    in x): ``depth``; ``normal_material`` as the primary G-buffer's (raster.GBufferTargets);
+    in x): ``depth``; ``normal_material`` as the primary G-buffer's (render_targets.GBufferTargets);
     ``surface`` (RGBA32F): UV and UV density (sqrt of UV area per world area); ``geometric``
     (RG16F): the octahedral geometric normal.
 
@@ -105,9 +107,9 @@ class CubeMapPass:
     here after the faces.
     """
 
-    def __init__(self, ctx, raster: RasterPasses) -> None:
+    def __init__(self, ctx, gbuffer: GBufferPass) -> None:
         self.ctx = ctx
-        self.raster = raster
+        self.gbuffer = gbuffer
         self.targets: CubeFaceTargets | None = None
         self.faces: CubeFaces | None = None
         self.pyramid = CubeHitPyramid(ctx)
@@ -146,7 +148,6 @@ class CubeMapPass:
         self.faces = CubeFaces.at(center, settings.near_size, settings.cube_far)
         self.resolution = res
         targets.clear()
-        submitted = 0
         views = self.faces.views(res)
         closed = geo.object_closed
         draw_back = self.back_layer and closed is not None and bool(np.any(closed))
@@ -165,16 +166,8 @@ class CubeMapPass:
             else:
                 self.culled = self.culler.cull(triangles[0], triangles[1], cull_views,
                                                geo.object_ranges, geo.object_bounds, closed)
-        for i, view in enumerate(views):
-            # Refractive surfaces are left out: the faces hold what lies behind them
-            # (paper Figure 8; gbuffer.frag.glsl).
-            submitted += self.raster.gbuffer(gpu, scene, view, targets, origin=(i * res, 0),
-                                             culled=self.culled, view_index=i, cube_face=True)
-        if draw_back:
-            for i, view in enumerate(views):
-                submitted += self.raster.gbuffer(gpu, scene, view, targets, origin=(i * res, res),
-                                                 culled=self.culled_back, view_index=i, cube_face=True,
-                                                 back_faces=True)
+        submitted = self.gbuffer.render_cube_faces(gpu, scene, views, targets, self.culled, self.culled_back,
+                                                   back_layer=draw_back)
         if settings.cube_march == "HIERARCHICAL":
             self.pyramid.build(targets.depth, targets.normal_material, gpu.materials.buffer,
                                self.march_uniforms(settings), res, self.layer_defines())

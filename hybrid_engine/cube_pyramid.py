@@ -20,6 +20,7 @@ import math
 import moderngl
 
 from . import shader_loader
+from .bindings import Image, bind
 from .gpu_dispatch import storage_barrier
 
 WORKGROUP = 8  # local size of both pyramid shaders in x and y
@@ -35,8 +36,8 @@ class CubeHitPyramid:
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
-        self.base_prog = shader_loader.compute(ctx, "trace/cube_hiz_base.comp.glsl")
-        self.reduce_prog = shader_loader.compute(ctx, "trace/cube_hiz_reduce.comp.glsl")
+        self.base_prog = shader_loader.compute(ctx, "cube_map/cube_hiz_base.comp.glsl")
+        self.reduce_prog = shader_loader.compute(ctx, "cube_map/cube_hiz_reduce.comp.glsl")
         self.texture: moderngl.Texture | None = None
         self.face_size = 0
         self.levels = 0
@@ -61,22 +62,19 @@ class CubeHitPyramid:
         (CubeMapPass.layer_defines)."""
         texture = self._ensure_texture(resolution)
         size = self.face_size
-        prog = (shader_loader.compute(self.ctx, "trace/cube_hiz_base.comp.glsl", layer_defines)
+        prog = (shader_loader.compute(self.ctx, "cube_map/cube_hiz_base.comp.glsl", layer_defines)
                 if layer_defines else self.base_prog)
-        materials_buffer.bind_to_storage_buffer(0)
-        depth.use(location=0)
-        normal_material.use(location=1)
-        values = dict(march_uniforms, u_cube_depth=0, u_cube_normal_material=1,
-                      u_cube_hiz_res=size)
-        shader_loader.set_uniforms(prog, values)
-        texture.bind_to_image(0, read=False, write=True, level=0)
+        bind(prog, storage={"MaterialBuffer": materials_buffer},
+             textures={"u_cube_depth": depth, "u_cube_normal_material": normal_material},
+             images={"u_level0": Image(texture, read=False, write=True, level=0)},
+             uniforms={**march_uniforms, "u_cube_hiz_res": size})
         prog.run(math.ceil(6 * size / WORKGROUP), math.ceil(size / WORKGROUP), 1)
         for level in range(1, self.levels):
             self.ctx.memory_barrier(moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)
             cells = (6 * size >> level, size >> level)
-            texture.bind_to_image(1, read=True, write=False, level=level - 1)
-            texture.bind_to_image(0, read=False, write=True, level=level)
-            self.reduce_prog["u_size"].value = cells
+            bind(self.reduce_prog, images={"u_finer": Image(texture, read=True, write=False, level=level - 1),
+                                           "u_coarser": Image(texture, read=False, write=True, level=level)},
+                 uniforms={"u_size": cells})
             self.reduce_prog.run(math.ceil(cells[0] / WORKGROUP), math.ceil(cells[1] / WORKGROUP), 1)
         self.ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT | moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)
         storage_barrier(self.ctx)

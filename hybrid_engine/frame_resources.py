@@ -5,22 +5,18 @@ reach of the ambient occlusion.
 Every pass that shades a surface (the deferred shading of the primary G-buffer, paper §3.5,
 and the tracer's BVH and cube-map hits, §3.4) must light it alike, or a surface would change
 its look with the structure that found it. So these passes receive one ``FrameResources``
-and bind it with :meth:`FrameResources.bind`, the only place that knows the bindings of
-include/lighting.glsl, sky.glsl and world_light.glsl; no pass reaches into another pass's
-objects for them.
+and bind what it hands over; no pass reaches into another pass's objects for them. :meth:`FrameResources.bindings` is what they bind, by the names
+include/lighting.glsl, sky.glsl and world_light.glsl declare.
 """
 from __future__ import annotations
 
+from .bindings import Bindings
 from .gpu_dispatch import GrowBuffer
 from .gpu_scene import LIGHT_DTYPE, bytes_of, pack_lights
 from .scene_data import Lights, Sky
 from .settings import RenderSettings
 from .shadow_atlas import ShadowAtlas
-from .sky_light import SKY_SH_BINDING, SkyLight
-
-# Storage bindings of include/lighting.glsl.
-LIGHTS_BINDING = 1
-SHADOW_SLOTS_BINDING = 2
+from .sky_light import SkyLight
 
 
 class FrameResources:
@@ -55,27 +51,17 @@ class FrameResources:
         """The World (recomputed only when it changed, sky_light.py)."""
         self.sky.update(sky)
 
-    def bind(self, prog, first_unit: int) -> int:
-        """Bind the lighting storage blocks and textures for ``prog`` and set its lighting
-        uniforms; texture units from ``first_unit`` on. Returns the next free unit."""
-        from .shader_loader import set_uniforms
-
+    def bindings(self) -> Bindings:
+        """The lighting's storage blocks, samplers and uniforms, for every shading pass."""
         self.shadows.ensure_bindable()
-        self.lights.buffer.bind_to_storage_buffer(LIGHTS_BINDING)
-        self.shadows.slot_buffer.bind_to_storage_buffer(SHADOW_SLOTS_BINDING)
-        self.sky.sh_buffer.bind_to_storage_buffer(SKY_SH_BINDING)
-        textures = {"u_shadow_atlas": self.shadows.static, "u_shadow_dynamic": self.shadows.dynamic,
-                    "u_sky_env": self.sky.texture()}
-        values = {**self.sky.uniforms(), "u_light_count": self.light_count, "u_shadow_bias": self.shadow_bias,
-                  "u_ao_distance": self.ao_distance, "u_sky_visibility_known": int(self.occludes),
-                  "u_ambient_from_rays": int(self.sky_rays)}
-        unit = first_unit
-        for name, tex in textures.items():
-            tex.use(location=unit)
-            values[name] = unit
-            unit += 1
-        set_uniforms(prog, values)
-        return unit
+        return Bindings(
+            storage={"LightBuffer": self.lights.buffer, "ShadowSlotBuffer": self.shadows.slot_buffer,
+                     "SkyIrradiance": self.sky.sh_buffer},
+            textures={"u_shadow_atlas": self.shadows.static, "u_shadow_dynamic": self.shadows.dynamic,
+                      "u_sky_env": self.sky.texture()},
+            uniforms={**self.sky.uniforms(), "u_light_count": self.light_count, "u_shadow_bias": self.shadow_bias,
+                      "u_ao_distance": self.ao_distance, "u_sky_visibility_known": int(self.occludes),
+                      "u_ambient_from_rays": int(self.sky_rays)})
 
     def release(self) -> None:
         self.lights.release()

@@ -7,11 +7,11 @@ Three driver limits shape every pass, and this module keeps them out of the algo
   dimension. :func:`dispatch` splits a 1D job into an x-by-y grid; the kernels rebuild the
   flat index with ``gpu_shaders/include/dispatch.glsl`` and guard it with a count uniform.
 * A storage block may cover at most ``GL_MAX_SHADER_STORAGE_BLOCK_SIZE`` bytes (128 MiB on
-  llvmpipe). :func:`bind_storage` binds exactly the range a pass uses (grow-only buffers are
+  llvmpipe). bindings.bind binds exactly the range a pass uses (grow-only buffers are
   often larger) and refuses a range past the limit with a specific error instead of leaving
   the result to the driver. An array larger than one block is split by :func:`split_blocks`
-  into at most :data:`MAX_SPLIT_BLOCKS` consecutive ranges of one buffer, each bound to its
-  own binding point (:func:`bind_blocks`); the shaders pick the block with the index
+  into at most :data:`MAX_SPLIT_BLOCKS` consecutive ranges of one buffer, each bound as a
+  storage block of its own (bindings.split_storage); the shaders pick the block with the index
   arithmetic of ``gpu_shaders/include/storage_blocks.glsl``. A split array costs a compare
   and a branch per access, so an array that fits one block is never split and its shaders
   are compiled without the split code.
@@ -24,7 +24,7 @@ from __future__ import annotations
 import contextlib
 import math
 from dataclasses import dataclass
-from typing import Iterator, Sequence
+from typing import Iterator
 
 from . import gl_context
 
@@ -112,18 +112,6 @@ def storage_barrier(ctx) -> None:
     ctx.memory_barrier(moderngl.SHADER_STORAGE_BARRIER_BIT)
 
 
-def bind_storage(buffer, binding: int, offset: int = 0, size: int | None = None) -> None:
-    """Bind ``buffer[offset:offset+size]`` to a storage binding, within the block-size limit."""
-    if size is None:
-        size = buffer.size - offset
-    if size > max_block_bytes():
-        raise ValueError(
-            f"binding {binding}: a {size}-byte storage range exceeds the driver's "
-            f"{max_block_bytes()}-byte block limit"
-        )
-    buffer.bind_to_storage_buffer(binding, offset=offset, size=max(size, 4))
-
-
 @dataclass(frozen=True)
 class BlockSplit:
     """An array of ``count`` items of ``item_bytes`` bytes spread over ``blocks`` bindings.
@@ -182,14 +170,6 @@ def split_blocks(count: int, item_bytes: int, what: str,
             f"{max_blocks} are supported ({max_blocks * per_block} items)"
         )
     return BlockSplit(count, item_bytes, per_block, blocks)
-
-
-def bind_blocks(buffer, bindings: Sequence[int], split: BlockSplit) -> None:
-    """Bind the blocks of ``split`` (ranges of ``buffer``) to ``bindings[0..blocks-1]``."""
-    if len(bindings) < split.blocks:
-        raise ValueError(f"{split.blocks} blocks need {split.blocks} bindings, got {len(bindings)}")
-    for binding, (offset, size) in zip(bindings, split.ranges()):
-        bind_storage(buffer, binding, offset, size)
 
 
 class GPUMemoryError(RuntimeError):

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .bindings import Bindings
 from .gpu_dispatch import GrowBuffer
 from .scene_delta import GeometryDelta
 from .scene_data import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, MATERIAL_DTYPE, Geometry, Lights, SceneData
@@ -30,9 +31,6 @@ from .textures import GPUTextures
 
 # Per-vertex attributes: (GLSL input, moderngl format, GPUScene buffer attribute).
 VERTEX_ATTRIBUTES = (("in_pos", "3f", "positions"), ("in_normal", "3f", "normals"), ("in_uv", "2f", "uvs"))
-# Storage binding of the per-triangle material ids in the G-buffer vertex stage
-# (gpu_shaders/raster/gbuffer.vert.glsl).
-TRIANGLE_MATERIAL_BINDING = 1
 
 # struct Light (gpu_shaders/include/scene_layout.glsl)              // total: 64 bytes
 LIGHT_DTYPE = np.dtype(
@@ -130,9 +128,12 @@ class GPUScene:
         return [(getattr(self, buffer).buffer, fmt, name)
                 for name, fmt, buffer in VERTEX_ATTRIBUTES if name in program]
 
-    def bind_triangle_materials(self) -> None:
-        """The per-triangle material ids for the G-buffer vertex stage."""
-        self.triangle_materials.buffer.bind_to_storage_buffer(TRIANGLE_MATERIAL_BINDING)
+    def bindings(self) -> Bindings:
+        """The materials, the per-triangle material ids and the textures, by the names every
+        pass that reads a material declares (scene_layout.glsl, textures.glsl)."""
+        return Bindings(storage={"MaterialBuffer": self.materials.buffer,
+                                 "TriangleMaterials": self.triangle_materials.buffer},
+                        textures={"u_textures": self.textures.array})
 
     def upload(self, scene: SceneData, delta: GeometryDelta | None = None) -> None:
         """Geometry, materials and textures. With a ``delta`` that follows this scene's last

@@ -38,9 +38,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import gl_context, shader_loader
+from .bindings import Storage, bind, split_storage
 from .gpu_dispatch import (
-    BlockSplit, GrowBuffer, bind_blocks, bind_storage, dispatch, max_block_bytes,
-    max_split_items, split_blocks, storage_barrier,
+    BlockSplit, GrowBuffer, dispatch, max_block_bytes, max_split_items, split_blocks, storage_barrier,
 )
 
 # Mirror of struct BVHNode in bvh_layout.glsl (64 bytes). Child refs: >= 0 inner node,
@@ -95,13 +95,12 @@ RAY_SORT_PASSES = math.ceil(RAY_KEY_BITS / RADIX_BITS)
 
 # Input triangles: 9 float32 (the (N, 3, 3) layout of Geometry.triangles).
 INPUT_TRIANGLE_BYTES = 36
-# Bindings of blocks 1..3 of split arrays (defaults of triangle_input.glsl and
-# bvh_storage.glsl): above every binding the passes and the hybrid tracer use themselves.
-INPUT_EXTRA_BINDINGS = (40, 41, 42)
-NODE_EXTRA_BINDINGS = (43, 44, 45)
-TRIANGLE_EXTRA_BINDINGS = (46, 47, 48)
+# The storage blocks of a built LBVH (bvh_storage.glsl, bvh_traverse.glsl), each followed
+# by its blocks 1..3 when split: the node array seen as nodes and as dvec4 halves, and the
+# triangles in leaf order.
+BVH_BLOCKS = ("BVHNodes", "BVHNodeHalves", "BVHTriangles")
 
-_INPUT_DEFINES = {"LOCAL_SIZE": LOCAL_SIZE, "TRI_INPUT_BINDING": 0, "TRI_INDEX_BINDING": 1}
+_INPUT_DEFINES = {"LOCAL_SIZE": LOCAL_SIZE}
 _SORT_DEFINES = {"LOCAL_SIZE": LOCAL_SIZE, "RADIX_BITS": RADIX_BITS}
 
 _ORDERED_MIN_RESET = 0xFFFFFFFF
@@ -118,16 +117,10 @@ def input_defines(split: BlockSplit) -> dict[str, int]:
     return split.defines("TRI_INPUT_BLOCKS", "TRI_INPUT_BLOCK_SIZE")
 
 
-def bind_input(buffer, split: BlockSplit, first_binding: int = 0) -> None:
-    """Bind an input triangle buffer at ``first_binding`` (and 40..42 when split)."""
-    bind_blocks(buffer, (first_binding, *INPUT_EXTRA_BINDINGS), split)
-
-
-def _set_uniform(program, name: str, value) -> None:
-    """Set a uniform if the compiler kept it (unused uniforms are optimised away)."""
-    member = program.get(name, None)
-    if member is not None:
-        member.value = value
+def input_storage(buffer, split: BlockSplit, indices=None) -> dict[str, object]:
+    """The storage blocks of triangle_input.glsl: the input triangles bound as ``split``
+    and the index list (``indices``: a buffer or Storage range, None when not read)."""
+    return {**split_storage("TriangleInput", buffer, split), "TriangleIndex": indices}
 
 
 @dataclass
@@ -139,7 +132,7 @@ class BuiltLBVH:
     each leaf (the index map; also stored in BVHTriangle.prim). ``sorted_keys``: the sorted
     Morton codes. ``node_split`` / ``triangle_split``: how the node and triangle arrays are
     bound (one block each below 2.1M leaves at 128 MiB blocks); a shader that traverses the
-    build compiles with :meth:`traversal_defines` and binds with :meth:`bind`.
+    build compiles with :meth:`traversal_defines` and binds :meth:`storage`.
     """
 
     nodes: object
@@ -162,13 +155,12 @@ class BuiltLBVH:
             **self.triangle_split.defines("BVH_TRIANGLE_BLOCKS", "BVH_TRIANGLE_BLOCK_SIZE"),
         }
 
-    def bind(self, nodes_binding: int = 0, triangles_binding: int = 1) -> None:
-        """Bind the node and triangle arrays for bvh_traverse.glsl: block 0 at the given
-        bindings (BVH_NODES_BINDING / BVH_TRIANGLES_BINDING), blocks 1..3 of split arrays at
-        the include's defaults (43..45, 46..48)."""
-        bind_blocks(self.nodes, (nodes_binding, *NODE_EXTRA_BINDINGS), self.node_split)
-        bind_blocks(self.triangles, (triangles_binding, *TRIANGLE_EXTRA_BINDINGS),
-                    self.triangle_split)
+    def storage(self) -> dict[str, object]:
+        """The node and triangle arrays by the names of bvh_storage.glsl and
+        bvh_traverse.glsl (:data:`BVH_BLOCKS`), split as built."""
+        return {**split_storage("BVHNodes", self.nodes, self.node_split),
+                **split_storage("BVHNodeHalves", self.nodes, self.node_split),
+                **split_storage("BVHTriangles", self.triangles, self.triangle_split)}
 
     def read_nodes(self) -> np.ndarray:
         raw = self.nodes.read(size=self.node_count * NODE_DTYPE.itemsize)
@@ -273,19 +265,15 @@ class LBVHBuilder:
             self._bounds_buffer.write(
                 np.array([_ORDERED_MIN_RESET] * 3 + [_ORDERED_MAX_RESET] * 3, np.uint32).tobytes()
             )
-            bind_input(triangles, in_split)
-            bind_storage(index_buffer, 1, 0, n4 if use_indices else None)
-            bind_storage(self._bounds_buffer, 2)
-            _set_uniform(self._bounds, "u_count", count)
-            _set_uniform(self._bounds, "u_use_indices", use_indices)
+            inputs = input_storage(triangles, in_split, Storage(index_buffer, n4 if use_indices else None))
+            step = {"u_count": count, "u_use_indices": use_indices}
+            bind(self._bounds, storage={**inputs, "Bounds": self._bounds_buffer}, uniforms=step)
             dispatch(self._bounds, count, LOCAL_SIZE, BOUNDS_ITEMS_PER_INVOCATION)
             storage_barrier(ctx)
 
             # 2. Morton codes; values carry the original triangle index through the sort.
-            bind_storage(keys[0], 3, 0, n4)
-            bind_storage(values[0], 4, 0, n4)
-            _set_uniform(self._morton, "u_count", count)
-            _set_uniform(self._morton, "u_use_indices", use_indices)
+            bind(self._morton, storage={**inputs, "Bounds": self._bounds_buffer, "Keys": Storage(keys[0], n4),
+                                        "Values": Storage(values[0], n4)}, uniforms=step)
             dispatch(self._morton, count, LOCAL_SIZE)
             storage_barrier(ctx)
 
@@ -295,24 +283,21 @@ class LBVHBuilder:
             current = 0
 
         # 4. Karras hierarchy (also the special roots for N < 2 and the refit flag reset).
-        bind_storage(keys[current], 0, 0, n4)
-        bind_blocks(nodes, (1, *NODE_EXTRA_BINDINGS), node_split)
-        bind_storage(leaf_parent, 2, 0, n4)
-        bind_storage(flags, 3, 0, node_count * 4)
-        _set_uniform(self._hierarchy, "u_count", count)
+        node_blocks = split_storage("BVHNodes", nodes, node_split)
+        bind(self._hierarchy, storage={"Keys": Storage(keys[current], n4), **node_blocks,
+                                       "LeafParent": Storage(leaf_parent, n4),
+                                       "RefitFlags": Storage(flags, node_count * 4)},
+             uniforms={"u_count": count})
         dispatch(self._hierarchy, max(count - 1, 1), LOCAL_SIZE)
         storage_barrier(ctx)
 
         # 5. Reorder triangles and refit boxes bottom-up.
         if count > 0:
-            bind_input(triangles, in_split)
-            bind_storage(values[current], 2, 0, n4)
-            bind_blocks(nodes, (3, *NODE_EXTRA_BINDINGS), node_split)
-            bind_storage(leaf_parent, 4, 0, n4)
-            bind_storage(flags, 5, 0, node_count * 4)
-            bind_blocks(bvh_tris, (6, *TRIANGLE_EXTRA_BINDINGS), tri_split)
-            _set_uniform(self._refit, "u_count", count)
-            _set_uniform(self._refit, "u_use_indices", 0)
+            bind(self._refit, storage={**input_storage(triangles, in_split), "Values": Storage(values[current], n4),
+                                       **node_blocks, "LeafParent": Storage(leaf_parent, n4),
+                                       "RefitFlags": Storage(flags, node_count * 4),
+                                       **split_storage("BVHTriangles", bvh_tris, tri_split)},
+                 uniforms={"u_count": count, "u_use_indices": 0})
             dispatch(self._refit, count, LOCAL_SIZE)
             storage_barrier(ctx)
 
@@ -355,27 +340,24 @@ class LBVHBuilder:
         n4 = max(count, 1) * 4
         chunk_size, num_chunks = self.sort_plan(count)
         radix = 1 << RADIX_BITS
-        histograms = self._histograms.ensure(num_chunks * radix * 4)
-        bind_storage(histograms, 1, 0, num_chunks * radix * 4)
-        for program in (self._radix_count, self._radix_scatter):
-            _set_uniform(program, "u_count", count)
-            _set_uniform(program, "u_chunk_size", chunk_size)
-            _set_uniform(program, "u_num_chunks", num_chunks)
-        _set_uniform(self._radix_scan, "u_num_chunks", num_chunks)
+        histograms = Storage(self._histograms.ensure(num_chunks * radix * 4), num_chunks * radix * 4)
+        plan = {"u_count": count, "u_chunk_size": chunk_size, "u_num_chunks": num_chunks}
         src = 0
         for digit in range(passes):
             shift = digit * RADIX_BITS
             dst = 1 - src
-            bind_storage(keys[src], 0, 0, n4)
-            _set_uniform(self._radix_count, "u_shift", shift)
+            bind(self._radix_count, storage={"Keys": Storage(keys[src], n4), "Histograms": histograms},
+                 uniforms={**plan, "u_shift": shift})
             dispatch(self._radix_count, num_chunks, LOCAL_SIZE)
             storage_barrier(ctx)
+            bind(self._radix_scan, storage={"Histograms": histograms}, uniforms={"u_num_chunks": num_chunks})
             self._radix_scan.run(1, 1, 1)
             storage_barrier(ctx)
-            bind_storage(values[src], 2, 0, n4)
-            bind_storage(keys[dst], 3, 0, n4)
-            bind_storage(values[dst], 4, 0, n4)
-            _set_uniform(self._radix_scatter, "u_shift", shift)
+            bind(self._radix_scatter, storage={"KeysIn": Storage(keys[src], n4), "Histograms": histograms,
+                                               "ValuesIn": Storage(values[src], n4),
+                                               "KeysOut": Storage(keys[dst], n4),
+                                               "ValuesOut": Storage(values[dst], n4)},
+                 uniforms={**plan, "u_shift": shift})
             dispatch(self._radix_scatter, num_chunks, LOCAL_SIZE)
             storage_barrier(ctx)
             src = dst
@@ -423,19 +405,16 @@ class LBVHBuilder:
         if sort_rays is None:
             sort_rays = count >= RAY_SORT_MIN_RAYS
         defines = {"LOCAL_SIZE": LOCAL_SIZE, **built.traversal_defines()}
+        order = None
         if sort_rays and count > 0:
-            order = self._order_rays(origins, count)
+            order = Storage(self._order_rays(origins, count), count * 4)
             defines["RAY_ORDER"] = 1
-            bind_storage(order, 6, 0, count * 4)
         self._trace = shader_loader.compute(self.ctx, "lbvh/trace.comp.glsl", defines)
-        built.bind(0, 1)
-        bind_storage(origins, 2, 0, max(count, 1) * 12)
-        bind_storage(directions, 3, 0, max(count, 1) * 12)
-        bind_storage(hit_t, 4, 0, max(count, 1) * 4)
-        bind_storage(hit_tri, 5, 0, max(count, 1) * 4)
-        _set_uniform(self._trace, "u_count", int(count))
-        _set_uniform(self._trace, "u_tmin", float(tmin))
-        _set_uniform(self._trace, "u_tmax", float(tmax))
+        rays = max(count, 1)
+        bind(self._trace, storage={**built.storage(), "Origins": Storage(origins, rays * 12),
+                                   "Directions": Storage(directions, rays * 12), "HitT": Storage(hit_t, rays * 4),
+                                   "HitTri": Storage(hit_tri, rays * 4), "RayOrder": order},
+             uniforms={"u_count": count, "u_tmin": float(tmin), "u_tmax": float(tmax)})
         dispatch(self._trace, int(count), LOCAL_SIZE)
         storage_barrier(self.ctx)
         if gl_context.debug_checks_enabled():
@@ -449,11 +428,9 @@ class LBVHBuilder:
         keys = [b.ensure(n4) for b in self._ray_keys]
         order = [b.ensure(n4) for b in self._ray_order]
         program = shader_loader.compute(ctx, "lbvh/ray_keys.comp.glsl", {"LOCAL_SIZE": LOCAL_SIZE})
-        self.built.bind(0, 1)
-        bind_storage(origins, 2, 0, count * 12)
-        bind_storage(keys[0], 3, 0, n4)
-        bind_storage(order[0], 4, 0, n4)
-        _set_uniform(program, "u_count", count)
+        bind(program, storage={**self.built.storage(), "Origins": Storage(origins, count * 12),
+                               "Keys": Storage(keys[0], n4), "Values": Storage(order[0], n4)},
+             uniforms={"u_count": count})
         dispatch(program, count, LOCAL_SIZE)
         storage_barrier(ctx)
         return order[self._sort(keys, order, count, RAY_SORT_PASSES)]

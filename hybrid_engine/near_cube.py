@@ -6,7 +6,7 @@ Only geometry inside the cube formed by the cube-map cameras' near planes (half-
 cube map. Culling happens in two stages, as in the paper:
 
 1. per object: its world AABB against the cube (outside: dropped, inside: kept whole,
-   straddling: go to stage 2), ``gpu_shaders/lbvh/cull_objects.comp.glsl``;
+   straddling: go to stage 2), ``gpu_shaders/near_cube/cull_objects.comp.glsl``;
 2. per triangle of straddling objects: the exact separating-axis triangle/box test
    (``gpu_shaders/include/tri_box.glsl``) -- not a centroid test, which would drop large
    triangles crossing the cube -- then stream compaction (per-chunk counts, a prefix sum,
@@ -39,8 +39,9 @@ import numpy as np
 
 from . import gl_context, shader_loader
 from .frustum import draw_ranges
-from .gpu_dispatch import GrowBuffer, bind_storage, dispatch, max_block_bytes, storage_barrier
-from .lbvh import bind_input, input_defines, input_split
+from .bindings import Storage, bind
+from .gpu_dispatch import GrowBuffer, dispatch, max_block_bytes, storage_barrier
+from .lbvh import input_defines, input_split, input_storage
 
 LOCAL_SIZE = 64
 # Triangles each culling invocation walks serially (see the radix sort's chunks in lbvh.py).
@@ -56,7 +57,7 @@ CLASS_OUTSIDE = 0
 CLASS_INSIDE = 1
 CLASS_STRADDLING = 2
 
-_DEFINES = {"LOCAL_SIZE": LOCAL_SIZE, "TRI_INPUT_BINDING": 0, "TRI_INDEX_BINDING": 1}
+_DEFINES = {"LOCAL_SIZE": LOCAL_SIZE}
 
 
 def overlap_margin(near_size: float) -> float:
@@ -92,10 +93,10 @@ class NearCubeCuller:
         self.ctx = ctx if ctx is not None else gl_context.get_context()
         self.triangles_per_chunk = int(triangles_per_chunk)
         compute = shader_loader.compute
-        self._classify = compute(self.ctx, "lbvh/cull_objects.comp.glsl", _DEFINES)
-        self._triangles = compute(self.ctx, "lbvh/cull_triangles.comp.glsl", _DEFINES)
-        self._scan = compute(self.ctx, "lbvh/scan.comp.glsl", {"LOCAL_SIZE": SCAN_LOCAL_SIZE})
-        self._compact = compute(self.ctx, "lbvh/cull_compact.comp.glsl", _DEFINES)
+        self._classify = compute(self.ctx, "near_cube/cull_objects.comp.glsl", _DEFINES)
+        self._triangles = compute(self.ctx, "near_cube/cull_triangles.comp.glsl", _DEFINES)
+        self._scan = compute(self.ctx, "scan/scan.comp.glsl", {"LOCAL_SIZE": SCAN_LOCAL_SIZE})
+        self._compact = compute(self.ctx, "near_cube/cull_compact.comp.glsl", _DEFINES)
         ctx = self.ctx
         self._input = GrowBuffer(ctx, "cull input triangles")
         self._object_bounds = GrowBuffer(ctx, "cull object bounds")
@@ -160,49 +161,45 @@ class NearCubeCuller:
         indices = self._indices.ensure(max(count, 1) * 4)
         # The per-triangle pass compiled for the input's block count (cached after first use).
         self._triangles = shader_loader.compute(
-            ctx, "lbvh/cull_triangles.comp.glsl", {**_DEFINES, **input_defines(split)}
+            ctx, "near_cube/cull_triangles.comp.glsl", {**_DEFINES, **input_defines(split)}
         )
 
-        for program in (self._classify, self._triangles):
-            _set(program, "u_center", tuple(float(c) for c in center))
-            _set(program, "u_half_size", (half, half, half))
-            _set(program, "u_num_objects", num_objects)
+        cube = {"u_center": tuple(float(c) for c in center), "u_half_size": (half, half, half),
+                "u_num_objects": num_objects}
+        chunks = {"u_count": elements, "u_chunk_size": chunk_size, "u_num_chunks": num_chunks,
+                  "u_use_indices": int(candidates is not None)}
+        class_storage = Storage(object_class, max(num_objects, 1) * 4)
+        counts_storage = Storage(counts, (num_chunks + 1) * 4)
+        candidate_storage = None
+        if candidates is not None and elements:
+            self._candidates.upload(candidates.tobytes())
+            candidate_storage = Storage(self._candidates.buffer, elements * 4)
         # 1. Objects.
-        bind_storage(self._object_bounds.buffer, 0, 0, num_objects * 24)
-        bind_storage(object_class, 1, 0, max(num_objects, 1) * 4)
+        bind(self._classify, storage={"ObjectBounds": Storage(self._object_bounds.buffer, num_objects * 24),
+                                      "ObjectClass": class_storage}, uniforms=cube)
         dispatch(self._classify, num_objects, LOCAL_SIZE)
         storage_barrier(ctx)
         # 2. Triangles: flags and per-chunk counts.
-        for program in (self._triangles, self._compact):
-            _set(program, "u_count", elements)
-            _set(program, "u_chunk_size", chunk_size)
-            _set(program, "u_num_chunks", num_chunks)
-            _set(program, "u_use_indices", int(candidates is not None))
-        if candidates is not None and elements:
-            self._candidates.upload(candidates.tobytes())
-            bind_storage(self._candidates.buffer, 1, 0, elements * 4)
         if elements > 0:
-            bind_input(triangles, split)
-            bind_storage(self._object_ranges.buffer, 2, 0, num_objects * 8)
-            bind_storage(object_class, 3, 0, max(num_objects, 1) * 4)
-            bind_storage(flags, 4, 0, elements * 4)
-            bind_storage(counts, 5, 0, (num_chunks + 1) * 4)
+            bind(self._triangles, storage={**input_storage(triangles, split, candidate_storage),
+                                           "ObjectRanges": Storage(self._object_ranges.buffer, num_objects * 8),
+                                           "ObjectClass": class_storage,
+                                           "KeepFlags": Storage(flags, elements * 4), "ChunkCounts": counts_storage},
+                 uniforms={**cube, **chunks})
             dispatch(self._triangles, num_chunks, LOCAL_SIZE)
             storage_barrier(ctx)
         else:
             counts.write(np.zeros(1, np.uint32).tobytes())
         # 3. Prefix sum of the chunk counts (total at [num_chunks]).
-        bind_storage(counts, 0, 0, (num_chunks + 1) * 4)
-        _set(self._scan, "u_count", num_chunks if elements > 0 else 0)
+        bind(self._scan, storage={"Data": counts_storage}, uniforms={"u_count": num_chunks if elements > 0 else 0})
         self._scan.run(1, 1, 1)
         storage_barrier(ctx)
         # 4. Compaction.
         if elements > 0:
-            bind_storage(flags, 0, 0, elements * 4)
-            bind_storage(counts, 1, 0, (num_chunks + 1) * 4)
-            bind_storage(indices, 2, 0, elements * 4)
-            if candidates is not None:
-                bind_storage(self._candidates.buffer, 3, 0, elements * 4)
+            bind(self._compact, storage={"KeepFlags": Storage(flags, elements * 4), "ChunkOffsets": counts_storage,
+                                         "KeptIndices": Storage(indices, elements * 4),
+                                         "Candidates": candidate_storage},
+                 uniforms=chunks)
             dispatch(self._compact, num_chunks, LOCAL_SIZE)
             storage_barrier(ctx)
         total_offset = (num_chunks if elements > 0 else 0) * 4
@@ -222,12 +219,6 @@ class NearCubeCuller:
         for grow in (self._input, self._object_bounds, self._object_ranges, self._object_class,
                      self._flags, self._counts, self._indices, self._candidates):
             grow.release()
-
-
-def _set(program, name: str, value) -> None:
-    member = program.get(name, None)
-    if member is not None:
-        member.value = value
 
 
 # The host's candidate test uses a cube this much larger (relative, plus absolute) than the

@@ -31,13 +31,16 @@ from . import gl_context
 from .camera import Camera
 from .film import FrameOutputs, depth_pass, normal_pass
 from .frame_resources import FrameResources
-from .gpu_scene import GPUScene, pack_lights
-from .raster import RasterPasses, RasterView
+from .deferred_shade import DeferredShadePass
+from .gbuffer import GBufferPass
+from .gpu_scene import GPUScene
+from .raster_view import RasterView
 from .scene_data import SceneData
 from .scene_delta import GeometryTracker
+from .scene_draw import SceneDrawer
 from .screen_ao import ScreenSpaceOcclusion
 from .settings import RenderSettings
-from .shadow_cache import ShadowCache
+from .shadow_depth import ShadowDepthPass
 from .timing import PassTimer
 from .tracer import HybridTracer
 
@@ -85,14 +88,17 @@ class Renderer:
     def __init__(self, ctx=None) -> None:
         self.ctx = ctx if ctx is not None else gl_context.get_context()
         self.gpu_scene = GPUScene(self.ctx)
-        self.raster = RasterPasses(self.ctx)
+        # The G-buffer and shadow passes draw the scene through one drawer (scene_draw.py).
+        self.drawer = SceneDrawer(self.ctx)
+        self.shadow_depth = ShadowDepthPass(self.ctx, self.drawer)
+        self.gbuffer = GBufferPass(self.ctx, self.drawer)
         self.resources = FrameResources(self.ctx)  # lights, shadow atlas, World light
         self.occlusion = ScreenSpaceOcclusion(self.ctx)
+        self.deferred_shade = DeferredShadePass(self.ctx)
         self.tracer: HybridTracer | None = None  # created on the first non-RASTER frame
         # Frame-to-frame reuse: only changed triangles are re-uploaded, and of the shadow
         # maps only the layer whose objects changed is re-rendered (shadow_cache.py).
         self.geometry_tracker = GeometryTracker()
-        self.shadow_cache = ShadowCache()
         # What the tracer's cube map and BVH were built for (render(reuse_world=True)).
         self._world_key: tuple | None = None
 
@@ -129,7 +135,7 @@ class Renderer:
         steps = MODE_STEPS[settings.mode]  # RenderSettings admits no other mode
         traced = settings.mode != "RASTER"
         if traced and self.tracer is None:
-            self.tracer = HybridTracer(self.ctx, self.raster)
+            self.tracer = HybridTracer(self.ctx, self.gbuffer)
         tracer = self.tracer
         timer = PassTimer(self.ctx, enabled=timing)
         start = time.perf_counter()
@@ -155,35 +161,14 @@ class Renderer:
         kept_world = kept_world and delta.unchanged
         step("shadow_maps")
         with timer.measure("shadow_maps"):
-            views, per_light = self.raster.shadow_views(scene)
-            key = (pack_lights(scene.lights).tobytes(), int(settings.shadow_resolution),
-                   b"".join(np.asarray(v.view_proj, np.float64).tobytes() for v in views))
-            plan = self.shadow_cache.plan(scene.geometry.object_ranges, delta, key)
-            submitted_shadow = 0
-            if plan.anything:
-                try:
-                    atlas = self.resources.shadows
-                    atlas.layout(views, int(settings.shadow_resolution))
-                    if plan.render_static:
-                        submitted_shadow += self.raster.render_shadow_layer(
-                            self.gpu_scene, scene, atlas, views, dynamic=False, include=plan.static_mask)
-                    if plan.render_dynamic:
-                        submitted_shadow += self.raster.render_shadow_layer(
-                            self.gpu_scene, scene, atlas, views, dynamic=True, include=~plan.static_mask)
-                except BaseException:
-                    self.shadow_cache.reset()  # the layers are incomplete
-                    raise
-            counts["shadow_maps_rendered"] = int(plan.anything)
-            counts["shadow_static_rendered"] = int(plan.render_static)
-            counts["shadow_triangles_submitted"] = submitted_shadow
-            self.resources.update_lights(scene.lights, per_light, settings)
+            shadows = self.shadow_depth.render(self.gpu_scene, scene, settings, self.resources.shadows, delta)
+            counts.update(shadows.counts())
+            self.resources.update_lights(scene.lights, shadows.per_light, settings)
             self.resources.update_sky(scene.sky)
         step("primary_raster")
         view = RasterView.from_camera(camera)
         with timer.measure("primary_raster"):
-            targets = self.raster.primary_targets(view.width, view.height)
-            targets.clear()
-            submitted = self.raster.gbuffer(self.gpu_scene, scene, view, targets)
+            targets, submitted = self.gbuffer.render_primary(self.gpu_scene, scene, view)
         if "cube_map_raster" in steps and not kept_world:
             step("cube_map_raster")
             with timer.measure("cube_map_raster"):
@@ -208,8 +193,8 @@ class Renderer:
                                           center, sample=sample)
             else:
                 self.occlusion.run(targets, view, self.resources, sample)
-            self.raster.shade(self.gpu_scene, scene, view, targets, self.resources,
-                              traced_specular=traced, transparent=outputs.transparent, sample=sample)
+            self.deferred_shade.run(self.gpu_scene, view, targets, self.resources,
+                                    traced_specular=traced, transparent=outputs.transparent, sample=sample)
         if "trace" in steps:
             step("trace")
             with timer.measure("trace"):
@@ -266,6 +251,7 @@ class Renderer:
         if self.tracer is not None:
             self.tracer.release()
             self.tracer = None
-        self.raster.release()
+        self.gbuffer.release()
+        self.drawer.release()
         self.resources.release()
         self.gpu_scene.release()

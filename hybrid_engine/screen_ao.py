@@ -3,7 +3,7 @@
 
 The World lights every diffuse surface (sky_light.py), and a surface under a table or in a
 corner sees less of it. This pass estimates that share from the primary G-buffer's depths
-(``gpu_shaders/raster/screen_ao.comp.glsl``: a few cosine-distributed points above the
+(``gpu_shaders/shade/screen_ao.comp.glsl``: a few cosine-distributed points above the
 surface, projected into the depth buffer) into the alpha of the G-buffer's ``ambient``
 target, which the deferred shading smooths over neighbouring pixels of the same surface and
 multiplies into the World's light. Its reach is the ``ao_distance`` setting, held with the
@@ -21,10 +21,10 @@ from __future__ import annotations
 import math
 
 from . import shader_loader
+from .bindings import Image, bind
 from .frame_resources import FrameResources
 
 WORKGROUP = 8
-VISIBILITY_IMAGE_UNIT = 1
 
 
 class ScreenSpaceOcclusion:
@@ -32,20 +32,16 @@ class ScreenSpaceOcclusion:
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
-        self.program = shader_loader.compute(ctx, "raster/screen_ao.comp.glsl")
+        self.program = shader_loader.compute(ctx, "shade/screen_ao.comp.glsl")
 
-    def run(self, targets, view, resources: FrameResources, sample: int = 0,
-            origin: tuple[int, int] = (0, 0)) -> None:
-        """Fill ``targets.ambient``'s alpha for the G-buffer region of ``view`` at ``origin``
-        (nothing to do when the reach is 0: the shading then takes the whole sky)."""
+    def run(self, targets, view, resources: FrameResources, sample: int = 0) -> None:
+        """Fill ``targets.ambient``'s alpha for the G-buffer of ``view`` (nothing to do when
+        the reach is 0: the shading then takes the whole sky)."""
         if not resources.ao_distance > 0.0:
             return
         prog = self.program
-        targets.depth.use(location=0)
-        targets.normal_material.use(location=1)
-        targets.ambient.bind_to_image(VISIBILITY_IMAGE_UNIT, read=False, write=True)
-        shader_loader.set_uniforms(prog, {
-            **view.uniforms(), "u_view_proj": view.view_proj_bytes(), "u_depth": 0, "u_normal_material": 1,
-            "u_origin": (int(origin[0]), int(origin[1])), "u_ao_distance": resources.ao_distance,
-            "u_sample": int(sample)})
+        bind(prog, textures={"u_depth": targets.depth, "u_normal_material": targets.normal_material},
+             images={"u_visibility": Image(targets.ambient, read=False, write=True)},
+             uniforms={**view.uniforms(), "u_view_proj": view.view_proj_bytes(),
+                       "u_ao_distance": resources.ao_distance, "u_sample": int(sample)})
         prog.run(math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)

@@ -19,6 +19,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping
 
+from . import bindings
+
 SHADER_ROOT = Path(__file__).resolve().parent.parent / "gpu_shaders"
 GLSL_VERSION = "#version 430 core"
 # Each file's lines are numbered from string_no * LINE_STRIDE: some drivers (Mesa) report
@@ -158,6 +160,7 @@ def _compile(ctx, stages: Mapping[str, str], defines: Mapping[str, object] | Non
         raise ShaderError(
             f"compiling {names} failed:\n" + translate_error(str(exc), sources)
         ) from None
+    program.extra = bindings.ProgramLayout.of(program, ", ".join(stages.values()))
     _cache[key] = program
     return program
 
@@ -181,19 +184,6 @@ def program(
     if geometry is not None:
         stages["geometry_shader"] = geometry
     return _compile(ctx, stages, defines)
-
-
-def set_uniforms(program, values: Mapping[str, object]) -> None:
-    """Set the uniforms the compiler kept (unused ones are optimised away and absent);
-    ``bytes`` values are written raw (matrix arrays)."""
-    for name, value in values.items():
-        member = program.get(name, None)
-        if member is None:
-            continue
-        if isinstance(value, bytes):
-            member.write(value)
-        else:
-            member.value = value
 
 
 def clear_cache() -> None:

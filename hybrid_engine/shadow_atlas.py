@@ -8,7 +8,7 @@ dynamic layer alone, and the lookup takes the nearer depth of the two.
 
 The atlas is lighting data, not a raster pass's private state: the deferred shading and the
 tracer both read it through :class:`~hybrid_engine.frame_resources.FrameResources`; the
-shadow pass (raster.py) only draws into the layers laid out here.
+shadow pass (shadow_depth.py) only draws into the layers laid out here.
 """
 from __future__ import annotations
 

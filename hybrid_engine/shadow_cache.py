@@ -10,7 +10,7 @@ one of them changes (it is demoted) or a moving object has rested long enough to
 them changes. The lookup takes the nearer of the two depths (lighting.glsl), which is
 exactly what one map of all objects holds, so the split never changes the image.
 
-The shadow frusta are fitted to the scene's bounds (raster.shadow_views); a moving object
+The shadow frusta are fitted to the scene's bounds (shadow_depth.frame_shadow_views); a moving object
 would change them, and with them every slot's matrix, every frame. The bounds are
 therefore snapped outwards to a grid of 1/32 of their extent (:func:`snapped_bounds`): a
 pure function of the current frame, so an incremental render and a fresh one of the same

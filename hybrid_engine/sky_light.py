@@ -18,11 +18,10 @@ import math
 import numpy as np
 
 from . import shader_loader
+from .bindings import bind
 from .gpu_dispatch import storage_barrier
 from .scene_data import Sky
 
-# Storage binding of the nine coefficients (gpu_shaders/include/world_light.glsl).
-SKY_SH_BINDING = 9
 # Width of the latitude-longitude grid the projection integrates over (sky_irradiance.comp.glsl).
 SKY_GRID_WIDTH = 128
 
@@ -80,10 +79,9 @@ class SkyLight:
 
     def _project(self, width: int) -> None:
         prog = self._program
-        self.texture().use(location=0)
         grid_lod = max(0.0, math.log2(max(width, 1) / SKY_GRID_WIDTH))
-        shader_loader.set_uniforms(prog, {**self._uniforms, "u_sky_env": 0, "u_grid_lod": grid_lod})
-        self.sh_buffer.bind_to_storage_buffer(SKY_SH_BINDING)
+        bind(prog, storage={"SkyIrradianceOut": self.sh_buffer}, textures={"u_sky_env": self.texture()},
+             uniforms={**self._uniforms, "u_grid_lod": grid_lod})
         prog.run(1, 1, 1)
         storage_barrier(self.ctx)
 

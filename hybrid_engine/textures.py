@@ -239,9 +239,6 @@ class GPUTextures:
             gl_context.check_error("texture array upload")
         return True
 
-    def use(self, location: int) -> None:
-        self.array.use(location=location)
-
     def release(self) -> None:
         for tex in (self._texture, self._dummy):
             if tex is not None:

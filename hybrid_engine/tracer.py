@@ -27,10 +27,14 @@ from . import gl_context, shader_loader
 from .cube_map import CubeMapPass
 from .frame_resources import FrameResources
 from .gpu_scene import GPUScene, bytes_of
-from .gpu_dispatch import GrowBuffer, bind_blocks, split_blocks, storage_barrier
-from .lbvh import BuiltLBVH, LBVHBuilder
+from .bindings import Image, bind, split_storage
+from .gpu_dispatch import GrowBuffer, split_blocks, storage_barrier
+from .lbvh import BVH_BLOCKS, BuiltLBVH, LBVHBuilder
 from .near_cube import CullResult, NearCubeCuller, overlap_margin
-from .raster import GBufferTargets, RasterPasses, RasterView, SceneBounds
+from .gbuffer import GBufferPass
+from .raster_view import RasterView
+from .render_targets import GBufferTargets
+from .scene_bounds import SceneBounds
 from .scene_data import TEXTURE_SLOTS, Geometry, SceneData
 from .scene_delta import GeometryDelta
 from .settings import FIELD_LIMITS, RenderSettings
@@ -45,10 +49,6 @@ COUNTER_DEPTHS = 17
 assert FIELD_LIMITS["max_depth"][1] < COUNTER_DEPTHS, "the kernel's counters cover every depth"
 
 WORKGROUP = 8  # the kernel's local size in x and y
-# Storage bindings of the shading normals' blocks (one per 128 MiB on llvmpipe; see
-# hybrid_trace.comp.glsl: TRI_NORMAL_BLOCKS) and of the per-triangle material ids.
-NORMAL_BINDINGS = (5, 49, 50, 51)
-MATERIAL_ID_BINDING = 8
 NORMAL_BYTES = 36  # three float32 vec3 per triangle: Geometry.normals as uploaded
 
 
@@ -131,11 +131,10 @@ class TraceStats:
 class HybridTracer:
     """GPU state of the tracing passes: geometry buffers, culler, LBVH, cube map, kernel."""
 
-    def __init__(self, ctx, raster: RasterPasses) -> None:
+    def __init__(self, ctx, gbuffer: GBufferPass) -> None:
         self.ctx = ctx
-        self.raster = raster
         self.program = shader_loader.compute(ctx, "trace/hybrid_trace.comp.glsl")
-        self.cube_map = CubeMapPass(ctx, raster)
+        self.cube_map = CubeMapPass(ctx, gbuffer)
         self.culler = NearCubeCuller(ctx)
         self.builder = LBVHBuilder(ctx)
         self._gpu: GPUScene | None = None  # the scene buffers of the last upload
@@ -246,21 +245,9 @@ class HybridTracer:
         prog = shader_loader.compute(ctx, "trace/hybrid_trace.comp.glsl", defines) if defines else self.program
         self._counters.write(self._zero_counters)
 
-        # Storage buffers (the lighting's are bound with its textures below).
-        gpu.materials.buffer.bind_to_storage_buffer(0)
-        if built is not None:
-            built.bind(3, 4)  # BVH_NODES_BINDING, BVH_TRIANGLES_BINDING (+ 43..48 when split)
-        else:
-            self._dummy_ssbo.bind_to_storage_buffer(3)
-            self._dummy_ssbo.bind_to_storage_buffer(4)
-        bind_blocks(gpu.normals.buffer, NORMAL_BINDINGS, normal_split)
-        gpu.triangle_materials.buffer.bind_to_storage_buffer(MATERIAL_ID_BINDING)
-        self._counters.bind_to_storage_buffer(6)
-        self._uvs.buffer.bind_to_storage_buffer(7)
-
-        # Textures.
         cube = self.cube_map.targets if mode == "HYBRID" else None
-        units = {
+        bvh = built.storage() if built is not None else dict.fromkeys(BVH_BLOCKS, self._dummy_ssbo)
+        textures = {
             "u_depth": targets.depth,
             "u_normal_material": targets.normal_material,
             "u_albedo": targets.albedo,
@@ -271,17 +258,9 @@ class HybridTracer:
             "u_cube_surface": cube.surface if cube is not None else self._dummy_rgba,
             "u_cube_geometric": cube.geometric if cube is not None else self._dummy_rg,
             "u_cube_hiz": self._dummy_rg,
-            "u_textures": gpu.textures.array,
         }
         if cube is not None:
-            units.update(self.cube_map.march_textures())
-        for unit, tex in enumerate(units.values()):
-            tex.use(location=unit)
-        shader_loader.set_uniforms(prog, {name: unit for unit, name in enumerate(units)})
-        resources.bind(prog, len(units))
-        targets.color.bind_to_image(0, read=True, write=True)
-        targets.ambient.bind_to_image(1, read=False, write=True)
-
+            textures.update(self.cube_map.march_textures())
         # Uniforms.
         center = np.asarray(center, np.float64)
         values = {
@@ -298,7 +277,13 @@ class HybridTracer:
             view.view_proj, view.height, view.orthographic)
         if cube is not None:
             values.update(self.cube_map.march_uniforms(settings))
-        shader_loader.set_uniforms(prog, values)
+        bind(prog, gpu.bindings(), resources.bindings(),
+             storage={**bvh, **split_storage("TriangleNormals", gpu.normals.buffer, normal_split),
+                      "CounterBuffer": self._counters, "TriangleUVBuffer": self._uvs.buffer},
+             textures=textures,
+             images={"u_color": Image(targets.color, read=True, write=True),
+                     "u_ambient": Image(targets.ambient, read=False, write=True)},
+             uniforms=values)
         prog.run(math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
         storage_barrier(ctx)
         if gl_context.debug_checks_enabled():
@@ -350,14 +335,9 @@ def probe_cube_march(ctx, cube_map: CubeMapPass, materials_buffer, settings: Ren
     ray_buf = ctx.buffer(rays.tobytes() or bytes(32))
     out_buf = ctx.buffer(reserve=max(count, 1) * MARCH_RESULT_DTYPE.itemsize)
     try:
-        materials_buffer.bind_to_storage_buffer(0)
-        ray_buf.bind_to_storage_buffer(1)
-        out_buf.bind_to_storage_buffer(2)
-        values = {"u_count": count, **cube_map.march_uniforms(settings)}
-        for unit, (name, tex) in enumerate(cube_map.march_textures().items()):
-            tex.use(location=unit)
-            values[name] = unit
-        shader_loader.set_uniforms(prog, values)
+        bind(prog, storage={"MaterialBuffer": materials_buffer, "Rays": ray_buf, "Results": out_buf},
+             textures=cube_map.march_textures(),
+             uniforms={"u_count": count, **cube_map.march_uniforms(settings)})
         dispatch(prog, count, PROBE_LOCAL_SIZE)
         storage_barrier(ctx)
         raw = out_buf.read(size=count * MARCH_RESULT_DTYPE.itemsize) if count else b""

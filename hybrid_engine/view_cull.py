@@ -32,8 +32,9 @@ import numpy as np
 
 from . import shader_loader
 from .frustum import beyond_near_plane, front_face_winding, visible_objects
-from .gpu_dispatch import GrowBuffer, bind_storage, dispatch, max_block_bytes, storage_barrier
-from .lbvh import bind_input, input_defines, input_split
+from .bindings import Storage, bind
+from .gpu_dispatch import GrowBuffer, dispatch, max_block_bytes, storage_barrier
+from .lbvh import input_defines, input_split, input_storage
 
 LOCAL_SIZE = 64
 SCAN_LOCAL_SIZE = 256
@@ -138,13 +139,15 @@ class ViewTriangleCuller:
         self.ctx = ctx
         defines = {"LOCAL_SIZE": LOCAL_SIZE, "MAX_VIEWS": MAX_VIEWS}
         self._compact = shader_loader.compute(ctx, "raster/view_cull_compact.comp.glsl", defines)
-        self._scan = shader_loader.compute(ctx, "lbvh/scan.comp.glsl", {"LOCAL_SIZE": SCAN_LOCAL_SIZE})
+        self._scan = shader_loader.compute(ctx, "scan/scan.comp.glsl", {"LOCAL_SIZE": SCAN_LOCAL_SIZE})
         self._segments = GrowBuffer(ctx, "view cull segments")
         self._masks = GrowBuffer(ctx, "view cull masks")
         self._counts = GrowBuffer(ctx, "view cull counts")
         self.indices = GrowBuffer(ctx, "view cull indices")
         self.commands = GrowBuffer(ctx, "view cull commands")
         self._vaos: dict[tuple[int, int, int], object] = {}
+        self._compact_uniforms: dict = {}  # set by each cull for its compactions
+        self._segment_storage = None
 
     def vertex_array(self, program, gpu):
         """An indexed vertex array of ``program`` over the GPUScene ``gpu``'s attributes and
@@ -211,8 +214,7 @@ class ViewTriangleCuller:
             return results
         split = input_split(int(triangle_count))
         cull = shader_loader.compute(ctx, "raster/view_cull.comp.glsl", {
-            "LOCAL_SIZE": LOCAL_SIZE, "MAX_VIEWS": MAX_VIEWS, "TRI_INPUT_BINDING": 0,
-            "TRI_INDEX_BINDING": 5, "PAIRED": int(paired), **input_defines(split)})
+            "LOCAL_SIZE": LOCAL_SIZE, "MAX_VIEWS": MAX_VIEWS, "PAIRED": int(paired), **input_defines(split)})
         self._segments.upload(segments.tobytes())
 
         view_proj = np.zeros((MAX_VIEWS, 4, 4), np.float32)
@@ -227,19 +229,19 @@ class ViewTriangleCuller:
         chunks = np.full(MAX_VIEWS + 1, num_chunks, np.uint32)
         chunks[: len(view_chunks)] = view_chunks
         common = {"u_num_chunks": num_chunks, "u_num_segments": len(segments)}
-        shader_loader.set_uniforms(cull, {**common, "u_view_proj": view_proj.tobytes(),
-                                          "u_view_size": sizes.tobytes(), "u_front_sign": signs.tobytes()})
-        shader_loader.set_uniforms(self._compact, {**common, "u_view_chunks": chunks.tobytes(),
-                                                   "u_num_views": len(views)})
-        shader_loader.set_uniforms(self._scan, {"u_count": num_chunks})
+        self._compact_uniforms = {**common, "u_view_chunks": chunks.tobytes(), "u_num_views": len(views)}
+        self._segment_storage = Storage(self._segments.buffer, len(segments) * SEGMENT_DTYPE.itemsize)
 
         # 1. One bit per item (per list), a count per chunk.
-        bind_input(triangles, split)
-        bind_storage(self._segments.buffer, 1, 0, len(segments) * SEGMENT_DTYPE.itemsize)
-        for culler, (mask_binding, count_binding) in zip((self, back), ((2, 3), (7, 8))):
+        lists = {}
+        for culler, (masks, counts) in zip((self, back), (("ChunkMasks", "ChunkCounts"),
+                                                          ("BackChunkMasks", "BackChunkCounts"))):
             if culler is not None:
-                bind_storage(culler._masks.ensure(num_chunks * 4), mask_binding, 0, num_chunks * 4)
-                bind_storage(culler._counts.ensure((num_chunks + 1) * 4), count_binding, 0, (num_chunks + 1) * 4)
+                lists[masks] = Storage(culler._masks.ensure(num_chunks * 4), num_chunks * 4)
+                lists[counts] = Storage(culler._counts.ensure((num_chunks + 1) * 4), (num_chunks + 1) * 4)
+        bind(cull, storage={**input_storage(triangles, split), "Segments": self._segment_storage, **lists},
+             uniforms={**common, "u_view_proj": view_proj.tobytes(), "u_view_size": sizes.tobytes(),
+                       "u_front_sign": signs.tobytes()})
         dispatch(cull, num_chunks, LOCAL_SIZE)
         storage_barrier(ctx)
         for culler, counts in pairs:
@@ -250,14 +252,16 @@ class ViewTriangleCuller:
     def _compact_into(self, culler: "ViewTriangleCuller", num_chunks: int, capacity: int) -> None:
         """Steps 2 and 3 for the masks and counts in ``culler``'s buffers (this culler's
         programs, whose uniforms _cull set): offsets by a scan, then indices and commands."""
-        masks, counts = culler._masks.buffer, culler._counts.buffer
-        bind_storage(counts, 0, 0, (num_chunks + 1) * 4)
+        counts = Storage(culler._counts.buffer, (num_chunks + 1) * 4)
+        bind(self._scan, storage={"Data": counts}, uniforms={"u_count": num_chunks})
         self._scan.run(1, 1, 1)
         storage_barrier(self.ctx)
-        bind_storage(masks, 2, 0, num_chunks * 4)
-        bind_storage(counts, 3, 0, (num_chunks + 1) * 4)
-        bind_storage(culler.indices.ensure(3 * 4 * capacity), 4, 0, 3 * 4 * capacity)
-        bind_storage(culler.commands.buffer, 6, 0, COMMAND_BYTES * MAX_VIEWS)
+        bind(self._compact, storage={"Segments": self._segment_storage,
+                                     "ChunkMasks": Storage(culler._masks.buffer, num_chunks * 4),
+                                     "ChunkOffsets": counts,
+                                     "Indices": Storage(culler.indices.ensure(3 * 4 * capacity), 3 * 4 * capacity),
+                                     "Commands": Storage(culler.commands.buffer, COMMAND_BYTES * MAX_VIEWS)},
+             uniforms=self._compact_uniforms)
         dispatch(self._compact, num_chunks, LOCAL_SIZE)
 
     def _release_vaos(self) -> None:

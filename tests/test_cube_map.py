@@ -12,7 +12,7 @@ from benchmarks.bench import flip_mean, to_srgb_ldr
 from hybrid_engine.camera import CUBE_FACE_DIRECTIONS, CUBE_FACE_UPS, look_at
 from hybrid_engine.cube_map import CUBE_FACE_FOV, CubeFaces, CubeMapPass, face_of_direction
 from hybrid_engine.gpu_scene import GPUScene
-from hybrid_engine.raster import RasterPasses
+from hybrid_engine.gbuffer import GBufferPass
 from hybrid_engine.renderer import Renderer
 from scenes_analytic import box, quad, uv_sphere
 
@@ -35,7 +35,7 @@ def six_box_scene(distance=6.0, inner=True):
 
 @pytest.fixture(scope="module")
 def cube_pass(gl):
-    raster = RasterPasses(gl)
+    raster = GBufferPass(gl)
     gpu = GPUScene(gl)
     cube = CubeMapPass(gl, raster)
     yield cube, gpu
@@ -109,7 +109,7 @@ def test_face_gbuffer_equals_a_primary_render_with_the_same_camera(cube_pass, gl
             cam = Camera(matrix_world=look_at((0, 0, 0), d, up), width=24, height=24, lens=lens,
                          clip_start=1.5, clip_end=40.0)
             renderer.render(scene, cam, settings)
-            primary = renderer.raster.primary
+            primary = renderer.gbuffer.primary
             depth = np.frombuffer(primary.depth.read(), np.float32).reshape(24, 24)
             normal_material = np.frombuffer(primary.normal_material.read(), np.float32).reshape(24, 24, 4)
             columns = slice(face * 24, (face + 1) * 24)

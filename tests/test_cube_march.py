@@ -13,7 +13,7 @@ import pytest
 from hybrid_engine import Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
 from hybrid_engine.cube_map import CubeFaces, CubeMapPass
 from hybrid_engine.gpu_scene import GPUScene
-from hybrid_engine.raster import RasterPasses
+from hybrid_engine.gbuffer import GBufferPass
 from hybrid_engine.solids import closed_outward
 from hybrid_engine.tracer import MARCH_HIT, MARCH_SKY, MARCH_TO_BVH, probe_cube_march
 from cube_march_reference import HIT, SKY, TO_BVH, CubeMapReference, face_matrices
@@ -46,7 +46,7 @@ def boxes_scene(thickness: float = 0.5) -> SceneData:
 
 @pytest.fixture(scope="module")
 def cube_setup(gl):
-    raster = RasterPasses(gl)
+    raster = GBufferPass(gl)
     gpu = GPUScene(gl)
     cube = CubeMapPass(gl, raster)
     yield gl, raster, gpu, cube

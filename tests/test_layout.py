@@ -236,10 +236,10 @@ def test_import_checker_accepts_the_allowed_directions(file, source):
 SHADER_ROOT = REPO_ROOT / "gpu_shaders"
 STAGE_SUFFIXES = (".comp.glsl", ".vert.glsl", ".frag.glsl", ".geom.glsl")
 # Entry shaders list the defines the host must inject in their contract header, e.g.
-#   // Host defines: LOCAL_SIZE (remark), TRI_INPUT_BINDING = 0,
+#   // Host defines: LOCAL_SIZE (remark), MAX_VIEWS = 6,
 #   //   RADIX_BITS (digit width).
 # (continuation lines are indented). A value given there is used; a define named without one
-# gets 1, which every size, count and binding point accepts, so the whole shader compiles.
+# gets 1, which every size, count and flag accepts, so the whole shader compiles.
 HOST_DEFINES_RE = re.compile(r"^//\s*Host defines:(.*(?:\n//\s\s+.*)*)", re.MULTILINE)
 DEFAULT_DEFINE_VALUE = "1"
 

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""RASTER mode (hybrid_engine/raster.py through Renderer) against analytic numpy references.
+"""RASTER mode (the G-buffer, shadow and deferred-shading passes through Renderer) against analytic numpy references.
 
 The references trace the camera's own pixel rays (Camera.pixel_rays) against the analytic
 geometry and apply Blender's light units (checked against Cycles: sun strength S gives
@@ -240,7 +240,7 @@ def test_cancel_callback_stops_the_frame_and_the_next_frame_renders(renderer):
     assert renderer.render(scene, camera, RASTER).image.shape == (16, 16, 4)
 
 
-# -- per-triangle culling of the primary and shadow draws (RasterPasses.draw_views) ----------
+# -- per-triangle culling of the primary and shadow draws (SceneDrawer.draw_views) ----------
 
 GBUFFER_TARGETS = ("depth", "normal_material", "albedo", "emission_scale", "color")
 
@@ -250,16 +250,16 @@ def frames_rendered(gl, frames, settings, cull: bool) -> dict:
     or draw the object lists; the last frame's targets, shadow layers, counts and the
     culled batches' drawn triangles."""
     r = Renderer(gl)
-    r.raster.cull_triangles = cull
+    r.drawer.cull_triangles = cull
     try:
         for scene, camera in frames:
             result = r.render(scene, camera, settings)
         static, dynamic = r.resources.shadows.read_layers()
         return {
-            "targets": {name: getattr(r.raster.primary, name).read() for name in GBUFFER_TARGETS},
+            "targets": {name: getattr(r.gbuffer.primary, name).read() for name in GBUFFER_TARGETS},
             "static": static, "dynamic": dynamic, "counts": result.counts, "image": result.image,
             "drawn": {layer: [None if c is None else c.drawn() for c in batches]
-                      for layer, batches in r.raster.culled.items()},
+                      for layer, batches in r.drawer.culled.items()},
         }
     finally:
         r.release()
@@ -326,3 +326,33 @@ def test_draws_past_the_storage_block_limit_fall_back_to_the_object_lists(gl):
         limited = frames_rendered(gl, frames, RASTER, cull=True)
     assert limited["drawn"] == {"primary": [None], "shadow_static": [None, None]}
     assert_same_targets(limited, normal)
+
+
+# -- one pass, one module ---------------------------------------------------------------------
+
+def test_a_hybrid_frame_enters_each_raster_pass_module_once(monkeypatch):
+    """Following a frame through the code, the shadow, G-buffer and deferred-shading modules
+    are each entered once per pass: the primary view and the six cube faces are one call
+    each, and the shadow pass owns its cache and both layers."""
+    from hybrid_engine import deferred_shade, gbuffer, shadow_depth
+
+    entries = {}
+    for cls, name in ((shadow_depth.ShadowDepthPass, "render"), (gbuffer.GBufferPass, "render_primary"),
+                      (gbuffer.GBufferPass, "render_cube_faces"), (deferred_shade.DeferredShadePass, "run")):
+        original = getattr(cls, name)
+
+        def counted(self, *args, _original=original, _key=f"{cls.__module__}.{name}", **kwargs):
+            entries[_key] = entries.get(_key, 0) + 1
+            return _original(self, *args, **kwargs)
+
+        monkeypatch.setattr(cls, name, counted)
+    camera = Camera(matrix_world=look_at((0, -6, 4), (0, 0, 0)), width=32, height=24)
+    scene = diffuse_scene([(quad((0, 0, 0), (5, 0, 0), (0, 5, 0)), None, 0), (box((-1, -1, 0), (1, 1, 2)), None, 0)],
+                          [dict(kind="POINT", position=(2.0, -2.0, 4.0), color=(50.0, 50.0, 50.0))])
+    r = Renderer()
+    try:
+        r.render(scene, camera, RenderSettings(mode="HYBRID", near_size=1.5, cube_resolution=32))
+    finally:
+        r.release()
+    assert entries == {"hybrid_engine.shadow_depth.render": 1, "hybrid_engine.gbuffer.render_primary": 1,
+                       "hybrid_engine.gbuffer.render_cube_faces": 1, "hybrid_engine.deferred_shade.run": 1}

@@ -20,7 +20,7 @@ def test_a_broken_shader_fails_the_self_test_clearly(gl, monkeypatch):
 
     def broken(name, defines=None):
         source = original(name, defines)
-        if name == "raster/deferred_shade.comp.glsl":
+        if name == "shade/deferred_shade.comp.glsl":
             source = type(source)(**{**source.__dict__, "text": source.text.replace("void main()", "void main( {")})
         return source
 

@@ -22,7 +22,7 @@ from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSetting
 from hybrid_engine.camera import look_at
 from hybrid_engine.cube_map import CubeMapPass
 from hybrid_engine.gpu_scene import GPUScene
-from hybrid_engine.raster import RasterPasses
+from hybrid_engine.gbuffer import GBufferPass
 from hybrid_engine.scene_data import MATERIAL_DTYPE, SceneDataError
 from hybrid_engine.textures import (
     HALF_MAX,
@@ -248,7 +248,7 @@ def probe(ctx, textures: GPUTextures, queries: np.ndarray, table: MaterialTable)
         q_buf.bind_to_storage_buffer(0)
         out.bind_to_storage_buffer(1)
         m_buf.bind_to_storage_buffer(2)
-        textures.use(0)
+        textures.array.use(location=0)
         prog["u_textures"].value = 0
         prog["u_count"].value = count
         prog.run(math.ceil(count / 64))
@@ -335,7 +335,7 @@ def plane_uv(camera, z, uv_of_xy):
 
 def gbuffer_of(renderer, scene, camera):
     renderer.render(scene, camera, RenderSettings(mode="RASTER"))
-    targets = renderer.raster.primary
+    targets = renderer.gbuffer.primary
     return targets.read_albedo(), targets.read_emission_scale()
 
 
@@ -390,7 +390,7 @@ def test_cube_face_texels_hold_the_uv_and_uv_density_where_their_ray_meets_the_f
     tris, uvs = textured_quad((-4, -4, -3), (8, 0, 0), (0, 8, 0), (0.0, 0.0), (2.0, 2.0))
     scene = scene_of([(tris, uvs, 0)], [dict(base_color=(1, 1, 1), base_color_texture=0)], [checker])
     settings = RenderSettings(near_size=1.0, cube_far=20.0, cube_resolution=32)
-    raster, gpu = RasterPasses(gl), GPUScene(gl)
+    raster, gpu = GBufferPass(gl), GPUScene(gl)
     cube = CubeMapPass(gl, raster)
     try:
         gpu.upload(scene)

@@ -504,7 +504,7 @@ def test_shading_normals_split_over_storage_blocks_render_the_same_image(rendere
 
 
 def test_the_march_bounds_are_padded_around_the_geometry_and_absent_for_an_empty_scene():
-    from hybrid_engine.raster import SceneBounds
+    from hybrid_engine.scene_bounds import SceneBounds
     from hybrid_engine.tracer import scene_bound_uniforms
     empty = scene_bound_uniforms(SceneBounds.of(make_scene([])))
     assert empty["u_scene_bounded"] == 0  # nothing bounds the march: it runs to the far planes

@@ -2,19 +2,18 @@
 // several storage blocks (storage_blocks.glsl): the node array exceeds one 128 MiB block
 // beyond 2^21 nodes (2.1M leaves), the triangle array beyond 2.8M leaves.
 //
-// Declares the node array if BVH_NODES_BINDING is defined and the triangle array if
-// BVH_TRIANGLES_BINDING is defined, so each pass gets only what it binds. Passes touch them
+// Declares the node array if BVH_NODES is defined and the triangle array if BVH_TRIANGLES
+// is defined, so each pass gets only what it binds. Passes touch them
 // only through the functions below; with one block each compiles to a plain array access.
 //
-// Host defines (all optional except the binding of a wanted array):
-//   BVH_NODES_BINDING, BVH_NODES_ACCESS (memory qualifier; default readonly, and then no
+// Host defines (all optional except the choice of arrays):
+//   BVH_NODES, BVH_NODES_ACCESS (memory qualifier; default readonly, and then no
 //     setters are compiled),
-//   BVH_NODE_BLOCKS (1..4, default 1), BVH_NODE_BLOCK_SIZE (nodes per block),
-//   BVH_NODES_BINDING_1..3 (blocks 1..3; defaults 43..45);
-//   BVH_TRIANGLES_BINDING, BVH_TRIANGLES_ACCESS (default readonly; a pass that defines it as
+//   BVH_NODE_BLOCKS (1..4, default 1), BVH_NODE_BLOCK_SIZE (nodes per block);
+//   BVH_TRIANGLES, BVH_TRIANGLES_ACCESS (default readonly; a pass that defines it as
 //     writeonly also defines BVH_TRIANGLES_WRITEONLY, which drops the getter),
-//   BVH_TRIANGLE_BLOCKS, BVH_TRIANGLE_BLOCK_SIZE, BVH_TRIANGLES_BINDING_1..3 (defaults 46..48).
-// The default extra bindings lie above every binding a pass uses itself (the tracer: 0..6).
+//   BVH_TRIANGLE_BLOCKS, BVH_TRIANGLE_BLOCK_SIZE.
+// Block k > 0 of a split array is the block named with suffix k (BVHNodes1, BVHTriangles2).
 #ifndef HYBRID_BVH_STORAGE_GLSL
 #define HYBRID_BVH_STORAGE_GLSL
 
@@ -43,7 +42,7 @@
     else { (n).right_max.xyz = (value); }
 
 // ---- nodes --------------------------------------------------------------------------------
-#ifdef BVH_NODES_BINDING
+#ifdef BVH_NODES
 
 #ifndef BVH_NODES_ACCESS
 #define BVH_NODES_ACCESS readonly
@@ -55,31 +54,22 @@
 #if BVH_NODE_BLOCKS < 1 || BVH_NODE_BLOCKS > STORAGE_MAX_BLOCKS
 #error "BVH_NODE_BLOCKS must be 1..4"
 #endif
-#ifndef BVH_NODES_BINDING_1
-#define BVH_NODES_BINDING_1 43
-#endif
-#ifndef BVH_NODES_BINDING_2
-#define BVH_NODES_BINDING_2 44
-#endif
-#ifndef BVH_NODES_BINDING_3
-#define BVH_NODES_BINDING_3 45
-#endif
 
-layout(std430, binding = BVH_NODES_BINDING) BVH_NODES_ACCESS buffer BVHNodes {
+layout(std430) BVH_NODES_ACCESS buffer BVHNodes {
     BVHNode bvh_nodes[];
 };
 #if BVH_NODE_BLOCKS > 1
-layout(std430, binding = BVH_NODES_BINDING_1) BVH_NODES_ACCESS buffer BVHNodes1 {
+layout(std430) BVH_NODES_ACCESS buffer BVHNodes1 {
     BVHNode bvh_nodes_1[];
 };
 #endif
 #if BVH_NODE_BLOCKS > 2
-layout(std430, binding = BVH_NODES_BINDING_2) BVH_NODES_ACCESS buffer BVHNodes2 {
+layout(std430) BVH_NODES_ACCESS buffer BVHNodes2 {
     BVHNode bvh_nodes_2[];
 };
 #endif
 #if BVH_NODE_BLOCKS > 3
-layout(std430, binding = BVH_NODES_BINDING_3) BVH_NODES_ACCESS buffer BVHNodes3 {
+layout(std430) BVH_NODES_ACCESS buffer BVHNodes3 {
     BVHNode bvh_nodes_3[];
 };
 #endif
@@ -137,10 +127,10 @@ void bvh_node_set_xyz(uint i, int row, uvec3 value) {
 }
 #endif
 
-#endif  // BVH_NODES_BINDING
+#endif  // BVH_NODES
 
 // ---- triangles ----------------------------------------------------------------------------
-#ifdef BVH_TRIANGLES_BINDING
+#ifdef BVH_TRIANGLES
 
 #ifndef BVH_TRIANGLES_ACCESS
 #define BVH_TRIANGLES_ACCESS readonly
@@ -152,31 +142,22 @@ void bvh_node_set_xyz(uint i, int row, uvec3 value) {
 #if BVH_TRIANGLE_BLOCKS < 1 || BVH_TRIANGLE_BLOCKS > STORAGE_MAX_BLOCKS
 #error "BVH_TRIANGLE_BLOCKS must be 1..4"
 #endif
-#ifndef BVH_TRIANGLES_BINDING_1
-#define BVH_TRIANGLES_BINDING_1 46
-#endif
-#ifndef BVH_TRIANGLES_BINDING_2
-#define BVH_TRIANGLES_BINDING_2 47
-#endif
-#ifndef BVH_TRIANGLES_BINDING_3
-#define BVH_TRIANGLES_BINDING_3 48
-#endif
 
-layout(std430, binding = BVH_TRIANGLES_BINDING) BVH_TRIANGLES_ACCESS buffer BVHTriangles {
+layout(std430) BVH_TRIANGLES_ACCESS buffer BVHTriangles {
     BVHTriangle bvh_triangles[];
 };
 #if BVH_TRIANGLE_BLOCKS > 1
-layout(std430, binding = BVH_TRIANGLES_BINDING_1) BVH_TRIANGLES_ACCESS buffer BVHTriangles1 {
+layout(std430) BVH_TRIANGLES_ACCESS buffer BVHTriangles1 {
     BVHTriangle bvh_triangles_1[];
 };
 #endif
 #if BVH_TRIANGLE_BLOCKS > 2
-layout(std430, binding = BVH_TRIANGLES_BINDING_2) BVH_TRIANGLES_ACCESS buffer BVHTriangles2 {
+layout(std430) BVH_TRIANGLES_ACCESS buffer BVHTriangles2 {
     BVHTriangle bvh_triangles_2[];
 };
 #endif
 #if BVH_TRIANGLE_BLOCKS > 3
-layout(std430, binding = BVH_TRIANGLES_BINDING_3) BVH_TRIANGLES_ACCESS buffer BVHTriangles3 {
+layout(std430) BVH_TRIANGLES_ACCESS buffer BVHTriangles3 {
     BVHTriangle bvh_triangles_3[];
 };
 #endif
@@ -220,6 +201,6 @@ void bvh_triangle_store(uint i, BVHTriangle value) {
 }
 #endif
 
-#endif  // BVH_TRIANGLES_BINDING
+#endif  // BVH_TRIANGLES
 
 #endif

@@ -36,18 +36,17 @@
 // box, min > max, is never entered) and the far distance widened by 2 ulp-ish (Ize 2013,
 // "Robust BVH Ray Traversal") so a box is never missed by rounding.
 //
-// Host defines (optional): BVH_NODES_BINDING (default 0), BVH_TRIANGLES_BINDING (default 1);
-// for a BVH whose arrays exceed one storage block, the split defines of bvh_storage.glsl
+// Host defines (optional): for a BVH whose arrays exceed one storage block, the split defines of bvh_storage.glsl
 // (BVH_NODE_BLOCKS, BVH_NODE_BLOCK_SIZE, BVH_TRIANGLE_BLOCKS, BVH_TRIANGLE_BLOCK_SIZE; the host
-// takes them from BuiltLBVH.traversal_defines() and binds with BuiltLBVH.bind()).
+// takes them from BuiltLBVH.traversal_defines() and binds BuiltLBVH.storage()).
 #ifndef HYBRID_BVH_TRAVERSE_GLSL
 #define HYBRID_BVH_TRAVERSE_GLSL
 
-#ifndef BVH_NODES_BINDING
-#define BVH_NODES_BINDING 0
+#ifndef BVH_NODES
+#define BVH_NODES
 #endif
-#ifndef BVH_TRIANGLES_BINDING
-#define BVH_TRIANGLES_BINDING 1
+#ifndef BVH_TRIANGLES
+#define BVH_TRIANGLES
 #endif
 
 #include "bvh_layout.glsl"
@@ -57,21 +56,21 @@
 #define BVH_STACK_SIZE 64
 
 // The node array seen as dvec4 halves (two per node), block by block like bvh_storage.glsl.
-layout(std430, binding = BVH_NODES_BINDING) readonly buffer BVHNodeHalves {
+layout(std430) readonly buffer BVHNodeHalves {
     dvec4 bvh_node_halves[];
 };
 #if BVH_NODE_BLOCKS > 1
-layout(std430, binding = BVH_NODES_BINDING_1) readonly buffer BVHNodeHalves1 {
+layout(std430) readonly buffer BVHNodeHalves1 {
     dvec4 bvh_node_halves_1[];
 };
 #endif
 #if BVH_NODE_BLOCKS > 2
-layout(std430, binding = BVH_NODES_BINDING_2) readonly buffer BVHNodeHalves2 {
+layout(std430) readonly buffer BVHNodeHalves2 {
     dvec4 bvh_node_halves_2[];
 };
 #endif
 #if BVH_NODE_BLOCKS > 3
-layout(std430, binding = BVH_NODES_BINDING_3) readonly buffer BVHNodeHalves3 {
+layout(std430) readonly buffer BVHNodeHalves3 {
     dvec4 bvh_node_halves_3[];
 };
 #endif

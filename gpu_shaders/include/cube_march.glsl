@@ -68,7 +68,7 @@
 // (a ray crossing A within T pierces the surface whatever the thickness; thickness 0 is a
 // sheet). The hit point is where the ray enters (A, B] inside T. Instead of sampling, the
 // march walks a min/max pyramid of the intervals (u_cube_hiz, built by
-// trace/cube_hiz_base.comp.glsl and cube_hiz_reduce.comp.glsl: level 0 holds (A, B) as NDC
+// cube_map/cube_hiz_base.comp.glsl and cube_hiz_reduce.comp.glsl: level 0 holds (A, B) as NDC
 // depths, level L the (min A, max B) of 2^L x 2^L texels): a cell whose interval the ray's
 // depth range over the cell misses is skipped whole and the walk climbs a level; a cell it
 // may hit is descended into. Every texel the ray crosses is accounted for, so unlike the

@@ -15,8 +15,8 @@
 #include "scene_layout.glsl"
 #include "random.glsl"
 
-layout(std430, binding = 1) readonly buffer LightBuffer { Light lights[]; };
-layout(std430, binding = 2) readonly buffer ShadowSlotBuffer { ShadowSlot shadow_slots[]; };
+layout(std430) readonly buffer LightBuffer { Light lights[]; };
+layout(std430) readonly buffer ShadowSlotBuffer { ShadowSlot shadow_slots[]; };
 
 uniform sampler2D u_shadow_atlas;    // objects at rest (hybrid_engine/shadow_cache.py)
 uniform sampler2D u_shadow_dynamic;  // moving objects: same slots, the nearer depth wins

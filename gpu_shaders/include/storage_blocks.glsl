@@ -2,10 +2,10 @@
 //
 // A storage block may cover at most GL_MAX_SHADER_STORAGE_BLOCK_SIZE bytes (128 MiB on
 // llvmpipe). A larger array is bound as up to 4 consecutive ranges of one buffer, each of
-// SIZE items except the last, to separate binding points; element i lives in block
-// STORAGE_BLOCK_OF(i, SIZE, BLOCKS) at index i - block * SIZE. The block is found with
-// compares against constants rather than a division (a CPU driver has no vector integer
-// division), and the shaders select the block's array with an if-chain: blocks of a storage
+// SIZE items except the last, each a block of its own (TriangleInput, TriangleInput1, ...);
+// element i lives in block STORAGE_BLOCK_OF(i, SIZE, BLOCKS) at index i - block * SIZE. The
+// block is found with compares against constants rather than a division (a CPU driver has no
+// vector integer division), and the shaders select the block's array with an if-chain: blocks of a storage
 // block array could only be indexed with dynamically uniform values, and a ray's node is not.
 //
 // An array that fits one block is compiled without any of this (BLOCKS == 1 is the default

@@ -6,9 +6,8 @@
 // the buffer as TRI_INPUT_BLOCKS ranges of TRI_INPUT_BLOCK_SIZE triangles each
 // (storage_blocks.glsl) and input_vertex() picks the block.
 //
-// Host defines: TRI_INPUT_BINDING, TRI_INDEX_BINDING (binding points); for a split input
-//   TRI_INPUT_BLOCKS (2..4, default 1), TRI_INPUT_BLOCK_SIZE (triangles per block),
-//   TRI_INPUT_BINDING_1..3 (bindings of blocks 1..3; defaults 40..42, above every pass's own).
+// Host defines, for a split input: TRI_INPUT_BLOCKS (2..4, default 1), TRI_INPUT_BLOCK_SIZE
+//   (triangles per block); block k > 0 is the storage block TriangleInput<k>.
 // Uniform u_use_indices: 1 -> element i is triangle tri_index[i]; 0 -> element i is triangle i.
 #ifndef HYBRID_TRIANGLE_INPUT_GLSL
 #define HYBRID_TRIANGLE_INPUT_GLSL
@@ -21,36 +20,27 @@
 #if TRI_INPUT_BLOCKS < 1 || TRI_INPUT_BLOCKS > STORAGE_MAX_BLOCKS
 #error "TRI_INPUT_BLOCKS must be 1..4"
 #endif
-#ifndef TRI_INPUT_BINDING_1
-#define TRI_INPUT_BINDING_1 40
-#endif
-#ifndef TRI_INPUT_BINDING_2
-#define TRI_INPUT_BINDING_2 41
-#endif
-#ifndef TRI_INPUT_BINDING_3
-#define TRI_INPUT_BINDING_3 42
-#endif
 
-layout(std430, binding = TRI_INPUT_BINDING) readonly buffer TriangleInput {
+layout(std430) readonly buffer TriangleInput {
     float tri_input[];
 };
 #if TRI_INPUT_BLOCKS > 1
-layout(std430, binding = TRI_INPUT_BINDING_1) readonly buffer TriangleInput1 {
+layout(std430) readonly buffer TriangleInput1 {
     float tri_input_1[];
 };
 #endif
 #if TRI_INPUT_BLOCKS > 2
-layout(std430, binding = TRI_INPUT_BINDING_2) readonly buffer TriangleInput2 {
+layout(std430) readonly buffer TriangleInput2 {
     float tri_input_2[];
 };
 #endif
 #if TRI_INPUT_BLOCKS > 3
-layout(std430, binding = TRI_INPUT_BINDING_3) readonly buffer TriangleInput3 {
+layout(std430) readonly buffer TriangleInput3 {
     float tri_input_3[];
 };
 #endif
 
-layout(std430, binding = TRI_INDEX_BINDING) readonly buffer TriangleIndex {
+layout(std430) readonly buffer TriangleIndex {
     uint tri_index[];
 };
 

@@ -3,12 +3,12 @@
 // view_cull_compact.comp.glsl): segments of consecutive triangles, each tagged with its view,
 // sorted by their first work item.
 //
-// Binding 1: uvec4 segments[S]: x first triangle, y count, z first work item,
+// Storage block Segments: uvec4 segments[S]: x first triangle, y count, z first work item,
 //   w view | closed << 8. Uniform u_num_segments (S).
 #ifndef HYBRID_VIEW_CULL_SEGMENTS_GLSL
 #define HYBRID_VIEW_CULL_SEGMENTS_GLSL
 
-layout(std430, binding = 1) readonly buffer Segments {
+layout(std430) readonly buffer Segments {
     uvec4 segments[];
 };
 

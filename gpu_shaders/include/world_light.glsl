@@ -5,11 +5,8 @@
 // (hybrid_engine/sky_light.py). Evaluating them costs nine multiply-adds per hit, on every
 // diffuse hit alike: primary pixels, BVH hits and cube-map hits.
 //
-// Binding: SSBO 9, vec4[9] (rgb used).
-#ifndef SKY_SH_BINDING
-#define SKY_SH_BINDING 9
-#endif
-layout(std430, binding = SKY_SH_BINDING) readonly buffer SkyIrradiance { vec4 sky_sh[9]; };
+// Storage block SkyIrradiance: vec4[9] (rgb used).
+layout(std430) readonly buffer SkyIrradiance { vec4 sky_sh[9]; };
 
 // Irradiance (W/m^2 per unit radiance) arriving at a surface of unit normal n from the whole
 // unoccluded sky.

@@ -7,10 +7,11 @@
 //
 // Host defines: LOCAL_SIZE (64; llvmpipe runs 8 lanes per SIMD op, 64 keeps a group short),
 //   ITEMS_PER_INVOCATION (elements each invocation folds before its atomics),
-//   TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1, TRI_INPUT_BLOCKS, TRI_INPUT_BLOCK_SIZE (the
+//   TRI_INPUT_BLOCKS, TRI_INPUT_BLOCK_SIZE (the
 //   last two only for an input split over storage blocks).
-// Bindings: 0 tri_input (read; blocks 1..3 of a split input at 40..42), 1 tri_index (read, if u_use_indices),
-//   2 bounds (read/write: 6 uints, ordered-float min xyz then max xyz; the host resets them).
+// Storage blocks: TriangleInput (read; TriangleInput1..3 when split), TriangleIndex (read, if
+//   u_use_indices), Bounds (read/write: 6 uints, ordered-float min xyz then max xyz; the host
+//   resets them).
 // Uniforms: u_count (elements), u_use_indices.
 #include "dispatch.glsl"
 #include "float_order.glsl"
@@ -18,7 +19,7 @@
 
 layout(local_size_x = LOCAL_SIZE) in;
 
-layout(std430, binding = 2) buffer Bounds {
+layout(std430) buffer Bounds {
     uint bounds[6];
 };
 

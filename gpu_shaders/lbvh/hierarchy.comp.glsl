@@ -12,27 +12,27 @@
 //
 // Host defines: LOCAL_SIZE, BVH_NODE_BLOCKS, BVH_NODE_BLOCK_SIZE (the last two only for a node
 //   array split over storage blocks: bvh_storage.glsl).
-// Bindings: 0 sorted keys (read), 1 nodes (write: child refs, parents; blocks 1..3 of a split
-//   array at 43..45), 2 leaf_parent (write), 3 refit_flags (write: 0).
+// Storage blocks: Keys (read: sorted), BVHNodes (write: child refs, parents; BVHNodes1..3
+//   when split), LeafParent (write), RefitFlags (write: 0).
 // Uniforms: u_count (leaves N). The host dispatches max(N - 1, 1) invocations; for N < 2
 //   invocation 0 writes the special root described in bvh_layout.glsl.
 #include "dispatch.glsl"
 #include "float_order.glsl"
 #include "bvh_layout.glsl"
 
-#define BVH_NODES_BINDING 1
+#define BVH_NODES
 #define BVH_NODES_ACCESS
 #include "bvh_storage.glsl"
 
 layout(local_size_x = LOCAL_SIZE) in;
 
-layout(std430, binding = 0) readonly buffer Keys {
+layout(std430) readonly buffer Keys {
     uint keys[];
 };
-layout(std430, binding = 2) writeonly buffer LeafParent {
+layout(std430) writeonly buffer LeafParent {
     int leaf_parent[];
 };
-layout(std430, binding = 3) writeonly buffer RefitFlags {
+layout(std430) writeonly buffer RefitFlags {
     uint refit_flags[];
 };
 

@@ -1,10 +1,11 @@
 // LBVH pass 2: one 30-bit Morton code per triangle centroid (paper §3.3; Karras 2012 §4).
 //
-// Host defines: LOCAL_SIZE, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1, TRI_INPUT_BLOCKS,
+// Host defines: LOCAL_SIZE, TRI_INPUT_BLOCKS,
 //   TRI_INPUT_BLOCK_SIZE (the last two only for an input split over storage blocks).
-// Bindings: 0 tri_input (read; blocks 1..3 of a split input at 40..42), 1 tri_index (read, if u_use_indices), 2 bounds (read: the
-//   ordered-float centroid-sum bounds of centroid_bounds.comp.glsl), 3 keys (write: codes),
-//   4 values (write: the ORIGINAL triangle index of each element, carried through the sort).
+// Storage blocks: TriangleInput (read; TriangleInput1..3 when split), TriangleIndex (read, if
+//   u_use_indices), Bounds (read: the ordered-float centroid-sum bounds of
+//   centroid_bounds.comp.glsl), Keys (write: codes), Values (write: the ORIGINAL triangle
+//   index of each element, carried through the sort).
 // Uniforms: u_count (elements), u_use_indices.
 // One element per invocation; the dispatch may be split over x and y (dispatch.glsl).
 #include "dispatch.glsl"
@@ -14,13 +15,13 @@
 
 layout(local_size_x = LOCAL_SIZE) in;
 
-layout(std430, binding = 2) readonly buffer Bounds {
+layout(std430) readonly buffer Bounds {
     uint bounds[6];
 };
-layout(std430, binding = 3) writeonly buffer Keys {
+layout(std430) writeonly buffer Keys {
     uint keys[];
 };
-layout(std430, binding = 4) writeonly buffer Values {
+layout(std430) writeonly buffer Values {
     uint values[];
 };
 

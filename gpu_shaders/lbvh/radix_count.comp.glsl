@@ -8,7 +8,7 @@
 // host picks many short chunks instead.
 //
 // Host defines: LOCAL_SIZE, RADIX_BITS (digit width; 8 -> 256 buckets).
-// Bindings: 0 keys (read), 1 histograms (write: uint[u_num_chunks * RADIX], chunk-major:
+// Storage blocks: Keys (read), Histograms (write: uint[u_num_chunks * RADIX], chunk-major:
 //   histograms[t * RADIX + d] = keys of chunk t whose digit is d).
 // Uniforms: u_count (keys), u_chunk_size, u_num_chunks, u_shift (bit position of the digit).
 #include "dispatch.glsl"
@@ -19,10 +19,10 @@ layout(local_size_x = LOCAL_SIZE) in;
 #define RADIX (1u << RADIX_BITS)
 #define DIGIT_MASK (RADIX - 1u)
 
-layout(std430, binding = 0) readonly buffer Keys {
+layout(std430) readonly buffer Keys {
     uint keys[];
 };
-layout(std430, binding = 1) buffer Histograms {
+layout(std430) buffer Histograms {
     uint histograms[];
 };
 

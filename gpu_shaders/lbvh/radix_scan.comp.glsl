@@ -10,11 +10,11 @@
 //
 // Host defines: RADIX_BITS, RADIX (= 1 << RADIX_BITS invocations; 256 for 8-bit digits; a
 //   literal because GLSL 4.30 layouts take no constant expressions).
-// Bindings: 1 histograms (read/write: counts in, offsets out, chunk-major as radix_count).
+// Storage block Histograms (read/write: counts in, offsets out, chunk-major as radix_count).
 // Uniforms: u_num_chunks.
 layout(local_size_x = RADIX) in;
 
-layout(std430, binding = 1) buffer Histograms {
+layout(std430) buffer Histograms {
     uint histograms[];
 };
 

@@ -5,8 +5,8 @@
 // back to the element order that Karras' index tie-break assumes).
 //
 // Host defines: LOCAL_SIZE, RADIX_BITS.
-// Bindings: 0 keys_in (read), 1 histograms (read/write: offsets from radix_scan, consumed),
-//   2 values_in (read), 3 keys_out (write), 4 values_out (write).
+// Storage blocks: KeysIn (read), Histograms (read/write: offsets from radix_scan, consumed),
+//   ValuesIn (read), KeysOut (write), ValuesOut (write).
 // Uniforms: u_count, u_chunk_size, u_num_chunks, u_shift.
 #include "dispatch.glsl"
 #include "chunks.glsl"
@@ -16,19 +16,19 @@ layout(local_size_x = LOCAL_SIZE) in;
 #define RADIX (1u << RADIX_BITS)
 #define DIGIT_MASK (RADIX - 1u)
 
-layout(std430, binding = 0) readonly buffer KeysIn {
+layout(std430) readonly buffer KeysIn {
     uint keys_in[];
 };
-layout(std430, binding = 1) buffer Histograms {
+layout(std430) buffer Histograms {
     uint histograms[];
 };
-layout(std430, binding = 2) readonly buffer ValuesIn {
+layout(std430) readonly buffer ValuesIn {
     uint values_in[];
 };
-layout(std430, binding = 3) writeonly buffer KeysOut {
+layout(std430) writeonly buffer KeysOut {
     uint keys_out[];
 };
-layout(std430, binding = 4) writeonly buffer ValuesOut {
+layout(std430) writeonly buffer ValuesOut {
     uint values_out[];
 };
 

@@ -12,23 +12,23 @@
 //
 // Host defines: LOCAL_SIZE (the root is node 0, always in the first block of a split node
 //   array, so the split defines are not needed).
-// Bindings: 0 BVH nodes (read: the root's two child boxes), 2 origins (read: float[3 M]),
-//   3 keys (write: uint[M]), 4 values (write: uint[M], the ray index carried by the sort).
+// Storage blocks: BVHNodes (read: the root's two child boxes), Origins (read: float[3 M]),
+//   Keys (write: uint[M]), Values (write: uint[M], the ray index carried by the sort).
 // Uniforms: u_count (rays M).
-#define BVH_NODES_BINDING 0
+#define BVH_NODES
 #include "dispatch.glsl"
 #include "float_order.glsl"
 #include "bvh_storage.glsl"
 
 layout(local_size_x = LOCAL_SIZE) in;
 
-layout(std430, binding = 2) readonly buffer Origins {
+layout(std430) readonly buffer Origins {
     float origins[];
 };
-layout(std430, binding = 3) writeonly buffer Keys {
+layout(std430) writeonly buffer Keys {
     uint keys[];
 };
-layout(std430, binding = 4) writeonly buffer Values {
+layout(std430) writeonly buffer Values {
     uint values[];
 };
 

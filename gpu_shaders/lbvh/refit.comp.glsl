@@ -13,35 +13,35 @@
 // ancestors' boxes. Zero-area triangles keep their (flat) boxes; the watertight test rejects
 // them (determinant 0).
 //
-// Host defines: LOCAL_SIZE, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1 (unused here),
+// Host defines: LOCAL_SIZE, (triangle_input.glsl's index list unused here),
 //   TRI_INPUT_BLOCKS, TRI_INPUT_BLOCK_SIZE, BVH_NODE_BLOCKS, BVH_NODE_BLOCK_SIZE,
 //   BVH_TRIANGLE_BLOCKS, BVH_TRIANGLE_BLOCK_SIZE (the last six only for arrays split over
 //   storage blocks: triangle_input.glsl, bvh_storage.glsl).
-// Bindings: 0 tri_input (read; blocks 1..3 at 40..42), 2 values (read: original triangle index
-//   per leaf), 3 nodes (read/write, coherent; blocks 1..3 at 43..45), 4 leaf_parent (read),
-//   5 refit_flags (atomic), 6 bvh_triangles (write; blocks 1..3 at 46..48).
+// Storage blocks: TriangleInput (read; TriangleInput1..3 when split), Values (read: original
+//   triangle index per leaf), BVHNodes (read/write, coherent; BVHNodes1..3 when split),
+//   LeafParent (read), RefitFlags (atomic), BVHTriangles (write; BVHTriangles1..3 when split).
 // Uniforms: u_count (leaves N).
 #include "dispatch.glsl"
 #include "float_order.glsl"
 #include "bvh_layout.glsl"
 #include "triangle_input.glsl"
 
-#define BVH_NODES_BINDING 3
+#define BVH_NODES
 #define BVH_NODES_ACCESS coherent
-#define BVH_TRIANGLES_BINDING 6
+#define BVH_TRIANGLES
 #define BVH_TRIANGLES_ACCESS writeonly
 #define BVH_TRIANGLES_WRITEONLY
 #include "bvh_storage.glsl"
 
 layout(local_size_x = LOCAL_SIZE) in;
 
-layout(std430, binding = 2) readonly buffer Values {
+layout(std430) readonly buffer Values {
     uint values[];
 };
-layout(std430, binding = 4) readonly buffer LeafParent {
+layout(std430) readonly buffer LeafParent {
     int leaf_parent[];
 };
-layout(std430, binding = 5) coherent buffer RefitFlags {
+layout(std430) coherent buffer RefitFlags {
     uint refit_flags[];
 };
 

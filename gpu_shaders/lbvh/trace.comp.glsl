@@ -6,10 +6,10 @@
 //   BVH_TRIANGLE_BLOCK_SIZE (all but the first only for a BVH split over storage blocks:
 //   BuiltLBVH.traversal_defines()); RAY_ORDER (optional): invocation i traces ray
 //   ray_order[i] (the rays sorted by ray_keys.comp.glsl) instead of ray i.
-// Bindings: 0 BVH nodes (read; blocks 1..3 at 43..45), 1 BVH triangles (read; 46..48), 2 origins (read: float[3 M]),
-//   3 directions (read: float[3 M]), 4 hit_t (write: float[M], +inf on a miss),
-//   5 hit_tri (write: int[M], original triangle index, -1 on a miss), 6 ray_order (read:
-//   uint[M], a permutation of the rays; only with RAY_ORDER). Hits are stored by ray index.
+// Storage blocks: the BVH's (bvh_traverse.glsl; BuiltLBVH.storage), Origins (read:
+//   float[3 M]), Directions (read: float[3 M]), HitT (write: float[M], +inf on a miss), HitTri
+//   (write: int[M], original triangle index, -1 on a miss), RayOrder (read: uint[M], a
+//   permutation of the rays; only with RAY_ORDER). Hits are stored by ray index.
 // Uniforms: u_count (rays M), u_tmin, u_tmax.
 #include "dispatch.glsl"
 #include "float_order.glsl"
@@ -17,21 +17,21 @@
 
 layout(local_size_x = LOCAL_SIZE) in;
 
-layout(std430, binding = 2) readonly buffer Origins {
+layout(std430) readonly buffer Origins {
     float origins[];
 };
-layout(std430, binding = 3) readonly buffer Directions {
+layout(std430) readonly buffer Directions {
     float directions[];
 };
-layout(std430, binding = 4) writeonly buffer HitT {
+layout(std430) writeonly buffer HitT {
     float hit_t[];
 };
-layout(std430, binding = 5) writeonly buffer HitTri {
+layout(std430) writeonly buffer HitTri {
     int hit_tri[];
 };
 
 #ifdef RAY_ORDER
-layout(std430, binding = 6) readonly buffer RayOrder {
+layout(std430) readonly buffer RayOrder {
     uint ray_order[];
 };
 #endif

@@ -6,7 +6,7 @@
 // read at the mip level nearest the grid, so each cell averages the texels it covers.
 // Runs only when the World changes (hybrid_engine/sky_light.py).
 //
-// Bindings: SSBO SKY_SH_OUT_BINDING (vec4[9], written); the sky's uniforms (sky.glsl).
+// Storage block SkyIrradianceOut (vec4[9], written); the sky's uniforms (sky.glsl).
 #include "scene_layout.glsl"
 #include "sky.glsl"
 #include "sh9.glsl"
@@ -14,10 +14,9 @@
 #define SKY_GRID_W 128
 #define SKY_GRID_H 64
 #define THREADS 256
-#define SKY_SH_OUT_BINDING 9
 
 layout(local_size_x = THREADS) in;
-layout(std430, binding = SKY_SH_OUT_BINDING) writeonly buffer SkyIrradianceOut { vec4 sh_out[9]; };
+layout(std430) writeonly buffer SkyIrradianceOut { vec4 sh_out[9]; };
 
 uniform float u_grid_lod;  // mip level of u_sky_env nearest SKY_GRID_W texels wide
 

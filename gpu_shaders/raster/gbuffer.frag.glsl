@@ -38,7 +38,7 @@
 #include "textures.glsl"
 #include "octahedral.glsl"
 
-layout(std430, binding = 0) readonly buffer MaterialBuffer { Material materials[]; };
+layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 
 in vec3 v_world;
 in vec3 v_normal;

@@ -2,8 +2,7 @@
 // Primary G-buffer, vertex stage (paper §3.1). Vertices arrive in world space (the adapter
 // bakes matrix_world into them), so one view-projection serves every object.
 // Inputs: hybrid_engine/gpu_scene.py VERTEX_ATTRIBUTES (one buffer per attribute, the
-// Geometry arrays as uploaded) and the per-triangle material ids at
-// TRIANGLE_MATERIAL_BINDING. Every draw addresses vertices 3 * triangle + corner (direct
+// Geometry arrays as uploaded) and the per-triangle material ids (TriangleMaterials). Every draw addresses vertices 3 * triangle + corner (direct
 // draws through `first`, the culled cube-map draws through their index buffer), so
 // gl_VertexID / 3 is the triangle.
 // CUBE_FACE defined (the cube-map faces): a triangle of a refractive material is moved
@@ -19,9 +18,9 @@ in vec3 in_pos;
 in vec3 in_normal;
 in vec2 in_uv;
 
-layout(std430, binding = 1) readonly buffer TriangleMaterials { int triangle_materials[]; };
+layout(std430) readonly buffer TriangleMaterials { int triangle_materials[]; };
 #ifdef CUBE_FACE
-layout(std430, binding = 0) readonly buffer MaterialBuffer { Material materials[]; };
+layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 #endif
 
 out vec3 v_world;

@@ -28,13 +28,13 @@
 // instead: the same clip and pixel tests, the opposite facing. The back layer's own cull
 // would transform every triangle of the closed objects a second time.
 //
-// Host defines: LOCAL_SIZE, MAX_VIEWS, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 5 (unused),
+// Host defines: LOCAL_SIZE, MAX_VIEWS, (TriangleIndex unused),
 //   TRI_INPUT_BLOCKS, TRI_INPUT_BLOCK_SIZE (triangle_input.glsl), PAIRED (0 or 1).
-// Bindings: 0 tri_input (read; blocks 1..3 of a split scene at 40..42), 1 segments (read:
+// Storage blocks: TriangleInput (read; TriangleInput1..3 for a split scene), Segments (read:
 //   uvec4[S] = first triangle, count, first work item, view | cullable << 8 | closed << 9
 //   (closed: the object belongs in the back list; read when PAIRED); sorted by work item),
-//   2 masks (write: uint[C]), 3 counts (write: uint[C + 1]); when PAIRED also 7 the back
-//   list's masks and 8 its counts.
+//   ChunkMasks (write: uint[C]), ChunkCounts (write: uint[C + 1]); when PAIRED also the back
+//   list's BackChunkMasks and BackChunkCounts.
 // Uniforms: u_num_chunks (C), u_num_segments (S), u_view_proj[MAX_VIEWS], u_view_size
 //   (pixels), u_front_sign (+1: counter-clockwise front faces, -1: clockwise; negated for
 //   a view that keeps back faces instead, the cube map's back layer: view_cull.CullView).
@@ -44,20 +44,20 @@
 
 layout(local_size_x = LOCAL_SIZE) in;
 
-layout(std430, binding = 2) writeonly buffer ChunkMasks {
+layout(std430) writeonly buffer ChunkMasks {
     uint chunk_masks[];
 };
-layout(std430, binding = 3) writeonly buffer ChunkCounts {
+layout(std430) writeonly buffer ChunkCounts {
     uint chunk_counts[];
 };
 #ifndef PAIRED
 #define PAIRED 0
 #endif
 #if PAIRED
-layout(std430, binding = 7) writeonly buffer BackChunkMasks {
+layout(std430) writeonly buffer BackChunkMasks {
     uint back_chunk_masks[];
 };
-layout(std430, binding = 8) writeonly buffer BackChunkCounts {
+layout(std430) writeonly buffer BackChunkCounts {
     uint back_chunk_counts[];
 };
 #endif

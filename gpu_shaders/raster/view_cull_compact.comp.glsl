@@ -3,15 +3,15 @@
 // indirect draw command per view (see view_cull.comp.glsl).
 //
 // Invocation c writes the kept items of chunk c, in order, from its exclusive-prefix offset
-// (lbvh/scan.comp.glsl over the chunk counts): triangle t becomes the three vertex indices
+// (scan/scan.comp.glsl over the chunk counts): triangle t becomes the three vertex indices
 // 3t, 3t+1, 3t+2 of the scene's vertex buffer (three vertices per triangle, gpu_scene.py).
 // The output keeps the work list's order -- view by view, each in triangle order -- so the
 // depth test resolves ties exactly as the direct draws did. The invocation of a view's first
 // chunk writes that view's DrawElementsIndirectCommand {count, 1, first index, 0, 0}.
 //
 // Host defines: LOCAL_SIZE, MAX_VIEWS.
-// Bindings: 1 segments (read, view_cull_segments.glsl), 2 masks (read: uint[C]), 3 offsets
-//   (read: uint[C + 1], scanned counts), 4 indices (write: uint[3 kept]), 6 commands
+// Storage blocks: Segments (read, view_cull_segments.glsl), ChunkMasks (read: uint[C]),
+//   ChunkOffsets (read: uint[C + 1], scanned counts), Indices (write: uint[3 kept]), Commands
 //   (write: uint[5 V]).
 // Uniforms: u_num_chunks (C), u_num_segments, u_num_views (V), u_view_chunks[MAX_VIEWS + 1]
 //   (view v owns chunks [u_view_chunks[v], u_view_chunks[v + 1]) ).
@@ -20,16 +20,16 @@
 
 layout(local_size_x = LOCAL_SIZE) in;
 
-layout(std430, binding = 2) readonly buffer ChunkMasks {
+layout(std430) readonly buffer ChunkMasks {
     uint chunk_masks[];
 };
-layout(std430, binding = 3) readonly buffer ChunkOffsets {
+layout(std430) readonly buffer ChunkOffsets {
     uint chunk_offsets[];
 };
-layout(std430, binding = 4) writeonly buffer Indices {
+layout(std430) writeonly buffer Indices {
     uint indices[];
 };
-layout(std430, binding = 6) writeonly buffer Commands {
+layout(std430) writeonly buffer Commands {
     uint commands[];
 };
 

@@ -4,8 +4,8 @@
 // (tests/cube_march_reference.py). The tracer calls the same cube_march().
 //
 // Host defines: LOCAL_SIZE.
-// Bindings: SSBO 0 materials (read; thickness in params.y), 1 rays (read: vec4 origin with
-//   w = t_start, vec4 direction, per ray), 2 results (write: ivec4 (kind, face, texel.x,
+// Storage blocks: MaterialBuffer (read; thickness in params.y), Rays (read: vec4 origin with
+//   w = t_start, vec4 direction, per ray), Results (write: ivec4 (kind, face, texel.x,
 //   texel.y), ivec4 (switches, material, 0, 0), vec4 (position, t), vec4 (normal, 0) per ray).
 // Uniforms: u_count (rays), and those of cube_march.glsl.
 #include "scene_layout.glsl"
@@ -13,12 +13,12 @@
 
 layout(local_size_x = LOCAL_SIZE) in;
 
-layout(std430, binding = 0) readonly buffer MaterialBuffer { Material materials[]; };
+layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 
 #include "cube_march.glsl"
 
-layout(std430, binding = 1) readonly buffer Rays { vec4 rays[]; };
-layout(std430, binding = 2) writeonly buffer Results { vec4 results[]; };
+layout(std430) readonly buffer Rays { vec4 rays[]; };
+layout(std430) writeonly buffer Results { vec4 results[]; };
 
 uniform uint u_count;
 

@@ -36,24 +36,24 @@
 // first secondary rays start in the BVH, red (1, 0, 0) for those starting in the cube map,
 // and grey 0.5 elsewhere (paper Figure 4).
 //
-// Counters (SSBO 6, uint[4][COUNTER_DEPTHS], index kind * COUNTER_DEPTHS + depth): rays
+// Counters (CounterBuffer, uint[4][COUNTER_DEPTHS], index kind * COUNTER_DEPTHS + depth): rays
 // traced, rays that entered the cube map, rays that ended in the sky, rays that went from
 // the cube map back into the BVH, per bounce depth 1..max_depth; each ray counts at most
 // once per kind.
 //
-// Bindings: SSBO 0 materials, 1 lights, 2 shadow slots, 3 BVH nodes, 4 BVH triangles
-//   (bvh_layout.glsl), 5 shading normals (float[9 N], the scene's normal buffer), 6 counters
-//   (read/write), 7 triangle UVs (TriangleUV[N]; read only for materials with image
-//   textures), 8 material ids (int[N]), 9 sky irradiance (world_light.glsl); all
-//   per-triangle arrays in original triangle order. Image unit 0: the primary colour (RGBA32F,
-//   read and written). Textures: u_textures (textures.glsl; BVH hits sample it at the
+// Storage blocks: MaterialBuffer, LightBuffer, ShadowSlotBuffer, the BVH's (bvh_storage.glsl,
+//   bvh_traverse.glsl), TriangleNormals (float[9 N], the scene's normal buffer), CounterBuffer
+//   (read/write), TriangleUVBuffer (TriangleUV[N]; read only for materials with image
+//   textures), TriangleMaterials (int[N]), SkyIrradiance (world_light.glsl); all
+//   per-triangle arrays in original triangle order. Image u_color: the primary colour
+//   (RGBA32F, read and written). Textures: u_textures (textures.glsl; BVH hits sample it at the
 //   interpolated UV, mip level from the ray cone u_pixel_width + u_pixel_spread * distance).
 //   Cube-map hits sample it the same way at the UV their face texel stores.
 //   Samplers: primary u_depth, u_normal_material, u_albedo, u_emission_scale; the cube atlas u_cube_depth,
 //   u_cube_normal_material, u_cube_surface, u_cube_geometric, u_cube_hiz; u_shadow_atlas, u_shadow_dynamic; u_sky_env.
 // Workgroup 8x8: neighbouring pixels' rays are coherent for the first bounce.
-#define BVH_NODES_BINDING 3
-#define BVH_TRIANGLES_BINDING 4
+#define BVH_NODES
+#define BVH_TRIANGLES
 // Shadows seen in reflections and through glass are hard (lighting.glsl HARD_SHADOWS): every
 // pixel shades up to max_depth hits there, and a penumbra's filter at each would cost more
 // than the rest of their shading.
@@ -67,30 +67,30 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(std430, binding = 0) readonly buffer MaterialBuffer { Material materials[]; };
+layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 
 #include "cube_march.glsl"
 
 // Shading normals of triangle i, corners 0..2: floats 9 i .. 9 i + 8 of the scene's normal
 // buffer (Geometry.normals as uploaded by hybrid_engine/gpu_scene.py; ORIGINAL order, as
 // the BVH reports). Past the storage-block limit (3.7 M triangles of 36 bytes on llvmpipe)
-// it is bound as up to four ranges (storage_blocks.glsl): blocks 1..3 at bindings 49..51.
+// it is bound as up to four ranges (storage_blocks.glsl): blocks TriangleNormals1..3.
 #ifndef TRI_NORMAL_BLOCKS
 #define TRI_NORMAL_BLOCKS 1
 #define TRI_NORMAL_BLOCK_SIZE 1
 #endif
-layout(std430, binding = 5) readonly buffer TriangleNormals { float tri_normals[]; };
+layout(std430) readonly buffer TriangleNormals { float tri_normals[]; };
 #if TRI_NORMAL_BLOCKS > 1
-layout(std430, binding = 49) readonly buffer TriangleNormals1 { float tri_normals1[]; };
+layout(std430) readonly buffer TriangleNormals1 { float tri_normals1[]; };
 #endif
 #if TRI_NORMAL_BLOCKS > 2
-layout(std430, binding = 50) readonly buffer TriangleNormals2 { float tri_normals2[]; };
+layout(std430) readonly buffer TriangleNormals2 { float tri_normals2[]; };
 #endif
 #if TRI_NORMAL_BLOCKS > 3
-layout(std430, binding = 51) readonly buffer TriangleNormals3 { float tri_normals3[]; };
+layout(std430) readonly buffer TriangleNormals3 { float tri_normals3[]; };
 #endif
 // Material index per triangle (Geometry.material_ids), original order.
-layout(std430, binding = 8) readonly buffer TriangleMaterials { int tri_materials[]; };
+layout(std430) readonly buffer TriangleMaterials { int tri_materials[]; };
 
 #define TRI_NORMAL_AT(array, base) vec3(array[(base)], array[(base) + 1u], array[(base) + 2u])
 
@@ -129,7 +129,7 @@ struct TriangleUV {
     vec4 uv01;
     vec4 uv2_scale;
 };
-layout(std430, binding = 7) readonly buffer TriangleUVBuffer { TriangleUV tri_uvs[]; };
+layout(std430) readonly buffer TriangleUVBuffer { TriangleUV tri_uvs[]; };
 uniform float u_pixel_width;   // a pixel's footprint at the camera (orthographic), metres
 uniform float u_pixel_spread;  // its growth per metre of distance (perspective), radians
 
@@ -138,11 +138,11 @@ uniform float u_pixel_spread;  // its growth per metre of distance (perspective)
 #define COUNT_CUBE_MAP 1
 #define COUNT_SKY 2
 #define COUNT_BVH_REENTRY 3
-layout(std430, binding = 6) buffer CounterBuffer { uint counters[]; };
+layout(std430) buffer CounterBuffer { uint counters[]; };
 
-layout(rgba32f, binding = 0) uniform image2D u_color;
+layout(rgba32f) uniform image2D u_color;
 #ifdef WORLD_LIGHT_PASS
-layout(rgba32f, binding = 1) writeonly uniform image2D u_ambient;
+layout(rgba32f) writeonly uniform image2D u_ambient;
 #endif
 
 uniform sampler2D u_depth;

@@ -7,11 +7,11 @@
 // chunks (a few thousand at most), so one group is enough and avoids a multi-level scan.
 //
 // Host defines: LOCAL_SIZE.
-// Bindings: 0 data (read/write: uint[n + 1]).
+// Storage block Data (read/write: uint[n + 1]).
 // Uniforms: u_count (n).
 layout(local_size_x = LOCAL_SIZE) in;
 
-layout(std430, binding = 0) buffer Data {
+layout(std430) buffer Data {
     uint data[];
 };
 

@@ -6,18 +6,18 @@
 // non-finite coordinate straddles, so its triangles are judged one by one.
 //
 // Host defines: LOCAL_SIZE.
-// Bindings: 0 object_bounds (read: float[6 K], min xyz then max xyz per object),
-//   1 object_class (write: uint[K]).
+// Storage blocks: ObjectBounds (read: float[6 K], min xyz then max xyz per object),
+//   ObjectClass (write: uint[K]).
 // Uniforms: u_num_objects (K), u_center, u_half_size (near-cube half-size + overlap margin).
 #include "dispatch.glsl"
 #include "float_order.glsl"
 
 layout(local_size_x = LOCAL_SIZE) in;
 
-layout(std430, binding = 0) readonly buffer ObjectBounds {
+layout(std430) readonly buffer ObjectBounds {
     float object_bounds[];
 };
-layout(std430, binding = 1) writeonly buffer ObjectClass {
+layout(std430) writeonly buffer ObjectClass {
     uint object_class[];
 };
 

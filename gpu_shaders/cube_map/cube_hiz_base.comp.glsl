@@ -4,17 +4,18 @@
 // reach to hit the surface stored there; CUBE_HIZ_EMPTY where nothing is stored and in the
 // padding up to the power-of-two face size u_cube_hiz_res.
 //
-// Bindings: SSBO 0 materials (thickness in params.y); image 0 the pyramid's level 0 (rg32f).
+// Storage block MaterialBuffer (thickness in params.y); image u_level0, the pyramid's level 0
+//   (rg32f).
 // Uniforms: those of cube_march.glsl.
 #include "scene_layout.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(std430, binding = 0) readonly buffer MaterialBuffer { Material materials[]; };
+layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 
 #include "cube_march.glsl"
 
-layout(rg32f, binding = 0) writeonly uniform image2D u_level0;
+layout(rg32f) writeonly uniform image2D u_level0;
 
 void main() {
     ivec2 texel = ivec2(gl_GlobalInvocationID.xy);

@@ -10,11 +10,12 @@
 // against the cube grown by the overlap margin. A 0/1 flag per triangle and the chunk's kept
 // count feed the prefix sum and compaction.
 //
-// Host defines: LOCAL_SIZE, TRI_INPUT_BINDING = 0, TRI_INDEX_BINDING = 1 (the candidates),
+// Host defines: LOCAL_SIZE, (TriangleIndex: the candidates),
 //   TRI_INPUT_BLOCKS, TRI_INPUT_BLOCK_SIZE (the last two only for a scene split over storage
 //   blocks: triangle_input.glsl).
-// Bindings: 0 tri_input (read; blocks 1..3 of a split scene at 40..42), 2 object_ranges (read: ivec2[K] first, count; sorted by first),
-//   3 object_class (read), 4 keep_flags (write: uint[N]), 5 chunk_counts (write: uint[T]).
+// Storage blocks: TriangleInput (read; TriangleInput1..3 for a split scene), ObjectRanges
+//   (read: ivec2[K] first, count; sorted by first), ObjectClass (read), KeepFlags (write:
+//   uint[N]), ChunkCounts (write: uint[T]).
 // Uniforms: u_count (N), u_chunk_size, u_num_chunks (T), u_num_objects (K), u_center,
 //   u_half_size.
 #include "dispatch.glsl"
@@ -26,16 +27,16 @@
 
 layout(local_size_x = LOCAL_SIZE) in;
 
-layout(std430, binding = 2) readonly buffer ObjectRanges {
+layout(std430) readonly buffer ObjectRanges {
     ivec2 object_ranges[];
 };
-layout(std430, binding = 3) readonly buffer ObjectClass {
+layout(std430) readonly buffer ObjectClass {
     uint object_class[];
 };
-layout(std430, binding = 4) writeonly buffer KeepFlags {
+layout(std430) writeonly buffer KeepFlags {
     uint keep_flags[];
 };
-layout(std430, binding = 5) writeonly buffer ChunkCounts {
+layout(std430) writeonly buffer ChunkCounts {
     uint chunk_counts[];
 };
 

@@ -4,24 +4,24 @@
 // passed a candidate list (u_use_indices = 1, cull_triangles.comp.glsl).
 //
 // Host defines: LOCAL_SIZE.
-// Bindings: 0 keep_flags (read), 1 chunk_offsets (read: uint[T + 1], scanned counts),
-//   2 kept_indices (write: uint[kept]), 3 candidates (read: uint[N], with u_use_indices).
+// Storage blocks: KeepFlags (read), ChunkOffsets (read: uint[T + 1], scanned counts),
+//   KeptIndices (write: uint[kept]), Candidates (read: uint[N], with u_use_indices).
 // Uniforms: u_count (N), u_chunk_size, u_num_chunks (T), u_use_indices.
 #include "dispatch.glsl"
 #include "chunks.glsl"
 
 layout(local_size_x = LOCAL_SIZE) in;
 
-layout(std430, binding = 0) readonly buffer KeepFlags {
+layout(std430) readonly buffer KeepFlags {
     uint keep_flags[];
 };
-layout(std430, binding = 1) readonly buffer ChunkOffsets {
+layout(std430) readonly buffer ChunkOffsets {
     uint chunk_offsets[];
 };
-layout(std430, binding = 2) writeonly buffer KeptIndices {
+layout(std430) writeonly buffer KeptIndices {
     uint kept_indices[];
 };
-layout(std430, binding = 3) readonly buffer Candidates {
+layout(std430) readonly buffer Candidates {
     uint candidates[];
 };
 

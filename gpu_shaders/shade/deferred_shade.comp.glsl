@@ -18,8 +18,8 @@
 //
 // Bindings: u_depth (DEPTH32F), u_normal_material (RGBA32F), u_albedo (RGBA16F),
 //   u_emission_scale (RGBA16F: the emission texture's colour, multiplies the emission) read;
-//   SSBO 0 materials, 1 lights, 2 shadow slots, 9 sky irradiance read; image unit 0 (RGBA32F)
-//   written.
+//   storage blocks MaterialBuffer, LightBuffer, ShadowSlotBuffer, SkyIrradiance read; image
+//   u_output (RGBA32F) written.
 // Workgroup 8x8: square tiles keep neighbouring pixels (and their G-buffer rows) together.
 #include "scene_layout.glsl"
 #include "shading.glsl"
@@ -28,8 +28,8 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(std430, binding = 0) readonly buffer MaterialBuffer { Material materials[]; };
-layout(rgba32f, binding = 0) writeonly uniform image2D u_output;
+layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
+layout(rgba32f) writeonly uniform image2D u_output;
 
 uniform sampler2D u_depth;
 uniform sampler2D u_normal_material;
@@ -43,8 +43,7 @@ uniform int u_sky_visibility_known;  // 0: no pass estimated it, the whole sky i
 uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
 uniform int u_orthographic;
-uniform ivec2 u_size;    // size of the view being shaded
-uniform ivec2 u_origin;  // its texel origin inside the G-buffer (cube-map faces share an atlas)
+uniform ivec2 u_size;  // size of the view being shaded
 uniform int u_traced_specular;  // 1: specular lobes are traced elsewhere, leave them out
 uniform int u_transparent_background;  // 1: the background is transparent, not the sky
 
@@ -64,13 +63,13 @@ vec4 smoothed_ambient(ivec2 local, vec3 p, vec3 n) {
     for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
             ivec2 q = clamp(local + ivec2(dx, dy), ivec2(0), u_size - 1);
-            vec4 nm = texelFetch(u_normal_material, u_origin + q, 0);
+            vec4 nm = texelFetch(u_normal_material, q, 0);
             if (nm.w == 0.0) continue;
-            float depth = texelFetch(u_depth, u_origin + q, 0).r;
+            float depth = texelFetch(u_depth, q, 0).r;
             vec3 pq = unproject((vec2(q) + 0.5) / vec2(u_size) * 2.0 - 1.0, depth * 2.0 - 1.0);
             bool same = abs(dot(pq - p, n)) < 0.02 * camera_dist && abs(dot(nm.xyz, n)) > 0.9;
             float w = same ? 1.0 : 0.0;
-            sum += w * texelFetch(u_ambient, u_origin + q, 0);
+            sum += w * texelFetch(u_ambient, q, 0);
             weight += w;
         }
     }
@@ -80,7 +79,7 @@ vec4 smoothed_ambient(ivec2 local, vec3 p, vec3 n) {
 void main() {
     ivec2 local = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(local, u_size))) return;
-    ivec2 pixel = u_origin + local;
+    ivec2 pixel = local;
 
     vec2 ndc_xy = (vec2(local) + 0.5) / vec2(u_size) * 2.0 - 1.0;
     vec3 near_point = unproject(ndc_xy, -1.0);

@@ -7,13 +7,13 @@
 // the shading pass averages neighbouring pixels of the same surface, and accumulated
 // samples average the rest.
 //
-// Bindings: u_depth (DEPTH32F), u_normal_material (RGBA32F) read; image unit 1 (RGBA32F,
-// the G-buffer's ambient target: alpha = visibility) written.
+// Bindings: u_depth (DEPTH32F), u_normal_material (RGBA32F) read; image u_visibility
+// (RGBA32F, the G-buffer's ambient target: alpha = visibility) written.
 #include "scene_layout.glsl"
 #include "random.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(rgba32f, binding = 1) writeonly uniform image2D u_visibility;
+layout(rgba32f) writeonly uniform image2D u_visibility;
 
 uniform sampler2D u_depth;
 uniform sampler2D u_normal_material;
@@ -23,7 +23,6 @@ uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
 uniform int u_orthographic;
 uniform ivec2 u_size;
-uniform ivec2 u_origin;
 uniform float u_ao_distance;
 uniform int u_sample;
 
@@ -56,7 +55,7 @@ float screen_space_sky_visibility(vec3 p, vec3 n) {
         vec3 ndc = clip.xyz / clip.w;
         if (any(greaterThan(abs(ndc.xy), vec2(1.0)))) continue;
         ivec2 texel = clamp(ivec2((ndc.xy * 0.5 + 0.5) * vec2(u_size)), ivec2(0), u_size - 1);
-        float stored = texelFetch(u_depth, u_origin + texel, 0).r;
+        float stored = texelFetch(u_depth, texel, 0).r;
         if (stored >= ndc.z * 0.5 + 0.5) continue;
         vec3 s = unproject((vec2(texel) + 0.5) / vec2(u_size) * 2.0 - 1.0, stored * 2.0 - 1.0);  // the stored point
         // In front of the point, above p's tangent plane (a texel of the plane p lies on,
@@ -74,7 +73,7 @@ float screen_space_sky_visibility(vec3 p, vec3 n) {
 void main() {
     ivec2 local = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(local, u_size))) return;
-    ivec2 pixel = u_origin + local;
+    ivec2 pixel = local;
     vec4 nm = texelFetch(u_normal_material, pixel, 0);
     float visibility = 1.0;
     if (nm.w != 0.0) {

@@ -4,12 +4,12 @@
 // children, so a ray whose depth range misses (min A, max B] misses every texel below.
 // Faces are power-of-two squares, so no cell straddles two faces.
 //
-// Bindings: image 1 the finer level (read), image 0 this level (write), both rg32f.
+// Images: u_finer, the finer level (read), u_coarser, this level (write), both rg32f.
 // Uniforms: u_size, this level's atlas size in cells.
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(rg32f, binding = 1) readonly uniform image2D u_finer;
-layout(rg32f, binding = 0) writeonly uniform image2D u_coarser;
+layout(rg32f) readonly uniform image2D u_finer;
+layout(rg32f) writeonly uniform image2D u_coarser;
 
 uniform ivec2 u_size;
 

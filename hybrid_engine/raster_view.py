@@ -1,0 +1,51 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""What a raster pass needs of a camera, in the form GLSL takes it.
+
+The primary camera and each cube-map face (paper §3.1, §3.2) are drawn by the same
+G-buffer pass; the passes that reconstruct positions from a G-buffer (deferred shading,
+the tracer) share the same camera uniforms. Both read them from one ``RasterView``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .camera import Camera
+
+
+def gl_matrix(m: np.ndarray) -> bytes:
+    """Row-major numpy matrix → column-major float32 bytes for a GLSL mat4."""
+    return np.ascontiguousarray(np.asarray(m, np.float32).T).tobytes()
+
+
+@dataclass(frozen=True)
+class RasterView:
+    """A view drawn into a G-buffer: the primary camera or a cube-map face."""
+
+    view_proj: np.ndarray
+    position: np.ndarray
+    forward: np.ndarray
+    orthographic: bool
+    width: int
+    height: int
+
+    @classmethod
+    def from_camera(cls, camera: Camera) -> "RasterView":
+        return cls(camera.view_projection(), camera.position, camera.forward,
+                   camera.projection == "ORTHO", int(camera.width), int(camera.height))
+
+    def view_proj_bytes(self) -> bytes:
+        """The view-projection as a GLSL mat4 (passes that project points into the view)."""
+        return gl_matrix(self.view_proj)
+
+    def uniforms(self) -> dict:
+        """The camera uniforms that the passes reconstructing positions from a G-buffer
+        share (deferred_shade.comp.glsl, hybrid_trace.comp.glsl)."""
+        return {
+            "u_inv_view_proj": gl_matrix(np.linalg.inv(self.view_proj)),
+            "u_camera_position": tuple(np.asarray(self.position, float)),
+            "u_camera_forward": tuple(np.asarray(self.forward, float)),
+            "u_orthographic": int(self.orthographic),
+            "u_size": (self.width, self.height),
+        }

@@ -1,0 +1,85 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Textures of one size that the raster passes render into together.
+
+A pass allocates its targets once and again only when the image size changes; the
+G-buffer of the primary camera (paper §3.1) is one, the cube map's face atlas (§3.2,
+cube_map.CubeFaceTargets) another.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import gl_context
+
+
+def release_all(objects) -> None:
+    """Release GL objects (None skipped), never deleting the bound framebuffer."""
+    gl_context.park_framebuffer()
+    for obj in objects:
+        if obj is not None:
+            obj.release()
+
+
+class RenderTargets:
+    """A depth texture and colour targets in one framebuffer, plus textures the passes fill
+    otherwise (``extra``), all sampled texel by texel (NEAREST). Subclasses name them.
+    :meth:`clear` resets depth and the colour targets named in ``cleared`` (all when None)."""
+
+    def __init__(self, ctx, width: int, height: int, colour: dict[str, tuple[int, str]],
+                 extra: dict[str, tuple[int, str]] | None = None,
+                 cleared: tuple[str, ...] | None = None) -> None:
+        self.size = (int(width), int(height))
+        self.depth = ctx.depth_texture(self.size)
+        self._textures = {"depth": self.depth}
+        for name, (components, dtype) in {**colour, **(extra or {})}.items():
+            self._textures[name] = ctx.texture(self.size, components, dtype=dtype)
+            setattr(self, name, self._textures[name])
+        for tex in self._textures.values():
+            tex.filter = (ctx.NEAREST, ctx.NEAREST)
+        self.fbo = ctx.framebuffer(color_attachments=[self._textures[name] for name in colour],
+                                   depth_attachment=self.depth)
+        self._clear_fbo = self.fbo if cleared is None else ctx.framebuffer(
+            color_attachments=[self._textures[name] for name in cleared], depth_attachment=self.depth)
+
+    def clear(self) -> None:
+        self._clear_fbo.use()
+        self._clear_fbo.viewport = (0, 0, *self.size)
+        self._clear_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+
+    def read(self, name: str) -> np.ndarray:
+        """Texture ``name`` as (H, W, C) float32, row 0 at the bottom (tests, diagnostics)."""
+        tex = self._textures[name]
+        w, h = self.size
+        dtype = np.float16 if tex.dtype == "f2" else np.float32
+        return np.frombuffer(tex.read(), dtype).reshape(h, w, -1).astype(np.float32)
+
+    def release(self) -> None:
+        extra_fbo = () if self._clear_fbo is self.fbo else (self._clear_fbo,)
+        release_all((self.fbo, *extra_fbo, *self._textures.values()))
+
+
+class GBufferTargets(RenderTargets):
+    """The primary camera's G-buffer (depth, normal + material, albedo, emission scale,
+    surface: the roughness and metallic its images give; gbuffer.frag.glsl), its ambient
+    estimate (the World's light: alpha the sky's visibility from screen_ao.py, or rgb the
+    light the tracer's sky rays gathered as well) and its shaded colour, W x H texels.
+    ``emission_scale`` holds the colour of the material's emission texture (1 without
+    one); the shading multiplies the material's emission by it."""
+
+    def __init__(self, ctx, width: int, height: int) -> None:
+        super().__init__(ctx, width, height,
+                         colour={"normal_material": (4, "f4"), "albedo": (4, "f2"), "emission_scale": (4, "f2"),
+                                 "surface": (2, "f2")},
+                         extra={"color": (4, "f4"), "ambient": (4, "f4")})
+
+    def read_color(self) -> np.ndarray:
+        """The shaded colour as (H, W, 4) float32, row 0 at the bottom."""
+        return self.read("color")
+
+    def read_albedo(self) -> np.ndarray:
+        """The albedo target as (H, W, 4) float32, row 0 at the bottom (tests, diagnostics)."""
+        return self.read("albedo")
+
+    def read_emission_scale(self) -> np.ndarray:
+        """The emission-scale target as (H, W, 4) float32, row 0 at the bottom."""
+        return self.read("emission_scale")

@@ -11,7 +11,7 @@ the early depth test.
 from __future__ import annotations
 
 from . import shader_loader
-from .bindings import bind
+from .bindings import bind, set_uniforms
 from .gpu_scene import GPUScene
 from .raster_view import RasterView, gl_matrix
 from .render_targets import GBufferTargets, RenderTargets
@@ -80,7 +80,7 @@ class GBufferPass:
         for row, row_culled, back_faces in rows:
             for i, view in enumerate(views):
                 targets.fbo.viewport = (i * view.width, row * view.height, view.width, view.height)
-                prog["u_view_proj"].write(gl_matrix(view.view_proj))
+                set_uniforms(prog, {"u_view_proj": gl_matrix(view.view_proj)})
                 if row_culled is None:
                     submitted += self.drawer.draw_world(vao, view.view_proj, scene,
                                                         include=closed if back_faces else None,

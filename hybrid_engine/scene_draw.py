@@ -20,6 +20,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
+from .bindings import set_uniforms
 from .frustum import beyond_near_plane, draw_ranges, front_face_winding, visible_objects
 from .gpu_scene import GPUScene
 from .raster_view import gl_matrix
@@ -140,7 +141,7 @@ class SceneDrawer:
         for batch, batch_culled in zip(batches, culled):
             for i, (view_proj, rect) in enumerate(batch):
                 fbo.viewport = rect
-                prog["u_view_proj"].write(gl_matrix(view_proj))
+                set_uniforms(prog, {"u_view_proj": gl_matrix(view_proj)})
                 if batch_culled is not None:
                     submitted += batch_culled.draw(prog, gpu, i)
                 else:

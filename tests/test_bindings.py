@@ -103,3 +103,13 @@ def test_no_shader_writes_a_binding_number():
                  for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
                  if re.search(r"\bbinding\s*=", line)]
     assert offenders == []
+
+
+def test_only_the_bindings_module_binds_buffers_images_and_textures_by_number():
+    """Every pass binds through bindings.bind: a number chosen in a pass could collide with
+    the one its program was given."""
+    core = SHADER_ROOT.parent / "hybrid_engine"
+    calls = re.compile(r"bind_to_storage_buffer\(|bind_to_image\(|\.use\(location|\]\.(value|write)\b")
+    offenders = [f"{path.name}:{n}" for path in core.glob("*.py") if path.name != "bindings.py"
+                 for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1) if calls.search(line)]
+    assert offenders == []

@@ -52,12 +52,14 @@ LABELS = {
     "near_cube_mode": "Near Cube",
     "frame_budget_ms": "Frame Budget",
     "near_min": "Min Size",
+    "diagnostic_bounce": "Bounce",
     "near_max": "Max Size",
 }
 # The range a slider drags over; typing can go on to the hard limits (FIELD_LIMITS).
 SOFT_LIMITS = {
     "near_size": (0.1, 100.0),
     "max_depth": (0, 8),
+    "diagnostic_bounce": (1, 8),
     "cube_resolution": (64, 2048),
     "cube_far": (1.0, 10_000.0),
     "n_min": (4, 256),

@@ -4,8 +4,9 @@
 The same stacked per-pass bars as the PNG (``chart_png``, the paper's Figure 5), with what a
 bitmap with a 3x5 font cannot carry: a frame-time axis in milliseconds on the left, the
 frames-per-second those times mean on the right, the target frame rate as a dashed line, a
-legend naming every pass, the near cube's size per frame where it varied (Frame Budget), and
-a summary line (mean and 95th-percentile frame time, the slowest pass). Plain text output,
+legend naming every pass, the near cube's size per frame where it varied (Frame Budget), a
+strip under the frames showing where each frame's secondary rays ended (BVH, cube map, sky),
+and a summary (mean and 95th-percentile frame time, the slowest pass, the rays' story). Plain text output,
 no dependency: ``xml.sax.saxutils`` escapes the names.
 """
 from __future__ import annotations
@@ -14,8 +15,11 @@ import math
 from collections.abc import Mapping, Sequence
 from xml.sax.saxutils import escape
 
-WIDTH, HEIGHT = 1000, 560
-LEFT, RIGHT, TOP, BOTTOM = 70, 70, 50, 110  # plot margins: axes, title, legend, summary
+WIDTH, HEIGHT = 1000, 600
+LEFT, RIGHT, TOP, BOTTOM = 70, 70, 50, 150  # plot margins: axes, title, ray strip, legend, summary
+# Where rays ended (the strip under the frames): BVH blue, cube map red, sky green, as the
+# diagnostic views colour them (diagnostics.PATH_COLOURS).
+RAY_END_COLOURS = (("BVH", "#0033ff"), ("cube map", "#ff0d00"), ("sky", "#1ae633"))
 FONT = "font-family='DejaVu Sans, Arial, sans-serif'"
 
 
@@ -32,8 +36,11 @@ def _hex(color: Sequence[int]) -> str:
 
 def stacked_bar_svg(frames: Sequence[int], series: Mapping[str, Sequence[float]], colors: Sequence[Sequence[int]],
                     *, title: str, summary: str, target_ms: float | None = None, target_fps: float | None = None,
-                    near_sizes: Sequence[float | None] | None = None) -> str:
-    """The chart as an SVG document. ``series``: per pass, one value per frame (ms)."""
+                    near_sizes: Sequence[float | None] | None = None,
+                    ray_shares: Sequence[tuple[float, float, float] | None] | None = None) -> str:
+    """The chart as an SVG document. ``series``: per pass, one value per frame (ms).
+    ``ray_shares``: per frame, the shares of its rays that ended in the BVH, the cube map and
+    the sky (None for a frame without rays)."""
     names = list(series)
     totals = [sum(series[name][i] for name in names) for i in range(len(frames))]
     top_ms = max([*totals, target_ms or 0.0, 1e-3]) * 1.1
@@ -97,14 +104,36 @@ def stacked_bar_svg(frames: Sequence[int], series: Mapping[str, Sequence[float]]
                    "stroke-width='1.5'/>")
         out.append(f"<text x='{LEFT + 6}' y='{TOP + 14}'>line: near cube size "
                    f"{min(sizes):.2f}-{max(sizes):.2f}</text>")
+    if ray_shares and any(share is not None for share in ray_shares):
+        strip_top, strip_h = TOP + plot_h + 28, 18
+        out.append(f"<text x='{LEFT - 8}' y='{strip_top + 13}' text-anchor='end'>rays</text>")
+        for i, share in enumerate(ray_shares):
+            if share is None:
+                continue
+            x0, y0 = LEFT + i * slot + (slot - bar) / 2, float(strip_top)
+            for (name, colour), part in zip(RAY_END_COLOURS, share):
+                if part > 0:
+                    out.append(f"<rect class='ray-share' x='{x0:.2f}' y='{y0:.2f}' width='{bar:.2f}' "
+                               f"height='{strip_h * part:.2f}' fill='{colour}'><title>frame {frames[i]}: "
+                               f"{part:.1%} of rays ended in the {name}</title></rect>")
+                    y0 += strip_h * part
+        x = LEFT + plot_w - 250
+        for name, colour in RAY_END_COLOURS:
+            out.append(f"<rect x='{x}' y='{strip_top + 22}' width='10' height='10' fill='{colour}'/>")
+            out.append(f"<text x='{x + 14}' y='{strip_top + 31}'>rays ended: {name}</text>" if name == "BVH"
+                       else f"<text x='{x + 14}' y='{strip_top + 31}'>{name}</text>")
+            x += 110 if name == "BVH" else 75
     # Legend, then the summary.
-    x, row = LEFT, HEIGHT - BOTTOM + 40
+    x, row = LEFT, HEIGHT - BOTTOM + 85
     for name, color in zip(names, colors):
         out.append(f"<rect x='{x}' y='{row - 10}' width='12' height='12' fill='{_hex(color)}'/>")
         out.append(f"<text class='pass' x='{x + 16}' y='{row}'>{escape(name)}</text>")
         x += 24 + 7 * len(name)
         if x > WIDTH - RIGHT - 80:
             x, row = LEFT, row + 18
-    out.append(f"<text class='summary' x='{LEFT}' y='{HEIGHT - 12}'>{escape(summary)}</text>")
+    lines = summary.split("\n")
+    for k, line in enumerate(lines):
+        out.append(f"<text class='summary' x='{LEFT}' y='{HEIGHT - 12 - 16 * (len(lines) - 1 - k)}'>"
+                   f"{escape(line)}</text>")
     out.append("</svg>")
     return "\n".join(out) + "\n"

@@ -13,6 +13,10 @@ FULL_BVH    as HYBRID without the cube map and the culling: the LBVH holds the w
             (the paper's ground truth)
 PROVENANCE  upload, shadow_maps, primary_raster, shade, trace (which only decides where each
             specular pixel's first secondary ray starts: BVH blue, cube map red; Figure 4)
+BOUNCES,    as HYBRID; the trace also counts, per pixel, bounces, cube-map steps, BVH nodes
+CUBE_STEPS, or where one bounce's rays ended, and the image shows that count in false colour
+BVH_NODES,  with a legend (diagnostics.py; FrameResult.diagnostic holds the counts)
+BOUNCE_PATHS
 ==========  ===================================================================================
 
 ``shade`` is the screen-space ambient occlusion (screen_ao.py) and the deferred shading of
@@ -32,6 +36,7 @@ from .camera import Camera
 from .film import FrameOutputs, depth_pass, normal_pass
 from .frame_resources import FrameResources
 from .deferred_shade import DeferredShadePass
+from .diagnostics import draw_legend, is_diagnostic, legend
 from .gbuffer import GBufferPass
 from .gpu_scene import GPUScene
 from .raster_view import RasterView
@@ -39,7 +44,7 @@ from .scene_data import SceneData
 from .scene_delta import GeometryTracker
 from .scene_draw import SceneDrawer
 from .screen_ao import ScreenSpaceOcclusion
-from .settings import RenderSettings
+from .settings import DIAGNOSTIC_VIEWS, RenderSettings
 from .shadow_depth import ShadowDepthPass
 from .timing import PassTimer
 from .tracer import HybridTracer
@@ -59,6 +64,7 @@ MODE_STEPS = {
     "FULL_BVH": ("upload", "shadow_maps", "primary_raster", "lbvh_build", "shade", "trace", "readback"),
     "PROVENANCE": ("upload", "shadow_maps", "primary_raster", "shade", "trace", "readback"),
 }
+MODE_STEPS.update({view: MODE_STEPS["HYBRID"] for view in DIAGNOSTIC_VIEWS})
 
 
 @dataclass
@@ -80,6 +86,8 @@ class FrameResult:
     mode: str = "RASTER"
     data_passes: dict[str, np.ndarray] = field(default_factory=dict)
     near_size: float | None = None  # the near cube's half-size the frame used (HYBRID)
+    # A diagnostic view's per-pixel counts (H, W), same rows as ``image`` (diagnostics.py).
+    diagnostic: np.ndarray | None = None
 
 
 class Renderer:
@@ -206,6 +214,10 @@ class Renderer:
             data = self._data_passes(targets, camera, outputs)
             if traced and settings.mode != "PROVENANCE":
                 counts.update(tracer.read_stats(settings.max_depth).as_counts())
+            diagnostic = None
+            if is_diagnostic(settings):
+                diagnostic = tracer.read_diagnostic(view)
+                draw_legend(image, legend(settings))
         self._world_key = world_key if traced else None
         if gl_context.debug_checks_enabled():
             gl_context.check_error(f"{settings.mode} frame")
@@ -220,7 +232,7 @@ class Renderer:
         }
         return FrameResult(image=image, passes=dict(timer.passes), counts=counts,
                            timing_source=timer.source, total_ms=total, mode=settings.mode,
-                           data_passes=data,
+                           data_passes=data, diagnostic=diagnostic,
                            near_size=float(settings.near_size) if "cube_map_raster" in steps else None)
 
     def _same_world(self, key: tuple) -> bool:

@@ -11,7 +11,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
-MODES = ("HYBRID", "FULL_BVH", "PROVENANCE", "RASTER")
+# The diagnostic views render a HYBRID frame and show, per pixel, where its rays and time went
+# (diagnostics.py); they are modes so that the viewport, F12 and timing reports show them alike.
+DIAGNOSTIC_VIEWS = ("BOUNCES", "CUBE_STEPS", "BVH_NODES", "BOUNCE_PATHS")
+MODES = ("HYBRID", "FULL_BVH", "PROVENANCE", *DIAGNOSTIC_VIEWS, "RASTER")
 
 CUBE_MARCHES = ("HIERARCHICAL", "SAMPLED")
 
@@ -36,9 +39,16 @@ MODE_DOCS = {
     "reference Hybrid is compared with, and slower",
     "PROVENANCE": "Shows where each reflection starts: blue near the camera (traced exactly), "
     "red farther away (looked up in the cube map)",
+    "BOUNCES": "Diagnostic: how many bounces deep each pixel's reflections and refractions go",
+    "CUBE_STEPS": "Diagnostic: how many steps each pixel's rays take searching the cube map",
+    "BVH_NODES": "Diagnostic: how many BVH nodes each pixel's rays visit near the camera",
+    "BOUNCE_PATHS": "Diagnostic: where each pixel's rays of one bounce end: near the camera (BVH), "
+    "in the cube map or in the sky",
     "RASTER": "No reflections or refractions: the lit surfaces only, fastest",
 }
-MODE_LABELS = {"HYBRID": "Hybrid", "FULL_BVH": "Full BVH", "PROVENANCE": "Provenance", "RASTER": "Raster"}
+MODE_LABELS = {"HYBRID": "Hybrid", "FULL_BVH": "Full BVH", "PROVENANCE": "Provenance", "BOUNCES": "Bounces",
+               "CUBE_STEPS": "Cube Map Steps", "BVH_NODES": "BVH Nodes", "BOUNCE_PATHS": "Bounce Paths",
+               "RASTER": "Raster"}
 CUBE_MARCH_LABELS = {"HIERARCHICAL": "Hierarchical", "SAMPLED": "Sampled"}
 
 FIELD_DOCS = {
@@ -63,6 +73,8 @@ FIELD_DOCS = {
     "cube_hidden_exit": "A ray that leaves the cube map at a point the camera cannot see (under a "
     "floor, behind an object) hits the surface that hides the point instead of seeing the sky, "
     "which the paper gives it",
+    "diagnostic_bounce": "Bounce Paths view: the bounce whose rays it shows (1: the first "
+    "reflections and refractions)",
     "n_min": "Sampled search: samples per cube-map face for rays that run along the face",
     "n_max": "Sampled search: samples per cube-map face for rays that cross it head-on",
     "shadow_resolution": "Size of each shadow map: sharper shadows, more memory and time",
@@ -87,6 +99,7 @@ FIELD_LIMITS = {
     "near_min": (0.01, 1.0e5),
     "near_max": (0.01, 1.0e5),
     "max_depth": (0, 16),
+    "diagnostic_bounce": (1, 17),
     "cube_resolution": (16, 4096),
     "cube_far": (0.1, 1.0e7),
     "n_min": (1, 1024),
@@ -127,11 +140,17 @@ class RenderSettings:
     frame_budget_ms: float = 33.3
     near_min: float = 0.5
     near_max: float = 20.0
+    diagnostic_bounce: int = 1
+
+    @property
+    def trace_mode(self) -> str:
+        """The mode whose passes render this frame: a diagnostic view renders HYBRID's."""
+        return "HYBRID" if self.mode in DIAGNOSTIC_VIEWS else self.mode
 
     @property
     def traces_sky(self) -> bool:
         """Whether the World's light is gathered by sky rays (only where a BVH is built)."""
-        return self.sky_rays and self.mode in ("HYBRID", "FULL_BVH")
+        return self.sky_rays and self.trace_mode in ("HYBRID", "FULL_BVH")
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:

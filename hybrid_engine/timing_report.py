@@ -47,6 +47,39 @@ PIPELINE_PASSES = (
 LEADING_COUNTS = ("triangles_total", "triangles_bvh")
 # Counts every frame record has, 0 when the frame did not report them (RASTER builds no BVH).
 DEFAULT_COUNTS = {"triangles_bvh": 0}
+# The rays' story of a traced frame (RayStory), as CSV columns after the passes.
+RAY_STORY_COLUMNS = ("rays_ended_bvh", "rays_ended_cube_map", "rays_ended_sky", "bvh_nodes_per_ray",
+                     "cube_steps_per_ray")
+
+
+@dataclass(frozen=True)
+class RayStory:
+    """Where a frame's secondary rays ended and what they cost: the shares of the rays traced
+    that ended at a BVH hit, a cube-map hit or in the sky (they add up to 1), and the BVH
+    nodes visited and cube-map march steps taken per ray (tracer.COUNTER_KINDS)."""
+
+    rays: int
+    ended_bvh: float
+    ended_cube_map: float
+    ended_sky: float
+    bvh_nodes_per_ray: float
+    cube_steps_per_ray: float
+
+    @classmethod
+    def of(cls, counts: Mapping[str, int]) -> "RayStory | None":
+        """The story told by a frame's counts; None for a frame that traced no rays."""
+        rays = int(counts.get("rays_traced", 0))
+        if rays <= 0:
+            return None
+        return cls(rays, counts.get("rays_bvh_hit", 0) / rays, counts.get("rays_cube_hit", 0) / rays,
+                   counts.get("rays_sky", 0) / rays, counts.get("bvh_nodes", 0) / rays,
+                   counts.get("cube_steps", 0) / rays)
+
+    def columns(self) -> list[float]:
+        return [self.ended_bvh, self.ended_cube_map, self.ended_sky, self.bvh_nodes_per_ray, self.cube_steps_per_ray]
+
+    def to_dict(self) -> dict[str, float]:
+        return {"rays": self.rays, **dict(zip(RAY_STORY_COLUMNS, self.columns()))}
 
 MAX_FRAMES = 100_000  # longer ranges are almost certainly a typing error
 MAX_WARMUP_FRAMES = 100
@@ -187,7 +220,12 @@ class FrameRecord:
             "triangles_bvh": int(self.counts.get("triangles_bvh", 0)),
             "counts": {name: self.counts[name] for name in count_names if name in self.counts},
             "near_size": self.near_size,
+            "ray_story": None if self.ray_story is None else self.ray_story.to_dict(),
         }
+
+    @property
+    def ray_story(self) -> RayStory | None:
+        return RayStory.of(self.counts)
 
 
 def _natural_key(name: str) -> list:
@@ -374,7 +412,7 @@ def csv_header(report: TimingReport) -> list[str]:
     """``frame, mode, total_ms, near_size, <pass>_ms..., <count>...`` in report order
     (``near_size``: the near cube's half-size each frame used, empty where it used none)."""
     return (["frame", "mode", "total_ms", "near_size"] + [f"{name}_ms" for name in report.pass_names]
-            + list(report.count_names))
+            + list(RAY_STORY_COLUMNS) + list(report.count_names))
 
 
 def write_csv(report: TimingReport, path: str | os.PathLike) -> None:
@@ -388,6 +426,8 @@ def write_csv(report: TimingReport, path: str | os.PathLike) -> None:
                 [record.frame, record.mode, f"{record.total_ms:.6f}",
                  "" if record.near_size is None else f"{record.near_size:.6f}"]
                 + [f"{record.passes[name]:.6f}" if name in record.passes else "" for name in pass_names]
+                + ([f"{v:.6f}" for v in record.ray_story.columns()] if record.ray_story is not None
+                   else [""] * len(RAY_STORY_COLUMNS))
                 + [record.counts.get(name, "") for name in count_names]
             )
 
@@ -426,7 +466,8 @@ def render_chart(report: TimingReport, **chart_options) -> np.ndarray:
 
 
 def chart_summary(report: TimingReport) -> str:
-    """One line under the chart: mean and 95th-percentile frame time, the slowest pass."""
+    """The lines under the chart: mean and 95th-percentile frame time, the slowest pass; and
+    for traced frames the rays' story (where they ended, BVH nodes and march steps per ray)."""
     summary = report.summary()
     frame = summary["frame_ms"]
     passes = summary.get("pass_mean_ms", {})
@@ -434,6 +475,15 @@ def chart_summary(report: TimingReport) -> str:
     text = f"mean {frame['mean']:.1f} ms ({1000.0 / frame['mean']:.1f} fps), 95th percentile {frame['p95']:.1f} ms"
     if slowest is not None:
         text += f", slowest pass {slowest} ({passes[slowest]:.1f} ms mean)"
+    stories = [record.ray_story for record in report.records if record.ray_story is not None]
+    if stories:
+        rays = sum(story.rays for story in stories)
+        share = {kind: sum(getattr(story, kind) * story.rays for story in stories) / rays
+                 for kind in ("ended_bvh", "ended_cube_map", "ended_sky", "bvh_nodes_per_ray",
+                              "cube_steps_per_ray")}
+        text += (f"\nrays ended {share['ended_bvh']:.0%} BVH, {share['ended_cube_map']:.0%} cube map, "
+                 f"{share['ended_sky']:.0%} sky; {share['bvh_nodes_per_ray']:.1f} BVH nodes and "
+                 f"{share['cube_steps_per_ray']:.1f} cube-map steps per ray")
     return text
 
 
@@ -444,7 +494,9 @@ def render_chart_svg(report: TimingReport) -> str:
     return chart_svg.stacked_bar_svg(
         [record.frame for record in report.records], series, pass_colors(pass_names),
         title=chart_title(report), summary=chart_summary(report), target_ms=report.target_ms,
-        target_fps=report.target_fps, near_sizes=[record.near_size for record in report.records])
+        target_fps=report.target_fps, near_sizes=[record.near_size for record in report.records],
+        ray_shares=[None if r.ray_story is None else (r.ray_story.ended_bvh, r.ray_story.ended_cube_map,
+                                                      r.ray_story.ended_sky) for r in report.records])
 
 
 def write_report(report: TimingReport, prefix: str | os.PathLike) -> dict[str, Path]:

@@ -25,6 +25,8 @@ import numpy as np
 
 from . import gl_context, shader_loader
 from .cube_map import CubeMapPass
+from .diagnostics import is_diagnostic
+from .diagnostics import kernel_uniforms as diagnostic_uniforms
 from .frame_resources import FrameResources
 from .gpu_scene import GPUScene, bytes_of
 from .bindings import Image, bind, split_storage
@@ -44,7 +46,11 @@ from .textures import pixel_footprint
 TRACE_MODES = {"HYBRID": 0, "FULL_BVH": 1, "PROVENANCE": 2}
 
 # Counter layout: uint[len(COUNTER_KINDS)][COUNTER_DEPTHS], index kind * COUNTER_DEPTHS + depth.
-COUNTER_KINDS = ("traced", "cube_map", "sky", "bvh_reentry")
+# The first six count rays (each at most once per kind); the last two sum the BVH nodes the
+# rays visited and the march steps they took.
+RAY_KINDS = ("traced", "cube_map", "sky", "bvh_reentry", "bvh_hit", "cube_hit")
+WORK_KINDS = ("bvh_nodes", "cube_steps")
+COUNTER_KINDS = RAY_KINDS + WORK_KINDS
 COUNTER_DEPTHS = 17
 assert FIELD_LIMITS["max_depth"][1] < COUNTER_DEPTHS, "the kernel's counters cover every depth"
 
@@ -122,9 +128,10 @@ class TraceStats:
     def as_counts(self) -> dict[str, int]:
         counts = {"triangles_bvh": int(self.bvh_triangles)}
         for kind, values in self.per_depth.items():
-            counts[f"rays_{kind}"] = int(sum(values))
+            name = kind if kind in WORK_KINDS else f"rays_{kind}"
+            counts[name] = int(sum(values))
             for depth, value in enumerate(values, start=1):
-                counts[f"rays_{kind}_bounce_{depth}"] = int(value)
+                counts[f"{name}_bounce_{depth}"] = int(value)
         return counts
 
 
@@ -145,6 +152,7 @@ class HybridTracer:
         self._dummy_depth = ctx.depth_texture((1, 1))
         self._dummy_rgba = ctx.texture((1, 1), 4, dtype="f4")
         self._dummy_rg = ctx.texture((1, 1), 2, dtype="f4")
+        self.diagnostic = None  # the diagnostic views' per-pixel counts (diagnostics.py)
         self.triangle_count = 0
         self._synced = -1  # sequence of the last GeometryDelta applied (scene_delta.py)
         self._with_uvs = False
@@ -231,7 +239,8 @@ class HybridTracer:
         """Bind the scene, the BVH, the cube map and the lighting, and run the kernel: the
         reflections and refractions, or (``world_light``) its World-light variant."""
         ctx = self.ctx
-        mode = settings.mode
+        mode = settings.trace_mode
+        diagnostic = is_diagnostic(settings) and not world_light
         built = self.built if mode != "PROVENANCE" else None
         # A BVH whose arrays span several storage blocks needs the kernel compiled for them,
         # and the cube-map march its own defines (CubeMapPass.march_defines: the march kind,
@@ -241,7 +250,8 @@ class HybridTracer:
         defines = {**(built.traversal_defines() if built is not None else {}),
                    **normal_split.defines("TRI_NORMAL_BLOCKS", "TRI_NORMAL_BLOCK_SIZE"),
                    **(self.cube_map.march_defines() if mode == "HYBRID" else {}),
-                   **({"WORLD_LIGHT_PASS": 1} if world_light else {})}
+                   **({"WORLD_LIGHT_PASS": 1} if world_light else {}),
+                   **({"DIAGNOSTIC": 1} if diagnostic else {})}
         prog = shader_loader.compute(ctx, "trace/hybrid_trace.comp.glsl", defines) if defines else self.program
         self._counters.write(self._zero_counters)
 
@@ -277,13 +287,19 @@ class HybridTracer:
             view.view_proj, view.height, view.orthographic)
         if cube is not None:
             values.update(self.cube_map.march_uniforms(settings))
+        images = {"u_color": Image(targets.color, read=True, write=True),
+                  "u_ambient": Image(targets.ambient, read=False, write=True)}
+        if diagnostic:
+            if self.diagnostic is None or self.diagnostic.size != (view.width, view.height):
+                if self.diagnostic is not None:
+                    self.diagnostic.release()
+                self.diagnostic = ctx.texture((view.width, view.height), 1, dtype="f4")
+            images["u_diagnostic"] = Image(self.diagnostic, read=False, write=True)
+            values.update(diagnostic_uniforms(settings))
         bind(prog, gpu.bindings(), resources.bindings(),
              storage={**bvh, **split_storage("TriangleNormals", gpu.normals.buffer, normal_split),
                       "CounterBuffer": self._counters, "TriangleUVBuffer": self._uvs.buffer},
-             textures=textures,
-             images={"u_color": Image(targets.color, read=True, write=True),
-                     "u_ambient": Image(targets.ambient, read=False, write=True)},
-             uniforms=values)
+             textures=textures, images=images, uniforms=values)
         prog.run(math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
         storage_barrier(ctx)
         if gl_context.debug_checks_enabled():
@@ -291,12 +307,21 @@ class HybridTracer:
 
     def read_stats(self, max_depth: int) -> TraceStats:
         raw = np.frombuffer(self._counters.read(), np.uint32).reshape(len(COUNTER_KINDS), COUNTER_DEPTHS)
-        depths = range(1, max(int(max_depth), 0) + 1)
+        # Rays of depth 1 .. max_depth, and the one more the depth limit traces.
+        depths = range(1, max(int(max_depth), 0) + min(max(int(max_depth), 0), 1) + 1)
         per_depth = {kind: [int(raw[k, d]) for d in depths] for k, kind in enumerate(COUNTER_KINDS)}
         bvh = 0 if self.built is None else int(self.built.leaf_count)
         return TraceStats(per_depth=per_depth, bvh_triangles=bvh)
 
+    def read_diagnostic(self, view: RasterView) -> np.ndarray:
+        """The diagnostic view's per-pixel counts of the last trace, (H, W) float32, row 0 at
+        the bottom (diagnostics.py)."""
+        return np.frombuffer(self.diagnostic.read(), np.float32).reshape(view.height, view.width).copy()
+
     def release(self) -> None:
+        if self.diagnostic is not None:
+            self.diagnostic.release()
+            self.diagnostic = None
         self.cube_map.release()
         self.culler.release()
         self.builder.release()
@@ -308,7 +333,8 @@ class HybridTracer:
 # Mirror of the probe's per-ray output (cube_march_probe.comp.glsl)   // total: 64 bytes
 MARCH_RESULT_DTYPE = np.dtype(
     [("kind", np.int32), ("face", np.int32), ("texel", np.int32, 2), ("switches", np.int32),
-     ("material", np.int32), ("pad", np.int32, 2), ("position", np.float32, 3), ("t", np.float32),
+     ("material", np.int32), ("steps", np.int32), ("pad", np.int32), ("position", np.float32, 3),
+     ("t", np.float32),
      ("normal", np.float32, 3), ("pad2", np.float32)]
 )
 assert MARCH_RESULT_DTYPE.itemsize == 64

@@ -71,6 +71,7 @@ class MarchResult:
     position: np.ndarray
     t: float
     switches: int
+    steps: int = 0  # samples taken (sampled march; the bisection of a hit not counted)
 
 
 class CubeMapReference:
@@ -206,6 +207,12 @@ class CubeMapReference:
         return r <= b, False, (tx, ty), z
 
     def march(self, origin, direction, t_start=0.0) -> MarchResult:
+        self._steps = 0
+        result = self._march(origin, direction, t_start)
+        result.steps = self._steps
+        return result
+
+    def _march(self, origin, direction, t_start=0.0) -> MarchResult:
         o = np.asarray(origin, float)
         d = np.asarray(direction, float)
         d = d / np.linalg.norm(d)
@@ -242,6 +249,7 @@ class CubeMapReference:
                 n = max(1, int(self.n_min + abs(dm[2]) * (self.n_max - self.n_min) + 0.5))
             prev_lin, t_prev = self.linear(a[2]), 0.0
             for k in range(1, n + 1):
+                self._steps += 1
                 t_k = t_exit * k / n
                 s = a + dm * t_k
                 hit, piercing, texel, z = self.sample_hits(face, s, prev_lin)

@@ -117,6 +117,12 @@ def test_march_agrees_with_the_numpy_reference_on_random_rays(cube_setup, rng, m
     texel_ok = (np.abs(gpu_rows["texel"][hits] - ref_texels) <= TEXEL_TOLERANCE).all(axis=1)
     assert texel_ok.mean() >= MIN_AGREEMENT
     assert (gpu_rows["face"][hits] == np.array([r.face for r in refs])[hits]).mean() >= MIN_AGREEMENT
+    if march == "SAMPLED":
+        # The march's step counter (the diagnostic view of march steps) counts the samples
+        # the reference takes, face by face, up to the hit.
+        steps = np.array([r.steps for r in refs])
+        assert (steps > 0).mean() > 0.9
+        assert (gpu_rows["steps"][same_kind] == steps[same_kind]).mean() >= MIN_AGREEMENT
 
 
 @pytest.mark.parametrize("march", ["SAMPLED", "HIERARCHICAL"])

@@ -235,10 +235,12 @@ def test_report_files_carry_whatever_passes_and_counts_the_frames_have(tmp_path)
     with open(paths["csv"], newline="") as handle:
         rows = list(csv.reader(handle))
     assert rows[0] == ["frame", "mode", "total_ms", "near_size", "extract_ms", "cube_map_raster_ms", "trace_ms",
-                       "composite_ms", "triangles_total", "triangles_bvh", "rays_bounce_2", "rays_bounce_10"]
+                       "composite_ms", *timing_report.RAY_STORY_COLUMNS, "triangles_total", "triangles_bvh",
+                       "rays_bounce_2", "rays_bounce_10"]
     assert [int(row[0]) for row in rows[1:]] == [3, 4, 5, 6]
     assert float(rows[2][6]) == pytest.approx(12.0)
     assert all(row[3] == "" for row in rows[1:])  # these frames used no near cube
+    assert all(row[8:13] == [""] * 5 for row in rows[1:])  # nor traced rays: no rays' story
 
     image = read_png(paths["png"])
     assert image.shape == (520, 1000, 3)

@@ -446,10 +446,17 @@ def test_counters_report_rays_per_bounce_and_where_they_went(renderer):
     hybrid = render(renderer, scene, camera, "HYBRID", near_size=1.0, max_depth=3).counts
     assert hybrid["rays_traced_bounce_1"] == mirror_pixels
     assert hybrid["rays_cube_map_bounce_1"] == mirror_pixels  # the mirror lies outside the cube
-    assert "rays_traced_bounce_3" in hybrid and "rays_traced_bounce_4" not in hybrid
+    # Bounces 1..3, and the one more ray the depth limit traces (bounce 4).
+    assert "rays_traced_bounce_4" in hybrid and "rays_traced_bounce_5" not in hybrid
+    # Every ray ends in exactly one place: a BVH hit, a cube-map hit or the sky.
+    for depth in range(1, 5):
+        assert hybrid[f"rays_traced_bounce_{depth}"] == sum(
+            hybrid[f"rays_{end}_bounce_{depth}"] for end in ("bvh_hit", "cube_hit", "sky"))
+    assert hybrid["rays_cube_hit_bounce_1"] > 0 and hybrid["cube_steps"] > 0
     full = render(renderer, scene, camera, "FULL_BVH", max_depth=3).counts
     assert full["rays_traced_bounce_1"] == mirror_pixels
     assert full["rays_cube_map"] == 0 and full["rays_bvh_reentry"] == 0
+    assert full["rays_cube_hit"] == 0 and full["cube_steps"] == 0 and full["bvh_nodes"] > 0
     # Mirror pixels near the edge see the sky beside the box, the others the box; the cube
     # map (texel-sized box outline) may move a few of them.
     assert 0 < full["rays_sky_bounce_1"] < mirror_pixels

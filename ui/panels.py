@@ -12,6 +12,7 @@ from __future__ import annotations
 import bpy
 
 from ..blender_adapter.extract import material_params
+from ..hybrid_engine.settings import DIAGNOSTIC_VIEWS
 from .light_panel import DATA_PT_hybrid_rt_light
 
 ENGINE_ID = "HYBRID_RT"
@@ -130,7 +131,7 @@ class RENDER_PT_hybrid_rt_hybrid(HybridRTPanel, bpy.types.Panel):
     def draw(self, context) -> None:
         settings = context.scene.hybrid_rt
         layout = _split(self.layout)
-        layout.active = settings.mode in ("HYBRID", "PROVENANCE")
+        layout.active = settings.mode in ("HYBRID", "PROVENANCE", *DIAGNOSTIC_VIEWS)
         layout.prop(settings, "near_cube_mode")
         if settings.near_cube_mode == "BUDGET":
             col = layout.column(align=True)
@@ -189,9 +190,15 @@ class RENDER_PT_hybrid_rt_diagnostics(HybridRTPanel, bpy.types.Panel):
 
     def draw(self, context) -> None:
         layout = _split(self.layout)
+        settings = context.scene.hybrid_rt
         col = layout.column(heading="Debug View")
-        # The render mode's diagnostic view (Light Paths > Mode holds them all).
-        col.prop_enum(context.scene.hybrid_rt, "mode", "PROVENANCE")
+        # The render modes that diagnose (Light Paths > Mode holds them all): the paper's
+        # Figure 4 and the views of where rays and time go (hybrid_engine/diagnostics.py).
+        for view in ("PROVENANCE", *DIAGNOSTIC_VIEWS):
+            col.prop_enum(settings, "mode", view)
+        row = layout.row()
+        row.active = settings.mode == "BOUNCE_PATHS"
+        row.prop(settings, "diagnostic_bounce")
         col = layout.column()
         col.prop(context.scene.hybrid_rt, "show_near_cube", icon="CUBE")
         # Per-pass frame times of the scene's frame range (JSON, CSV and a chart).

@@ -231,6 +231,10 @@ bool bvh_intersect_leaf(BVHRay ray, int leaf, float tmin, inout float t_best, in
                                   t_best, bary);
 }
 
+// Nodes fetched by the traversals of this invocation so far (diagnostics: the tracer's
+// node-visit view and counters).
+uint bvh_nodes_visited = 0u;
+
 bool bvh_closest_leaf(vec3 origin, vec3 dir, float tmin, float tmax,
                       out float t, out int leaf, out vec2 bary) {
     t = tmax;
@@ -250,6 +254,7 @@ bool bvh_closest_leaf(vec3 origin, vec3 dir, float tmin, float tmax,
     int node = 0;
     for (;;) {
         BVHNode n = bvh_fetch_node(uint(node));
+        bvh_nodes_visited += 1u;
         float t_left = bvh_box_entry(ray, bvh_xyz(n.left_min), bvh_xyz(n.left_max), tmin, t_best);
         float t_right = bvh_box_entry(ray, bvh_xyz(n.right_min), bvh_xyz(n.right_max), tmin,
                                       t_best);

@@ -176,6 +176,11 @@ struct CubeMarch {
 // because a CPU driver has no vector integer division (the pyramid's base pass spent a fifth
 // of its time dividing). Exact: x + 0.5 lies at least 0.5 / res from a multiple of res,
 // far more than the rounding of a float division of numbers below 2^24.
+// Steps the marches of this invocation took so far: pyramid cells visited (hierarchical
+// march) or samples taken (sampled march; the bisection of a hit not counted). Diagnostics:
+// the tracer's march-step view and counters, the probe's output.
+uint cube_march_steps = 0u;
+
 int cube_face_of_column(int x, int res) {
     return int((float(x) + 0.5) / float(res));
 }
@@ -339,6 +344,7 @@ bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
     bool found = false;
     bool hit_from_behind = false;
     for (int step = 0; step < CUBE_HIZ_MAX_STEPS; ++step) {
+        cube_march_steps += 1u;
         int size = 1 << level;
         ivec2 c = cell >> level;
         vec2 t_bound = mix(vec2(1e30), (vec2((c + positive) * size) - u0) * inv_du, moving);
@@ -522,6 +528,7 @@ CubeMarch cube_march_limited(vec3 o, vec3 d, float t_start, float t_limit) {
             float prev_lin = cube_linear_depth(a.z);
             float t_prev = 0.0;
             for (int k = 1; k <= n; ++k) {
+                cube_march_steps += 1u;
                 float t_k = t_exit * float(k) / float(n);
                 vec3 s = a + dm * t_k;
                 ivec2 texel;

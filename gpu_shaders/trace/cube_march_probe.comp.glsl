@@ -6,7 +6,7 @@
 // Host defines: LOCAL_SIZE.
 // Storage blocks: MaterialBuffer (read; thickness in params.y), Rays (read: vec4 origin with
 //   w = t_start, vec4 direction, per ray), Results (write: ivec4 (kind, face, texel.x,
-//   texel.y), ivec4 (switches, material, 0, 0), vec4 (position, t), vec4 (normal, 0) per ray).
+//   texel.y), ivec4 (switches, material, steps, 0), vec4 (position, t), vec4 (normal, 0) per ray).
 // Uniforms: u_count (rays), and those of cube_march.glsl.
 #include "scene_layout.glsl"
 #include "dispatch.glsl"
@@ -29,7 +29,7 @@ void main() {
     vec3 dir = normalize(rays[2u * i + 1u].xyz);
     CubeMarch cm = cube_march(origin.xyz, dir, origin.w);
     results[4u * i] = intBitsToFloat(ivec4(cm.kind, cm.face, cm.texel));
-    results[4u * i + 1u] = intBitsToFloat(ivec4(cm.switches, cm.material, 0, 0));
+    results[4u * i + 1u] = intBitsToFloat(ivec4(cm.switches, cm.material, int(cube_march_steps), 0));
     results[4u * i + 2u] = vec4(cm.position, cm.t);
     results[4u * i + 3u] = vec4(cm.normal, 0.0);
 }

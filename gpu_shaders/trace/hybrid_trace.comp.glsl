@@ -36,10 +36,11 @@
 // first secondary rays start in the BVH, red (1, 0, 0) for those starting in the cube map,
 // and grey 0.5 elsewhere (paper Figure 4).
 //
-// Counters (CounterBuffer, uint[4][COUNTER_DEPTHS], index kind * COUNTER_DEPTHS + depth): rays
+// Counters (CounterBuffer, uint[8][COUNTER_DEPTHS], index kind * COUNTER_DEPTHS + depth): rays
 // traced, rays that entered the cube map, rays that ended in the sky, rays that went from
-// the cube map back into the BVH, per bounce depth 1..max_depth; each ray counts at most
-// once per kind.
+// the cube map back into the BVH, rays that ended at a BVH hit, at a cube-map hit, per
+// bounce depth; each ray counts at most once per kind. Then the BVH nodes visited and the
+// march steps taken by the rays of each depth, summed (tracer.COUNTER_KINDS).
 //
 // Storage blocks: MaterialBuffer, LightBuffer, ShadowSlotBuffer, the BVH's (bvh_storage.glsl,
 //   bvh_traverse.glsl), TriangleNormals (float[9 N], the scene's normal buffer), CounterBuffer
@@ -138,11 +139,32 @@ uniform float u_pixel_spread;  // its growth per metre of distance (perspective)
 #define COUNT_CUBE_MAP 1
 #define COUNT_SKY 2
 #define COUNT_BVH_REENTRY 3
+#define COUNT_BVH_HIT 4
+#define COUNT_CUBE_HIT 5
+#define COUNT_BVH_NODES 6   // nodes the rays of a depth visited, summed
+#define COUNT_CUBE_STEPS 7  // march steps the rays of a depth took, summed
 layout(std430) buffer CounterBuffer { uint counters[]; };
 
 layout(rgba32f) uniform image2D u_color;
 #ifdef WORLD_LIGHT_PASS
 layout(rgba32f) writeonly uniform image2D u_ambient;
+#endif
+#ifdef DIAGNOSTIC
+// The diagnostic views (hybrid_engine/diagnostics.py): each pixel's value in r of
+// u_diagnostic, its false colour in u_color.
+#define DIAG_BOUNCES 1       // the deepest bounce any of the pixel's rays reached
+#define DIAG_CUBE_STEPS 2    // march steps of all its rays (cube_march_steps)
+#define DIAG_BVH_NODES 3     // BVH nodes all its rays visited (bvh_nodes_visited)
+#define DIAG_BOUNCE_PATHS 4  // where its rays of bounce u_diag_bounce ended: 1 BVH, 2 cube map, 4 sky
+layout(r32f) writeonly uniform image2D u_diagnostic;
+uniform int u_diag_view;
+uniform int u_diag_bounce;
+uniform float u_diag_scale;    // the value shown in the ramp's last colour
+uniform vec3 u_diag_ramp[5];   // colours of 0, 1/4, 1/2, 3/4 and 1 of the scale
+uniform vec3 u_diag_paths[4];  // no ray at that bounce, BVH, cube map, sky
+uniform vec3 u_diag_untraced;  // pixels that spawn no ray
+uint diag_bounces = 0u;
+uint diag_paths = 0u;
 #endif
 
 uniform sampler2D u_depth;
@@ -302,6 +324,8 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
     h.lod = 0.0;
     bool reached_cube = false;
     bool reentered = false;
+    uint nodes_before = bvh_nodes_visited;
+    uint steps_before = cube_march_steps;
     float t;
     int leaf;
     vec2 bary;
@@ -355,6 +379,13 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
     if (reached_cube) count(COUNT_CUBE_MAP, depth);
     if (reentered) count(COUNT_BVH_REENTRY, depth);
     if (h.kind == HIT_SKY) count(COUNT_SKY, depth);
+    if (h.kind == HIT_BVH) count(COUNT_BVH_HIT, depth);
+    if (h.kind == HIT_CUBE) count(COUNT_CUBE_HIT, depth);
+    int slot = clamp(depth, 0, COUNTER_DEPTHS - 1);
+    if (bvh_nodes_visited != nodes_before)
+        atomicAdd(counters[COUNT_BVH_NODES * COUNTER_DEPTHS + slot], bvh_nodes_visited - nodes_before);
+    if (cube_march_steps != steps_before)
+        atomicAdd(counters[COUNT_CUBE_STEPS * COUNTER_DEPTHS + slot], cube_march_steps - steps_before);
     return h;
 }
 
@@ -464,6 +495,37 @@ void main() {
     imageStore(u_ambient, pixel, ambient);
 }
 #else
+#ifdef DIAGNOSTIC
+vec3 diag_ramp(float x) {
+    float f = clamp(x, 0.0, 1.0) * 4.0;
+    int i = min(int(f), 3);
+    return mix(u_diag_ramp[i], u_diag_ramp[i + 1], f - float(i));
+}
+
+// The pixel's value and false colour for the diagnostic view; `traced`: it spawned rays.
+void write_diagnostic(ivec2 pixel, bool traced) {
+    float value = 0.0;
+    vec3 color = u_diag_untraced;
+    if (u_diag_view == DIAG_BOUNCE_PATHS) {
+        value = float(diag_paths);
+        if (traced) {
+            vec3 sum = vec3(0.0);
+            float n = 0.0;
+            for (int b = 0; b < 3; ++b) {
+                if ((diag_paths & (1u << uint(b))) != 0u) { sum += u_diag_paths[b + 1]; n += 1.0; }
+            }
+            color = n > 0.0 ? sum / n : u_diag_paths[0];
+        }
+    } else {
+        value = float(u_diag_view == DIAG_BOUNCES ? diag_bounces
+                      : u_diag_view == DIAG_CUBE_STEPS ? cube_march_steps : bvh_nodes_visited);
+        if (traced) color = diag_ramp(value / u_diag_scale);
+    }
+    imageStore(u_diagnostic, pixel, vec4(value, 0.0, 0.0, 1.0));
+    imageStore(u_color, pixel, vec4(color, 1.0));
+}
+#endif
+
 void main() {
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(pixel, u_size))) return;
@@ -479,6 +541,9 @@ void main() {
     }
     if (!specular) {
         if (u_mode == MODE_PROVENANCE) imageStore(u_color, pixel, vec4(vec3(0.5), 1.0));
+#ifdef DIAGNOSTIC
+        write_diagnostic(pixel, false);
+#endif
         return;  // the deferred-shaded colour stands
     }
 
@@ -508,6 +573,11 @@ void main() {
         stack_size -= 1;
         PendingRay ray = stack[stack_size];
         Hit h = trace_ray(ray.origin, ray.dir, ray.depth);
+#ifdef DIAGNOSTIC
+        diag_bounces = max(diag_bounces, uint(ray.depth));
+        if (ray.depth == u_diag_bounce)
+            diag_paths |= h.kind == HIT_BVH ? 1u : h.kind == HIT_CUBE ? 2u : 4u;
+#endif
         if (h.kind == HIT_SKY) {
             traced += ray.weight * sky_radiance(ray.dir);
             continue;
@@ -528,6 +598,10 @@ void main() {
         if (ray.depth <= u_max_depth)
             spawn_children(hs, h.position, ray.weight, ray.depth + 1, max(ray.blur, material_roughness(hm)));
     }
+#ifdef DIAGNOSTIC
+    write_diagnostic(pixel, true);
+    return;
+#endif
     vec4 base = imageLoad(u_color, pixel);
     vec3 color = base.rgb + traced + past_depth_limit;
     if (any(isnan(color)) || any(isinf(color))) color = base.rgb;

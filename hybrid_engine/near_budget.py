@@ -47,7 +47,9 @@ class NearCubeBudget:
     min_size: float
     max_size: float
     size: float  # the size the next frame renders with
-    tolerance: float = 0.10
+    # Inside this band nothing changes. Frame times on one size wander by about 10 % from
+    # frame to frame (load, what the camera sees), so a narrower band chases noise.
+    tolerance: float = 0.125
     window: int = 3
     max_step: float = 1.25  # largest factor between two successive sizes
     _recent: list[float] = field(default_factory=list)  # frame times at the current size

@@ -2,14 +2,17 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Near Cube: Frame Budget against Fixed on a library scene's camera path.
 
-``python scripts/bench_budget.py --scene chess --frames 40 [--budget-ms B] [--json PATH]``
+``python scripts/bench_budget.py --scene chess --frames 40 [--budget-ms B | --budget-factor F]
+[--json PATH]``
 
 Follows the animation as a timing report does (``scene_cache.TrackedScene``, one sample per
-frame, the engine's own ``render_depsgraph``) three times: in Fixed mode at the scene's near
-size, in Frame Budget mode, and in FULL_BVH for reference. The budget defaults to 85 % of
-Fixed mode's median frame, one Fixed mode misses on many frames. Reports, per mode, the
-share of frames within 15 % of the budget, the mean frame time, the mean FLIP against
-FULL_BVH, and the near sizes Budget mode chose.
+frame, the engine's own ``render_depsgraph``): in Fixed mode at the scene's near size, in
+Frame Budget mode, in Fixed mode again at the median size Budget mode chose (the fixed size
+of about the same mean frame time, for comparing FLIP at equal cost), and in FULL_BVH for
+reference. The budget defaults to Fixed mode's median frame times ``--budget-factor`` (1: a
+budget Fixed mode misses on the frames whose load differs from the median's). Reports, per
+mode, the share of frames within 15 % of the budget, the mean frame time, the mean FLIP
+against FULL_BVH, and the near sizes.
 """
 from __future__ import annotations
 
@@ -25,8 +28,13 @@ from addon_loader import load_addon  # noqa: E402 - also puts the repository roo
 TOLERANCE = 0.15
 
 
+WARM_UP = range(0, 2)  # frames rendered before each run's measured ones, as a timing report's warm-up
+
+
 def follow(scene, frames: range, mode: str, near_cube_mode: str, budget_ms: float) -> list[tuple]:
-    """(total_ms, near_size, image) of each frame rendered in ``mode``."""
+    """(total_ms, near_size, image) of each frame rendered in ``mode``, after the frames of
+    ``WARM_UP`` in the same session (its first full sync and, in Budget mode, the controller's
+    first frames are not measured, as in a timing report with warm-up frames)."""
     import bpy
     from hybrid_rt.blender_adapter import engine, scene_cache
     from hybrid_rt.hybrid_engine.near_budget import NearCubeSizer
@@ -38,10 +46,11 @@ def follow(scene, frames: range, mode: str, near_cube_mode: str, budget_ms: floa
     out = []
     try:
         tracked.listen()
-        for frame in frames:
+        for frame in [*WARM_UP, *frames]:
             scene.frame_set(frame)
             result = engine.render_depsgraph(bpy.context.evaluated_depsgraph_get(), source=tracked, sizer=sizer)
-            out.append((result.total_ms, result.near_size, result.image))
+            if frame in frames:
+                out.append((result.total_ms, result.near_size, result.image))
     finally:
         tracked.close()
     return out
@@ -55,6 +64,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--detail", type=float, default=1.0)
     parser.add_argument("--resolution", default="640x360")
     parser.add_argument("--budget-ms", type=float, default=None)
+    parser.add_argument("--budget-factor", type=float, default=1.0,
+                        help="the budget as a multiple of Fixed mode's median frame (without --budget-ms)")
     parser.add_argument("--near-min", type=float, default=0.5)
     parser.add_argument("--near-max", type=float, default=10.0)
     parser.add_argument("--json", metavar="PATH")
@@ -69,11 +80,13 @@ def main(argv: list[str] | None = None) -> int:
         scene = scene_library.build_scene(args.scene, detail=args.detail, resolution=(width, height))
         scene.hybrid_rt.near_min, scene.hybrid_rt.near_max = args.near_min, args.near_max
         frames = range(2, 2 + args.frames)
-        warm = follow(scene, range(0, 2), "HYBRID", "FIXED", 33.3)  # shaders compiled, buffers grown
-        del warm
         fixed = follow(scene, frames, "HYBRID", "FIXED", 33.3)
-        budget_ms = args.budget_ms or 0.85 * statistics.median(ms for ms, _, _ in fixed)
+        budget_ms = args.budget_ms or args.budget_factor * statistics.median(ms for ms, _, _ in fixed)
         budget = follow(scene, frames, "HYBRID", "BUDGET", budget_ms)
+        fixed_size = scene.hybrid_rt.near_size
+        scene.hybrid_rt.near_size = statistics.median(size for _, size, _ in budget)
+        same_cost = follow(scene, frames, "HYBRID", "FIXED", budget_ms)
+        scene.hybrid_rt.near_size = fixed_size
         full = follow(scene, frames, "FULL_BVH", "FIXED", budget_ms)
 
         def summary(run: list[tuple]) -> dict:
@@ -84,16 +97,18 @@ def main(argv: list[str] | None = None) -> int:
                 "flip_vs_full_bvh": statistics.fmean(
                     bench.flip_mean(f[2], r[2]) for r, f in zip(run, full)),
                 "near_sizes": [round(float(size), 4) for _, size, _ in run],
+                "frame_ms": [round(float(ms), 2) for ms, _, _ in run],
             }
 
         report = {"scene": args.scene, "frames": args.frames, "budget_ms": budget_ms,
                   "fixed_near_size": fixed[0][1], "fixed": summary(fixed), "budget": summary(budget),
+                  "fixed_at_budget_median_size": summary(same_cost),
                   "full_bvh_mean_ms": statistics.fmean(ms for ms, _, _ in full)}
     finally:
         addon.unregister()
-    for mode in ("fixed", "budget"):
+    for mode in ("fixed", "budget", "fixed_at_budget_median_size"):
         row = report[mode]
-        print(f"{args.scene} {mode:<6}: {100 * row['within_share']:.0f} % of frames within 15 % of "
+        print(f"{args.scene} {mode}: {100 * row['within_share']:.0f} % of frames within 15 % of "
               f"{budget_ms:.0f} ms, mean {row['mean_ms']:.0f} ms, FLIP vs FULL_BVH {row['flip_vs_full_bvh']:.4f}, "
               f"near {min(row['near_sizes']):.2f}-{max(row['near_sizes']):.2f}")
     print(f"{args.scene} FULL_BVH mean {report['full_bvh_mean_ms']:.0f} ms")

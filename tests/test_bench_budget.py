@@ -5,8 +5,11 @@ budget, the FLIP against FULL_BVH and the near sizes Budget mode chose (within i
 from __future__ import annotations
 
 import json
+import statistics
 import subprocess
 import sys
+
+import pytest
 
 from conftest import REPO_ROOT
 
@@ -24,6 +27,9 @@ def test_the_budget_script_compares_fixed_and_budget_modes_on_a_camera_path(tmp_
     assert len(sizes) == 4 and all(0.5 <= s <= 3.0 for s in sizes)
     assert sizes[-1] < sizes[0]  # an unreachable budget shrinks the cube
     assert set(report["fixed"]["near_sizes"]) == {report["fixed_near_size"]}
-    for mode in ("fixed", "budget"):
+    for mode in ("fixed", "budget", "fixed_at_budget_median_size"):
         assert 0.0 <= report[mode]["within_share"] <= 1.0 and report[mode]["flip_vs_full_bvh"] >= 0.0
+    # The comparison at equal cost renders at the median size Budget mode chose.
+    same_cost = report["fixed_at_budget_median_size"]["near_sizes"]
+    assert same_cost == pytest.approx([statistics.median(sizes)] * 4, rel=1e-3)
     assert "budget:" in done.stdout

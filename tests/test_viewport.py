@@ -495,3 +495,19 @@ def test_frame_budget_sizes_the_viewports_near_cube_and_f12_takes_the_size_it_se
         assert addon.blender_adapter.engine.last_frame.near_size == pytest.approx(0.5)
     finally:
         module.release_all()
+
+
+def test_a_diagnostic_view_shows_its_legend_in_the_viewport(addon, viewport):
+    import bpy
+    from hybrid_engine import diagnostics
+
+    _module, session, _reports = viewport
+    scene, _cube, _material = _two_object_scene(bpy)
+    scene.hybrid_rt.mode = "BOUNCES"
+    _sync(bpy)
+    settings = _settings(addon, bpy)
+    image = _frame(addon, bpy, session).image
+    top_left = image[::-1][:16, :24, :3].reshape(-1, 3)  # rows from the top
+    assert np.allclose(top_left[0], diagnostics.LEGEND_BACKGROUND)
+    first = diagnostics.legend(settings)[0]
+    assert np.isclose(top_left, first.colour, atol=1e-6).all(axis=1).any(), first.label

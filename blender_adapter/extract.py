@@ -28,7 +28,8 @@ import numpy as np
 from ..hybrid_engine.blackbody import blackbody_rgb
 from ..hybrid_engine.camera import Camera, CameraError
 from ..hybrid_engine.materials import DEFAULT_THICKNESS, principled_to_params
-from ..hybrid_engine.scene_data import Geometry, MaterialTable, Sky
+from ..hybrid_engine.instancing import ObjectMesh
+from ..hybrid_engine.scene_data import MaterialTable, Sky
 from ..hybrid_engine.solids import closed_outward_indexed
 from . import colour, messages
 
@@ -545,7 +546,10 @@ def _sanitize_normals(normals: np.ndarray) -> np.ndarray:
     """Unit normals; zero or non-finite ones (degenerate faces) become +Z, the same
     documented fallback as ``scene_data.flat_normals``."""
     with np.errstate(invalid="ignore", over="ignore"):
-        length = np.sqrt(np.einsum("ij,ij->i", normals, normals))
+        squared = np.einsum("ij,ij->i", normals, normals)
+        if squared.min() > 0.999 and squared.max() < 1.001:  # Blender's own: unit already (NaN fails)
+            return normals
+        length = np.sqrt(squared)
         ok = np.isfinite(length) & (length > 0)
         if ok.all():
             return normals / length[:, None]
@@ -640,111 +644,29 @@ def reread_deformed(mesh, previous: _MeshData | None) -> _MeshData | None:
     return data
 
 
-def _normal_matrix(linear: np.ndarray) -> np.ndarray:
-    """Inverse-transpose of the 3x3 part, up to a positive scale: the cofactor matrix
-    (columns a1×a2, a2×a0, a0×a1) times sign(det). Defined even for singular matrices
-    (flattened objects), where the inverse is not."""
-    a0, a1, a2 = linear[:, 0], linear[:, 1], linear[:, 2]
-    cofactor = np.stack([np.cross(a1, a2), np.cross(a2, a0), np.cross(a0, a1)], axis=1)
-    return cofactor * (-1.0 if np.linalg.det(linear) < 0 else 1.0)
+def object_mesh(name: str, data: _MeshData, previous: ObjectMesh | None = None) -> ObjectMesh | None:
+    """``data`` as the renderer's object-space mesh (hybrid_engine/instancing.py). A
+    ``previous`` mesh read from the same topology (``reread_deformed``) gives a deformed
+    version of it, so the GPU re-sends positions and normals only.
 
-
-@dataclass
-class _ObjectArrays:
-    name: str
-    triangles: np.ndarray  # (n, 3, 3)
-    normals: np.ndarray  # (n, 3, 3)
-    material_ids: np.ndarray  # (n,)
-    uvs: np.ndarray | None  # (n, 3, 2)
-    bounds: np.ndarray  # (2, 3)
-    closed: bool = False  # solids.py: back faces may be culled
-
-
-def _column_bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per-axis min and max of (n, 3) points, a column at a time: numpy reduces a strided
-    column far faster than it reduces over axis 0 of a three-wide array."""
-    return (np.array([points[:, k].min() for k in range(3)]), np.array([points[:, k].max() for k in range(3)]))
-
-
-def _instance_arrays(name: str, data: _MeshData, matrix: np.ndarray, slot_ids: np.ndarray) -> _ObjectArrays | None:
-    """World-space triangles of one instance of a mesh."""
-    linear = matrix[:3, :3].astype(np.float64)
-    with np.errstate(invalid="ignore", over="ignore"):  # non-finite vertices are handled below
-        world = (data.positions @ linear.T.astype(np.float32)) + matrix[:3, 3].astype(np.float32)
-    is_identity = np.array_equal(matrix, np.eye(4))
-    if is_identity:
-        normals = data.normals
-    else:
-        normals = _sanitize_normals(data.normals @ _normal_matrix(linear).T.astype(np.float32))
-
-    tri_vertices, normal_index, uvs = data.tri_vertices, data.tri_normal_index, data.uvs
-    n = data.triangle_count
-    if np.linalg.det(linear) < 0:
-        # A mirroring transform reverses the winding; swap corners 1 and 2 so the
-        # counter-clockwise order still agrees with the (correctly transformed) normals.
-        swap = np.array([0, 2, 1])
-        tri_vertices = tri_vertices.reshape(n, 3)[:, swap].reshape(-1)
-        normal_index = normal_index.reshape(n, 3)[:, swap].reshape(-1)
-        uvs = uvs.reshape(n, 3, 2)[:, swap].reshape(-1, 2) if uvs is not None else None
-
-    slots = data.slots
-    material_ids = slot_ids[np.minimum(slots, len(slot_ids) - 1)]
-    if (slots >= len(slot_ids)).any() or (slots < 0).any():  # missing slots: fallback material 0
-        material_ids = np.where((slots >= 0) & (slots < len(slot_ids)), material_ids, 0)
-
-    # Bounds of the vertices first: min/max carry any NaN or inf along, so finite bounds
-    # prove every vertex finite without a second pass over them.
-    lo, hi = _column_bounds(world)  # a mesh with faces has vertices
-    finite_vertices = None if np.isfinite(lo).all() and np.isfinite(hi).all() else np.isfinite(world).all(axis=1)
-    keep = None
-    if finite_vertices is not None and not finite_vertices.all():
-        # Documented fallback: triangles with a NaN/inf corner cannot be rasterized or put in
-        # a BVH; they are dropped (with a warning), the rest of the object renders.
-        keep = finite_vertices[tri_vertices].reshape(n, 3).all(axis=1)
+    Documented fallback: triangles with a NaN/inf corner cannot be rasterized or put in a
+    BVH; they are dropped (with a warning) and the rest of the object renders. None when
+    no triangle is left."""
+    finite = bool(np.isfinite(data.positions).all())
+    if previous is not None and finite and previous.triangle_count == data.triangle_count:
+        return previous.deformed(data.positions, data.normals)
+    corner_vertices, corner_normals, slots, uvs = data.tri_vertices, data.tri_normal_index, data.slots, data.uvs
+    if not finite:
+        n = data.triangle_count
+        keep = np.isfinite(data.positions).all(axis=1)[corner_vertices].reshape(n, 3).all(axis=1)
         _tell("%s: %d triangle(s) with non-finite vertices skipped", name, int(n - keep.sum()))
         if not keep.any():
             return None
-
-    triangles = np.take(world, tri_vertices, axis=0).reshape(n, 3, 3)
-    tri_normals = np.take(normals, normal_index, axis=0).reshape(n, 3, 3)
-    tri_uvs = uvs.reshape(n, 3, 2) if uvs is not None else None
-    if keep is not None:
-        triangles, tri_normals, material_ids = triangles[keep], tri_normals[keep], material_ids[keep]
-        tri_uvs = tri_uvs[keep] if tri_uvs is not None else None
-        bounds = np.array(_column_bounds(triangles.reshape(-1, 3)), np.float32)
-    elif data.all_vertices_used:
-        bounds = np.array([lo, hi], np.float32)
-    else:
-        bounds = np.array(_column_bounds(triangles.reshape(-1, 3)), np.float32)
-    # The mirror swap above keeps the winding outward; dropped triangles open the surface.
-    closed = keep is None and data.closed
-    return _ObjectArrays(name, triangles, tri_normals, material_ids.astype(np.int32, copy=False), tri_uvs, bounds,
-                         closed)
-
-
-def _concat(arrays: list[np.ndarray]) -> np.ndarray:
-    return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
-
-
-def _geometry(objects: list[_ObjectArrays]) -> Geometry:
-    if not objects:
-        return Geometry.empty()
-    counts = np.array([len(o.triangles) for o in objects], np.int64)
-    firsts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    uvs = None
-    if any(o.uvs is not None for o in objects):  # objects without a UV map get (0, 0)
-        uvs = _concat([o.uvs if o.uvs is not None else np.zeros((len(o.triangles), 3, 2), np.float32)
-                       for o in objects])
-    return Geometry(
-        triangles=_concat([o.triangles for o in objects]),
-        normals=_concat([o.normals for o in objects]),
-        material_ids=_concat([o.material_ids for o in objects]),
-        object_ranges=np.stack([firsts, counts], axis=1).astype(np.int32),
-        object_bounds=np.stack([o.bounds for o in objects]),
-        object_names=[o.name for o in objects],
-        uvs=uvs,
-        object_closed=np.array([o.closed for o in objects], bool),
-    )
+        corners = np.repeat(keep, 3)
+        corner_vertices, corner_normals, slots = corner_vertices[corners], corner_normals[corners], slots[keep]
+        uvs = uvs[corners] if uvs is not None else None
+    return ObjectMesh(positions=data.positions, corner_vertices=corner_vertices, normals=data.normals,
+                      corner_normals=corner_normals, slots=slots, uvs=uvs, closed=finite and data.closed)
 
 
 # ---------------------------------------------------------------------------------------

@@ -4,14 +4,15 @@
 Every path reads the scene through this cache: the viewport (one per view layer), a timing
 report (``TrackedScene``), F12 (kept across renders with Persistent Data, ``engine.py``) and
 a one-off read (``extract_scene``). It keeps, per object instance, the local mesh data read
-from Blender (``extract._MeshData``) and its world-space arrays, and refreshes only what
+from Blender (``extract._MeshData``), its object-space mesh and its matrix, and refreshes only what
 the depsgraph says changed (``depsgraph.updates``):
 
 - ``is_updated_geometry`` on an object or its mesh: the mesh is read again (modifiers, shape
   keys, armatures, geometry nodes and simulations all arrive this way, also on frame changes
   during playback);
-- a new world matrix (moved, parented, animated): only the world-space arrays are rebuilt
-  from the cached local data, no Blender mesh access;
+- a new world matrix (moved, parented, animated): only the instance's matrix changes; the
+  GPU transforms its mesh (hybrid_engine/instance_transform.py), no Blender mesh access and
+  no pass over its vertices on the host;
 - a material: its row of the material table is recomputed (the ids stay valid because the
   table keeps one row per material for the cache's lifetime);
 - the world: the sky is read again; lights are re-read on every sync (a handful of values).
@@ -21,11 +22,12 @@ removed, hidden and instanced objects are seen without trusting the update list 
 structure; only when nothing but cameras changed does it skip the walk, and the assembled
 ``SceneData`` is reused as long as nothing changed.
 
-The world-space geometry is one set of arrays kept across syncs: while the instances and
-their triangle counts stay the same, a sync writes the rows of the instances it refreshed
-into it in place and says which (``Geometry.edit``), so neither this cache nor the
-renderer's upload touches the rows of objects that did not change. Anything else (an object
-added, removed or re-ordered, a changed triangle count) rebuilds the arrays.
+The geometry is an ``InstancedGeometry`` (hybrid_engine/instancing.py): each evaluated mesh
+read once in object space and shared by its instances, and an instance table kept across
+syncs. While the instances and their triangle counts stay the same, a sync writes the
+matrices, meshes and slot materials of the instances it refreshed into the table in place
+and says which (``Geometry.edit``); anything else (an object added, removed or re-ordered,
+a changed triangle count or topology) builds the table anew.
 """
 from __future__ import annotations
 
@@ -35,7 +37,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..hybrid_engine.scene_data import Geometry, GeometryEdit, Lights, SceneData, Sky
+from ..hybrid_engine.instancing import InstancedGeometry, Instances, ObjectMesh
+from ..hybrid_engine.scene_data import GeometryEdit, Lights, SceneData, Sky
 from . import extract, messages
 
 # Depsgraph update id types (bpy.types names) and what they refresh.
@@ -50,6 +53,9 @@ class Changes:
     meshes: set[int] = field(default_factory=set)  # mesh datablocks whose geometry changed
     transforms: set[int] = field(default_factory=set)
     materials: set[int] = field(default_factory=set)
+    # Objects and meshes with any update (shading, a material slot, a transform, geometry):
+    # only these can have changed their slots' materials.
+    touched: set[int] = field(default_factory=set)
     lights: bool = False
     world: bool = False
     scene: bool = False
@@ -64,6 +70,7 @@ class Changes:
         self.meshes |= other.meshes
         self.transforms |= other.transforms
         self.materials |= other.materials
+        self.touched |= other.touched
         self.lights = self.lights or other.lights
         self.world = self.world or other.world
         self.scene = self.scene or other.scene
@@ -80,6 +87,8 @@ class Changes:
             key = original.as_pointer()
             if not _about_cameras(kind, datablock):
                 changes.cameras_only = False
+            if kind in (_OBJECT, _MESH):
+                changes.touched.add(key)
             if kind == _OBJECT:
                 if update.is_updated_geometry:
                     changes.geometry.add(key)
@@ -109,13 +118,13 @@ def _about_cameras(kind: str, datablock) -> bool:
 @dataclass
 class SyncReport:
     """What one sync did: names of instances whose mesh was read again (``extracted``) or
-    whose world arrays were rebuilt from cached local data (``transformed``)."""
+    whose matrix or slot materials changed (``transformed``)."""
 
     extracted: list[str] = field(default_factory=list)
     transformed: list[str] = field(default_factory=list)
     reused: int = 0
     removed: int = 0
-    rebuilt: bool = False  # the world-space arrays were assembled anew (not edited in place)
+    rebuilt: bool = False  # the instance table was built anew (not edited in place)
     walked: bool = False  # the instances were visited (not skipped: Changes.cameras_only)
     materials_refreshed: int = 0
     sky_refreshed: bool = False
@@ -129,9 +138,9 @@ class _Entry:
 
     name: str
     data: object  # extract._MeshData (shared by the instances of one mesh within a sync)
-    matrix: np.ndarray
+    matrix: np.ndarray  # (4, 4) float64 object to world
     slot_ids: np.ndarray
-    arrays: object | None  # extract._ObjectArrays, None when the instance has no triangles
+    mesh: ObjectMesh | None  # None when the instance has no triangles
 
 
 class _PersistentMaterials(extract._MaterialTableBuilder):
@@ -200,8 +209,9 @@ class SceneCache:
         """Forget everything; the next sync reads the whole scene."""
         self._source = next(SceneCache._sources)
         self._generation = 0
-        self._geometry: Geometry | None = None
+        self._geometry: InstancedGeometry | None = None
         self._rows: dict[tuple, int] = {}  # instance key -> object index in self._geometry
+        self._mesh_index: dict[int, int] = {}  # mesh id -> index in the instance table's meshes
         self._entries: dict[tuple, _Entry] = {}
         self._order: list[tuple] = []
         self._materials = _PersistentMaterials()
@@ -240,7 +250,7 @@ class SceneCache:
 
         mesh_reads: dict[int, object] = {}  # evaluated mesh pointer -> _MeshData (this sync)
         seen: list[tuple] = []
-        refreshed: list[tuple] = []  # instances whose world-space arrays were made anew
+        refreshed: list[tuple] = []  # instances whose mesh, matrix or slots changed
         producers: set[int] = set()  # originals whose geometry arrived as mesh instances
         convertible: list[tuple] = []  # (key, original, matrix, name) of curves/text/metaballs
         light_rows: list[dict] = []
@@ -326,7 +336,7 @@ class SceneCache:
 
     def _visit(self, key: tuple, name: str, obj, mesh, matrix: np.ndarray, full: bool, changes: Changes,
                owner: int, mesh_reads: dict, report: SyncReport, refreshed: list[tuple]) -> bool:
-        """Bring one instance's entry up to date; True when its arrays were made anew.
+        """Bring one instance's entry up to date; True when its mesh, matrix or slots changed.
         ``mesh`` None: the entry's mesh is known unchanged (a converted object)."""
         entry = self._entries.get(key)
         geometry_dirty = mesh is not None and (
@@ -335,22 +345,26 @@ class SceneCache:
             or owner in changes.geometry
             or mesh.original.as_pointer() in changes.meshes
         )
+        touched = (geometry_dirty or entry is None or obj.original.as_pointer() in changes.touched
+                   or owner in changes.touched
+                   or (mesh is not None and mesh.original.as_pointer() in changes.touched))
         slot_ids = extract._slot_lookup(obj, mesh if mesh is not None else obj.data, self._materials) \
-            if mesh is not None or entry is None else entry.slot_ids
+            if (mesh is not None or entry is None) and touched else entry.slot_ids
         if geometry_dirty:
             mesh_key = mesh.as_pointer()
             if mesh_key not in mesh_reads:
                 # A deformed mesh keeps its topology: only positions and normals are read
                 # again (never on a full sync, which trusts nothing kept).
                 kept = None if full or entry is None else extract.reread_deformed(mesh, entry.data)
-                mesh_reads[mesh_key] = kept if kept is not None else extract._read_mesh(mesh)
-            data = mesh_reads[mesh_key]
-            arrays = extract._instance_arrays(name, data, matrix, slot_ids) if data else None
-            self._entries[key] = _Entry(name, data, matrix, slot_ids, arrays)
+                data = kept if kept is not None else extract._read_mesh(mesh)
+                previous = entry.mesh if kept is not None else None
+                mesh_reads[mesh_key] = (data, extract.object_mesh(name, data, previous) if data else None)
+            data, object_mesh = mesh_reads[mesh_key]
+            self._entries[key] = _Entry(name, data, matrix, slot_ids, object_mesh)
             report.extracted.append(name)
-        elif not np.array_equal(entry.matrix, matrix) or not np.array_equal(entry.slot_ids, slot_ids):
+        elif (entry.matrix.tobytes() != matrix.tobytes()
+              or (slot_ids is not entry.slot_ids and not np.array_equal(entry.slot_ids, slot_ids))):
             entry.matrix, entry.slot_ids = matrix, slot_ids
-            entry.arrays = extract._instance_arrays(entry.name, entry.data, matrix, slot_ids) if entry.data else None
             report.transformed.append(entry.name)
         else:
             report.reused += 1
@@ -359,48 +373,55 @@ class SceneCache:
         return True
 
     def _rebuild(self, order: list[tuple]) -> None:
-        """Assemble the world-space arrays from every instance's (a new layout)."""
-        keys = [k for k in order if self._entries[k].arrays is not None]
-        objects = [self._entries[k].arrays for k in keys]
-        geometry = extract._geometry(objects)
-        if len(objects) == 1:  # _geometry hands a single object's arrays over uncopied
-            geometry.triangles, geometry.normals = geometry.triangles.copy(), geometry.normals.copy()
-            geometry.material_ids = geometry.material_ids.copy()
-            geometry.uvs = None if geometry.uvs is None else geometry.uvs.copy()
+        """Build the instance table from every instance's entry (a new layout)."""
+        keys = [k for k in order if self._entries[k].mesh is not None]
+        meshes: dict[int, int] = {}  # mesh id -> index in the list
+        mesh_list: list[ObjectMesh] = []
+        for key in keys:
+            mesh = self._entries[key].mesh
+            if mesh.mesh_id not in meshes:
+                meshes[mesh.mesh_id] = len(mesh_list)
+                mesh_list.append(mesh)
+        entries = [self._entries[k] for k in keys]
+        instances = Instances(meshes=mesh_list, mesh=np.array([meshes[e.mesh.mesh_id] for e in entries], np.int32),
+                              matrices=np.array([e.matrix for e in entries], np.float32).reshape(-1, 4, 4),
+                              slot_materials=[e.slot_ids for e in entries])
         self._rows = {k: i for i, k in enumerate(keys)}
+        self._mesh_index = meshes
         self._generation += 1
-        geometry.edit = GeometryEdit(self._source, self._generation, None)
-        self._geometry = geometry
+        self._geometry = InstancedGeometry(instances, [e.name for e in entries],
+                                           edit=GeometryEdit(self._source, self._generation, None))
 
     def _edit_in_place(self, refreshed: list[tuple]) -> bool:
-        """Write the refreshed instances' rows into the kept arrays; False (nothing written)
-        when one of them no longer fits its rows."""
+        """Write the refreshed instances into the kept table; False (nothing written) when
+        one of them no longer fits its rows (another triangle count or topology)."""
         geometry = self._geometry
         if geometry is None:
             return False
+        instances = geometry.instances
         updates = []
         for key in refreshed:
-            arrays, row = self._entries[key].arrays, self._rows.get(key)
-            if row is None and arrays is None:
+            entry, row = self._entries[key], self._rows.get(key)
+            if row is None and entry.mesh is None:
                 continue  # still without triangles
-            if row is None or arrays is None or len(arrays.triangles) != geometry.object_ranges[row, 1]:
+            if row is None or entry.mesh is None:
                 return False
-            if arrays.uvs is not None and geometry.uvs is None:
+            index = self._mesh_index.get(entry.mesh.mesh_id)
+            if index is None or index != instances.mesh[row]:
                 return False
-            updates.append((row, arrays))
-        for row, arrays in updates:
-            first, count = (int(v) for v in geometry.object_ranges[row])
-            end = first + count
-            geometry.triangles[first:end] = arrays.triangles
-            geometry.normals[first:end] = arrays.normals
-            geometry.material_ids[first:end] = arrays.material_ids
-            if geometry.uvs is not None:
-                geometry.uvs[first:end] = 0.0 if arrays.uvs is None else arrays.uvs
-            geometry.object_bounds[row] = arrays.bounds
-            if geometry.object_closed is not None:
-                geometry.object_closed[row] = arrays.closed
+            kept = instances.meshes[index]
+            if kept is not entry.mesh and (kept.triangle_count != entry.mesh.triangle_count
+                                           or (kept.uvs is None) != (entry.mesh.uvs is None)):
+                return False
+            updates.append((row, entry))
+        for row, entry in updates:
+            instances.meshes[instances.mesh[row]] = entry.mesh  # a deformed version, or itself
+            instances.matrices[row] = entry.matrix
+            instances.slot_materials[row] = np.asarray(entry.slot_ids, np.int32)
+        rows = sorted(r for r, _ in updates)
+        geometry.refresh(rows)
         self._generation += 1
-        geometry.edit = GeometryEdit(self._source, self._generation, tuple(sorted(r for r, _ in updates)))
+        geometry.edit = GeometryEdit(self._source, self._generation, tuple(rows))
         return True
 
 

@@ -21,10 +21,14 @@ are made only for ranges that hold such values.
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from .bindings import Bindings
 from .gpu_dispatch import GrowBuffer
+from .instance_transform import OUTPUT_ROW_BYTES, InstanceTransformPass
+from .instancing import InstancedGeometry
 from .scene_delta import GeometryDelta
 from .scene_data import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, MATERIAL_DTYPE, Geometry, Lights, SceneData
 from .textures import GPUTextures
@@ -117,7 +121,15 @@ class GPUScene:
         self._geometry_buffers = (self.positions, self.normals, self.uvs, self.triangle_materials)
         for buf in (*self._geometry_buffers, self.materials):
             buf.ensure(0)  # passes bind these before the first upload
+        # The tracer's per-triangle UV rows when the GPU makes them (instanced geometry);
+        # otherwise the tracer packs its own (tracer.pack_triangle_uvs).
+        self.uv_rows = GrowBuffer(ctx, "scene triangle uv rows", 32)
+        self.uv_rows_resident = False
+        self.instance_transform = InstanceTransformPass(ctx)
         self.generation = 0  # bumps when a vertex attribute's buffer object changes
+        # Host time of the last upload, the time inside its dispatch calls left out: a GPU
+        # queues them and returns, a software driver runs the transform there, on the CPU.
+        self.host_ms = 0.0
         self.triangle_count = 0
         self._synced = -1  # sequence of the last GeometryDelta applied (scene_delta.py)
         self.textures = GPUTextures(ctx)  # re-uploaded only when the scene's images change
@@ -138,8 +150,25 @@ class GPUScene:
     def upload(self, scene: SceneData, delta: GeometryDelta | None = None) -> None:
         """Geometry, materials and textures. With a ``delta`` that follows this scene's last
         upload only the changed triangle ranges are written (scene_delta.py)."""
+        start = time.perf_counter()
+        self.instance_transform.stats.dispatch_ms = 0.0
+        try:
+            self._upload(scene, delta)
+        finally:
+            spent = (time.perf_counter() - start) * 1e3
+            self.host_ms = spent - (self.instance_transform.stats.dispatch_ms if self.uv_rows_resident else 0.0)
+
+    def _upload(self, scene: SceneData, delta: GeometryDelta | None) -> None:
         geo = scene.geometry
         n = geo.triangle_count
+        if isinstance(geo, InstancedGeometry):
+            self._upload_instanced(geo, delta)
+            self.materials.upload(bytes_of(scene.materials.packed()))
+            self.textures.upload(scene.materials.textures)
+            return
+        if self.uv_rows_resident:
+            self.instance_transform.forget()  # the world buffers now hold host-made rows
+            self.uv_rows_resident = False
         incremental = (delta is not None and not delta.full and delta.sequence == self._synced + 1
                        and n == self.triangle_count)
         self._synced = delta.sequence if delta is not None else -1
@@ -158,7 +187,27 @@ class GPUScene:
         self.materials.upload(bytes_of(scene.materials.packed()))
         self.textures.upload(scene.materials.textures)
 
+    def _upload_instanced(self, geo: InstancedGeometry, delta: GeometryDelta | None) -> None:
+        """The world rows made on the GPU from the object-space meshes and the instance table
+        (instance_transform.py): only instances that changed are transformed."""
+        n = geo.triangle_count
+        buffers = {"positions": self.positions, "normals": self.normals, "uvs": self.uvs,
+                   "triangle_materials": self.triangle_materials, "uv_rows": self.uv_rows}
+        allocations = [buf.allocations for buf in buffers.values()]
+        for name, buf in buffers.items():
+            buf.ensure(n * OUTPUT_ROW_BYTES[name])
+        grown = [buf.allocations for buf in buffers.values()] != allocations
+        if grown or not self.uv_rows_resident or n != self.triangle_count:
+            self.instance_transform.forget()
+        if grown:
+            self.generation += 1  # a new buffer object: dependent VAOs must be rebuilt
+        self.instance_transform.update(geo, buffers)
+        self.uv_rows_resident = True
+        self.triangle_count = n
+        self._synced = -1  # a later host-made upload starts over
+
     def release(self) -> None:
-        for buf in (*self._geometry_buffers, self.materials):
+        for buf in (*self._geometry_buffers, self.materials, self.uv_rows):
             buf.release()
+        self.instance_transform.release()
         self.textures.release()

@@ -166,6 +166,11 @@ class Renderer:
             if traced:
                 tracer.upload(self.gpu_scene, scene, delta)
         counts["triangles_uploaded"] = int(delta.changed_triangles)
+        if self.gpu_scene.uv_rows_resident:  # instanced geometry: made on the GPU
+            moved = self.gpu_scene.instance_transform.stats
+            counts["instances_written"] = moved.instances_written
+            counts["meshes_uploaded"] = moved.meshes_uploaded
+            counts["triangles_transformed"] = moved.triangles_transformed
         kept_world = kept_world and delta.unchanged
         step("shadow_maps")
         with timer.measure("shadow_maps"):

@@ -102,6 +102,18 @@ class Geometry:
     def triangle_count(self) -> int:
         return int(len(self.triangles))
 
+    @property
+    def has_uvs(self) -> bool:
+        """Whether ``uvs`` is given (asked without making arrays that are made on demand)."""
+        return self.uvs is not None
+
+    def clamp_material_ids(self, count: int) -> None:
+        """Documented fallback: ids outside a table of ``count`` materials (empty material
+        slots) use material 0."""
+        ids = self.material_ids
+        if len(ids) and (ids.min() < 0 or ids.max() >= count):
+            self.material_ids = np.where((ids >= 0) & (ids < count), ids, 0).astype(np.int32)
+
     def rows(self, first: int, count: int) -> "Geometry":
         """Triangles [first, first + count) as a Geometry of views (no copies, no objects):
         what per-triangle packers need to re-pack a changed range."""
@@ -502,9 +514,4 @@ class SceneData:
     def __post_init__(self) -> None:
         if len(self.materials) == 0:
             raise SceneDataError("the material table needs at least one material (index 0 is the fallback)")
-        ids = self.geometry.material_ids
-        if len(ids) and (ids.min() < 0 or ids.max() >= len(self.materials)):
-            # Documented fallback: out-of-range slots (empty material slots) use material 0.
-            self.geometry.material_ids = np.where(
-                (ids >= 0) & (ids < len(self.materials)), ids, 0
-            ).astype(np.int32)
+        self.geometry.clamp_material_ids(len(self.materials))

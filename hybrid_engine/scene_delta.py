@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .instancing import InstancedGeometry
 from .scene_data import Geometry, GeometryEdit
 
 # Changed triangles closer than this are uploaded as one range: one buffer write per range
@@ -127,15 +128,18 @@ class GeometryTracker:
         self.sequence += 1
         edit = geometry.edit
         delta = self._edited(geometry, edit)
-        self.compared = delta is None
+        self.compared = delta is None and not isinstance(geometry, InstancedGeometry)
         if delta is None:
-            delta = self._compared(geometry)
+            # Instanced geometry is made on the GPU: its rows are never compared on the host
+            # (reading them would transform every instance on the CPU).
+            delta = (GeometryDelta.everything(geometry.triangle_count, self.sequence) if not self.compared
+                     else self._compared(geometry))
         if edit is not None:
             # A producer's geometry comes with its edits: no copy of the rows is kept to
             # compare with (a later geometry without edits is uploaded whole).
             self._last = None
         self._edit = (edit.source, edit.generation) if edit is not None else None
-        self._layout = (geometry.triangle_count, geometry.uvs is not None, geometry.object_ranges.copy())
+        self._layout = (geometry.triangle_count, geometry.has_uvs, geometry.object_ranges.copy())
         return delta
 
     def _edited(self, geometry: Geometry, edit: GeometryEdit | None) -> GeometryDelta | None:
@@ -143,7 +147,7 @@ class GeometryTracker:
         version of it: nothing changed), else None. The rows are not compared, nor kept."""
         layout = self._layout
         if (edit is None or layout is None or layout[0] != geometry.triangle_count
-                or layout[1] != (geometry.uvs is not None)
+                or layout[1] != geometry.has_uvs
                 or not np.array_equal(layout[2], geometry.object_ranges)):
             return None
         if self._edit == (edit.source, edit.generation):

@@ -172,7 +172,9 @@ class HybridTracer:
         self._synced = delta.sequence if delta is not None else -1
         self._with_uvs = with_uvs
         self.triangle_count = geo.triangle_count
-        if not with_uvs:
+        if gpu.uv_rows_resident:
+            self._synced = -1  # the instance transform wrote them; a later packing starts over
+        elif not with_uvs:
             self._uvs.ensure(0)
         elif incremental:
             for first, count in delta.ranges:
@@ -180,6 +182,12 @@ class HybridTracer:
                                    first * TRIANGLE_UV_DTYPE.itemsize)
         else:
             self._uvs.upload(bytes_of(pack_triangle_uvs(scene)))
+
+    def _uv_rows(self):
+        """The per-triangle UV rows: the scene's when the GPU made them, else the tracer's."""
+        if self._gpu is not None and self._gpu.uv_rows_resident:
+            return self._gpu.uv_rows.buffer
+        return self._uvs.buffer
 
     @property
     def _triangles(self):
@@ -298,7 +306,7 @@ class HybridTracer:
             values.update(diagnostic_uniforms(settings))
         bind(prog, gpu.bindings(), resources.bindings(),
              storage={**bvh, **split_storage("TriangleNormals", gpu.normals.buffer, normal_split),
-                      "CounterBuffer": self._counters, "TriangleUVBuffer": self._uvs.buffer},
+                      "CounterBuffer": self._counters, "TriangleUVBuffer": self._uv_rows()},
              textures=textures, images=images, uniforms=values)
         prog.run(math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
         storage_barrier(ctx)

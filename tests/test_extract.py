@@ -101,8 +101,14 @@ def test_transformed_mesh_matches_hand_computed_triangles_and_normals(addon):
     face_normals /= np.linalg.norm(face_normals, axis=1, keepdims=True)
     np.testing.assert_allclose(geometry.normals, np.repeat(face_normals[:, None], 3, 1), atol=NORMAL_TOLERANCE)
     np.testing.assert_array_equal(geometry.object_ranges, [[0, 4]])
-    np.testing.assert_allclose(geometry.object_bounds[0], [expected.reshape(-1, 3).min(0),
-                                                           expected.reshape(-1, 3).max(0)], atol=GEOMETRY_TOLERANCE)
+    # Bounds: the mesh's object-space box, its corners transformed (what lets a moved
+    # object cost eight points): it holds every vertex.
+    local = np.array(TETRA_VERTS, np.float64)
+    box = np.array([[(local.min(0), local.max(0))[(i >> a) & 1][a] for a in range(3)] for i in range(8)])
+    world_box = box @ matrix[:3, :3].T + matrix[:3, 3]
+    np.testing.assert_allclose(geometry.object_bounds[0], [world_box.min(0), world_box.max(0)], atol=GEOMETRY_TOLERANCE)
+    assert (expected.reshape(-1, 3) >= geometry.object_bounds[0, 0] - 1e-6).all()
+    assert (expected.reshape(-1, 3) <= geometry.object_bounds[0, 1] + 1e-6).all()
     assert geometry.object_names == ["tetra"]
 
 

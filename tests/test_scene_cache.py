@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The scene cache's kept world-space arrays (blender_adapter/scene_cache.py): rows edited in
-place while the instances stay the same, rebuilt when they do not, and never an image that
-differs from a from-scratch sync of the same frame."""
+"""The scene cache's kept instance table (blender_adapter/scene_cache.py): rows edited in
+place while the instances stay the same, rebuilt when they do not, meshes shared by their
+instances and uploaded once, and never an image that differs from a from-scratch sync of
+the same frame."""
 from __future__ import annotations
 
 import numpy as np
@@ -61,7 +62,7 @@ def test_moving_one_object_rewrites_and_uploads_only_its_rows(addon, fed_session
 
     session, reports = fed_session
     _scene_, cube = _scene(bpy)
-    _frame(addon, bpy, session)
+    before = _frame(addon, bpy, session).image
     cube.location.x -= 0.4
     cube.rotation_euler.z += 0.6  # normals change too
     bpy.context.evaluated_depsgraph_get()
@@ -71,6 +72,10 @@ def test_moving_one_object_rewrites_and_uploads_only_its_rows(addon, fed_session
     frame = _frame(addon, bpy, session)
     assert not session.renderer.geometry_tracker.compared
     assert frame.counts["triangles_uploaded"] == 12  # the cube's triangles, nothing else
+    # One matrix: no mesh is sent again, and the GPU transforms the cube's 12 triangles.
+    assert (frame.counts["instances_written"], frame.counts["meshes_uploaded"],
+            frame.counts["triangles_transformed"]) == (1, 0, 12)
+    assert np.abs(frame.image - before).max() > 0.05  # the cube is seen where it moved
     np.testing.assert_array_equal(frame.image, _from_scratch(addon, bpy))
 
 
@@ -91,7 +96,10 @@ def test_deforming_a_mesh_rereads_only_its_positions_and_a_new_topology_rebuilds
     bpy.context.evaluated_depsgraph_get()
     assert reports[-1].extracted == ["Cube"] and not reports[-1].rebuilt
     assert whole_reads == []  # positions and normals only: the topology was kept
-    np.testing.assert_array_equal(_frame(addon, bpy, session).image, _from_scratch(addon, bpy))
+    frame = _frame(addon, bpy, session)
+    assert (frame.counts["meshes_uploaded"], frame.counts["instances_written"]) == (1, 1)
+    assert not session.renderer.gpu_scene.instance_transform.stats.store_rebuilt
+    np.testing.assert_array_equal(frame.image, _from_scratch(addon, bpy))
 
     cube.modifiers.new("more", "SUBSURF").levels = 1
     bpy.context.evaluated_depsgraph_get()
@@ -227,3 +235,44 @@ def test_a_moving_camera_skips_the_walk_and_a_view_layer_hide_does_not(addon, fe
     bpy.context.evaluated_depsgraph_get()
     assert reports[-1].walked and reports[-1].removed == 1
     assert "Cube" not in session.cache.scene_data.geometry.object_names
+
+
+def test_a_thousand_linked_duplicates_share_one_mesh_upload(addon, fed_session):
+    import bpy
+
+    session, reports = fed_session
+    scene, cube = _scene(bpy)
+    for k in range(1000):
+        duplicate = bpy.data.objects.new(f"dup{k}", cube.data)  # linked: one mesh datablock
+        duplicate.location = (k % 40 * 0.3 - 6, k // 40 * 0.3 - 4, 2.0)
+        duplicate.scale = (0.1, 0.1, 0.1)
+        scene.collection.objects.link(duplicate)
+    bpy.context.evaluated_depsgraph_get()
+    frame = _frame(addon, bpy, session)
+    instances = session.cache.scene_data.geometry.instances
+    assert len(instances) == 1003 and len(instances.meshes) == 3  # plane, sphere, the cube's mesh
+    assert frame.counts["meshes_uploaded"] == 3 and frame.counts["instances_written"] == 1003
+    bpy.data.objects["dup500"].location.z += 1.0
+    bpy.context.evaluated_depsgraph_get()
+    assert reports[-1].transformed == ["dup500"]
+    frame = _frame(addon, bpy, session)
+    assert (frame.counts["meshes_uploaded"], frame.counts["instances_written"]) == (0, 1)
+
+
+@pytest.mark.parametrize("link", ["DATA", "OBJECT"])
+def test_assigning_another_material_to_a_slot_shows_in_the_next_frame(addon, fed_session, link):
+    import bpy
+
+    session, reports = fed_session
+    scene, cube = _scene(bpy)
+    red = bpy.data.materials.new("red")
+    red.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (1.0, 0.0, 0.0, 1.0)
+    cube.data.materials.append(bpy.data.materials.new("grey"))
+    bpy.context.evaluated_depsgraph_get()
+    before = _frame(addon, bpy, session).image
+    cube.material_slots[0].link = link
+    cube.material_slots[0].material = red
+    bpy.context.evaluated_depsgraph_get()
+    after = _frame(addon, bpy, session).image
+    assert np.abs(after - before).max() > 0.05
+    np.testing.assert_array_equal(after, _from_scratch(addon, bpy))

@@ -554,7 +554,7 @@ HOST_SCRIPT = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__fil
 
 
 def host_section(quick: bool) -> dict:
-    """Per-frame host milliseconds (scene sync + upload) of four Blender scenes, or why not."""
+    """Per-frame host milliseconds (scene sync + upload) of five Blender scenes, or why not."""
     import importlib.util
     import subprocess
     import tempfile

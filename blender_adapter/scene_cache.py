@@ -56,9 +56,14 @@ class Changes:
     # Objects and meshes with any update (shading, a material slot, a transform, geometry):
     # only these can have changed their slots' materials.
     touched: set[int] = field(default_factory=set)
+    cameras: set[int] = field(default_factory=set)  # camera objects among the updates
     lights: bool = False
     world: bool = False
     scene: bool = False
+    # Every update moved or deformed an object or a mesh (or concerned cameras and actions):
+    # nothing was added, removed, hidden or re-linked, so a sync may follow the known objects
+    # without walking the instances (SceneCache._follow_moves).
+    only_moves: bool = True
     # Only cameras changed (or nothing did): no datablock the exported scene is made of, so a
     # sync can skip its walk over the instances (a static scene seen by a moving camera).
     cameras_only: bool = True
@@ -75,6 +80,8 @@ class Changes:
         self.world = self.world or other.world
         self.scene = self.scene or other.scene
         self.cameras_only = self.cameras_only and other.cameras_only
+        self.cameras |= other.cameras
+        self.only_moves = self.only_moves and other.only_moves
 
     @classmethod
     def from_updates(cls, updates) -> "Changes":
@@ -87,8 +94,14 @@ class Changes:
             key = original.as_pointer()
             if not _about_cameras(kind, datablock):
                 changes.cameras_only = False
+            elif kind == _OBJECT:
+                changes.cameras.add(key)
             if kind in (_OBJECT, _MESH):
                 changes.touched.add(key)
+                if kind == _OBJECT and not (update.is_updated_transform or update.is_updated_geometry):
+                    changes.only_moves = False  # visibility, a parent, a modifier's settings...
+            elif kind not in ("Action", "Camera"):
+                changes.only_moves = False
             if kind == _OBJECT:
                 if update.is_updated_geometry:
                     changes.geometry.add(key)
@@ -141,6 +154,10 @@ class _Entry:
     matrix: np.ndarray  # (4, 4) float64 object to world
     slot_ids: np.ndarray
     mesh: ObjectMesh | None  # None when the instance has no triangles
+    # The original object of a plain mesh object (not an instance, not converted) and its
+    # mesh's original pointer: what a sync that follows moves reads it again through.
+    original: object = None
+    mesh_original: int = 0
 
 
 class _PersistentMaterials(extract._MaterialTableBuilder):
@@ -212,6 +229,7 @@ class SceneCache:
         self._geometry: InstancedGeometry | None = None
         self._rows: dict[tuple, int] = {}  # instance key -> object index in self._geometry
         self._mesh_index: dict[int, int] = {}  # mesh id -> index in the instance table's meshes
+        self._producers: set[int] = set()  # originals whose geometry arrives as instances
         self._entries: dict[tuple, _Entry] = {}
         self._order: list[tuple] = []
         self._materials = _PersistentMaterials()
@@ -246,6 +264,10 @@ class SceneCache:
             report.reused = len(self._order)
             report.ms = (time.perf_counter() - start) * 1e3
             return report
+        if not full and changes.only_moves and not report.materials_refreshed and self._scene is not None:
+            if self._follow_moves(depsgraph, changes, report):
+                report.ms = (time.perf_counter() - start) * 1e3
+                return report
         report.walked = True
 
         mesh_reads: dict[int, object] = {}  # evaluated mesh pointer -> _MeshData (this sync)
@@ -280,6 +302,9 @@ class SceneCache:
             changed |= self._visit(key, _instance_name(instance, obj), obj, obj.data,
                                    np.array(instance.matrix_world, np.float64), full, changes, owner,
                                    mesh_reads, report, refreshed)
+            if not instance.is_instance:
+                entry = self._entries[key]
+                entry.original, entry.mesh_original = obj.original, obj.data.original.as_pointer()
 
         for key, original, matrix, name in convertible:
             if original.as_pointer() in producers:
@@ -311,6 +336,7 @@ class SceneCache:
         same_instances = seen == self._order and not removed
         changed = changed or not same_instances
         self._order = seen
+        self._producers = producers
 
         lights = Lights.from_rows(light_rows)
         world = depsgraph.scene.world
@@ -333,6 +359,46 @@ class SceneCache:
         report.ms = (time.perf_counter() - start) * 1e3
         return report
 
+
+    def _follow_moves(self, depsgraph, changes: Changes, report: SyncReport) -> bool:
+        """Refresh the moved and deformed objects without walking the instances, when every
+        one of them is a plain mesh object this cache knows (not a light, not an instancer,
+        not converted) and every updated mesh is one of theirs; False (nothing done) when
+        the walk is needed. A frame of an animation that moves some objects among many
+        instances costs those objects, not the instances."""
+        moved = (changes.transforms | changes.geometry) - changes.cameras
+        entries = []
+        for pointer in moved:
+            key = ("object", pointer)
+            entry = self._entries.get(key)
+            if entry is None or entry.original is None or pointer in self._producers:
+                return False
+            entries.append((key, entry))
+        meshes = {entry.mesh_original for _, entry in entries}
+        if (changes.touched - moved - changes.cameras) - meshes:
+            return False  # a mesh (or an object) updated on its own: walk
+        refreshed: list[tuple] = []
+        mesh_reads: dict[int, object] = {}
+        changed = False
+        for key, entry in entries:
+            try:
+                evaluated = entry.original.evaluated_get(depsgraph)
+            except ReferenceError:
+                return False  # deleted since: the walk sees it gone
+            if evaluated.type != "MESH":
+                return False
+            changed |= self._visit(key, entry.name, evaluated, evaluated.data,
+                                   np.array(evaluated.matrix_world, np.float64), False, changes, 0,
+                                   mesh_reads, report, refreshed)
+        report.reused = len(self._order) - len(refreshed)
+        if changed:
+            if not self._edit_in_place(refreshed):
+                self._rebuild(self._order)
+                report.rebuilt = True
+            self._scene = SceneData(geometry=self._geometry, materials=self._materials.table(),
+                                    lights=self._lights, sky=self._sky)
+        report.changed = changed
+        return True
 
     def _visit(self, key: tuple, name: str, obj, mesh, matrix: np.ndarray, full: bool, changes: Changes,
                owner: int, mesh_reads: dict, report: SyncReport, refreshed: list[tuple]) -> bool:
@@ -360,7 +426,8 @@ class SceneCache:
                 previous = entry.mesh if kept is not None else None
                 mesh_reads[mesh_key] = (data, extract.object_mesh(name, data, previous) if data else None)
             data, object_mesh = mesh_reads[mesh_key]
-            self._entries[key] = _Entry(name, data, matrix, slot_ids, object_mesh)
+            self._entries[key] = _Entry(name, data, matrix, slot_ids, object_mesh,
+                                        *((entry.original, entry.mesh_original) if entry is not None else ()))
             report.extracted.append(name)
         elif (entry.matrix.tobytes() != matrix.tobytes()
               or (slot_ids is not entry.slot_ids and not np.array_equal(entry.slot_ids, slot_ids))):
@@ -417,7 +484,8 @@ class SceneCache:
         for row, entry in updates:
             instances.meshes[instances.mesh[row]] = entry.mesh  # a deformed version, or itself
             instances.matrices[row] = entry.matrix
-            instances.slot_materials[row] = np.asarray(entry.slot_ids, np.int32)
+            if not np.array_equal(instances.slot_materials[row], entry.slot_ids):
+                instances.set_slots(row, entry.slot_ids)
         rows = sorted(r for r, _ in updates)
         geometry.refresh(rows)
         self._generation += 1

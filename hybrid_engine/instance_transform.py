@@ -102,31 +102,67 @@ class InstanceTransformPass:
     def update(self, geometry: InstancedGeometry, outputs: dict[str, object]) -> TransformStats:
         """Bring the store and the table up to ``geometry`` and write the world rows of every
         instance that changed into ``outputs`` (GPUScene's buffers by name, at least
-        ``triangle_count`` rows each)."""
+        ``triangle_count`` rows each).
+
+        A producer's version seen already (``Geometry.edit``) costs nothing; its next version
+        costs the rows it lists (packed, compared, written); anything else packs and compares
+        every row (a geometry without edits may have been changed in place)."""
         stats = self.stats = TransformStats()
-        # A producer's version it has seen already (Geometry.edit): nothing to compare. A
-        # geometry without one may have been changed in place; its rows are compared.
-        seen = (id(geometry), geometry.edit) if geometry.edit is not None else None
+        edit = geometry.edit
+        seen = (id(geometry), edit.source, edit.generation) if edit is not None else None
         if seen is not None and seen == self._seen and self._rows is not None:
             return stats
         instances = geometry.instances
         deformed = self._update_store(instances.meshes, stats)
-        rows, slot_materials = self._pack(geometry)
-        changed = np.ones(len(rows), bool)
-        if (self._rows is not None and len(self._rows) == len(rows) and not stats.store_rebuilt
-                and np.array_equal(self._slot_materials, slot_materials)):
-            changed = (self._rows.view(np.uint8).reshape(len(rows), -1)
-                       != rows.view(np.uint8).reshape(len(rows), -1)).any(axis=1)
+        slot_table = instances.slot_table()
+        same_table = self._slot_materials is not None and np.array_equal(self._slot_materials, slot_table[0])
+        follows = (seen is not None and self._seen is not None and edit.objects is not None
+                   and self._seen == (seen[0], seen[1], seen[2] - 1))
+        if (follows and same_table and self._rows is not None and len(self._rows) == max(len(instances), 1)
+                and not stats.store_rebuilt):
+            which = np.asarray(edit.objects, np.int64)
             if deformed:
-                changed |= np.isin(instances.mesh, np.fromiter(deformed, np.int64))
-        if changed.any():
-            self._store["instances"].upload(rows.tobytes())
-            self._store["slot_materials"].upload(slot_materials.tobytes())
-            self._transform(geometry, np.flatnonzero(changed), outputs, stats)
-        stats.instances_written = int(changed.sum())
-        self._rows, self._slot_materials = rows, slot_materials
+                which = np.union1d(which, np.flatnonzero(np.isin(instances.mesh, np.fromiter(deformed, np.int64))))
+            rows = self._pack(geometry, which, slot_table)
+            differs = (self._rows[which].view(np.uint8).reshape(len(which), INSTANCE_DTYPE.itemsize)
+                       != rows.view(np.uint8).reshape(len(which), INSTANCE_DTYPE.itemsize)).any(axis=1)
+            if deformed:
+                differs |= np.isin(instances.mesh[which], np.fromiter(deformed, np.int64))
+            changed = which[differs]
+            self._rows[changed] = rows[differs]
+            self._write_rows(changed)
+        else:
+            rows = self._pack(geometry, None, slot_table)
+            if (self._rows is not None and len(self._rows) == len(rows) and not stats.store_rebuilt
+                    and same_table):
+                differs = (self._rows.view(np.uint8).reshape(len(rows), INSTANCE_DTYPE.itemsize)
+                           != rows.view(np.uint8).reshape(len(rows), INSTANCE_DTYPE.itemsize)).any(axis=1)
+                if deformed:
+                    differs |= np.isin(instances.mesh, np.fromiter(deformed, np.int64))
+                changed = np.flatnonzero(differs)
+            else:
+                changed = np.arange(len(instances))
+            self._rows = rows
+            if len(changed):
+                self._store["instances"].upload(rows.tobytes())
+        if not same_table:
+            self._store["slot_materials"].upload(slot_table[0].tobytes())
+            self._slot_materials = slot_table[0].copy()
+        if len(changed):
+            self._transform(geometry, changed, outputs, stats)
+        stats.instances_written = int(len(changed))
         self._seen = seen
         return stats
+
+    def _write_rows(self, changed: np.ndarray) -> None:
+        """Write the table rows ``changed`` (sorted) to the GPU: row by row when few, whole
+        when many (one write beats thousands)."""
+        if len(changed) > 256:
+            self._store["instances"].upload(self._rows.tobytes())
+            return
+        size = INSTANCE_DTYPE.itemsize
+        for row in changed:
+            self._store["instances"].write_at(self._rows[row:row + 1].tobytes(), int(row) * size)
 
     # -- the object-space store --------------------------------------------------------------
     def _update_store(self, meshes: list[ObjectMesh], stats: TransformStats) -> set[int]:
@@ -178,30 +214,30 @@ class InstanceTransformPass:
         self._rows = None  # every instance's mesh offsets may have moved
 
     # -- the instance table ------------------------------------------------------------------
-    def _pack(self, geometry: InstancedGeometry) -> tuple[np.ndarray, np.ndarray]:
+    def _pack(self, geometry: InstancedGeometry, which: np.ndarray | None,
+              slot_table: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+        """Table rows of the instances ``which`` (all when None)."""
         instances = geometry.instances
-        k = len(instances)
-        rows = np.zeros(max(k, 1), INSTANCE_DTYPE)
-        slot_counts = np.array([len(s) for s in instances.slot_materials], np.int64)
-        slot_materials = (np.concatenate(instances.slot_materials).astype(np.int32) if slot_counts.sum()
-                          else np.zeros(1, np.int32))
+        picked = np.arange(len(instances)) if which is None else which
+        k = len(picked)
+        rows = np.zeros(max(k, 1) if which is None else k, INSTANCE_DTYPE)
         if k == 0:
-            return rows, slot_materials
+            return rows
         places = [self._placements[m.mesh_id] for m in instances.meshes]
         mesh_offsets = np.array([(p.vertex, p.normal, p.triangle, p.uv) for p in places], np.int32)
-        matrices = instances.matrices
+        matrices = instances.matrices[picked]
         rows["matrix"][:k] = matrices.transpose(0, 2, 1).reshape(k, 16)  # GLSL mat4 is column-major
-        normal = normal_matrices(matrices).astype(np.float32)  # (K, 3, 3), columns normal[:, :, j]
+        normal = normal_matrices(matrices).astype(np.float32)  # (k, 3, 3), columns normal[:, :, j]
         cols = rows["normal_cols"][:k].reshape(k, 3, 4)
         cols[:, :, :3] = normal.transpose(0, 2, 1)
-        rows["mesh"][:k] = mesh_offsets[instances.mesh]
-        ranges = geometry.object_ranges
+        rows["mesh"][:k] = mesh_offsets[instances.mesh[picked]]
+        ranges = geometry.object_ranges[picked]
         rows["info"][:k, 0] = ranges[:, 0]
         rows["info"][:k, 1] = ranges[:, 1]
-        rows["info"][:k, 2] = np.concatenate([[0], np.cumsum(slot_counts)[:-1]])
-        rows["info"][:k, 3] = slot_counts
-        rows["flags"][:k, 0] = instances.mirrored()
-        return rows, slot_materials
+        rows["info"][:k, 2] = slot_table[1][picked]
+        rows["info"][:k, 3] = slot_table[2][picked]
+        rows["flags"][:k, 0] = np.linalg.det(matrices[:, :3, :3].astype(np.float64)) < 0
+        return rows
 
     # -- the dispatch ------------------------------------------------------------------------
     def _transform(self, geometry: InstancedGeometry, which: np.ndarray, outputs: dict[str, object],

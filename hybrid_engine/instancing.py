@@ -147,6 +147,24 @@ class Instances:
     def __len__(self) -> int:
         return int(len(self.mesh))
 
+    def slot_table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The slot materials as one int32 array (at least one entry), each instance's first
+        index into it and its count; kept until ``set_slots`` (thousands of instances
+        would otherwise be concatenated every frame)."""
+        cached = self.__dict__.get("_slot_table")
+        if cached is None:
+            counts = np.fromiter((len(s) for s in self.slot_materials), np.int64, len(self.slot_materials))
+            flat = np.concatenate(self.slot_materials).astype(np.int32) if counts.sum() else np.zeros(1, np.int32)
+            firsts = np.concatenate([[0], np.cumsum(counts)[:-1]]) if len(counts) else np.zeros(0, np.int64)
+            cached = self.__dict__["_slot_table"] = (flat, firsts, counts)
+        return cached
+
+    def set_slots(self, row: int, materials: np.ndarray) -> None:
+        """Give instance ``row`` new slot materials (the way to change them: it refreshes
+        ``slot_table``)."""
+        self.slot_materials[row] = np.asarray(materials, np.int32).reshape(-1)
+        self.__dict__.pop("_slot_table", None)
+
     def triangle_counts(self) -> np.ndarray:
         counts = np.array([m.triangle_count for m in self.meshes], np.int64)
         return counts[self.mesh] if len(self.mesh) else np.zeros(0, np.int64)
@@ -230,12 +248,13 @@ class InstancedGeometry(Geometry):
     def clamp_material_ids(self, count: int) -> None:
         """Slot materials outside a table of ``count`` use material 0 (Geometry's fallback,
         applied to the instance table instead of per-triangle ids)."""
-        table = self.instances.slot_materials
-        if not table:
+        instances = self.instances
+        if not len(instances):
             return
-        flat = np.concatenate(table)
-        if len(flat) and (flat.min() < 0 or flat.max() >= count):
-            self.instances.slot_materials = [np.where((s >= 0) & (s < count), s, 0).astype(np.int32) for s in table]
+        flat = instances.slot_table()[0]
+        if flat.min() < 0 or flat.max() >= count:
+            for row, table in enumerate(instances.slot_materials):
+                instances.set_slots(row, np.where((table >= 0) & (table < count), table, 0))
             self._world = None
 
     def _array_of(self, name: str) -> np.ndarray | None:

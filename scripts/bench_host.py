@@ -16,6 +16,11 @@ one sync), and each frame rendered at a thumbnail size so that the renderer's ``
     One mesh of ~100k vertices deformed by a Wave modifier, every frame.
 ``instances``
     10,000 unchanged linked duplicates of one 320-triangle mesh.
+``scatter``
+    A geometry-nodes scatter: 100,000 instances of one 80-triangle mesh on a plane (Distribute
+    Points on Faces, Instance on Points), and one small cube that moves, so that every frame's
+    sync walks the instances: Blender gives them one by one (``depsgraph.object_instances``),
+    with no bulk read of their matrices, and that walk is what remains per instance.
 
 Per scene: ``extract`` (the sync) and ``upload`` (the host's share of the upload pass: buffer
 writes, the instance table, the dispatches issued) in milliseconds, mean of every frame after
@@ -38,9 +43,11 @@ from addon_loader import load_addon  # noqa: E402 - also puts the repository roo
 
 from benchmarks.bench import choice_list  # noqa: E402
 
-SCENES = ("static", "chess", "deform", "instances")
-FULL = {"static_spheres": 100, "static_subdivisions": 6, "deform_grid": 316, "instances": 10_000, "chess_detail": 1.0}
-QUICK = {"static_spheres": 4, "static_subdivisions": 3, "deform_grid": 40, "instances": 200, "chess_detail": 0.05}
+SCENES = ("static", "chess", "deform", "instances", "scatter")
+FULL = {"static_spheres": 100, "static_subdivisions": 6, "deform_grid": 316, "instances": 10_000, "chess_detail": 1.0,
+        "scatter": 100_000}
+QUICK = {"static_spheres": 4, "static_subdivisions": 3, "deform_grid": 40, "instances": 200, "chess_detail": 0.05,
+         "scatter": 500}
 THUMBNAIL = (64, 36)
 
 
@@ -123,7 +130,42 @@ def _instances(params: dict):
     return scene
 
 
-BUILDERS = {"static": _static, "chess": _chess, "deform": _deform, "instances": _instances}
+def _scatter(params: dict):
+    """Geometry nodes scatter ``params["scatter"]`` instances of an icosphere over a plane."""
+    import bpy
+
+    scene, _camera = _empty_scene()
+    bpy.ops.mesh.primitive_plane_add(size=40)
+    ground = bpy.context.object
+    tree = bpy.data.node_groups.new("scatter", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = tree.nodes, tree.links
+    group_in, group_out = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
+    distribute = nodes.new("GeometryNodeDistributePointsOnFaces")
+    distribute.distribute_method = "RANDOM"
+    distribute.inputs["Density"].default_value = params["scatter"] / (40.0 * 40.0)
+    ico = nodes.new("GeometryNodeMeshIcoSphere")
+    ico.inputs["Radius"].default_value = 0.05
+    ico.inputs["Subdivisions"].default_value = 2  # 80 triangles
+    on_points = nodes.new("GeometryNodeInstanceOnPoints")
+    join = nodes.new("GeometryNodeJoinGeometry")
+    links.new(group_in.outputs[0], distribute.inputs["Mesh"])
+    links.new(distribute.outputs["Points"], on_points.inputs["Points"])
+    links.new(ico.outputs["Mesh"], on_points.inputs["Instance"])
+    links.new(on_points.outputs["Instances"], join.inputs[0])
+    links.new(group_in.outputs[0], join.inputs[0])
+    links.new(join.outputs[0], group_out.inputs[0])
+    ground.modifiers.new("scatter", "NODES").node_group = tree
+    bpy.ops.mesh.primitive_cube_add(size=0.5, location=(0.0, 0.0, 1.0))
+    mover = bpy.context.object
+    mover.keyframe_insert("location", frame=1)
+    mover.location.x += 5.0
+    mover.keyframe_insert("location", frame=20)
+    return scene
+
+
+BUILDERS = {"static": _static, "chess": _chess, "deform": _deform, "instances": _instances, "scatter": _scatter}
 
 
 def measure(name: str, params: dict, frames: int) -> dict:

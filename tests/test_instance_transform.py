@@ -207,3 +207,33 @@ def test_a_scene_of_instances_renders_as_its_world_space_triangles(gl, rng, mode
     # The GPU's float arithmetic may differ from numpy's in the last bit of a corner.
     assert np.abs(images[0] - images[1]).max() < 2e-3 or np.mean(np.abs(images[0] - images[1]) > 1e-3) < 0.002
     assert images[0].max() > 0.05  # something was lit
+
+
+def test_a_producers_next_edit_packs_and_writes_only_the_rows_it_lists(ctx, rng):
+    from hybrid_engine.scene_data import GeometryEdit
+
+    geometry = _random_instances(rng, count=20)
+    geometry.edit = GeometryEdit(source=7, generation=1)
+    scene = SceneData(geometry=geometry, materials=_materials())
+    gpu = GPUScene(ctx)
+    try:
+        gpu.upload(scene)
+        assert gpu.instance_transform.stats.instances_written == 20
+        geometry.instances.matrices[5] = _matrix((1, 2, 3), angle=1.0)
+        geometry.instances.matrices[9] = _matrix((0, 0, 7))  # changed, but not listed: not seen
+        geometry.refresh([5, 9])
+        geometry.edit = GeometryEdit(source=7, generation=2, objects=(5,))
+        gpu.upload(scene)
+        assert (gpu.instance_transform.stats.instances_written, gpu.instance_transform.stats.triangles_transformed) \
+            == (1, 12)
+        geometry.edit = GeometryEdit(source=7, generation=3, objects=())  # e.g. only a material changed
+        gpu.upload(scene)
+        assert gpu.instance_transform.stats.instances_written == 0
+        geometry.edit = None  # no producer's word: every row compared, instance 9 found
+        gpu.upload(scene)
+        assert gpu.instance_transform.stats.instances_written == 1
+        n = geometry.triangle_count
+        np.testing.assert_allclose(_read(gpu.positions.buffer, n, np.float32, 9),
+                                   geometry.triangles.reshape(n, 9), atol=2e-5)
+    finally:
+        gpu.release()

@@ -67,6 +67,7 @@ def test_moving_one_object_rewrites_and_uploads_only_its_rows(addon, fed_session
     cube.rotation_euler.z += 0.6  # normals change too
     bpy.context.evaluated_depsgraph_get()
     assert reports[-1].transformed == ["Cube"] and not reports[-1].rebuilt
+    assert not reports[-1].walked  # a known object moved: followed without the walk
     geometry = session.cache.scene_data.geometry
     assert geometry.edit.objects == (_object_index(session, "Cube"),)
     frame = _frame(addon, bpy, session)
@@ -254,7 +255,7 @@ def test_a_thousand_linked_duplicates_share_one_mesh_upload(addon, fed_session):
     assert frame.counts["meshes_uploaded"] == 3 and frame.counts["instances_written"] == 1003
     bpy.data.objects["dup500"].location.z += 1.0
     bpy.context.evaluated_depsgraph_get()
-    assert reports[-1].transformed == ["dup500"]
+    assert reports[-1].transformed == ["dup500"] and not reports[-1].walked
     frame = _frame(addon, bpy, session)
     assert (frame.counts["meshes_uploaded"], frame.counts["instances_written"]) == (0, 1)
 

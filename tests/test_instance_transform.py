@@ -21,6 +21,13 @@ def _read(buffer, count: int, dtype, width: int) -> np.ndarray:
     return np.frombuffer(buffer.read(size=count * width * np.dtype(dtype).itemsize), dtype).reshape(count, -1)
 
 
+def _assert_positions(gpu: GPUScene, geometry: InstancedGeometry) -> None:
+    """The GPU's world positions equal the host's arithmetic (instancing.world_arrays)."""
+    n = geometry.triangle_count
+    np.testing.assert_allclose(_read(gpu.positions.buffer, n, np.float32, 9), geometry.triangles.reshape(n, 9),
+                               atol=2e-5)
+
+
 def _box_mesh(rng=None, uvs=True, slots=(0, 1)) -> ObjectMesh:
     """A unit cube as Blender stores it: 8 vertices, 12 triangles, face normals, UVs."""
     positions = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], np.float32) - 0.5
@@ -90,9 +97,8 @@ def test_the_gpu_makes_the_same_world_rows_as_the_host(ctx, rng):
     gpu = GPUScene(ctx)
     try:
         gpu.upload(scene)
+        _assert_positions(gpu, geometry)
         n = geometry.triangle_count
-        np.testing.assert_allclose(_read(gpu.positions.buffer, n, np.float32, 9),
-                                   geometry.triangles.reshape(n, 9), atol=2e-5)
         np.testing.assert_allclose(_read(gpu.normals.buffer, n, np.float32, 9),
                                    geometry.normals.reshape(n, 9), atol=2e-5)
         np.testing.assert_array_equal(_read(gpu.uvs.buffer, n, np.float32, 6), geometry.uvs.reshape(n, 6))
@@ -132,9 +138,7 @@ def test_instances_of_one_mesh_share_its_upload_and_moving_one_writes_one_row(ct
         gpu.upload(scene)
         stats = gpu.instance_transform.stats
         assert (stats.instances_written, stats.triangles_transformed, stats.meshes_uploaded) == (1, 12, 0)
-        n = geometry.triangle_count
-        np.testing.assert_allclose(_read(gpu.positions.buffer, n, np.float32, 9),
-                                   geometry.triangles.reshape(n, 9), atol=2e-5)
+        _assert_positions(gpu, geometry)
     finally:
         gpu.release()
 
@@ -154,9 +158,7 @@ def test_a_deformed_mesh_re_sends_its_vertices_into_place_and_transforms_its_ins
         stats = gpu.instance_transform.stats
         assert not stats.store_rebuilt and stats.meshes_uploaded == 1
         assert (stats.instances_written, stats.triangles_transformed) == (2, 24)
-        n = geometry.triangle_count
-        np.testing.assert_allclose(_read(gpu.positions.buffer, n, np.float32, 9),
-                                   geometry.triangles.reshape(n, 9), atol=2e-5)
+        _assert_positions(gpu, geometry)
     finally:
         gpu.release()
 
@@ -169,9 +171,7 @@ def test_outputs_past_one_storage_block_are_written_chunk_by_chunk(ctx, rng):
         with gpu_dispatch.forced_limits(max_block=128 * 36):  # 128 rows of positions per chunk
             gpu.upload(scene)
         assert gpu.instance_transform.stats.dispatches == 4
-        n = geometry.triangle_count
-        np.testing.assert_allclose(_read(gpu.positions.buffer, n, np.float32, 9),
-                                   geometry.triangles.reshape(n, 9), atol=2e-5)
+        _assert_positions(gpu, geometry)
     finally:
         gpu.release()
 
@@ -232,8 +232,6 @@ def test_a_producers_next_edit_packs_and_writes_only_the_rows_it_lists(ctx, rng)
         geometry.edit = None  # no producer's word: every row compared, instance 9 found
         gpu.upload(scene)
         assert gpu.instance_transform.stats.instances_written == 1
-        n = geometry.triangle_count
-        np.testing.assert_allclose(_read(gpu.positions.buffer, n, np.float32, 9),
-                                   geometry.triangles.reshape(n, 9), atol=2e-5)
+        _assert_positions(gpu, geometry)
     finally:
         gpu.release()

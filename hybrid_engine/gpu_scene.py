@@ -161,7 +161,7 @@ class GPUScene:
     def _upload(self, scene: SceneData, delta: GeometryDelta | None) -> None:
         geo = scene.geometry
         n = geo.triangle_count
-        if isinstance(geo, InstancedGeometry):
+        if isinstance(geo, InstancedGeometry) and self.instance_transform.fits(geo):
             self._upload_instanced(geo, delta)
             self.materials.upload(bytes_of(scene.materials.packed()))
             self.textures.upload(scene.materials.textures)

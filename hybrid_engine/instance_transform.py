@@ -94,6 +94,24 @@ class InstanceTransformPass:
         self._seen: tuple | None = None  # (geometry id, edit) of the last update
         self.stats = TransformStats()
 
+    @staticmethod
+    def fits(geometry: InstancedGeometry) -> bool:
+        """Whether each array of the object-space store fits one storage block. One that
+        does not (over ten million unique triangles on a 128 MiB limit) is uploaded as
+        world-space rows made on the host, as a ``Geometry`` is: a documented fallback
+        that costs a transform of the whole scene per frame, never a failed frame."""
+        seen, vertices, normals, triangles, uv_corners = set(), 0, 0, 0, 0
+        for mesh in geometry.instances.meshes:
+            if mesh.mesh_id in seen:
+                continue
+            seen.add(mesh.mesh_id)
+            vertices += len(mesh.positions)
+            normals += len(mesh.normals)
+            triangles += mesh.triangle_count
+            uv_corners += 3 * mesh.triangle_count if mesh.uvs is not None else 0
+        largest = max(12 * vertices, 12 * normals, 12 * triangles, 8 * uv_corners, 160 * len(geometry.instances))
+        return largest <= max_block_bytes()
+
     def forget(self) -> None:
         """The outputs were written by someone else: the next update transforms everything."""
         self._rows = None

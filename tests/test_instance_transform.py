@@ -164,13 +164,13 @@ def test_a_deformed_mesh_re_sends_its_vertices_into_place_and_transforms_its_ins
 
 
 def test_outputs_past_one_storage_block_are_written_chunk_by_chunk(ctx, rng):
-    geometry = _random_instances(rng, count=40)  # 480 triangles
+    geometry = _random_instances(rng, count=14)  # 168 triangles; a table of 2,240 bytes
     scene = SceneData(geometry=geometry, materials=_materials())
     gpu = GPUScene(ctx)
     try:
-        with gpu_dispatch.forced_limits(max_block=128 * 36):  # 128 rows of positions per chunk
+        with gpu_dispatch.forced_limits(max_block=64 * 36):  # 64 rows of positions per chunk
             gpu.upload(scene)
-        assert gpu.instance_transform.stats.dispatches == 4
+        assert gpu.instance_transform.stats.dispatches == 3
         _assert_positions(gpu, geometry)
     finally:
         gpu.release()
@@ -232,6 +232,23 @@ def test_a_producers_next_edit_packs_and_writes_only_the_rows_it_lists(ctx, rng)
         geometry.edit = None  # no producer's word: every row compared, instance 9 found
         gpu.upload(scene)
         assert gpu.instance_transform.stats.instances_written == 1
+        _assert_positions(gpu, geometry)
+    finally:
+        gpu.release()
+
+
+def test_a_store_past_one_storage_block_falls_back_to_world_rows_made_on_the_host(ctx, rng):
+    geometry = _random_instances(rng, count=6)
+    scene = SceneData(geometry=geometry, materials=_materials())
+    gpu = GPUScene(ctx)
+    try:
+        with gpu_dispatch.forced_limits(max_block=256):  # the cube's 36 UV corners take 288 bytes
+            assert not gpu.instance_transform.fits(geometry)
+            gpu.upload(scene)
+        assert not gpu.uv_rows_resident and gpu.instance_transform.stats.dispatches == 0
+        _assert_positions(gpu, geometry)
+        gpu.upload(scene)  # the limit back: made on the GPU again, into the same buffers
+        assert gpu.uv_rows_resident and gpu.instance_transform.stats.instances_written == 6
         _assert_positions(gpu, geometry)
     finally:
         gpu.release()

@@ -5,7 +5,7 @@ The paper (§4, Figure 4) measures its method on three animated scenes of 200 fr
 (2,149,944 triangles), Sponza with the Buddha and the bunny (1,354,743) and San Miguel
 (10,500,551). This module rebuilds them as ordinary Blender scenes so that one scene can be
 rendered by HYBRID_RT, EEVEE and Cycles alike (the comparison pictures), and so that every
-frame reaches the renderer along the user's path: depsgraph → ``extract.py`` → core.
+frame reaches the renderer along the user's path: depsgraph → the exporter (``scene_cache.py``) → core.
 
 ``build_scene(name, assets_dir, detail, frame_count)`` builds one of :data:`SCENES` into a
 new ``bpy`` Scene of the running session (nothing of the user's is touched) and makes it the

@@ -9,7 +9,7 @@ lamps, the World) is in the working space already. So byte images are converted 
 ``scene_linear`` role before), by the same OpenColorIO and the same config Blender's own
 engines use, so an sRGB, Linear Rec.709 or ACEScg texture renders as in Cycles. Non-Color
 (``is_data``) images are read as they are. Processors are made once per pair of spaces;
-the images themselves are converted once per content (extract.image_pixels caches them).
+the images themselves are converted once per content (export/images.py caches them).
 """
 from __future__ import annotations
 

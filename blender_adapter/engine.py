@@ -21,7 +21,8 @@ from ..hybrid_engine.film import FrameOutputs
 from ..hybrid_engine.renderer import FrameResult, RenderCancelled, Renderer
 from ..hybrid_engine.near_budget import NearCubeSizer
 from ..hybrid_engine.scene_data import SceneData
-from . import extract, messages, properties, viewport
+from . import messages, properties, viewport
+from .export.camera import camera_from_scene
 from .gl_host import gl_block
 from .scene_cache import Changes, SceneCache, SyncReport, TrackedScene, extract_scene
 
@@ -93,7 +94,7 @@ def final_camera(scene, depsgraph) -> Camera:
     """The camera of a final render: one that renders exactly the render region's pixels
     (``render.use_border``), which is all Blender's pipeline asks the engine for, or the
     scene camera when there is no region."""
-    camera = extract.camera_from_scene(scene, depsgraph)
+    camera = camera_from_scene(scene, depsgraph)
     render = scene.render
     if not render.use_border:
         return camera
@@ -138,7 +139,7 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
         outputs = frame_outputs(scene, depsgraph.view_layer)
         samples = settings.render_samples
     else:
-        camera, outputs, samples = extract.camera_from_scene(scene, depsgraph), FrameOutputs(), 1
+        camera, outputs, samples = camera_from_scene(scene, depsgraph), FrameOutputs(), 1
     extract_ms = (time.perf_counter() - start) * 1e3
     with gl_block():
         renderer = shared_renderer()

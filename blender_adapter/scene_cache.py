@@ -4,7 +4,7 @@
 Every path reads the scene through this cache: the viewport (one per view layer), a timing
 report (``TrackedScene``), F12 (kept across renders with Persistent Data, ``engine.py``) and
 a one-off read (``extract_scene``). It keeps, per object instance, the local mesh data read
-from Blender (``extract._MeshData``), its object-space mesh and its matrix, and refreshes only what
+from Blender (``export.meshes.MeshData``), its object-space mesh and its matrix, and refreshes only what
 the depsgraph says changed (``depsgraph.updates``):
 
 - ``is_updated_geometry`` on an object or its mesh: the mesh is read again (modifiers, shape
@@ -39,7 +39,11 @@ import numpy as np
 
 from ..hybrid_engine.instancing import InstancedGeometry, Instances, ObjectMesh
 from ..hybrid_engine.scene_data import GeometryEdit, Lights, SceneData, Sky
-from . import extract, messages
+from . import messages
+from .export import lights as export_lights
+from .export import materials as export_materials
+from .export import meshes as export_meshes
+from .export import world as export_world
 
 # Depsgraph update id types (bpy.types names) and what they refresh.
 _OBJECT, _MESH, _MATERIAL, _LIGHT, _WORLD, _SCENE = "Object", "Mesh", "Material", "Light", "World", "Scene"
@@ -150,7 +154,7 @@ class _Entry:
     """One cached object instance."""
 
     name: str
-    data: object  # extract._MeshData (shared by the instances of one mesh within a sync)
+    data: object  # export.meshes.MeshData (shared by the instances of one mesh within a sync)
     matrix: np.ndarray  # (4, 4) float64 object to world
     slot_ids: np.ndarray
     mesh: ObjectMesh | None  # None when the instance has no triangles
@@ -160,7 +164,7 @@ class _Entry:
     mesh_original: int = 0
 
 
-class _PersistentMaterials(extract._MaterialTableBuilder):
+class _PersistentMaterials(export_materials.MaterialTableBuilder):
     """The extractor's material table, kept across syncs so cached material ids stay valid;
     a changed material's row is recomputed in place.
 
@@ -198,13 +202,13 @@ class _PersistentMaterials(extract._MaterialTableBuilder):
             material = self._originals.get(key)
             if material is None:
                 continue
-            self.rows[self._index[key]] = extract.material_params(material)
+            self.rows[self._index[key]] = export_materials.material_params(material)
             self._thickness[key] = _thickness(material)
         return len(stale)
 
 
 def _thickness(material) -> float:
-    return float(getattr(getattr(material, "hybrid_rt", None), "thickness", extract.DEFAULT_THICKNESS))
+    return float(getattr(getattr(material, "hybrid_rt", None), "thickness", export_materials.DEFAULT_THICKNESS))
 
 
 def _instance_key(instance, obj) -> tuple:
@@ -282,11 +286,11 @@ class SceneCache:
                 continue
             obj = instance.object  # valid during this iteration step only
             kind = obj.type
-            if kind == "LIGHT" and obj.data.type in extract._LIGHT_TYPES:
+            if kind == "LIGHT" and obj.data.type in export_lights.LIGHT_TYPES:
                 name = _instance_name(instance, obj)
-                light_rows.append(extract._light_row(name, obj.data, np.array(instance.matrix_world, np.float64)))
+                light_rows.append(export_lights.light_row(name, obj.data, np.array(instance.matrix_world, np.float64)))
                 continue
-            if kind in extract._CONVERTIBLE_TYPES and not instance.is_instance:
+            if kind in export_meshes.CONVERTIBLE_TYPES and not instance.is_instance:
                 # Curves, text and metaballs usually evaluate to mesh instances (below);
                 # those that did not are converted after the walk.
                 convertible.append((_instance_key(instance, obj), obj.original,
@@ -342,7 +346,7 @@ class SceneCache:
         world = depsgraph.scene.world
         world_key = world.original.as_pointer() if world is not None else 0
         if full or changes.world or world_key != self._world_key or self._sky is None:
-            self._sky = extract.extract_sky(world)
+            self._sky = export_world.extract_sky(world)
             self._world_key = world_key
             report.sky_refreshed = changed = True
         if changed or self._scene is None or not _same_lights(lights, self._lights):
@@ -414,17 +418,17 @@ class SceneCache:
         touched = (geometry_dirty or entry is None or obj.original.as_pointer() in changes.touched
                    or owner in changes.touched
                    or (mesh is not None and mesh.original.as_pointer() in changes.touched))
-        slot_ids = extract._slot_lookup(obj, mesh if mesh is not None else obj.data, self._materials) \
+        slot_ids = export_materials.slot_lookup(obj, mesh if mesh is not None else obj.data, self._materials) \
             if (mesh is not None or entry is None) and touched else entry.slot_ids
         if geometry_dirty:
             mesh_key = mesh.as_pointer()
             if mesh_key not in mesh_reads:
                 # A deformed mesh keeps its topology: only positions and normals are read
                 # again (never on a full sync, which trusts nothing kept).
-                kept = None if full or entry is None else extract.reread_deformed(mesh, entry.data)
-                data = kept if kept is not None else extract._read_mesh(mesh)
+                kept = None if full or entry is None else export_meshes.reread_deformed(mesh, entry.data)
+                data = kept if kept is not None else export_meshes.read_mesh(mesh)
                 previous = entry.mesh if kept is not None else None
-                mesh_reads[mesh_key] = (data, extract.object_mesh(name, data, previous) if data else None)
+                mesh_reads[mesh_key] = (data, export_meshes.object_mesh(name, data, previous) if data else None)
             data, object_mesh = mesh_reads[mesh_key]
             self._entries[key] = _Entry(name, data, matrix, slot_ids, object_mesh,
                                         *((entry.original, entry.mesh_original) if entry is not None else ()))

@@ -52,7 +52,8 @@ from ..hybrid_engine.viewport_frame import (
     accumulation_key,
     stats_line,
 )
-from . import extract, messages, properties
+from . import messages, properties
+from .export.camera import camera_from_scene
 from .gl_host import gl_block
 from .scene_cache import Changes, SceneCache, SyncReport
 
@@ -265,7 +266,7 @@ def region_input(context, depsgraph) -> RegionInput:
     perspective = rv3d.view_perspective
     camera = border = None
     if perspective == "CAMERA" and scene.render.use_border and scene.camera is not None:
-        camera = extract.camera_from_scene(scene, depsgraph)
+        camera = camera_from_scene(scene, depsgraph)
         render = scene.render
         border = ((render.border_min_x, render.border_min_y), (render.border_max_x, render.border_max_y))
     return RegionInput(

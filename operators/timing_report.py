@@ -24,7 +24,8 @@ from typing import Iterator
 
 import bpy
 
-from ..blender_adapter import engine, extract, properties, scene_cache
+from ..blender_adapter import engine, properties, scene_cache
+from ..blender_adapter.export.camera import render_resolution
 from ..hybrid_engine import timing_report
 from ..hybrid_engine.near_budget import NearCubeSizer
 from ..hybrid_engine.settings import SettingsError
@@ -62,7 +63,7 @@ def scene_info(scene) -> dict:
     return {
         "name": scene.name,
         "blend_file": bpy.data.filepath,
-        "resolution": list(extract.render_resolution(scene.render)),
+        "resolution": list(render_resolution(scene.render)),
         "fps": scene.render.fps,
         "fps_base": scene.render.fps_base,
         "blender": bpy.app.version_string,

@@ -171,7 +171,8 @@ BUILDERS = {"static": _static, "chess": _chess, "deform": _deform, "instances": 
 def measure(name: str, params: dict, frames: int) -> dict:
     """Build scene ``name``, follow frames 1..frames, return the per-frame host figures."""
     import bpy
-    from hybrid_rt.blender_adapter import engine, extract, scene_cache
+    from hybrid_rt.blender_adapter import engine, scene_cache
+    from hybrid_rt.blender_adapter.export.camera import camera_from_scene
     from hybrid_rt.blender_adapter.gl_host import gl_block
 
     start = time.perf_counter()
@@ -189,7 +190,7 @@ def measure(name: str, params: dict, frames: int) -> dict:
             data = tracked.scene_data(depsgraph)
             extract_ms.append((time.perf_counter() - t0) * 1e3)
             walked.append(tracked.last_sync.walked)
-            camera = extract.camera_from_scene(scene, depsgraph)
+            camera = camera_from_scene(scene, depsgraph)
             settings = engine.properties.settings_from_scene(scene)
             with gl_block():
                 result = engine.shared_renderer().render(data, camera, settings, timing=True)

@@ -12,7 +12,7 @@ procedural Chess scene) on a scene built by ``benchmarks/scene_library.py``: fra
 F .. F + 1 warm the two renderers up, frames F + 2 .. F + N + 1 are timed, the modes
 alternating frame by frame. Every frame reaches the core as a timing report's does: the scene
 is set to the frame, the evaluated depsgraph is synced (``scene_cache.TrackedScene``: what the
-frame changed) and the camera read (``extract.camera_from_scene``); the sync is not part of
+frame changed) and the camera read (``export.camera.camera_from_scene``); the sync is not part of
 the frame times (it is the same for both modes) and is reported on its own as ``extract_ms``.
 
 Render settings are the scene's own (near size and cube-map far plane as the library sets
@@ -98,7 +98,8 @@ def blender_frames(scene, first: int, count: int, extract_ms: list[float]) -> It
     under a render. Appends each sync's milliseconds to ``extract_ms``.
     """
     import bpy
-    from hybrid_rt.blender_adapter import extract, scene_cache
+    from hybrid_rt.blender_adapter import scene_cache
+    from hybrid_rt.blender_adapter.export.camera import camera_from_scene
 
     tracked = scene_cache.TrackedScene()
     tracked.listen()
@@ -110,7 +111,7 @@ def blender_frames(scene, first: int, count: int, extract_ms: list[float]) -> It
             if depsgraph.scene != scene:
                 raise RuntimeError(f"the active scene is {depsgraph.scene.name!r}, not the benchmarked {scene.name!r}")
             data = tracked.scene_data(depsgraph)
-            camera = extract.camera_from_scene(scene, depsgraph)
+            camera = camera_from_scene(scene, depsgraph)
             extract_ms.append((time.perf_counter() - start) * 1e3)
             yield data, camera
     finally:

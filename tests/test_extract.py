@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Depsgraph extraction (blender_adapter/extract.py) against hand-computed geometry.
+"""The exporter (blender_adapter/scene_cache.py over blender_adapter/export/) against hand-computed geometry.
 
 Every expected value is computed here from the inputs the test chose (vertex lists and
 matrices in numpy), not read back through the code under test. Blender's own
@@ -165,7 +165,7 @@ def test_shape_keys_are_applied(addon):
 
 def test_collection_instances_are_placed_by_the_instancer_and_read_once(addon, monkeypatch):
     clear_scene()
-    extract_module = addon.blender_adapter.extract
+    meshes = addon.blender_adapter.export.meshes
     source = bpy.data.collections.new("source")
     local = trs((0, 0, 1), (0, 0, 0), (1, 1, 1))
     obj = mesh_object("part", TETRA_VERTS, TETRA_FACES, local, link=False)
@@ -178,8 +178,8 @@ def test_collection_instances_are_placed_by_the_instancer_and_read_once(addon, m
         empty.matrix_world = Matrix(placement.tolist())
         bpy.context.scene.collection.objects.link(empty)
     reads = []
-    real_read = extract_module._read_mesh
-    monkeypatch.setattr(extract_module, "_read_mesh", lambda mesh: reads.append(mesh.name) or real_read(mesh))
+    real_read = meshes.read_mesh
+    monkeypatch.setattr(meshes, "read_mesh", lambda mesh: reads.append(mesh.name) or real_read(mesh))
     geometry = extract(addon).geometry
     expected = np.concatenate([triangles_of(TETRA_VERTS, TETRA_FACES, p @ local) for p in placements])
     assert_same_triangles(geometry.triangles, expected)
@@ -450,21 +450,21 @@ def test_camera_from_scene_reads_optics_and_scaled_resolution(addon):
     scene.camera = cam
     scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 1000, 500, 50
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    camera = addon.blender_adapter.extract.camera_from_scene(scene, depsgraph)
+    camera = addon.blender_adapter.export.camera.camera_from_scene(scene, depsgraph)
     assert (camera.width, camera.height) == (500, 250)
     assert (camera.lens, camera.sensor_width, camera.sensor_fit) == (35.0, 32.0, "HORIZONTAL")
     assert camera.shift_x == pytest.approx(0.1) and (camera.clip_start, camera.clip_end) == (0.5, 250.0)
     np.testing.assert_allclose(camera.position, (1, -5, 2))
     data.type = "ORTHO"
     data.ortho_scale = 9.0
-    camera = addon.blender_adapter.extract.camera_from_scene(scene)
+    camera = addon.blender_adapter.export.camera.camera_from_scene(scene)
     assert camera.projection == "ORTHO" and camera.ortho_scale == 9.0
 
 
 def test_missing_or_panoramic_camera_fails_with_a_clear_message(addon):
     clear_scene()
     scene = bpy.context.scene
-    camera_from_scene = addon.blender_adapter.extract.camera_from_scene
+    camera_from_scene = addon.blender_adapter.export.camera.camera_from_scene
     scene.camera = None
     with pytest.raises(ValueError, match="no active camera"):
         camera_from_scene(scene)
@@ -579,9 +579,9 @@ def textured_material(name, image, socket="Base Color"):
 
 @pytest.fixture
 def fresh_images(addon):
-    addon.blender_adapter.extract.forget_image_pixels()
+    addon.blender_adapter.export.images.forget_image_pixels()
     yield addon
-    addon.blender_adapter.extract.forget_image_pixels()
+    addon.blender_adapter.export.images.forget_image_pixels()
 
 
 def test_image_texture_on_base_color_becomes_a_texture_sampled_through_the_render_uv_map(fresh_images, rng):

@@ -220,7 +220,7 @@ def test_the_material_panel_draws_without_reading_image_pixels(addon, monkeypatc
     def no_pixels(_image):
         raise AssertionError("the material panel read an image's pixels")
 
-    monkeypatch.setattr(addon.blender_adapter.extract, "image_pixels", no_pixels)
+    monkeypatch.setattr(addon.blender_adapter.export.materials, "image_pixels", no_pixels)
     drawn: list[str] = []
     assert _draw(addon.ui.panels.MATERIAL_PT_hybrid_rt, drawn, material=material) < 5.0
     assert drawn == ["thickness"]

@@ -84,10 +84,10 @@ def test_deforming_a_mesh_rereads_only_its_positions_and_a_new_topology_rebuilds
                                                                                     monkeypatch):
     import bpy
 
-    extract = addon.blender_adapter.extract
+    meshes = addon.blender_adapter.export.meshes
     whole_reads = []
-    read_mesh = extract._read_mesh
-    monkeypatch.setattr(extract, "_read_mesh", lambda mesh: whole_reads.append(mesh.name) or read_mesh(mesh))
+    read_mesh = meshes.read_mesh
+    monkeypatch.setattr(meshes, "read_mesh", lambda mesh: whole_reads.append(mesh.name) or read_mesh(mesh))
     session, reports = fed_session
     scene, cube = _scene(bpy)
     _frame(addon, bpy, session)

@@ -100,7 +100,7 @@ def extract_frame(addon, scene, frame: int):
     scene.frame_set(frame)
     depsgraph = bpy.context.evaluated_depsgraph_get()
     adapter = addon.blender_adapter
-    return adapter.scene_cache.extract_scene(depsgraph), adapter.extract.camera_from_scene(scene, depsgraph)
+    return adapter.scene_cache.extract_scene(depsgraph), adapter.export.camera.camera_from_scene(scene, depsgraph)
 
 
 def object_triangles(geometry, name: str) -> np.ndarray:
@@ -149,7 +149,7 @@ def triangle_count(lib) -> int:
 
 # -- chess ---------------------------------------------------------------------------------------
 def test_chess_scene_extracts_to_the_core_scene_object_by_object_at_two_frames(addon, lib):
-    """The Blender chess scene goes through the user's path (depsgraph → extract) and must
+    """The Blender chess scene goes through the user's path (depsgraph → the exporter) and must
     give the core's ``build_chess`` at every frame: same objects, triangles, normals,
     materials, lights, sky and camera. Between frames the moving pieces and spheres (and
     only they) change, as does the camera. The user's own scene is left alone."""

@@ -3,7 +3,7 @@
 
 EEVEE's light panels show controls this engine does not read (soft falloff, area spread,
 shadow jitter and resolution limits...), which would change nothing in the image. This
-panel draws only what blender_adapter/extract.py reads: colour, temperature, power or
+panel draws only what blender_adapter/export/lights.py reads: colour, temperature, power or
 strength, exposure, normalize, the lamp's size (point and spot radius, sun angle, area
 shape and size, which soften shadows and widen highlights) and whether the lamp casts
 shadows. The spot's cone is Blender's own Spot Shape panel, which this engine shows too.

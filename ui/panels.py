@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import bpy
 
-from ..blender_adapter.extract import material_params
+from ..blender_adapter.export.materials import material_params
 from ..hybrid_engine.settings import DIAGNOSTIC_VIEWS
 from .light_panel import DATA_PT_hybrid_rt_light
 

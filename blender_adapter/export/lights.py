@@ -1,0 +1,64 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Lamps as Blender defines them: position, direction, colour times power (Exposure,
+Temperature, Normalize), size and spot cone, as rows of ``hybrid_engine.scene_data.Lights``."""
+from __future__ import annotations
+
+import numpy as np
+
+from ...hybrid_engine.blackbody import blackbody_rgb
+
+LIGHT_TYPES = frozenset({"POINT", "SUN", "SPOT", "AREA"})
+
+
+def _light_size(light) -> float:
+    """Light.size of scene_data: point/spot radius, sun angular diameter, area half-size."""
+    if light.type == "SUN":
+        return float(getattr(light, "angle", 0.0))
+    if light.type == "AREA":
+        width = float(light.size)
+        height = float(light.size_y) if light.shape in ("RECTANGLE", "ELLIPSE") else width
+        return 0.5 * max(width, height)
+    return float(getattr(light, "shadow_soft_size", 0.0))
+
+
+def _unnormalized_area(light) -> float:
+    """What Blender multiplies a lamp's power by when Normalize is off: the emitting area
+    (the disc of a point or spot radius, the sun's disc in the sky), 1 without one."""
+    if light.type == "AREA":
+        width = float(light.size)
+        height = float(light.size_y) if light.shape in ("RECTANGLE", "ELLIPSE") else width
+        area = width * height * (np.pi / 4.0 if light.shape in ("DISK", "ELLIPSE") else 1.0)
+    elif light.type == "SUN":
+        area = np.pi * np.tan(0.5 * float(getattr(light, "angle", 0.0))) ** 2
+    else:
+        area = np.pi * float(getattr(light, "shadow_soft_size", 0.0)) ** 2
+    return area if area > 0.0 else 1.0
+
+
+def light_color(light) -> np.ndarray:
+    """The lamp's colour times its power as Blender defines it: Power or Strength, times
+    2^Exposure, times the black-body colour of its Temperature when that is in use, times
+    the emitting area when Normalize is off."""
+    color = np.asarray(light.color, np.float64) * float(light.energy) * 2.0 ** float(getattr(light, "exposure", 0.0))
+    if getattr(light, "use_temperature", False):
+        color = color * np.asarray(blackbody_rgb(float(light.temperature)))
+    if not getattr(light, "normalize", True):
+        color = color * _unnormalized_area(light)
+    return color.astype(np.float32)
+
+
+def light_row(name: str, light, matrix: np.ndarray) -> dict:
+    forward = -matrix[:3, 2]
+    length = float(np.linalg.norm(forward))
+    direction = forward / length if length > 0 else np.array([0.0, 0.0, -1.0])
+    return dict(
+        kind=light.type,
+        position=matrix[:3, 3],
+        direction=direction,
+        color=light_color(light),
+        radius=_light_size(light),
+        spot_size=float(getattr(light, "spot_size", np.pi / 4)),
+        spot_blend=float(getattr(light, "spot_blend", 0.15)),
+        cast_shadow=bool(getattr(light, "use_shadow", True)),
+        name=name,
+    )

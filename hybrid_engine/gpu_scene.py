@@ -2,11 +2,12 @@
 """Scene data on the GPU: vertex attributes, the material buffer, image textures.
 
 Buffers are persistent and grow-only: a frame whose data fits reuses last frame's buffer
-objects and only writes into them, which matters in the viewport where every redraw
-re-uploads deformed geometry (paper §3.3: the BVH is rebuilt every frame so that any
-deformation works, so the triangles must be re-sent every frame too).
+objects and only writes into them (paper §3.3: the BVH is rebuilt every frame so that any
+deformation works, from world-space triangles made or written every frame).
 
-The triangle soup is uploaded as it arrives, one array per attribute, with no packing:
+An ``InstancedGeometry`` (the Blender adapter's) keeps its meshes on the GPU in object space
+and has the world-space buffers below made there by instance_transform.py. Any other
+``Geometry`` is uploaded as it arrives, one array per attribute, with no packing:
 ``Geometry.triangles`` (N, 3, 3) float32 is both the rasterizer's position attribute and
 the tracer's LBVH input, ``Geometry.normals`` both the shading-normal attribute and the
 normals the tracer interpolates at BVH hits, and the per-triangle material ids are read by

@@ -2,9 +2,10 @@
 """Plain-array scene description: what the renderer core consumes.
 
 The Blender adapter turns a depsgraph into these dataclasses; tests and benchmarks build
-them directly. Everything is world space, float32/int32 numpy, with triangles grouped by
+them directly. Geometry is world space, float32/int32 numpy, with triangles grouped by
 object so that the near-cube culling (paper §3.3) can test an object's AABB first and only
-then its triangles.
+then its triangles; the Blender adapter hands over its ``InstancedGeometry`` subclass
+(instancing.py: object-space meshes and instances, made world space on the GPU).
 
 Units follow Blender: metres, light power in watts (point/spot/area) and irradiance in W/m²
 (sun), colours linear Rec.709.

@@ -71,6 +71,12 @@ def _concat(arrays: list[np.ndarray], dtype, width: int) -> np.ndarray:
     return np.ascontiguousarray(np.concatenate(arrays).astype(dtype, copy=False))
 
 
+def _rows_differ(old: np.ndarray, new: np.ndarray) -> np.ndarray:
+    """Bool per instance-table row: does it differ bit for bit."""
+    size = INSTANCE_DTYPE.itemsize
+    return (old.view(np.uint8).reshape(len(old), size) != new.view(np.uint8).reshape(len(new), size)).any(axis=1)
+
+
 def rows_per_chunk() -> int:
     """World rows one dispatch writes: the most whose widest output fits a storage block, a
     multiple of BLOCK_ITEM_GRANULE so every chunk starts at an aligned offset."""
@@ -136,16 +142,14 @@ class InstanceTransformPass:
         same_table = self._slot_materials is not None and np.array_equal(self._slot_materials, slot_table[0])
         follows = (seen is not None and self._seen is not None and edit.objects is not None
                    and self._seen == (seen[0], seen[1], seen[2] - 1))
+        # Instances whose mesh was deformed: their rows may be equal, their triangles are not.
+        of_deformed = (np.isin(instances.mesh, np.fromiter(deformed, np.int64)) if deformed
+                       else np.zeros(len(instances), bool))
         if (follows and same_table and self._rows is not None and len(self._rows) == max(len(instances), 1)
                 and not stats.store_rebuilt):
-            which = np.asarray(edit.objects, np.int64)
-            if deformed:
-                which = np.union1d(which, np.flatnonzero(np.isin(instances.mesh, np.fromiter(deformed, np.int64))))
+            which = np.union1d(np.asarray(edit.objects, np.int64), np.flatnonzero(of_deformed))
             rows = self._pack(geometry, which, slot_table)
-            differs = (self._rows[which].view(np.uint8).reshape(len(which), INSTANCE_DTYPE.itemsize)
-                       != rows.view(np.uint8).reshape(len(which), INSTANCE_DTYPE.itemsize)).any(axis=1)
-            if deformed:
-                differs |= np.isin(instances.mesh[which], np.fromiter(deformed, np.int64))
+            differs = _rows_differ(self._rows[which], rows) | of_deformed[which]
             changed = which[differs]
             self._rows[changed] = rows[differs]
             self._write_rows(changed)
@@ -153,11 +157,7 @@ class InstanceTransformPass:
             rows = self._pack(geometry, None, slot_table)
             if (self._rows is not None and len(self._rows) == len(rows) and not stats.store_rebuilt
                     and same_table):
-                differs = (self._rows.view(np.uint8).reshape(len(rows), INSTANCE_DTYPE.itemsize)
-                           != rows.view(np.uint8).reshape(len(rows), INSTANCE_DTYPE.itemsize)).any(axis=1)
-                if deformed:
-                    differs |= np.isin(instances.mesh, np.fromiter(deformed, np.int64))
-                changed = np.flatnonzero(differs)
+                changed = np.flatnonzero(_rows_differ(self._rows, rows)[:len(instances)] | of_deformed)
             else:
                 changed = np.arange(len(instances))
             self._rows = rows
@@ -254,7 +254,7 @@ class InstanceTransformPass:
         rows["info"][:k, 1] = ranges[:, 1]
         rows["info"][:k, 2] = slot_table[1][picked]
         rows["info"][:k, 3] = slot_table[2][picked]
-        rows["flags"][:k, 0] = np.linalg.det(matrices[:, :3, :3].astype(np.float64)) < 0
+        rows["flags"][:k, 0] = instances.mirrored(picked)
         return rows
 
     # -- the dispatch ------------------------------------------------------------------------

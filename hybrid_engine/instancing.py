@@ -169,23 +169,25 @@ class Instances:
         counts = np.array([m.triangle_count for m in self.meshes], np.int64)
         return counts[self.mesh] if len(self.mesh) else np.zeros(0, np.int64)
 
-    def mirrored(self) -> np.ndarray:
-        """(K,) bool: the matrix reverses orientation."""
-        return np.linalg.det(self.matrices[:, :3, :3].astype(np.float64)) < 0
+    def mirrored(self, rows=slice(None)) -> np.ndarray:
+        """Bool per instance of ``rows`` (all by default): the matrix reverses orientation."""
+        return np.linalg.det(self.matrices[rows, :3, :3].astype(np.float64)) < 0
 
-    def world_bounds(self) -> np.ndarray:
-        """(K, 2, 3) world boxes: each mesh's box, its eight corners transformed."""
-        k = len(self)
+    def world_bounds(self, rows=slice(None)) -> np.ndarray:
+        """(k, 2, 3) world boxes of the instances ``rows`` (all by default): each mesh's
+        box, its eight corners transformed."""
+        matrices = self.matrices[rows]
+        k = len(matrices)
         out = np.empty((k, 2, 3), np.float32)
         if k == 0:
             return out
-        boxes = np.stack([m.bounds for m in self.meshes])[self.mesh].astype(np.float64)  # (K, 2, 3)
+        boxes = np.stack([m.bounds for m in self.meshes])[self.mesh[rows]].astype(np.float64)  # (k, 2, 3)
         empty = ~(boxes[:, 0] <= boxes[:, 1]).all(axis=1)
         corners = np.stack([np.stack([boxes[:, (i >> axis) & 1, axis] for axis in range(3)], axis=1)
-                            for i in range(8)], axis=1)  # (K, 8, 3)
-        linear = self.matrices[:, :3, :3].astype(np.float64)
+                            for i in range(8)], axis=1)  # (k, 8, 3)
+        linear = matrices[:, :3, :3].astype(np.float64)
         world = np.einsum("kij,kcj->kci", linear, np.where(empty[:, None, None], 0.0, corners))
-        world += self.matrices[:, None, :3, 3]
+        world += matrices[:, None, :3, 3]
         out[:, 0], out[:, 1] = world.min(axis=1), world.max(axis=1)
         out[empty] = np.array([[np.inf] * 3, [-np.inf] * 3], np.float32)
         return out
@@ -216,14 +218,10 @@ class InstancedGeometry(Geometry):
         counts = instances.triangle_counts()
         firsts = np.concatenate([[0], np.cumsum(counts)[:-1]]) if len(counts) else np.zeros(0, np.int64)
         self.object_ranges = np.stack([firsts, counts], axis=1).astype(np.int32).reshape(-1, 2)
-        self.object_bounds = instances.world_bounds()
-        closed = np.array([m.closed and m.finite for m in instances.meshes], bool)
-        self.object_closed = closed[instances.mesh] if len(instances) else np.zeros(0, bool)
         self.object_names = list(names) if names else [f"object_{i}" for i in range(len(instances))]
-        self._has_uvs = any(m.uvs is not None for m in instances.meshes)
         self.edit = edit
         self._count = int(counts.sum())
-        self._world: dict[str, np.ndarray] | None = None
+        self.refresh()
 
     def refresh(self, rows: list[int] | None = None) -> None:
         """Recompute the per-object data after the producer changed ``instances`` in place
@@ -233,9 +231,7 @@ class InstancedGeometry(Geometry):
         if rows is None:
             self.object_bounds = instances.world_bounds()
         elif rows:
-            picked = Instances(instances.meshes, instances.mesh[rows], instances.matrices[rows],
-                               [instances.slot_materials[r] for r in rows])
-            self.object_bounds[rows] = picked.world_bounds()
+            self.object_bounds[rows] = instances.world_bounds(rows)
         closed = np.array([m.closed and m.finite for m in instances.meshes], bool)
         self.object_closed = closed[instances.mesh] if len(instances) else np.zeros(0, bool)
         self._has_uvs = any(m.uvs is not None for m in instances.meshes)

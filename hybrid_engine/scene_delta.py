@@ -128,12 +128,13 @@ class GeometryTracker:
         self.sequence += 1
         edit = geometry.edit
         delta = self._edited(geometry, edit)
-        self.compared = delta is None and not isinstance(geometry, InstancedGeometry)
+        if delta is None and isinstance(geometry, InstancedGeometry):
+            # Made on the GPU: its rows are never compared on the host (reading them would
+            # transform every instance on the CPU).
+            delta = GeometryDelta.everything(geometry.triangle_count, self.sequence)
+        self.compared = delta is None
         if delta is None:
-            # Instanced geometry is made on the GPU: its rows are never compared on the host
-            # (reading them would transform every instance on the CPU).
-            delta = (GeometryDelta.everything(geometry.triangle_count, self.sequence) if not self.compared
-                     else self._compared(geometry))
+            delta = self._compared(geometry)
         if edit is not None:
             # A producer's geometry comes with its edits: no copy of the rows is kept to
             # compare with (a later geometry without edits is uploaded whole).

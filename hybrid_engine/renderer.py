@@ -174,7 +174,8 @@ class Renderer:
         kept_world = kept_world and delta.unchanged
         step("shadow_maps")
         with timer.measure("shadow_maps"):
-            shadows = self.shadow_depth.render(self.gpu_scene, scene, settings, self.resources.shadows, delta)
+            shadows = self.shadow_depth.render(self.gpu_scene, scene, camera, settings, self.resources.shadows,
+                                             delta)
             counts.update(shadows.counts())
             self.resources.update_lights(scene.lights, shadows.per_light, settings)
             self.resources.update_sky(scene.sky)

@@ -80,6 +80,9 @@ FIELD_DOCS = {
     "shadow_resolution": "Size of each shadow map: sharper shadows, more memory and time",
     "shadow_bias": "How far shadows start behind the surfaces that cast them: raise it if "
     "lit surfaces show dark speckles, lower it if shadows come loose from their objects",
+    "shadow_cascades": "Extra shadow maps for sun lamps over the part of the view nearest the "
+    "camera, each 4 times finer than the next: sharp sun shadows close by, with one more "
+    "shadow render whenever the camera moves. 0: one map over the whole scene",
     "viewport_scale": "Fraction of the viewport's resolution that is rendered (lower is faster)",
     "sky_rays": "Gather the World's light with rays through the BVH and the cube map: the sky each "
     "surface sees at any distance, and the light of the surfaces that hide it (one bounce); "
@@ -106,6 +109,7 @@ FIELD_LIMITS = {
     "n_max": (1, 4096),
     "shadow_resolution": (64, 8192),
     "shadow_bias": (0.0, 10.0),
+    "shadow_cascades": (0, 4),
     "viewport_scale": (0.1, 1.0),
     "render_samples": (1, 256),
     "ao_distance": (0.0, 1.0e4),
@@ -130,7 +134,8 @@ class RenderSettings:
     n_min: int = 16
     n_max: int = 64
     shadow_resolution: int = 1024
-    shadow_bias: float = 0.02
+    shadow_bias: float = 0.005
+    shadow_cascades: int = 2
     viewport_scale: float = 1.0
     render_samples: int = 4
     ao_distance: float = 1.0

@@ -101,13 +101,22 @@ class ShadowAtlas:
         x, y, res, _ = (int(v) for v in self.slots[slot]["rect"])
         return x, y, res, res
 
-    def begin_layer(self, dynamic: bool):
-        """Bind and clear one layer; returns its framebuffer."""
+    def begin_layer(self, dynamic: bool, rects: list[tuple[int, int, int, int]] | None = None):
+        """Bind one layer and clear it whole, or only the slot rectangles ``rects`` (the
+        slots about to be re-rendered; the others keep their depths); returns its
+        framebuffer."""
         fbo = self._fbos[dynamic]
         fbo.use()
         fbo.viewport = (0, 0, *self.size)
-        fbo.clear(depth=1.0)
+        if rects is None:
+            fbo.clear(depth=1.0)
+        for rect in rects or ():
+            fbo.clear(depth=1.0, viewport=rect)
         return fbo
+
+    def layer_framebuffer(self, dynamic: bool):
+        """One layer's framebuffer (for drawing into slots after ``begin_layer``)."""
+        return self._fbos[dynamic]
 
     def read_layers(self) -> tuple[np.ndarray, np.ndarray]:
         """The static and dynamic layers' depths ((H, W) float32 each; for tests)."""

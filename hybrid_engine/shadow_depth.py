@@ -2,10 +2,12 @@
 """The shadow-map pass (gpu_shaders/raster/shadow_depth.*.glsl, paper §3.5).
 
 Every lamp that casts shadows gets slots in the shadow atlas (shadow_atlas.py) fitted to
-the scene's bounds: a sun one orthographic map, a spot one perspective map over its cone,
-a point or area lamp (and a very wide spot) six 90° cube faces. Each slot has a static and
-a dynamic layer (shadow_cache.py), and a frame re-renders only the layer whose objects
-changed.
+the scene's bounds: a sun one orthographic map (after its cascades over the first stretches
+of the view, sun_cascades.py), a spot one perspective map over its cone, a point or area
+lamp (and a very wide spot) six 90° cube faces. Each slot has a static and a dynamic layer
+(shadow_cache.py), and a frame re-renders only the layer whose objects changed; the
+cascades, which follow the camera, keep a cache of their own, so that moving the camera
+re-renders them alone.
 """
 from __future__ import annotations
 
@@ -15,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import shader_loader
-from .camera import cube_face_views, look_at, orthographic_matrix, perspective_matrix, view_from_world
+from .camera import Camera, cube_face_views, look_at, orthographic_matrix, perspective_matrix, view_from_world
 from .gpu_scene import GPUScene, needs_cube_shadow, pack_lights
 from .scene_bounds import SceneBounds
 from .scene_data import LIGHT_SPOT, LIGHT_SUN, SceneData
@@ -24,22 +26,37 @@ from .scene_draw import SceneDrawer
 from .settings import RenderSettings
 from .shadow_atlas import ShadowAtlas, ShadowView
 from .shadow_cache import ShadowCache, snapped_bounds
+from .sun_cascades import sun_cascade_views
 
 # Spots wider than this get a cube shadow: a single perspective map degenerates near 180°.
 MAX_SPOT_SHADOW_FOV = math.radians(150.0)
 
 
-def shadow_views(scene: SceneData, bounds: SceneBounds) -> tuple[list[ShadowView], list[tuple[int, int]]]:
+@dataclass
+class ShadowLayout:
+    """Every shadow slot's view, each light's (first, count) slots, and which slots are sun
+    cascades (they follow the camera; the others only the scene)."""
+
+    views: list[ShadowView]
+    per_light: list[tuple[int, int]]
+    cascade: np.ndarray  # bool per slot
+
+
+def shadow_views(scene: SceneData, bounds: SceneBounds, camera: Camera | None = None, cascades: int = 0,
+                 resolution: int = 1024) -> ShadowLayout:
     """Every shadow slot's view and each light's (first, count) slots.
 
-    Sun: an orthographic map fitted around the scene's bounding sphere. Spot: a perspective
-    map covering the cone. Point and area (and very wide spots): six 90° cube faces.
+    Sun: ``cascades`` maps over the camera's view, finest first (sun_cascades.py, none
+    without a camera), then an orthographic map fitted around the scene's bounding sphere.
+    Spot: a perspective map covering the cone. Point and area (and very wide spots): six
+    90° cube faces.
     """
     lights = scene.lights
     matrices: list[ShadowView] = []
     per_light: list[tuple[int, int]] = []
+    cascade: list[bool] = []
     if bounds.empty:
-        return matrices, [(-1, 0)] * len(lights)
+        return ShadowLayout(matrices, [(-1, 0)] * len(lights), np.zeros(0, bool))
     center, radius = bounds.center, bounds.radius
     for i in range(len(lights)):
         kind = int(lights.kind[i])
@@ -52,6 +69,10 @@ def shadow_views(scene: SceneData, bounds: SceneBounds) -> tuple[list[ShadowView
         direction = direction / norm if norm > 0 else np.array([0.0, 0.0, -1.0])
         first = len(matrices)
         if kind == LIGHT_SUN:
+            if camera is not None:
+                fitted = sun_cascade_views(camera, direction, bounds, cascades, resolution)
+                matrices.extend(fitted)
+                cascade.extend([True] * len(fitted))
             eye = center - direction * radius * 2.0
             view = view_from_world(look_at(eye, center))
             proj = orthographic_matrix(radius, radius, radius * 0.5, radius * 3.5)
@@ -69,29 +90,34 @@ def shadow_views(scene: SceneData, bounds: SceneBounds) -> tuple[list[ShadowView
                 assert needs_cube_shadow(kind) or kind == LIGHT_SPOT
                 proj = perspective_matrix(math.radians(90.0), 1.0, near, far)
                 matrices.extend(ShadowView(proj @ v, 2.0, True, near, far) for v in cube_face_views(pos))
+        cascade.extend([False] * (len(matrices) - len(cascade)))
         per_light.append((first, len(matrices) - first))
-    return matrices, per_light
+    return ShadowLayout(matrices, per_light, np.asarray(cascade, bool))
 
 
-def frame_shadow_views(scene: SceneData) -> tuple[list[ShadowView], list[tuple[int, int]]]:
+def frame_shadow_views(scene: SceneData, camera: Camera | None = None, cascades: int = 0,
+                       resolution: int = 1024) -> ShadowLayout:
     """This frame's shadow slots, fitted to the scene's bounds snapped to a grid (so that
     objects moving inside the scene keep the matrices, and with them the static layer)."""
     bounds = SceneBounds.of(scene)
-    return shadow_views(scene, SceneBounds(*snapped_bounds(bounds.lo, bounds.hi)))
+    return shadow_views(scene, SceneBounds(*snapped_bounds(bounds.lo, bounds.hi)), camera, cascades, resolution)
 
 
 @dataclass
 class ShadowMaps:
     """What one frame's shadow pass did: each light's (first, count) slots, whether any
-    layer and the static layer were re-rendered, and the triangles submitted."""
+    layer, the static layer and the sun cascades were re-rendered, and the triangles
+    submitted."""
 
     per_light: list[tuple[int, int]]
     rendered: bool
     static_rendered: bool
     submitted: int
+    cascades_rendered: bool = False
 
     def counts(self) -> dict[str, int]:
         return {"shadow_maps_rendered": int(self.rendered), "shadow_static_rendered": int(self.static_rendered),
+                "shadow_cascades_rendered": int(self.cascades_rendered),
                 "shadow_triangles_submitted": int(self.submitted)}
 
 
@@ -103,40 +129,65 @@ class ShadowDepthPass:
         self.drawer = drawer
         self.program = shader_loader.program(
             ctx, vertex="raster/shadow_depth.vert.glsl", fragment="raster/shadow_depth.frag.glsl")
-        self.cache = ShadowCache()
+        self.cache = ShadowCache()  # the slots fitted to the scene
+        self.cascade_cache = ShadowCache()  # the sun cascades, fitted to the view
 
-    def render(self, gpu: GPUScene, scene: SceneData, settings: RenderSettings, atlas: ShadowAtlas,
-               delta: GeometryDelta) -> ShadowMaps:
+    def render(self, gpu: GPUScene, scene: SceneData, camera: Camera | None, settings: RenderSettings,
+               atlas: ShadowAtlas, delta: GeometryDelta) -> ShadowMaps:
         """Lay out this frame's slots in ``atlas`` and re-render the layers ``delta``
         invalidated (shadow_cache.py); the lights, the resolution and the slots' matrices
-        key the cache, so any change to them renders both layers."""
-        views, per_light = frame_shadow_views(scene)
-        key = (pack_lights(scene.lights).tobytes(), int(settings.shadow_resolution),
-               b"".join(np.asarray(v.view_proj, np.float64).tobytes() for v in views))
-        plan = self.cache.plan(scene.geometry.object_ranges, delta, key)
+        key the cache, so any change to them renders both layers. The sun cascades follow
+        ``camera``: their own cache is keyed by their matrices too, and a camera that moved
+        re-renders them alone."""
+        resolution = int(settings.shadow_resolution)
+        layout = frame_shadow_views(scene, camera, int(settings.shadow_cascades), resolution)
+        views, cascade = layout.views, layout.cascade
+        key = (pack_lights(scene.lights).tobytes(), resolution, len(views), cascade.tobytes(),
+               b"".join(np.asarray(v.view_proj, np.float64).tobytes() for v, c in zip(views, cascade) if not c))
+        cascade_key = (key, b"".join(np.asarray(v.view_proj, np.float64).tobytes()
+                                     for v, c in zip(views, cascade) if c))
+        ranges = scene.geometry.object_ranges
+        # (plan, its slots, its cullers' name): the cascades and the scene's slots draw
+        # through cullers of their own (scene_draw.py: one per layer, so that no index
+        # buffer is rewritten while an earlier draw of the frame may read it).
+        plans = [(self.cache.plan(ranges, delta, key), ~cascade, "shadow")]
+        if cascade.any():
+            plans.append((self.cascade_cache.plan(ranges, delta, cascade_key), cascade, "shadow_cascades"))
+        else:
+            self.cascade_cache.reset()
         submitted = 0
-        if plan.anything:
+        if any(entry[0].anything for entry in plans):
             try:
-                atlas.layout(views, int(settings.shadow_resolution))
-                if plan.render_static:
-                    submitted += self.render_layer(gpu, scene, atlas, views, dynamic=False,
-                                                   include=plan.static_mask)
-                if plan.render_dynamic:
-                    submitted += self.render_layer(gpu, scene, atlas, views, dynamic=True,
-                                                   include=~plan.static_mask)
+                atlas.layout(views, resolution)
+                for dynamic in (False, True):
+                    wanted = [entry for entry in plans if (entry[0].render_dynamic if dynamic else entry[0].render_static)]
+                    if not wanted:
+                        continue
+                    every = len(wanted) == len(plans)
+                    atlas.begin_layer(dynamic, None if every else [atlas.rect(int(i)) for _, slots, _ in wanted
+                                                                     for i in np.flatnonzero(slots)])
+                    for plan, slots, name in wanted:
+                        include = ~plan.static_mask if dynamic else plan.static_mask
+                        layer = f"{name}_{'dynamic' if dynamic else 'static'}"
+                        submitted += self.render_slots(layer, gpu, scene, atlas, views, slots, dynamic, include)
             except BaseException:
                 self.cache.reset()  # the layers are incomplete
+                self.cascade_cache.reset()
                 raise
-        return ShadowMaps(per_light, plan.anything, plan.render_static, submitted)
+        cascades_rendered = len(plans) > 1 and plans[1][0].anything
+        return ShadowMaps(layout.per_light, plans[0][0].anything or cascades_rendered, plans[0][0].render_static,
+                          submitted, cascades_rendered)
 
-    def render_layer(self, gpu: GPUScene, scene: SceneData, atlas: ShadowAtlas, views: list[ShadowView],
-                     dynamic: bool, include: np.ndarray | None = None) -> int:
-        """Clear one layer of ``atlas`` (static or dynamic) and draw the objects ``include``
-        selects (all when None) into every slot laid out for ``views``
-        (ShadowAtlas.layout); returns triangles submitted."""
+    def render_slots(self, layer: str, gpu: GPUScene, scene: SceneData, atlas: ShadowAtlas,
+                     views: list[ShadowView], slots: np.ndarray, dynamic: bool,
+                     include: np.ndarray | None = None) -> int:
+        """Draw the objects ``include`` selects (all when None) into the slots ``slots``
+        selects of one layer of ``atlas`` (static or dynamic; begun by the caller), laid out
+        for ``views`` (ShadowAtlas.layout); returns triangles submitted. ``layer`` names the
+        drawer's cullers."""
         ctx = self.ctx
-        fbo = atlas.begin_layer(dynamic)
-        if not views or (include is not None and not include.any()):
+        chosen = np.flatnonzero(slots)
+        if not len(chosen) or (include is not None and not include.any()):
             return 0
         prog = self.program
 
@@ -144,6 +195,6 @@ class ShadowDepthPass:
             ctx.enable(ctx.DEPTH_TEST)
             ctx.disable(ctx.CULL_FACE)
 
-        draws = [(view.view_proj, atlas.rect(i)) for i, view in enumerate(views)]
-        return self.drawer.draw_views("shadow_dynamic" if dynamic else "shadow_static", prog,
-                                      self.drawer.vertex_array(prog, gpu), gpu, scene, fbo, draws, bind, include)
+        draws = [(views[i].view_proj, atlas.rect(int(i))) for i in chosen]
+        return self.drawer.draw_views(layer, prog, self.drawer.vertex_array(prog, gpu), gpu, scene,
+                                      atlas.layer_framebuffer(dynamic), draws, bind, include)

@@ -315,8 +315,8 @@ def test_a_dense_distant_mesh_reaches_the_rasterizer_as_a_few_triangles(gl):
 
 
 def test_draws_past_the_storage_block_limit_fall_back_to_the_object_lists(gl):
-    """An index buffer larger than one storage block is not built: the primary view and the
-    shadow slots draw their object lists, with the same image."""
+    """An index buffer larger than one storage block is not built: the primary view, the
+    shadow slots and the sun's cascades draw their object lists, with the same image."""
     from hybrid_engine.gpu_dispatch import forced_limits
     from benchmarks.scenes.chess import build_chess
 
@@ -324,7 +324,7 @@ def test_draws_past_the_storage_block_limit_fall_back_to_the_object_lists(gl):
     normal = frames_rendered(gl, frames, RASTER, cull=True)
     with forced_limits(max_block=4096):
         limited = frames_rendered(gl, frames, RASTER, cull=True)
-    assert limited["drawn"] == {"primary": [None], "shadow_static": [None, None]}
+    assert limited["drawn"] == {"primary": [None], "shadow_static": [None, None], "shadow_cascades_static": [None]}
     assert_same_targets(limited, normal)
 
 

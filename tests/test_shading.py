@@ -125,3 +125,26 @@ def test_sky_rays_bring_the_light_of_the_surfaces_they_meet(renderer):
     plain, bounced = images[False][floor].mean(axis=(0, 1)), images[True][floor].mean(axis=(0, 1))
     assert bounced[0] > plain[0] * 1.03  # red light from the wall
     assert bounced[0] - plain[0] > 3 * (bounced[2] - plain[2])  # and red, not white
+
+
+def test_a_mirror_shows_a_sphere_lamp_as_a_disc_of_its_radiance_with_no_glow_around_it(renderer):
+    # Looking straight down at a mirror with a black World: the only thing it shows is the
+    # lamp, whose mirror image is a disc of the lamp's radiance (Blender's sphere lamp:
+    # power / (4 pi^2 r^2)), as Cycles draws it; a widened GGX lobe would add a glow around.
+    power, radius, height = 400.0, 0.3, 3.0
+    mats = MaterialTable.from_rows([dict(base_color=(1.0, 1.0, 1.0), reflectivity=1.0, roughness=0.0)])
+    scene = SceneData(Geometry.from_objects([(quad((0, 0, 0), (20, 0, 0), (0, 20, 0)), None, 0)]), mats,
+                      Lights.from_rows([dict(kind="POINT", position=(0.0, 0.0, height), color=(power,) * 3,
+                                             radius=radius)]), Sky(color=(0.0, 0.0, 0.0)))
+    camera = Camera(matrix_world=look_at((0, 0, 2.0), (0, 0, 0.0), up=(0, 1, 0)), width=W, height=H)
+    image = render(renderer, scene, camera).mean(axis=2)
+    origins, dirs = camera.pixel_rays()
+    points = origins + dirs * (-origins[..., 2:] / dirs[..., 2:])
+    mirrored = dirs * np.array([1.0, 1.0, -1.0])
+    to_lamp = np.array([0.0, 0.0, height]) - points
+    miss = np.linalg.norm(np.cross(to_lamp, mirrored), axis=-1)  # the mirror ray's distance from the lamp
+    radiance = power / (4.0 * np.pi ** 2 * radius ** 2)
+    inside, outside = miss < 0.8 * radius, miss > 1.5 * radius
+    assert inside.sum() > 30 and outside.sum() > 0.8 * image.size
+    np.testing.assert_allclose(image[inside].mean(), radiance, rtol=0.25)
+    assert image[outside].max() < 0.02 * radiance, image[outside].max() / radiance

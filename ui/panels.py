@@ -163,6 +163,7 @@ class RENDER_PT_hybrid_rt_shadows(HybridRTPanel, bpy.types.Panel):
         settings = context.scene.hybrid_rt
         col = _split(self.layout).column()
         col.prop(settings, "shadow_resolution")
+        col.prop(settings, "shadow_cascades")
         col.prop(settings, "shadow_bias")
 
 

@@ -69,51 +69,92 @@ float shadow_linear_depth(ShadowSlot slot, float window_depth) {
     return near + window_depth * (far - near);
 }
 
-// 1 when lit, 0 when a shadow map says an occluder lies between p and the light; in between
-// in the penumbra of a lamp of size Light.position.w (with `soft`; hard otherwise).
+// A sun's slots are its cascades, finest first, then its map of the whole scene
+// (hybrid_engine/sun_cascades.py): the finest slot from `from` on that holds p with room for
+// the widest filter around it, else the scene map (the last).
+int sun_shadow_slot(int from, int last, vec3 p) {
+    for (int i = from; i < last; ++i) {
+        ShadowSlot slot = shadow_slots[i];
+        vec3 ndc = (slot.view_proj * vec4(p, 1.0)).xyz;  // orthographic: w = 1
+        float inner = 1.0 - 2.0 * (SHADOW_MAX_FILTER_TEXELS + 2.0) / float(slot.rect.z);
+        if (all(lessThanEqual(abs(ndc.xy), vec2(inner))) && abs(ndc.z) <= 1.0) return i;
+    }
+    return last;
+}
+
+// Where p falls in one shadow slot: the texel, its depth there (window and distance along
+// the slot's axis), the world size of a texel there and the receiver-plane slope.
+struct ShadowProbe {
+    int index;
+    bool inside;
+    vec2 texel_f;
+    float receiver;
+    float d_receiver;
+    float texel_world;
+    float slope;
+};
+
 // Normal-offset bias: the lookup point moves off the surface by the bias setting plus
 // one and a half shadow texels (their world size grows with distance for perspective
 // slots), which removes acne at any map resolution without detaching contact shadows.
-float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light, bool soft) {
-    int first = light.info.y;
-    if (first < 0) return 1.0;
-    int slot_index = first;
-    if (light.info.z == 6) slot_index += cube_face(p - light.position.xyz);
-    ShadowSlot slot = shadow_slots[slot_index];
+ShadowProbe shadow_probe(int index, Light light, vec3 p, vec3 n, vec3 to_light) {
+    ShadowProbe probe;
+    probe.index = index;
+    ShadowSlot slot = shadow_slots[index];
     bool perspective = slot.texel.y > 0.5;
-    float texel_world = slot.texel.x * (perspective ? distance(p, light.position.xyz) : 1.0);
+    probe.texel_world = slot.texel.x * (perspective ? distance(p, light.position.xyz) : 1.0);
     float sin_angle = sqrt(max(0.0, 1.0 - dot(n, to_light) * dot(n, to_light)));
-    vec3 offset = n * (u_shadow_bias + 1.5 * texel_world * sin_angle + 0.5 * texel_world) + to_light * (0.25 * u_shadow_bias);
+    vec3 offset = n * (u_shadow_bias + 1.5 * probe.texel_world * sin_angle + 0.5 * probe.texel_world)
+                + to_light * (0.25 * u_shadow_bias);
     vec4 q = slot.view_proj * vec4(p + offset, 1.0);
-    if (q.w <= 0.0) return 1.0;
-    vec3 ndc = q.xyz / q.w;
-    if (any(greaterThan(abs(ndc.xy), vec2(1.0))) || ndc.z > 1.0) return 1.0;
-    float size = float(slot.rect.z);
-    vec2 texel_f = (ndc.xy * 0.5 + 0.5) * size;
-    float receiver = ndc.z * 0.5 + 0.5;
-    float lamp = light.position.w;
-    if (!(lamp > 0.0) || !soft) {
-        return receiver <= shadow_depth_at(slot, texel_f) + 1e-5 ? 1.0 : 0.0;
-    }
-    float d_receiver = shadow_linear_depth(slot, receiver);
-    float angle = float(u_sample) * 2.39996323 + 6.2831853 * random2(uvec4(floatBitsToUint(p.xy), uint(slot_index), 7u)).x;
-    mat2 rot = mat2(cos(angle), sin(angle), -sin(angle), cos(angle));
+    vec3 ndc = q.xyz / max(q.w, 1e-30);
+    probe.inside = q.w > 0.0 && all(lessThanEqual(abs(ndc.xy), vec2(1.0))) && ndc.z <= 1.0;
+    probe.texel_f = (ndc.xy * 0.5 + 0.5) * float(slot.rect.z);
+    probe.receiver = ndc.z * 0.5 + 0.5;
+    probe.d_receiver = shadow_linear_depth(slot, probe.receiver);
     // The receiver's own surface, tilted against the light, rises towards it across the
     // filter: a tap r texels away finds it up to r texels times the tilt's slope nearer.
     // Taps compare distances along the light (linear depths) with that much slack, or a lit
     // slope would shadow itself in speckles (receiver-plane depth bias).
     float cos_light = max(dot(n, to_light), 0.1);
-    float slope = texel_world * sqrt(max(0.0, 1.0 - cos_light * cos_light)) / cos_light;
-    float slack = texel_world;
+    probe.slope = probe.texel_world * sqrt(max(0.0, 1.0 - cos_light * cos_light)) / cos_light;
+    return probe;
+}
+
+// 1 when lit, 0 when a shadow map says an occluder lies between p and the light; in between
+// in the penumbra of a lamp of size Light.position.w (with `soft`; hard otherwise). A sun's
+// penumbra may be wider than the finest cascade's filter reaches: the blocker search and
+// the filter each take the finest slot where their width fits SHADOW_MAX_FILTER_TEXELS.
+float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light, bool soft) {
+    int first = light.info.y;
+    if (first < 0) return 1.0;
+    bool sun = light.info.x == LIGHT_SUN;
+    int last = sun ? first + light.info.z - 1 : first;
+    int finest = sun ? sun_shadow_slot(first, last, p) : first + (light.info.z == 6 ? cube_face(p - light.position.xyz) : 0);
+    ShadowProbe probe = shadow_probe(finest, light, p, n, to_light);
+    if (!probe.inside) return 1.0;
+    float lamp = light.position.w;
+    if (!(lamp > 0.0) || !soft) {
+        return probe.receiver <= shadow_depth_at(shadow_slots[finest], probe.texel_f) + 1e-5 ? 1.0 : 0.0;
+    }
+    bool perspective = shadow_slots[finest].texel.y > 0.5;
+    float angle = float(u_sample) * 2.39996323 + 6.2831853 * random2(uvec4(floatBitsToUint(p.xy), uint(finest), 7u)).x;
+    mat2 rot = mat2(cos(angle), sin(angle), -sin(angle), cos(angle));
     // Blocker search over the widest penumbra a blocker could cast: for a sun, one at the
     // map's near plane; for a lamp, one half-way to it.
-    float widest = perspective ? 2.0 * lamp : 2.0 * tan(0.5 * lamp) * (d_receiver - slot.texel.z);
-    float search = clamp(widest / texel_world, 1.0, SHADOW_MAX_FILTER_TEXELS);
+    ShadowProbe search_at = probe;
+    float widest = perspective ? 2.0 * lamp : 2.0 * tan(0.5 * lamp) * (probe.d_receiver - shadow_slots[finest].texel.z);
+    while (sun && search_at.index < last && widest > SHADOW_MAX_FILTER_TEXELS * search_at.texel_world) {
+        search_at = shadow_probe(sun_shadow_slot(search_at.index + 1, last, p), light, p, n, to_light);
+        widest = 2.0 * tan(0.5 * lamp) * (search_at.d_receiver - shadow_slots[search_at.index].texel.z);
+    }
+    ShadowSlot slot = shadow_slots[search_at.index];
+    float search = clamp(widest / search_at.texel_world, 1.0, SHADOW_MAX_FILTER_TEXELS);
     float blockers = 0.0, blocker_depth = 0.0;
     for (int i = 0; i < SHADOW_SEARCH_TAPS; ++i) {
         vec2 tap = DISC16[i * (16 / SHADOW_SEARCH_TAPS)] * search;
-        float d = shadow_linear_depth(slot, shadow_depth_at(slot, texel_f + rot * tap));
-        if (d < d_receiver - slack - length(tap) * slope) {
+        float d = shadow_linear_depth(slot, shadow_depth_at(slot, search_at.texel_f + rot * tap));
+        if (d < search_at.d_receiver - search_at.texel_world - length(tap) * search_at.slope) {
             blockers += 1.0;
             blocker_depth += d;
         }
@@ -122,35 +163,67 @@ float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light, bool soft) {
     if (blockers == float(SHADOW_SEARCH_TAPS)) return 0.0;  // every tap blocked: the umbra
     // World width of the penumbra: the sun's angular diameter times the receiver-to-blocker
     // distance, or the lamp's diameter scaled by that distance over the blocker's from it.
-    float d_blocker = blocker_depth / blockers;
-    float penumbra_world = perspective ? 2.0 * lamp * (d_receiver - d_blocker) / max(d_blocker, 1e-6)
-                                       : 2.0 * tan(0.5 * lamp) * (d_receiver - d_blocker);
-    float radius = clamp(0.5 * penumbra_world / texel_world, 0.5, SHADOW_MAX_FILTER_TEXELS);
+    float d_gap = search_at.d_receiver - blocker_depth / blockers;
+    float penumbra_world = perspective ? 2.0 * lamp * d_gap / max(search_at.d_receiver - d_gap, 1e-6)
+                                       : 2.0 * tan(0.5 * lamp) * d_gap;
+    ShadowProbe filter_at = probe;
+    while (sun && filter_at.index < search_at.index
+           && 0.5 * penumbra_world > SHADOW_MAX_FILTER_TEXELS * filter_at.texel_world) {
+        filter_at = shadow_probe(sun_shadow_slot(filter_at.index + 1, last, p), light, p, n, to_light);
+    }
+    slot = shadow_slots[filter_at.index];
+    float radius = clamp(0.5 * penumbra_world / filter_at.texel_world, 0.5, SHADOW_MAX_FILTER_TEXELS);
     float lit = 0.0;
     for (int i = 0; i < SHADOW_FILTER_TAPS; ++i) {
         vec2 tap = DISC16[i * (16 / SHADOW_FILTER_TAPS)] * radius;
-        float d = shadow_linear_depth(slot, shadow_depth_at(slot, texel_f + rot * tap));
-        lit += d >= d_receiver - slack - length(tap) * slope ? 1.0 : 0.0;
+        float d = shadow_linear_depth(slot, shadow_depth_at(slot, filter_at.texel_f + rot * tap));
+        lit += d >= filter_at.d_receiver - filter_at.texel_world - length(tap) * filter_at.slope ? 1.0 : 0.0;
     }
     return lit / float(SHADOW_FILTER_TAPS);
 }
 
-// The glossy response of a lamp: GGX distribution with Smith's height-correlated
-// visibility, for roughness alpha widened by the lamp's angular size `spread`. The widened
-// lobe still integrates to one, so a mirror shows a lamp of radius r as a disc carrying the
-// lamp's whole reflected light, and a lamp of no size in a mirror shows nothing (as in Cycles).
+// The glossy response of a lamp seen from p towards `l`, the lamp's point nearest the
+// mirror direction (representative point, Karis 2013): GGX distribution with Smith's
+// height-correlated visibility for roughness alpha (no less than LAMP_LOBE_MIN_ALPHA, which
+// softens the edge by a fraction of a degree), scaled by (alpha / (alpha + spread))^2,
+// where spread is the lamp's angular radius over two. The lobe keeps about the energy of a
+// lobe widened by the lamp's size, but its core has the lamp's shape: a mirror shows a
+// sphere lamp as a sharp-edged disc of about the lamp's radiance and nothing around it, as
+// Cycles does, instead of a bright core with a wide GGX glow. A lamp of no size in a
+// mirror shows nothing (as in Cycles).
+#define LAMP_LOBE_MIN_ALPHA 0.01
 float ggx_lamp(vec3 n, vec3 v, vec3 l, float alpha, float spread) {
+    if (alpha + spread < 1e-3) return 0.0;
     vec3 h = normalize(v + l);
     float n_h = max(dot(n, h), 0.0);
     float n_v = max(dot(n, v), 1e-4);
     float n_l = max(dot(n, l), 1e-4);
-    float wide = min(alpha + spread, 1.0);
-    if (wide < 1e-3) return 0.0;
-    float a2 = wide * wide;
+    float a = clamp(alpha, LAMP_LOBE_MIN_ALPHA, 1.0);  // the lobe's floor keeps its peak finite
+    float wide = clamp(alpha + spread, a, 1.0);
+    float a2 = a * a;
     float denom = n_h * n_h * (a2 - 1.0) + 1.0;
     float d = a2 / (PI * denom * denom);
     float vis = 0.5 / (n_l * sqrt(n_v * n_v * (1.0 - a2) + a2) + n_v * sqrt(n_l * n_l * (1.0 - a2) + a2));
-    return d * vis;
+    float keep = a / wide;
+    return d * vis * keep * keep;
+}
+
+// The point of a lamp nearest the mirror direction r, as a unit direction from p: of a
+// sphere of radius `radius` around `delta` (the lamp's centre from p) for lamps with a
+// position, of the sun's disc of angular diameter `angle` around `to_light` for a sun.
+vec3 lamp_nearest_direction(vec3 r, vec3 delta, float radius) {
+    vec3 to_ray = dot(delta, r) * r - delta;
+    float off = length(to_ray);
+    return normalize(delta + (off > 0.0 ? to_ray * min(radius / off, 1.0) : vec3(0.0)));
+}
+
+vec3 sun_nearest_direction(vec3 r, vec3 to_light, float angle) {
+    float cos_r = dot(r, to_light);
+    float cos_s = cos(0.5 * angle);
+    if (cos_r >= cos_s) return r;
+    vec3 across = r - cos_r * to_light;
+    float len = length(across);
+    return len > 0.0 ? normalize(cos_s * to_light + sin(0.5 * angle) * across / len) : to_light;
 }
 
 // Light arriving at p (normal n facing the viewer, unit v towards the viewer) from all
@@ -169,25 +242,28 @@ DirectLight direct_lighting(vec3 p, vec3 n, vec3 v, vec3 f0, float f90, float ro
     bool glossy = max(max(f0.r, f0.g), max(f0.b, f90)) > 0.0;
     if (!diffuse && !glossy) return result;
     float alpha = roughness * roughness;
+    vec3 mirror = reflect(-v, n);
     for (int i = 0; i < u_light_count; ++i) {
         Light light = lights[i];
         int kind = light.info.x;
-        vec3 to_light;
+        vec3 to_light, to_highlight;
         float dist2 = 1.0;
         float spread;
         if (kind == LIGHT_SUN) {
             to_light = -light.direction.xyz;
             spread = 0.5 * tan(0.5 * light.position.w);
+            to_highlight = glossy ? sun_nearest_direction(mirror, to_light, light.position.w) : to_light;
         } else {
             vec3 delta = light.position.xyz - p;
             dist2 = max(dot(delta, delta), 1e-12);
             to_light = delta * inversesqrt(dist2);
             spread = 0.5 * light.position.w * inversesqrt(dist2);
+            to_highlight = glossy ? lamp_nearest_direction(mirror, delta, light.position.w) : to_light;
         }
         float cos_surface = dot(n, to_light);
         if (cos_surface <= 0.0) continue;
         // A smooth surface shows a lamp of no size nowhere: skip the shadow test for it.
-        float lobe = glossy ? ggx_lamp(n, v, to_light, alpha, spread) : 0.0;
+        float lobe = glossy ? ggx_lamp(n, v, to_highlight, alpha, spread) : 0.0;
         if (!diffuse && lobe == 0.0) continue;
         vec3 e = light.color.rgb * cos_surface;
         if (kind == LIGHT_SUN) {
@@ -215,7 +291,7 @@ DirectLight direct_lighting(vec3 p, vec3 n, vec3 v, vec3 f0, float f90, float ro
 #endif
         result.irradiance += e;
         if (lobe > 0.0) {
-            float v_h = clamp(dot(v, normalize(v + to_light)), 0.0, 1.0);
+            float v_h = clamp(dot(v, normalize(v + to_highlight)), 0.0, 1.0);
             vec3 fresnel = f0 + (vec3(f90) - f0) * pow(1.0 - v_h, 5.0);
             result.glossy += e * fresnel * lobe;
         }

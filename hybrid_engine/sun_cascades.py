@@ -42,21 +42,6 @@ def view_reach(camera: Camera, bounds: SceneBounds) -> float:
     return max(min(float(camera.clip_end), far_side), float(camera.clip_start) * 2.0)
 
 
-def frustum_corners(camera: Camera, distance: float) -> np.ndarray:
-    """(8, 3) world-space corners of the camera's frustum between its clip start and
-    ``distance``."""
-    left, right, bottom, top = camera.viewplane()
-    start = float(camera.clip_start)
-    corners = []
-    for depth in (start, max(distance, start)):
-        scale = 1.0 if camera.projection == "ORTHO" else depth / start
-        for x in (left, right):
-            for y in (bottom, top):
-                corners.append((x * scale, y * scale, -depth))
-    local = np.asarray(corners, np.float64)
-    return local @ camera.rotation.T + camera.position
-
-
 def quantized(value: float, steps_per_octave: int = RADIUS_STEPS_PER_OCTAVE) -> float:
     """``value`` rounded up to the next power of 2 ** (1 / steps_per_octave)."""
     steps = math.ceil(math.log2(max(value, 1e-9)) * steps_per_octave - 1e-9)
@@ -91,7 +76,7 @@ def cascade_reaches(camera: Camera, bounds: SceneBounds, count: int) -> list[flo
 def sun_cascade_views(camera: Camera, direction: np.ndarray, bounds: SceneBounds, count: int,
                       resolution: int) -> list[ShadowView]:
     """``count`` orthographic shadow views for a sun shining along unit ``direction``,
-    finest first (module doc). None when the scene's bounds are empty."""
+    finest first (module doc); none when the scene's bounds are empty."""
     if count <= 0 or bounds.empty:
         return []
     direction = np.asarray(direction, np.float64)
@@ -109,8 +94,9 @@ def sun_cascade_views(camera: Camera, direction: np.ndarray, bounds: SceneBounds
         radius = quantized(radius)
         texel = 2.0 * radius / resolution
         across = np.floor(rotation[:, :2].T @ center / texel + 0.5) * texel
-        eye = rotation @ np.array([across[0], across[1], eye_depth])
-        view = view_from_world(look_at(eye, eye + direction))
+        placed = frame.copy()  # the sun's frame, moved to the cascade's eye
+        placed[:3, 3] = rotation @ np.array([across[0], across[1], eye_depth])
+        view = view_from_world(placed)
         proj = orthographic_matrix(radius, radius, near, far)
         views.append(ShadowView(proj @ view, 2.0 * radius, False, near, far))
     return views

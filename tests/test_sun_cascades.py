@@ -12,12 +12,27 @@ from hybrid_engine.camera import look_at
 from hybrid_engine.renderer import Renderer
 from hybrid_engine.scene_bounds import SceneBounds
 from hybrid_engine.shadow_depth import frame_shadow_views
-from hybrid_engine.sun_cascades import CASCADE_SPLIT, frustum_corners, quantized, sun_cascade_views
+from hybrid_engine.sun_cascades import CASCADE_SPLIT, quantized, sun_cascade_views
 from scenes_analytic import box, quad, ray_box, ray_plane_z
 
 SUN = np.array([0.5, 0.3, -1.0]) / np.linalg.norm([0.5, 0.3, -1.0])
 BOUNDS = SceneBounds(np.array([-100.0, -100.0, 0.0]), np.array([100.0, 100.0, 10.0]))
 CAMERA = Camera(matrix_world=look_at((0, -8, 3), (0, 0, 0)), width=96, height=64, clip_start=0.1, clip_end=500.0)
+
+
+def frustum_corners(camera: Camera, distance: float) -> np.ndarray:
+    """(8, 3) world-space corners of the camera's frustum between its clip start and
+    ``distance``."""
+    left, right, bottom, top = camera.viewplane()
+    start = float(camera.clip_start)
+    corners = []
+    for depth in (start, max(distance, start)):
+        scale = 1.0 if camera.projection == "ORTHO" else depth / start
+        for x in (left, right):
+            for y in (bottom, top):
+                corners.append((x * scale, y * scale, -depth))
+    local = np.asarray(corners, np.float64)
+    return local @ camera.rotation.T + camera.position
 
 
 def ndc(view, points: np.ndarray) -> np.ndarray:

@@ -508,6 +508,27 @@ def test_bvh_hits_on_a_minified_checker_sample_a_coarser_mip_level(renderer):
     np.testing.assert_allclose(image[..., :3], 0.5 / np.pi * SUN_IRRADIANCE, rtol=0.03)
 
 
+@pytest.mark.parametrize("roughness, grey_share", [(0.0, (0.0, 0.6)), (0.4, (0.9, 1.0))])
+def test_one_sample_of_a_rough_reflection_shows_the_texture_as_blurred_as_its_lobe(renderer, roughness, grey_share):
+    """The wall's single-texel checker, reflected by a mirror (level 0 seen: bilinear ramps
+    between black and white texels, grey on 40 % of the wall) and by a metal of roughness 0.4
+    in one sample: its ray cone widens with the lobe, so the wall is sampled at a level >= 1,
+    uniform grey, instead of level 0 along the lobe's random directions (43 % grey)."""
+    span = (2.0, 2.0)  # a texel of the wall covers several pixels
+    scene = mirror_and_wall_scene(binary_checker(32), np.zeros((1, 1, 4), np.float32), span)
+    rows = [dict(name="mirror", base_color=(1, 1, 1), reflectivity=1.0, roughness=roughness),
+            dict(name="wall", base_color=(1, 1, 1), base_color_texture=0, emission_texture=1)]
+    scene = SceneData(scene.geometry, MaterialTable.from_rows(rows, textures=scene.materials.textures), scene.lights,
+                      scene.sky)
+    image = renderer.render(scene, mirror_camera(), RenderSettings(mode="FULL_BVH", max_depth=1), sample=0).image
+    value = image[..., 1].ravel()
+    wall = value[value > 1e-3]  # pixels whose ray met the wall (the others see the black sky)
+    grey = 0.5 / np.pi * SUN_IRRADIANCE
+    share = float(np.mean(np.abs(wall - grey) < 0.15 * grey))
+    assert wall.size > 0.5 * value.size
+    assert grey_share[0] <= share <= grey_share[1], share
+
+
 # -- normal maps -----------------------------------------------------------------------------
 def tilted_normal_map(angle: float, size: int = 8) -> np.ndarray:
     """A normal map whose every texel leans the normal by ``angle`` towards the UVs' +u."""

@@ -48,7 +48,8 @@
 //   textures), TriangleMaterials (int[N]), SkyIrradiance (world_light.glsl); all
 //   per-triangle arrays in original triangle order. Image u_color: the primary colour
 //   (RGBA32F, read and written). Textures: u_textures (textures.glsl; BVH hits sample it at the
-//   interpolated UV, mip level from the ray cone u_pixel_width + u_pixel_spread * distance).
+//   interpolated UV, mip level from the ray cone u_pixel_width + u_pixel_spread * distance,
+//   widened by the glossy lobes on the ray's path).
 //   Cube-map hits sample it the same way at the UV their face texel stores.
 //   Samplers: primary u_depth, u_normal_material, u_albedo, u_emission_scale; the cube atlas u_cube_depth,
 //   u_cube_normal_material, u_cube_surface, u_cube_geometric, u_cube_hiz; u_shadow_atlas, u_shadow_dynamic; u_sky_env.
@@ -258,12 +259,16 @@ void count(int kind, int depth) {
 }
 
 // Width in metres of a pixel's ray cone at distance t along a ray from o: the camera-to-
-// origin distance plus t is a lower bound of the path length (textures.py).
-float ray_cone_footprint(vec3 o, float t) {
-    return u_pixel_width + u_pixel_spread * (distance(o, u_camera_position) + t);
+// origin distance plus t is a lower bound of the path length (textures.py). A ray drawn from
+// a glossy lobe of roughness `blur` (the roughest on its path) stands for the lobe's spread
+// of directions, about 2 alpha radians across (GGX, alpha = roughness^2), which widens its
+// cone past its origin: what it meets is textured at the level the lobe would blur it to,
+// so one sample of a rough reflection already shows the blurred texture.
+float ray_cone_footprint(vec3 o, float t, float blur) {
+    return u_pixel_width + u_pixel_spread * (distance(o, u_camera_position) + t) + 2.0 * blur * blur * t;
 }
 
-Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary) {
+Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary, float blur) {
     Hit h;
     h.kind = HIT_BVH;
     h.position = o + d * t;
@@ -278,7 +283,7 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary) {
         // Texture coordinate by the hit's barycentrics.
         TriangleUV tuv = tri_uvs[tri];
         h.uv = (1.0 - bary.x - bary.y) * tuv.uv01.xy + bary.x * tuv.uv01.zw + bary.y * tuv.uv2_scale.xy;
-        h.lod = texture_lod(ray_cone_footprint(o, t), tuv.uv2_scale.z);
+        h.lod = texture_lod(ray_cone_footprint(o, t, blur), tuv.uv2_scale.z);
         if (tex.z >= 0) {
             // The triangle's UV directions dp/du, dp/dv from its corners.
             BVHTriangle tr = bvh_triangle(uint(leaf));
@@ -312,8 +317,9 @@ float scene_exit(vec3 o, vec3 d) {
     return span.y < max(span.x, 0.0) ? -1.0 : span.y;
 }
 
-// Follow one ray through the BVH and the cube map until it hits something or the sky.
-Hit trace_ray(vec3 o, vec3 d, int depth) {
+// Follow one ray through the BVH and the cube map until it hits something or the sky;
+// `blur`: the roughest lobe on its path (ray_cone_footprint).
+Hit trace_ray(vec3 o, vec3 d, int depth, float blur) {
     Hit h;
     h.kind = HIT_SKY;
     h.position = vec3(0.0);
@@ -340,7 +346,7 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
             float t0 = max(t_cur, span.x);
             float t1 = span.y;
             if (t0 <= t1 && bvh_closest_leaf(o, d, t0, t1, t, leaf, bary)) {
-                h = bvh_hit(o, d, t, leaf, bary);
+                h = bvh_hit(o, d, t, leaf, bary, blur);
                 break;
             }
             if (full) break;
@@ -363,7 +369,7 @@ Hit trace_ray(vec3 o, vec3 d, int depth) {
                     // CUBE_FACE): textured like a BVH hit, with the same ray cone.
                     vec4 surface = texelFetch(u_cube_surface, cm.texel, 0);
                     h.uv = surface.xy;
-                    h.lod = texture_lod(ray_cone_footprint(o, distance(o, cm.position)), surface.z);
+                    h.lod = texture_lod(ray_cone_footprint(o, distance(o, cm.position), blur), surface.z);
                 }
                 break;
             }
@@ -472,7 +478,7 @@ void main() {
         vec3 n_facing = dot(n, g_facing) >= 0.0 ? n : -n;
         pixel_key = position_key(p);
         vec3 d = cosine_direction(n_facing, g_facing, lobe_random(0x5ca1));
-        Hit h = trace_ray(offset_origin(p, g_facing), d, 0);
+        Hit h = trace_ray(offset_origin(p, g_facing), d, 0, 0.0);
         if (h.kind == HIT_SKY) {
             ambient = vec4(PI * sky_radiance(d), 1.0);
         } else {
@@ -484,7 +490,7 @@ void main() {
             // cosine ray from it decides (an enclosed space's walls lit by the whole sky
             // would bounce far too much light).
             vec3 d2 = cosine_direction(hs.n_facing, hs.g_facing, lobe_random(0x5ca2));
-            Hit h2 = trace_ray(offset_origin(h.position, hs.g_facing), d2, 0);
+            Hit h2 = trace_ray(offset_origin(h.position, hs.g_facing), d2, 0, 0.0);
             float seen = h2.kind == HIT_SKY ? 1.0 : material_transmission(materials[h2.material]);
             vec3 bounce = shade_surface(hm, h_albedo, h_emission, h.position, d, hs,
                                         sky_irradiance(hs.n_facing) * seen, seen, 1.0);
@@ -572,7 +578,7 @@ void main() {
     while (stack_size > 0) {
         stack_size -= 1;
         PendingRay ray = stack[stack_size];
-        Hit h = trace_ray(ray.origin, ray.dir, ray.depth);
+        Hit h = trace_ray(ray.origin, ray.dir, ray.depth, ray.blur);
 #ifdef DIAGNOSTIC
         diag_bounces = max(diag_bounces, uint(ray.depth));
         if (ray.depth == u_diag_bounce)

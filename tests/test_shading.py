@@ -148,3 +148,32 @@ def test_a_mirror_shows_a_sphere_lamp_as_a_disc_of_its_radiance_with_no_glow_aro
     assert inside.sum() > 30 and outside.sum() > 0.8 * image.size
     np.testing.assert_allclose(image[inside].mean(), radiance, rtol=0.25)
     assert image[outside].max() < 0.02 * radiance, image[outside].max() / radiance
+
+
+def test_a_mirror_shows_the_floor_darker_where_a_wall_hides_its_sky(renderer):
+    # Sky light only: a floor beside a tall wall, seen only in a vertical mirror. The floor's
+    # points at the wall's foot see half the sky within AO Distance; their reflection must
+    # be darker than the open floor's (an occlusion ray from the first bounce's hits).
+    floor = quad((3, 0, 0), (3, 0, 0), (0, 6, 0))  # x in [0, 6]
+    wall = quad((0, 0, 1.5), (0, 6, 0), (0, 0, 1.5))  # x = 0, facing both ways
+    mirror = quad((3, 2, 1.0), (3, 0, 0), (0, 0, 1.0))  # y = 2
+    mats = MaterialTable.from_rows([dict(base_color=(0.8, 0.8, 0.8)),
+                                    dict(base_color=(1.0, 1.0, 1.0), reflectivity=1.0, roughness=0.0)])
+    scene = SceneData(Geometry.from_objects([(floor, None, 0), (wall, None, 0), (mirror, None, 1)]), mats,
+                      sky=Sky(color=(1.0, 1.0, 1.0)))
+    camera = Camera(matrix_world=look_at((1.2, -0.5, 1.0), (1.2, 2.0, 0.4)), width=W, height=H)
+    settings = RenderSettings(mode="FULL_BVH", cube_resolution=64, shadow_resolution=256, ao_distance=1.0, max_depth=1)
+    image = np.mean([renderer.render(scene, camera, settings, timing=False, sample=i).image[..., :3]
+                     for i in range(16)], axis=0).mean(axis=2)
+    origins, dirs = camera.pixel_rays()
+    to_mirror = (2.0 - origins[..., 1]) / dirs[..., 1]
+    on_mirror = origins + dirs * to_mirror[..., None]
+    seen_mirror = (to_mirror > 0) & (np.abs(on_mirror[..., 0] - 3) < 3) & (on_mirror[..., 2] > 0) & (on_mirror[..., 2] < 2)
+    mirrored = dirs * np.array([1.0, -1.0, 1.0])
+    to_floor = -on_mirror[..., 2] / np.where(mirrored[..., 2] < 0, mirrored[..., 2], -1.0)
+    on_floor = on_mirror + mirrored * to_floor[..., None]
+    floor_x = np.where(seen_mirror & (mirrored[..., 2] < 0), on_floor[..., 0], -1.0)
+    at_foot, open_floor = (floor_x > 0.02) & (floor_x < 0.25), floor_x > 1.5
+    assert at_foot.sum() > 20 and open_floor.sum() > 20
+    ratio = image[at_foot].mean() / image[open_floor].mean()
+    assert ratio < 0.85, ratio

@@ -134,6 +134,7 @@ struct TriangleUV {
 layout(std430) readonly buffer TriangleUVBuffer { TriangleUV tri_uvs[]; };
 uniform float u_pixel_width;   // a pixel's footprint at the camera (orthographic), metres
 uniform float u_pixel_spread;  // its growth per metre of distance (perspective), radians
+uniform float u_ao_distance;   // reach of the occlusion rays of the first bounce's hits (0: none)
 
 #define COUNTER_DEPTHS 17
 #define COUNT_TRACED 0
@@ -317,9 +318,11 @@ float scene_exit(vec3 o, vec3 d) {
     return span.y < max(span.x, 0.0) ? -1.0 : span.y;
 }
 
-// Follow one ray through the BVH and the cube map until it hits something or the sky;
-// `blur`: the roughest lobe on its path (ray_cone_footprint).
-Hit trace_ray(vec3 o, vec3 d, int depth, float blur) {
+// Follow one ray through the BVH and the cube map until it hits something or the sky, or
+// passes t_max (then it sees the sky); `blur`: the roughest lobe on its path
+// (ray_cone_footprint). A depth below 0 marks an occlusion ray: it is left out of the ray
+// counts and of the diagnostic views, which show the reflection and refraction rays.
+Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
     Hit h;
     h.kind = HIT_SKY;
     h.position = vec3(0.0);
@@ -344,7 +347,7 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur) {
         if (in_bvh) {
             vec2 span = full ? vec2(0.0, FLOAT_MAX) : bvh_region_interval(o, d);
             float t0 = max(t_cur, span.x);
-            float t1 = span.y;
+            float t1 = min(span.y, t_max);
             if (t0 <= t1 && bvh_closest_leaf(o, d, t0, t1, t, leaf, bary)) {
                 h = bvh_hit(o, d, t, leaf, bary, blur);
                 break;
@@ -355,7 +358,7 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur) {
             in_bvh = false;
         } else {
             reached_cube = true;
-            CubeMarch cm = cube_march_limited(o, d, t_cur, scene_exit(o, d));
+            CubeMarch cm = cube_march_limited(o, d, t_cur, min(scene_exit(o, d), t_max));
             if (cm.kind == CUBE_HIT) {
                 h.kind = HIT_CUBE;
                 h.position = cm.position;
@@ -380,6 +383,11 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur) {
             t_cur = max(t_cur, cm.t);
             in_bvh = true;
         }
+    }
+    if (depth < 0) {
+        bvh_nodes_visited = nodes_before;
+        cube_march_steps = steps_before;
+        return h;
     }
     count(COUNT_TRACED, depth);
     if (reached_cube) count(COUNT_CUBE_MAP, depth);
@@ -445,7 +453,6 @@ Material primary_material(int index, ivec2 pixel) {
     return material_with_surface(m, surface.x, surface.y);
 }
 
-#ifdef WORLD_LIGHT_PASS
 // A cosine-distributed direction around the shading normal n from two uniform numbers,
 // kept above the true surface (g, the geometric normal on the same side).
 vec3 cosine_direction(vec3 n, vec3 g, vec2 xi) {
@@ -456,6 +463,7 @@ vec3 cosine_direction(vec3 n, vec3 g, vec2 xi) {
     return keep_on_side(d, g, 0.01);
 }
 
+#ifdef WORLD_LIGHT_PASS
 // The World's light on a diffuse primary pixel (HybridTracer.gather_world_light): one ray in a
 // cosine-distributed direction, traced like a reflection through the BVH and the cube map.
 // Escaping, it brings the sky's radiance; meeting a surface, that surface's light (lamps
@@ -478,7 +486,7 @@ void main() {
         vec3 n_facing = dot(n, g_facing) >= 0.0 ? n : -n;
         pixel_key = position_key(p);
         vec3 d = cosine_direction(n_facing, g_facing, lobe_random(0x5ca1));
-        Hit h = trace_ray(offset_origin(p, g_facing), d, 0, 0.0);
+        Hit h = trace_ray(offset_origin(p, g_facing), d, 0, 0.0, FLOAT_MAX);
         if (h.kind == HIT_SKY) {
             ambient = vec4(PI * sky_radiance(d), 1.0);
         } else {
@@ -490,7 +498,7 @@ void main() {
             // cosine ray from it decides (an enclosed space's walls lit by the whole sky
             // would bounce far too much light).
             vec3 d2 = cosine_direction(hs.n_facing, hs.g_facing, lobe_random(0x5ca2));
-            Hit h2 = trace_ray(offset_origin(h.position, hs.g_facing), d2, 0, 0.0);
+            Hit h2 = trace_ray(offset_origin(h.position, hs.g_facing), d2, 0, 0.0, FLOAT_MAX);
             float seen = h2.kind == HIT_SKY ? 1.0 : material_transmission(materials[h2.material]);
             vec3 bounce = shade_surface(hm, h_albedo, h_emission, h.position, d, hs,
                                         sky_irradiance(hs.n_facing) * seen, seen, 1.0);
@@ -578,7 +586,7 @@ void main() {
     while (stack_size > 0) {
         stack_size -= 1;
         PendingRay ray = stack[stack_size];
-        Hit h = trace_ray(ray.origin, ray.dir, ray.depth, ray.blur);
+        Hit h = trace_ray(ray.origin, ray.dir, ray.depth, ray.blur, FLOAT_MAX);
 #ifdef DIAGNOSTIC
         diag_bounces = max(diag_bounces, uint(ray.depth));
         if (ray.depth == u_diag_bounce)
@@ -597,10 +605,21 @@ void main() {
         vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
         SpecularSplit hs = specular_split_sampled(hm, h_albedo, ray.dir, h.normal, h.geometric,
                                                   lobe_random(ray.depth));
+        // The World's light at the first bounce's hits near the camera is hidden as at
+        // primary pixels: one cosine ray within AO Distance through the BVH (hybrid ambient
+        // occlusion, the paper's reference [14]), a fresh direction per sample. Hits in the
+        // cube map take the whole sky: marching one more ray from each of them cost Chess's
+        // frame 6 % and its trace 19 % (docs/BENCHMARKS.md), against 2 % here.
+        float seen = 1.0;
+        if (ray.depth == 1 && h.kind == HIT_BVH && u_ao_distance > 0.0 && hs.diffuse_weight > 0.0) {
+            vec3 d_ao = cosine_direction(hs.n_facing, hs.g_facing, lobe_random(0x5ca3));
+            Hit ho = trace_ray(offset_origin(h.position, hs.g_facing), d_ao, -1, 1.0, u_ao_distance);
+            seen = ho.kind == HIT_SKY ? 1.0 : material_transmission(materials[ho.material]);
+        }
         // Seen through a rough lobe, a sharp lamp highlight is a firefly: widen it to that
         // lobe's roughness (Cycles' Filter Glossy does the same).
         traced += ray.weight * shade_surface(hm, h_albedo, h_emission, h.position, ray.dir, hs,
-                                             sky_irradiance(hs.n_facing), 1.0, ray.blur);
+                                             sky_irradiance(hs.n_facing) * seen, seen, ray.blur);
         if (ray.depth <= u_max_depth)
             spawn_children(hs, h.position, ray.weight, ray.depth + 1, max(ray.blur, material_roughness(hm)));
     }

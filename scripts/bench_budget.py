@@ -31,9 +31,10 @@ TOLERANCE = 0.15
 WARM_UP = range(0, 2)  # frames rendered before each run's measured ones, as a timing report's warm-up
 
 
-def follow(scene, frames: range, mode: str, near_cube_mode: str, budget_ms: float) -> list[tuple]:
+def follow(scene, frames: range, mode: str, near_cube_mode: str, budget_ms: float,
+           warm_up: range = WARM_UP) -> list[tuple]:
     """(total_ms, near_size, image) of each frame rendered in ``mode``, after the frames of
-    ``WARM_UP`` in the same session (its first full sync and, in Budget mode, the controller's
+    ``warm_up`` in the same session (its first full sync and, in Budget mode, the controller's
     first frames are not measured, as in a timing report with warm-up frames)."""
     import bpy
     from hybrid_rt.blender_adapter import engine, scene_cache
@@ -46,7 +47,7 @@ def follow(scene, frames: range, mode: str, near_cube_mode: str, budget_ms: floa
     out = []
     try:
         tracked.listen()
-        for frame in [*WARM_UP, *frames]:
+        for frame in [*warm_up, *frames]:
             scene.frame_set(frame)
             result = engine.render_depsgraph(bpy.context.evaluated_depsgraph_get(), source=tracked, sizer=sizer)
             if frame in frames:

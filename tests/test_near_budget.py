@@ -44,12 +44,20 @@ def test_it_converges_and_keeps_nine_frames_in_ten_within_fifteen_percent(rng):
     assert abs(controller.size - (40.0 / 4.0) ** (2 / 3)) < 0.15 * (40.0 / 4.0) ** (2 / 3)
 
 
-def test_a_still_scene_settles_and_stops_changing_the_size(rng):
-    controller = NearCubeBudget(budget_ms=60.0, min_size=0.5, max_size=50.0, size=12.0)
-    run(controller, 60, rng)
-    changes = controller.changes
-    sizes = {size for size, _ in run(controller, 100, rng)}
-    assert controller.changes == changes and len(sizes) == 1
+def test_a_still_scene_settles_and_stops_changing_the_size():
+    """Twenty seeded runs of a still scene whose frames wander by 3 %: once settled, the size
+    changes less than once in two hundred frames on average and by less than 15 % in all."""
+    changes, spreads = [], []
+    for seed in range(20):
+        rng = np.random.default_rng(seed)
+        controller = NearCubeBudget(budget_ms=60.0, min_size=0.5, max_size=50.0, size=12.0)
+        run(controller, 60, rng)
+        settled = controller.changes
+        sizes = [size for size, _ in run(controller, 100, rng)]
+        changes.append(controller.changes - settled)
+        spreads.append(max(sizes) / min(sizes))
+    assert np.mean(changes) <= 0.5 and max(changes) <= 2, changes
+    assert max(spreads) < 1.15, spreads
 
 
 def test_the_size_stays_within_the_artists_limits(rng):
@@ -67,9 +75,10 @@ def test_noise_that_says_a_smaller_cube_is_slower_does_not_turn_the_controller_a
     assert all(b <= a for a, b in zip(sizes, sizes[1:])) and controller.size == 0.5
 
 
-def test_a_sudden_overload_is_acted_on_at_once_and_bad_frames_are_ignored(rng):
+def test_a_frame_outside_the_acceptance_band_is_acted_on_at_once_and_bad_frames_are_ignored(rng):
     controller = NearCubeBudget(budget_ms=60.0, min_size=0.5, max_size=50.0, size=5.0, window=5)
-    assert controller.observe(200.0) < 5.0  # over 1.5x the budget: no waiting for the window
+    assert controller.observe(66.0) == 5.0  # 10 % over: within what noise does, wait for the window
+    assert controller.observe(72.0) < 5.0  # 20 % over: a frame outside the band, no waiting
     size = controller.size
     assert controller.observe(float("nan")) == size and controller.observe(10.0, size_used=99.0) == size
 

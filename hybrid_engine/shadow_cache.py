@@ -91,12 +91,22 @@ class ShadowCache:
 
     def plan(self, object_ranges: np.ndarray, delta: GeometryDelta, key: tuple) -> ShadowPlan:
         """The plan for a frame whose geometry changed by ``delta``. ``key`` holds everything
-        else the maps depend on (lights, slot matrices, resolution): when it changes, or the
-        layout does, or a delta was missed (a frame cancelled between upload and shadows),
-        every object starts static and both layers are re-rendered."""
+        else the maps depend on (lights, slot matrices, resolution): when it changes, both
+        layers are re-rendered, each with the objects it held (what moves is the objects'
+        business, not the matrices': a sun cascade following the camera would otherwise
+        draw the moving objects into its static layer and, demoting them, draw that layer
+        again the next frame). When the layout changes or a delta was missed (a frame
+        cancelled between upload and shadows), every object starts static."""
         count = len(object_ranges)
         missed = self._sequence is None or delta.sequence != self._sequence + 1
         self._sequence = delta.sequence
+        if key != self._key and not (delta.full or missed or self._static is None or len(self._static) != count):
+            self._key = key
+            changed = changed_objects(object_ranges, delta)
+            self._still_frames = np.where(changed, 0, self._still_frames + 1)
+            promoted = ~self._static & (self._still_frames >= PROMOTE_AFTER_FRAMES)
+            self._static = (self._static & ~changed) | promoted
+            return ShadowPlan(self._static.copy(), True, True)
         if key != self._key or delta.full or missed or self._static is None or len(self._static) != count:
             # A still scene then never needs the dynamic layer; what moves next frame is
             # demoted then, once.

@@ -12,11 +12,15 @@ map near the camera. The lookup (include/lighting.glsl) takes the finest cascade
 a point, else the scene map; the tracer's hits choose the same way, wherever they are.
 
 Each cascade is fitted to the bounding sphere of its part of the frustum, with the radius
-rounded up to a quarter octave and the centre snapped to the cascade's texel grid in the
-sun's frame (Valient, "Stable rendering of cascaded shadow maps", ShaderX6): a camera that
-turns or moves a little keeps the matrices, so its static shadow layer is kept, and the
-shadow edges do not crawl while the camera moves. The depth range spans the whole scene
-along the sun's direction, so casters outside the cascade's sphere still cast into it.
+rounded up to a quarter octave and the centre snapped to a grid in the sun's frame that is a
+whole number of texels (Valient, "Stable rendering of cascaded shadow maps", ShaderX6): the
+shadow edges do not crawl while the camera moves. The grid is coarse, a sixteenth of the
+cascade's width, and the width grows by the half cell the snap may move the centre: a
+moving camera keeps a cascade's matrix until its sphere's centre crosses into the next
+cell, so a cascade is drawn again only every few frames of a walking camera, for texels
+1/15 larger. The matrices are a function of the camera alone (no history): a viewport and
+an F12 render of one view agree. The depth range spans the whole scene along the sun's
+direction, so casters outside the cascade's sphere still cast into it.
 """
 from __future__ import annotations
 
@@ -33,6 +37,8 @@ from .shadow_atlas import ShadowView
 CASCADE_SPLIT = 4.0
 # Cascade radii are rounded up to powers of 2 ** (1 / RADIUS_STEPS_PER_OCTAVE).
 RADIUS_STEPS_PER_OCTAVE = 4
+# A cascade's centre moves in steps of 1 / SNAP_CELLS of its width.
+SNAP_CELLS = 16
 
 
 def view_reach(camera: Camera, bounds: SceneBounds) -> float:
@@ -91,9 +97,11 @@ def sun_cascade_views(camera: Camera, direction: np.ndarray, bounds: SceneBounds
     views = []
     for reach in cascade_reaches(camera, bounds, count):
         center, radius = view_sphere(camera, reach)
-        radius = quantized(radius)
-        texel = 2.0 * radius / resolution
-        across = np.floor(rotation[:, :2].T @ center / texel + 0.5) * texel
+        # Snapping moves the centre by up to half a cell along each of the sun's axes: the
+        # map's half-width r + radius / SNAP_CELLS must still hold the sphere of radius r.
+        radius = quantized(radius * SNAP_CELLS / (SNAP_CELLS - 1))
+        cell = 2.0 * radius / resolution * max(resolution // SNAP_CELLS, 1)  # whole texels
+        across = np.floor(rotation[:, :2].T @ center / cell + 0.5) * cell
         placed = frame.copy()  # the sun's frame, moved to the cascade's eye
         placed[:3, 3] = rotation @ np.array([across[0], across[1], eye_depth])
         view = view_from_world(placed)

@@ -90,15 +90,27 @@ def test_plan_promotes_an_object_after_it_rested():
     assert plans[-1].render_static and plans[-1].static_mask.all()
 
 
-@pytest.mark.parametrize("change", ["key", "missed_delta", "layout"])
+def test_a_new_key_re_renders_both_layers_and_keeps_what_moves_in_the_dynamic_one():
+    """A sun cascade's matrix changes under a moving camera while a piece moves: both layers
+    are drawn once, the moving piece in the dynamic one, and the next frame with the same
+    key draws the dynamic layer alone (not the static one again, as a reset would)."""
+    cache = ShadowCache()
+    cache.plan(RANGES, delta(1, (0, 35), full=True), key=("a",))
+    cache.plan(RANGES, delta(2, (12, 1)), key=("a",))  # object 1 moves: demoted
+    plan = cache.plan(RANGES, delta(3, (12, 1)), key=("b",))
+    assert plan.render_static and plan.render_dynamic
+    assert plan.static_mask.tolist() == [True, False, True, True]
+    plan = cache.plan(RANGES, delta(4, (12, 1)), key=("b",))
+    assert not plan.render_static and plan.render_dynamic
+
+
+@pytest.mark.parametrize("change", ["missed_delta", "layout"])
 def test_plan_re_renders_both_layers_when_it_cannot_trust_its_state(change):
     cache = ShadowCache()
     cache.plan(RANGES, delta(1, (0, 35), full=True), key=("a",))
     cache.plan(RANGES, delta(2, (12, 1)), key=("a",))
     ranges, key, sequence = RANGES, ("a",), 3
-    if change == "key":
-        key = ("b",)
-    elif change == "missed_delta":
+    if change == "missed_delta":
         sequence = 4  # frame 3's delta went to an upload whose frame was cancelled
     else:
         ranges = RANGES[:3]

@@ -64,6 +64,29 @@ def test_a_jittered_or_still_camera_keeps_the_cascade_matrices_and_a_moved_one_c
     assert not np.array_equal(first[0].view_proj, sun_cascade_views(moved, SUN, BOUNDS, 2, 512)[0].view_proj)
 
 
+def test_a_walking_camera_keeps_each_cascade_for_steps_within_a_cell_that_moves_by_whole_texels():
+    """200 steps of 1 cm: every view still holds its part of the frustum, the fine cascade's
+    matrix changes only when its centre crosses a cell (a few times, not at every step), and
+    each change moves the map by a whole number of texels (still shadow edges)."""
+    reach = np.linalg.norm(CAMERA.position - BOUNDS.center) + BOUNDS.radius
+    seen, changes = None, 0
+    for step in range(200):
+        x = 0.01 * step
+        camera = Camera(matrix_world=look_at((x, -8, 3), (x, 0, 0)), width=96, height=64, clip_start=0.1,
+                        clip_end=500.0)
+        views = sun_cascade_views(camera, SUN, BOUNDS, 2, 512)
+        for k, view in enumerate(views):
+            corners = frustum_corners(camera, reach * CASCADE_SPLIT ** -(2 - k))
+            assert (np.abs(ndc(view, corners)) <= 1.0).all(), f"cascade {k} misses part of its view at step {step}"
+        if seen is not None and not np.array_equal(seen.view_proj, views[0].view_proj):
+            changes += 1
+            if np.isclose(seen.extent, views[0].extent):
+                shift = (ndc(views[0], np.zeros((1, 3))) - ndc(seen, np.zeros((1, 3))))[0, :2] * 512 / 2
+                np.testing.assert_allclose(shift, np.round(shift), atol=1e-3)
+        seen = views[0]
+    assert 1 <= changes <= 20, changes
+
+
 def test_cascade_radii_are_quarter_octaves_at_least_as_large_as_asked():
     for radius in (0.013, 1.0, 3.7, 250.0):
         got = quantized(radius)

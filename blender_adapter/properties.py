@@ -159,6 +159,15 @@ def _scene_annotations() -> dict:
         if f.default is MISSING:
             raise TypeError(f"RenderSettings.{f.name} needs a default to become a Blender property")
         annotations[f.name] = _property_for(f.name, f.default)
+    # The budget as artists also think of it: a frame rate, stored as the milliseconds only.
+    lo, hi = FIELD_LIMITS["frame_budget_ms"]
+    soft_lo, soft_hi = SOFT_LIMITS.get("frame_budget_ms", (lo, hi))
+    annotations["frame_budget_fps"] = bpy.props.FloatProperty(
+        name="Target FPS", precision=2, min=1000.0 / hi, max=1000.0 / lo,
+        soft_min=1000.0 / soft_hi, soft_max=1000.0 / soft_lo,
+        get=lambda settings: 1000.0 / settings.frame_budget_ms,
+        set=lambda settings, fps: setattr(settings, "frame_budget_ms", 1000.0 / fps),
+        description="Frame Budget as frames per second (1000 / Frame Budget): setting one sets the other")
     # Interface state saved with the file, not a render setting (operators/near_cube_overlay.py).
     annotations["show_near_cube"] = bpy.props.BoolProperty(
         name="Show Near Cube", default=False, update=_redraw_3d_views,

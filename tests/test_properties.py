@@ -205,7 +205,7 @@ def test_the_render_panels_draw_every_setting_once_the_report_and_the_overlay_qu
     settings = [f.name for f in fields(RenderSettings)]
     assert sorted(name for name in drawn if name in settings) == sorted(settings)
     assert {"hybrid_rt.timing_report", "show_near_cube", "film_transparent", "filter_size",
-            "mode=PROVENANCE"} <= set(drawn)
+            "mode=PROVENANCE", "frame_budget_fps"} <= set(drawn)
     assert addon.ui.panels.RENDER_PT_hybrid_rt_shadows.bl_parent_id == "RENDER_PT_hybrid_rt_hybrid"
 
 
@@ -305,3 +305,15 @@ def test_raising_the_budgets_minimum_above_its_maximum_pushes_the_maximum_and_ba
     assert stored.near_max == pytest.approx(8.0)
     stored.near_max = 1.0
     assert stored.near_min == pytest.approx(1.0)
+
+
+def test_the_frame_budget_reads_and_sets_as_a_frame_rate(addon):
+    stored = bpy.context.scene.hybrid_rt
+    stored.frame_budget_fps = 60.0
+    assert stored.frame_budget_ms == pytest.approx(1000.0 / 60.0)
+    stored.frame_budget_ms = 40.0
+    assert stored.frame_budget_fps == pytest.approx(25.0)
+    assert addon.blender_adapter.properties.settings_from_scene(bpy.context.scene).frame_budget_ms == pytest.approx(40.0)
+    stored.frame_budget_fps = 1.0e6  # past the fastest budget: clamped to its limit
+    assert stored.frame_budget_ms == pytest.approx(FIELD_LIMITS["frame_budget_ms"][0])
+    stored.frame_budget_ms = RenderSettings().frame_budget_ms

@@ -136,6 +136,7 @@ class RENDER_PT_hybrid_rt_hybrid(HybridRTPanel, bpy.types.Panel):
         if settings.near_cube_mode == "BUDGET":
             col = layout.column(align=True)
             col.prop(settings, "frame_budget_ms")
+            col.prop(settings, "frame_budget_fps")
             col.prop(settings, "near_min")
             col.prop(settings, "near_max")
         else:

@@ -1,15 +1,16 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Binding buffers, images, textures and uniforms to a program by name.
 
-The GLSL declares its storage blocks, images and samplers without binding numbers; the host
-names what goes where (``{"BVHNodes": built.nodes}``), and this module picks the numbers from
-moderngl's reflection of the program. No binding number is written in both languages, so a
+The GLSL declares its storage and uniform blocks, images and samplers without binding
+numbers; the host names what goes where (``{"BVHNodes": built.nodes}``: a buffer by its
+block's name, whichever kind of block the GLSL declares), and this module picks the numbers
+from moderngl's reflection of the program. No binding number is written in both languages, so a
 pass cannot bind a buffer to another block's number, and a block a pass forgot to bind is
 an error naming it rather than a read of whatever the last pass left bound.
 
 Each program's numbers are fixed once, when it is compiled (stored in ``program.extra``):
-a storage block gets the binding point of its own resource index, each image and sampler a
-unit of its own. Later calls only bind the buffers and textures.
+a storage or uniform block gets the binding point of its own resource index, each image and
+sampler a unit of its own. Later calls only bind the buffers and textures.
 
 A name the program does not have is skipped: the compiler drops blocks and uniforms a
 variant never reads (``#if`` branches, unused inputs), and callers pass what the pass may
@@ -81,30 +82,34 @@ def _is_sampler(gl_type: int) -> bool:
 
 @dataclass
 class ProgramLayout:
-    """A program's storage blocks (name → binding point) and its image and sampler units
-    (name → unit), fixed once per program."""
+    """A program's storage and uniform blocks (name → binding point) and its image and
+    sampler units (name → unit), fixed once per program."""
 
     label: str
     blocks: dict[str, int]
     images: dict[str, int]
     samplers: dict[str, int]
+    uniform_blocks: dict[str, int] = field(default_factory=dict)
 
     @classmethod
     def of(cls, program, label: str = "program") -> "ProgramLayout":
         """Give every storage block the binding point of its resource index and every image
         and sampler its own unit, in declaration order. Two samplers of different types on
         one unit would make every dispatch fail, so each gets one even if never bound."""
-        blocks, images, samplers = {}, {}, {}
+        blocks, images, samplers, uniform_blocks = {}, {}, {}, {}
         for name in program:
             member = program[name]
             if isinstance(member, moderngl.StorageBlock):
                 member.binding = member.index
                 blocks[name] = member.index
+            elif isinstance(member, moderngl.UniformBlock):
+                member.binding = member.index
+                uniform_blocks[name] = member.index
             elif isinstance(member, moderngl.Uniform) and _is_image(member.gl_type):
                 images[name] = member.value = len(images)
             elif isinstance(member, moderngl.Uniform) and _is_sampler(member.gl_type):
                 samplers[name] = member.value = len(samplers)
-        return cls(label, blocks, images, samplers)
+        return cls(label, blocks, images, samplers, uniform_blocks)
 
 
 def layout(program, label: str | None = None) -> ProgramLayout:
@@ -142,10 +147,14 @@ def bind(program, *parts: Bindings, storage: Mapping[str, object] | None = None,
     for part in parts:
         whole = part | whole
     found = layout(program)
-    missing = [name for name in found.blocks if name not in whole.storage]
-    if missing:
-        raise ValueError(f"{found.label}: storage block(s) {', '.join(missing)} not bound")
+    for kind, names in (("storage", found.blocks), ("uniform", found.uniform_blocks)):
+        missing = [name for name in names if name not in whole.storage]
+        if missing:
+            raise ValueError(f"{found.label}: {kind} block(s) {', '.join(missing)} not bound")
     for name, what in whole.storage.items():
+        if name in found.uniform_blocks and what is not None:
+            what.bind_to_uniform_block(found.uniform_blocks[name])  # a whole buffer, sized by its owner
+            continue
         binding = found.blocks.get(name)
         if binding is None or what is None:
             continue

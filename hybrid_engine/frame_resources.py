@@ -11,12 +11,15 @@ include/lighting.glsl, sky.glsl and world_light.glsl declare.
 from __future__ import annotations
 
 from .bindings import Bindings
-from .gpu_dispatch import GrowBuffer
+from .gpu_dispatch import GrowBuffer, SceneLimitError
 from .gpu_scene import LIGHT_DTYPE, bytes_of, pack_lights
 from .scene_data import Lights, Sky
 from .settings import RenderSettings
 from .shadow_atlas import ShadowAtlas
 from .sky_light import SkyLight
+
+# Rows of the LightBuffer uniform block (include/lighting.glsl): 64 KiB of 64-byte lights.
+MAX_LIGHTS = 1024
 
 
 class FrameResources:
@@ -25,7 +28,8 @@ class FrameResources:
     def __init__(self, ctx) -> None:
         self.ctx = ctx
         self.lights = GrowBuffer(ctx, "scene lights", LIGHT_DTYPE.itemsize)
-        self.lights.ensure(0)
+        # The uniform block's whole size (lighting.glsl): a block reads what it declares.
+        self.lights.ensure(MAX_LIGHTS * LIGHT_DTYPE.itemsize)
         self.shadows = ShadowAtlas(ctx)
         self.sky = SkyLight(ctx)
         self.light_count = 0
@@ -36,6 +40,9 @@ class FrameResources:
     def update_lights(self, lights: Lights, shadow_slots: list[tuple[int, int]], settings: RenderSettings) -> None:
         """This frame's lights with their shadow slots (laid out in ``shadows``), and the
         settings of the lighting (shadow bias, ambient-occlusion reach)."""
+        if len(lights) > MAX_LIGHTS:
+            raise SceneLimitError(f"the scene has {len(lights)} lamps; Hybrid RT renders at most {MAX_LIGHTS}: "
+                                  "hide some, or light with emissive meshes or the World")
         self.lights.upload(bytes_of(pack_lights(lights, shadow_slots)))
         self.light_count = len(lights)
         self.shadow_bias = float(settings.shadow_bias)

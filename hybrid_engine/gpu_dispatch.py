@@ -176,6 +176,11 @@ class GPUMemoryError(RuntimeError):
     """The GPU could not hold a buffer the scene needs; the message names it and its size."""
 
 
+class SceneLimitError(ValueError):
+    """The scene needs more rows than a fixed-size GPU table holds (lamps, shadow maps); the
+    message says how many it has, the limit, and what the artist can do."""
+
+
 class GrowBuffer:
     """A GL buffer that is re-allocated only when a request exceeds its capacity.
 

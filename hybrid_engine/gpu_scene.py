@@ -77,7 +77,7 @@ def attribute_arrays(geometry: Geometry, zero_uvs: bool = True) -> dict[str, np.
 
 
 def pack_lights(lights: Lights, shadow_slots: list[tuple[int, int]] | None = None) -> np.ndarray:
-    """std430 rows of ``struct Light``; ``shadow_slots[i] = (first, count)`` or (-1, 0)."""
+    """Rows of ``struct Light`` (std430 and std140 alike); ``shadow_slots[i] = (first, count)`` or (-1, 0)."""
     out = np.zeros(max(len(lights), 1), LIGHT_DTYPE)  # never a zero-sized buffer
     count = len(lights)
     if count == 0:

@@ -17,8 +17,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .gpu_dispatch import SceneLimitError
+
 # struct ShadowSlot (gpu_shaders/include/scene_layout.glsl)           // total: 96 bytes
 SHADOW_SLOT_DTYPE = np.dtype([("view_proj", np.float32, (4, 4)), ("rect", np.int32, 4), ("texel", np.float32, 4)])
+# Rows of the ShadowSlotBuffer uniform block (include/lighting.glsl): 48 KiB of 96-byte slots.
+MAX_SHADOW_SLOTS = 512
 assert SHADOW_SLOT_DTYPE.itemsize == 96
 
 
@@ -46,7 +50,8 @@ class ShadowAtlas:
         self._fbos: dict[bool, object] = {}
         self.size: tuple[int, int] | None = None
         self._cols = 1
-        self.slot_buffer = ctx.buffer(reserve=SHADOW_SLOT_DTYPE.itemsize)
+        # The uniform block's whole size: a block reads what it declares.
+        self.slot_buffer = ctx.buffer(reserve=MAX_SHADOW_SLOTS * SHADOW_SLOT_DTYPE.itemsize)
         self.slots = np.zeros(1, SHADOW_SLOT_DTYPE)
 
     def _ensure(self, slots: int, resolution: int) -> int:
@@ -77,6 +82,10 @@ class ShadowAtlas:
 
     def layout(self, views: list[ShadowView], resolution: int) -> None:
         """Allocate both layers for ``views`` and write the slot table."""
+        if len(views) > MAX_SHADOW_SLOTS:
+            raise SceneLimitError(f"the scene's lamps need {len(views)} shadow maps; Hybrid RT holds at most "
+                                  f"{MAX_SHADOW_SLOTS}: turn off Cast Shadow on some lamps (a point lamp takes 6, "
+                                  "a sun 1 plus its Sun Cascades)")
         slots = np.zeros(max(len(views), 1), SHADOW_SLOT_DTYPE)
         if views:
             res = self._ensure(len(views), int(resolution))
@@ -87,7 +96,6 @@ class ShadowAtlas:
                 slots[i]["texel"] = (view.extent / res, float(view.perspective), view.near, view.far)
         elif self.static is None:
             self._ensure(1, 1)  # keep valid textures bound for the shading passes
-        self.slot_buffer.orphan(slots.nbytes)
         self.slot_buffer.write(slots.tobytes())
         self.slots = slots
 

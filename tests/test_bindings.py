@@ -113,3 +113,33 @@ def test_only_the_bindings_module_binds_buffers_images_and_textures_by_number():
     offenders = [f"{path.name}:{n}" for path in core.glob("*.py") if path.name != "bindings.py"
                  for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1) if calls.search(line)]
     assert offenders == []
+
+
+UNIFORM_BLOCK_SHADER = """#version 430
+layout(local_size_x = 1) in;
+layout(std430) writeonly buffer Output { vec4 out_values[]; };
+layout(std140) uniform Table { vec4 rows[4]; };
+layout(std140) uniform Scale { vec4 scale; };
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    out_values[i] = rows[i] * scale.x;
+}
+"""
+
+
+def test_uniform_blocks_are_bound_by_name_like_storage_blocks_and_one_left_unbound_is_named(ctx):
+    """Two uniform blocks (lighting.glsl's lights and shadow slots are such blocks): each
+    reads the buffer named for it, and one left out is an error naming it."""
+    program = ctx.compute_shader(UNIFORM_BLOCK_SHADER)
+    rows = np.arange(16, dtype=np.float32)
+    table, scale, out = ctx.buffer(rows.tobytes()), ctx.buffer(np.full(4, 3.0, np.float32).tobytes()), \
+        ctx.buffer(reserve=64)
+    try:
+        with pytest.raises(ValueError, match=r"uniform block\(s\) Scale not bound"):
+            bind(program, storage={"Table": table, "Output": out})
+        bind(program, storage={"Scale": scale, "Table": table, "Output": out})
+        program.run(4)
+        np.testing.assert_array_equal(np.frombuffer(out.read(), np.float32), rows * 3.0)
+    finally:
+        for obj in (table, scale, out, program):
+            obj.release()

@@ -18,7 +18,7 @@
 //
 // Bindings: u_depth (DEPTH32F), u_normal_material (RGBA32F), u_albedo (RGBA16F),
 //   u_emission_scale (RGBA16F: the emission texture's colour, multiplies the emission) read;
-//   storage blocks MaterialBuffer, LightBuffer, ShadowSlotBuffer, SkyIrradiance read; image
+//   uniform blocks LightBuffer, ShadowSlotBuffer and storage blocks MaterialBuffer, SkyIrradiance read; image
 //   u_output (RGBA32F) written.
 // Workgroup 8x8: square tiles keep neighbouring pixels (and their G-buffer rows) together.
 #include "scene_layout.glsl"

@@ -42,7 +42,7 @@
 // bounce depth; each ray counts at most once per kind. Then the BVH nodes visited and the
 // march steps taken by the rays of each depth, summed (tracer.COUNTER_KINDS).
 //
-// Storage blocks: MaterialBuffer, LightBuffer, ShadowSlotBuffer, the BVH's (bvh_storage.glsl,
+// Uniform blocks LightBuffer, ShadowSlotBuffer; storage blocks: MaterialBuffer, the BVH's (bvh_storage.glsl,
 //   bvh_traverse.glsl), TriangleNormals (float[9 N], the scene's normal buffer), CounterBuffer
 //   (read/write), TriangleUVBuffer (TriangleUV[N]; read only for materials with image
 //   textures), TriangleMaterials (int[N]), SkyIrradiance (world_light.glsl); all

@@ -93,8 +93,8 @@ class ProgramLayout:
 
     @classmethod
     def of(cls, program, label: str = "program") -> "ProgramLayout":
-        """Give every storage block the binding point of its resource index and every image
-        and sampler its own unit, in declaration order. Two samplers of different types on
+        """Give every storage and uniform block the binding point of its resource index and
+        every image and sampler its own unit, in declaration order. Two samplers of different types on
         one unit would make every dispatch fail, so each gets one even if never bound."""
         blocks, images, samplers, uniform_blocks = {}, {}, {}, {}
         for name in program:

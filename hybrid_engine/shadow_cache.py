@@ -100,17 +100,11 @@ class ShadowCache:
         count = len(object_ranges)
         missed = self._sequence is None or delta.sequence != self._sequence + 1
         self._sequence = delta.sequence
-        if key != self._key and not (delta.full or missed or self._static is None or len(self._static) != count):
-            self._key = key
-            changed = changed_objects(object_ranges, delta)
-            self._still_frames = np.where(changed, 0, self._still_frames + 1)
-            promoted = ~self._static & (self._still_frames >= PROMOTE_AFTER_FRAMES)
-            self._static = (self._static & ~changed) | promoted
-            return ShadowPlan(self._static.copy(), True, True)
-        if key != self._key or delta.full or missed or self._static is None or len(self._static) != count:
+        new_key = key != self._key
+        self._key = key
+        if delta.full or missed or self._static is None or len(self._static) != count:
             # A still scene then never needs the dynamic layer; what moves next frame is
             # demoted then, once.
-            self._key = key
             self._static = np.ones(count, bool)
             self._still_frames = np.zeros(count, np.int64)
             return ShadowPlan(self._static.copy(), True, True)
@@ -120,5 +114,5 @@ class ShadowCache:
         promoted = ~self._static & (self._still_frames >= PROMOTE_AFTER_FRAMES)
         moved_dynamic = bool((changed & ~self._static).any())
         self._static = (self._static & ~changed) | promoted
-        render_static = bool(demoted.any() or promoted.any())
+        render_static = new_key or bool(demoted.any() or promoted.any())
         return ShadowPlan(self._static.copy(), render_static, render_static or moved_dynamic)

@@ -30,9 +30,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from addon_loader import REPO_ROOT  # noqa: E402,F401 - puts the repository root on sys.path
 
+import bench_budget  # noqa: E402
 from hybrid_engine.near_budget import NearCubeBudget  # noqa: E402
 
-TOLERANCE = 0.15  # bench_budget.py's acceptance band
 BAR = 0.9
 
 
@@ -58,7 +58,7 @@ class Recording:
 
 
 def replay(recording: Recording, controller: NearCubeBudget, noise: float, rng: random.Random) -> float:
-    """The share of measured frames within TOLERANCE of the controller's budget."""
+    """The share of measured frames within bench_budget's band around the controller's budget."""
     def frame(series: dict, index: int) -> float:
         size = controller.size
         ms = recording.time(series, index, size) * math.exp(rng.gauss(0.0, noise) if noise else 0.0)
@@ -67,15 +67,12 @@ def replay(recording: Recording, controller: NearCubeBudget, noise: float, rng: 
 
     for index in range(len(next(iter(recording.warm.values())))):
         frame(recording.warm, index)
-    budget = controller.budget_ms
     times = [frame(recording.frames, index) for index in range(recording.count)]
-    return sum(abs(ms - budget) <= TOLERANCE * budget for ms in times) / len(times)
+    return bench_budget.within_share(times, controller.budget_ms)
 
 
 def record(args) -> int:
     from addon_loader import load_addon
-
-    import bench_budget
 
     addon = load_addon()
     addon.register()
@@ -112,7 +109,7 @@ def replay_command(args) -> int:
 
     fixed = recording.frames[args.fixed_size][:recording.count]
     print(f"budget {budget:.0f} ms; Fixed at {args.fixed_size}: "
-          f"{sum(abs(ms - budget) <= TOLERANCE * budget for ms in fixed) / len(fixed):.2f} of frames within")
+          f"{bench_budget.within_share(fixed, budget):.2f} of frames within")
     print(f"as recorded: {replay(recording, controller(), 0.0, random.Random(0)):.2f} of frames within")
     rng = random.Random(args.seed)
     shares = [replay(recording, controller(), args.noise, rng) for _ in range(args.runs)]

@@ -186,28 +186,48 @@ SpecularSplit specular_split_geometric(Material m, vec3 albedo, vec3 view_dir, v
     return specular_split_sampled(m, albedo, view_dir, n, g, vec2(0.0));
 }
 
-// Everything of a surface that is not a secondary ray: emission, the diffuse layer lit by the
-// lamps and the World, the lamps' glossy highlights on every specular layer, and the
-// reflections too rough to trace (prefiltered sky). `view_dir` points at the surface; `split`
-// is its specular_split; `world_irradiance` the World's light arriving at the surface (the
-// sky's irradiance times its visibility, or what the sky rays gathered);
-// `sky_visibility` the share of the sky the point sees (for the rough reflections; 1 where
-// unknown); `highlight_blur` a roughness the lamps' highlights take at least (that of the
-// lobes the point is seen through). `albedo` and `emission` are the material's colours
-// with its image textures applied (textures.glsl).
-vec3 shade_surface(Material m, vec3 albedo, vec3 emission, vec3 p, vec3 view_dir, SpecularSplit split,
-                   vec3 world_irradiance, float sky_visibility, float highlight_blur) {
+// What a surface takes from the World's sky: the diffuse layer lit by `world_irradiance`
+// (the sky's irradiance times its visibility, or what the sky rays gathered) and the
+// reflections too rough to trace (the prefiltered sky, times `sky_visibility`, the share of
+// the sky the point sees; 1 where unknown). Linear in both, so a caller that learns the
+// visibility later (the tracer's occlusion rays) can weight this part alone.
+vec3 world_light_response(Material m, vec3 albedo, SpecularSplit split, vec3 world_irradiance,
+                          float sky_visibility) {
+    vec3 color = vec3(0.0);
+    if (split.diffuse_weight > 0.0) {
+        color += split.diffuse_weight * albedo / PI * world_irradiance;
+    }
+    if (max(max(split.glossy_local.r, split.glossy_local.g), split.glossy_local.b) > 0.0) {
+        color += split.glossy_local * sky_radiance_rough(split.glossy_dir, material_roughness(m)) * sky_visibility;
+    }
+    return color;
+}
+
+// A surface's emission and the light its lamps give it: the diffuse layer lit through
+// the shadow maps and the lamps' glossy highlights on every specular layer.
+// `highlight_blur` is a roughness the highlights take at least (that of the lobes the
+// point is seen through).
+vec3 lamp_light_response(Material m, vec3 albedo, vec3 emission, vec3 p, vec3 view_dir, SpecularSplit split,
+                         float highlight_blur) {
     vec3 color = emission;
     vec3 n = split.n_facing;
     float highlight_roughness = max(material_roughness(m), highlight_blur);
     DirectLight direct = direct_lighting(p, n, -view_dir, split.lamp_f0, split.lamp_f90, highlight_roughness,
                                          split.diffuse_weight > 0.0);
     if (split.diffuse_weight > 0.0) {
-        color += split.diffuse_weight * albedo / PI * (direct.irradiance + world_irradiance);
+        color += split.diffuse_weight * albedo / PI * direct.irradiance;
     }
-    color += direct.glossy;
-    if (max(max(split.glossy_local.r, split.glossy_local.g), split.glossy_local.b) > 0.0) {
-        color += split.glossy_local * sky_radiance_rough(split.glossy_dir, material_roughness(m)) * sky_visibility;
-    }
-    return color;
+    return color + direct.glossy;
+}
+
+// Everything of a surface that is not a secondary ray: emission, the diffuse layer lit by the
+// lamps and the World, the lamps' glossy highlights on every specular layer, and the
+// reflections too rough to trace (prefiltered sky). `view_dir` points at the surface; `split`
+// is its specular_split; `world_irradiance`, `sky_visibility` as world_light_response,
+// `highlight_blur` as lamp_light_response. `albedo` and `emission` are the material's
+// colours with its image textures applied (textures.glsl).
+vec3 shade_surface(Material m, vec3 albedo, vec3 emission, vec3 p, vec3 view_dir, SpecularSplit split,
+                   vec3 world_irradiance, float sky_visibility, float highlight_blur) {
+    return lamp_light_response(m, albedo, emission, p, view_dir, split, highlight_blur)
+           + world_light_response(m, albedo, split, world_irradiance, sky_visibility);
 }

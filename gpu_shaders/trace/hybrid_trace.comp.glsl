@@ -221,8 +221,9 @@ struct PendingRay {
     vec3 origin;
     vec3 dir;
     vec3 weight;
-    int depth;
+    int depth;   // bounce; -1: an occlusion ray (push_occlusion)
     float blur;  // the roughest lobe on the ray's path (filters the lamp highlights it sees)
+    float reach; // how far it looks (FLOAT_MAX but for occlusion rays)
 };
 
 vec3 unproject_primary(vec2 ndc_xy, float ndc_z) {
@@ -425,6 +426,30 @@ void push(vec3 origin, vec3 dir, vec3 weight, int depth, float blur) {
     stack[stack_size].weight = weight;
     stack[stack_size].depth = depth;
     stack[stack_size].blur = blur;
+    stack[stack_size].reach = FLOAT_MAX;
+    stack_size += 1;
+}
+
+// An occlusion ray from a hit: `weight` is the World's light that hit takes if it sees the
+// sky along dir within `reach` (world_light_response times the path's weight); the ray
+// adds it times what it finds there, 1 for the sky, a surface's transmission otherwise.
+// It waits on the stack like the reflections: the loop below traces one ray per pixel and
+// step, so a pixel's occlusion ray shares a step with its neighbours' rays instead of
+// running a traversal of its own while they idle (8 pixels run in lockstep on a CPU
+// driver's SIMD lanes, and in a GPU's warps). Room for it is always left: a pixel holds at
+// most one, and the reflections' depth-first stack at most max_depth + 2 rays.
+void push_occlusion(vec3 origin, vec3 dir, vec3 weight, float reach) {
+    if (!(max(max(weight.r, weight.g), weight.b) > 0.0)) return;
+    if (stack_size >= STACK_SIZE) {
+        past_depth_limit += weight;  // never reached (above): the sky taken as seen
+        return;
+    }
+    stack[stack_size].origin = origin;
+    stack[stack_size].dir = dir;
+    stack[stack_size].weight = weight;
+    stack[stack_size].depth = -1;
+    stack[stack_size].blur = 1.0;
+    stack[stack_size].reach = reach;
     stack_size += 1;
 }
 
@@ -586,7 +611,11 @@ void main() {
     while (stack_size > 0) {
         stack_size -= 1;
         PendingRay ray = stack[stack_size];
-        Hit h = trace_ray(ray.origin, ray.dir, ray.depth, ray.blur, FLOAT_MAX);
+        Hit h = trace_ray(ray.origin, ray.dir, ray.depth, ray.blur, ray.reach);
+        if (ray.depth < 0) {
+            traced += ray.weight * (h.kind == HIT_SKY ? 1.0 : material_transmission(materials[h.material]));
+            continue;
+        }
 #ifdef DIAGNOSTIC
         diag_bounces = max(diag_bounces, uint(ray.depth));
         if (ray.depth == u_diag_bounce)
@@ -605,23 +634,23 @@ void main() {
         vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
         SpecularSplit hs = specular_split_sampled(hm, h_albedo, ray.dir, h.normal, h.geometric,
                                                   lobe_random(ray.depth));
+        // Seen through a rough lobe, a sharp lamp highlight is a firefly: widen it to that
+        // lobe's roughness (Cycles' Filter Glossy does the same).
+        traced += ray.weight * lamp_light_response(hm, h_albedo, h_emission, h.position, ray.dir, hs, ray.blur);
+        vec3 world = ray.weight * world_light_response(hm, h_albedo, hs, sky_irradiance(hs.n_facing), 1.0);
+        if (ray.depth <= u_max_depth)
+            spawn_children(hs, h.position, ray.weight, ray.depth + 1, max(ray.blur, material_roughness(hm)));
         // The World's light at the first bounce's hits near the camera is hidden as at
         // primary pixels: one cosine ray within AO Distance through the BVH (hybrid ambient
         // occlusion, the paper's reference [14]), a fresh direction per sample. Hits in the
         // cube map take the whole sky: marching one more ray from each of them cost Chess's
         // frame 6 % and its trace 19 % (docs/BENCHMARKS.md), against 2 % here.
-        float seen = 1.0;
         if (ray.depth == 1 && h.kind == HIT_BVH && u_ao_distance > 0.0 && hs.diffuse_weight > 0.0) {
             vec3 d_ao = cosine_direction(hs.n_facing, hs.g_facing, lobe_random(0x5ca3));
-            Hit ho = trace_ray(offset_origin(h.position, hs.g_facing), d_ao, -1, 1.0, u_ao_distance);
-            seen = ho.kind == HIT_SKY ? 1.0 : material_transmission(materials[ho.material]);
+            push_occlusion(offset_origin(h.position, hs.g_facing), d_ao, world, u_ao_distance);
+        } else {
+            traced += world;
         }
-        // Seen through a rough lobe, a sharp lamp highlight is a firefly: widen it to that
-        // lobe's roughness (Cycles' Filter Glossy does the same).
-        traced += ray.weight * shade_surface(hm, h_albedo, h_emission, h.position, ray.dir, hs,
-                                             sky_irradiance(hs.n_facing) * seen, seen, ray.blur);
-        if (ray.depth <= u_max_depth)
-            spawn_children(hs, h.position, ray.weight, ray.depth + 1, max(ray.blur, material_roughness(hm)));
     }
 #ifdef DIAGNOSTIC
     write_diagnostic(pixel, true);

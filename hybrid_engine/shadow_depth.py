@@ -7,7 +7,7 @@ of the view, sun_cascades.py), a spot one perspective map over its cone, a point
 lamp (and a very wide spot) six 90° cube faces. Each slot has a static and a dynamic layer
 (shadow_cache.py), and a frame re-renders only the layer whose objects changed; the
 cascades, which follow the camera, keep a cache of their own, so that moving the camera
-re-renders them alone.
+re-renders them alone, and of them only those whose matrices the move changed.
 """
 from __future__ import annotations
 
@@ -114,10 +114,12 @@ class ShadowMaps:
     static_rendered: bool
     submitted: int
     cascades_rendered: bool = False
+    cascade_maps_rendered: int = 0  # of the sun cascades, how many were drawn again
 
     def counts(self) -> dict[str, int]:
         return {"shadow_maps_rendered": int(self.rendered), "shadow_static_rendered": int(self.static_rendered),
                 "shadow_cascades_rendered": int(self.cascades_rendered),
+                "shadow_cascade_maps_rendered": int(self.cascade_maps_rendered),
                 "shadow_triangles_submitted": int(self.submitted)}
 
 
@@ -131,52 +133,77 @@ class ShadowDepthPass:
             ctx, vertex="raster/shadow_depth.vert.glsl", fragment="raster/shadow_depth.frag.glsl")
         self.cache = ShadowCache()  # the slots fitted to the scene
         self.cascade_cache = ShadowCache()  # the sun cascades, fitted to the view
+        # The last frame's key and cascade matrices (_moved_cascades).
+        self._cascade_views: tuple[tuple, list[bytes | None]] | None = None
 
     def render(self, gpu: GPUScene, scene: SceneData, camera: Camera | None, settings: RenderSettings,
                atlas: ShadowAtlas, delta: GeometryDelta) -> ShadowMaps:
         """Lay out this frame's slots in ``atlas`` and re-render the layers ``delta``
         invalidated (shadow_cache.py); the lights, the resolution and the slots' matrices
         key the cache, so any change to them renders both layers. The sun cascades follow
-        ``camera``: their own cache is keyed by their matrices too, and a camera that moved
-        re-renders them alone."""
+        ``camera``: they keep a cache of their own, and each cascade is re-rendered when its
+        own matrix changes: a walking camera moves the finest cascade every few frames and
+        the coarser ones far less often (sun_cascades.py), so only the finest is drawn
+        again then."""
         resolution = int(settings.shadow_resolution)
         layout = frame_shadow_views(scene, camera, int(settings.shadow_cascades), resolution)
         views, cascade = layout.views, layout.cascade
         key = (pack_lights(scene.lights).tobytes(), resolution, len(views), cascade.tobytes(),
                b"".join(np.asarray(v.view_proj, np.float64).tobytes() for v, c in zip(views, cascade) if not c))
-        cascade_key = (key, b"".join(np.asarray(v.view_proj, np.float64).tobytes()
-                                     for v, c in zip(views, cascade) if c))
         ranges = scene.geometry.object_ranges
-        # (plan, its slots, its cullers' name): the cascades and the scene's slots draw
-        # through cullers of their own (scene_draw.py: one per layer, so that no index
-        # buffer is rewritten while an earlier draw of the frame may read it).
-        plans = [(self.cache.plan(ranges, delta, key), ~cascade, "shadow")]
+        # (plan, the slots of its static layer and of its dynamic layer to draw, its cullers'
+        # name): the cascades and the scene's slots draw through cullers of their own
+        # (scene_draw.py: one per layer, so that no index buffer is rewritten while an
+        # earlier draw of the frame may read it).
+        plan = self.cache.plan(ranges, delta, key)
+        plans = [(plan, ~cascade if plan.render_static else None, ~cascade if plan.render_dynamic else None, "shadow")]
+        moved = self._moved_cascades(views, cascade, key)
         if cascade.any():
-            plans.append((self.cascade_cache.plan(ranges, delta, cascade_key), cascade, "shadow_cascades"))
+            # A moved cascade draws both its layers; the cache's plan covers what the
+            # objects did (key: the scene's, so a cascade's move alone keeps the plan).
+            plan = self.cascade_cache.plan(ranges, delta, key)
+            plans.append((plan, cascade if plan.render_static else moved if moved.any() else None,
+                          cascade if plan.render_dynamic else moved if moved.any() else None, "shadow_cascades"))
         else:
             self.cascade_cache.reset()
         submitted = 0
-        if any(entry[0].anything for entry in plans):
+        cascade_maps = 0
+        if any(static is not None or dynamic is not None for _, static, dynamic, _ in plans):
             try:
                 atlas.layout(views, resolution)
                 for dynamic in (False, True):
-                    wanted = [entry for entry in plans if (entry[0].render_dynamic if dynamic else entry[0].render_static)]
+                    wanted = [(entry[0], entry[2] if dynamic else entry[1], entry[3]) for entry in plans]
+                    wanted = [entry for entry in wanted if entry[1] is not None]
                     if not wanted:
                         continue
-                    every = len(wanted) == len(plans)
+                    every = len(wanted) == len(plans) and all(
+                        (slots == (~cascade if name == "shadow" else cascade)).all() for _, slots, name in wanted)
                     atlas.begin_layer(dynamic, None if every else [atlas.rect(int(i)) for _, slots, _ in wanted
                                                                      for i in np.flatnonzero(slots)])
-                    for plan, slots, name in wanted:
-                        include = ~plan.static_mask if dynamic else plan.static_mask
+                    for entry_plan, slots, name in wanted:
+                        include = ~entry_plan.static_mask if dynamic else entry_plan.static_mask
                         layer = f"{name}_{'dynamic' if dynamic else 'static'}"
                         submitted += self.render_slots(layer, gpu, scene, atlas, views, slots, dynamic, include)
+                        if name == "shadow_cascades":
+                            cascade_maps = max(cascade_maps, int(slots.sum()))
             except BaseException:
                 self.cache.reset()  # the layers are incomplete
                 self.cascade_cache.reset()
+                self._cascade_views = None
                 raise
-        cascades_rendered = len(plans) > 1 and plans[1][0].anything
-        return ShadowMaps(layout.per_light, plans[0][0].anything or cascades_rendered, plans[0][0].render_static,
-                          submitted, cascades_rendered)
+        scene_plan = plans[0]
+        return ShadowMaps(layout.per_light, scene_plan[1] is not None or scene_plan[2] is not None or cascade_maps > 0,
+                          scene_plan[1] is not None, submitted, cascade_maps > 0, cascade_maps)
+
+    def _moved_cascades(self, views: list[ShadowView], cascade: np.ndarray, key: tuple) -> np.ndarray:
+        """Bool per slot: a cascade whose matrix differs from the last frame's (all of them
+        after a change of ``key``, the lights, resolution and the scene's slots)."""
+        matrices = [np.asarray(v.view_proj, np.float64).tobytes() if c else None for v, c in zip(views, cascade)]
+        last = self._cascade_views
+        self._cascade_views = (key, matrices)
+        if last is None or last[0] != key or len(last[1]) != len(matrices):
+            return cascade.copy()
+        return np.array([m is not None and m != old for m, old in zip(matrices, last[1])], bool)
 
     def render_slots(self, layer: str, gpu: GPUScene, scene: SceneData, atlas: ShadowAtlas,
                      views: list[ShadowView], slots: np.ndarray, dynamic: bool,

@@ -155,3 +155,30 @@ def test_a_moving_camera_re_renders_the_cascades_alone_and_matches_a_fresh_rende
     assert [c["shadow_static_rendered"] for c in counts] == [1, 0, 0]  # the scene map is kept
     assert [c["shadow_cascades_rendered"] for c in counts] == [1, 0, 1]
     np.testing.assert_array_equal(again, expected)
+
+
+def test_a_step_that_moves_only_the_finest_cascade_redraws_it_alone_and_matches_a_fresh_render(gl):
+    scene = sun_scene()
+    settings = RenderSettings(mode="RASTER", shadow_resolution=256)
+    start = Camera(matrix_world=look_at((0.6, -2.5, 1.6), (0.4, 0.6, 0.0)), width=64, height=48)
+    steps = [Camera(matrix_world=look_at((0.6 + 0.01 * k, -2.5, 1.6), (0.4 + 0.01 * k, 0.6, 0.0)), width=64, height=48)
+             for k in range(1, 40)]
+    views = lambda camera: frame_shadow_views(scene, camera, 2, 256).views  # noqa: E731
+    first = views(start)
+    # The first step that moves the finest cascade keeps the coarser one (SNAP_CELLS steps).
+    step = next(c for c in steps if not np.array_equal(views(c)[0].view_proj, first[0].view_proj))
+    assert np.array_equal(views(step)[1].view_proj, first[1].view_proj)
+    renderer = Renderer(gl)
+    try:
+        counts = [renderer.render(scene, camera, settings).counts for camera in (start, step)]
+        image = renderer.render(scene, step, settings).image
+    finally:
+        renderer.release()
+    fresh = Renderer(gl)
+    try:
+        expected = fresh.render(scene, step, settings).image
+    finally:
+        fresh.release()
+    assert [c["shadow_cascade_maps_rendered"] for c in counts] == [2, 1]
+    assert [c["shadow_static_rendered"] for c in counts] == [1, 0]
+    np.testing.assert_array_equal(image, expected)

@@ -133,6 +133,23 @@ def test_cascades_draw_a_thin_posts_sun_shadow_that_the_scene_map_loses(gl):
     assert mismatch[0] > 3 * mismatch[2]
 
 
+def counts_then_last_view_again_and_fresh(gl, scene, settings, cameras):
+    """Each view's counts from one renderer, then its image of the last view rendered again,
+    and a fresh renderer's image of that view (what the kept layers must reproduce)."""
+    renderer = Renderer(gl)
+    try:
+        counts = [renderer.render(scene, camera, settings).counts for camera in cameras]
+        again = renderer.render(scene, cameras[-1], settings).image
+    finally:
+        renderer.release()
+    fresh = Renderer(gl)
+    try:
+        expected = fresh.render(scene, cameras[-1], settings).image
+    finally:
+        fresh.release()
+    return counts, again, expected
+
+
 def test_a_moving_camera_re_renders_the_cascades_alone_and_matches_a_fresh_render(gl):
     scene = sun_scene()
     settings = RenderSettings(mode="RASTER", shadow_resolution=256)
@@ -140,17 +157,7 @@ def test_a_moving_camera_re_renders_the_cascades_alone_and_matches_a_fresh_rende
     moved = Camera(matrix_world=look_at((1.6, -2.0, 1.6), (0.4, 0.6, 0.0)), width=64, height=48)
     layout = frame_shadow_views(scene, still, settings.shadow_cascades, settings.shadow_resolution)
     assert layout.per_light == [(0, 3)] and layout.cascade.tolist() == [True, True, False]
-    renderer = Renderer(gl)
-    try:
-        counts = [renderer.render(scene, camera, settings).counts for camera in (still, still, moved)]
-        again = renderer.render(scene, moved, settings).image
-    finally:
-        renderer.release()
-    fresh = Renderer(gl)
-    try:
-        expected = fresh.render(scene, moved, settings).image
-    finally:
-        fresh.release()
+    counts, again, expected = counts_then_last_view_again_and_fresh(gl, scene, settings, [still, still, moved])
     assert [c["shadow_maps_rendered"] for c in counts] == [1, 0, 1]
     assert [c["shadow_static_rendered"] for c in counts] == [1, 0, 0]  # the scene map is kept
     assert [c["shadow_cascades_rendered"] for c in counts] == [1, 0, 1]
@@ -168,17 +175,7 @@ def test_a_step_that_moves_only_the_finest_cascade_redraws_it_alone_and_matches_
     # The first step that moves the finest cascade keeps the coarser one (SNAP_CELLS steps).
     step = next(c for c in steps if not np.array_equal(views(c)[0].view_proj, first[0].view_proj))
     assert np.array_equal(views(step)[1].view_proj, first[1].view_proj)
-    renderer = Renderer(gl)
-    try:
-        counts = [renderer.render(scene, camera, settings).counts for camera in (start, step)]
-        image = renderer.render(scene, step, settings).image
-    finally:
-        renderer.release()
-    fresh = Renderer(gl)
-    try:
-        expected = fresh.render(scene, step, settings).image
-    finally:
-        fresh.release()
+    counts, image, expected = counts_then_last_view_again_and_fresh(gl, scene, settings, [start, step])
     assert [c["shadow_cascade_maps_rendered"] for c in counts] == [2, 1]
     assert [c["shadow_static_rendered"] for c in counts] == [1, 0]
     np.testing.assert_array_equal(image, expected)

@@ -15,6 +15,8 @@ process, never per frame.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping
@@ -142,9 +144,29 @@ def translate_error(message: str, sources: Mapping[str, ShaderSource]) -> str:
 
 
 _cache: dict[tuple, object] = {}
+# Defines every program compiled inside compiled_with() gets; empty in the product.
+_variant_defines: dict[str, object] = {}
+
+
+@contextmanager
+def compiled_with(defines: Mapping[str, object]) -> Iterator[None]:
+    """Programs compiled inside the block get ``defines`` on top of their own: a build of the
+    shaders with compile-time switches, compared with the plain build in one process
+    (benchmarks/picture_cost.py switches the picture's features off this way). Programs are
+    cached by all their defines, so a variant's are its own. Passes compile some programs
+    when constructed and others on first use: construct *and* render inside the block."""
+    previous = dict(_variant_defines)
+    _variant_defines.update(defines)
+    try:
+        yield
+    finally:
+        _variant_defines.clear()
+        _variant_defines.update(previous)
 
 
 def _compile(ctx, stages: Mapping[str, str], defines: Mapping[str, object] | None):
+    if _variant_defines:
+        defines = {**(defines or {}), **_variant_defines}
     key = (id(ctx), tuple(sorted(stages.items())), tuple(sorted((defines or {}).items())))
     cached = _cache.get(key)
     if cached is not None:

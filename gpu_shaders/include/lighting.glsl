@@ -246,6 +246,9 @@ DirectLight direct_lighting(vec3 p, vec3 n, vec3 v, vec3 f0, float f90, float ro
     result.irradiance = vec3(0.0);
     result.glossy = vec3(0.0);
     bool glossy = max(max(f0.r, f0.g), max(f0.b, f90)) > 0.0;
+#ifdef NO_LAMP_HIGHLIGHTS  // a measurement switch (benchmarks/picture_cost.py)
+    glossy = false;
+#endif
     if (!diffuse && !glossy) return result;
     float alpha = roughness * roughness;
     vec3 mirror = reflect(-v, n);

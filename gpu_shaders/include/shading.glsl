@@ -46,7 +46,11 @@ const float ROUGH_TRACE_LIMIT = 0.5;
 float material_reflectivity(Material m) { return clamp(m.base_color_refl.a, 0.0, 1.0); }
 float material_transmission(Material m) { return clamp(m.emission_trans.a, 0.0, 1.0); }
 float material_roughness(Material m) { return clamp(m.params.z, 0.0, 1.0); }
+#ifdef NO_COAT  // a measurement switch (benchmarks/picture_cost.py): no dielectric coat
+float material_coat_f0(Material m) { return 0.0; }
+#else
 float material_coat_f0(Material m) { return clamp(m.params.w, 0.0, 1.0); }
+#endif
 float material_diffuse(Material m) {
     return max(0.0, 1.0 - material_reflectivity(m) - material_transmission(m));
 }
@@ -194,6 +198,9 @@ SpecularSplit specular_split_geometric(Material m, vec3 albedo, vec3 view_dir, v
 vec3 world_light_response(Material m, vec3 albedo, SpecularSplit split, vec3 world_irradiance,
                           float sky_visibility) {
     vec3 color = vec3(0.0);
+#ifdef NO_WORLD_LIGHT  // a measurement switch (benchmarks/picture_cost.py): no World light
+    return color;
+#endif
     if (split.diffuse_weight > 0.0) {
         color += split.diffuse_weight * albedo / PI * world_irradiance;
     }

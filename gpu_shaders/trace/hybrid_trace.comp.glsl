@@ -417,7 +417,11 @@ vec3 past_depth_limit = vec3(0.0);
 // meaning, no secondary rays: there the sky is all a mirror shows.
 void push(vec3 origin, vec3 dir, vec3 weight, int depth, float blur) {
     if (!(max(max(weight.r, weight.g), weight.b) > 0.0)) return;
+#ifdef NO_DEPTH_LIMIT_RAY  // a measurement switch (benchmarks/picture_cost.py): the sky at once
+    if (stack_size >= STACK_SIZE || depth > u_max_depth) {
+#else
     if (stack_size >= STACK_SIZE || depth > u_max_depth + min(u_max_depth, 1)) {
+#endif
         past_depth_limit += weight * sky_radiance(dir);
         return;
     }

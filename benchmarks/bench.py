@@ -427,9 +427,9 @@ def _comparison_report(first: tuple[SceneData, Camera], hybrid_settings: RenderS
     flips = [flip_mean(f.image, h.image) for h, f in zip(results["HYBRID"], results["FULL_BVH"])]
     hybrid_ms = statistics.median(r.total_ms for r in results["HYBRID"])
     full_ms = statistics.median(r.total_ms for r in results["FULL_BVH"])
-    pass_medians = {mode: _pass_medians(mode_results) for mode, mode_results in results.items()}
-    hybrid_no_upload = hybrid_ms - pass_medians["HYBRID"].get("upload", 0.0)
-    full_no_upload = full_ms - pass_medians["FULL_BVH"].get("upload", 0.0)
+    medians = {mode: pass_medians(mode_results) for mode, mode_results in results.items()}
+    hybrid_no_upload = hybrid_ms - medians["HYBRID"].get("upload", 0.0)
+    full_no_upload = full_ms - medians["FULL_BVH"].get("upload", 0.0)
     return {
         "scene": label,
         "triangles_total": int(scene.geometry.triangle_count),
@@ -440,8 +440,8 @@ def _comparison_report(first: tuple[SceneData, Camera], hybrid_settings: RenderS
         "full_bvh_ms": round(full_ms, 3),
         "speedup": round(full_ms / hybrid_ms, 4),
         "flip_mean": round(float(np.mean(flips)), 5),
-        "passes_hybrid": pass_medians["HYBRID"],
-        "passes_full_bvh": pass_medians["FULL_BVH"],
+        "passes_hybrid": medians["HYBRID"],
+        "passes_full_bvh": medians["FULL_BVH"],
         # Context for reading the figures above.
         **context,
         "near_size": float(hybrid_settings.near_size),
@@ -463,7 +463,7 @@ def _comparison_report(first: tuple[SceneData, Camera], hybrid_settings: RenderS
     }
 
 
-def _pass_medians(results: list) -> dict[str, float]:
+def pass_medians(results: list) -> dict[str, float]:
     """Median milliseconds of every pass over the frames, in the order the passes ran."""
     passes: dict[str, list[float]] = {}
     for result in results:

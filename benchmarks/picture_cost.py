@@ -82,7 +82,7 @@ def measure(quick: bool = False, rounds: int = 3, frames: int = bench.ROUNDS) ->
         totals = [r.total_ms for r in runs]
         report[name] = {"median_ms": round(statistics.median(totals), 3),
                         "mean_ms": round(statistics.fmean(totals), 3),
-                        "passes": bench._pass_medians(runs),
+                        "passes": bench.pass_medians(runs),
                         "mean_radiance": round(float(np.mean(runs[-1].image[..., :3])), 6)}
     report["ratio_median"] = round(report["on"]["median_ms"] / report["off"]["median_ms"], 4)
     report["ratio_mean"] = round(report["on"]["mean_ms"] / report["off"]["mean_ms"], 4)

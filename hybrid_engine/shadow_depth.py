@@ -25,7 +25,7 @@ from .scene_delta import GeometryDelta
 from .scene_draw import SceneDrawer
 from .settings import RenderSettings
 from .shadow_atlas import ShadowAtlas, ShadowView
-from .shadow_cache import ShadowCache, snapped_bounds
+from .shadow_cache import ShadowCache, ShadowPlan, snapped_bounds
 from .sun_cascades import sun_cascade_views
 
 # Spots wider than this get a cube shadow: a single perspective map degenerates near 180°.
@@ -123,6 +123,29 @@ class ShadowMaps:
                 "shadow_triangles_submitted": int(self.submitted)}
 
 
+@dataclass
+class LayerDraws:
+    """One group of slots' draws this frame: the slots whose static and whose dynamic layer
+    are drawn again (bool per slot), the objects of the static layer, and the name of the
+    group's cullers (scene_draw.py: one per layer, so that no index buffer is rewritten
+    while an earlier draw of the frame may read it)."""
+
+    name: str
+    static_mask: np.ndarray
+    static: np.ndarray
+    dynamic: np.ndarray
+
+    @classmethod
+    def planned(cls, name: str, plan: ShadowPlan, slots: np.ndarray, moved: np.ndarray) -> "LayerDraws":
+        """All of ``slots`` in each layer ``plan`` renders, else the ``moved`` ones (whose
+        matrix changed: both their layers)."""
+        return cls(name, plan.static_mask, slots if plan.render_static else moved,
+                   slots if plan.render_dynamic else moved)
+
+    def slots(self, dynamic: bool) -> np.ndarray:
+        return self.dynamic if dynamic else self.static
+
+
 class ShadowDepthPass:
     """Renders the shadow atlas's layers that this frame's changes invalidated."""
 
@@ -133,8 +156,8 @@ class ShadowDepthPass:
             ctx, vertex="raster/shadow_depth.vert.glsl", fragment="raster/shadow_depth.frag.glsl")
         self.cache = ShadowCache()  # the slots fitted to the scene
         self.cascade_cache = ShadowCache()  # the sun cascades, fitted to the view
-        # The last frame's key and cascade matrices (_moved_cascades).
-        self._cascade_views: tuple[tuple, list[bytes | None]] | None = None
+        # The last frame's cascade matrices, None for the other slots (_moved_cascades).
+        self._cascade_matrices: list[bytes | None] | None = None
 
     def render(self, gpu: GPUScene, scene: SceneData, camera: Camera | None, settings: RenderSettings,
                atlas: ShadowAtlas, delta: GeometryDelta) -> ShadowMaps:
@@ -151,59 +174,50 @@ class ShadowDepthPass:
         key = (pack_lights(scene.lights).tobytes(), resolution, len(views), cascade.tobytes(),
                b"".join(np.asarray(v.view_proj, np.float64).tobytes() for v, c in zip(views, cascade) if not c))
         ranges = scene.geometry.object_ranges
-        # (plan, the slots of its static layer and of its dynamic layer to draw, its cullers'
-        # name): the cascades and the scene's slots draw through cullers of their own
-        # (scene_draw.py: one per layer, so that no index buffer is rewritten while an
-        # earlier draw of the frame may read it).
-        plan = self.cache.plan(ranges, delta, key)
-        plans = [(plan, ~cascade if plan.render_static else None, ~cascade if plan.render_dynamic else None, "shadow")]
-        moved = self._moved_cascades(views, cascade, key)
+        draws = [LayerDraws.planned("shadow", self.cache.plan(ranges, delta, key), ~cascade, np.zeros_like(cascade))]
+        moved = self._moved_cascades(views, cascade)
         if cascade.any():
-            # A moved cascade draws both its layers; the cache's plan covers what the
-            # objects did (key: the scene's, so a cascade's move alone keeps the plan).
-            plan = self.cascade_cache.plan(ranges, delta, key)
-            plans.append((plan, cascade if plan.render_static else moved if moved.any() else None,
-                          cascade if plan.render_dynamic else moved if moved.any() else None, "shadow_cascades"))
+            # The cache's plan covers what the objects did (keyed by the scene's key, so a
+            # cascade's move alone keeps it); a moved cascade draws both its layers.
+            draws.append(LayerDraws.planned("shadow_cascades", self.cascade_cache.plan(ranges, delta, key),
+                                            cascade, moved))
         else:
             self.cascade_cache.reset()
         submitted = 0
-        cascade_maps = 0
-        if any(static is not None or dynamic is not None for _, static, dynamic, _ in plans):
+        if any(draw.static.any() or draw.dynamic.any() for draw in draws):
             try:
                 atlas.layout(views, resolution)
                 for dynamic in (False, True):
-                    wanted = [(entry[0], entry[2] if dynamic else entry[1], entry[3]) for entry in plans]
-                    wanted = [entry for entry in wanted if entry[1] is not None]
+                    wanted = [draw for draw in draws if draw.slots(dynamic).any()]
                     if not wanted:
                         continue
-                    every = len(wanted) == len(plans) and all(
-                        (slots == (~cascade if name == "shadow" else cascade)).all() for _, slots, name in wanted)
-                    atlas.begin_layer(dynamic, None if every else [atlas.rect(int(i)) for _, slots, _ in wanted
-                                                                     for i in np.flatnonzero(slots)])
-                    for entry_plan, slots, name in wanted:
-                        include = ~entry_plan.static_mask if dynamic else entry_plan.static_mask
-                        layer = f"{name}_{'dynamic' if dynamic else 'static'}"
-                        submitted += self.render_slots(layer, gpu, scene, atlas, views, slots, dynamic, include)
-                        if name == "shadow_cascades":
-                            cascade_maps = max(cascade_maps, int(slots.sum()))
+                    drawn = np.logical_or.reduce([draw.slots(dynamic) for draw in wanted])
+                    atlas.begin_layer(dynamic, None if drawn.all() else
+                                      [atlas.rect(int(i)) for i in np.flatnonzero(drawn)])
+                    for draw in wanted:
+                        include = ~draw.static_mask if dynamic else draw.static_mask
+                        layer = f"{draw.name}_{'dynamic' if dynamic else 'static'}"
+                        submitted += self.render_slots(layer, gpu, scene, atlas, views, draw.slots(dynamic),
+                                                       dynamic, include)
             except BaseException:
                 self.cache.reset()  # the layers are incomplete
                 self.cascade_cache.reset()
-                self._cascade_views = None
+                self._cascade_matrices = None
                 raise
-        scene_plan = plans[0]
-        return ShadowMaps(layout.per_light, scene_plan[1] is not None or scene_plan[2] is not None or cascade_maps > 0,
-                          scene_plan[1] is not None, submitted, cascade_maps > 0, cascade_maps)
+        cascade_maps = int((draws[-1].static | draws[-1].dynamic).sum()) if len(draws) > 1 else 0
+        scene_static, scene_dynamic = bool(draws[0].static.any()), bool(draws[0].dynamic.any())
+        return ShadowMaps(layout.per_light, scene_static or scene_dynamic or cascade_maps > 0, scene_static,
+                          submitted, cascade_maps > 0, cascade_maps)
 
-    def _moved_cascades(self, views: list[ShadowView], cascade: np.ndarray, key: tuple) -> np.ndarray:
-        """Bool per slot: a cascade whose matrix differs from the last frame's (all of them
-        after a change of ``key``, the lights, resolution and the scene's slots)."""
+    def _moved_cascades(self, views: list[ShadowView], cascade: np.ndarray) -> np.ndarray:
+        """Bool per slot: a cascade whose matrix differs from the last frame's (every cascade
+        when the slots were laid out differently)."""
         matrices = [np.asarray(v.view_proj, np.float64).tobytes() if c else None for v, c in zip(views, cascade)]
-        last = self._cascade_views
-        self._cascade_views = (key, matrices)
-        if last is None or last[0] != key or len(last[1]) != len(matrices):
+        last = self._cascade_matrices
+        self._cascade_matrices = matrices
+        if last is None or len(last) != len(matrices):
             return cascade.copy()
-        return np.array([m is not None and m != old for m, old in zip(matrices, last[1])], bool)
+        return np.array([m is not None and m != old for m, old in zip(matrices, last)], bool)
 
     def render_slots(self, layer: str, gpu: GPUScene, scene: SceneData, atlas: ShadowAtlas,
                      views: list[ShadowView], slots: np.ndarray, dynamic: bool,

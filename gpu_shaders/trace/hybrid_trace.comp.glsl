@@ -410,6 +410,12 @@ int stack_size = 0;
 // What rays see that find no room on the stack: the sky along their direction.
 vec3 past_depth_limit = vec3(0.0);
 
+// Put a ray on the stack (the caller checked that there is room).
+void store_ray(vec3 origin, vec3 dir, vec3 weight, int depth, float blur, float reach) {
+    stack[stack_size] = PendingRay(origin, dir, weight, depth, blur, reach);
+    stack_size += 1;
+}
+
 // A ray one bounce past the depth limit (depth u_max_depth + 1) is still traced, through the
 // BVH and the cube map, and the surface it meets is shaded without spawning rays: the depth
 // limit then shows the environment along the last ray (as Cycles shades the last vertex of a
@@ -425,13 +431,7 @@ void push(vec3 origin, vec3 dir, vec3 weight, int depth, float blur) {
         past_depth_limit += weight * sky_radiance(dir);
         return;
     }
-    stack[stack_size].origin = origin;
-    stack[stack_size].dir = dir;
-    stack[stack_size].weight = weight;
-    stack[stack_size].depth = depth;
-    stack[stack_size].blur = blur;
-    stack[stack_size].reach = FLOAT_MAX;
-    stack_size += 1;
+    store_ray(origin, dir, weight, depth, blur, FLOAT_MAX);
 }
 
 // An occlusion ray from a hit: `weight` is the World's light that hit takes if it sees the
@@ -448,13 +448,7 @@ void push_occlusion(vec3 origin, vec3 dir, vec3 weight, float reach) {
         past_depth_limit += weight;  // never reached (above): the sky taken as seen
         return;
     }
-    stack[stack_size].origin = origin;
-    stack[stack_size].dir = dir;
-    stack[stack_size].weight = weight;
-    stack[stack_size].depth = -1;
-    stack[stack_size].blur = 1.0;
-    stack[stack_size].reach = reach;
-    stack_size += 1;
+    store_ray(origin, dir, weight, -1, 1.0, reach);
 }
 
 // Spawn the reflected and refracted rays of a hit at p (offset off the surface). Outside the

@@ -19,7 +19,7 @@ def register() -> None:
     with a message that says so, and nothing is registered."""
     import sys
 
-    from .hybrid_engine.gl_context import MACOS_MESSAGE
+    from .hybrid_engine.gpu.gl_context import MACOS_MESSAGE
 
     if sys.platform == "darwin":
         raise RuntimeError(MACOS_MESSAGE)

@@ -53,10 +53,11 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from hybrid_engine import gl_context, lbvh
-from hybrid_engine.camera import Camera
-from hybrid_engine.scene_data import SceneData
-from hybrid_engine.settings import CUBE_MARCHES, RenderSettings
+from hybrid_engine.gpu import gl_context
+from hybrid_engine.passes.lbvh import lbvh
+from hybrid_engine.scene.camera import Camera
+from hybrid_engine.scene.data import SceneData
+from hybrid_engine.scene.settings import CUBE_MARCHES, RenderSettings
 
 from . import lbvh_reference
 from .scenes.chess import CHESS_CUBE_FAR, build_chess
@@ -395,7 +396,7 @@ def compare_modes(frames: Iterable[tuple[SceneData, Camera]], base_settings: dic
     shadow layer exactly as playback would. Frame and per-pass figures are medians over the
     timed frames; ``flip_mean`` is the mean FLIP over them.
     """
-    from hybrid_engine.renderer import Renderer
+    from hybrid_engine.frame.renderer import Renderer
 
     settings = {mode: RenderSettings(**{**base_settings, "mode": mode}) for mode in ("HYBRID", "FULL_BVH")}
     ctx = gl_context.get_context()

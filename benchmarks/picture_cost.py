@@ -27,8 +27,9 @@ import numpy as np
 
 from benchmarks import bench
 from benchmarks.scenes.chess import CHESS_CUBE_FAR, build_chess
-from hybrid_engine import gl_context, shader_loader
-from hybrid_engine.settings import RenderSettings
+from hybrid_engine.gpu import gl_context
+from hybrid_engine.gpu import shader_loader
+from hybrid_engine.scene.settings import RenderSettings
 
 # The shaders' switches of the off variant (include/shading.glsl, include/lighting.glsl,
 # trace/hybrid_trace.comp.glsl).
@@ -40,7 +41,7 @@ COST_BAR = 1.25
 
 def measure(quick: bool = False, rounds: int = 3, frames: int = bench.ROUNDS) -> dict:
     """Both variants over ``rounds`` passes of ``frames`` timed frames (plus the warm-up)."""
-    from hybrid_engine.renderer import Renderer
+    from hybrid_engine.frame.renderer import Renderer
 
     params = bench.QUICK_FRAME if quick else bench.FULL_FRAME
     width, height = bench.default_frame_resolution(quick)

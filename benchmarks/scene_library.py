@@ -53,8 +53,8 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
-from hybrid_engine.camera import look_at
-from hybrid_engine.scene_data import LIGHT_KINDS
+from hybrid_engine.scene.camera import look_at
+from hybrid_engine.scene.data import LIGHT_KINDS
 
 from .bench import FRAME_NEAR_SIZE
 from .scenes import chess as chess_core

@@ -14,13 +14,14 @@ import traceback
 import bpy
 import numpy as np
 
-from ..hybrid_engine import film
-from ..hybrid_engine.antialias import render_antialiased
-from ..hybrid_engine.camera import Camera
-from ..hybrid_engine.film import FrameOutputs
-from ..hybrid_engine.renderer import FrameResult, RenderCancelled, Renderer
-from ..hybrid_engine.near_budget import NearCubeSizer
-from ..hybrid_engine.scene_data import SceneData
+from ..hybrid_engine.frame import views
+from ..hybrid_engine.frame.antialias import render_antialiased
+from ..hybrid_engine.scene.camera import Camera
+from ..hybrid_engine.frame.film import FrameOutputs
+from ..hybrid_engine.frame.renderer import FrameResult, RenderCancelled, Renderer
+from ..hybrid_engine.frame.near_budget import NearCubeSizer
+from ..hybrid_engine.reports.diagnostic_legend import draw_legend
+from ..hybrid_engine.scene.data import SceneData
 from . import messages, properties, viewport
 from .export.camera import camera_from_scene
 from .gl_host import gl_block
@@ -98,9 +99,9 @@ def final_camera(scene, depsgraph) -> Camera:
     render = scene.render
     if not render.use_border:
         return camera
-    rect = film.border_pixels(camera.width, camera.height, (render.border_min_x, render.border_min_y),
+    rect = views.border_pixels(camera.width, camera.height, (render.border_min_x, render.border_min_y),
                               (render.border_max_x, render.border_max_y))
-    return film.region_camera(camera, rect)
+    return views.region_camera(camera, rect)
 
 
 def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, final=False,
@@ -146,6 +147,7 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
         result = render_antialiased(renderer, scene_data, camera, settings, samples, outputs=outputs,
                                     cancel=cancel, progress=progress,
                                     filter_width=float(scene.render.filter_size))
+    draw_legend(result.image, result.legend)  # a diagnostic view's legend, kept in the render
     result.passes = {"extract": extract_ms, **result.passes}
     result.total_ms += extract_ms
     if sizer is not None:

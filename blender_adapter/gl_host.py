@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import bpy
 
-from ..hybrid_engine import gl_context
+from ..hybrid_engine.gpu import gl_context
 
 
 def gl_block():

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Blender properties: ``scene.hybrid_rt`` (engine settings) and ``material.hybrid_rt``.
 
-The scene settings are *generated* from ``hybrid_engine.settings``: one Blender property
+The scene settings are *generated* from ``hybrid_engine.scene.settings``: one Blender property
 per ``RenderSettings`` field, with the dataclass default, ``FIELD_LIMITS`` as min/max and
 ``FIELD_DOCS`` as the tooltip. Adding a field to the core therefore adds it to the UI, and
 the two cannot disagree on a default or a range. ``settings_from_scene`` turns the stored
@@ -17,8 +17,8 @@ from dataclasses import MISSING, fields
 import bpy
 import numpy as np
 
-from ..hybrid_engine.materials import DEFAULT_THICKNESS
-from ..hybrid_engine.settings import (CUBE_MARCH_DOCS, CUBE_MARCH_LABELS, CUBE_MARCHES, FIELD_DOCS, FIELD_LIMITS,
+from ..hybrid_engine.scene.materials import DEFAULT_THICKNESS
+from ..hybrid_engine.scene.settings import (CUBE_MARCH_DOCS, CUBE_MARCH_LABELS, CUBE_MARCHES, FIELD_DOCS, FIELD_LIMITS,
                                       MODE_DOCS, MODE_LABELS, MODES, NEAR_CUBE_MODE_DOCS, NEAR_CUBE_MODE_LABELS,
                                       NEAR_CUBE_MODES, RenderSettings, SettingsError)
 
@@ -213,7 +213,7 @@ _POINTERS = ((bpy.types.Scene, HybridRTSceneSettings), (bpy.types.Material, Hybr
 def settings_from_scene(scene) -> RenderSettings:
     """The scene's stored settings as the core's frozen dataclass.
 
-    Raises ``hybrid_engine.settings.SettingsError`` naming the settings by the labels the
+    Raises ``hybrid_engine.scene.settings.SettingsError`` naming the settings by the labels the
     artist sees when the stored values are inconsistent (e.g. a cube-map far plane inside
     the near cube, set from a script: the panel's fields push each other apart).
     """

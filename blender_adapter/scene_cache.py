@@ -11,7 +11,7 @@ the depsgraph says changed (``depsgraph.updates``):
   keys, armatures, geometry nodes and simulations all arrive this way, also on frame changes
   during playback);
 - a new world matrix (moved, parented, animated): only the instance's matrix changes; the
-  GPU transforms its mesh (hybrid_engine/instance_transform.py), no Blender mesh access and
+  GPU transforms its mesh (hybrid_engine/passes/scene_upload/instance_transform.py), no Blender mesh access and
   no pass over its vertices on the host;
 - a material: its row of the material table is recomputed (the ids stay valid because the
   table keeps one row per material for the cache's lifetime);
@@ -22,7 +22,7 @@ removed, hidden and instanced objects are seen without trusting the update list 
 structure; only when nothing but cameras changed does it skip the walk, and the assembled
 ``SceneData`` is reused as long as nothing changed.
 
-The geometry is an ``InstancedGeometry`` (hybrid_engine/instancing.py): each evaluated mesh
+The geometry is an ``InstancedGeometry`` (hybrid_engine/scene/instances.py): each evaluated mesh
 read once in object space and shared by its instances, and an instance table kept across
 syncs. While the instances and their triangle counts stay the same, a sync writes the
 matrices, meshes and slot materials of the instances it refreshed into the table in place
@@ -37,8 +37,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..hybrid_engine.instancing import InstancedGeometry, Instances, ObjectMesh
-from ..hybrid_engine.scene_data import GeometryEdit, Lights, SceneData, Sky
+from ..hybrid_engine.scene.instances import InstancedGeometry, Instances, ObjectMesh
+from ..hybrid_engine.scene.data import GeometryEdit, Lights, SceneData, Sky
 from . import messages
 from .export import lights as export_lights
 from .export import materials as export_materials

@@ -8,7 +8,7 @@ that everything but the final texture draw runs in tests without a window:
   ``depsgraph.updates`` and refreshes the per-object extraction cache (``scene_cache``):
   only changed geometry is read again, moved objects only get new world arrays.
 - ``ViewportSession.frame(region, settings)``: what ``view_draw`` does up to the draw. Turns
-  the region's matrices into a ``ViewportView`` (``hybrid_engine.viewport_frame``), renders it
+  the region's matrices into a ``ViewportView`` (``hybrid_engine.frame.views``), renders it
   with the session's ``Renderer`` at ``viewport_scale`` and returns the image, where it goes
   in the region and the statistics line. It never raises: a failing frame comes back with
   an error message (printed to the console once) and the next frame is tried afresh.
@@ -17,7 +17,7 @@ that everything but the final texture draw runs in tests without a window:
   Blender's colour management (view transform, look, exposure) applies, as for its own
   engines.
 
-The image is rendered by our own OpenGL context (EGL, see ``hybrid_engine.gl_context``),
+The image is rendered by our own OpenGL context (EGL, see ``hybrid_engine.gpu.gl_context``),
 read back to numpy and uploaded through ``gpu``; Blender's drawing never shares GL objects
 with it. This readback path therefore works whatever GPU backend Blender itself draws with
 (OpenGL, Vulkan or Metal): ``gpu`` accepts a float buffer on all of them.
@@ -38,20 +38,15 @@ from dataclasses import dataclass, replace
 import bpy
 import numpy as np
 
-from ..hybrid_engine.accumulation import DEFAULT_FILTER_WIDTH, SampleAccumulator
-from ..hybrid_engine.antialias import jittered_camera
-from ..hybrid_engine.film import FrameOutputs
-from ..hybrid_engine.gl_context import GLUnavailableError
-from ..hybrid_engine.near_budget import NearCubeSizer
-from ..hybrid_engine.settings import RenderSettings
-from ..hybrid_engine.viewport_frame import (
-    FrameClock,
-    MessageLatch,
-    RegionInput,
-    plan_frame,
-    accumulation_key,
-    stats_line,
-)
+from ..hybrid_engine.frame.accumulation import DEFAULT_FILTER_WIDTH, SampleAccumulator
+from ..hybrid_engine.frame.antialias import jittered_camera
+from ..hybrid_engine.frame.film import FrameOutputs
+from ..hybrid_engine.gpu.gl_context import GLUnavailableError
+from ..hybrid_engine.frame.near_budget import NearCubeSizer
+from ..hybrid_engine.reports.diagnostic_legend import draw_legend
+from ..hybrid_engine.scene.settings import RenderSettings
+from ..hybrid_engine.frame.viewport import RegionInput, accumulation_key, plan_frame
+from ..hybrid_engine.frame.viewport_status import FrameClock, MessageLatch, stats_line
 from . import messages, properties
 from .export.camera import camera_from_scene
 from .gl_host import gl_block
@@ -131,6 +126,7 @@ class ViewportSession:
             if index == 0:
                 self.sizer.observe(result.total_ms, settings)
             image = self.accumulator.add(result.image)
+            draw_legend(image, result.legend)  # a diagnostic view's legend, over the mean
         except Exception as exc:  # noqa: BLE001 - a viewport frame must never raise
             self.accumulator.restart()
             return self._failed(exc, rect)
@@ -159,7 +155,7 @@ class ViewportSession:
             if self._renderer_factory is not None:
                 self.renderer = self._renderer_factory()
             else:
-                from ..hybrid_engine.renderer import Renderer
+                from ..hybrid_engine.frame.renderer import Renderer
 
                 self.renderer = Renderer()
         return self.renderer

@@ -13,20 +13,20 @@ from __future__ import annotations
 
 import importlib
 
-from .camera import Camera, CameraError, look_at
-from .scene_data import Geometry, Lights, MaterialTable, SceneData, SceneDataError, Sky
-from .settings import MODES, RenderSettings, SettingsError
+from .scene.camera import Camera, CameraError, look_at
+from .scene.data import Geometry, Lights, MaterialTable, SceneData, SceneDataError, Sky
+from .scene.settings import MODES, RenderSettings, SettingsError
 
 __version__ = "0.1.0"
 
 # name -> submodule that defines it (imported on first access)
 _LAZY = {
-    "trace_closest": "lbvh",
-    "Renderer": "renderer",
-    "FrameResult": "renderer",
-    "get_context": "gl_context",
-    "GLUnavailableError": "gl_context",
-    "ShaderError": "shader_loader",
+    "trace_closest": "passes.lbvh.lbvh",
+    "Renderer": "frame.renderer",
+    "FrameResult": "frame.renderer",
+    "get_context": "gpu.gl_context",
+    "GLUnavailableError": "gpu.gl_context",
+    "ShaderError": "gpu.shader_loader",
 }
 
 __all__ = [

@@ -7,7 +7,7 @@ is ray marched in the cube map; seeing it helps choose its size. Whether it is d
 ``scene.hybrid_rt.show_near_cube``, saved with the .blend and shown in the viewport's
 Overlays popover and the Diagnostics panel. It is centred where the frame is rendered from:
 the scene camera in camera view (and when no viewport is at hand), otherwise the viewport's
-own eye. The 12 edges come from ``hybrid_engine.viewport_frame.near_cube_edges``; only the
+own eye. The 12 edges come from ``hybrid_engine.frame.overlay.near_cube_edges``; only the
 line drawing uses Blender's ``gpu`` module, imported when a viewport actually draws.
 """
 from __future__ import annotations
@@ -16,7 +16,7 @@ import bpy
 import numpy as np
 
 from ..blender_adapter import properties, viewport
-from ..hybrid_engine.viewport_frame import near_cube_edges
+from ..hybrid_engine.frame.overlay import near_cube_edges
 
 OVERLAY_COLOR = (1.0, 0.55, 0.1, 0.9)
 OVERLAY_LINE_WIDTH = 1.5

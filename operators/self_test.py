@@ -1,11 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""``hybrid_rt.test_gpu``: run the GPU self-test (hybrid_engine/self_test.py) and report it."""
+"""``hybrid_rt.test_gpu``: run the GPU self-test (hybrid_engine/reports/self_test.py) and report it."""
 from __future__ import annotations
 
 import bpy
 
 from ..blender_adapter.gl_host import gl_block
-from ..hybrid_engine import self_test
+from ..hybrid_engine.reports import self_test
 
 
 class HYBRID_RT_OT_test_gpu(bpy.types.Operator):

@@ -3,7 +3,7 @@
 
 Each frame goes through the same path as F12 (``scene.frame_set``, the evaluated depsgraph,
 ``blender_adapter.engine.render_depsgraph``: extraction plus the renderer) without writing
-images; ``hybrid_engine.timing_report`` turns the frames into PREFIX.json, PREFIX.csv and a
+images; ``hybrid_engine.reports.timing_report`` turns the frames into PREFIX.json, PREFIX.csv and a
 stacked-bar chart PREFIX.png (paper Figure 5). With ``compare_full_bvh`` the range is
 rendered a second time in FULL_BVH mode (PREFIX_full_bvh.*) and PREFIX_compare.png draws
 both frame times (paper Figure 6).
@@ -26,9 +26,9 @@ import bpy
 
 from ..blender_adapter import engine, properties, scene_cache
 from ..blender_adapter.export.camera import render_resolution
-from ..hybrid_engine import timing_report
-from ..hybrid_engine.near_budget import NearCubeSizer
-from ..hybrid_engine.settings import SettingsError
+from ..hybrid_engine.reports import timing_report
+from ..hybrid_engine.frame.near_budget import NearCubeSizer
+from ..hybrid_engine.scene.settings import SettingsError
 
 COMPARE_MODE = "FULL_BVH"
 COMPARE_SUFFIX = "_full_bvh"

@@ -44,7 +44,7 @@ def follow(scene, frames: range, mode: str, near_cube_mode: str, budget_ms: floa
     first frames are not measured, as in a timing report with warm-up frames)."""
     import bpy
     from hybrid_rt.blender_adapter import engine, scene_cache
-    from hybrid_rt.hybrid_engine.near_budget import NearCubeSizer
+    from hybrid_rt.hybrid_engine.frame.near_budget import NearCubeSizer
 
     scene.hybrid_rt.mode = mode
     scene.hybrid_rt.near_cube_mode = near_cube_mode

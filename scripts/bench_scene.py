@@ -146,7 +146,7 @@ def run_comparison(args: argparse.Namespace, assets: Path) -> dict:
 def main(argv: list[str] | None = None) -> int:
     addon = load_addon()
     from benchmarks import bench
-    from hybrid_rt.hybrid_engine.settings import SettingsError
+    from hybrid_rt.hybrid_engine.scene.settings import SettingsError
 
     args = parse_args(argv, bench)
     assets = assets_folder(args.assets)

@@ -31,7 +31,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from addon_loader import REPO_ROOT  # noqa: E402,F401 - puts the repository root on sys.path
 
 import bench_budget  # noqa: E402
-from hybrid_engine.near_budget import NearCubeBudget  # noqa: E402
+from hybrid_engine.frame.near_budget import NearCubeBudget  # noqa: E402
 
 BAR = 0.9
 

@@ -94,7 +94,7 @@ def build_demo_scene(width: int, height: int):
 def software_gl() -> bool:
     """True when the GL driver is a software renderer (llvmpipe): the demo then renders a
     smaller chess scene at 640x360 instead of the paper's full scene at 1280x720."""
-    from hybrid_rt.hybrid_engine import gl_context  # the add-on package (addon_loader)
+    from hybrid_rt.hybrid_engine.gpu import gl_context  # the add-on package (addon_loader)
 
     return gl_context.is_software_renderer()
 

@@ -191,7 +191,7 @@ def label_scale(width: int) -> int:
 
 def labelled(tile: np.ndarray, text: str) -> np.ndarray:
     """A copy of ``tile`` with ``text`` in white on a black band along its top edge."""
-    from hybrid_rt.hybrid_engine import chart_png
+    from hybrid_rt.hybrid_engine.reports import chart_png
 
     out = tile.copy()
     scale = label_scale(tile.shape[1])
@@ -205,7 +205,7 @@ def labelled(tile: np.ndarray, text: str) -> np.ndarray:
 
 def placeholder(width: int, height: int, text: str) -> np.ndarray:
     """A grey tile saying why there is no image (never a stand-in picture)."""
-    from hybrid_rt.hybrid_engine import chart_png
+    from hybrid_rt.hybrid_engine.reports import chart_png
 
     tile = np.empty((height, width, 3), np.uint8)
     tile[:] = PLACEHOLDER_BACKGROUND
@@ -228,7 +228,7 @@ def placeholder(width: int, height: int, text: str) -> np.ndarray:
 
 def compose_sheet(tiles: dict[str, np.ndarray], labels: dict[str, str], title: str) -> np.ndarray:
     """The six labelled tiles in TILE_ORDER's two rows under a title bar, GAP_PX apart."""
-    from hybrid_rt.hybrid_engine import chart_png
+    from hybrid_rt.hybrid_engine.reports import chart_png
 
     height, width = tiles[TILE_ORDER[0][0]].shape[:2]
     scale = label_scale(width)
@@ -252,7 +252,7 @@ def compose_sheet(tiles: dict[str, np.ndarray], labels: dict[str, str], title: s
 def encode_png(pixels: np.ndarray, compression: int = 9) -> bytes:
     """The sheets' PNG encoding: chart_png's encoder with a scanline filter chosen per row
     (renders compress about twice as well that way, and the sheets are kept in git)."""
-    from hybrid_rt.hybrid_engine import chart_png
+    from hybrid_rt.hybrid_engine.reports import chart_png
 
     return chart_png.encode_png(pixels, compression, adaptive_filter=True)
 

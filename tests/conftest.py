@@ -25,7 +25,7 @@ os.environ.setdefault("HYBRID_RT_DEBUG", "1")  # GL error checks after every pas
 @pytest.fixture(scope="session")
 def gl():
     """The process-wide moderngl context (created once)."""
-    from hybrid_engine import gl_context
+    from hybrid_engine.gpu import gl_context
 
     return gl_context.get_context()
 
@@ -41,7 +41,7 @@ def ctx(gl):
 @pytest.fixture(scope="module")
 def renderer(gl):
     """One Renderer per test module (its GPU state kept across the module's frames)."""
-    from hybrid_engine.renderer import Renderer
+    from hybrid_engine.frame.renderer import Renderer
 
     r = Renderer(gl)
     yield r

@@ -1,11 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The running mean of one view's samples (hybrid_engine/accumulation.py)."""
+"""The running mean of one view's samples (hybrid_engine/frame/accumulation.py)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from hybrid_engine.accumulation import SampleAccumulator, sample_offset
+from hybrid_engine.frame.accumulation import SampleAccumulator, sample_offset
 
 
 def test_samples_of_one_key_average_and_stop_at_the_target():
@@ -43,7 +43,7 @@ def test_sample_offsets_are_distinct_and_inside_the_pixel():
 def test_sample_offsets_follow_the_pixel_filter_of_its_width(width):
     """Samples are spread by the Blackman-Harris filter (Film > Pixel Filter): inside its
     width, centred, with the filter's own spread (second moment, integrated independently)."""
-    from hybrid_engine.accumulation import sample_offset
+    from hybrid_engine.frame.accumulation import sample_offset
 
     offsets = np.array([sample_offset(i, width) for i in range(1, 1025)])
     assert np.abs(offsets).max() <= width / 2 + 1e-9

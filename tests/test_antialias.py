@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Anti-aliased final renders (hybrid_engine/antialias.py): where the samples lie, that the
+"""Anti-aliased final renders (hybrid_engine/frame/antialias.py): where the samples lie, that the
 averaged edge matches the analytic pixel coverage, and that keeping the first sample's cube
 map and BVH for the others changes nothing but the time."""
 from __future__ import annotations
@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Camera, RenderSettings
-from hybrid_engine.camera import look_at
-from hybrid_engine.antialias import jittered_camera, render_antialiased, sample_offsets
-from hybrid_engine.film import FrameOutputs
+from hybrid_engine.scene.camera import look_at
+from hybrid_engine.frame.antialias import jittered_camera, render_antialiased, sample_offsets
+from hybrid_engine.frame.film import FrameOutputs
 from test_film import SMALL, analytic_floor, cameras, floor_scene
 
 # A coverage estimate from n samples errs by about 1 / sqrt(n) at worst on one pixel and far

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""hybrid_engine/bindings.py: storage blocks, images, samplers and uniforms bound by name."""
+"""hybrid_engine/gpu/bindings.py: storage blocks, images, samplers and uniforms bound by name."""
 from __future__ import annotations
 
 import re
@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hybrid_engine import bindings, gpu_dispatch
-from hybrid_engine.bindings import Bindings, Image, Storage, bind, split_storage
+from hybrid_engine.gpu import bindings
+from hybrid_engine.gpu import dispatch as gpu_dispatch
+from hybrid_engine.gpu.bindings import Bindings, Image, Storage, bind, split_storage
 
 SHADER_ROOT = Path(__file__).resolve().parent.parent / "gpu_shaders"
 

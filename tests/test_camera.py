@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""hybrid_engine.camera against Blender's own camera math (calc_matrix_camera)."""
+"""hybrid_engine.scene.camera against Blender's own camera math (calc_matrix_camera)."""
 from __future__ import annotations
 
 import itertools
@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
-from hybrid_engine.camera import Camera, CameraError, look_at, perspective_matrix
+from hybrid_engine.scene.camera import Camera, CameraError, look_at, perspective_matrix
 
 # Blender computes its matrices in float32; relative agreement to this is exact enough.
 MATRIX_RTOL = 1e-5

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""hybrid_engine/chart_png.py: PNG encoding, the bitmap font, and the charts.
+"""hybrid_engine/reports/chart_png.py: PNG encoding and the charts.
 
 Oracles: zlib and the PNG specification's byte layout read by hand, and OpenImageIO (the
 library Blender reads images with) for the encoder; pixel positions computed from the
@@ -14,11 +14,10 @@ import zlib
 import numpy as np
 import pytest
 
-from hybrid_engine import chart_png
+from hybrid_engine.reports import chart_png
 from image_io import decode_png
-from hybrid_engine.chart_png import (
+from hybrid_engine.reports.chart_png import (
     PALETTE, TARGET_COLOR, encode_png, line_chart, nice_step, stacked_bar_chart,
-    text_mask, text_width,
 )
 
 # A bar's top edge is rounded to a whole pixel row: its height is exact to one row.
@@ -78,21 +77,7 @@ def test_encoder_rejects_what_png_cannot_hold():
 
 
 # ---------------------------------------------------------------------------------------------
-# Font and ticks
-
-def test_every_glyph_is_distinct_and_three_by_five():
-    shapes = {glyph.shape for glyph in chart_png.GLYPHS.values()}
-    assert shapes == {(5, 3)}
-    patterns = [glyph.tobytes() for char, glyph in chart_png.GLYPHS.items() if char != " "]
-    assert len(set(patterns)) == len(patterns)
-
-
-def test_text_mask_size_and_fallbacks():
-    assert text_mask("ab12", scale=2).shape == (10, text_width("ab12", 2)) == (10, 30)
-    np.testing.assert_array_equal(text_mask("ms"), text_mask("MS"))  # lower case drawn upper case
-    np.testing.assert_array_equal(text_mask("~"), text_mask("?"))  # unknown characters
-    assert text_mask("", 3).shape == (15, 0)
-
+# Ticks
 
 def _smaller_nice_step(step: float) -> float:
     mantissa, exponent = step / 10.0 ** np.floor(np.log10(step)), np.floor(np.log10(step))

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The G-buffer cube map (hybrid_engine/cube_map.py, paper §3.2)."""
+"""The G-buffer cube map (hybrid_engine/passes/cube_map/cube_map.py, paper §3.2)."""
 from __future__ import annotations
 
 import math
@@ -9,11 +9,11 @@ import pytest
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
 from benchmarks.bench import flip_mean, to_srgb_ldr
-from hybrid_engine.camera import CUBE_FACE_DIRECTIONS, CUBE_FACE_UPS, look_at
-from hybrid_engine.cube_map import CUBE_FACE_FOV, CubeFaces, CubeMapPass, face_of_direction
-from hybrid_engine.gpu_scene import GPUScene
-from hybrid_engine.gbuffer import GBufferPass
-from hybrid_engine.renderer import Renderer
+from hybrid_engine.scene.camera import CUBE_FACE_DIRECTIONS, CUBE_FACE_UPS, look_at
+from hybrid_engine.passes.cube_map.cube_map import CUBE_FACE_FOV, CubeFaces, CubeMapPass, face_of_direction
+from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
+from hybrid_engine.passes.gbuffer.gbuffer import GBufferPass
+from hybrid_engine.frame.renderer import Renderer
 from scenes_analytic import box, quad, uv_sphere
 
 FACE_COLORS = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0], [0, 1, 1], [1, 0, 1]], np.float32)

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
-from hybrid_engine.cube_map import CubeFaces, CubeMapPass
-from hybrid_engine.gpu_scene import GPUScene
-from hybrid_engine.gbuffer import GBufferPass
-from hybrid_engine.solids import closed_outward
-from hybrid_engine.tracer import MARCH_HIT, MARCH_SKY, MARCH_TO_BVH, probe_cube_march
+from hybrid_engine.passes.cube_map.cube_map import CubeFaces, CubeMapPass
+from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
+from hybrid_engine.passes.gbuffer.gbuffer import GBufferPass
+from hybrid_engine.scene.solids import closed_outward
+from hybrid_engine.passes.trace.tracer import MARCH_HIT, MARCH_SKY, MARCH_TO_BVH, probe_cube_march
 from cube_march_reference import HIT, SKY, TO_BVH, CubeMapReference, face_matrices
 from scenes_analytic import box, quad, uv_sphere
 

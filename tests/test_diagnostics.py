@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""hybrid_engine/diagnostics.py and the DIAGNOSTIC trace: each view's per-pixel counts against
+"""passes/trace/diagnostic_views.py and the DIAGNOSTIC trace: each view's per-pixel counts against
 counts made independently on the CPU (embree for the paths, the read-back BVH for the node
 visits; the march steps against the numpy reference march in test_cube_march.py), and the
 legends and the rays' story that make them readable."""
@@ -11,9 +11,12 @@ from embreex import rtcore_scene as rtcs
 from embreex.mesh_construction import TriangleMesh
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
-from hybrid_engine import chart_svg, diagnostics, timing_report
-from hybrid_engine.camera import look_at
-from hybrid_engine.renderer import Renderer
+from hybrid_engine.reports import chart_svg
+from hybrid_engine.passes.trace import diagnostic_views as diagnostics
+from hybrid_engine.reports import diagnostic_legend
+from hybrid_engine.reports import timing_report
+from hybrid_engine.scene.camera import look_at
+from hybrid_engine.frame.renderer import Renderer
 from scenes_analytic import box, quad
 
 MIRROR = dict(base_color=(0.9, 0.9, 0.9), reflectivity=1.0)
@@ -179,22 +182,31 @@ def test_the_cube_steps_view_sums_to_the_frame_counter_and_is_zero_inside_the_bv
 
 
 @pytest.mark.parametrize("mode", ["BOUNCES", "CUBE_STEPS", "BVH_NODES", "BOUNCE_PATHS"])
-def test_each_view_paints_its_legend_into_the_image(renderer, mode):
+def test_each_view_hands_its_legend_as_data_and_the_painter_draws_it(renderer, mode):
+    """The core never paints text into pixels: the frame carries its legend, and the
+    legend painter (which the Blender adapter calls on F12 and the viewport) draws it."""
     settings = RenderSettings(mode=mode, near_size=1.0, cube_far=50.0, max_depth=2, cube_resolution=64)
-    image = renderer.render(mirror_room(), Camera(matrix_world=CAMERA.matrix_world, width=400, height=200),
-                            settings).image
+    result = renderer.render(mirror_room(), Camera(matrix_world=CAMERA.matrix_world, width=400, height=200),
+                             settings)
     entries = diagnostics.legend(settings)
-    corner = image[-len(entries) * 14 - 8:, :120, :3].reshape(-1, 3)  # the top-left corner
+    assert result.legend == entries and entries[-1].label == "no reflection or refraction"
+    rows = len(entries) * 14 + 8
+
+    def corner(image):  # the top-left corner
+        return image[-rows:, :120, :3].reshape(-1, 3)
+
+    assert not np.isclose(corner(result.image), diagnostic_legend.LEGEND_BACKGROUND).all(axis=1).any()
+    image = result.image.copy()
+    diagnostic_legend.draw_legend(image, result.legend)
     for entry in entries:  # every swatch is there
-        assert np.isclose(corner, entry.colour, atol=1e-6).all(axis=1).any(), entry.label
-    assert np.isclose(corner, diagnostics.LEGEND_TEXT).all(axis=1).any()  # and its text
-    assert entries[-1].label == "no reflection or refraction"
+        assert np.isclose(corner(image), entry.colour, atol=1e-6).all(axis=1).any(), entry.label
+    assert np.isclose(corner(image), diagnostic_legend.LEGEND_TEXT).all(axis=1).any()  # and its text
 
 
 def test_a_hybrid_frame_carries_no_diagnostic(renderer):
     result = renderer.render(mirror_room(), CAMERA, RenderSettings(near_size=1.0, cube_far=50.0,
                                                                    cube_resolution=64))
-    assert result.diagnostic is None
+    assert result.diagnostic is None and result.legend == []
 
 
 def test_the_ray_story_shares_add_up_and_reach_the_csv_and_the_chart(renderer, tmp_path):

@@ -152,6 +152,25 @@ def test_hybrid_mode_renders_through_blenders_render_path(addon, tmp_path):
     assert image[..., 0].mean() > 0.1
 
 
+def test_a_diagnostic_view_keeps_its_legend_in_the_saved_render(addon, tmp_path):
+    """The core hands the legend as data; F12 paints it into the Combined pass, so a saved
+    render shows what its false colours mean."""
+    import bpy
+
+    scene = build_plane_scene(bpy, "SUN", 1.0, size=160)
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.mode = "BOUNCES"
+    scene.hybrid_rt.render_samples = 1
+    image = render_exr(bpy, scene, tmp_path / "bounces.exr")
+    frame = addon.blender_adapter.engine.last_frame
+    legend = addon.hybrid_engine.reports.diagnostic_legend
+    assert frame.legend, "a diagnostic frame carries its legend"
+    corner = image[::-1][:len(frame.legend) * 14 + 8, :120, :3].reshape(-1, 3)  # rows from the top
+    for entry in frame.legend:
+        assert np.isclose(corner, entry.colour, atol=1e-5).all(axis=1).any(), entry.label
+    assert np.isclose(corner, legend.LEGEND_TEXT, atol=1e-5).all(axis=1).any()
+
+
 def test_a_failing_frame_is_reported_and_leaves_the_scene_untouched(addon, tmp_path):
     import bpy
 

@@ -679,7 +679,7 @@ def test_image_pixels_are_read_once_and_again_only_when_the_image_changes(fresh_
 
 
 # ---------------------------------------------------------------------------------------
-# closed surfaces (hybrid_engine/solids.py: their back faces may be culled)
+# closed surfaces (hybrid_engine/scene/solids.py: their back faces may be culled)
 def test_closed_meshes_are_marked_for_back_face_culling_and_open_or_mirrored_ones_right(addon):
     clear_scene()
     bpy.ops.mesh.primitive_cube_add(location=(0, 0, 0))

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The film (hybrid_engine/film.py) through the renderer: transparent background, the Depth
+"""The film (hybrid_engine/frame/film.py) through the renderer: transparent background, the Depth
 and Normal passes against analytic ray-plane intersections, and the render region's camera
 against the crop of a whole frame. Blender's side (the passes in a multilayer EXR, Cycles'
 conventions) is in test_engine.py."""
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
-from hybrid_engine.camera import look_at
-from hybrid_engine.film import (BACKGROUND_DEPTH, FilmError, FrameOutputs, border_pixels, normal_pass,
-                                region_camera)
+from hybrid_engine.scene.camera import look_at
+from hybrid_engine.frame.film import BACKGROUND_DEPTH, FilmError, FrameOutputs, normal_pass
+from hybrid_engine.frame.views import border_pixels, region_camera
 from scenes_analytic import quad, ray_plane_z
 
 SMALL = dict(cube_resolution=32, shadow_resolution=128, near_size=2.0)

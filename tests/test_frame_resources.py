@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""hybrid_engine/frame_resources.py and the tables it hands to the shading passes: the lights
+"""hybrid_engine/passes/lighting/resources.py and the tables it hands to the shading passes: the lights
 and shadow slots are uniform blocks of fixed size (include/lighting.glsl), so the host's
 limits must be the blocks' own, and a scene past them fails with a message that says what
 to do instead of shading garbage."""
@@ -8,17 +8,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybrid_engine import shader_loader
-from hybrid_engine.frame_resources import MAX_LIGHTS, FrameResources
-from hybrid_engine.gpu_dispatch import SceneLimitError
-from hybrid_engine.gpu_scene import LIGHT_DTYPE
-from hybrid_engine.scene_data import Lights
-from hybrid_engine.settings import RenderSettings
-from hybrid_engine.shadow_atlas import MAX_SHADOW_SLOTS, SHADOW_SLOT_DTYPE, ShadowAtlas, ShadowView
+from hybrid_engine.gpu import shader_loader
+from hybrid_engine.passes.lighting.resources import MAX_LIGHTS, FrameResources
+from hybrid_engine.gpu.dispatch import SceneLimitError
+from hybrid_engine.passes.scene_upload.scene_buffers import LIGHT_DTYPE
+from hybrid_engine.scene.data import Lights
+from hybrid_engine.scene.settings import RenderSettings
+from hybrid_engine.passes.lighting.shadow_atlas import MAX_SHADOW_SLOTS, SHADOW_SLOT_DTYPE, ShadowAtlas, ShadowView
 
 
 def test_the_hosts_limits_are_the_sizes_of_the_shaders_uniform_blocks(ctx):
-    program = shader_loader.compute(ctx, "shade/deferred_shade.comp.glsl")
+    program = shader_loader.compute(ctx, "shading/deferred_shade.comp.glsl")
     assert program["LightBuffer"].size == MAX_LIGHTS * LIGHT_DTYPE.itemsize
     assert program["ShadowSlotBuffer"].size == MAX_SHADOW_SLOTS * SHADOW_SLOT_DTYPE.itemsize
     resources = FrameResources(ctx)

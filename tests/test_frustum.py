@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""hybrid_engine/frustum.py: per-object culling of draw calls and the near-plane test that
+"""hybrid_engine/passes/view_cull/frustum.py: per-object culling of draw calls and the near-plane test that
 decides which closed objects may lose their back faces."""
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 
-from hybrid_engine.camera import look_at, perspective_matrix, view_from_world, orthographic_matrix
-from hybrid_engine.frustum import beyond_near_plane, draw_ranges, front_face_winding, visible_objects
+from hybrid_engine.scene.camera import look_at, perspective_matrix, view_from_world, orthographic_matrix
+from hybrid_engine.passes.view_cull.frustum import beyond_near_plane, draw_ranges, front_face_winding, visible_objects
 
 VIEW = view_from_world(look_at(np.zeros(3), np.array([0.0, 10.0, 0.0])))  # eye at the origin, looking +y
 PERSPECTIVE = perspective_matrix(math.radians(60.0), 1.0, 1.0, 100.0) @ VIEW
@@ -39,7 +39,7 @@ def test_front_face_winding_follows_the_views_handedness():
 
 
 def test_cube_map_faces_keep_counter_clockwise_front_faces():
-    from hybrid_engine.cube_map import CubeFaces
+    from hybrid_engine.passes.cube_map.cube_map import CubeFaces
 
     faces = CubeFaces.at(np.array([1.0, 2.0, 3.0]), 0.5, 50.0)
     assert all(front_face_winding(m) == "ccw" for m in faces.view_proj)

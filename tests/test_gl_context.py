@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""hybrid_engine.gl_context: one context per process, clear errors when GL 4.3/EGL is missing."""
+"""hybrid_engine.gpu.gl_context: one context per process, clear errors when GL 4.3/EGL is missing."""
 from __future__ import annotations
 
 import subprocess
@@ -22,14 +22,14 @@ def run_isolated(code: str, **env: str) -> subprocess.CompletedProcess:
 
 
 def test_every_caller_gets_the_same_context(gl):
-    from hybrid_engine import gl_context
+    from hybrid_engine.gpu import gl_context
 
     assert gl_context.get_context() is gl
     assert gl.version_code >= gl_context.REQUIRED_GL_VERSION
 
 
 def test_limits_report_the_drivers_storage_block_and_dispatch_limits(gl):
-    from hybrid_engine import gl_context
+    from hybrid_engine.gpu import gl_context
 
     limits = gl_context.limits()
     assert limits.max_ssbo_block_bytes >= 1 << 24  # GL 4.3 guarantees at least 16 MiB
@@ -39,7 +39,7 @@ def test_limits_report_the_drivers_storage_block_and_dispatch_limits(gl):
 def test_unknown_backend_fails_with_a_message_naming_it_and_the_fix():
     result = run_isolated(
         """
-        from hybrid_engine import gl_context
+        from hybrid_engine.gpu import gl_context
         try:
             gl_context.get_context()
         except gl_context.GLUnavailableError as exc:
@@ -53,7 +53,7 @@ def test_unknown_backend_fails_with_a_message_naming_it_and_the_fix():
 
 
 def test_a_driver_below_opengl_4_3_is_refused_with_the_version_it_offers(monkeypatch):
-    from hybrid_engine import gl_context
+    from hybrid_engine.gpu import gl_context
     import moderngl
 
     class OldContext:
@@ -71,7 +71,7 @@ def test_a_driver_below_opengl_4_3_is_refused_with_the_version_it_offers(monkeyp
 
 
 def test_driver_refusing_the_required_version_names_opengl_4_3(monkeypatch):
-    from hybrid_engine import gl_context
+    from hybrid_engine.gpu import gl_context
     import moderngl
 
     def refuse(**kwargs):
@@ -89,8 +89,9 @@ def test_activated_renders_in_our_context_and_restores_a_host_context():
     result = run_isolated(
         """
         import ctypes, moderngl, numpy as np
-        from hybrid_engine import gl_context, Camera, Geometry, MaterialTable, Lights, SceneData, Sky, RenderSettings
-        from hybrid_engine.renderer import Renderer
+        from hybrid_engine import Camera, Geometry, MaterialTable, Lights, SceneData, Sky, RenderSettings
+        from hybrid_engine.gpu import gl_context
+        from hybrid_engine.frame.renderer import Renderer
         egl = ctypes.CDLL("libEGL.so.1"); egl.eglGetCurrentContext.restype = ctypes.c_void_p
         ours = gl_context.get_context(); ours_handle = egl.eglGetCurrentContext()
         renderer = Renderer()
@@ -116,7 +117,7 @@ def test_activated_leaves_our_context_current_when_no_host_context_exists():
     result = run_isolated(
         """
         import numpy as np
-        from hybrid_engine import gl_context
+        from hybrid_engine.gpu import gl_context
         ctx = gl_context.get_context()
         with gl_context.activated():
             pass
@@ -133,7 +134,7 @@ def test_activated_can_hand_the_context_back_for_use_on_another_thread():
     result = run_isolated(
         """
         import ctypes, threading, numpy as np
-        from hybrid_engine import gl_context
+        from hybrid_engine.gpu import gl_context
         egl = ctypes.CDLL("libEGL.so.1"); egl.eglGetCurrentContext.restype = ctypes.c_void_p
         ctx = gl_context.get_context()
         with gl_context.activated(release_after=True):
@@ -163,13 +164,13 @@ def test_the_addon_and_the_core_imported_under_two_names_share_one_context(gl):
     from conftest import load_addon
 
     addon = load_addon()
-    assert addon.hybrid_engine.gl_context is not __import__("hybrid_engine.gl_context").gl_context
-    assert addon.hybrid_engine.gl_context.get_context() is gl
+    assert addon.hybrid_engine.gpu.gl_context is not __import__("hybrid_engine.gpu.gl_context").gpu.gl_context
+    assert addon.hybrid_engine.gpu.gl_context.get_context() is gl
 
 
 @pytest.mark.parametrize("platform,backend", [("linux", "egl"), ("win32", "wgl")])
 def test_each_platform_gets_its_own_backend_and_the_override_wins(monkeypatch, platform, backend):
-    from hybrid_engine import gl_context
+    from hybrid_engine.gpu import gl_context
 
     monkeypatch.delenv("HYBRID_RT_GL_BACKEND", raising=False)
     assert gl_context.platform_backend(platform) == backend
@@ -178,7 +179,7 @@ def test_each_platform_gets_its_own_backend_and_the_override_wins(monkeypatch, p
 
 
 def test_macos_is_refused_with_a_message_that_says_why(monkeypatch):
-    from hybrid_engine import gl_context
+    from hybrid_engine.gpu import gl_context
 
     monkeypatch.delenv("HYBRID_RT_GL_BACKEND", raising=False)
     with pytest.raises(gl_context.GLUnavailableError, match="OpenGL 4.1"):
@@ -188,7 +189,7 @@ def test_macos_is_refused_with_a_message_that_says_why(monkeypatch):
 def test_the_native_context_switch_is_linux_only():
     """Off Linux the EGL/GLX ctypes path is never loaded: glcontext's own save and restore
     of the host's context (WGL on Windows) is used instead."""
-    from hybrid_engine import gl_context
+    from hybrid_engine.gpu import gl_context
 
     elsewhere = gl_context._NativeGL(linux=False)
     assert elsewhere.egl is None and elsewhere.glx is None
@@ -208,7 +209,7 @@ def test_enabling_the_extension_on_macos_fails_with_the_reason_and_registers_not
 
 
 def test_off_linux_a_gl_block_enters_and_leaves_through_glcontext(monkeypatch, gl):
-    from hybrid_engine import gl_context
+    from hybrid_engine.gpu import gl_context
 
     calls = []
     monkeypatch.setattr(gl_context, "_native", gl_context._NativeGL(linux=False))

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The scene's GPU buffers (hybrid_engine/gpu_scene.py): what lands in them, in full and by
+"""The scene's GPU buffers (hybrid_engine/passes/scene_upload/scene_buffers.py): what lands in them, in full and by
 changed ranges, and how non-finite input is sanitised on the way."""
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Geometry, Lights, MaterialTable, SceneData, Sky
-from hybrid_engine.gpu_scene import GPUScene, attribute_arrays, finite_positions
-from hybrid_engine.scene_delta import GeometryTracker
+from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene, attribute_arrays, finite_positions
+from hybrid_engine.scene.changes import GeometryTracker
 
 BUFFERS = ("positions", "normals", "uvs", "triangle_materials")
 
@@ -113,7 +113,7 @@ def test_a_triangle_with_a_non_finite_corner_collapses_to_the_origin_and_bad_nor
 
 
 def test_a_scene_past_the_gpus_memory_fails_with_a_message_naming_the_buffer_and_its_size(ctx):
-    from hybrid_engine import gpu_dispatch
+    from hybrid_engine.gpu import dispatch as gpu_dispatch
 
     class RefusingContext:
         def buffer(self, reserve):

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Instances made world space on the GPU (hybrid_engine/instance_transform.py and
+"""Instances made world space on the GPU (hybrid_engine/passes/scene_upload/instance_transform.py and
 instancing.py): the shader agrees with the host's arithmetic and with hand-computed
 triangles, meshes are uploaded once and shared, a moved instance costs its own row, and a
 scene given as instances renders as the same scene given as world-space triangles."""
@@ -8,13 +8,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybrid_engine import RenderSettings, gpu_dispatch
-from hybrid_engine.camera import Camera, look_at
-from hybrid_engine.gpu_scene import GPUScene
-from hybrid_engine.instancing import InstancedGeometry, Instances, ObjectMesh
-from hybrid_engine.renderer import Renderer
-from hybrid_engine.scene_data import Geometry, Lights, MaterialTable, SceneData
-from hybrid_engine.tracer import TRIANGLE_UV_DTYPE, pack_triangle_uvs
+from hybrid_engine import RenderSettings
+from hybrid_engine.gpu import dispatch as gpu_dispatch
+from hybrid_engine.scene.camera import Camera, look_at
+from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
+from hybrid_engine.scene.instances import InstancedGeometry, Instances, ObjectMesh
+from hybrid_engine.frame.renderer import Renderer
+from hybrid_engine.scene.data import Geometry, Lights, MaterialTable, SceneData
+from hybrid_engine.passes.trace.tracer import TRIANGLE_UV_DTYPE, pack_triangle_uvs
 
 
 def _read(buffer, count: int, dtype, width: int) -> np.ndarray:
@@ -210,7 +211,7 @@ def test_a_scene_of_instances_renders_as_its_world_space_triangles(gl, rng, mode
 
 
 def test_a_producers_next_edit_packs_and_writes_only_the_rows_it_lists(ctx, rng):
-    from hybrid_engine.scene_data import GeometryEdit
+    from hybrid_engine.scene.data import GeometryEdit
 
     geometry = _random_instances(rng, count=20)
     geometry.edit = GeometryEdit(source=7, generation=1)

@@ -201,7 +201,7 @@ def test_runtime_imports_keep_the_order_are_relative_and_never_reach_the_tooling
         ("blender_adapter/x.py", "from ..operators import y\n", "imports operators"),
         ("operators/x.py", "from .. import ui\n", "imports ui"),
         ("operators/x.py", "import hybrid_engine\n", "absolute import"),
-        ("ui/x.py", "from hybrid_engine.settings import MODES\n", "absolute import"),
+        ("ui/x.py", "from hybrid_engine.scene.settings import MODES\n", "absolute import"),
         ("ui/x.py", "from ... import anything\n", "climbs above"),
         ("operators/x.py", "from ..scripts import demo\n", "no place in the import order"),
         ("hybrid_engine/x.py", "def f():\n    import embreex.rtcore_scene\n", "tooling module 'embreex"),
@@ -298,7 +298,7 @@ def test_every_shader_file_has_a_stage_and_a_program():
 
 @pytest.mark.parametrize(("label", "stages"), shader_programs(), ids=[p[0] for p in shader_programs()])
 def test_entry_shader_compiles(ctx, label, stages):
-    from hybrid_engine import shader_loader
+    from hybrid_engine.gpu import shader_loader
 
     defines: dict[str, str] = {}
     for stage_file in stages.values():
@@ -311,3 +311,131 @@ def test_entry_shader_compiles(ctx, label, stages):
     # a shader that compiled to nothing (an #ifdef that dropped its body) would have none.
     assert program.glo > 0 and len(list(program)) > 0, label
     assert ctx.error == "GL_NO_ERROR"
+
+
+# ---------------------------------------------------------------------------------------------
+# (d) The floor plan: rooms by the frame's steps, one folder per pass with its shaders under the
+# same name, and imports that only run one way.
+
+CORE = REPO_ROOT / "hybrid_engine"
+PASSES = CORE / "passes"
+# The core's top level: the package itself; everything else lives in a room.
+MAX_TOP_LEVEL_MODULES = 6
+SHADER_STRING_RE = re.compile(r"[\"']([a-z_]+)/[a-z_]+\.(?:comp|vert|frag|geom)\.glsl[\"']")
+
+
+def pass_folders() -> set[str]:
+    return {p.name for p in PASSES.iterdir() if (p / "__init__.py").exists()}
+
+
+def shader_folders() -> set[str]:
+    return {p.name for p in SHADER_ROOT.iterdir() if p.is_dir() and p.name != "include"}
+
+
+def core_rooms() -> set[str]:
+    return {p.name for p in CORE.iterdir() if (p / "__init__.py").exists()}
+
+
+def test_every_pass_folder_has_its_shader_folder_and_every_shader_folder_its_python():
+    """A newcomer looking for a pass opens hybrid_engine/passes/<name>/ and finds its GLSL in
+    gpu_shaders/<name>/; a shader folder names the pass (or core room) that dispatches it."""
+    passes, shaders = pass_folders(), shader_folders()
+    assert passes, "hybrid_engine/passes/ holds no pass folders"
+    assert passes - shaders == set(), f"pass folders without gpu_shaders/<name>/: {sorted(passes - shaders)}"
+    orphans = shaders - passes - core_rooms()
+    assert orphans == set(), f"shader folders that name no pass or core room: {sorted(orphans)}"
+
+
+def test_a_shader_is_loaded_only_from_the_python_folder_of_its_name():
+    """gpu_shaders/<name>/x.glsl is the GLSL of hybrid_engine/**/<name>/: no pass reaches into
+    another pass's shaders (it runs that pass instead)."""
+    problems = []
+    for path in sorted(CORE.rglob("*.py")):
+        for folder in SHADER_STRING_RE.findall(path.read_text(encoding="utf-8")):
+            if path.parent.name != folder:
+                problems.append(f"{path.relative_to(REPO_ROOT)} loads {folder}/ shaders")
+    assert problems == [], "\n".join(problems)
+
+
+def test_the_core_top_level_holds_few_modules():
+    modules = sorted(p.name for p in CORE.glob("*.py"))
+    assert len(modules) <= MAX_TOP_LEVEL_MODULES, modules
+
+
+def core_import_graph() -> dict[str, set[str]]:
+    """Module -> the core modules it imports (relative imports, by AST)."""
+    modules = {}
+    for path in CORE.rglob("*.py"):
+        if "__pycache__" in path.parts:
+            continue
+        parts = module_parts(path)
+        modules[".".join(parts)] = (path, path.name == "__init__.py")
+    graph = {}
+    for name, (path, is_package) in modules.items():
+        parts = name.split(".")
+        package = parts if is_package else parts[:-1]
+        targets = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not isinstance(node, ast.ImportFrom) or node.level == 0:
+                continue
+            base = package[: len(package) - (node.level - 1)] if node.level > 1 else package
+            target = ".".join(base + (node.module.split(".") if node.module else []))
+            for alias in node.names:
+                sub = f"{target}.{alias.name}"
+                targets.add(sub if sub in modules else target)
+        graph[name] = {t for t in targets if t in modules and t != name}
+    return graph
+
+
+def folder_of(module: str, graph: dict[str, set[str]], depth: int | None = None) -> str:
+    parts = module.split(".")
+    is_package = any(other.startswith(module + ".") for other in graph)
+    folder = parts if is_package else parts[:-1]
+    return ".".join(folder if depth is None else folder[:depth])
+
+
+def import_circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Every circle of imports, as the modules along it (depth-first search)."""
+    circles, state = [], {}
+
+    def visit(node: str, path: list[str]) -> None:
+        state[node] = "open"
+        for target in sorted(graph.get(node, ())):
+            if state.get(target) == "open":
+                circles.append(path[path.index(target):] + [target])
+            elif target not in state:
+                visit(target, path + [target])
+        state[node] = "done"
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node, [node])
+    return circles
+
+
+def mutual_folders(graph: dict[str, set[str]], depth: int | None) -> list[tuple[str, str]]:
+    """Folder pairs that import each other (a folder may import its own subfolders)."""
+    edges = set()
+    for module, targets in graph.items():
+        for target in targets:
+            a, b = folder_of(module, graph, depth), folder_of(target, graph, depth)
+            if a != b and not b.startswith(a + "."):
+                edges.add((a, b))
+    return sorted((a, b) for a, b in edges if (b, a) in edges and a < b)
+
+
+def test_the_core_has_no_import_circle_and_no_two_folders_import_each_other():
+    graph = core_import_graph()
+    assert len(graph) > 40, "found too few core modules: the graph reader is broken"
+    assert import_circles(graph) == []
+    for depth in (2, None):  # the rooms (gpu, scene, passes, ...) and every folder inside them
+        assert mutual_folders(graph, depth) == [], depth
+
+
+def test_the_circle_finder_finds_a_circle_and_mutual_folders():
+    """The checks above must be able to fail."""
+    graph = {"hybrid_engine.gpu.a": {"hybrid_engine.gpu.b"}, "hybrid_engine.gpu.b": {"hybrid_engine.frame.c"},
+             "hybrid_engine.frame.c": {"hybrid_engine.gpu.a"}}
+    (circle,) = import_circles(graph)
+    assert set(circle) == set(graph) and circle[0] == circle[-1]
+    assert mutual_folders(graph, 2) == [("hybrid_engine.frame", "hybrid_engine.gpu")]

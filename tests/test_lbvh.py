@@ -13,9 +13,11 @@ import numpy as np
 import pytest
 
 from benchmarks import lbvh_reference
-from hybrid_engine import gpu_dispatch, lbvh
+from hybrid_engine.gpu import triangle_input
+from hybrid_engine.gpu import dispatch as gpu_dispatch
+from hybrid_engine.passes.lbvh import lbvh
 from benchmarks.bench import hit_agreement, mesh_like_scene, reflection_rays
-from hybrid_engine.lbvh import NODE_DTYPE, TRIANGLE_DTYPE, LBVHBuilder, trace_closest
+from hybrid_engine.passes.lbvh.lbvh import NODE_DTYPE, TRIANGLE_DTYPE, LBVHBuilder, trace_closest
 
 # The brief's bar for agreement with Embree: rays grazing a shared edge may pick either
 # neighbour, a few in ten thousand at most.
@@ -420,7 +422,7 @@ def test_build_split_over_storage_blocks_equals_the_unsplit_build_and_embree(
         with gpu_dispatch.forced_limits(max_block=block_bytes):
             split = builder.build_from_array(tris)
             assert (split.node_split.blocks, split.triangle_split.blocks,
-                    lbvh.input_split(len(tris)).blocks) == blocks
+                    triangle_input.input_split(len(tris)).blocks) == blocks
             assert split.traversal_defines()["BVH_NODE_BLOCKS"] == blocks[0]
             t_split, tri_split = builder.trace(origins, dirs)
             np.testing.assert_array_equal(split.read_nodes(), nodes)
@@ -449,7 +451,7 @@ def test_split_build_over_an_index_list_reads_the_split_input(ctx, rng):
         t, tri = builder.trace(origins, dirs)
         with gpu_dispatch.forced_limits(max_block=SPLIT_BLOCK_BYTES_SMALL):
             split = builder.build(tri_buffer, len(picked), index_buffer, input_count=len(tris))
-            assert lbvh.input_split(len(tris)).blocks == 3
+            assert triangle_input.input_split(len(tris)).blocks == 3
             assert split.node_split.blocks == 4 and split.triangle_split.blocks == 3
             t_split, tri_split = builder.trace(origins, dirs)
     finally:
@@ -463,7 +465,7 @@ def test_split_build_over_an_index_list_reads_the_split_input(ctx, rng):
 
 def test_repeated_split_builds_compile_nothing_new(ctx, rng):
     """Programs are cached per block count: the second and later frames compile nothing."""
-    from hybrid_engine import shader_loader
+    from hybrid_engine.gpu import shader_loader
 
     builder = LBVHBuilder(ctx)
     try:
@@ -503,7 +505,7 @@ def test_real_size_scene_culls_at_10_5m_and_builds_6_5m_triangles_agreeing_with_
     """The sizes the project renders: a 10.5M-triangle scene (input in 3 real 128 MiB blocks)
     culled and built, and a 6.5M-triangle BVH (nodes in 4 blocks, triangles in 3) traced
     against Embree. About 30 s and 3 GiB on llvmpipe."""
-    from hybrid_engine import near_cube
+    from hybrid_engine.passes.near_cube_cull import near_cube
     from test_near_cube import BOUNDARY_TOLERANCE, sat_overlap
 
     # Drivers with larger blocks (2 GiB on some) bind these arrays whole; the checks of the
@@ -523,7 +525,7 @@ def test_real_size_scene_culls_at_10_5m_and_builds_6_5m_triangles_agreeing_with_
         # Culling: every sampled triangle decided as the float64 SAT test decides it.
         center, near_size = np.array([0.5, -0.5, 0.25]), 6.0
         result = culler.cull(tri_buffer, scene_count, center, near_size, ranges, bounds)
-        assert lbvh.input_split(scene_count).blocks == -(-scene_count * 36 // limit) or limit > 2**27
+        assert triangle_input.input_split(scene_count).blocks == -(-scene_count * 36 // limit) or limit > 2**27
         kept = result.read_indices()
         assert np.all(np.diff(kept) > 0)
         half = near_size + near_cube.overlap_margin(near_size)

@@ -154,7 +154,7 @@ def test_flip_map_gives_the_benchmarks_mean_with_the_error_where_the_images_diff
 
 def test_the_png_encoder_round_trips_and_beats_unfiltered_rows(rng, pictures, tmp_path):
     load_addon()
-    from hybrid_rt.hybrid_engine import chart_png
+    from hybrid_rt.hybrid_engine.reports import chart_png
 
     y, x = np.mgrid[0:60, 0:90]
     smooth = np.stack([x * 2, y * 3, (x + y)], axis=-1).astype(np.uint8)

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Principled BSDF → paper material mapping (hybrid_engine/materials.py), without Blender.
+"""Principled BSDF → paper material mapping (hybrid_engine/scene/materials.py), without Blender.
 
 The extractor and the material panel both use this one function, so its documented blend
 is checked here against an independent restatement of DESIGN.md's rules.
@@ -12,8 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from hybrid_engine.materials import DEFAULT_IOR, DEFAULT_THICKNESS, MIN_IOR, principled_to_params
-from hybrid_engine.scene_data import MaterialTable
+from hybrid_engine.scene.materials import DEFAULT_IOR, DEFAULT_THICKNESS, MIN_IOR, principled_to_params
+from hybrid_engine.scene.data import MaterialTable
 
 EXACT = 1e-12  # pure float arithmetic on a few numbers: no rounding beyond one ulp or two
 

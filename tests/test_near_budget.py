@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The near cube sized to a frame budget (hybrid_engine/near_budget.py), driven by frame-time
+"""The near cube sized to a frame budget (hybrid_engine/frame/near_budget.py), driven by frame-time
 models with seeded noise: it shrinks the cube over budget and grows it under, stays within
 the artist's limits, and settles on a still scene instead of oscillating."""
 from __future__ import annotations
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybrid_engine.near_budget import BudgetError, NearCubeBudget
+from hybrid_engine.frame.near_budget import BudgetError, NearCubeBudget
 
 
 def model(size: float) -> float:

@@ -11,8 +11,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybrid_engine import gpu_dispatch, lbvh, near_cube
-from hybrid_engine.lbvh import LBVHBuilder
+from hybrid_engine.gpu import triangle_input
+from hybrid_engine.gpu import dispatch as gpu_dispatch
+from hybrid_engine.passes.near_cube_cull import near_cube
+from hybrid_engine.passes.lbvh.lbvh import LBVHBuilder
 
 # float32 rounding of vertex coordinates around 10 scene units is ~1e-6; 1e-4 is a comfortable
 # band in which the GPU may decide either way without hiding a wrong test.
@@ -248,7 +250,7 @@ def test_culling_a_scene_split_over_storage_blocks_keeps_the_same_triangles(ctx,
     culler = near_cube.NearCubeCuller(ctx)
     whole = culler.cull_array(tris, center, 3.0, ranges, bounds, margin=0.0).read_indices()
     with gpu_dispatch.forced_limits(max_block=SPLIT_BLOCK_BYTES):
-        assert lbvh.input_split(len(tris)).blocks == 4
+        assert triangle_input.input_split(len(tris)).blocks == 4
         split = culler.cull_array(tris, center, 3.0, ranges, bounds, margin=0.0)
         kept = split.read_indices()
         # Without objects every triangle takes the SAT test, in every block.
@@ -272,7 +274,7 @@ def test_culled_build_over_a_split_scene_hits_what_the_unsplit_one_hits(ctx, rng
         with gpu_dispatch.forced_limits(max_block=SPLIT_BLOCK_BYTES):
             result = culler.cull(tri_buffer, len(tris), (0, 0, 0), 1.5, ranges, bounds)
             built = builder.build(tri_buffer, result.count, result.indices, input_count=len(tris))
-            assert built.node_split.blocks > 1 and lbvh.input_split(len(tris)).blocks == 4
+            assert built.node_split.blocks > 1 and triangle_input.input_split(len(tris)).blocks == 4
             t_split, tri_split = builder.trace(origins, dirs)
     finally:
         builder.release()

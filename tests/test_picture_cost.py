@@ -11,9 +11,10 @@ import sys
 import numpy as np
 
 from conftest import REPO_ROOT
-from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky, shader_loader
-from hybrid_engine.camera import look_at
-from hybrid_engine.renderer import Renderer
+from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
+from hybrid_engine.gpu import shader_loader
+from hybrid_engine.scene.camera import look_at
+from hybrid_engine.frame.renderer import Renderer
 from scenes_analytic import quad
 
 from benchmarks.picture_cost import OFF_DEFINES
@@ -34,11 +35,11 @@ def test_every_switch_of_the_off_variant_is_tested_in_the_shaders():
 
 
 def test_compiled_with_adds_its_defines_inside_the_block_only(gl):
-    plain = shader_loader.compute(gl, "shade/deferred_shade.comp.glsl")
+    plain = shader_loader.compute(gl, "shading/deferred_shade.comp.glsl")
     with shader_loader.compiled_with({"NO_WORLD_LIGHT": 1}):
-        variant = shader_loader.compute(gl, "shade/deferred_shade.comp.glsl")
+        variant = shader_loader.compute(gl, "shading/deferred_shade.comp.glsl")
     assert variant is not plain
-    assert shader_loader.compute(gl, "shade/deferred_shade.comp.glsl") is plain
+    assert shader_loader.compute(gl, "shading/deferred_shade.comp.glsl") is plain
 
 
 def test_without_world_light_a_sky_lit_plane_renders_black(gl):

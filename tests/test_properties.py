@@ -8,7 +8,7 @@ from dataclasses import asdict, fields
 import bpy
 import pytest
 
-from hybrid_engine.settings import CUBE_MARCHES, FIELD_LIMITS, MODES, RenderSettings
+from hybrid_engine.scene.settings import CUBE_MARCHES, FIELD_LIMITS, MODES, RenderSettings
 
 FLOAT32_TOLERANCE = 1e-6  # Blender stores float properties as float32
 

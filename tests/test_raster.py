@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
-from hybrid_engine.camera import look_at
-from hybrid_engine.renderer import Renderer
+from hybrid_engine.scene.camera import look_at
+from hybrid_engine.frame.renderer import Renderer
 from scenes_analytic import box, quad, ray_box, ray_plane_z, uv_sphere
 from conftest import save_failure_images
 
@@ -231,7 +231,7 @@ def test_timing_reports_every_pass_and_is_off_on_request(renderer):
 
 
 def test_cancel_callback_stops_the_frame_and_the_next_frame_renders(renderer):
-    from hybrid_engine.renderer import RenderCancelled
+    from hybrid_engine.frame.renderer import RenderCancelled
 
     camera = Camera(width=16, height=16)
     scene = diffuse_scene([(quad((0, 0, -3), (1, 0, 0), (0, 1, 0)), None, 0)], [])
@@ -280,7 +280,7 @@ def test_culled_primary_and_shadow_draws_equal_the_object_lists_on_moving_chess_
     layers and the image are bit-identical to drawing the object lists, with the same
     triangles submitted, and most primary triangles never reach the rasterizer."""
     from benchmarks.scenes.chess import build_chess
-    from hybrid_engine.view_cull import MAX_VIEWS
+    from hybrid_engine.passes.view_cull.view_cull import MAX_VIEWS
 
     frames = [build_chess(detail=0.05, frame=f, width=96, height=54) for f in (3, 4)]
     settings = RenderSettings(mode="RASTER", shadow_resolution=256)
@@ -317,7 +317,7 @@ def test_a_dense_distant_mesh_reaches_the_rasterizer_as_a_few_triangles(gl):
 def test_draws_past_the_storage_block_limit_fall_back_to_the_object_lists(gl):
     """An index buffer larger than one storage block is not built: the primary view, the
     shadow slots and the sun's cascades draw their object lists, with the same image."""
-    from hybrid_engine.gpu_dispatch import forced_limits
+    from hybrid_engine.gpu.dispatch import forced_limits
     from benchmarks.scenes.chess import build_chess
 
     frames = [build_chess(detail=0.03, frame=0, width=48, height=27)]
@@ -334,7 +334,9 @@ def test_a_hybrid_frame_enters_each_raster_pass_module_once(monkeypatch):
     """Following a frame through the code, the shadow, G-buffer and deferred-shading modules
     are each entered once per pass: the primary view and the six cube faces are one call
     each, and the shadow pass owns its cache and both layers."""
-    from hybrid_engine import deferred_shade, gbuffer, shadow_depth
+    from hybrid_engine.passes.shading import deferred_shade
+    from hybrid_engine.passes.gbuffer import gbuffer
+    from hybrid_engine.passes.shadow_maps import shadow_depth
 
     entries = {}
     for cls, name in ((shadow_depth.ShadowDepthPass, "render"), (gbuffer.GBufferPass, "render_primary"),
@@ -354,5 +356,5 @@ def test_a_hybrid_frame_enters_each_raster_pass_module_once(monkeypatch):
         r.render(scene, camera, RenderSettings(mode="HYBRID", near_size=1.5, cube_resolution=32))
     finally:
         r.release()
-    assert entries == {"hybrid_engine.shadow_depth.render": 1, "hybrid_engine.gbuffer.render_primary": 1,
-                       "hybrid_engine.gbuffer.render_cube_faces": 1, "hybrid_engine.deferred_shade.run": 1}
+    assert entries == {"hybrid_engine.passes.shadow_maps.shadow_depth.render": 1, "hybrid_engine.passes.gbuffer.gbuffer.render_primary": 1,
+                       "hybrid_engine.passes.gbuffer.gbuffer.render_cube_faces": 1, "hybrid_engine.passes.shading.deferred_shade.run": 1}

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Renderer modes (hybrid_engine/renderer.py): every mode renders, reports its passes and
+"""Renderer modes (hybrid_engine/frame/renderer.py): every mode renders, reports its passes and
 counts, and switching modes on one Renderer keeps each mode's result intact."""
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, MODES, RenderSettings, SceneData, Sky
-from hybrid_engine.camera import look_at
-from hybrid_engine.renderer import MODE_STEPS, RenderCancelled
+from hybrid_engine.scene.camera import look_at
+from hybrid_engine.frame.renderer import MODE_STEPS, RenderCancelled
 from scenes_analytic import quad, uv_sphere
 
 SMALL = dict(cube_resolution=32, shadow_resolution=128, near_size=2.0)

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Frame-to-frame reuse in hybrid_engine/renderer.py: only changed triangles are
+"""Frame-to-frame reuse in hybrid_engine/frame/renderer.py: only changed triangles are
 re-uploaded and shadow maps are re-rendered only when something they depend on changed;
 every frame must still equal a from-scratch render of the same scene."""
 from __future__ import annotations
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from hybrid_engine import RenderSettings
-from hybrid_engine.renderer import Renderer
+from hybrid_engine.frame.renderer import Renderer
 from benchmarks.scenes.chess import build_chess
 
 DETAIL = 0.02  # ~35k triangles: several objects move from frame to frame
@@ -91,8 +91,8 @@ def test_shading_normals_split_over_storage_blocks_render_the_same_image(gl, fra
     FULL_BVH's splits its whole-scene BVH (64-byte nodes, 48-byte triangles) and not the
     36-byte normals, as a 2-3 M triangle scene does (more splits than that exceed llvmpipe's
     16 storage blocks per kernel)."""
-    from hybrid_engine import gpu_dispatch
-    from hybrid_engine.tracer import NORMAL_BYTES
+    from hybrid_engine.gpu import dispatch as gpu_dispatch
+    from hybrid_engine.passes.trace.tracer import NORMAL_BYTES
 
     scene, camera = frames[0]
     n = scene.geometry.triangle_count

@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybrid_engine.camera import Camera, look_at
-from hybrid_engine.viewport_frame import RegionInput
+from hybrid_engine.scene.camera import Camera, look_at
+from hybrid_engine.frame.viewport import RegionInput
 
 WIDTH, HEIGHT = 32, 20
 

@@ -1,12 +1,12 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Change tracking between frames (hybrid_engine/scene_delta.py)."""
+"""Change tracking between frames (hybrid_engine/scene/changes.py)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from hybrid_engine import Geometry
-from hybrid_engine.scene_delta import MERGE_GAP_TRIANGLES, GeometryTracker, changed_rows, merge_ranges
+from hybrid_engine.scene.changes import MERGE_GAP_TRIANGLES, GeometryTracker, changed_rows, merge_ranges
 
 
 def geometry(rng, objects=4, per_object=5000, uvs=False) -> Geometry:
@@ -121,7 +121,7 @@ def test_changed_rows_finds_exactly_the_rows_that_differ_in_any_bit(rng, shape):
 
 
 def _edited(geo: Geometry, source: int, generation: int, objects) -> Geometry:
-    from hybrid_engine.scene_data import GeometryEdit
+    from hybrid_engine.scene.data import GeometryEdit
 
     geo.edit = GeometryEdit(source, generation, None if objects is None else tuple(objects))
     return geo

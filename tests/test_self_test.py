@@ -1,11 +1,12 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The GPU self-test (hybrid_engine/self_test.py) and its button in the add-on's preferences:
+"""The GPU self-test (hybrid_engine/reports/self_test.py) and its button in the add-on's preferences:
 it passes on this machine, and a shader broken on purpose makes it fail, naming the shader."""
 from __future__ import annotations
 
 import pytest
 
-from hybrid_engine import self_test, shader_loader
+from hybrid_engine.reports import self_test
+from hybrid_engine.gpu import shader_loader
 
 
 def test_the_self_test_passes_here(gl):
@@ -20,7 +21,7 @@ def test_a_broken_shader_fails_the_self_test_clearly(gl, monkeypatch):
 
     def broken(name, defines=None):
         source = original(name, defines)
-        if name == "shade/deferred_shade.comp.glsl":
+        if name == "shading/deferred_shade.comp.glsl":
             source = type(source)(**{**source.__dict__, "text": source.text.replace("void main()", "void main( {")})
         return source
 

@@ -1,11 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Render settings (hybrid_engine/settings.py): the near cube's Frame Budget limits are
+"""Render settings (hybrid_engine/scene/settings.py): the near cube's Frame Budget limits are
 checked with the rest."""
 from __future__ import annotations
 
 import pytest
 
-from hybrid_engine.settings import RenderSettings, SettingsError
+from hybrid_engine.scene.settings import RenderSettings, SettingsError
 
 
 def test_a_budget_whose_minimum_exceeds_its_maximum_is_refused():

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Tests for hybrid_engine/shader_loader.py: includes, defines, and errors that name file:line.
+"""Tests for hybrid_engine/gpu/shader_loader.py: includes, defines, and errors that name file:line.
 
 Every test writes its own tiny shader tree into a temporary directory (SHADER_ROOT is
 monkeypatched) and gets a private program cache, so nothing here touches the real
@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from hybrid_engine import shader_loader
-from hybrid_engine.shader_loader import ShaderError
+from hybrid_engine.gpu import shader_loader
+from hybrid_engine.gpu.shader_loader import ShaderError
 
 
 class ShaderTree:

@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybrid_engine.camera import Camera, look_at
-from hybrid_engine.renderer import Renderer
-from hybrid_engine.scene_data import Geometry, Lights, MaterialTable, SceneData, Sky
-from hybrid_engine.settings import RenderSettings
+from hybrid_engine.scene.camera import Camera, look_at
+from hybrid_engine.frame.renderer import Renderer
+from hybrid_engine.scene.data import Geometry, Lights, MaterialTable, SceneData, Sky
+from hybrid_engine.scene.settings import RenderSettings
 from scenes_analytic import quad, uv_sphere
 
 W, H = 64, 48

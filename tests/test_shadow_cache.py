@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""hybrid_engine/shadow_cache.py: static and dynamic shadow layers. Splitting the maps must
+"""hybrid_engine/passes/shadow_maps/shadow_cache.py: static and dynamic shadow layers. Splitting the maps must
 never change an image (the lookup's min over both layers is one map of all objects), and an
 animation must re-render only the layer of what moved."""
 from __future__ import annotations
@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Geometry, RenderSettings
-from hybrid_engine.renderer import Renderer
-from hybrid_engine.scene_delta import GeometryDelta, GeometryTracker
+from hybrid_engine.frame.renderer import Renderer
+from hybrid_engine.scene.changes import GeometryDelta, GeometryTracker
 from benchmarks.scenes.chess import build_chess
-from hybrid_engine.shadow_cache import PROMOTE_AFTER_FRAMES, ShadowCache, changed_objects, snapped_bounds
+from hybrid_engine.passes.shadow_maps.shadow_cache import PROMOTE_AFTER_FRAMES, ShadowCache, changed_objects, snapped_bounds
 
 RANGES = np.array([[0, 10], [10, 5], [15, 0], [15, 20]], np.int32)
 

@@ -1,13 +1,13 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The World's irradiance (hybrid_engine/sky_light.py, gpu_shaders/lighting/) against a
+"""The World's irradiance (hybrid_engine/passes/lighting/sky_light.py, gpu_shaders/lighting/) against a
 brute-force numpy integral of the same environment, and its recompute-on-change rule."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from hybrid_engine.scene_data import Sky
-from hybrid_engine.sky_light import SkyLight
+from hybrid_engine.scene.data import Sky
+from hybrid_engine.passes.lighting.sky_light import SkyLight
 
 SH_CONSTANTS = (0.282095, 0.488603, 1.092548, 0.315392, 0.546274)
 

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""hybrid_engine/solids.py: only closed, outward-wound surfaces qualify for back-face
+"""hybrid_engine/scene/solids.py: only closed, outward-wound surfaces qualify for back-face
 culling, and culling them changes no image."""
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from hybrid_engine import RenderSettings
-from hybrid_engine.renderer import Renderer
+from hybrid_engine.frame.renderer import Renderer
 from benchmarks.scenes.chess import box, build_chess, piece_templates, quad
-from hybrid_engine.solids import closed_outward
+from hybrid_engine.scene.solids import closed_outward
 
 CUBE = box((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
 
@@ -75,8 +75,8 @@ def test_culling_back_faces_of_closed_objects_leaves_the_image_unchanged(gl, mod
 
 
 def test_culling_is_active_a_face_turned_away_and_wrongly_marked_closed_disappears(gl):
-    from hybrid_engine.camera import Camera, look_at
-    from hybrid_engine.scene_data import Geometry, Lights, MaterialTable, SceneData, Sky, flat_normals
+    from hybrid_engine.scene.camera import Camera, look_at
+    from hybrid_engine.scene.data import Geometry, Lights, MaterialTable, SceneData, Sky, flat_normals
 
     # A square in the z = 0 plane, counter-clockwise seen from below; the camera looks down.
     away = quad((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)).astype(np.float32)

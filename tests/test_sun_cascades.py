@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""hybrid_engine/sun_cascades.py and its use by the shadow pass: shadow maps for a sun fitted
+"""hybrid_engine/passes/shadow_maps/sun_cascades.py and its use by the shadow pass: shadow maps for a sun fitted
 to the first stretches of the view, finer there than the map of the whole scene, kept while
 the camera stands still or jitters, re-rendered alone when it moves."""
 from __future__ import annotations
@@ -7,12 +7,12 @@ from __future__ import annotations
 import numpy as np
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
-from hybrid_engine.antialias import jittered_camera
-from hybrid_engine.camera import look_at
-from hybrid_engine.renderer import Renderer
-from hybrid_engine.scene_bounds import SceneBounds
-from hybrid_engine.shadow_depth import frame_shadow_views
-from hybrid_engine.sun_cascades import CASCADE_SPLIT, quantized, sun_cascade_views
+from hybrid_engine.frame.antialias import jittered_camera
+from hybrid_engine.scene.camera import look_at
+from hybrid_engine.frame.renderer import Renderer
+from hybrid_engine.scene.bounds import SceneBounds
+from hybrid_engine.passes.shadow_maps.shadow_depth import frame_shadow_views
+from hybrid_engine.passes.shadow_maps.sun_cascades import CASCADE_SPLIT, quantized, sun_cascade_views
 from scenes_analytic import box, quad, ray_box, ray_plane_z
 
 SUN = np.array([0.5, 0.3, -1.0]) / np.linalg.norm([0.5, 0.3, -1.0])

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Image textures (hybrid_engine/textures.py, gpu_shaders/include/textures.glsl) in the three
+"""Image textures (hybrid_engine/passes/scene_upload/textures.py, gpu_shaders/include/textures.glsl) in the three
 places a surface is shaded: the primary G-buffer (paper §3.1), the cube-map faces (§3.2,
 whose texels keep the UV that the tracer samples at cube-map hits) and the tracer's BVH
 hits (§3.4).
@@ -19,12 +19,12 @@ import pytest
 
 from conftest import REPO_ROOT, save_failure_images
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
-from hybrid_engine.camera import look_at
-from hybrid_engine.cube_map import CubeMapPass
-from hybrid_engine.gpu_scene import GPUScene
-from hybrid_engine.gbuffer import GBufferPass
-from hybrid_engine.scene_data import MATERIAL_DTYPE, SceneDataError
-from hybrid_engine.textures import (
+from hybrid_engine.scene.camera import look_at
+from hybrid_engine.passes.cube_map.cube_map import CubeMapPass
+from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
+from hybrid_engine.passes.gbuffer.gbuffer import GBufferPass
+from hybrid_engine.scene.data import MATERIAL_DTYPE, SceneDataError
+from hybrid_engine.passes.scene_upload.textures import (
     HALF_MAX,
     GPUTextures,
     TextureLimitError,
@@ -34,7 +34,7 @@ from hybrid_engine.textures import (
     resample,
     srgb_to_linear,
 )
-from hybrid_engine.tracer import TRIANGLE_UV_DTYPE, pack_triangle_uvs
+from hybrid_engine.passes.trace.tracer import TRIANGLE_UV_DTYPE, pack_triangle_uvs
 from scenes_analytic import ray_plane_z
 
 # GPUs filter with a fixed-point sub-texel weight (8 bits on current hardware and on

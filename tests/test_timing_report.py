@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Timing reports: hybrid_engine/timing_report.py (core) and ``bpy.ops.hybrid_rt.timing_report``.
+"""Timing reports: hybrid_engine/reports/timing_report.py (core) and ``bpy.ops.hybrid_rt.timing_report``.
 
 The core is tested with frames whose timings are known (fake render callbacks returning
 FrameResults with the tracer's pass names), so statistics, ordering and files can be checked
@@ -21,10 +21,11 @@ import pytest
 
 from conftest import REPO_ROOT
 from image_io import read_png
-from hybrid_engine import chart_png, timing_report
-from hybrid_engine.renderer import FrameResult
-from hybrid_engine.timing import TIMING_SOURCE_WALL
-from hybrid_engine.timing_report import (
+from hybrid_engine.reports import chart_png
+from hybrid_engine.reports import timing_report
+from hybrid_engine.frame.renderer import FrameResult
+from hybrid_engine.gpu.timing import TIMING_SOURCE_WALL
+from hybrid_engine.reports.timing_report import (
     FrameRangeError, OutputPathError, TimingReportError, ordered_count_names, ordered_pass_names,
     prepare_output_prefix, run_timing_report, summarize, validate_frame_range,
 )
@@ -159,7 +160,7 @@ def test_the_svg_chart_parses_and_names_every_pass_the_axes_the_target_and_the_s
 
 
 def test_a_job_cancelled_after_two_frames_writes_them_and_says_it_is_incomplete(tmp_path):
-    from hybrid_engine.timing_report import TimingReportJob
+    from hybrid_engine.reports.timing_report import TimingReportJob
 
     renderer = CountingRenderer()
     job = TimingReportJob(tmp_path / "r", 1, 5, renderer, warmup_frames=1, target_fps=24.0)
@@ -176,7 +177,7 @@ def test_a_job_cancelled_after_two_frames_writes_them_and_says_it_is_incomplete(
 
 
 def test_a_job_stepped_to_the_end_writes_what_the_one_call_report_writes(tmp_path):
-    from hybrid_engine.timing_report import TimingReportJob
+    from hybrid_engine.reports.timing_report import TimingReportJob
 
     job = TimingReportJob(tmp_path / "a", 2, 4, CountingRenderer())
     while job.step():
@@ -190,7 +191,7 @@ def test_a_job_stepped_to_the_end_writes_what_the_one_call_report_writes(tmp_pat
 
 
 def test_a_job_cancelled_before_its_first_frame_writes_nothing_and_says_so(tmp_path):
-    from hybrid_engine.timing_report import TimingReportJob
+    from hybrid_engine.reports.timing_report import TimingReportJob
 
     job = TimingReportJob(tmp_path / "r", 1, 3, CountingRenderer(), warmup_frames=2)
     job.step()  # a warm-up only
@@ -329,7 +330,7 @@ def test_operator_writes_a_row_per_frame_whose_passes_sum_to_the_total(addon, ex
     assert data["settings"]["mode"] == "RASTER" and data["settings"]["shadow_resolution"] == 64
     assert data["summary"]["target_fps"] == pytest.approx(scene.render.fps / scene.render.fps_base)
     assert data["scene"]["resolution"] == list(TINY)
-    assert data["gl_renderer"] == addon.hybrid_engine.gl_context.renderer_name()
+    assert data["gl_renderer"] == addon.hybrid_engine.gpu.gl_context.renderer_name()
     assert data["machine"]["cpu_count"] >= 1
 
     with open(tmp_path / "report.csv", newline="") as handle:

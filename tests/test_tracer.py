@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The hybrid tracer (hybrid_engine/tracer.py, gpu_shaders/trace/, paper §3.4) end to end.
+"""The hybrid tracer (hybrid_engine/passes/trace/tracer.py, gpu_shaders/trace/, paper §3.4) end to end.
 
 Oracles: the CPU Whitted renderer on embreex (tests/whitted_reference.py) for FULL_BVH;
 FULL_BVH itself for HYBRID (as in the paper); and analytic expectations (what a mirror or a
@@ -10,9 +10,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hybrid_engine.gpu import triangle_input
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
-from hybrid_engine.camera import look_at
-from hybrid_engine.renderer import Renderer
+from hybrid_engine.scene.camera import look_at
+from hybrid_engine.frame.renderer import Renderer
 from conftest import save_failure_images
 from scenes_analytic import box, quad, uv_sphere
 from whitted_reference import WhittedReference, flip_mean
@@ -485,8 +486,8 @@ def test_shading_normals_split_over_storage_blocks_render_the_same_image(rendere
     interpolates at BVH hits are bound as several ranges. A dense ball far outside the near
     cube comes first, so that the near objects' triangles lie in the later blocks; with a
     (forced) limit that splits the normals into three blocks, HYBRID renders the image of the unsplit buffers."""
-    from hybrid_engine import gpu_dispatch, lbvh
-    from hybrid_engine.tracer import NORMAL_BYTES
+    from hybrid_engine.gpu import dispatch as gpu_dispatch
+    from hybrid_engine.passes.trace.tracer import NORMAL_BYTES
 
     near = mirror_and_emitters_scene()
     far_ball, far_normals = uv_sphere((0, 60, 0), 3.0, 64, 32)
@@ -504,15 +505,15 @@ def test_shading_normals_split_over_storage_blocks_render_the_same_image(rendere
     limit = NORMAL_BYTES * n // 3 + 64 * NORMAL_BYTES
     with gpu_dispatch.forced_limits(max_block=limit):
         assert gpu_dispatch.split_blocks(n, NORMAL_BYTES, "normals").blocks == 3
-        assert lbvh.input_split(n).blocks == 3
+        assert triangle_input.input_split(n).blocks == 3
         split = render(renderer, scene, camera, "HYBRID", near_size=7.0)
     assert split.counts["triangles_bvh"] == bvh
     np.testing.assert_array_equal(split.image, whole.image)
 
 
 def test_the_march_bounds_are_padded_around_the_geometry_and_absent_for_an_empty_scene():
-    from hybrid_engine.scene_bounds import SceneBounds
-    from hybrid_engine.tracer import scene_bound_uniforms
+    from hybrid_engine.scene.bounds import SceneBounds
+    from hybrid_engine.passes.trace.tracer import scene_bound_uniforms
     empty = scene_bound_uniforms(SceneBounds.of(make_scene([])))
     assert empty["u_scene_bounded"] == 0  # nothing bounds the march: it runs to the far planes
     # One finite object and one wholly NaN one: the bounds are those of the finite one.

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Per-triangle culling of raster draws (hybrid_engine/view_cull.py): the cube-map faces
+"""Per-triangle culling of raster draws (hybrid_engine/passes/view_cull/view_cull.py): the cube-map faces
 drawn from the GPU-culled lists are bit-identical to drawing the object lists, while far
 fewer triangles reach the rasterizer."""
 from __future__ import annotations
@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
-from hybrid_engine.camera import look_at
-from hybrid_engine.gpu_dispatch import forced_limits
-from hybrid_engine.renderer import Renderer
+from hybrid_engine.scene.camera import look_at
+from hybrid_engine.gpu.dispatch import forced_limits
+from hybrid_engine.frame.renderer import Renderer
 from benchmarks.scenes.chess import CHESS_CUBE_FAR, build_chess
-from hybrid_engine.view_cull import CHUNK_ITEMS, CullView, view_segments
+from hybrid_engine.passes.view_cull.view_cull import CHUNK_ITEMS, CullView, view_segments
 from scenes_analytic import box, quad, uv_sphere
 
 
@@ -119,7 +119,7 @@ def test_segments_merge_adjacent_objects_and_start_each_view_on_a_chunk():
     bounds = np.stack([near, near, near, far])
     closed = np.array([False, False, True, False])
     up = look_at((0, 0, 0), (0, 0, 1), (0, 1, 0))
-    from hybrid_engine.camera import perspective_matrix
+    from hybrid_engine.scene.camera import perspective_matrix
     vp = perspective_matrix(np.radians(90), 1.0, 0.1, 100.0) @ np.linalg.inv(up)
     segments, chunks = view_segments([CullView(vp, 8, 8), CullView(vp, 8, 8)], ranges, bounds, closed)
     assert segments["first"].tolist() == [0, 15, 0, 15]

@@ -14,7 +14,7 @@ import os
 import numpy as np
 import pytest
 
-from hybrid_engine.camera import look_at
+from hybrid_engine.scene.camera import look_at
 
 WIDTH, HEIGHT = 24, 16
 # Two renders of an unchanged scene are bit-identical; a real change moves many pixels by far more.
@@ -32,8 +32,8 @@ def viewport(addon, fed_session):
 
 
 def _region(bpy, eye=(6.0, -7.0, 5.0), target=(0.0, 0.0, 0.5)):
-    from hybrid_engine.camera import Camera
-    from hybrid_engine.viewport_frame import RegionInput
+    from hybrid_engine.scene.camera import Camera
+    from hybrid_engine.frame.viewport import RegionInput
 
     camera = Camera(matrix_world=look_at(eye, target), width=WIDTH, height=HEIGHT, lens=35.0)
     return RegionInput(camera.view_matrix(), camera.projection_matrix(), WIDTH, HEIGHT)
@@ -291,7 +291,7 @@ def test_an_error_inside_a_frame_is_reported_once_and_the_next_frame_renders(add
 
 def test_missing_opengl_is_a_clear_message_not_an_exception(addon, capsys):
     import bpy
-    from hybrid_engine.gl_context import GLUnavailableError
+    from hybrid_engine.gpu.gl_context import GLUnavailableError
 
     def no_gl():
         raise GLUnavailableError("Hybrid RT needs OpenGL 4.3 (compute shaders); the driver offers 3.3")
@@ -435,8 +435,8 @@ def test_accumulation_restarts_when_the_view_an_object_or_a_setting_changes(addo
 def test_sixteen_still_redraws_converge_to_a_64_sample_final_render_of_the_view(addon, viewport):
     import bpy
 
-    from hybrid_engine.antialias import render_antialiased
-    from hybrid_engine.viewport_frame import RegionInput
+    from hybrid_engine.frame.antialias import render_antialiased
+    from hybrid_engine.frame.viewport import RegionInput
     from whitted_reference import flip_mean
 
     _module, session, _reports = viewport
@@ -447,14 +447,14 @@ def test_sixteen_still_redraws_converge_to_a_64_sample_final_render_of_the_view(
     bsdf.inputs["Roughness"].default_value = 0.3  # a glossy lobe: noisy in one sample
     scene.hybrid_rt.viewport_samples = 16
     _sync(bpy)
-    from hybrid_engine.camera import Camera
+    from hybrid_engine.scene.camera import Camera
 
     camera = Camera(matrix_world=look_at((4.0, -5.0, 3.5), (0.0, 0.0, 0.7)), width=64, height=48, lens=35.0)
     region = RegionInput(camera.view_matrix(), camera.projection_matrix(), 64, 48)
     settings = _settings(addon, bpy)
     frames = [session.frame(region, settings) for _ in range(16)]
     assert frames[-1].converged and not frames[-2].converged
-    from hybrid_engine.viewport_frame import plan_frame
+    from hybrid_engine.frame.viewport import plan_frame
 
     reference = render_antialiased(session.renderer, session.cache.scene_data, plan_frame(region, 1.0).view,
                                    settings, 64, timing=False).image
@@ -499,7 +499,8 @@ def test_frame_budget_sizes_the_viewports_near_cube_and_f12_takes_the_size_it_se
 
 def test_a_diagnostic_view_shows_its_legend_in_the_viewport(addon, viewport):
     import bpy
-    from hybrid_engine import diagnostics
+    from hybrid_engine.passes.trace import diagnostic_views
+    from hybrid_engine.reports import diagnostic_legend
 
     _module, session, _reports = viewport
     scene, _cube, _material = _two_object_scene(bpy)
@@ -508,6 +509,6 @@ def test_a_diagnostic_view_shows_its_legend_in_the_viewport(addon, viewport):
     settings = _settings(addon, bpy)
     image = _frame(addon, bpy, session).image
     top_left = image[::-1][:16, :24, :3].reshape(-1, 3)  # rows from the top
-    assert np.allclose(top_left[0], diagnostics.LEGEND_BACKGROUND)
-    first = diagnostics.legend(settings)[0]
+    assert np.allclose(top_left[0], diagnostic_legend.LEGEND_BACKGROUND)
+    first = diagnostic_views.legend(settings)[0]
     assert np.isclose(top_left, first.colour, atol=1e-6).all(axis=1).any(), first.label

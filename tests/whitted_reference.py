@@ -23,7 +23,7 @@ import numpy as np
 from embreex import rtcore_scene as rtcs
 from embreex.mesh_construction import TriangleMesh
 
-from hybrid_engine.scene_data import LIGHT_AREA, LIGHT_SPOT, LIGHT_SUN, SceneData
+from hybrid_engine.scene.data import LIGHT_AREA, LIGHT_SPOT, LIGHT_SUN, SceneData
 
 # Spawned rays (and shadow rays) leave the surface by this much relative to the position's
 # magnitude, as the GPU tracer does.

@@ -12,7 +12,7 @@ from __future__ import annotations
 import bpy
 
 from ..blender_adapter.export.materials import material_params
-from ..hybrid_engine.settings import DIAGNOSTIC_VIEWS
+from ..hybrid_engine.scene.settings import DIAGNOSTIC_VIEWS
 from .light_panel import DATA_PT_hybrid_rt_light
 
 ENGINE_ID = "HYBRID_RT"
@@ -169,7 +169,7 @@ class RENDER_PT_hybrid_rt_shadows(HybridRTPanel, bpy.types.Panel):
 
 
 class RENDER_PT_hybrid_rt_film(HybridRTPanel, bpy.types.Panel):
-    """Film: a transparent background for compositing (hybrid_engine/film.py)."""
+    """Film: a transparent background for compositing (hybrid_engine/frame/film.py)."""
 
     bl_label = "Film"
     bl_context = "render"
@@ -195,7 +195,7 @@ class RENDER_PT_hybrid_rt_diagnostics(HybridRTPanel, bpy.types.Panel):
         settings = context.scene.hybrid_rt
         col = layout.column(heading="Debug View")
         # The render modes that diagnose (Light Paths > Mode holds them all): the paper's
-        # Figure 4 and the views of where rays and time go (hybrid_engine/diagnostics.py).
+        # Figure 4 and the views of where rays and time go (hybrid_engine/passes/trace/diagnostic_views.py).
         for view in ("PROVENANCE", *DIAGNOSTIC_VIEWS):
             col.prop_enum(settings, "mode", view)
         row = layout.row()
@@ -208,7 +208,7 @@ class RENDER_PT_hybrid_rt_diagnostics(HybridRTPanel, bpy.types.Panel):
 
 
 class VIEWLAYER_PT_hybrid_rt_passes(HybridRTPanel, bpy.types.Panel):
-    """The data passes this engine writes besides Combined (hybrid_engine/film.py)."""
+    """The data passes this engine writes besides Combined (hybrid_engine/frame/film.py)."""
 
     bl_label = "Passes"
     bl_context = "view_layer"

@@ -10,7 +10,7 @@ from __future__ import annotations
 import bpy
 
 from ..blender_adapter.gl_host import gl_block
-from ..hybrid_engine import gl_context
+from ..hybrid_engine.gpu import gl_context
 
 
 def context_lines() -> list[str]:

@@ -39,9 +39,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from hybrid_engine.camera import Camera, look_at
-from hybrid_engine.scene_data import Geometry, Lights, MaterialTable, SceneData, Sky, flat_normals
-from hybrid_engine.solids import closed_outward
+from hybrid_engine.scene.camera import Camera, look_at
+from hybrid_engine.scene.data import Geometry, Lights, MaterialTable, SceneData, Sky, flat_normals
+from hybrid_engine.scene.solids import closed_outward
 
 CHESS_FRAMES = 200  # length of the paper's animated sequences (§4)
 # Far plane the thickness values below are chosen for (pass it as RenderSettings.cube_far).

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...hybrid_engine.camera import Camera, CameraError
+from ...hybrid_engine.scene.camera import Camera, CameraError
 
 # Lens Blender uses when the scene camera is not a camera object (BKE_camera_params_from_object).
 NON_CAMERA_LENS = 35.0

@@ -1,11 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Lamps as Blender defines them: position, direction, colour times power (Exposure,
-Temperature, Normalize), size and spot cone, as rows of ``hybrid_engine.scene_data.Lights``."""
+Temperature, Normalize), size and spot cone, as rows of ``hybrid_engine.scene.data.Lights``."""
 from __future__ import annotations
 
 import numpy as np
 
-from ...hybrid_engine.blackbody import blackbody_rgb
+from ...hybrid_engine.scene.blackbody import blackbody_rgb
 
 LIGHT_TYPES = frozenset({"POINT", "SUN", "SPOT", "AREA"})
 

@@ -1,12 +1,12 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Materials: Blender's Principled BSDF (and the images linked to it) as rows of the
-renderer's material table (hybrid_engine/materials.py holds the mapping)."""
+renderer's material table (hybrid_engine/scene/materials.py holds the mapping)."""
 from __future__ import annotations
 
 import numpy as np
 
-from ...hybrid_engine.materials import DEFAULT_THICKNESS, principled_to_params
-from ...hybrid_engine.scene_data import MaterialTable
+from ...hybrid_engine.scene.materials import DEFAULT_THICKNESS, principled_to_params
+from ...hybrid_engine.scene.data import MaterialTable
 from . import tell
 from .images import image_pixels
 
@@ -126,7 +126,7 @@ def surface_node(node_tree):
     return None
 
 
-# Separate Color outputs -> the channel of hybrid_engine.scene_data.TEXTURE_CHANNELS they read.
+# Separate Color outputs -> the channel of hybrid_engine.scene.data.TEXTURE_CHANNELS they read.
 _SEPARATED_CHANNELS = {"Red": 0, "Green": 1, "Blue": 2, "R": 0, "G": 1, "B": 2}
 
 

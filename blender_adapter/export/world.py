@@ -2,7 +2,7 @@
 """The World: its Background colour and strength, or an equirectangular environment."""
 from __future__ import annotations
 
-from ...hybrid_engine.scene_data import Sky
+from ...hybrid_engine.scene.data import Sky
 from . import tell
 from .images import environment_pixels
 from .materials import socket_value, surface_node

@@ -1,5 +1,5 @@
 // The LBVH in GPU memory, byte for byte (std430). Mirrored by NODE_DTYPE and TRIANGLE_DTYPE in
-// hybrid_engine/lbvh.py, whose itemsize asserts and read-back test catch any drift.
+// hybrid_engine/passes/lbvh/lbvh.py, whose itemsize asserts and read-back test catch any drift.
 //
 // A binary tree over N leaves has N - 1 inner nodes (Karras 2012); node 0 is the root. Each
 // inner node stores the boxes of BOTH children, so traversal decides which children to visit

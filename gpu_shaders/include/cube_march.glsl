@@ -7,7 +7,7 @@
 // follows the world ray r_w(t) = o + d t (|d| = 1) from r_w(t_start) (up to r_w(t_limit):
 // past it the ray is given the sky; the tracer passes where the ray leaves the bounds of
 // all geometry, grown by cube_max_hit_overshoot) through the six face
-// G-buffers of hybrid_engine/cube_map.py (atlas, face i at texels [i res, (i+1) res) in x) and
+// G-buffers of hybrid_engine/passes/cube_map/cube_map.py (atlas, face i at texels [i res, (i+1) res) in x) and
 // returns one of
 //   CUBE_HIT     a stored surface: its face, atlas texel, position reconstructed from the
 //                face's depth, stored normal and material;

@@ -1,7 +1,7 @@
 // Flat invocation index for dispatches that the host split over x and y.
 //
 // A 1D dispatch may not exceed GL_MAX_COMPUTE_WORK_GROUP_COUNT (65,535 on most drivers) groups
-// in x. hybrid_engine/gpu_dispatch.py splits larger dispatches into an x-by-y grid; the kernel
+// in x. hybrid_engine/gpu/dispatch.py splits larger dispatches into an x-by-y grid; the kernel
 // rebuilds the flat index here and guards it against the real item count (the grid overshoots
 // by less than one row). Needs LOCAL_SIZE (the x workgroup size) defined by the host.
 #ifndef HYBRID_DISPATCH_GLSL

@@ -19,12 +19,12 @@
 // lanes disagree on, which a GPU serves from its constant cache and llvmpipe as gathers,
 // where a storage-block read is a loop over the SIMD lanes (the deferred pass 25 % and
 // the trace 10 % faster on Chess). Their sizes are MAX_LIGHTS and MAX_SHADOW_SLOTS of
-// hybrid_engine/frame_resources.py, 64 KiB and 48 KiB, within every desktop driver's
+// hybrid_engine/passes/lighting/resources.py, 64 KiB and 48 KiB, within every desktop driver's
 // 64 KiB block limit.
 layout(std140) uniform LightBuffer { Light lights[1024]; };
 layout(std140) uniform ShadowSlotBuffer { ShadowSlot shadow_slots[512]; };
 
-uniform sampler2D u_shadow_atlas;    // objects at rest (hybrid_engine/shadow_cache.py)
+uniform sampler2D u_shadow_atlas;    // objects at rest (hybrid_engine/passes/shadow_maps/shadow_cache.py)
 uniform sampler2D u_shadow_dynamic;  // moving objects: same slots, the nearer depth wins
 uniform int u_light_count;
 uniform float u_shadow_bias;
@@ -76,7 +76,7 @@ float shadow_linear_depth(ShadowSlot slot, float window_depth) {
 }
 
 // A sun's slots are its cascades, finest first, then its map of the whole scene
-// (hybrid_engine/sun_cascades.py): the finest slot from `from` on that holds p with room for
+// (hybrid_engine/passes/shadow_maps/sun_cascades.py): the finest slot from `from` on that holds p with room for
 // the widest filter around it, else the scene map (the last).
 int sun_shadow_slot(int from, int last, vec3 p) {
     for (int i = from; i < last; ++i) {

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Unit vectors as two numbers in [-1, 1] (octahedral mapping), so that a direction fits the
-// two spare half-float channels of the G-buffer (raster/gbuffer.frag.glsl stores the
+// two spare half-float channels of the G-buffer (gbuffer/gbuffer.frag.glsl stores the
 // triangle's geometric normal there). Half precision keeps it within about 1e-3 radians,
 // which is all its one use needs: telling which side of the true surface a ray leaves on.
 #ifndef HYBRID_OCTAHEDRAL_GLSL
@@ -25,7 +25,7 @@ vec3 octahedral_decode(vec2 e) {
 }
 
 // The geometric normal a G-buffer texel keeps in the alphas of its albedo and emission
-// targets (raster/gbuffer.frag.glsl); `fallback` where they do not decode to a direction.
+// targets (gbuffer/gbuffer.frag.glsl); `fallback` where they do not decode to a direction.
 vec3 gbuffer_geometric(float albedo_alpha, float emission_alpha, vec3 fallback) {
     vec2 e = vec2(albedo_alpha, emission_alpha);
     if (any(isnan(e)) || any(greaterThan(abs(e), vec2(1.0 + 1e-3)))) return fallback;

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Scene buffers shared by every pass. Each struct mirrors a numpy dtype in
-// hybrid_engine/scene_data.py (MATERIAL_DTYPE) or hybrid_engine/gpu_scene.py (LIGHT_DTYPE,
+// hybrid_engine/scene/data.py (MATERIAL_DTYPE) or hybrid_engine/passes/scene_upload/scene_buffers.py (LIGHT_DTYPE,
 // SHADOW_SLOT_DTYPE); the byte sizes are asserted on the Python side.
 
 // struct Material                                           // total: 80 bytes

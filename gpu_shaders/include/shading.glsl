@@ -3,7 +3,7 @@
 // faces, paper §3.5) and by the hybrid tracer's hits in the BVH (§3.4), so that a surface
 // looks the same whichever structure found it.
 //
-// A material (scene_layout.glsl, hybrid_engine/materials.py) is the Principled BSDF folded
+// A material (scene_layout.glsl, hybrid_engine/scene/materials.py) is the Principled BSDF folded
 // into three layers whose weights sum to 1, plus emission:
 //   metal   = metallic                 reflection tinted by the base colour
 //   glass   = transmission             dielectric of index IOR: exact Fresnel mix of the

@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // The World background: a constant colour or an equirectangular environment texture
-// (Blender's mapping, see hybrid_engine/scene_data.py Sky). Paper §3.4: rays that leave the
+// (Blender's mapping, see hybrid_engine/scene/data.py Sky). Paper §3.4: rays that leave the
 // cube map through a far plane end in this outer environment map.
 //
-// The environment is mipmapped (hybrid_engine/sky_light.py): rough reflections look it up
+// The environment is mipmapped (hybrid_engine/passes/lighting/sky_light.py): rough reflections look it up
 // at a level whose texels cover their lobe (sky_radiance_rough), the prefiltered lookup of
 // split-sum image-based lighting, with plain box-filtered mips.
 #include "scene_layout.glsl"

@@ -1,4 +1,4 @@
-// Arrays split over several storage blocks (hybrid_engine/gpu_dispatch.py: split_blocks).
+// Arrays split over several storage blocks (hybrid_engine/gpu/dispatch.py: split_blocks).
 //
 // A storage block may cover at most GL_MAX_SHADER_STORAGE_BLOCK_SIZE bytes (128 MiB on
 // llvmpipe). A larger array is bound as up to 4 consecutive ranges of one buffer, each of

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-// Image textures of materials (hybrid_engine/textures.py): every image of the scene is one
+// Image textures of materials (hybrid_engine/passes/scene_upload/textures.py): every image of the scene is one
 // layer of u_textures (RGBA16F, mipmapped, repeat wrapping, linear colour). A material's
 // textures.x / textures.y (scene_layout.glsl) are the layers of its base-colour and emission
 // images, -1 for none; a texture multiplies the material's colour (base_color_refl.rgb,

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-// The work list of the raster triangle culler (raster/view_cull.comp.glsl and
+// The work list of the raster triangle culler (view_cull/view_cull.comp.glsl and
 // view_cull_compact.comp.glsl): segments of consecutive triangles, each tagged with its view,
 // sorted by their first work item.
 //

@@ -2,7 +2,7 @@
 // Light from the World on diffuse surfaces: the sky's irradiance as nine spherical-harmonic
 // coefficients (Ramamoorthi and Hanrahan 2001), already convolved with the clamped cosine,
 // written by lighting/sky_irradiance.comp.glsl whenever the World changes
-// (hybrid_engine/sky_light.py). Evaluating them costs nine multiply-adds per hit, on every
+// (hybrid_engine/passes/lighting/sky_light.py). Evaluating them costs nine multiply-adds per hit, on every
 // diffuse hit alike: primary pixels, BVH hits and cube-map hits.
 //
 // Storage block SkyIrradiance: vec4[9] (rgb used).

@@ -4,7 +4,7 @@
 // cells (solid angle per cell 2 pi / W * pi / H * cos(latitude)) against the SH basis, then
 // scales band l by the clamped cosine's factor A_l (pi, 2 pi / 3, pi / 4). The environment is
 // read at the mip level nearest the grid, so each cell averages the texels it covers.
-// Runs only when the World changes (hybrid_engine/sky_light.py).
+// Runs only when the World changes (hybrid_engine/passes/lighting/sky_light.py).
 //
 // Storage block SkyIrradianceOut (vec4[9], written); the sky's uniforms (sky.glsl).
 #include "scene_layout.glsl"

@@ -74,7 +74,7 @@ layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 #include "cube_march.glsl"
 
 // Shading normals of triangle i, corners 0..2: floats 9 i .. 9 i + 8 of the scene's normal
-// buffer (Geometry.normals as uploaded by hybrid_engine/gpu_scene.py; ORIGINAL order, as
+// buffer (Geometry.normals as uploaded by hybrid_engine/passes/scene_upload/scene_buffers.py; ORIGINAL order, as
 // the BVH reports). Past the storage-block limit (3.7 M triangles of 36 bytes on llvmpipe)
 // it is bound as up to four ranges (storage_blocks.glsl): blocks TriangleNormals1..3.
 #ifndef TRI_NORMAL_BLOCKS
@@ -123,7 +123,7 @@ vec3 interpolated_normal(int tri, vec2 bary) {
 }
 
 #include "textures.glsl"
-// struct TriangleUV (hybrid_engine/tracer.py TRIANGLE_UV_DTYPE)             // total: 32 bytes
+// struct TriangleUV (hybrid_engine/passes/trace/tracer.py TRIANGLE_UV_DTYPE)             // total: 32 bytes
 //   vec4 uv01;       xy = UV of corner 0, zw = UV of corner 1
 //   vec4 uv2_scale;  xy = UV of corner 2, z = UV units per metre (sqrt of UV area over
 //                    world area; 0 when degenerate), w unused
@@ -152,7 +152,7 @@ layout(rgba32f) uniform image2D u_color;
 layout(rgba32f) writeonly uniform image2D u_ambient;
 #endif
 #ifdef DIAGNOSTIC
-// The diagnostic views (hybrid_engine/diagnostics.py): each pixel's value in r of
+// The diagnostic views (hybrid_engine/passes/trace/diagnostic_views.py): each pixel's value in r of
 // u_diagnostic, its false colour in u_color.
 #define DIAG_BOUNCES 1       // the deepest bounce any of the pixel's rays reached
 #define DIAG_CUBE_STEPS 2    // march steps of all its rays (cube_march_steps)

@@ -1,0 +1,99 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Anti-aliased final renders: several samples of each pixel, averaged.
+
+The paper's frame takes one primary sample per pixel (its G-buffer is rasterized at the
+image's resolution), which is what a real-time viewport wants; a final render of the same
+frame shows stair-stepped edges and, worse on this method's mirrors, reflections that
+crawl between frames. A final render therefore renders the frame ``render_samples`` times,
+each time with the projection moved by a different fraction of a pixel, and averages the
+images: a box filter over the pixel, so an edge pixel gets the fraction of it that each
+side covers, in colour and (with transparent film) in alpha, premultiplied as Blender
+expects.
+
+The samples see the scene from the same point, so the cube map and the near-cube BVH of
+the first are kept for the others (``Renderer.render(reuse_world=True)``); each further
+sample costs a primary raster, the shading and the trace. The Depth and Normal passes are
+taken from the first sample, which lies at the pixels' centres (data passes are not
+averaged: the mean of two depths is a depth nothing lies at).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..scene.camera import Camera
+from ..scene.data import SceneData
+from ..scene.settings import RenderSettings
+from .accumulation import DEFAULT_FILTER_WIDTH, SampleAccumulator, sample_offset
+from .film import FrameOutputs
+from .views import cropped_camera
+from .renderer import CancelCallback, FrameResult, ProgressCallback, Renderer
+
+
+def sample_offsets(count: int, filter_width: float = DEFAULT_FILTER_WIDTH) -> np.ndarray:
+    """(count, 2) offsets of the first ``count`` samples (``sample_offset``)."""
+    if count < 1:
+        raise ValueError(f"a frame needs at least one sample, got {count}")
+    return np.asarray([sample_offset(i, filter_width) for i in range(count)], np.float64)
+
+
+def jittered_camera(camera: Camera, dx: float, dy: float) -> Camera:
+    """``camera`` with its image moved by (dx, dy) pixels: pixel (i, j) of the new image is
+    the point (i + dx, j + dy) of the old one, i.e. the projection translated in NDC."""
+    if dx == 0.0 and dy == 0.0:
+        return camera
+    w, h = camera.width, camera.height
+    return cropped_camera(camera, (dx, dy, w + dx, h + dy), w, h)
+
+
+def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, settings: RenderSettings,
+                       samples: int, *, outputs: FrameOutputs | None = None, timing: bool = True,
+                       cancel: CancelCallback | None = None,
+                       progress: ProgressCallback | None = None,
+                       filter_width: float = DEFAULT_FILTER_WIDTH) -> FrameResult:
+    """The frame averaged over ``samples`` sub-pixel positions (``sample_offsets``).
+
+    The result's ``passes`` sum each pass over the samples (the kept cube map and BVH are
+    timed once), ``total_ms`` is the whole render, ``counts`` are the first sample's with
+    ``samples`` added, and ``data_passes`` are the first sample's. Each sample draws its own
+    directions in the glossy lobes and the ambient occlusion (``Renderer.render``'s
+    ``sample``), so the average converges there too. Raises RenderCancelled between samples
+    as between passes.
+    """
+    if samples < 1:
+        raise ValueError(f"a frame needs at least one sample, got {samples}")
+    outputs = outputs or FrameOutputs()
+    # Only the first sample reads the data passes back.
+    later_outputs = FrameOutputs(transparent=outputs.transparent)
+    first: FrameResult | None = None
+    passes: dict[str, float] = {}
+    total_ms = 0.0
+    accumulator = SampleAccumulator(filter_width)
+    while accumulator.wants("frame", samples):
+        index = accumulator.count
+        dx, dy = accumulator.offset()
+        result = renderer.render(
+            scene, jittered_camera(camera, float(dx), float(dy)), settings, timing=timing,
+            cancel=cancel, progress=_sample_progress(progress, index, samples),
+            outputs=outputs if index == 0 else later_outputs, reuse_world=index > 0, sample=index)
+        first = first or result
+        accumulator.add(result.image)
+        for name, ms in result.passes.items():
+            passes[name] = passes.get(name, 0.0) + ms
+        total_ms += result.total_ms
+    image = accumulator.mean
+    counts = {**first.counts, "samples": int(samples)}
+    return FrameResult(image=image, passes=passes, counts=counts, timing_source=first.timing_source,
+                       total_ms=total_ms, mode=first.mode, data_passes=first.data_passes,
+                       near_size=first.near_size, diagnostic=first.diagnostic, legend=first.legend)
+
+
+def _sample_progress(progress: ProgressCallback | None, index: int, samples: int) -> ProgressCallback | None:
+    """Progress of one sample as a share of the whole render."""
+    if progress is None:
+        return None
+
+    def report(step: str, fraction: float) -> None:
+        progress(f"sample {index + 1}/{samples}: {step}", (index + fraction) / samples)
+
+    return report
+

@@ -1,0 +1,177 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Binding buffers, images, textures and uniforms to a program by name.
+
+The GLSL declares its storage and uniform blocks, images and samplers without binding
+numbers; the host names what goes where (``{"BVHNodes": built.nodes}``: a buffer by its
+block's name, whichever kind of block the GLSL declares), and this module picks the numbers
+from moderngl's reflection of the program. No binding number is written in both languages, so a
+pass cannot bind a buffer to another block's number, and a block a pass forgot to bind is
+an error naming it rather than a read of whatever the last pass left bound.
+
+Each program's numbers are fixed once, when it is compiled (stored in ``program.extra``):
+a storage or uniform block gets the binding point of its own resource index, each image and
+sampler a unit of its own. Later calls only bind the buffers and textures.
+
+A name the program does not have is skipped: the compiler drops blocks and uniforms a
+variant never reads (``#if`` branches, unused inputs), and callers pass what the pass may
+need. A storage block given as None is declared unused by this dispatch and left unbound.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import moderngl
+
+from .dispatch import BlockSplit, max_block_bytes
+
+
+@dataclass(frozen=True)
+class Storage:
+    """``size`` bytes of ``buffer`` from ``offset`` (to its end when None) as one block,
+    checked against the driver's block-size limit. A plain buffer is bound whole, unchecked:
+    small tables (materials, lights) whose grow-only buffers may be larger than their rows."""
+
+    buffer: object
+    size: int | None = None
+    offset: int = 0
+
+
+@dataclass(frozen=True)
+class Image:
+    """A texture level bound as an image (imageLoad / imageStore)."""
+
+    texture: object
+    read: bool = True
+    write: bool = True
+    level: int = 0
+
+
+@dataclass(frozen=True)
+class Bindings:
+    """What an owner of GPU data (the scene, the frame's lighting) hands to every pass that
+    reads it: storage blocks, images, samplers and uniforms by name. ``a | b`` merges."""
+
+    storage: Mapping[str, object] = field(default_factory=dict)
+    images: Mapping[str, Image] = field(default_factory=dict)
+    textures: Mapping[str, object] = field(default_factory=dict)
+    uniforms: Mapping[str, object] = field(default_factory=dict)
+
+    def __or__(self, other: "Bindings") -> "Bindings":
+        return Bindings({**self.storage, **other.storage}, {**self.images, **other.images},
+                        {**self.textures, **other.textures}, {**self.uniforms, **other.uniforms})
+
+
+def split_storage(name: str, buffer, split: BlockSplit) -> dict[str, Storage]:
+    """The blocks of an array bound as ``split`` (gpu_dispatch.split_blocks): block 0 is
+    ``name``, block k > 0 is ``name`` + k (storage_blocks.glsl)."""
+    return {name if block == 0 else f"{name}{block}": Storage(buffer, size, offset)
+            for block, (offset, size) in enumerate(split.ranges())}
+
+
+def _is_image(gl_type: int) -> bool:
+    return 0x904C <= gl_type <= 0x906C  # GL_IMAGE_1D .. GL_UNSIGNED_INT_IMAGE_2D_MULTISAMPLE_ARRAY
+
+
+def _is_sampler(gl_type: int) -> bool:
+    return (0x8B5D <= gl_type <= 0x8B64  # GL_SAMPLER_1D .. GL_SAMPLER_2D_RECT_SHADOW
+            or 0x8DC0 <= gl_type <= 0x8DD8  # array, cube-shadow, buffer and integer samplers
+            or 0x9108 <= gl_type <= 0x910D  # multisample samplers
+            or 0x900C <= gl_type <= 0x900F)  # cube-map arrays
+
+
+@dataclass
+class ProgramLayout:
+    """A program's storage and uniform blocks (name → binding point) and its image and
+    sampler units (name → unit), fixed once per program."""
+
+    label: str
+    blocks: dict[str, int]
+    images: dict[str, int]
+    samplers: dict[str, int]
+    uniform_blocks: dict[str, int] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, program, label: str = "program") -> "ProgramLayout":
+        """Give every storage and uniform block the binding point of its resource index and
+        every image and sampler its own unit, in declaration order. Two samplers of different types on
+        one unit would make every dispatch fail, so each gets one even if never bound."""
+        blocks, images, samplers, uniform_blocks = {}, {}, {}, {}
+        for name in program:
+            member = program[name]
+            if isinstance(member, moderngl.StorageBlock):
+                member.binding = member.index
+                blocks[name] = member.index
+            elif isinstance(member, moderngl.UniformBlock):
+                member.binding = member.index
+                uniform_blocks[name] = member.index
+            elif isinstance(member, moderngl.Uniform) and _is_image(member.gl_type):
+                images[name] = member.value = len(images)
+            elif isinstance(member, moderngl.Uniform) and _is_sampler(member.gl_type):
+                samplers[name] = member.value = len(samplers)
+        return cls(label, blocks, images, samplers, uniform_blocks)
+
+
+def layout(program, label: str | None = None) -> ProgramLayout:
+    """``program``'s binding layout, made on first use (shader_loader makes it at compile
+    time with the shader's file names as label)."""
+    found = program.extra
+    if not isinstance(found, ProgramLayout):
+        found = program.extra = ProgramLayout.of(program, label or "program")
+    return found
+
+
+def set_uniforms(program, values: Mapping[str, object]) -> None:
+    """Set the uniforms the compiler kept (unused ones are optimised away and absent);
+    ``bytes`` values are written raw (matrices and arrays)."""
+    for name, value in values.items():
+        member = program.get(name, None)
+        if member is None:
+            continue
+        if isinstance(value, bytes):
+            member.write(value)
+        else:
+            member.value = value
+
+
+def bind(program, *parts: Bindings, storage: Mapping[str, object] | None = None,
+         images: Mapping[str, Image] | None = None, textures: Mapping[str, object] | None = None,
+         uniforms: Mapping[str, object] | None = None) -> None:
+    """Bind everything one dispatch or draw of ``program`` reads and writes, by name: the
+    ``parts`` handed over by the data's owners, then ``storage`` blocks (a buffer, a
+    :class:`Storage` range, or None for a block this dispatch does not touch), ``images``,
+    ``textures`` (samplers) and ``uniforms``. Raises ValueError naming the program and the
+    blocks when one of its storage blocks is missing, or when a range exceeds the driver's
+    block-size limit."""
+    whole = Bindings(storage or {}, images or {}, textures or {}, uniforms or {})
+    for part in parts:
+        whole = part | whole
+    found = layout(program)
+    for kind, names in (("storage", found.blocks), ("uniform", found.uniform_blocks)):
+        missing = [name for name in names if name not in whole.storage]
+        if missing:
+            raise ValueError(f"{found.label}: {kind} block(s) {', '.join(missing)} not bound")
+    for name, what in whole.storage.items():
+        if name in found.uniform_blocks and what is not None:
+            what.bind_to_uniform_block(found.uniform_blocks[name])  # a whole buffer, sized by its owner
+            continue
+        binding = found.blocks.get(name)
+        if binding is None or what is None:
+            continue
+        if not isinstance(what, Storage):
+            what.bind_to_storage_buffer(binding)  # a whole buffer: the block reads what it declares
+            continue
+        size = what.buffer.size - what.offset if what.size is None else what.size
+        if size > max_block_bytes():
+            raise ValueError(f"{found.label}: storage block {name}: a {size}-byte range exceeds the "
+                             f"driver's {max_block_bytes()}-byte block limit")
+        what.buffer.bind_to_storage_buffer(binding, offset=what.offset, size=max(size, 4))
+    for name, image in whole.images.items():
+        unit = found.images.get(name)
+        if unit is not None:
+            image.texture.bind_to_image(unit, read=image.read, write=image.write, level=image.level)
+    for name, texture in whole.textures.items():
+        unit = found.samplers.get(name)
+        if unit is not None:
+            texture.use(location=unit)
+    set_uniforms(program, whole.uniforms)

@@ -1,0 +1,302 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The one OpenGL context of the process.
+
+Every renderer (RASTER, the LBVH builder, the hybrid tracer) shares a single standalone
+moderngl context. Creating a context costs tens of milliseconds and compiled programs
+belong to their context, so making one per frame or per renderer would defeat the shader
+cache and leak driver objects. Blender re-creates viewport engines on every frame change,
+hence the context lives at module level and outlives any engine instance.
+
+OpenGL 4.3 is the floor because the LBVH and the tracer need compute shaders and shader
+storage buffers (both core in 4.3).
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+import sys
+import threading
+import types
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Callable, Iterator
+
+REQUIRED_GL_VERSION = 430
+
+
+class GLUnavailableError(RuntimeError):
+    """No usable OpenGL >= 4.3 context could be created; the message says what is missing."""
+
+
+@dataclass(frozen=True)
+class GLLimits:
+    """Driver limits that the passes must respect rather than hit."""
+
+    max_ssbo_block_bytes: int
+    max_compute_workgroup_count: tuple[int, int, int]
+    max_compute_workgroup_size: tuple[int, int, int]
+    max_compute_invocations: int
+    max_texture_size: int
+    max_3d_texture_size: int
+    max_array_texture_layers: int
+
+
+# The package can be imported under two names in one process (Blender's ``bl_ext.*.hybrid_rt``
+# add-on and the top-level ``hybrid_engine`` of scripts and tests). The context must still be
+# one per process, so its state lives in a process-wide module object, not in this module.
+_STATE_KEY = "_hybrid_rt_gl_process_state"
+_state = sys.modules.setdefault(_STATE_KEY, types.ModuleType(_STATE_KEY))
+if not hasattr(_state, "lock"):
+    _state.lock = threading.Lock()
+    _state.context = None
+    _state.handle = None  # our EGLContext, to tell it from a host's context
+    _state.limits = None
+    _state.parking_fbo = None
+if not hasattr(_state, "release_hooks"):
+    # Callbacks run before the context is released: what caches GL objects of the context
+    # (the shader loader's programs) registers here, so that this module imports none of it.
+    _state.release_hooks = []
+
+
+# glcontext's backend for a standalone context on each platform: EGL on Linux (no window
+# system needed, headless renders included), WGL on Windows. macOS stops at OpenGL 4.1,
+# which has no compute shaders.
+PLATFORM_BACKENDS = {"linux": "egl", "win32": "wgl"}
+MACOS_MESSAGE = ("Hybrid RT needs OpenGL 4.3 (compute shaders and storage buffers); macOS "
+                 "provides OpenGL 4.1 at most, so Hybrid RT cannot run on this Mac")
+
+
+def platform_backend(platform: str | None = None) -> str:
+    """The glcontext backend for ``platform`` (default ``sys.platform``); HYBRID_RT_GL_BACKEND
+    overrides it. Raises GLUnavailableError on a platform without OpenGL 4.3."""
+    override = os.environ.get("HYBRID_RT_GL_BACKEND")
+    if override:
+        return override
+    platform = sys.platform if platform is None else platform
+    if platform == "darwin":
+        raise GLUnavailableError(MACOS_MESSAGE)
+    for prefix, backend in PLATFORM_BACKENDS.items():
+        if platform.startswith(prefix):
+            return backend
+    raise GLUnavailableError(f"Hybrid RT has no OpenGL backend for the platform {platform!r}; "
+                             "set HYBRID_RT_GL_BACKEND to a glcontext backend to try one")
+
+
+def _create_context():
+    try:
+        import moderngl
+    except ImportError as exc:  # pragma: no cover - depends on the installation
+        raise GLUnavailableError(
+            "Hybrid RT needs the Python package 'moderngl' (pip install moderngl); "
+            f"importing it failed: {exc}"
+        ) from exc
+
+    backend = platform_backend()
+    kwargs = {"standalone": True, "require": REQUIRED_GL_VERSION, "backend": backend}
+    try:
+        ctx = moderngl.create_context(**kwargs)
+    except Exception as exc:
+        text = str(exc)
+        if "require" in text.lower() or "version" in text.lower():
+            raise GLUnavailableError(
+                "Hybrid RT needs OpenGL 4.3 (compute shaders and storage buffers); "
+                f"the {backend or 'default'} context reports: {text}"
+            ) from exc
+        raise GLUnavailableError(
+            f"Could not create a standalone OpenGL context with the '{backend}' backend: {text}. "
+            + ("On Linux install the Mesa EGL libraries (apt-get install libegl1 libegl-mesa0 "
+               "libgl1-mesa-dri libgbm1) or a GPU driver that provides EGL; "
+               if sys.platform.startswith("linux") else "Update the graphics driver; ")
+            + "set HYBRID_RT_GL_BACKEND to another glcontext backend to override."
+        ) from exc
+    if ctx.version_code < REQUIRED_GL_VERSION:
+        version = ctx.info.get("GL_VERSION", ctx.version_code)
+        ctx.release()
+        raise GLUnavailableError(
+            f"Hybrid RT needs OpenGL 4.3 for compute shaders; the driver offers {version}."
+        )
+    return ctx
+
+
+def get_context():
+    """Return the process-wide moderngl context, creating it on first use.
+
+    Raises GLUnavailableError with a specific message when EGL, moderngl or GL 4.3 is missing.
+    """
+    with _state.lock:
+        if _state.context is None:
+            _state.context = _create_context()
+            _state.limits = None
+            _state.handle = _native.egl_current()[3] if _native.egl else None
+        return _state.context
+
+
+def limits() -> GLLimits:
+    """Driver limits of the shared context (queried once)."""
+    ctx = get_context()
+    if _state.limits is None:
+        info = ctx.info
+        _state.limits = GLLimits(
+            max_ssbo_block_bytes=int(info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27)),
+            max_compute_workgroup_count=tuple(
+                int(info.get(f"GL_MAX_COMPUTE_WORK_GROUP_COUNT")[i]) for i in range(3)
+            ) if isinstance(info.get("GL_MAX_COMPUTE_WORK_GROUP_COUNT"), tuple) else (65535,) * 3,
+            max_compute_workgroup_size=tuple(info.get("GL_MAX_COMPUTE_WORK_GROUP_SIZE", (1024, 1024, 64))),
+            max_compute_invocations=int(info.get("GL_MAX_COMPUTE_WORK_GROUP_INVOCATIONS", 1024)),
+            max_texture_size=int(info.get("GL_MAX_TEXTURE_SIZE", 8192)),
+            max_3d_texture_size=int(info.get("GL_MAX_3D_TEXTURE_SIZE", 2048)),
+            max_array_texture_layers=int(info.get("GL_MAX_ARRAY_TEXTURE_LAYERS", 2048)),
+        )
+    return _state.limits
+
+
+def renderer_name() -> str:
+    """The GL renderer string, for reports (e.g. 'llvmpipe (LLVM 15.0.6, 256 bits)')."""
+    return str(get_context().info.get("GL_RENDERER", "unknown"))
+
+
+def is_software_renderer() -> bool:
+    """True on llvmpipe/softpipe, whose timer queries return meaningless values."""
+    name = renderer_name().lower()
+    return any(word in name for word in ("llvmpipe", "softpipe", "swrast", "lavapipe"))
+
+
+def check_error(where: str) -> None:
+    """Raise if the GL error flag is set; called after passes in debug and test runs."""
+    ctx = get_context()
+    err = ctx.error
+    if err != "GL_NO_ERROR":
+        raise RuntimeError(f"OpenGL error after {where}: {err}")
+
+
+def debug_checks_enabled() -> bool:
+    """GL error checks after each pass cost a sync; tests and HYBRID_RT_DEBUG=1 turn them on."""
+    return os.environ.get("HYBRID_RT_DEBUG", "") not in ("", "0")
+
+
+class _NativeGL:
+    """Just enough of EGL and GLX (through ctypes) to save and restore a host's current
+    context on Linux. Missing libraries simply disable that half; elsewhere (Windows) both
+    halves stay off and glcontext saves and restores the host's context itself."""
+
+    def __init__(self, linux: bool = True) -> None:
+        self.egl = self.glx = None
+        if not linux:
+            return
+        self.egl = self._load("libEGL.so.1", ("eglGetCurrentDisplay", "eglGetCurrentSurface",
+                                              "eglGetCurrentContext", "eglMakeCurrent"))
+        self.glx = self._load("libGL.so.1", ("glXGetCurrentDisplay", "glXGetCurrentDrawable",
+                                             "glXGetCurrentReadDrawable", "glXGetCurrentContext",
+                                             "glXMakeContextCurrent"))
+        if self.egl:
+            for name in ("eglGetCurrentDisplay", "eglGetCurrentSurface", "eglGetCurrentContext"):
+                getattr(self.egl, name).restype = ctypes.c_void_p
+            self.egl.eglGetCurrentSurface.argtypes = [ctypes.c_int]
+            self.egl.eglMakeCurrent.argtypes = [ctypes.c_void_p] * 4
+        if self.glx:
+            for name in ("glXGetCurrentDisplay", "glXGetCurrentContext"):
+                getattr(self.glx, name).restype = ctypes.c_void_p
+            for name in ("glXGetCurrentDrawable", "glXGetCurrentReadDrawable"):
+                getattr(self.glx, name).restype = ctypes.c_ulong
+            self.glx.glXMakeContextCurrent.argtypes = [ctypes.c_void_p, ctypes.c_ulong, ctypes.c_ulong, ctypes.c_void_p]
+
+    @staticmethod
+    def _load(name: str, symbols: tuple[str, ...]):
+        try:
+            lib = ctypes.CDLL(name)
+            for symbol in symbols:
+                getattr(lib, symbol)
+            return lib
+        except (OSError, AttributeError):
+            return None
+
+    def egl_current(self) -> tuple:
+        e = self.egl
+        EGL_DRAW, EGL_READ = 0x3059, 0x305A
+        return (e.eglGetCurrentDisplay(), e.eglGetCurrentSurface(EGL_DRAW),
+                e.eglGetCurrentSurface(EGL_READ), e.eglGetCurrentContext())
+
+    def glx_current(self) -> tuple:
+        g = self.glx
+        return (g.glXGetCurrentDisplay(), g.glXGetCurrentDrawable(),
+                g.glXGetCurrentReadDrawable(), g.glXGetCurrentContext())
+
+
+_native = _NativeGL(linux=sys.platform.startswith("linux"))
+
+
+@contextmanager
+def activated(release_after: bool = False) -> Iterator[object]:
+    """Make the shared context current for a block of GL work inside a host application.
+
+    Inside Blender's viewport callbacks Blender's own context is current; our context is made
+    current for the block and Blender's (EGL or GLX) is restored afterwards, so Blender's own
+    drawing is untouched. Where nothing else was current our context stays current, unless
+    ``release_after``: an EGL context can be current on one thread only, so inside an
+    interactive Blender (viewport on the main thread, F12 renders on a render thread) every
+    block hands the context back; background runs keep it current.
+    """
+    if not (_native.egl or _native.glx) and not sys.platform.startswith("linux"):
+        # Windows: glcontext's WGL context saves the host's current context when it is made
+        # current and restores it on exit.
+        ctx = get_context()
+        with ctx:
+            yield ctx
+        return
+    # Record the host's context first: creating ours on first use makes ours current.
+    saved_egl = _native.egl_current() if _native.egl else None
+    saved_glx = _native.glx_current() if _native.glx else None
+    ctx = get_context()
+    foreign_egl = saved_egl is not None and saved_egl[3] not in (None, _state.handle)
+    foreign_glx = saved_glx is not None and saved_glx[3] is not None
+    already_ours = saved_egl is not None and saved_egl[3] == _state.handle
+    if not (foreign_egl or foreign_glx or already_ours):
+        if saved_egl is None:  # no EGL library to ask: trust that ours is current
+            yield ctx
+            return
+    if not already_ours:
+        ctx.__enter__()  # glcontext makes ours current
+    try:
+        yield ctx
+    finally:
+        if foreign_egl:
+            _native.egl.eglMakeCurrent(*saved_egl)
+        elif foreign_glx:
+            _native.glx.glXMakeContextCurrent(*saved_glx)
+        elif release_after and _native.egl:
+            display = _native.egl_current()[0]
+            _native.egl.eglMakeCurrent(display, None, None, None)
+
+
+def park_framebuffer() -> None:
+    """Bind a private 1x1 framebuffer.
+
+    Mesa raises GL_INVALID_OPERATION on later calls when the bound framebuffer is deleted,
+    so code that releases a framebuffer parks the binding here first.
+    """
+    ctx = get_context()
+    if _state.parking_fbo is None:
+        _state.parking_fbo = ctx.simple_framebuffer((1, 1))
+    _state.parking_fbo.use()
+
+
+def on_release(hook: Callable[[], None]) -> None:
+    """Run ``hook`` before the shared context is released (once per hook, however often a
+    module registers it: the package may be imported under two names)."""
+    if hook not in _state.release_hooks:
+        _state.release_hooks.append(hook)
+
+
+def release_context() -> None:
+    """Release the shared context (explicit teardown, never left to a GC on another thread)."""
+    with _state.lock:
+        if _state.context is not None:
+            for hook in list(_state.release_hooks):
+                hook()
+            if _state.parking_fbo is not None:
+                _state.parking_fbo.release()
+                _state.parking_fbo = None
+            _state.context.release()
+            _state.context = None
+            _state.handle = None
+            _state.limits = None

@@ -1,0 +1,221 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Load GLSL passes by name from ``gpu_shaders/`` with includes, defines and a source map.
+
+One file per pass (``lbvh/morton.comp.glsl``, ``gbuffer/gbuffer.vert.glsl``); shared code sits
+in ``include/`` and is pulled in with ``#include "name.glsl"`` (guarded: each file is included
+once per program, cycles are an error). The assembled source starts with ``#version``, then
+the injected ``#define`` lines, then ``#line`` directives so that the driver's line numbers
+can be mapped back. GLSL's ``#line`` takes a source-string number, not a file name, so the
+loader keeps its own map from (string number, line) to (file, line) and rewrites compile
+errors into ``file:line: message`` form.
+
+Programs are cached per context and per (names, defines): compiling happens once per
+process, never per frame.
+"""
+from __future__ import annotations
+
+import re
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Mapping
+
+from . import bindings, gl_context
+
+SHADER_ROOT = Path(__file__).resolve().parents[2] / "gpu_shaders"
+GLSL_VERSION = "#version 430 core"
+# Each file's lines are numbered from string_no * LINE_STRIDE: some drivers (Mesa) report
+# source-string 0 for errors on identifiers, so the line number alone must tell the file.
+LINE_STRIDE = 100_000
+
+_INCLUDE_RE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
+# Mesa: "0:12(3): error: ..."; NVIDIA: "0(12) : error C1008: ..."; generic "ERROR: 0:12: ...".
+_ERROR_LOC_RES = (
+    re.compile(r"(?P<src>\d+):(?P<line>\d+)\(\d+\)"),
+    re.compile(r"(?P<src>\d+)\((?P<line>\d+)\)"),
+    re.compile(r"(?P<src>\d+):(?P<line>\d+)"),
+)
+
+
+class ShaderError(RuntimeError):
+    """A shader failed to load or compile; the message names the file and line."""
+
+
+@dataclass
+class ShaderSource:
+    """An assembled shader: the GLSL text and the map from source-string numbers to files."""
+
+    text: str
+    files: list[str] = field(default_factory=list)  # index = GLSL source-string number
+
+    def locate(self, string_no: int, line: int) -> str:
+        if line >= LINE_STRIDE:  # the line number carries the file (see LINE_STRIDE)
+            string_no, line = divmod(line, LINE_STRIDE)
+        if 0 <= string_no < len(self.files):
+            return f"{self.files[string_no]}:{line}"
+        return f"<string {string_no}>:{line}"
+
+
+def shader_path(name: str) -> Path:
+    path = (SHADER_ROOT / name).resolve()
+    if SHADER_ROOT not in path.parents:
+        raise ShaderError(f"shader name {name!r} points outside {SHADER_ROOT}")
+    if not path.is_file():
+        raise ShaderError(f"no shader file {name!r} under {SHADER_ROOT}")
+    return path
+
+
+def assemble(name: str, defines: Mapping[str, object] | None = None) -> ShaderSource:
+    """Resolve includes of ``name`` and prepend version and defines.
+
+    Source string 0 is the preamble; every file gets its own string number so that
+    ``#line <line> <string>`` lets the driver report where an error really is.
+    """
+    src = ShaderSource(text="", files=["<preamble>"])
+    out: list[str] = [GLSL_VERSION]
+    for key, value in sorted((defines or {}).items()):
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", key):
+            raise ShaderError(f"invalid define name {key!r} for {name}")
+        out.append(f"#define {key} {_glsl_value(value)}")
+    included: set[Path] = set()
+
+    def emit(rel: str, stack: tuple[Path, ...]) -> None:
+        path = shader_path(rel)
+        if path in stack:
+            chain = " -> ".join(p.relative_to(SHADER_ROOT).as_posix() for p in (*stack, path))
+            raise ShaderError(f"include cycle: {chain}")
+        if path in included:
+            return  # include guard: each file once per program
+        included.add(path)
+        string_no = len(src.files)
+        src.files.append(path.relative_to(SHADER_ROOT).as_posix())
+        out.append(f"#line {string_no * LINE_STRIDE + 1} {string_no}")
+        for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+            if line.lstrip().startswith("#version"):
+                out.append("")  # the loader owns the version line
+                continue
+            match = _INCLUDE_RE.match(line)
+            if match:
+                target = match.group(1)
+                if not target.startswith("include/") and "/" not in target:
+                    target = "include/" + target
+                emit(target, (*stack, path))
+                out.append(f"#line {string_no * LINE_STRIDE + lineno + 1} {string_no}")
+                continue
+            out.append(line)
+
+    emit(name, ())
+    src.text = "\n".join(out) + "\n"
+    return src
+
+
+def _glsl_value(value: object) -> str:
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def translate_error(message: str, sources: Mapping[str, ShaderSource]) -> str:
+    """Rewrite driver error locations (string:line) into file:line.
+
+    moderngl prefixes each stage's log with the stage name ("vertex_shader"), which tells
+    which source map applies to the lines that follow.
+    """
+    current = next(iter(sources.values()))
+    lines = []
+    for raw in str(message).splitlines():
+        if raw.strip() in sources:
+            current = sources[raw.strip()]
+            lines.append(raw)
+            continue
+        rewritten = raw
+        if "error" in raw.lower() or "warning" in raw.lower():
+            for regex in _ERROR_LOC_RES:
+                match = regex.search(raw)
+                if match:
+                    loc = current.locate(int(match.group("src")), int(match.group("line")))
+                    rewritten = f"{loc}: {raw[match.end():].lstrip(' :')}"
+                    break
+        lines.append(rewritten)
+    return "\n".join(lines)
+
+
+_cache: dict[tuple, object] = {}
+# Defines every program compiled inside compiled_with() gets; empty in the product.
+_variant_defines: dict[str, object] = {}
+
+
+@contextmanager
+def compiled_with(defines: Mapping[str, object]) -> Iterator[None]:
+    """Programs compiled inside the block get ``defines`` on top of their own: a build of the
+    shaders with compile-time switches, compared with the plain build in one process
+    (benchmarks/picture_cost.py switches the picture's features off this way). Programs are
+    cached by all their defines, so a variant's are its own. Passes compile some programs
+    when constructed and others on first use: construct *and* render inside the block."""
+    previous = dict(_variant_defines)
+    _variant_defines.update(defines)
+    try:
+        yield
+    finally:
+        _variant_defines.clear()
+        _variant_defines.update(previous)
+
+
+def _compile(ctx, stages: Mapping[str, str], defines: Mapping[str, object] | None):
+    if _variant_defines:
+        defines = {**(defines or {}), **_variant_defines}
+    key = (id(ctx), tuple(sorted(stages.items())), tuple(sorted((defines or {}).items())))
+    cached = _cache.get(key)
+    if cached is not None:
+        return cached
+    sources = {stage: assemble(name, defines) for stage, name in stages.items()}
+    try:
+        if "compute_shader" in sources:
+            program = ctx.compute_shader(sources["compute_shader"].text)
+        else:
+            program = ctx.program(**{stage: s.text for stage, s in sources.items()})
+    except Exception as exc:
+        names = ", ".join(stages.values())
+        raise ShaderError(
+            f"compiling {names} failed:\n" + translate_error(str(exc), sources)
+        ) from None
+    program.extra = bindings.ProgramLayout.of(program, ", ".join(stages.values()))
+    _cache[key] = program
+    return program
+
+
+def compute(ctx, name: str, defines: Mapping[str, object] | None = None):
+    """A cached compute shader from ``gpu_shaders/<name>``."""
+    return _compile(ctx, {"compute_shader": name}, defines)
+
+
+def program(
+    ctx,
+    vertex: str,
+    fragment: str | None = None,
+    geometry: str | None = None,
+    defines: Mapping[str, object] | None = None,
+):
+    """A cached vertex(/geometry)/fragment program from ``gpu_shaders/``."""
+    stages = {"vertex_shader": vertex}
+    if fragment is not None:
+        stages["fragment_shader"] = fragment
+    if geometry is not None:
+        stages["geometry_shader"] = geometry
+    return _compile(ctx, stages, defines)
+
+
+def clear_cache() -> None:
+    """Forget cached programs (they die with their context)."""
+    for prog in _cache.values():
+        try:
+            prog.release()
+        except Exception:  # noqa: BLE001 - context may already be gone at teardown
+            pass
+    _cache.clear()
+
+
+gl_context.on_release(clear_cache)

@@ -1,0 +1,98 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The G-buffer pass (gpu_shaders/raster/gbuffer.*.glsl): paper §3.1's primary visibility
+and §3.2's cube-map faces.
+
+The primary G-buffer's normal alpha holds the material index; its targets are allocated
+once and again only when the image size changes. The cube-map faces use a variant of the
+same shaders (``CUBE_FACE``) that leaves refractive surfaces out and stores UVs instead of
+sampling the textures: a variant of its own, also because a shader that may discard loses
+the early depth test.
+"""
+from __future__ import annotations
+
+from ...gpu import shader_loader
+from ...gpu.bindings import bind, set_uniforms
+from ...gpu.render_targets import GBufferTargets, RenderTargets
+from ...scene.data import SceneData
+from ...scene.raster_view import RasterView, gl_matrix
+from ..scene_upload.scene_buffers import GPUScene
+from ..view_cull.draw import SceneDrawer
+
+
+class GBufferPass:
+    """Rasterizes views into G-buffers: the primary camera's and the cube map's faces."""
+
+    def __init__(self, ctx, drawer: SceneDrawer | None = None) -> None:
+        self.ctx = ctx
+        self.drawer = drawer if drawer is not None else SceneDrawer(ctx)
+        self._owns_drawer = drawer is None
+        self.program = shader_loader.program(
+            ctx, vertex="gbuffer/gbuffer.vert.glsl", fragment="gbuffer/gbuffer.frag.glsl")
+        self.cube_program = shader_loader.program(
+            ctx, vertex="gbuffer/gbuffer.vert.glsl", fragment="gbuffer/gbuffer.frag.glsl",
+            defines={"CUBE_FACE": 1})
+        self.primary: GBufferTargets | None = None
+
+    def primary_targets(self, width: int, height: int) -> GBufferTargets:
+        """The primary camera's G-buffer, reallocated only when the image size changes."""
+        if self.primary is None or self.primary.size != (width, height):
+            old, self.primary = self.primary, GBufferTargets(self.ctx, width, height)
+            if old is not None:
+                old.release()
+        return self.primary
+
+    def _bind(self, gpu: GPUScene, prog) -> None:
+        ctx = self.ctx
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.disable(ctx.CULL_FACE)  # Blender shades both sides of a face
+        bind(prog, gpu.bindings())
+
+    def render_primary(self, gpu: GPUScene, scene: SceneData, view: RasterView) -> tuple[GBufferTargets, int]:
+        """Clear the primary G-buffer and rasterize ``view`` into it (§3.1), its draws culled
+        per triangle (view_cull/draw.py). Returns the targets and the triangles submitted."""
+        targets = self.primary_targets(view.width, view.height)
+        targets.clear()
+        prog = self.program
+        vao = self.drawer.vertex_array(prog, gpu)
+        submitted = self.drawer.draw_views("primary", prog, vao, gpu, scene, targets.fbo,
+                                           [(view.view_proj, (0, 0, view.width, view.height))],
+                                           lambda: self._bind(gpu, prog))
+        return targets, submitted
+
+    def render_cube_faces(self, gpu: GPUScene, scene: SceneData, views: list[RasterView], targets: RenderTargets,
+                          culled=None, culled_back=None, back_layer: bool = False) -> int:
+        """Rasterize the six face ``views`` side by side into ``targets`` (cube_map.py's
+        atlas, cleared by the caller; §3.2), and with ``back_layer`` a second row holding
+        only the back faces of closed objects. Refractive surfaces are left out: the faces
+        hold what lies behind them (paper Figure 8; gbuffer.frag.glsl). ``culled`` and
+        ``culled_back`` (view_cull.CulledDraws, the faces culled at once by cube_map.py)
+        draw each face's GPU-culled list; None draws its object list (the culler's
+        fallback). Returns the triangles submitted after per-object frustum culling."""
+        prog = self.cube_program
+        vao = self.drawer.vertex_array(prog, gpu)
+        targets.fbo.use()
+        self._bind(gpu, prog)
+        closed = scene.geometry.object_closed
+        rows = [(0, culled, False)]
+        if back_layer and closed is not None:
+            rows.append((1, culled_back, True))
+        submitted = 0
+        for row, row_culled, back_faces in rows:
+            for i, view in enumerate(views):
+                targets.fbo.viewport = (i * view.width, row * view.height, view.width, view.height)
+                set_uniforms(prog, {"u_view_proj": gl_matrix(view.view_proj)})
+                if row_culled is None:
+                    submitted += self.drawer.draw_world(vao, view.view_proj, scene,
+                                                        include=closed if back_faces else None,
+                                                        back_faces=back_faces)
+                else:
+                    with self.drawer.face_culling(view.view_proj, "front" if back_faces else None):
+                        submitted += row_culled.draw(prog, gpu, i)
+        return submitted
+
+    def release(self) -> None:
+        if self.primary is not None:
+            self.primary.release()
+            self.primary = None
+        if self._owns_drawer:
+            self.drawer.release()

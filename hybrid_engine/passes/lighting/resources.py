@@ -1,0 +1,76 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The lighting data of a frame, in one owner: lights, shadow atlas, sky, irradiance and the
+reach of the ambient occlusion.
+
+Every pass that shades a surface (the deferred shading of the primary G-buffer, paper §3.5,
+and the tracer's BVH and cube-map hits, §3.4) must light it alike, or a surface would change
+its look with the structure that found it. So these passes receive one ``FrameResources``
+and bind what it hands over; no pass reaches into another pass's objects for them. :meth:`FrameResources.bindings` is what they bind, by the names
+include/lighting.glsl, sky.glsl and world_light.glsl declare.
+"""
+from __future__ import annotations
+
+from ...gpu.bindings import Bindings
+from ...gpu.dispatch import GrowBuffer, SceneLimitError
+from ...scene.data import Lights, Sky
+from ...scene.settings import RenderSettings
+from ..scene_upload.scene_buffers import LIGHT_DTYPE, bytes_of, pack_lights
+from .shadow_atlas import ShadowAtlas
+from .sky_light import SkyLight
+
+# Rows of the LightBuffer uniform block (include/lighting.glsl): 64 KiB of 64-byte lights.
+MAX_LIGHTS = 1024
+
+
+class FrameResources:
+    """Lights, shadow atlas and World light on the shared context, kept across frames."""
+
+    def __init__(self, ctx) -> None:
+        self.ctx = ctx
+        self.lights = GrowBuffer(ctx, "scene lights", LIGHT_DTYPE.itemsize)
+        # The uniform block's whole size (lighting.glsl): a block reads what it declares.
+        self.lights.ensure(MAX_LIGHTS * LIGHT_DTYPE.itemsize)
+        self.shadows = ShadowAtlas(ctx)
+        self.sky = SkyLight(ctx)
+        self.light_count = 0
+        self.shadow_bias = 0.0
+        self.ao_distance = 0.0
+        self.sky_rays = False
+
+    def update_lights(self, lights: Lights, shadow_slots: list[tuple[int, int]], settings: RenderSettings) -> None:
+        """This frame's lights with their shadow slots (laid out in ``shadows``), and the
+        settings of the lighting (shadow bias, ambient-occlusion reach)."""
+        if len(lights) > MAX_LIGHTS:
+            raise SceneLimitError(f"the scene has {len(lights)} lamps; Hybrid RT renders at most {MAX_LIGHTS}: "
+                                  "hide some, or light with emissive meshes or the World")
+        self.lights.upload(bytes_of(pack_lights(lights, shadow_slots)))
+        self.light_count = len(lights)
+        self.shadow_bias = float(settings.shadow_bias)
+        self.ao_distance = float(settings.ao_distance)
+        self.sky_rays = settings.traces_sky
+
+    @property
+    def occludes(self) -> bool:
+        """Whether a pass estimates the sky's visibility (screen_ao.py, or rays)."""
+        return self.ao_distance > 0.0 or self.sky_rays
+
+    def update_sky(self, sky: Sky) -> None:
+        """The World (recomputed only when it changed, sky_light.py)."""
+        self.sky.update(sky)
+
+    def bindings(self) -> Bindings:
+        """The lighting's storage blocks, samplers and uniforms, for every shading pass."""
+        self.shadows.ensure_bindable()
+        return Bindings(
+            storage={"LightBuffer": self.lights.buffer, "ShadowSlotBuffer": self.shadows.slot_buffer,
+                     "SkyIrradiance": self.sky.sh_buffer},
+            textures={"u_shadow_atlas": self.shadows.static, "u_shadow_dynamic": self.shadows.dynamic,
+                      "u_sky_env": self.sky.texture()},
+            uniforms={**self.sky.uniforms(), "u_light_count": self.light_count, "u_shadow_bias": self.shadow_bias,
+                      "u_ao_distance": self.ao_distance, "u_sky_visibility_known": int(self.occludes),
+                      "u_ambient_from_rays": int(self.sky_rays)})
+
+    def release(self) -> None:
+        self.lights.release()
+        self.shadows.release()
+        self.sky.release()

@@ -1,0 +1,40 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Deferred shading of the primary G-buffer (gpu_shaders/shading/deferred_shade.comp.glsl,
+paper §3.5): emission, the World's light and every lamp with its shadow map, plus the
+specular lobes no ray follows. RASTER mode's image is this pass's; the traced modes add
+their rays' radiance to it (tracer.py)."""
+from __future__ import annotations
+
+import math
+
+from ...gpu import shader_loader
+from ...gpu.bindings import Image, bind
+from ...gpu.render_targets import GBufferTargets
+from ...scene.raster_view import RasterView
+from ..lighting.resources import FrameResources
+from ..scene_upload.scene_buffers import GPUScene
+
+
+class DeferredShadePass:
+    """Shades a G-buffer into its ``color`` target."""
+
+    def __init__(self, ctx) -> None:
+        self.ctx = ctx
+        self.program = shader_loader.compute(ctx, "shading/deferred_shade.comp.glsl")
+
+    def run(self, gpu: GPUScene, view: RasterView, targets: GBufferTargets, resources: FrameResources, *,
+            traced_specular: bool = False, transparent: bool = False, sample: int = 0) -> None:
+        """Shade ``targets`` into ``targets.color``, lit by ``resources``.
+        ``traced_specular`` leaves the lobes the tracer follows out (every traced mode);
+        ``transparent`` makes the background (0, 0, 0, 0) instead of the sky (film.py).
+        ``sample`` is this sample's index among the samples of one view. The World's light
+        is read from ``targets.ambient`` (screen_ao.py or the tracer's sky rays, run first)."""
+        prog = self.program
+        bind(prog, gpu.bindings(), resources.bindings(),
+             textures={"u_depth": targets.depth, "u_normal_material": targets.normal_material,
+                       "u_albedo": targets.albedo, "u_emission_scale": targets.emission_scale,
+                       "u_ambient": targets.ambient, "u_surface": targets.surface},
+             images={"u_output": Image(targets.color, read=False, write=True)},
+             uniforms={**view.uniforms(), "u_traced_specular": int(traced_specular),
+                       "u_transparent_background": int(transparent), "u_sample": int(sample)})
+        prog.run(math.ceil(view.width / 8), math.ceil(view.height / 8), 1)

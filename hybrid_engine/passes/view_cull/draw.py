@@ -1,0 +1,157 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Drawing the scene's triangles for a raster pass: per-object frustum culling, GL face
+culling where it loses nothing, and per-triangle culling on the GPU.
+
+The G-buffer pass (primary view and cube-map faces, paper §3.1, §3.2) and the shadow-map
+pass (§3.5) draw the scene the same way; one ``SceneDrawer`` per renderer serves both.
+
+The primary view and the shadow slots draw GPU-culled triangle lists (view_cull.py, as the
+cube-map faces do): a dense mesh far from the camera puts many triangles on every pixel, and
+most of them cover no pixel centre or face away. The culling compute pass drops them before
+the rasterizer sets them up, and the images are bit-identical to drawing the object lists.
+On a software GL this matters twice over: vertex processing and triangle setup run on one
+thread there, the compute pass on all of them. A dense model far away (Sponza's dragon
+covers a few thousand pixels) keeps a small fraction of its triangles.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from contextlib import contextmanager
+
+import numpy as np
+
+from ...gpu.bindings import set_uniforms
+from ...scene.data import SceneData
+from ...scene.raster_view import gl_matrix
+from ..scene_upload.scene_buffers import GPUScene
+from .frustum import beyond_near_plane, draw_ranges, front_face_winding, visible_objects
+from .view_cull import CullView, MAX_VIEWS, ViewTriangleCuller
+
+# Scenes with fewer triangles draw their object lists directly: the culling pass's three
+# dispatches cost more than it saves.
+CULL_MIN_TRIANGLES = 16384
+
+# A draw: the view-projection and the viewport rectangle (x, y, w, h) it draws into.
+ViewDraw = tuple[np.ndarray, tuple[int, int, int, int]]
+
+
+class SceneDrawer:
+    """Draws the scene's uploaded triangles into the bound framebuffer for one program."""
+
+    def __init__(self, ctx) -> None:
+        self.ctx = ctx
+        # Per-triangle culling (module doc). One culler per layer and batch of views, so
+        # that no index buffer is rewritten in a frame while an earlier draw of that frame
+        # may still read it. False draws the object lists.
+        self.cull_triangles = True
+        self._cullers: dict[tuple[str, int], ViewTriangleCuller] = {}
+        # Each layer's last culled batches (None: drawn from the object lists), for tests and
+        # statistics: CulledDraws.drawn() reads the survivors' counts back.
+        self.culled: dict[str, list] = {}
+        # Each program's vertex array over the scene's buffers, and the scene and buffer
+        # generation it was made for (GPUScene.generation bumps when a buffer is replaced).
+        self._vaos: dict[int, tuple[int, int, object]] = {}
+
+    def vertex_array(self, prog, gpu: GPUScene):
+        """``prog``'s vertex array over ``gpu``'s buffers, rebuilt only when they change."""
+        key = (id(gpu), gpu.generation)
+        entry = self._vaos.get(id(prog))
+        if entry is not None and entry[:2] == key:
+            return entry[2]
+        if entry is not None:
+            entry[2].release()
+        vao = self.ctx.vertex_array(prog, gpu.vertex_content(prog))
+        self._vaos[id(prog)] = (*key, vao)
+        return vao
+
+    def draw_world(self, vao, view_proj: np.ndarray, scene: SceneData, include: np.ndarray | None = None,
+                   back_faces: bool = False) -> int:
+        """Draw the objects whose bounds touch the frustum (and, given ``include``, that it
+        selects); returns triangles submitted. ``back_faces`` draws only their back faces
+        (the cube map's back layer; the caller selects closed objects)."""
+        geo = scene.geometry
+        mask = visible_objects(view_proj, geo.object_bounds)
+        if include is not None:
+            mask &= include
+        if back_faces:
+            groups = ((mask, "front"),)
+        else:
+            # Closed outward-wound objects wholly in front of the near plane lose nothing
+            # visible by back-face culling (solids.py); the rest is drawn two-sided.
+            culled = np.zeros_like(mask)
+            if geo.object_closed is not None and mask.any():
+                culled = mask & geo.object_closed & beyond_near_plane(view_proj, geo.object_bounds)
+            groups = ((mask & ~culled, None), (culled, "back"))
+        submitted = 0
+        ctx = self.ctx
+        for group, cull in groups:
+            ranges = draw_ranges(group, geo.object_ranges)
+            if not ranges:
+                continue
+            with self.face_culling(view_proj, cull):
+                for first, count in ranges:
+                    vao.render(ctx.TRIANGLES, vertices=count * 3, first=first * 3)
+                    submitted += count
+        return submitted
+
+    @contextmanager
+    def face_culling(self, view_proj: np.ndarray, cull: str | None):
+        """GL face culling of ``cull`` ("back", "front") faces for the draws of the block,
+        with the view's front-face winding; none for None."""
+        ctx = self.ctx
+        if cull is None:
+            yield
+            return
+        ctx.front_face = front_face_winding(view_proj)
+        ctx.cull_face = cull
+        ctx.enable(ctx.CULL_FACE)
+        try:
+            yield
+        finally:
+            ctx.disable(ctx.CULL_FACE)
+            ctx.front_face = "ccw"
+
+    def draw_views(self, layer: str, prog, vao, gpu: GPUScene, scene: SceneData, fbo,
+                   views: list[ViewDraw], bind: Callable[[], None],
+                   include: np.ndarray | None = None) -> int:
+        """Draw the scene with ``prog`` into ``fbo`` once per (view_proj, viewport) of
+        ``views``: the objects whose bounds touch the view and that ``include`` selects (all
+        when None). Returns triangles submitted after per-object culling. The draws are
+        culled per triangle on the GPU first (module doc), in batches of view_cull.MAX_VIEWS
+        views, unless ``cull_triangles`` is off, the scene is small
+        (``CULL_MIN_TRIANGLES``) or a batch's index buffer would not fit one storage block
+        (then that batch draws its object lists: the documented fallback). ``bind`` sets
+        the draws' GL state; it runs after the culling, whose dispatches rebind storage
+        buffers. ``layer`` names the caller's cullers."""
+        geo = scene.geometry
+        batches = [views[start:start + MAX_VIEWS] for start in range(0, len(views), MAX_VIEWS)]
+        culled = [None] * len(batches)
+        if self.cull_triangles and gpu.triangle_count >= CULL_MIN_TRIANGLES:
+            for b, batch in enumerate(batches):
+                culler = self._cullers.get((layer, b))
+                if culler is None:
+                    culler = self._cullers[(layer, b)] = ViewTriangleCuller(self.ctx)
+                culled[b] = culler.cull(gpu.positions.buffer, gpu.triangle_count,
+                                        [CullView(view_proj, rect[2], rect[3]) for view_proj, rect in batch],
+                                        geo.object_ranges, geo.object_bounds, geo.object_closed, include)
+        self.culled[layer] = culled
+        fbo.use()
+        bind()
+        submitted = 0
+        for batch, batch_culled in zip(batches, culled):
+            for i, (view_proj, rect) in enumerate(batch):
+                fbo.viewport = rect
+                set_uniforms(prog, {"u_view_proj": gl_matrix(view_proj)})
+                if batch_culled is not None:
+                    submitted += batch_culled.draw(prog, gpu, i)
+                else:
+                    submitted += self.draw_world(vao, view_proj, scene, include)
+        return submitted
+
+    def release(self) -> None:
+        for culler in self._cullers.values():
+            culler.release()
+        self._cullers.clear()
+        for *_, vao in self._vaos.values():
+            vao.release()
+        self._vaos.clear()

@@ -1,0 +1,518 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Plain-array scene description: what the renderer core consumes.
+
+The Blender adapter turns a depsgraph into these dataclasses; tests and benchmarks build
+them directly. Geometry is world space, float32/int32 numpy, with triangles grouped by
+object so that the near-cube culling (paper §3.3) can test an object's AABB first and only
+then its triangles; the Blender adapter hands over its ``InstancedGeometry`` subclass
+(scene/instances.py: object-space meshes and instances, made world space on the GPU).
+
+Units follow Blender: metres, light power in watts (point/spot/area) and irradiance in W/m²
+(sun), colours linear Rec.709.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+# Light kinds (std430 int in the light buffer)
+LIGHT_POINT, LIGHT_SUN, LIGHT_SPOT, LIGHT_AREA = 0, 1, 2, 3
+LIGHT_KINDS = {"POINT": LIGHT_POINT, "SUN": LIGHT_SUN, "SPOT": LIGHT_SPOT, "AREA": LIGHT_AREA}
+
+
+class SceneDataError(ValueError):
+    """Scene arrays are malformed (wrong shape, dtype or inconsistent counts)."""
+
+
+def _as(array, dtype, shape_tail: tuple[int, ...], name: str) -> np.ndarray:
+    arr = np.ascontiguousarray(np.asarray(array, dtype=dtype))
+    if arr.ndim != 1 + len(shape_tail) or tuple(arr.shape[1:]) != shape_tail:
+        want = "(N, " + ", ".join(map(str, shape_tail)) + ")" if shape_tail else "(N,)"
+        raise SceneDataError(f"{name} must have shape {want}, got {arr.shape}")
+    return arr
+
+
+@dataclass(frozen=True)
+class GeometryEdit:
+    """How a producer that keeps one geometry up to date (the Blender adapter's scene cache)
+    made this version of it: ``generation`` counts its versions, and ``objects`` lists the
+    objects whose rows it rewrote in place since ``generation - 1``, with the layout (object
+    ranges, triangle count, UVs present) unchanged; None when it rebuilt the arrays. A
+    consumer that uploaded ``generation - 1`` of the same ``source`` re-sends just those
+    objects' rows instead of comparing every triangle (scene_delta.GeometryTracker)."""
+
+    source: int
+    generation: int
+    objects: tuple[int, ...] | None = None
+
+
+@dataclass
+class Geometry:
+    """World-space triangles of all visible objects, grouped by object.
+
+    ``triangles[i]`` holds the three corners of triangle i; ``normals[i]`` the three shading
+    normals (smooth, flat or custom split normals, already in world space); ``uvs`` is
+    optional. ``object_ranges[k] = (first, count)`` are the triangles of object k and
+    ``object_bounds[k] = (min, max)`` its AABB (NaN corners excluded). ``object_closed``
+    (optional, (K,) bool) marks objects whose triangles form closed surfaces wound
+    counter-clockwise seen from outside (:func:`hybrid_engine.scene.solids.closed_outward`): the
+    raster passes skip their back faces, which an outside eye never sees. Marking an open
+    or inward-wound object lets the background show through it; None marks none.
+    """
+
+    triangles: np.ndarray  # (N, 3, 3) float32
+    normals: np.ndarray  # (N, 3, 3) float32
+    material_ids: np.ndarray  # (N,) int32, index into MaterialTable
+    object_ranges: np.ndarray  # (K, 2) int32
+    object_bounds: np.ndarray  # (K, 2, 3) float32
+    object_names: list[str] = field(default_factory=list)
+    uvs: np.ndarray | None = None  # (N, 3, 2) float32
+    object_closed: np.ndarray | None = None  # (K,) bool
+    edit: GeometryEdit | None = None  # set by a producer that edits the arrays in place
+
+    def __post_init__(self) -> None:
+        self.triangles = _as(self.triangles, np.float32, (3, 3), "triangles")
+        self.normals = _as(self.normals, np.float32, (3, 3), "normals")
+        self.material_ids = _as(self.material_ids, np.int32, (), "material_ids")
+        self.object_ranges = _as(self.object_ranges, np.int32, (2,), "object_ranges")
+        self.object_bounds = _as(self.object_bounds, np.float32, (2, 3), "object_bounds")
+        n = len(self.triangles)
+        if len(self.normals) != n or len(self.material_ids) != n:
+            raise SceneDataError(
+                f"triangles ({n}), normals ({len(self.normals)}) and material_ids "
+                f"({len(self.material_ids)}) must have the same length"
+            )
+        if self.uvs is not None:
+            self.uvs = _as(self.uvs, np.float32, (3, 2), "uvs")
+            if len(self.uvs) != n:
+                raise SceneDataError(f"uvs has {len(self.uvs)} rows, triangles {n}")
+        if len(self.object_ranges) != len(self.object_bounds):
+            raise SceneDataError("object_ranges and object_bounds must have one row per object")
+        if self.object_closed is not None:
+            self.object_closed = np.asarray(self.object_closed, bool).reshape(-1)
+            if len(self.object_closed) != len(self.object_ranges):
+                raise SceneDataError(f"object_closed has {len(self.object_closed)} entries, "
+                                     f"object_ranges {len(self.object_ranges)}")
+        if len(self.object_ranges):
+            ends = self.object_ranges[:, 0].astype(np.int64) + self.object_ranges[:, 1]
+            if (self.object_ranges < 0).any() or ends.max() > n:
+                raise SceneDataError("object_ranges point outside the triangle array")
+
+    @property
+    def triangle_count(self) -> int:
+        return int(len(self.triangles))
+
+    @property
+    def has_uvs(self) -> bool:
+        """Whether ``uvs`` is given (asked without making arrays that are made on demand)."""
+        return self.uvs is not None
+
+    def clamp_material_ids(self, count: int) -> None:
+        """Documented fallback: ids outside a table of ``count`` materials (empty material
+        slots) use material 0."""
+        ids = self.material_ids
+        if len(ids) and (ids.min() < 0 or ids.max() >= count):
+            self.material_ids = np.where((ids >= 0) & (ids < count), ids, 0).astype(np.int32)
+
+    def rows(self, first: int, count: int) -> "Geometry":
+        """Triangles [first, first + count) as a Geometry of views (no copies, no objects):
+        what per-triangle packers need to re-pack a changed range."""
+        end = first + count
+        return Geometry(
+            triangles=self.triangles[first:end], normals=self.normals[first:end],
+            material_ids=self.material_ids[first:end], object_ranges=np.zeros((0, 2), np.int32),
+            object_bounds=np.zeros((0, 2, 3), np.float32),
+            uvs=None if self.uvs is None else self.uvs[first:end],
+        )
+
+    @classmethod
+    def empty(cls) -> "Geometry":
+        return cls(
+            triangles=np.zeros((0, 3, 3), np.float32),
+            normals=np.zeros((0, 3, 3), np.float32),
+            material_ids=np.zeros(0, np.int32),
+            object_ranges=np.zeros((0, 2), np.int32),
+            object_bounds=np.zeros((0, 2, 3), np.float32),
+        )
+
+    @classmethod
+    def from_objects(
+        cls,
+        objects: list[tuple[np.ndarray, np.ndarray | None, np.ndarray | int]],
+        names: list[str] | None = None,
+    ) -> "Geometry":
+        """Concatenate per-object (triangles, normals or None for flat, material ids)."""
+        if not objects:
+            return cls.empty()
+        tris, norms, mats, ranges, bounds = [], [], [], [], []
+        start = 0
+        for obj_tris, obj_normals, obj_mats in objects:
+            t = np.asarray(obj_tris, np.float32).reshape(-1, 3, 3)
+            nrm = flat_normals(t) if obj_normals is None else np.asarray(obj_normals, np.float32)
+            m = np.broadcast_to(np.asarray(obj_mats, np.int32), (len(t),))
+            tris.append(t)
+            norms.append(nrm.reshape(-1, 3, 3))
+            mats.append(m)
+            ranges.append((start, len(t)))
+            bounds.append(finite_bounds(t))
+            start += len(t)
+        return cls(
+            triangles=np.concatenate(tris),
+            normals=np.concatenate(norms),
+            material_ids=np.concatenate(mats),
+            object_ranges=np.array(ranges, np.int32).reshape(-1, 2),
+            object_bounds=np.array(bounds, np.float32).reshape(-1, 2, 3),
+            object_names=list(names) if names else [f"object_{i}" for i in range(len(objects))],
+        )
+
+
+def flat_normals(triangles: np.ndarray) -> np.ndarray:
+    """Per-corner normals equal to each face normal; zero-area faces get +Z (documented
+    fallback so that shading never divides by zero)."""
+    t = np.asarray(triangles, np.float32).reshape(-1, 3, 3)
+    with np.errstate(invalid="ignore", over="ignore"):
+        n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        ok = np.isfinite(length) & (length > 0)
+        n = np.where(ok, n / np.where(ok, length, 1), np.array([0, 0, 1], np.float32))
+    return np.repeat(n[:, None, :], 3, axis=1).astype(np.float32)
+
+
+def finite_bounds(triangles: np.ndarray) -> np.ndarray:
+    """AABB over the finite vertices; an object with none gets an inverted (empty) box."""
+    pts = np.asarray(triangles, np.float32).reshape(-1, 3)
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    if len(pts) == 0:
+        return np.array([[np.inf] * 3, [-np.inf] * 3], np.float32)
+    return np.stack([pts.min(axis=0), pts.max(axis=0)]).astype(np.float32)
+
+
+@dataclass
+class MaterialTable:
+    """Per-material parameters, derived from Blender's Principled BSDF (see DESIGN.md).
+
+    ``reflectivity`` is the weight of the metal lobe (Metallic), tinted by ``base_color``;
+    ``transmission`` the weight of the glass lobe of index ``ior``; what remains is diffuse,
+    under a dielectric specular coat whose reflectance at normal incidence is ``specular``
+    (0: none; Blender's Specular IOR Level folded in by materials.py). ``roughness`` (GGX)
+    applies to every specular lobe: 0 is a perfect mirror or clear glass
+    (gpu_shaders/include/shading.glsl). ``thickness`` is the paper's per-material
+    thickness (§3.4): 0 thin, 1 solid to the cube map's far plane.
+
+    Image textures: ``textures`` holds the scene's images and ``base_color_texture[i]`` /
+    ``emission_texture[i]`` index it (-1: none). A texture *multiplies* the material's
+    factor: albedo = base_color * texture(uv).rgb, emission = emission * texture(uv).rgb.
+    Blender ignores a socket's own value once an Image Texture is linked to it, so the
+    extractor stores a factor of 1 for a direct link (and the constant of a Multiply mix
+    for a ``colour × image`` link); scenes built by hand can use the factor as a tint.
+    ``roughness_texture[i]`` / ``metallic_texture[i]`` give the roughness / metallic (the
+    factors are then unused, as Blender ignores a linked socket's value) from the channel
+    ``roughness_channel`` / ``metallic_channel`` (``TEXTURE_CHANNELS``: a glTF's packed
+    image reads green and blue) of a Non-Color image.
+    ``normal_texture[i]`` is a tangent-space normal map (Blender's Normal Map node: colour
+    ``n * 0.5 + 0.5`` in the frame of the UVs' directions, OpenGL's +Y), blended with the
+    shading normal by ``normal_strength``; its image is stored as is (Non-Color).
+    Texture coordinates are the triangles' ``Geometry.uvs`` (zero when absent), wrapped
+    by repetition; the alpha channel is not used.
+
+    Each texture is (H, W, 4) (or (H, W, 3), given alpha 1) float32 *linear* RGBA, row 0
+    at the bottom (v = 0), the order of Blender's ``Image.pixels`` and of OpenGL; 8-bit
+    sRGB images must be decoded first (``hybrid_engine.passes.scene_upload.textures.srgb_to_linear``). Arrays
+    already in that form are kept as they are, not copied, and are treated as immutable:
+    the GPU copy is refreshed when the list holds different arrays, not when an array is
+    changed in place. Non-finite or negative texels are not rejected here (checking every
+    texel every frame would cost more than the frame); the upload replaces them (documented
+    fallback in ``hybrid_engine.passes.scene_upload.textures.pack_layers``).
+    """
+
+    base_color: np.ndarray  # (M, 3) float32, linear
+    emission: np.ndarray  # (M, 3) float32, radiance added (colour * strength)
+    reflectivity: np.ndarray  # (M,) float32 in [0, 1]
+    transmission: np.ndarray  # (M,) float32 in [0, 1]
+    ior: np.ndarray  # (M,) float32 >= 1
+    thickness: np.ndarray  # (M,) float32 in [0, 1]
+    names: list[str] = field(default_factory=list)
+    roughness: np.ndarray | None = None  # (M,) float32 in [0, 1]; None: all 0
+    specular: np.ndarray | None = None  # (M,) float32 in [0, 1], coat reflectance; None: all 0
+    base_color_texture: np.ndarray | None = None  # (M,) int32 index into textures, -1 none
+    emission_texture: np.ndarray | None = None  # (M,) int32 index into textures, -1 none
+    textures: list[np.ndarray] = field(default_factory=list)  # (H, W, 4) float32 linear
+    normal_texture: np.ndarray | None = None  # (M,) int32 tangent-space normal map, -1 none
+    normal_strength: np.ndarray | None = None  # (M,) float32 Normal Map strength; None: all 1
+    roughness_texture: np.ndarray | None = None  # (M,) int32 image giving the roughness, -1 none
+    metallic_texture: np.ndarray | None = None  # (M,) int32 image giving the metallic, -1 none
+    roughness_channel: np.ndarray | None = None  # (M,) int32 TEXTURE_CHANNELS index; None: all 3
+    metallic_channel: np.ndarray | None = None  # (M,) int32 TEXTURE_CHANNELS index; None: all 3
+
+    def __post_init__(self) -> None:
+        self.base_color = _as(self.base_color, np.float32, (3,), "base_color")
+        m = len(self.base_color)
+        self.emission = _as(self.emission, np.float32, (3,), "emission")
+        for name in ("roughness", "specular"):
+            if getattr(self, name) is None:
+                setattr(self, name, np.zeros(m, np.float32))
+        for name in ("reflectivity", "transmission", "ior", "thickness", "roughness", "specular"):
+            setattr(self, name, _as(getattr(self, name), np.float32, (), name))
+        for name in ("emission", "reflectivity", "transmission", "ior", "thickness", "roughness", "specular"):
+            if len(getattr(self, name)) != m:
+                raise SceneDataError(f"material {name} has {len(getattr(self, name))} rows, expected {m}")
+        if not self.names:
+            self.names = [f"material_{i}" for i in range(m)]
+        self.textures = [_texture(t, i) for i, t in enumerate(self.textures)]
+        if self.normal_strength is None:
+            self.normal_strength = np.ones(m, np.float32)
+        self.normal_strength = _as(self.normal_strength, np.float32, (), "normal_strength")
+        if len(self.normal_strength) != m:
+            raise SceneDataError(f"material normal_strength has {len(self.normal_strength)} rows, expected {m}")
+        for name in ("roughness_channel", "metallic_channel"):
+            value = getattr(self, name)
+            channel = np.full(m, LUMINANCE_CHANNEL, np.int32) if value is None else _as(value, np.int32, (), name)
+            if len(channel) != m or ((channel < 0) | (channel >= len(TEXTURE_CHANNELS))).any():
+                raise SceneDataError(f"material {name} must hold {m} values in 0..{len(TEXTURE_CHANNELS) - 1} "
+                                     f"({', '.join(TEXTURE_CHANNELS)})")
+            setattr(self, name, channel)
+        for name in ("base_color_texture", "emission_texture", "normal_texture", "roughness_texture",
+                     "metallic_texture"):
+            value = getattr(self, name)
+            index = np.full(m, -1, np.int32) if value is None else _as(value, np.int32, (), name)
+            if len(index) != m:
+                raise SceneDataError(f"material {name} has {len(index)} rows, expected {m}")
+            bad = np.flatnonzero((index < -1) | (index >= len(self.textures)))
+            if len(bad):
+                k = int(bad[0])
+                raise SceneDataError(
+                    f"material {k} ({self.names[k]!r}) has {name} {int(index[k])}, but there "
+                    f"are {len(self.textures)} textures (valid: -1 for none, 0..{len(self.textures) - 1})"
+                )
+            setattr(self, name, index)
+
+    @property
+    def has_textures(self) -> bool:
+        """True when some material samples a texture."""
+        return bool(any((getattr(self, name) >= 0).any() for name in TEXTURE_SLOTS))
+
+    def __len__(self) -> int:
+        return int(len(self.base_color))
+
+    @classmethod
+    def default(cls) -> "MaterialTable":
+        """One grey diffuse material (Blender's default surface, base colour 0.8)."""
+        return cls.from_rows([dict(name="default")])
+
+    @classmethod
+    def from_rows(cls, rows: list[dict], textures: list[np.ndarray] | None = None) -> "MaterialTable":
+        """Build from dicts with keys base_color, emission, reflectivity, transmission, ior,
+        thickness, roughness, specular, name, base_color_texture, emission_texture,
+        normal_texture, normal_strength, roughness_texture, roughness_channel,
+        metallic_texture, metallic_channel (all optional).
+
+        A texture key holds an index into ``textures``, None (no texture) or the image
+        array itself; arrays are appended to the texture list once per array object, so
+        materials sharing an image share one texture.
+        """
+        get = lambda key, default: [r.get(key, default) for r in rows]  # noqa: E731
+        texture_list = list(textures or [])
+        slot_of = {id(t): i for i, t in enumerate(texture_list)}
+
+        def texture_index(value) -> int:
+            if value is None:
+                return -1
+            if isinstance(value, np.ndarray) and value.ndim >= 2:
+                if id(value) not in slot_of:
+                    slot_of[id(value)] = len(texture_list)
+                    texture_list.append(value)
+                return slot_of[id(value)]
+            return int(value)
+
+        return cls(
+            base_color=np.array(get("base_color", (0.8, 0.8, 0.8)), np.float32).reshape(-1, 3),
+            emission=np.array(get("emission", (0.0, 0.0, 0.0)), np.float32).reshape(-1, 3),
+            reflectivity=np.array(get("reflectivity", 0.0), np.float32),
+            transmission=np.array(get("transmission", 0.0), np.float32),
+            ior=np.array(get("ior", 1.45), np.float32),
+            thickness=np.array(get("thickness", 0.5), np.float32),
+            roughness=np.array(get("roughness", 0.0), np.float32),
+            specular=np.array(get("specular", 0.0), np.float32),
+            names=[str(n) for n in get("name", "material")],
+            base_color_texture=np.array([texture_index(v) for v in get("base_color_texture", None)], np.int32),
+            emission_texture=np.array([texture_index(v) for v in get("emission_texture", None)], np.int32),
+            normal_texture=np.array([texture_index(v) for v in get("normal_texture", None)], np.int32),
+            normal_strength=np.array(get("normal_strength", 1.0), np.float32),
+            roughness_texture=np.array([texture_index(v) for v in get("roughness_texture", None)], np.int32),
+            metallic_texture=np.array([texture_index(v) for v in get("metallic_texture", None)], np.int32),
+            roughness_channel=np.array(get("roughness_channel", LUMINANCE_CHANNEL), np.int32),
+            metallic_channel=np.array(get("metallic_channel", LUMINANCE_CHANNEL), np.int32),
+            textures=texture_list,
+        )
+
+    def packed(self) -> np.ndarray:
+        """std430 rows of ``struct Material`` (gpu_shaders/include/scene_layout.glsl)."""
+        out = np.zeros(len(self), MATERIAL_DTYPE)
+        out["base_color"][:, :3] = self.base_color
+        out["base_color"][:, 3] = self.reflectivity
+        out["emission"][:, :3] = self.emission
+        out["emission"][:, 3] = self.transmission
+        out["params"][:, 0] = self.ior
+        out["params"][:, 1] = self.thickness
+        out["params"][:, 2] = np.clip(self.roughness, 0.0, 1.0)
+        out["params"][:, 3] = np.clip(self.specular, 0.0, 1.0)
+        out["textures"][:, 0] = self.base_color_texture
+        out["textures"][:, 1] = self.emission_texture
+        out["textures"][:, 2] = self.normal_texture
+        # The Normal Map strength in thousandths (an int slot: the float ones are all used).
+        strength = np.nan_to_num(np.clip(self.normal_strength, 0.0, 100.0))
+        out["textures"][:, 3] = np.where(self.normal_texture >= 0, np.round(strength * 1000.0), -1)
+        # Roughness and metallic images: layer * 4 + the channel read (TEXTURE_CHANNELS).
+        out["textures2"][:] = -1
+        for column, (layer, channel) in enumerate(((self.roughness_texture, self.roughness_channel),
+                                                   (self.metallic_texture, self.metallic_channel))):
+            out["textures2"][:, column] = np.where(layer >= 0, layer * 4 + channel, -1)
+        return out
+
+
+# struct Material { vec4 base_color_refl; vec4 emission_trans; vec4 params; ivec4 textures; ivec4 textures2; }
+MATERIAL_DTYPE = np.dtype(
+    [("base_color", np.float32, 4), ("emission", np.float32, 4), ("params", np.float32, 4),
+     ("textures", np.int32, 4), ("textures2", np.int32, 4)]
+)
+assert MATERIAL_DTYPE.itemsize == 80  # total: 80 bytes
+# The material's image slots (MaterialTable attributes holding texture indices).
+TEXTURE_SLOTS = ("base_color_texture", "emission_texture", "normal_texture", "roughness_texture",
+                 "metallic_texture")
+# What a roughness or metallic image gives: one channel, or the luminance (Blender's colour
+# to value conversion, Rec.709 weights) of its colour.
+TEXTURE_CHANNELS = ("red", "green", "blue", "luminance")
+LUMINANCE_CHANNEL = 3
+
+
+def _texture(array, index: int) -> np.ndarray:
+    """One texture as (H, W, 4) float32, the same object when it already is one."""
+    arr = np.asarray(array)
+    if arr.dtype.kind != "f":
+        raise SceneDataError(
+            f"texture {index} has dtype {arr.dtype}; textures are float linear RGBA (decode 8-bit "
+            "sRGB images with hybrid_engine.passes.scene_upload.textures.srgb_to_linear)"
+        )
+    if arr.ndim != 3 or arr.shape[2] not in (3, 4) or arr.shape[0] < 1 or arr.shape[1] < 1:
+        raise SceneDataError(f"texture {index} must have shape (H, W, 4) or (H, W, 3), got {arr.shape}")
+    if arr.shape[2] == 3:
+        arr = np.concatenate([arr, np.ones(arr.shape[:2] + (1,), arr.dtype)], axis=2)
+    return np.ascontiguousarray(arr, np.float32)
+
+
+@dataclass
+class Lights:
+    """Punctual lights in Blender's units.
+
+    ``power`` is watts for point/spot/area (Blender's "Power") and W/m² for sun ("Strength"),
+    already multiplied into ``color``. ``direction`` is where the light points (sun, spot,
+    area: the light's -Z axis). ``radius`` is the lamp's size: the radius of a point or spot,
+    the half-size of an area lamp, the angular diameter of a sun in radians; it softens the
+    shadows and widens the highlights (gpu_shaders/include/lighting.glsl). ``spot_size`` is
+    the full cone angle in radians and
+    ``spot_blend`` Blender's blend factor. Area lights are approximated as spot-like emitters
+    with a cosine falloff over the hemisphere (documented approximation).
+    """
+
+    kind: np.ndarray  # (L,) int32, LIGHT_*
+    position: np.ndarray  # (L, 3) float32
+    direction: np.ndarray  # (L, 3) float32, unit
+    color: np.ndarray  # (L, 3) float32, colour * power
+    radius: np.ndarray  # (L,) float32
+    spot_size: np.ndarray  # (L,) float32, radians
+    spot_blend: np.ndarray  # (L,) float32
+    cast_shadow: np.ndarray  # (L,) bool
+    names: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.kind = _as(self.kind, np.int32, (), "kind")
+        n = len(self.kind)
+        self.position = _as(self.position, np.float32, (3,), "position")
+        self.direction = _as(self.direction, np.float32, (3,), "direction")
+        self.color = _as(self.color, np.float32, (3,), "color")
+        self.radius = _as(self.radius, np.float32, (), "radius")
+        self.spot_size = _as(self.spot_size, np.float32, (), "spot_size")
+        self.spot_blend = _as(self.spot_blend, np.float32, (), "spot_blend")
+        self.cast_shadow = _as(self.cast_shadow, bool, (), "cast_shadow")
+        for name in ("position", "direction", "color", "radius", "spot_size", "spot_blend", "cast_shadow"):
+            if len(getattr(self, name)) != n:
+                raise SceneDataError(f"light {name} has {len(getattr(self, name))} rows, expected {n}")
+        if ((self.kind < 0) | (self.kind > LIGHT_AREA)).any():
+            raise SceneDataError("light kind must be one of LIGHT_POINT/SUN/SPOT/AREA")
+        if not self.names:
+            self.names = [f"light_{i}" for i in range(n)]
+
+    def __len__(self) -> int:
+        return int(len(self.kind))
+
+    @classmethod
+    def empty(cls) -> "Lights":
+        return cls.from_rows([])
+
+    @classmethod
+    def from_rows(cls, rows: list[dict]) -> "Lights":
+        """Build from dicts: kind ('POINT'|'SUN'|'SPOT'|'AREA' or int), position, direction,
+        color (already times power), radius, spot_size, spot_blend, cast_shadow, name."""
+        def kind_of(value):
+            return LIGHT_KINDS[value] if isinstance(value, str) else int(value)
+
+        return cls(
+            kind=np.array([kind_of(r.get("kind", "POINT")) for r in rows], np.int32),
+            position=np.array([r.get("position", (0, 0, 0)) for r in rows], np.float32).reshape(-1, 3),
+            direction=np.array([r.get("direction", (0, 0, -1)) for r in rows], np.float32).reshape(-1, 3),
+            color=np.array([r.get("color", (1, 1, 1)) for r in rows], np.float32).reshape(-1, 3),
+            radius=np.array([r.get("radius", 0.0) for r in rows], np.float32),
+            spot_size=np.array([r.get("spot_size", np.pi / 4) for r in rows], np.float32),
+            spot_blend=np.array([r.get("spot_blend", 0.15) for r in rows], np.float32),
+            cast_shadow=np.array([r.get("cast_shadow", True) for r in rows], bool),
+            names=[str(r.get("name", f"light_{i}")) for i, r in enumerate(rows)],
+        )
+
+
+@dataclass
+class Sky:
+    """The World background: a constant colour, or an equirectangular environment image
+    (Blender's convention: u = 0.5 - atan2(dir.y, dir.x) / 2π, v = 0.5 + atan2(dir.z, hypot(x, y)) / π),
+    scaled by ``strength``."""
+
+    color: tuple[float, float, float] = (0.05, 0.05, 0.05)
+    strength: float = 1.0
+    environment: np.ndarray | None = None  # (H, W, 3) float32 linear, row 0 = bottom (v = 0)
+
+    def __post_init__(self) -> None:
+        c = np.asarray(self.color, np.float32).reshape(-1)
+        if c.shape != (3,) or not np.isfinite(c).all():
+            raise SceneDataError(f"sky color must be 3 finite floats, got {self.color!r}")
+        self.color = tuple(float(x) for x in c)
+        if self.environment is not None:
+            env = np.ascontiguousarray(np.asarray(self.environment, np.float32))
+            if env.ndim != 3 or env.shape[2] not in (3, 4) or env.shape[0] < 1 or env.shape[1] < 1:
+                raise SceneDataError(f"environment must be (H, W, 3|4), got {env.shape}")
+            if env.shape[2] == 4:
+                env = np.ascontiguousarray(env[:, :, :3])
+            # The caller's array itself when it is clean: its identity tells the GPU side
+            # (sky_light.py) that the environment did not change.
+            self.environment = env if np.isfinite(env).all() else np.nan_to_num(env, nan=0.0, posinf=0.0,
+                                                                                 neginf=0.0)
+
+
+@dataclass
+class SceneData:
+    """Everything one frame needs besides the camera and the settings."""
+
+    geometry: Geometry
+    materials: MaterialTable
+    lights: Lights = field(default_factory=Lights.empty)
+    sky: Sky = field(default_factory=Sky)
+
+    @property
+    def textures(self) -> list[np.ndarray]:
+        """The scene's image textures; they live in the material table, next to the indices
+        that refer to them, so a table can never be paired with the wrong list."""
+        return self.materials.textures
+
+    def __post_init__(self) -> None:
+        if len(self.materials) == 0:
+            raise SceneDataError("the material table needs at least one material (index 0 is the fallback)")
+        self.geometry.clamp_material_ids(len(self.materials))

@@ -22,6 +22,7 @@ from ..hybrid_engine.frame.renderer import FrameResult, RenderCancelled, Rendere
 from ..hybrid_engine.frame.near_budget import NearCubeSizer
 from ..hybrid_engine.reports.diagnostic_legend import draw_legend
 from ..hybrid_engine.scene.data import SceneData
+from ..hybrid_engine.scene.settings import RenderSettings
 from . import messages, properties, viewport
 from .export.camera import camera_from_scene
 from .gl_host import gl_block
@@ -105,8 +106,12 @@ def final_camera(scene, depsgraph) -> Camera:
 
 
 def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, final=False,
-                     source: TrackedScene | None = None, sizer: NearCubeSizer | None = None) -> FrameResult:
-    """Export the evaluated scene and render one frame with the scene's settings.
+                     source: TrackedScene | None = None, sizer: NearCubeSizer | None = None,
+                     settings: RenderSettings | None = None) -> FrameResult:
+    """Export the evaluated scene and render one frame with the scene's settings, or with
+    ``settings`` when given: a caller that renders with other settings than the artist's
+    (the timing report's FULL_BVH comparison) passes them here instead of writing them
+    into ``scene.hybrid_rt``, so the artist's file is never changed.
 
     The scene comes from ``source`` (a job's tracked scene: only what changed is re-read),
     else from F12's kept scene (``final``, ``final_scene_data``), else it is read afresh.
@@ -121,7 +126,8 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
     from the frames it timed; F12 takes the size the viewport settled on.
     """
     scene = depsgraph.scene
-    settings = properties.settings_from_scene(scene)
+    if settings is None:
+        settings = properties.settings_from_scene(scene)
     if sizer is not None:
         settings = sizer.settings_for_frame(settings)
     elif final:

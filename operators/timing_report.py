@@ -9,18 +9,18 @@ rendered a second time in FULL_BVH mode (PREFIX_full_bvh.*) and PREFIX_compare.p
 both frame times (paper Figure 6).
 
 Everything is validated before the first frame is rendered (frame range, output directory,
-camera, settings). The scene's current frame is restored afterwards, also after an error;
-the FULL_BVH run switches ``scene.hybrid_rt.mode`` for its duration only (the engine reads
-its settings from the scene) and puts the user's value back.
+camera, settings). The scene's current frame is restored afterwards, also after an error.
+The report never writes the user's settings: each frame is rendered with the scene's
+settings at that frame (keyframed settings change from frame to frame, as in F12), and the
+FULL_BVH run hands its mode to ``render_depsgraph`` as an override, so ``scene.hybrid_rt``
+reads the artist's values throughout and a crash cannot leave the file changed.
 """
 from __future__ import annotations
 
 import os
 import tempfile
 import traceback
-from contextlib import contextmanager
 from dataclasses import asdict, replace
-from typing import Iterator
 
 import bpy
 
@@ -28,22 +28,11 @@ from ..blender_adapter import engine, properties, scene_cache
 from ..blender_adapter.export.camera import render_resolution
 from ..hybrid_engine.reports import timing_report
 from ..hybrid_engine.frame.near_budget import NearCubeSizer
-from ..hybrid_engine.scene.settings import SettingsError
+from ..hybrid_engine.scene.settings import RenderSettings, SettingsError
 
 COMPARE_MODE = "FULL_BVH"
 COMPARE_SUFFIX = "_full_bvh"
 COMPARISON_CHART_SUFFIX = "_compare.png"
-
-
-@contextmanager
-def _scene_mode(scene, mode: str) -> Iterator[None]:
-    """Set ``scene.hybrid_rt.mode`` for the duration of the block, then restore it."""
-    stored = scene.hybrid_rt.mode
-    scene.hybrid_rt.mode = mode
-    try:
-        yield
-    finally:
-        scene.hybrid_rt.mode = stored
 
 
 def default_prefix(scene) -> str:
@@ -144,7 +133,7 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
             window_manager.progress_begin(0, (2 if self.compare_full_bvh else 1) * len(frames))
         saved_frame, saved_subframe = scene.frame_current, scene.frame_subframe
         main = _FrameRenderer(context, window_manager, progress_offset=0)
-        compare = _FrameRenderer(context, window_manager, progress_offset=len(frames))
+        compare = _FrameRenderer(context, window_manager, progress_offset=len(frames), mode=COMPARE_MODE)
         try:
             report, paths = timing_report.run_timing_report(
                 prefix, frames.start, frames.stop - 1, main.render,
@@ -154,7 +143,7 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
             )
             written = [paths["json"], paths["csv"], paths["png"], paths["svg"]]
             if self.compare_full_bvh:
-                written += self._compare(scene, prefix, frames, settings, report, compare)
+                written += self._compare(prefix, frames, settings, report, compare)
         except Exception as exc:  # noqa: BLE001 - any failure is reported, the scene restored
             traceback.print_exc()
             failed = compare if compare.frame is not None else main
@@ -186,15 +175,15 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
         settings = properties.settings_from_scene(scene)
         return prefix, frames, settings
 
-    def _compare(self, scene, prefix, frames, settings, report, renderer: "_FrameRenderer") -> list:
-        """The same range in FULL_BVH mode (the paper's Figure 6 comparison)."""
-        with _scene_mode(scene, COMPARE_MODE):
-            compare_report, compare_paths = timing_report.run_timing_report(
-                f"{prefix}{COMPARE_SUFFIX}", frames.start, frames.stop - 1, renderer.render,
-                requested_mode=COMPARE_MODE, settings=asdict(replace(settings, mode=COMPARE_MODE)),
-                target_fps=report.target_fps, scene=report.scene, progress=renderer.progress,
-                warnings=renderer.warnings, warmup_frames=self.warmup_frames,
-            )
+    def _compare(self, prefix, frames, settings, report, renderer: "_FrameRenderer") -> list:
+        """The same range in FULL_BVH mode (the paper's Figure 6 comparison): ``renderer``
+        carries the mode to the engine, the scene's settings are left alone."""
+        compare_report, compare_paths = timing_report.run_timing_report(
+            f"{prefix}{COMPARE_SUFFIX}", frames.start, frames.stop - 1, renderer.render,
+            requested_mode=COMPARE_MODE, settings=asdict(replace(settings, mode=COMPARE_MODE)),
+            target_fps=report.target_fps, scene=report.scene, progress=renderer.progress,
+            warnings=renderer.warnings, warmup_frames=self.warmup_frames,
+        )
         label = "+".join(report.rendered_modes)
         if label == COMPARE_MODE:
             label += " (SCENE)"
@@ -211,9 +200,10 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
         written, marked incomplete)."""
         scene = context.scene
         self._frames, self._saved = frames, (scene.frame_current, scene.frame_subframe)
-        self._runs = [(prefix, settings)]
+        # (prefix, the run's settings as reported, the mode handed to the engine: None is the scene's)
+        self._runs = [(prefix, settings, None)]
         if self.compare_full_bvh:
-            self._runs.append((f"{prefix}{COMPARE_SUFFIX}", replace(settings, mode=COMPARE_MODE)))
+            self._runs.append((f"{prefix}{COMPARE_SUFFIX}", replace(settings, mode=COMPARE_MODE), COMPARE_MODE))
         self._reports, self._written, self._job = [], [], None
         window_manager = context.window_manager
         window_manager.progress_begin(0, len(self._runs) * len(frames))
@@ -224,10 +214,9 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
 
     def _start_job(self, context) -> None:
         scene = context.scene
-        prefix, settings = self._runs[len(self._reports)]
-        self._stored_mode, scene.hybrid_rt.mode = scene.hybrid_rt.mode, settings.mode
+        prefix, settings, mode = self._runs[len(self._reports)]
         self._renderer = _FrameRenderer(context, context.window_manager,
-                                        progress_offset=len(self._reports) * len(self._frames))
+                                        progress_offset=len(self._reports) * len(self._frames), mode=mode)
         self._job = timing_report.TimingReportJob(
             prefix, self._frames.start, self._frames.stop - 1, self._renderer.render,
             requested_mode=settings.mode, settings=asdict(settings), target_fps=target_fps(scene),
@@ -235,9 +224,8 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
             warmup_frames=self.warmup_frames)
 
     def _close_job(self, context) -> None:
-        """Write the current job's report (partial when cancelled) and put the scene back."""
+        """Write the current job's report (partial when cancelled) and stop its scene tracking."""
         job, self._job = self._job, None
-        context.scene.hybrid_rt.mode = self._stored_mode
         self._renderer.source.close()
         if job is not None and job.records:
             report, paths = job.finish()
@@ -313,12 +301,17 @@ def _show_in_image_editor(context, png_path) -> None:
 class _FrameRenderer:
     """Renders one frame of a run through the engine and keeps what the run needs to know:
     the frame being rendered (for error messages), the engine's warnings (each once), and the
-    progress shown in Blender's window."""
+    progress shown in Blender's window.
 
-    def __init__(self, context, window_manager, progress_offset: int) -> None:
+    ``mode``: the mode this run renders in whatever the scene says (the FULL_BVH comparison),
+    handed to the engine with the frame's settings instead of being written to the scene;
+    None renders in the scene's own mode."""
+
+    def __init__(self, context, window_manager, progress_offset: int, mode: str | None = None) -> None:
         self.context = context
         self.window_manager = window_manager
         self.progress_offset = progress_offset
+        self.mode = mode
         self.frame: int | None = None
         self.warnings: list[str] = []
         # The scene kept across the run's frames: each re-reads what its frame changed.
@@ -330,13 +323,19 @@ class _FrameRenderer:
         if message not in self.warnings:
             self.warnings.append(message)
 
+    def settings_for_frame(self) -> RenderSettings:
+        """The scene's settings at its current frame (read after ``frame_set``: keyframed
+        settings change per frame) with this run's mode, without writing the scene."""
+        settings = properties.settings_from_scene(self.context.scene)
+        return settings if self.mode is None else replace(settings, mode=self.mode)
+
     def render(self, frame: int):
         self.frame = frame
         scene = self.context.scene
         self.source.listen()
         scene.frame_set(frame)
         return engine.render_depsgraph(self.context.evaluated_depsgraph_get(), report=self.warn,
-                                       source=self.source, sizer=self.sizer)
+                                       source=self.source, sizer=self.sizer, settings=self.settings_for_frame())
 
     def progress(self, done: int, _total: int) -> None:
         if self.window_manager is not None:

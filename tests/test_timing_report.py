@@ -428,8 +428,8 @@ def test_a_failure_mid_range_is_reported_and_restores_the_frame(addon, monkeypat
 
 def _full_bvh_stand_in(addon, monkeypatch):
     """A cheap FULL_BVH: RASTER passes labelled FULL_BVH plus a 'trace' pass, so the
-    comparison's files can be checked quickly. Returns the modes the scene had at each
-    render."""
+    comparison's files can be checked quickly. Returns the mode the renderer was asked
+    for at each render."""
     renderer = addon.blender_adapter.engine.shared_renderer()
     original = renderer.render
     modes_seen = []
@@ -465,6 +465,115 @@ def test_full_bvh_comparison_writes_its_own_report_and_a_comparison_chart(addon,
     assert [f["frame"] for f in compare["frames"]] == [1, 2, 3]
     assert read_png(tmp_path / "r_compare.png").shape == (520, 1000, 3)
     assert scene.hybrid_rt.mode == "RASTER" and scene.frame_current == 3
+
+
+def _settings_snapshot(scene) -> dict:
+    """Every RNA property of ``scene.hybrid_rt``: its value and whether it is stored in the
+    .blend (a write that puts the old value back still leaves the property set)."""
+    group = scene.hybrid_rt
+    snapshot = {}
+    for prop in group.bl_rna.properties:
+        name = prop.identifier
+        if name == "rna_type":
+            continue
+        value = getattr(group, name)
+        snapshot[name] = (tuple(value) if getattr(prop, "is_array", False) else value, group.is_property_set(name))
+    return snapshot
+
+
+def _watch_renders(addon, monkeypatch, scene, *, fail_on_call: int | None = None):
+    """Wrap the adapter's ``render_depsgraph``: each call logs (the mode of the settings it
+    was handed, or None when it was handed none; the scene's mode; whether every scene
+    setting still reads as before the report), and call number ``fail_on_call`` (from 1)
+    raises after logging, as a crash in the middle of the report would."""
+    engine = addon.blender_adapter.engine
+    original = engine.render_depsgraph
+    before = _settings_snapshot(scene)
+    calls = []
+
+    def watched(depsgraph, **kwargs):
+        settings = kwargs.get("settings")
+        scene = depsgraph.scene.original
+        calls.append((None if settings is None else settings.mode, scene.hybrid_rt.mode,
+                      _settings_snapshot(scene) == before))
+        if len(calls) == fail_on_call:
+            raise RuntimeError("GPU went away")
+        return original(depsgraph, **kwargs)
+
+    monkeypatch.setattr(engine, "render_depsgraph", watched)
+    return before, calls
+
+
+def _assert_rendered_without_writing_the_scene(calls, handed_modes: list[str]) -> None:
+    """Every render saw the user's RASTER and untouched settings in the scene, and the engine
+    was handed ``handed_modes`` in order (the scene is checked first: it is what matters)."""
+    assert [scene_mode for _handed, scene_mode, _kept in calls] == ["RASTER"] * len(handed_modes)
+    assert all(kept for _handed, _scene_mode, kept in calls)
+    assert [handed for handed, _scene_mode, _kept in calls] == handed_modes
+
+
+def test_full_bvh_comparison_renders_with_handed_settings_and_never_writes_the_scene_settings(
+        addon, monkeypatch, tmp_path):
+    """The comparison run must not switch ``scene.hybrid_rt.mode`` to FULL_BVH, even for a
+    moment: a crash while it renders would leave the artist's file changed. The engine is
+    handed FULL_BVH settings while the scene keeps reading the user's RASTER, and afterwards
+    every scene setting (value and stored state) is as it was."""
+    import bpy
+
+    scene = build_animated_scene(bpy)
+    _full_bvh_stand_in(addon, monkeypatch)
+    before, calls = _watch_renders(addon, monkeypatch, scene)
+    result = bpy.ops.hybrid_rt.timing_report(filepath=str(tmp_path / "r"), frame_start=1, frame_end=3,
+                                             compare_full_bvh=True, warmup_frames=0)
+    assert result == {"FINISHED"}
+    _assert_rendered_without_writing_the_scene(calls, ["RASTER"] * 3 + ["FULL_BVH"] * 3)
+    assert _settings_snapshot(scene) == before
+    assert json.loads((tmp_path / "r_full_bvh.json").read_text())["rendered_modes"] == ["FULL_BVH"]
+
+
+def test_a_failure_mid_comparison_is_reported_and_the_scene_settings_were_never_written(
+        addon, monkeypatch, tmp_path):
+    """A frame of the FULL_BVH run that raises is reported with its frame; at the moment it
+    raised the scene's settings were still the user's (so even a crash that skips every
+    clean-up would leave the file as it was), and they are the user's afterwards."""
+    import bpy
+
+    scene = build_animated_scene(bpy)
+    _full_bvh_stand_in(addon, monkeypatch)
+    before, calls = _watch_renders(addon, monkeypatch, scene, fail_on_call=5)  # the comparison's second frame
+    with pytest.raises(RuntimeError, match="failed at frame 2: GPU went away"):
+        bpy.ops.hybrid_rt.timing_report(filepath=str(tmp_path / "r"), frame_start=1, frame_end=3,
+                                        compare_full_bvh=True, warmup_frames=0)
+    _assert_rendered_without_writing_the_scene(calls, ["RASTER"] * 3 + ["FULL_BVH"] * 2)
+    assert _settings_snapshot(scene) == before
+    assert scene.frame_current == 3
+
+
+def test_keyframed_settings_reach_each_frame_of_both_runs(addon, monkeypatch, tmp_path):
+    """The settings handed to the engine are the scene's at the frame being rendered, as F12
+    renders an animation: a keyframed setting changes from frame to frame in the report's
+    run and in the FULL_BVH comparison alike (only the comparison's mode is overridden)."""
+    import bpy
+
+    scene = build_animated_scene(bpy)
+    scene.hybrid_rt.shadow_resolution = 64
+    scene.hybrid_rt.keyframe_insert("shadow_resolution", frame=1)
+    scene.hybrid_rt.shadow_resolution = 128
+    scene.hybrid_rt.keyframe_insert("shadow_resolution", frame=2)
+    scene.frame_set(3)
+    _full_bvh_stand_in(addon, monkeypatch)
+    engine = addon.blender_adapter.engine
+    original = engine.render_depsgraph
+    seen = []
+
+    def watched(depsgraph, **kwargs):
+        seen.append((kwargs["settings"].mode, kwargs["settings"].shadow_resolution))
+        return original(depsgraph, **kwargs)
+
+    monkeypatch.setattr(engine, "render_depsgraph", watched)
+    bpy.ops.hybrid_rt.timing_report(filepath=str(tmp_path / "r"), frame_start=1, frame_end=2,
+                                    compare_full_bvh=True, warmup_frames=0)
+    assert seen == [("RASTER", 64), ("RASTER", 128), ("FULL_BVH", 64), ("FULL_BVH", 128)]
 
 
 def test_operator_and_button_are_registered(addon):
@@ -546,9 +655,9 @@ def _modal_operator(addon, tmp_path, reports, **properties):
     import types
 
     operator = addon.operators.timing_report.HYBRID_RT_OT_timing_report
-    fake = types.SimpleNamespace(filepath=str(tmp_path / "r"), frame_start=1, frame_end=5, compare_full_bvh=False,
-                                 warmup_frames=0, report=lambda levels, text: reports.append((levels, text)),
-                                 **properties)
+    values = dict(filepath=str(tmp_path / "r"), frame_start=1, frame_end=5, compare_full_bvh=False, warmup_frames=0)
+    fake = types.SimpleNamespace(**{**values, **properties},
+                                 report=lambda levels, text: reports.append((levels, text)))
     for name in ("_start_modal", "_start_job", "_close_job", "modal", "_end", "_announce"):
         setattr(fake, name, types.MethodType(getattr(operator, name), fake))
     return fake
@@ -586,3 +695,38 @@ def test_the_interactive_report_renders_a_frame_per_timer_event_and_esc_writes_w
     assert status[-1] is None and "Esc to cancel" in status[0]  # the status bar was used, then cleared
     assert {"event_timer_remove", "progress_end"} <= set(context.window_manager.calls)
     assert scene.frame_current == 3 and scene.hybrid_rt.mode == "RASTER"  # put back
+
+
+@pytest.mark.parametrize("fail_on_call", [None, 5], ids=["completed", "failed_mid_comparison"])
+def test_the_interactive_comparison_never_writes_the_scene_settings(addon, monkeypatch, tmp_path, fail_on_call):
+    """The modal report's FULL_BVH run, played to the end or stopped by a frame that raises,
+    hands FULL_BVH to the engine while ``scene.hybrid_rt`` keeps every user value: the modal
+    path must not store and restore the mode around the run either."""
+    import types
+
+    import bpy
+
+    scene = build_animated_scene(bpy)
+    _full_bvh_stand_in(addon, monkeypatch)
+    before, calls = _watch_renders(addon, monkeypatch, scene, fail_on_call=fail_on_call)
+    reports = []
+    fake = _modal_operator(addon, tmp_path, reports, compare_full_bvh=True, frame_end=3)
+    context, _status = _modal_context(bpy)
+    settings = addon.blender_adapter.properties.settings_from_scene(scene)
+    assert fake._start_modal(context, tmp_path / "r", range(1, 4), settings) == {"RUNNING_MODAL"}
+    timer = types.SimpleNamespace(type="TIMER")
+    results = []
+    for _step in range(10):
+        results.append(fake.modal(context, timer))
+        if results[-1] != {"RUNNING_MODAL"}:
+            break
+    if fail_on_call is None:
+        assert results[-1] == {"FINISHED"}
+        _assert_rendered_without_writing_the_scene(calls, ["RASTER"] * 3 + ["FULL_BVH"] * 3)
+        assert (tmp_path / "r_compare.png").is_file()
+    else:
+        assert results[-1] == {"CANCELLED"}
+        assert any("failed at frame 2: GPU went away" in text for _levels, text in reports)
+        _assert_rendered_without_writing_the_scene(calls, ["RASTER"] * 3 + ["FULL_BVH"] * 2)
+    assert _settings_snapshot(scene) == before
+    assert scene.frame_current == 3

@@ -22,7 +22,7 @@ removed, hidden and instanced objects are seen without trusting the update list 
 structure; only when nothing but cameras changed does it skip the walk, and the assembled
 ``SceneData`` is reused as long as nothing changed.
 
-The geometry is an ``InstancedGeometry`` (hybrid_engine/scene/instances.py): each evaluated mesh
+The geometry is an ``InstancedGeometry`` (hybrid_engine/scene/meshes.py, scene/geometry.py): each evaluated mesh
 read once in object space and shared by its instances, and an instance table kept across
 syncs. While the instances and their triangle counts stay the same, a sync writes the
 matrices, meshes and slot materials of the instances it refreshed into the table in place
@@ -37,8 +37,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..hybrid_engine.scene.instances import InstancedGeometry, Instances, ObjectMesh
-from ..hybrid_engine.scene.data import GeometryEdit, Lights, SceneData, Sky
+from ..hybrid_engine.scene.geometry import InstancedGeometry
+from ..hybrid_engine.scene.meshes import Instances, ObjectMesh
+from ..hybrid_engine.scene.geometry import GeometryEdit
+from ..hybrid_engine.scene.data import Lights, SceneData, Sky
 from . import messages
 from .export import lights as export_lights
 from .export import materials as export_materials

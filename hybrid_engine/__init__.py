@@ -14,7 +14,9 @@ from __future__ import annotations
 import importlib
 
 from .scene.camera import Camera, CameraError, look_at
-from .scene.data import Geometry, Lights, MaterialTable, SceneData, SceneDataError, Sky
+from .scene.geometry import Geometry
+from .scene.data import Lights, MaterialTable, SceneData, Sky
+from .scene.arrays import SceneDataError
 from .scene.settings import MODES, RenderSettings, SettingsError
 
 __version__ = "0.1.0"

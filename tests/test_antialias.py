@@ -89,17 +89,17 @@ def test_later_samples_keep_the_cube_map_and_bvh_and_give_the_same_image(rendere
     camera = cameras()["persp"]
     settings = RenderSettings(mode="HYBRID", **SMALL)
     scene = floor_scene(mirror=True)
-    renderer.render(scene, camera, settings)  # the tracer exists from here on
-    tracer = renderer.tracer
+    renderer.render(scene, camera, settings)  # the traced passes exist from here on
     calls = {"render_cube_map": 0, "build": 0}
-    for name in calls:
-        original = getattr(tracer, name)
+    for name, owner, method in (("render_cube_map", renderer.cube_map, "render"),
+                                ("build", renderer.lbvh.builder, "build")):
+        original = getattr(owner, method)
 
         def counted(*args, _name=name, _original=original, **kwargs):
             calls[_name] += 1
             return _original(*args, **kwargs)
 
-        monkeypatch.setattr(tracer, name, counted)
+        monkeypatch.setattr(owner, method, counted)
     kept = render_antialiased(renderer, scene, camera, settings, 3)
     assert calls == {"render_cube_map": 1, "build": 1}
     assert kept.counts["samples"] == 3
@@ -115,8 +115,8 @@ def test_a_kept_world_is_rebuilt_when_the_geometry_or_the_eye_moved(renderer, mo
     settings = RenderSettings(mode="HYBRID", **SMALL)
     renderer.render(floor_scene(mirror=True), camera, settings)
     built = []
-    original = renderer.tracer.build
-    monkeypatch.setattr(renderer.tracer, "build", lambda *a, **k: built.append(1) or original(*a, **k))
+    original = renderer.lbvh.builder.build
+    monkeypatch.setattr(renderer.lbvh.builder, "build", lambda *a, **k: built.append(1) or original(*a, **k))
     scene = floor_scene(mirror=True)
     renderer.render(scene, camera, settings)
     assert len(built) == 1

@@ -48,6 +48,7 @@ def render_cube(cube_pass, scene, settings):
     """The faces' material index per texel (-1: nothing), (res, 6 res)."""
     cube, gpu = cube_pass
     gpu.upload(scene)
+    gpu.transform()
     cube.render(gpu, scene, (0.0, 0.0, 0.0), settings)
     return np.abs(cube.targets.read("normal_material")[..., 3]).astype(int) - 1
 
@@ -326,12 +327,12 @@ def test_a_frame_sees_nothing_of_the_previous_frames_cube_map(gl):
     reused, fresh = Renderer(gl), Renderer(gl)
     try:
         reused.render(with_boxes, camera, settings)
-        assert (reused.tracer.cube_map.targets.read("normal_material")[..., 3] != 0).mean() > 0.05
+        assert (reused.cube_map.targets.read("normal_material")[..., 3] != 0).mean() > 0.05
         after = reused.render(scene, camera, settings).image
         alone = fresh.render(scene, camera, settings).image
         for name in ("depth", "normal_material"):  # what marks a texel empty, and where
-            np.testing.assert_array_equal(reused.tracer.cube_map.targets.read(name),
-                                          fresh.tracer.cube_map.targets.read(name), err_msg=name)
+            np.testing.assert_array_equal(reused.cube_map.targets.read(name),
+                                          fresh.cube_map.targets.read(name), err_msg=name)
     finally:
         reused.release()
         fresh.release()

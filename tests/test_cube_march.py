@@ -15,7 +15,7 @@ from hybrid_engine.passes.cube_map.cube_map import CubeFaces, CubeMapPass
 from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
 from hybrid_engine.passes.gbuffer.gbuffer import GBufferPass
 from hybrid_engine.scene.solids import closed_outward
-from hybrid_engine.passes.trace.tracer import MARCH_HIT, MARCH_SKY, MARCH_TO_BVH, probe_cube_march
+from cube_march_probe import MARCH_HIT, MARCH_SKY, MARCH_TO_BVH, probe_cube_march
 from cube_march_reference import HIT, SKY, TO_BVH, CubeMapReference, face_matrices
 from scenes_analytic import box, quad, uv_sphere
 
@@ -60,6 +60,7 @@ def march_both(cube_setup, scene, origins, dirs, t_start, march="HIERARCHICAL", 
     ctx, raster, gpu, cube = cube_setup
     settings = RenderSettings(near_size=NEAR, cube_far=FAR, cube_resolution=res, cube_march=march, **kw)
     gpu.upload(scene)
+    gpu.transform()
     cube.render(gpu, scene, CENTER, settings)
     gpu_rows = probe_cube_march(ctx, cube, gpu.materials.buffer, settings, origins, dirs, t_start)
     w, h = cube.targets.size

@@ -144,7 +144,7 @@ def test_the_bvh_nodes_view_counts_the_nodes_a_missing_ray_enters(renderer, rng)
     near = 6.0
     result = renderer.render(scene, camera, RenderSettings(mode="BVH_NODES", near_size=near, cube_far=50.0,
                                                            max_depth=1, cube_resolution=64))
-    nodes = renderer.tracer.built.read_nodes()
+    nodes = renderer.bvh.read_nodes()
     paths = cpu_paths(scene, camera, 1)
     origins, dirs = (a.reshape(-1, 3).astype(np.float64) for a in camera.pixel_rays())
     mesh_scene = rtcs.EmbreeScene()

@@ -11,34 +11,42 @@ import pytest
 from hybrid_engine.gpu import shader_loader
 from hybrid_engine.passes.lighting.resources import MAX_LIGHTS, FrameResources
 from hybrid_engine.gpu.dispatch import SceneLimitError
-from hybrid_engine.passes.scene_upload.scene_buffers import LIGHT_DTYPE
+from hybrid_engine.passes.lighting.lights import LIGHT_DTYPE
 from hybrid_engine.scene.data import Lights
 from hybrid_engine.scene.settings import RenderSettings
-from hybrid_engine.passes.lighting.shadow_atlas import MAX_SHADOW_SLOTS, SHADOW_SLOT_DTYPE, ShadowAtlas, ShadowView
+from hybrid_engine.passes.shadow_maps.shadow_depth import ShadowMaps
+from hybrid_engine.passes.shadow_maps.shadow_atlas import MAX_SHADOW_SLOTS, SHADOW_SLOT_DTYPE, ShadowAtlas, ShadowView
 
 
 def test_the_hosts_limits_are_the_sizes_of_the_shaders_uniform_blocks(ctx):
     program = shader_loader.compute(ctx, "shading/deferred_shade.comp.glsl")
     assert program["LightBuffer"].size == MAX_LIGHTS * LIGHT_DTYPE.itemsize
     assert program["ShadowSlotBuffer"].size == MAX_SHADOW_SLOTS * SHADOW_SLOT_DTYPE.itemsize
-    resources = FrameResources(ctx)
+    resources, atlas = FrameResources(ctx), ShadowAtlas(ctx)
     try:  # each buffer holds its whole block, whatever the scene uses of it
         assert resources.lights.buffer.size >= program["LightBuffer"].size
-        assert resources.shadows.slot_buffer.size >= program["ShadowSlotBuffer"].size
+        atlas.ensure_bindable()
+        assert atlas.slot_buffer.size >= program["ShadowSlotBuffer"].size
     finally:
         resources.release()
+        atlas.release()
 
 
 def test_a_scene_with_more_lamps_than_the_table_holds_fails_naming_the_count_and_the_limit(ctx):
-    resources = FrameResources(ctx)
+    resources, atlas = FrameResources(ctx), ShadowAtlas(ctx)
+
+    def shadows(count: int) -> ShadowMaps:
+        return ShadowMaps(atlas, [(-1, 0)] * count, rendered=False, static_rendered=False, submitted=0)
+
     try:
         lights = Lights.from_rows([{"kind": "POINT", "cast_shadow": False}] * (MAX_LIGHTS + 1))
         with pytest.raises(SceneLimitError, match=rf"{MAX_LIGHTS + 1} lamps.*at most {MAX_LIGHTS}"):
-            resources.update_lights(lights, [(-1, 0)] * len(lights), RenderSettings())
-        resources.update_lights(Lights.from_rows([{"kind": "POINT"}] * MAX_LIGHTS), [(-1, 0)] * MAX_LIGHTS,
+            resources.update_lights(lights, shadows(len(lights)), RenderSettings())
+        resources.update_lights(Lights.from_rows([{"kind": "POINT"}] * MAX_LIGHTS), shadows(MAX_LIGHTS),
                                 RenderSettings())
     finally:
         resources.release()
+        atlas.release()
 
 
 def test_more_shadow_maps_than_the_slot_table_holds_fail_naming_cast_shadow(ctx):

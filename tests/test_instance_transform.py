@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Instances made world space on the GPU (hybrid_engine/passes/scene_upload/instance_transform.py and
-instancing.py): the shader agrees with the host's arithmetic and with hand-computed
+scene/meshes.py, scene/geometry.py): the shader agrees with the host's arithmetic and with hand-computed
 triangles, meshes are uploaded once and shared, a moved instance costs its own row, and a
 scene given as instances renders as the same scene given as world-space triangles."""
 from __future__ import annotations
@@ -10,12 +10,15 @@ import pytest
 
 from hybrid_engine import RenderSettings
 from hybrid_engine.gpu import dispatch as gpu_dispatch
+from hybrid_engine.gpu.dispatch import SceneLimitError
 from hybrid_engine.scene.camera import Camera, look_at
 from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
-from hybrid_engine.scene.instances import InstancedGeometry, Instances, ObjectMesh
+from hybrid_engine.scene.geometry import InstancedGeometry
+from hybrid_engine.scene.meshes import Instances, ObjectMesh
 from hybrid_engine.frame.renderer import Renderer
-from hybrid_engine.scene.data import Geometry, Lights, MaterialTable, SceneData
-from hybrid_engine.passes.trace.tracer import TRIANGLE_UV_DTYPE, pack_triangle_uvs
+from hybrid_engine.scene.geometry import Geometry
+from hybrid_engine.scene.data import Lights, MaterialTable, SceneData
+from uv_rows_reference import TRIANGLE_UV_DTYPE, triangle_uv_rows
 
 
 def _read(buffer, count: int, dtype, width: int) -> np.ndarray:
@@ -98,6 +101,7 @@ def test_the_gpu_makes_the_same_world_rows_as_the_host(ctx, rng):
     gpu = GPUScene(ctx)
     try:
         gpu.upload(scene)
+        gpu.transform()
         _assert_positions(gpu, geometry)
         n = geometry.triangle_count
         np.testing.assert_allclose(_read(gpu.normals.buffer, n, np.float32, 9),
@@ -106,10 +110,7 @@ def test_the_gpu_makes_the_same_world_rows_as_the_host(ctx, rng):
         np.testing.assert_array_equal(_read(gpu.triangle_materials.buffer, n, np.int32, 1)[:, 0],
                                       geometry.material_ids)
         rows = np.frombuffer(gpu.uv_rows.buffer.read(size=n * 32), TRIANGLE_UV_DTYPE)
-        textured = _materials()
-        textured.base_color_texture = np.zeros(5, np.int32)  # every material textured: all rows packed
-        textured.textures = [np.ones((2, 2, 4), np.float32)]
-        packed = pack_triangle_uvs(SceneData(geometry=geometry, materials=textured))
+        packed = triangle_uv_rows(geometry.triangles, geometry.uvs)
         np.testing.assert_allclose(rows.view(np.float32).reshape(n, 8)[:, :7],
                                    packed.view(np.float32).reshape(n, 8)[:, :7], rtol=1e-4, atol=1e-6)
     finally:
@@ -126,17 +127,19 @@ def test_instances_of_one_mesh_share_its_upload_and_moving_one_writes_one_row(ct
     gpu = GPUScene(ctx)
     try:
         gpu.upload(scene)
+        gpu.transform()
         stats = gpu.instance_transform.stats
         assert stats.store_rebuilt and stats.meshes_uploaded == 1
         assert stats.instances_written == count and stats.triangles_transformed == 12 * count
-        store = gpu.instance_transform._store
-        assert store["positions"].capacity < 1024  # one cube's 8 vertices (grow-only minimum), not 1000
-        gpu.upload(scene)  # the same version: nothing
+        assert gpu.instance_transform.store_capacity()["positions"] < 1024  # one cube's 8 vertices, not 1000
+        gpu.upload(scene)
+        gpu.transform()  # the same version: nothing
         assert gpu.instance_transform.stats.instances_written == 0
 
         instances.matrices[500] = _matrix((0, 0, 9), angle=0.3)
         geometry.refresh([500])  # no producer's edit: the rows are compared
         gpu.upload(scene)
+        gpu.transform()
         stats = gpu.instance_transform.stats
         assert (stats.instances_written, stats.triangles_transformed, stats.meshes_uploaded) == (1, 12, 0)
         _assert_positions(gpu, geometry)
@@ -153,9 +156,11 @@ def test_a_deformed_mesh_re_sends_its_vertices_into_place_and_transforms_its_ins
     gpu = GPUScene(ctx)
     try:
         gpu.upload(scene)
+        gpu.transform()
         instances.meshes[1] = wobbly.deformed(wobbly.positions * 1.5, wobbly.normals)
         geometry.refresh([1, 2])
         gpu.upload(scene)
+        gpu.transform()
         stats = gpu.instance_transform.stats
         assert not stats.store_rebuilt and stats.meshes_uploaded == 1
         assert (stats.instances_written, stats.triangles_transformed) == (2, 24)
@@ -171,6 +176,7 @@ def test_outputs_past_one_storage_block_are_written_chunk_by_chunk(ctx, rng):
     try:
         with gpu_dispatch.forced_limits(max_block=64 * 36):  # 64 rows of positions per chunk
             gpu.upload(scene)
+            gpu.transform()
         assert gpu.instance_transform.stats.dispatches == 3
         _assert_positions(gpu, geometry)
     finally:
@@ -211,7 +217,7 @@ def test_a_scene_of_instances_renders_as_its_world_space_triangles(gl, rng, mode
 
 
 def test_a_producers_next_edit_packs_and_writes_only_the_rows_it_lists(ctx, rng):
-    from hybrid_engine.scene.data import GeometryEdit
+    from hybrid_engine.scene.geometry import GeometryEdit
 
     geometry = _random_instances(rng, count=20)
     geometry.edit = GeometryEdit(source=7, generation=1)
@@ -219,37 +225,63 @@ def test_a_producers_next_edit_packs_and_writes_only_the_rows_it_lists(ctx, rng)
     gpu = GPUScene(ctx)
     try:
         gpu.upload(scene)
+        gpu.transform()
         assert gpu.instance_transform.stats.instances_written == 20
         geometry.instances.matrices[5] = _matrix((1, 2, 3), angle=1.0)
         geometry.instances.matrices[9] = _matrix((0, 0, 7))  # changed, but not listed: not seen
         geometry.refresh([5, 9])
         geometry.edit = GeometryEdit(source=7, generation=2, objects=(5,))
         gpu.upload(scene)
+        gpu.transform()
         assert (gpu.instance_transform.stats.instances_written, gpu.instance_transform.stats.triangles_transformed) \
             == (1, 12)
         geometry.edit = GeometryEdit(source=7, generation=3, objects=())  # e.g. only a material changed
         gpu.upload(scene)
+        gpu.transform()
         assert gpu.instance_transform.stats.instances_written == 0
         geometry.edit = None  # no producer's word: every row compared, instance 9 found
         gpu.upload(scene)
+        gpu.transform()
         assert gpu.instance_transform.stats.instances_written == 1
         _assert_positions(gpu, geometry)
     finally:
         gpu.release()
 
 
-def test_a_store_past_one_storage_block_falls_back_to_world_rows_made_on_the_host(ctx, rng):
-    geometry = _random_instances(rng, count=6)
+def test_a_store_past_one_storage_block_is_cut_into_pages_that_make_the_same_rows(ctx, rng):
+    """Meshes whose arrays together exceed one storage block go into pages, each bound on
+    its own for its instances' dispatches: the world rows are the host's arithmetic."""
+    parts = [((rng.random((100, 3, 3)) * 4 + k).astype(np.float32), None, k % 3) for k in range(3)]
+    geometry = Geometry.from_objects(parts)
+    geometry.uvs = rng.random((geometry.triangle_count, 3, 2)).astype(np.float32)
     scene = SceneData(geometry=geometry, materials=_materials())
     gpu = GPUScene(ctx)
     try:
-        with gpu_dispatch.forced_limits(max_block=256):  # the cube's 36 UV corners take 288 bytes
-            assert not gpu.instance_transform.fits(geometry)
+        # A 100-triangle soup mesh takes 3600 bytes of positions: one mesh per 4096-byte page.
+        with gpu_dispatch.forced_limits(max_block=4096):
             gpu.upload(scene)
-        assert not gpu.uv_rows_resident and gpu.instance_transform.stats.dispatches == 0
-        _assert_positions(gpu, geometry)
-        gpu.upload(scene)  # the limit back: made on the GPU again, into the same buffers
-        assert gpu.uv_rows_resident and gpu.instance_transform.stats.instances_written == 6
-        _assert_positions(gpu, geometry)
+            gpu.transform()
+            stats = gpu.instance_transform.stats
+            assert stats.store_pages == 3 and stats.dispatches >= 3
+        n = geometry.triangle_count
+        np.testing.assert_array_equal(_read(gpu.positions.buffer, n, np.float32, 9), geometry.triangles.reshape(n, 9))
+        np.testing.assert_array_equal(_read(gpu.triangle_materials.buffer, n, np.int32, 1)[:, 0],
+                                      geometry.material_ids)
+        rows = np.frombuffer(gpu.uv_rows.buffer.read(size=n * 32), TRIANGLE_UV_DTYPE)
+        np.testing.assert_allclose(rows.view(np.float32).reshape(n, 8)[:, :7],
+                                   triangle_uv_rows(geometry.triangles, geometry.uvs).view(np.float32)
+                                   .reshape(n, 8)[:, :7], rtol=1e-4, atol=1e-6)
     finally:
         gpu.release()
+
+
+def test_a_mesh_larger_than_a_storage_block_is_refused_naming_its_object(ctx, rng):
+    tris = rng.random((200, 3, 3)).astype(np.float32)
+    geometry = Geometry.from_objects([(tris, None, 0)], names=["Sculpt"])
+    gpu = GPUScene(ctx)
+    try:
+        with gpu_dispatch.forced_limits(max_block=4096), pytest.raises(SceneLimitError, match="'Sculpt'.*200 triangles"):
+            gpu.upload(SceneData(geometry=geometry, materials=_materials()))
+    finally:
+        gpu.release()
+

@@ -222,7 +222,8 @@ def test_timing_reports_every_pass_and_is_off_on_request(renderer):
     camera = Camera(width=16, height=16)
     scene = diffuse_scene([(quad((0, 0, -3), (1, 0, 0), (0, 1, 0)), None, 0)], [])
     timed = renderer.render(scene, camera, RASTER)
-    assert set(timed.passes) == {"upload", "shadow_maps", "primary_raster", "shade", "readback"}
+    assert set(timed.passes) == {"upload", "instance_transform", "shadow_maps", "lighting", "primary_raster",
+                                 "shade", "readback"}
     assert timed.timing_source.startswith("wall clock")
     assert sum(timed.passes.values()) <= timed.total_ms * 1.01
     untimed = renderer.render(scene, camera, RASTER, timing=False)
@@ -254,7 +255,7 @@ def frames_rendered(gl, frames, settings, cull: bool) -> dict:
     try:
         for scene, camera in frames:
             result = r.render(scene, camera, settings)
-        static, dynamic = r.resources.shadows.read_layers()
+        static, dynamic = r.shadow_maps.atlas.read_layers()
         return {
             "targets": {name: getattr(r.gbuffer.primary, name).read() for name in GBUFFER_TARGETS},
             "static": static, "dynamic": dynamic, "counts": result.counts, "image": result.image,
@@ -322,7 +323,8 @@ def test_draws_past_the_storage_block_limit_fall_back_to_the_object_lists(gl):
 
     frames = [build_chess(detail=0.03, frame=0, width=48, height=27)]
     normal = frames_rendered(gl, frames, RASTER, cull=True)
-    with forced_limits(max_block=4096):
+    # Past every draw list's index buffer, within every mesh of the instance store.
+    with forced_limits(max_block=96 * 1024):
         limited = frames_rendered(gl, frames, RASTER, cull=True)
     assert limited["drawn"] == {"primary": [None], "shadow_static": [None, None], "shadow_cascades_static": [None]}
     assert_same_targets(limited, normal)
@@ -340,7 +342,7 @@ def test_a_hybrid_frame_enters_each_raster_pass_module_once(monkeypatch):
 
     entries = {}
     for cls, name in ((shadow_depth.ShadowDepthPass, "render"), (gbuffer.GBufferPass, "render_primary"),
-                      (gbuffer.GBufferPass, "render_cube_faces"), (deferred_shade.DeferredShadePass, "run")):
+                      (gbuffer.GBufferPass, "render_cube_faces"), (deferred_shade.DeferredShadePass, "shade")):
         original = getattr(cls, name)
 
         def counted(self, *args, _original=original, _key=f"{cls.__module__}.{name}", **kwargs):
@@ -357,4 +359,4 @@ def test_a_hybrid_frame_enters_each_raster_pass_module_once(monkeypatch):
     finally:
         r.release()
     assert entries == {"hybrid_engine.passes.shadow_maps.shadow_depth.render": 1, "hybrid_engine.passes.gbuffer.gbuffer.render_primary": 1,
-                       "hybrid_engine.passes.gbuffer.gbuffer.render_cube_faces": 1, "hybrid_engine.passes.shading.deferred_shade.run": 1}
+                       "hybrid_engine.passes.gbuffer.gbuffer.render_cube_faces": 1, "hybrid_engine.passes.shading.deferred_shade.shade": 1}

@@ -110,7 +110,7 @@ def test_shading_normals_split_over_storage_blocks_render_the_same_image(gl, fra
             normal_blocks = gpu_dispatch.split_blocks(n, NORMAL_BYTES, "normals").blocks
             assert normal_blocks == (2 if mode == "HYBRID" else 1)
             if mode == "FULL_BVH":
-                assert split.tracer.built.node_split.blocks > 1
+                assert split.bvh.node_split.blocks > 1
     finally:
         split.release()
     np.testing.assert_array_equal(image, expected)

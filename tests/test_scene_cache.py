@@ -71,7 +71,7 @@ def test_moving_one_object_rewrites_and_uploads_only_its_rows(addon, fed_session
     geometry = session.cache.scene_data.geometry
     assert geometry.edit.objects == (_object_index(session, "Cube"),)
     frame = _frame(addon, bpy, session)
-    assert not session.renderer.geometry_tracker.compared
+    assert session.renderer.gpu_scene.instance_transform.stats.rows_packed == 1  # the producer's word taken
     assert frame.counts["triangles_uploaded"] == 12  # the cube's triangles, nothing else
     # One matrix: no mesh is sent again, and the GPU transforms the cube's 12 triangles.
     assert (frame.counts["instances_written"], frame.counts["meshes_uploaded"],

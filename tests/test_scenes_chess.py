@@ -17,7 +17,7 @@ import pytest
 
 from hybrid_engine import RenderSettings
 from hybrid_engine.frame.renderer import Renderer
-from hybrid_engine.scene.data import finite_bounds, flat_normals
+from hybrid_engine.scene.geometry import finite_bounds, flat_normals
 from benchmarks.scenes import CHESS_CUBE_FAR, CHESS_FRAMES, build_chess, chess_triangle_count
 from benchmarks.scenes import chess
 from conftest import save_failure_images

@@ -9,7 +9,8 @@ import pytest
 
 from hybrid_engine.scene.camera import Camera, look_at
 from hybrid_engine.frame.renderer import Renderer
-from hybrid_engine.scene.data import Geometry, Lights, MaterialTable, SceneData, Sky
+from hybrid_engine.scene.geometry import Geometry
+from hybrid_engine.scene.data import Lights, MaterialTable, SceneData, Sky
 from hybrid_engine.scene.settings import RenderSettings
 from scenes_analytic import quad, uv_sphere
 

@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybrid_engine import Geometry, RenderSettings
+from hybrid_engine import RenderSettings
 from hybrid_engine.frame.renderer import Renderer
-from hybrid_engine.scene.changes import GeometryDelta, GeometryTracker
+from hybrid_engine.scene.changes import GeometryDelta
 from benchmarks.scenes.chess import build_chess
 from hybrid_engine.passes.shadow_maps.shadow_cache import PROMOTE_AFTER_FRAMES, ShadowCache, changed_objects, snapped_bounds
 
@@ -66,16 +66,13 @@ def test_a_large_object_moving_every_frame_leaves_the_static_layer_alone():
     """Three quarters of the triangles moving (one large object) re-render the dynamic layer
     only, after the one demotion."""
     cache = ShadowCache()
-    tracker = GeometryTracker()
-    rng = np.random.default_rng(5)
-    parts = [(rng.random((n, 3, 3)).astype(np.float32), None, 0) for n in (100, 900, 200)]
-    geo = Geometry.from_objects(parts)
+    ranges = np.array([[0, 100], [100, 900], [1000, 200]], np.int32)
     plans = []
     for frame in range(4):
-        geo = Geometry(geo.triangles.copy(), geo.normals, geo.material_ids, geo.object_ranges, geo.object_bounds)
-        if frame:
-            geo.triangles[100:1000] += 0.5  # the large object moves
-        plans.append(cache.plan(geo.object_ranges, tracker.update(geo), key=("k",)))
+        # The large object moves every frame after the first.
+        delta = (GeometryDelta(full=False, ranges=((100, 900),), changed_triangles=900, sequence=frame + 1)
+                 if frame else GeometryDelta.everything(1200, sequence=1))
+        plans.append(cache.plan(ranges, delta, key=("k",)))
     assert plans[1].render_static and plans[1].static_mask.tolist() == [True, False, True]
     for plan in plans[2:]:
         assert plan.render_dynamic and not plan.render_static

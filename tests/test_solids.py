@@ -8,6 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from hybrid_engine.scene.geometry import InstancedGeometry
 from hybrid_engine import RenderSettings
 from hybrid_engine.frame.renderer import Renderer
 from benchmarks.scenes.chess import box, build_chess, piece_templates, quad
@@ -60,7 +61,11 @@ def test_chess_marks_pieces_and_spheres_closed_and_boards_open():
 @pytest.mark.parametrize("mode", ["RASTER", "HYBRID"])
 def test_culling_back_faces_of_closed_objects_leaves_the_image_unchanged(gl, mode):
     scene, camera = build_chess(0.05, 30, 160, 90)
-    two_sided = dataclasses.replace(scene, geometry=dataclasses.replace(scene.geometry, object_closed=None))
+    geo = scene.geometry
+    open_meshes = [dataclasses.replace(mesh, closed=False) for mesh in geo.instances.meshes]
+    instances = dataclasses.replace(geo.instances, meshes=open_meshes)
+    two_sided = dataclasses.replace(scene, geometry=InstancedGeometry(instances, geo.object_names))
+    assert geo.object_closed.any() and not two_sided.geometry.object_closed.any()
     settings = RenderSettings(mode=mode, near_size=3.5, cube_far=100.0, cube_resolution=128,
                               shadow_resolution=512, max_depth=3)
     images = []
@@ -76,7 +81,8 @@ def test_culling_back_faces_of_closed_objects_leaves_the_image_unchanged(gl, mod
 
 def test_culling_is_active_a_face_turned_away_and_wrongly_marked_closed_disappears(gl):
     from hybrid_engine.scene.camera import Camera, look_at
-    from hybrid_engine.scene.data import Geometry, Lights, MaterialTable, SceneData, Sky, flat_normals
+    from hybrid_engine.scene.geometry import Geometry, flat_normals
+    from hybrid_engine.scene.data import Lights, MaterialTable, SceneData, Sky
 
     # A square in the z = 0 plane, counter-clockwise seen from below; the camera looks down.
     away = quad((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)).astype(np.float32)

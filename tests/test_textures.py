@@ -23,7 +23,8 @@ from hybrid_engine.scene.camera import look_at
 from hybrid_engine.passes.cube_map.cube_map import CubeMapPass
 from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
 from hybrid_engine.passes.gbuffer.gbuffer import GBufferPass
-from hybrid_engine.scene.data import MATERIAL_DTYPE, SceneDataError
+from hybrid_engine.scene.data import MATERIAL_DTYPE
+from hybrid_engine.scene.arrays import SceneDataError
 from hybrid_engine.passes.scene_upload.textures import (
     HALF_MAX,
     GPUTextures,
@@ -34,7 +35,7 @@ from hybrid_engine.passes.scene_upload.textures import (
     resample,
     srgb_to_linear,
 )
-from hybrid_engine.passes.trace.tracer import TRIANGLE_UV_DTYPE, pack_triangle_uvs
+from uv_rows_reference import TRIANGLE_UV_DTYPE
 from scenes_analytic import ray_plane_z
 
 # GPUs filter with a fixed-point sub-texel weight (8 bits on current hardware and on
@@ -197,16 +198,23 @@ def test_pixel_footprint_matches_the_angle_between_neighbouring_pixel_rays():
     assert width == pytest.approx(2.0 / 40, rel=1e-6) and spread == 0.0
 
 
-def test_triangle_uv_rows_hold_corner_uvs_and_uv_density_for_textured_materials_only():
+def test_triangle_uv_rows_hold_corner_uvs_and_uv_density(ctx):
+    """The rows the instance transform writes on the GPU for the tracer's textured hits."""
+    from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
+
     tris, uvs = textured_quad((0, 0, 0), (2, 0, 0), (0, 2, 0), (0.25, 0.5), (0.5, 0.5))
     scene = scene_of([(tris, uvs, 0), (tris, uvs, 1)],
                      [dict(base_color_texture=0), dict()], [np.ones((2, 2, 4), np.float32)])
-    rows = pack_triangle_uvs(scene)
-    assert rows.dtype == TRIANGLE_UV_DTYPE and len(rows) == 4
+    gpu = GPUScene(ctx)
+    try:
+        gpu.upload(scene)
+        gpu.transform()
+        rows = np.frombuffer(gpu.uv_rows.buffer.read(size=4 * TRIANGLE_UV_DTYPE.itemsize), TRIANGLE_UV_DTYPE)
+    finally:
+        gpu.release()
     flat = rows.view(np.float32).reshape(-1, 8)
-    np.testing.assert_allclose(flat[:2, :6], uvs.reshape(2, 6))
-    np.testing.assert_allclose(flat[:2, 6], 0.25)  # sqrt(UV area 0.125 / world area 2)
-    assert (flat[2:] == 0).all()  # the untextured object's rows are left empty
+    np.testing.assert_allclose(flat[:, :6], np.concatenate([uvs, uvs]).reshape(4, 6))
+    np.testing.assert_allclose(flat[:, 6], 0.25, rtol=1e-6)  # sqrt(UV area 0.125 / world area 2)
 
 
 # -- the GPU texture array -------------------------------------------------------------------
@@ -394,6 +402,7 @@ def test_cube_face_texels_hold_the_uv_and_uv_density_where_their_ray_meets_the_f
     cube = CubeMapPass(gl, raster)
     try:
         gpu.upload(scene)
+        gpu.transform()
         cube.render(gpu, scene, (0.0, 0.0, 0.0), settings)
         surface = cube.targets.read("surface")
         faces = cube.faces

@@ -471,13 +471,13 @@ def test_repeated_frames_allocate_no_tracer_buffers(renderer):
     render(renderer, scene, camera, "HYBRID", near_size=2.0)
     tracer = renderer.tracer
     gpu = renderer.gpu_scene
-    grow = [gpu.positions, gpu.normals, gpu.uvs, gpu.triangle_materials, tracer._uvs]
+    grow = [gpu.positions, gpu.normals, gpu.uvs, gpu.triangle_materials, gpu.uv_rows]
     before = [g.allocations for g in grow]
-    buffers = (tracer._counters, tracer.cube_map.targets)
+    buffers = (tracer._counters, renderer.cube_map.targets)
     first = render(renderer, scene, camera, "HYBRID", near_size=2.0).image
     second = render(renderer, scene, camera, "HYBRID", near_size=2.0).image
     assert [g.allocations for g in grow] == before
-    assert (tracer._counters, tracer.cube_map.targets) == buffers
+    assert (tracer._counters, renderer.cube_map.targets) == buffers
     np.testing.assert_array_equal(first, second)
 
 

@@ -32,18 +32,18 @@ def cube_maps_both_ways(renderer, scene, camera, settings):
     """The cube map of one frame drawn from the culled lists (as the renderer does) and
     from the object lists, on the same uploaded scene."""
     renderer.render(scene, camera, settings)
-    tracer = renderer.tracer
+    cube_map, gpu = renderer.cube_map, renderer.gpu_scene
     center = np.asarray(camera.position, np.float64)
-    submitted = tracer.render_cube_map(renderer.gpu_scene, scene, center, settings)
-    culled = tracer.cube_map.culled
+    submitted = cube_map.render(gpu, scene, center, settings, triangles=(gpu.positions.buffer, gpu.triangle_count))
+    culled = cube_map.culled
     assert culled is not None, "the renderer's cube map must use the culled lists"
     drawn = culled.drawn()
     if settings.cube_back_layer:
-        drawn += tracer.cube_map.culled_back.drawn()
-    with_culling = face_targets(tracer.cube_map)
-    direct_submitted = tracer.cube_map.render(renderer.gpu_scene, scene, center, settings)
-    assert tracer.cube_map.culled is None and tracer.cube_map.culled_back is None
-    return with_culling, face_targets(tracer.cube_map), submitted, direct_submitted, drawn
+        drawn += cube_map.culled_back.drawn()
+    with_culling = face_targets(cube_map)
+    direct_submitted = cube_map.render(gpu, scene, center, settings)
+    assert cube_map.culled is None and cube_map.culled_back is None
+    return with_culling, face_targets(cube_map), submitted, direct_submitted, drawn
 
 
 def assert_identical(a: dict[str, bytes], b: dict[str, bytes]) -> None:
@@ -104,8 +104,10 @@ def test_lists_past_the_storage_block_limit_fall_back_to_direct_draws(renderer):
                               max_depth=1)
     normal = renderer.render(scene, camera, settings).image
     with forced_limits(max_block=4096):
-        renderer.tracer.render_cube_map(renderer.gpu_scene, scene, np.asarray(camera.position), settings)
-        assert renderer.tracer.cube_map.culled is None
+        gpu = renderer.gpu_scene
+        renderer.cube_map.render(gpu, scene, np.asarray(camera.position), settings,
+                                 triangles=(gpu.positions.buffer, gpu.triangle_count))
+        assert renderer.cube_map.culled is None
     # And the frame renders the same way through the whole renderer afterwards.
     np.testing.assert_array_equal(renderer.render(scene, camera, settings).image, normal)
 

@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from hybrid_engine.scene.camera import Camera, look_at
-from hybrid_engine.scene.data import Geometry, Lights, MaterialTable, SceneData, Sky
+from hybrid_engine.scene.geometry import Geometry
+from hybrid_engine.scene.data import Lights, MaterialTable, SceneData, Sky
 from hybrid_engine.scene.settings import RenderSettings
 from hybrid_engine.frame.viewport import RegionInput, plan_frame
 from hybrid_engine.frame.views import (

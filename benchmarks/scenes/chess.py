@@ -13,8 +13,9 @@ character from code instead:
   everything (distant geometry for the cube map).
 * **Pieces**: pawn, rook, bishop, queen and king are (r, z) profiles revolved around Z; the
   knight is a lathe base with an extruded (prism) head, the king carries a small box cross.
-  Each piece type is tessellated once (a template) and instanced by transforming arrays, so
-  building two million triangles takes a fraction of a second.
+  Each piece type is tessellated once (a template), indexed as Blender stores a mesh, and
+  placed by instances (``InstancedGeometry``), as the Blender adapter exports a scene: the
+  GPU makes the world-space triangles, and a frame re-transforms only what moved.
 * **Materials**: white pieces are white-tinted mirrors (reflectivity 0.8), black pieces
   dark-tinted mirrors (0.7), the white bishops clear glass (IOR 1.5), the spheres near-perfect
   mirrors, the board squares slightly reflective (as the paper's Figure 7 shows pieces
@@ -40,7 +41,9 @@ from functools import lru_cache
 import numpy as np
 
 from hybrid_engine.scene.camera import Camera, look_at
-from hybrid_engine.scene.data import Geometry, Lights, MaterialTable, SceneData, Sky, flat_normals
+from hybrid_engine.scene.geometry import InstancedGeometry, flat_normals
+from hybrid_engine.scene.meshes import Instances, ObjectMesh
+from hybrid_engine.scene.data import Lights, MaterialTable, SceneData, Sky
 from hybrid_engine.scene.solids import closed_outward
 
 CHESS_FRAMES = 200  # length of the paper's animated sequences (§4)
@@ -435,91 +438,83 @@ def _check_detail(detail: float) -> float:
     return detail
 
 
-def build_chess(detail: float = 1.0, frame: int = 0, width: int = 640,
-                height: int = 360) -> tuple[SceneData, Camera]:
-    """The Chess scene at ``frame`` (see the module docstring) and its camera at
-    ``width`` x ``height``. Raises ValueError for a detail outside (0, MAX_DETAIL]."""
-    detail = _check_detail(detail)
-    frame = int(frame)
-    templates = piece_templates(detail)
-    pieces = piece_placements(frame)
-    sphere_maps, sphere_centres = sphere_placements(frame)
+def indexed_mesh(triangles: np.ndarray, normals: np.ndarray, slots, closed: bool) -> ObjectMesh:
+    """A triangle list as Blender stores a mesh: each distinct vertex and normal once, the
+    corners indexing them (the exporter's ObjectMesh; blender_adapter/export/meshes.py)."""
+    tris = np.asarray(triangles, np.float32).reshape(-1, 3)
+    positions, corner_vertices = np.unique(tris, axis=0, return_inverse=True)
+    unique_normals, corner_normals = np.unique(np.asarray(normals, np.float32).reshape(-1, 3), axis=0,
+                                               return_inverse=True)
+    count = len(tris) // 3
+    return ObjectMesh(positions=positions, corner_vertices=corner_vertices.reshape(-1).astype(np.int32),
+                      normals=unique_normals, corner_normals=corner_normals.reshape(-1).astype(np.int32),
+                      slots=np.broadcast_to(np.asarray(slots, np.int32), (count,)).copy(), closed=closed)
 
-    # The static parts are small: one object per board, per frame, and the floor.
+
+@lru_cache(maxsize=4)
+def chess_meshes(detail: float) -> dict[str, ObjectMesh]:
+    """Every mesh of the scene at ``detail``, made once and shared by all frames (and by all
+    the instances of a piece type), as the Blender adapter keeps an evaluated mesh: frames
+    then differ only in their instance matrices, so the GPU re-transforms what moved."""
+    templates = piece_templates(detail)
+    closed = template_closed(detail)
+    meshes = {name: indexed_mesh(tris, normals, 0, closed[name]) for name, (tris, normals) in templates.items()}
     board_tris, board_mats = _board_top()
     frame_tris = _board_frame()
     floor = quad((0.0, 0.0, -BOARD_THICKNESS), (FLOOR_HALF_SIZE, 0, 0), (0, FLOOR_HALF_SIZE, 0))
-    static = [("floor", floor, MAT_FLOOR)]
-    static += [(f"board_{b}", board_tris + c, board_mats) for b, c in enumerate(board_centers())]
-    static += [(f"board_frame_{b}", frame_tris + c, MAT_FRAME) for b, c in enumerate(board_centers())]
+    meshes["board"] = indexed_mesh(board_tris, flat_normals(board_tris), board_mats, False)
+    meshes["board_frame"] = indexed_mesh(frame_tris, flat_normals(frame_tris), 0, False)
+    meshes["floor"] = indexed_mesh(floor, flat_normals(floor), 0, False)
+    return meshes
 
-    # Instanced parts: (kind, names, template, linear maps, translations, materials), per type.
-    batches = [("sphere", [f"sphere_{b}" for b in range(SETS)], templates["sphere"], sphere_maps,
-                sphere_centres, np.full(SETS, MAT_SPHERE))]
+
+def _matrices(linear: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """(n, 4, 4) object-to-world matrices of linear maps (n, 3, 3) and translations (n, 3)."""
+    out = np.zeros((len(offsets), 4, 4))
+    out[:, :3, :3] = linear
+    out[:, :3, 3] = offsets
+    out[:, 3, 3] = 1.0
+    return out
+
+
+def build_chess(detail: float = 1.0, frame: int = 0, width: int = 640,
+                height: int = 360) -> tuple[SceneData, Camera]:
+    """The Chess scene at ``frame`` (see the module docstring) and its camera at
+    ``width`` x ``height``, built as the Blender adapter exports a scene: shared object-space
+    meshes placed by instances (``InstancedGeometry``), the path every frame the artist
+    renders takes. Raises ValueError for a detail outside (0, MAX_DETAIL]."""
+    detail = _check_detail(detail)
+    frame = int(frame)
+    meshes = chess_meshes(detail)
+    pieces = piece_placements(frame)
+    sphere_maps, sphere_centres = sphere_placements(frame)
+    centres = board_centers()
+    identity = np.broadcast_to(np.eye(3), (SETS, 3, 3))
+    all_materials = np.arange(MAT_SPHERE + 1, dtype=np.int32)
+
+    # (mesh, names, matrices, slot materials): the static parts, then the spheres and the
+    # pieces type by type (the order of the objects, and so of their triangles).
+    groups = [("floor", ["floor"], _matrices(np.eye(3)[None], np.zeros((1, 3))), [np.array([MAT_FLOOR])]),
+              ("board", [f"board_{b}" for b in range(SETS)], _matrices(identity, centres), [all_materials] * SETS),
+              ("board_frame", [f"board_frame_{b}" for b in range(SETS)], _matrices(identity, centres),
+               [np.array([MAT_FRAME])] * SETS),
+              ("sphere", [f"sphere_{b}" for b in range(SETS)], _matrices(sphere_maps, sphere_centres),
+               [np.array([MAT_SPHERE])] * SETS)]
     for kind in PIECE_TYPES:
         chosen = [p for p in pieces if p["kind"] == kind]
-        batches.append((kind, [p["name"] for p in chosen], templates[kind],
-                        _rotation_z(np.array([p["angle"] for p in chosen])),
-                        np.array([p["position"] for p in chosen]),
-                        np.array([p["material"] for p in chosen])))
-
-    total = sum(len(t) for _, t, _ in static) + sum(len(b[1]) * len(b[2][0]) for b in batches)
-    tris = np.empty((total, 3, 3), np.float32)
-    normals = np.empty((total, 3, 3), np.float32)
-    materials = np.empty(total, np.int32)
-    ranges, names = [], []
-    start = 0
-    for name, obj_tris, obj_mats in static:
-        end = start + len(obj_tris)
-        tris[start:end] = obj_tris
-        normals[start:end] = flat_normals(obj_tris)
-        materials[start:end] = obj_mats
-        ranges.append((start, len(obj_tris)))
-        names.append(name)
-        start = end
-    for _, batch_names, (tmpl_tris, tmpl_normals), maps, offsets, mats in batches:
-        count, per = len(batch_names), len(tmpl_tris)
-        end = start + count * per
-        maps32 = maps.astype(np.float32)
-        # Corners: p' = M p + o for every instance at once ((n, T*3, 3) batched matmul).
-        block = np.matmul(tmpl_tris.reshape(1, -1, 3), maps32.transpose(0, 2, 1))
-        block += offsets.astype(np.float32)[:, None, :]
-        tris[start:end] = block.reshape(-1, 3, 3)
-        # Normals: n' ~ M^-T n, renormalised only where M is not a rotation.
-        normal_maps = np.linalg.inv(maps).transpose(0, 2, 1)
-        nblock = np.matmul(tmpl_normals.reshape(1, -1, 3), normal_maps.astype(np.float32).transpose(0, 2, 1))
-        if not np.allclose(np.matmul(maps, maps.transpose(0, 2, 1)), np.eye(3)):
-            nblock /= np.maximum(np.linalg.norm(nblock, axis=-1, keepdims=True), 1e-12)
-        normals[start:end] = nblock.reshape(-1, 3, 3)
-        materials[start:end] = np.repeat(mats, per)
-        ranges.extend((start + i * per, per) for i in range(count))
-        names.extend(batch_names)
-        start = end
-
-    ranges_arr = np.array(ranges, np.int32)
-    # Per-object AABBs, vectorised per run of equal-sized objects (the instanced batches).
-    bounds = np.empty((len(ranges_arr), 2, 3), np.float32)
-    for k, (first, count) in enumerate(ranges_arr[:1 + 2 * SETS]):
-        pts = tris[first:first + count].reshape(-1, 3)
-        bounds[k] = pts.min(axis=0), pts.max(axis=0)
-    k = 1 + 2 * SETS
-    for _, batch_names, (tmpl_tris, _), *_ in batches:
-        count, per = len(batch_names), len(tmpl_tris)
-        first = ranges_arr[k, 0]
-        block = tris[first:first + count * per].reshape(count, per * 3, 3)
-        bounds[k:k + count, 0] = block.min(axis=1)
-        bounds[k:k + count, 1] = block.max(axis=1)
-        k += count
-
-    # Pieces and spheres are closed, outward-wound surfaces (their back faces may be culled)
-    # as long as their linear maps keep orientation; boards, frames and floor are open.
-    closed_templates = template_closed(detail)
-    closed = [False] * len(static)
-    for kind, _, _, maps, *_ in batches:
-        closed.extend(bool(closed_templates[kind] and np.linalg.det(m) > 0) for m in maps)
-    geometry = Geometry(triangles=tris, normals=normals, material_ids=materials,
-                        object_ranges=ranges_arr, object_bounds=bounds, object_names=names,
-                        object_closed=np.array(closed, bool))
-    scene = SceneData(geometry=geometry, materials=chess_materials(), lights=chess_lights(),
-                      sky=chess_sky())
+        groups.append((kind, [p["name"] for p in chosen],
+                       _matrices(_rotation_z(np.array([p["angle"] for p in chosen])),
+                                 np.array([p["position"] for p in chosen])),
+                       [np.array([p["material"]]) for p in chosen]))
+    order = list(meshes)
+    names, mesh_index, matrices, slot_materials = [], [], [], []
+    for mesh, group_names, group_matrices, group_slots in groups:
+        names += group_names
+        mesh_index += [order.index(mesh)] * len(group_names)
+        matrices.append(group_matrices)
+        slot_materials += group_slots
+    instances = Instances(meshes=[meshes[name] for name in order], mesh=np.array(mesh_index, np.int32),
+                          matrices=np.concatenate(matrices).astype(np.float32), slot_materials=slot_materials)
+    scene = SceneData(geometry=InstancedGeometry(instances, names), materials=chess_materials(),
+                      lights=chess_lights(), sky=chess_sky())
     return scene, camera_path(frame, width, height)

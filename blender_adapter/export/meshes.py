@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Meshes: an evaluated mesh read in object space (``MeshData``) and made the renderer's
-``ObjectMesh`` (hybrid_engine/scene/instances.py), read once per evaluated mesh and shared by its
+``ObjectMesh`` (hybrid_engine/scene/meshes.py, scene/geometry.py), read once per evaluated mesh and shared by its
 instances; a deformed mesh read again as positions and normals only."""
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...hybrid_engine.scene.instances import ObjectMesh
+from ...hybrid_engine.scene.meshes import ObjectMesh
 from ...hybrid_engine.scene.solids import closed_outward_indexed
 from . import tell
 
@@ -231,7 +231,7 @@ def reread_deformed(mesh, previous: MeshData | None) -> MeshData | None:
 
 
 def object_mesh(name: str, data: MeshData, previous: ObjectMesh | None = None) -> ObjectMesh | None:
-    """``data`` as the renderer's object-space mesh (hybrid_engine/scene/instances.py). A
+    """``data`` as the renderer's object-space mesh (hybrid_engine/scene/meshes.py, scene/geometry.py). A
     ``previous`` mesh read from the same topology (``reread_deformed``) gives a deformed
     version of it, so the GPU re-sends positions and normals only.
 

@@ -7,7 +7,7 @@
 // triangle's slot, and the tracer's UV row (the corners' UVs and sqrt(UV area / world area),
 // its texture level). Under a mirroring matrix corners 1 and 2 swap, so the winding stays
 // counter-clockwise from outside. A triangle with a non-finite corner collapses to the origin.
-// hybrid_engine/scene/instances.py's world_arrays does the same on the host.
+// hybrid_engine/scene/meshes.py, scene/geometry.py's world_arrays does the same on the host.
 //
 // Work comes as segments (instance, first local triangle, count, first output row) with the
 // exclusive prefix of their counts; an invocation finds its segment by binary search. The

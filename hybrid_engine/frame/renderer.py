@@ -1,27 +1,32 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The frame: plain scene arrays in, image plus per-pass timings and counts out.
 
-``Renderer`` owns the GPU state of one consumer (a final render, a viewport) on the shared
-process-wide context and keeps it across frames; ``render()`` runs the passes of paper §3
-for the selected mode:
+``Renderer`` owns the passes of one consumer (a final render, a viewport) on the shared
+process-wide context and keeps them across frames; ``render()`` runs the passes of paper §3
+for the selected mode, in this order, each a folder of ``hybrid_engine/passes/`` taking one
+``FrameContext`` (passes/frame_context.py):
 
 ==========  ===================================================================================
-RASTER      upload, shadow_maps, primary_raster, shade (specular lobes see the sky), readback
-HYBRID      upload, shadow_maps, primary_raster, cube_map_raster (§3.2), cull + lbvh_build
-            (§3.3), shade (emission + diffuse), trace (§3.4), readback
+RASTER      upload, instance_transform, shadow_maps, lighting, primary_raster, shade (specular
+            lobes see the sky), readback
+HYBRID      upload, instance_transform, shadow_maps, lighting, primary_raster, cube_map_raster
+            (§3.2), cull + lbvh_build (§3.3), shade (emission + diffuse), trace (§3.4),
+            readback
 FULL_BVH    as HYBRID without the cube map and the culling: the LBVH holds the whole scene
             (the paper's ground truth)
-PROVENANCE  upload, shadow_maps, primary_raster, shade, trace (which only decides where each
-            specular pixel's first secondary ray starts: BVH blue, cube map red; Figure 4)
+PROVENANCE  as RASTER, then trace (which only decides where each specular pixel's first
+            secondary ray starts: BVH blue, cube map red; Figure 4)
 BOUNCES,    as HYBRID; the trace also counts, per pixel, bounces, cube-map steps, BVH nodes
 CUBE_STEPS, or where one bounce's rays ended, and the image shows that count in false colour
-BVH_NODES,  with a legend (trace/diagnostic_views.py; FrameResult.diagnostic holds the counts)
-BOUNCE_PATHS
+BVH_NODES,  (trace/diagnostic_views.py; FrameResult.diagnostic holds the counts and
+BOUNCE_PATHS FrameResult.legend what the colours mean)
 ==========  ===================================================================================
 
-``shade`` is the screen-space ambient occlusion (screen_ao.py) and the deferred shading of
-the primary G-buffer, lit by one FrameResources (lights, shadow atlas, World light) that the
-trace pass receives too.
+``shade`` is the ambient occlusion (screen space, or the World's light by rays with
+``sky_rays``) and the deferred shading of the primary G-buffer, lit by the frame's
+``lighting`` resource, which the trace pass reads too. Each pass declares what it reads and
+writes; the renderer checks the order once per configuration, before its first frame
+(``check_order``), and the frame lets a pass touch only what it declared.
 """
 from __future__ import annotations
 
@@ -33,17 +38,22 @@ import numpy as np
 
 from ..gpu import gl_context
 from ..gpu.timing import PassTimer
+from ..passes.cube_map.cube_map import CubeMapPass
+from ..passes.frame_context import FrameContext, FramePass, check_order
 from ..passes.gbuffer.gbuffer import GBufferPass
-from ..passes.lighting.resources import FrameResources
+from ..passes.lbvh.build_pass import LBVHBuildPass
+from ..passes.lbvh.lbvh import BuiltLBVH, LBVHBuilder
+from ..passes.lighting.resources import FrameResources, LightingPass
+from ..passes.near_cube_cull.near_cube import NearCubeCuller
 from ..passes.scene_upload.scene_buffers import GPUScene
+from ..passes.scene_upload.upload_passes import InstanceTransformPass, SceneUploadPass
 from ..passes.shading.deferred_shade import DeferredShadePass
 from ..passes.shading.screen_ao import ScreenSpaceOcclusion
 from ..passes.shadow_maps.shadow_depth import ShadowDepthPass
 from ..passes.trace.diagnostic_views import LegendEntry, is_diagnostic, legend
-from ..passes.trace.tracer import HybridTracer
+from ..passes.trace.tracer import HybridTracer, WorldLightRays
 from ..passes.view_cull.draw import SceneDrawer
 from ..scene.camera import Camera
-from ..scene.changes import GeometryTracker
 from ..scene.data import SceneData
 from ..scene.raster_view import RasterView
 from ..scene.settings import DIAGNOSTIC_VIEWS, RenderSettings
@@ -57,14 +67,21 @@ class RenderCancelled(Exception):
     """The caller's cancel callback asked to stop (Blender's test_break())."""
 
 
+# The steps of each mode as timing reports name them (several passes may share a step).
+_RASTER = ("upload", "instance_transform", "shadow_maps", "lighting", "primary_raster")
 MODE_STEPS = {
-    "RASTER": ("upload", "shadow_maps", "primary_raster", "shade", "readback"),
-    "HYBRID": ("upload", "shadow_maps", "primary_raster", "cube_map_raster", "cull", "lbvh_build",
-               "shade", "trace", "readback"),
-    "FULL_BVH": ("upload", "shadow_maps", "primary_raster", "lbvh_build", "shade", "trace", "readback"),
-    "PROVENANCE": ("upload", "shadow_maps", "primary_raster", "shade", "trace", "readback"),
+    "RASTER": (*_RASTER, "shade", "readback"),
+    "HYBRID": (*_RASTER, "cube_map_raster", "cull", "lbvh_build", "shade", "trace", "readback"),
+    "FULL_BVH": (*_RASTER, "lbvh_build", "shade", "trace", "readback"),
+    "PROVENANCE": (*_RASTER, "shade", "trace", "readback"),
 }
 MODE_STEPS.update({view: MODE_STEPS["HYBRID"] for view in DIAGNOSTIC_VIEWS})
+# The passes that depend only on the geometry, the settings and the eye, and what they leave:
+# another sample of one view keeps them (render(reuse_world=True)).
+WORLD_PASSES = ("cube_map_raster", "cull", "lbvh_build")
+WORLD_RESOURCES = ("cube_map", "near_triangles", "bvh")
+# What the frame's end reads back: the image, and the G-buffer for the data passes.
+READBACK_READS = ("color", "gbuffer")
 
 
 @dataclass
@@ -93,25 +110,79 @@ class FrameResult:
 
 
 class Renderer:
-    """GPU state for rendering frames; create once, call ``render`` every frame."""
+    """The passes of a frame on the shared context; create once, call ``render`` every frame."""
 
     def __init__(self, ctx=None) -> None:
         self.ctx = ctx if ctx is not None else gl_context.get_context()
         self.gpu_scene = GPUScene(self.ctx)
         # The G-buffer and shadow passes draw the scene through one drawer (view_cull/draw.py).
         self.drawer = SceneDrawer(self.ctx)
-        self.shadow_depth = ShadowDepthPass(self.ctx, self.drawer)
+        self.upload = SceneUploadPass(self.gpu_scene)
+        self.instance_transform = InstanceTransformPass(self.gpu_scene)
+        self.shadow_maps = ShadowDepthPass(self.ctx, self.drawer)
+        self.resources = FrameResources(self.ctx)  # lights and World light
+        self.lighting = LightingPass(self.resources)
         self.gbuffer = GBufferPass(self.ctx, self.drawer)
-        self.resources = FrameResources(self.ctx)  # lights, shadow atlas, World light
         self.occlusion = ScreenSpaceOcclusion(self.ctx)
         self.deferred_shade = DeferredShadePass(self.ctx)
-        self.tracer: HybridTracer | None = None  # created on the first non-RASTER frame
-        # Frame-to-frame reuse: only changed triangles are re-uploaded, and of the shadow
-        # maps only the layer whose objects changed is re-rendered (shadow_cache.py).
-        self.geometry_tracker = GeometryTracker()
-        # What the tracer's cube map and BVH were built for (render(reuse_world=True)).
+        # The traced modes' passes, made on the first frame that needs them (their kernels
+        # take a while to compile).
+        self.cube_map: CubeMapPass | None = None
+        self.culler: NearCubeCuller | None = None
+        self.lbvh: LBVHBuildPass | None = None
+        self.tracer: HybridTracer | None = None
+        self.world_light: WorldLightRays | None = None
+        # What the last frame's cube map, cull and BVH were built for, and them
+        # (render(reuse_world=True)).
         self._world_key: tuple | None = None
+        self._world: dict[str, object] = {}
+        self._checked: set[tuple] = set()  # configurations whose pass order was checked
 
+    # -- the passes ----------------------------------------------------------------------------
+    def passes(self, settings: RenderSettings) -> list[FramePass]:
+        """This renderer's passes for ``settings``, in the order a frame runs them."""
+        mode = settings.mode
+        traced = mode != "RASTER"
+        if traced:
+            self._ensure_traced()
+        ambient = self.world_light if settings.traces_sky else self.occlusion
+        plan: list[FramePass] = [self.upload, self.instance_transform, self.shadow_maps, self.lighting,
+                                 self.gbuffer]
+        steps = MODE_STEPS[mode]
+        if "cube_map_raster" in steps:
+            plan.append(self.cube_map)
+        if "cull" in steps:
+            plan.append(self.culler)
+        if "lbvh_build" in steps:
+            plan.append(self.lbvh)
+        plan += [ambient, self.deferred_shade]
+        if traced:
+            plan.append(self.tracer)
+        return plan
+
+    def _ensure_traced(self) -> None:
+        if self.tracer is None:
+            self.cube_map = CubeMapPass(self.ctx, self.gbuffer)
+            self.culler = NearCubeCuller(self.ctx)
+            self.lbvh = LBVHBuildPass(LBVHBuilder(self.ctx))
+            self.tracer = HybridTracer(self.ctx)
+            self.world_light = WorldLightRays(self.tracer)
+
+    def _checked_passes(self, settings: RenderSettings) -> list[FramePass]:
+        """``passes(settings)``, their order checked once per configuration."""
+        plan = self.passes(settings)
+        key = (settings.mode, settings.traces_sky)
+        if key not in self._checked:
+            check_order(plan, settings, final_reads=READBACK_READS)
+            self._checked.add(key)
+        return plan
+
+    @property
+    def bvh(self) -> BuiltLBVH | None:
+        """The BVH the last traced frame read (tests, diagnostics)."""
+        return self._world.get("bvh")
+
+    # -- a frame -------------------------------------------------------------------------------
     def render(
         self,
         scene: SceneData,
@@ -131,10 +202,10 @@ class Renderer:
         none.
 
         ``reuse_world``: this frame sees the last frame's scene from the same point (another
-        sample of one pixel grid, antialias.py), so the cube map and the BVH, which depend
-        only on the geometry, the settings and the camera's position, are kept instead of
-        rebuilt. Honoured only when that holds: the same ``scene`` object and settings, the
-        same position, no triangle changed and the last frame completed.
+        sample of one pixel grid, antialias.py), so the cube map, the cull and the BVH, which
+        depend only on the geometry, the settings and the camera's position, are kept
+        instead of rebuilt. Honoured only when that holds: the same ``scene`` object and
+        settings, the same position, no triangle changed and the last frame completed.
 
         ``sample`` numbers this frame among the samples of one view (antialias.py, the
         viewport's accumulation): the stochastic parts of the shading (glossy lobes,
@@ -144,11 +215,14 @@ class Renderer:
         outputs = outputs or FrameOutputs()
         steps = MODE_STEPS[settings.mode]  # RenderSettings admits no other mode
         traced = settings.mode != "RASTER"
-        if traced and self.tracer is None:
-            self.tracer = HybridTracer(self.ctx, self.gbuffer)
-        tracer = self.tracer
+        plan = self._checked_passes(settings)
         timer = PassTimer(self.ctx, enabled=timing)
         start = time.perf_counter()
+        frame = FrameContext(self.ctx, scene_data=scene, camera=camera, settings=settings,
+                             view=RasterView.from_camera(camera), outputs=outputs, sample=sample)
+        world_key = (id(scene), settings, frame.center)
+        may_keep = reuse_world and traced and self._same_world(world_key)
+        self._world_key = None  # set again once this frame's world is complete
 
         def step(name: str) -> None:
             if cancel is not None and cancel():
@@ -156,92 +230,52 @@ class Renderer:
             if progress is not None:
                 progress(name, steps.index(name) / len(steps))
 
-        counts: dict[str, int] = {}
-        center = np.asarray(camera.position, np.float64)
-        world_key = (id(scene), settings, center)
-        kept_world = reuse_world and traced and self._same_world(world_key)
-        self._world_key = None  # set again once this frame's world is complete
-        step("upload")
-        with timer.measure("upload"):
-            delta = self.geometry_tracker.update(scene.geometry)
-            self.gpu_scene.upload(scene, delta)
-            if traced:
-                tracer.upload(self.gpu_scene, scene, delta)
-        counts["triangles_uploaded"] = int(delta.changed_triangles)
-        if self.gpu_scene.uv_rows_resident:  # instanced geometry: made on the GPU
-            moved = self.gpu_scene.instance_transform.stats
-            counts["instances_written"] = moved.instances_written
-            counts["meshes_uploaded"] = moved.meshes_uploaded
-            counts["triangles_transformed"] = moved.triangles_transformed
-        kept_world = kept_world and delta.unchanged
-        step("shadow_maps")
-        with timer.measure("shadow_maps"):
-            shadows = self.shadow_depth.render(self.gpu_scene, scene, camera, settings, self.resources.shadows,
-                                             delta)
-            counts.update(shadows.counts())
-            self.resources.update_lights(scene.lights, shadows.per_light, settings)
-            self.resources.update_sky(scene.sky)
-        step("primary_raster")
-        view = RasterView.from_camera(camera)
-        with timer.measure("primary_raster"):
-            targets, submitted = self.gbuffer.render_primary(self.gpu_scene, scene, view)
-        if "cube_map_raster" in steps and not kept_world:
-            step("cube_map_raster")
-            with timer.measure("cube_map_raster"):
-                counts["triangles_cube_map_submitted"] = int(
-                    tracer.render_cube_map(self.gpu_scene, scene, center, settings))
-        culled = None
-        if "cull" in steps and not kept_world:
-            step("cull")
-            with timer.measure("cull"):
-                culled = tracer.cull(scene, center, settings)
-            counts.update(objects_near_inside=culled.objects_inside,
-                          objects_near_straddling=culled.objects_straddling,
-                          objects_near_outside=culled.objects_outside)
-        if "lbvh_build" in steps and not kept_world:
-            step("lbvh_build")
-            with timer.measure("lbvh_build"):
-                tracer.build(culled)
-        step("shade")
-        with timer.measure("shade"):
-            if settings.traces_sky:
-                tracer.gather_world_light(self.gpu_scene, scene, view, targets, self.resources, settings,
-                                          center, sample=sample)
-            else:
-                self.occlusion.run(targets, view, self.resources, sample)
-            self.deferred_shade.run(self.gpu_scene, view, targets, self.resources,
-                                    traced_specular=traced, transparent=outputs.transparent, sample=sample)
-        if "trace" in steps:
-            step("trace")
-            with timer.measure("trace"):
-                tracer.trace(self.gpu_scene, scene, view, targets, self.resources, settings, center,
-                             sample=sample)
+        last_step = None
+        for frame_pass in plan:
+            if frame_pass.name in WORLD_PASSES and may_keep and frame.resource("delta").unchanged:
+                frame.provide({name: self._world[name] for name in WORLD_RESOURCES if name in self._world})
+                continue
+            if frame_pass.name != last_step:  # passes of one step (shade) are one step
+                step(frame_pass.name)
+                last_step = frame_pass.name
+            with timer.measure(frame_pass.name), frame.running(frame_pass):
+                frame_pass.run(frame)
         step("readback")
         with timer.measure("readback"):
-            image = targets.read_color()
-            data = self._data_passes(targets, camera, outputs)
-            if traced and settings.mode != "PROVENANCE":
-                counts.update(tracer.read_stats(settings.max_depth).as_counts())
-            diagnostic = None
-            if is_diagnostic(settings):
-                diagnostic = tracer.read_diagnostic(view)
-        self._world_key = world_key if traced else None
+            result = self._read_back(frame)
+        if traced:
+            self._world = {name: frame.resource(name) for name in WORLD_RESOURCES if frame.has(name)}
+            self._world_key = world_key
         if gl_context.debug_checks_enabled():
             gl_context.check_error(f"{settings.mode} frame")
         if progress is not None:
             progress("done", 1.0)
-        total = (time.perf_counter() - start) * 1e3
+        result.passes = dict(timer.passes)
+        result.timing_source = timer.source
+        result.total_ms = (time.perf_counter() - start) * 1e3
+        return result
+
+    def _read_back(self, frame: FrameContext) -> FrameResult:
+        """The frame's image, data passes, counts and diagnostic counts, read from the GPU."""
+        settings = frame.settings
+        targets = frame.resource("gbuffer")
+        image = targets.read_color()
+        data = self._data_passes(targets, frame.camera, frame.outputs)
+        counts = dict(frame.counts)
+        if settings.mode not in ("RASTER", "PROVENANCE"):
+            counts.update(self.tracer.read_stats(settings.max_depth).as_counts())
+        diagnostic = self.tracer.read_diagnostic(frame.view) if is_diagnostic(settings) else None
+        scene = frame.resource("scene")
         counts = {
             "triangles_total": scene.geometry.triangle_count,
-            "triangles_primary_submitted": int(submitted),
+            "triangles_primary_submitted": counts.pop("triangles_primary_submitted", 0),
             "lights": len(scene.lights),
             **counts,
         }
-        return FrameResult(image=image, passes=dict(timer.passes), counts=counts,
-                           timing_source=timer.source, total_ms=total, mode=settings.mode,
-                           data_passes=data, diagnostic=diagnostic,
-                           legend=legend(settings) if diagnostic is not None else [],
-                           near_size=float(settings.near_size) if "cube_map_raster" in steps else None)
+        return FrameResult(image=image, counts=counts, mode=settings.mode, data_passes=data,
+                           diagnostic=diagnostic, legend=legend(settings) if diagnostic is not None else [],
+                           near_size=float(settings.near_size) if "cube_map_raster" in MODE_STEPS[settings.mode]
+                           else None)
 
     def _same_world(self, key: tuple) -> bool:
         """Whether ``key`` (scene object, settings, eye) is what the kept cube map and BVH
@@ -268,9 +302,15 @@ class Renderer:
 
     def release(self) -> None:
         """Free this renderer's GL objects (the shared context stays)."""
-        if self.tracer is not None:
-            self.tracer.release()
-            self.tracer = None
+        for owner in (self.cube_map, self.culler, self.tracer):
+            if owner is not None:
+                owner.release()
+        if self.lbvh is not None:
+            self.lbvh.builder.release()
+        self.cube_map = self.culler = self.lbvh = self.tracer = self.world_light = None
+        self._world = {}
+        self._world_key = None
+        self.shadow_maps.release()
         self.gbuffer.release()
         self.drawer.release()
         self.resources.release()

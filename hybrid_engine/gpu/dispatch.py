@@ -26,6 +26,8 @@ import math
 from dataclasses import dataclass
 from typing import Iterator
 
+import numpy as np
+
 from . import gl_context
 
 # Most storage blocks one array is split into. The LBVH refit binds the most blocks: seven
@@ -247,3 +249,8 @@ class GrowBuffer:
         if self.buffer is not None:
             self.buffer.release()
             self.buffer = None
+
+
+def bytes_of(array: np.ndarray) -> np.ndarray:
+    """A flat uint8 view of a contiguous array (no copy)."""
+    return np.ascontiguousarray(array).reshape(-1).view(np.uint8)

@@ -57,7 +57,14 @@ class ShaderSource:
         return f"<string {string_no}>:{line}"
 
 
-def shader_path(name: str) -> Path:
+def shader_path(name: str | Path) -> Path:
+    """The file of ``name``: a path under ``gpu_shaders/``, or an absolute ``Path`` for an
+    entry shader kept elsewhere (a test's probe kernel; its includes still come from
+    ``gpu_shaders/include/``)."""
+    if isinstance(name, Path) and name.is_absolute():
+        if not name.is_file():
+            raise ShaderError(f"no shader file {name}")
+        return name
     path = (SHADER_ROOT / name).resolve()
     if SHADER_ROOT not in path.parents:
         raise ShaderError(f"shader name {name!r} points outside {SHADER_ROOT}")
@@ -66,7 +73,11 @@ def shader_path(name: str) -> Path:
     return path
 
 
-def assemble(name: str, defines: Mapping[str, object] | None = None) -> ShaderSource:
+def _label(path: Path) -> str:
+    return path.relative_to(SHADER_ROOT).as_posix() if SHADER_ROOT in path.parents else str(path)
+
+
+def assemble(name: str | Path, defines: Mapping[str, object] | None = None) -> ShaderSource:
     """Resolve includes of ``name`` and prepend version and defines.
 
     Source string 0 is the preamble; every file gets its own string number so that
@@ -80,16 +91,16 @@ def assemble(name: str, defines: Mapping[str, object] | None = None) -> ShaderSo
         out.append(f"#define {key} {_glsl_value(value)}")
     included: set[Path] = set()
 
-    def emit(rel: str, stack: tuple[Path, ...]) -> None:
+    def emit(rel: str | Path, stack: tuple[Path, ...]) -> None:
         path = shader_path(rel)
         if path in stack:
-            chain = " -> ".join(p.relative_to(SHADER_ROOT).as_posix() for p in (*stack, path))
+            chain = " -> ".join(_label(p) for p in (*stack, path))
             raise ShaderError(f"include cycle: {chain}")
         if path in included:
             return  # include guard: each file once per program
         included.add(path)
         string_no = len(src.files)
-        src.files.append(path.relative_to(SHADER_ROOT).as_posix())
+        src.files.append(_label(path))
         out.append(f"#line {string_no * LINE_STRIDE + 1} {string_no}")
         for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
             if line.lstrip().startswith("#version"):
@@ -178,11 +189,11 @@ def _compile(ctx, stages: Mapping[str, str], defines: Mapping[str, object] | Non
         else:
             program = ctx.program(**{stage: s.text for stage, s in sources.items()})
     except Exception as exc:
-        names = ", ".join(stages.values())
+        names = ", ".join(str(name) for name in stages.values())
         raise ShaderError(
             f"compiling {names} failed:\n" + translate_error(str(exc), sources)
         ) from None
-    program.extra = bindings.ProgramLayout.of(program, ", ".join(stages.values()))
+    program.extra = bindings.ProgramLayout.of(program, ", ".join(str(name) for name in stages.values()))
     _cache[key] = program
     return program
 

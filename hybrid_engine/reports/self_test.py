@@ -22,7 +22,8 @@ from ..frame.renderer import Renderer
 from ..gpu import gl_context
 from ..passes.lbvh import lbvh
 from ..scene.camera import Camera, look_at
-from ..scene.data import Geometry, Lights, MaterialTable, SceneData, Sky
+from ..scene.geometry import Geometry
+from ..scene.data import Lights, MaterialTable, SceneData, Sky
 from ..scene.settings import MODES, RenderSettings
 
 # Rays whose closest hits the GPU and the CPU must agree on (same triangle, t within 1e-3).

@@ -40,8 +40,8 @@ from . import chart_png, chart_svg
 # maps (§3.5), primary G-buffer (§3.1), cube map (§3.2), near-cube culling and LBVH (§3.3),
 # deferred shading, the recursive tracer (§3.4), read-back.
 PIPELINE_PASSES = (
-    "extract", "upload", "shadow_maps", "primary_raster", "cube_map_raster", "cull",
-    "lbvh_build", "shade", "trace", "readback",
+    "extract", "upload", "instance_transform", "shadow_maps", "lighting", "primary_raster",
+    "cube_map_raster", "cull", "lbvh_build", "shade", "trace", "readback",
 )
 # Counts that come first in tables; the rest (ray counts per bounce...) follow in natural order.
 LEADING_COUNTS = ("triangles_total", "triangles_bvh")

@@ -2,10 +2,7 @@
 """Plain-array scene description: what the renderer core consumes.
 
 The Blender adapter turns a depsgraph into these dataclasses; tests and benchmarks build
-them directly. Geometry is world space, float32/int32 numpy, with triangles grouped by
-object so that the near-cube culling (paper §3.3) can test an object's AABB first and only
-then its triangles; the Blender adapter hands over its ``InstancedGeometry`` subclass
-(scene/instances.py: object-space meshes and instances, made world space on the GPU).
+them directly: the geometry (geometry.py), the material table, the lamps and the World.
 
 Units follow Blender: metres, light power in watts (point/spot/area) and irradiance in W/m²
 (sun), colours linear Rec.709.
@@ -16,176 +13,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .arrays import SceneDataError, as_array
+from .geometry import Geometry
+
 # Light kinds (std430 int in the light buffer)
 LIGHT_POINT, LIGHT_SUN, LIGHT_SPOT, LIGHT_AREA = 0, 1, 2, 3
 LIGHT_KINDS = {"POINT": LIGHT_POINT, "SUN": LIGHT_SUN, "SPOT": LIGHT_SPOT, "AREA": LIGHT_AREA}
-
-
-class SceneDataError(ValueError):
-    """Scene arrays are malformed (wrong shape, dtype or inconsistent counts)."""
-
-
-def _as(array, dtype, shape_tail: tuple[int, ...], name: str) -> np.ndarray:
-    arr = np.ascontiguousarray(np.asarray(array, dtype=dtype))
-    if arr.ndim != 1 + len(shape_tail) or tuple(arr.shape[1:]) != shape_tail:
-        want = "(N, " + ", ".join(map(str, shape_tail)) + ")" if shape_tail else "(N,)"
-        raise SceneDataError(f"{name} must have shape {want}, got {arr.shape}")
-    return arr
-
-
-@dataclass(frozen=True)
-class GeometryEdit:
-    """How a producer that keeps one geometry up to date (the Blender adapter's scene cache)
-    made this version of it: ``generation`` counts its versions, and ``objects`` lists the
-    objects whose rows it rewrote in place since ``generation - 1``, with the layout (object
-    ranges, triangle count, UVs present) unchanged; None when it rebuilt the arrays. A
-    consumer that uploaded ``generation - 1`` of the same ``source`` re-sends just those
-    objects' rows instead of comparing every triangle (scene_delta.GeometryTracker)."""
-
-    source: int
-    generation: int
-    objects: tuple[int, ...] | None = None
-
-
-@dataclass
-class Geometry:
-    """World-space triangles of all visible objects, grouped by object.
-
-    ``triangles[i]`` holds the three corners of triangle i; ``normals[i]`` the three shading
-    normals (smooth, flat or custom split normals, already in world space); ``uvs`` is
-    optional. ``object_ranges[k] = (first, count)`` are the triangles of object k and
-    ``object_bounds[k] = (min, max)`` its AABB (NaN corners excluded). ``object_closed``
-    (optional, (K,) bool) marks objects whose triangles form closed surfaces wound
-    counter-clockwise seen from outside (:func:`hybrid_engine.scene.solids.closed_outward`): the
-    raster passes skip their back faces, which an outside eye never sees. Marking an open
-    or inward-wound object lets the background show through it; None marks none.
-    """
-
-    triangles: np.ndarray  # (N, 3, 3) float32
-    normals: np.ndarray  # (N, 3, 3) float32
-    material_ids: np.ndarray  # (N,) int32, index into MaterialTable
-    object_ranges: np.ndarray  # (K, 2) int32
-    object_bounds: np.ndarray  # (K, 2, 3) float32
-    object_names: list[str] = field(default_factory=list)
-    uvs: np.ndarray | None = None  # (N, 3, 2) float32
-    object_closed: np.ndarray | None = None  # (K,) bool
-    edit: GeometryEdit | None = None  # set by a producer that edits the arrays in place
-
-    def __post_init__(self) -> None:
-        self.triangles = _as(self.triangles, np.float32, (3, 3), "triangles")
-        self.normals = _as(self.normals, np.float32, (3, 3), "normals")
-        self.material_ids = _as(self.material_ids, np.int32, (), "material_ids")
-        self.object_ranges = _as(self.object_ranges, np.int32, (2,), "object_ranges")
-        self.object_bounds = _as(self.object_bounds, np.float32, (2, 3), "object_bounds")
-        n = len(self.triangles)
-        if len(self.normals) != n or len(self.material_ids) != n:
-            raise SceneDataError(
-                f"triangles ({n}), normals ({len(self.normals)}) and material_ids "
-                f"({len(self.material_ids)}) must have the same length"
-            )
-        if self.uvs is not None:
-            self.uvs = _as(self.uvs, np.float32, (3, 2), "uvs")
-            if len(self.uvs) != n:
-                raise SceneDataError(f"uvs has {len(self.uvs)} rows, triangles {n}")
-        if len(self.object_ranges) != len(self.object_bounds):
-            raise SceneDataError("object_ranges and object_bounds must have one row per object")
-        if self.object_closed is not None:
-            self.object_closed = np.asarray(self.object_closed, bool).reshape(-1)
-            if len(self.object_closed) != len(self.object_ranges):
-                raise SceneDataError(f"object_closed has {len(self.object_closed)} entries, "
-                                     f"object_ranges {len(self.object_ranges)}")
-        if len(self.object_ranges):
-            ends = self.object_ranges[:, 0].astype(np.int64) + self.object_ranges[:, 1]
-            if (self.object_ranges < 0).any() or ends.max() > n:
-                raise SceneDataError("object_ranges point outside the triangle array")
-
-    @property
-    def triangle_count(self) -> int:
-        return int(len(self.triangles))
-
-    @property
-    def has_uvs(self) -> bool:
-        """Whether ``uvs`` is given (asked without making arrays that are made on demand)."""
-        return self.uvs is not None
-
-    def clamp_material_ids(self, count: int) -> None:
-        """Documented fallback: ids outside a table of ``count`` materials (empty material
-        slots) use material 0."""
-        ids = self.material_ids
-        if len(ids) and (ids.min() < 0 or ids.max() >= count):
-            self.material_ids = np.where((ids >= 0) & (ids < count), ids, 0).astype(np.int32)
-
-    def rows(self, first: int, count: int) -> "Geometry":
-        """Triangles [first, first + count) as a Geometry of views (no copies, no objects):
-        what per-triangle packers need to re-pack a changed range."""
-        end = first + count
-        return Geometry(
-            triangles=self.triangles[first:end], normals=self.normals[first:end],
-            material_ids=self.material_ids[first:end], object_ranges=np.zeros((0, 2), np.int32),
-            object_bounds=np.zeros((0, 2, 3), np.float32),
-            uvs=None if self.uvs is None else self.uvs[first:end],
-        )
-
-    @classmethod
-    def empty(cls) -> "Geometry":
-        return cls(
-            triangles=np.zeros((0, 3, 3), np.float32),
-            normals=np.zeros((0, 3, 3), np.float32),
-            material_ids=np.zeros(0, np.int32),
-            object_ranges=np.zeros((0, 2), np.int32),
-            object_bounds=np.zeros((0, 2, 3), np.float32),
-        )
-
-    @classmethod
-    def from_objects(
-        cls,
-        objects: list[tuple[np.ndarray, np.ndarray | None, np.ndarray | int]],
-        names: list[str] | None = None,
-    ) -> "Geometry":
-        """Concatenate per-object (triangles, normals or None for flat, material ids)."""
-        if not objects:
-            return cls.empty()
-        tris, norms, mats, ranges, bounds = [], [], [], [], []
-        start = 0
-        for obj_tris, obj_normals, obj_mats in objects:
-            t = np.asarray(obj_tris, np.float32).reshape(-1, 3, 3)
-            nrm = flat_normals(t) if obj_normals is None else np.asarray(obj_normals, np.float32)
-            m = np.broadcast_to(np.asarray(obj_mats, np.int32), (len(t),))
-            tris.append(t)
-            norms.append(nrm.reshape(-1, 3, 3))
-            mats.append(m)
-            ranges.append((start, len(t)))
-            bounds.append(finite_bounds(t))
-            start += len(t)
-        return cls(
-            triangles=np.concatenate(tris),
-            normals=np.concatenate(norms),
-            material_ids=np.concatenate(mats),
-            object_ranges=np.array(ranges, np.int32).reshape(-1, 2),
-            object_bounds=np.array(bounds, np.float32).reshape(-1, 2, 3),
-            object_names=list(names) if names else [f"object_{i}" for i in range(len(objects))],
-        )
-
-
-def flat_normals(triangles: np.ndarray) -> np.ndarray:
-    """Per-corner normals equal to each face normal; zero-area faces get +Z (documented
-    fallback so that shading never divides by zero)."""
-    t = np.asarray(triangles, np.float32).reshape(-1, 3, 3)
-    with np.errstate(invalid="ignore", over="ignore"):
-        n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
-        length = np.linalg.norm(n, axis=1, keepdims=True)
-        ok = np.isfinite(length) & (length > 0)
-        n = np.where(ok, n / np.where(ok, length, 1), np.array([0, 0, 1], np.float32))
-    return np.repeat(n[:, None, :], 3, axis=1).astype(np.float32)
-
-
-def finite_bounds(triangles: np.ndarray) -> np.ndarray:
-    """AABB over the finite vertices; an object with none gets an inverted (empty) box."""
-    pts = np.asarray(triangles, np.float32).reshape(-1, 3)
-    pts = pts[np.isfinite(pts).all(axis=1)]
-    if len(pts) == 0:
-        return np.array([[np.inf] * 3, [-np.inf] * 3], np.float32)
-    return np.stack([pts.min(axis=0), pts.max(axis=0)]).astype(np.float32)
 
 
 @dataclass
@@ -246,14 +79,14 @@ class MaterialTable:
     metallic_channel: np.ndarray | None = None  # (M,) int32 TEXTURE_CHANNELS index; None: all 3
 
     def __post_init__(self) -> None:
-        self.base_color = _as(self.base_color, np.float32, (3,), "base_color")
+        self.base_color = as_array(self.base_color, np.float32, (3,), "base_color")
         m = len(self.base_color)
-        self.emission = _as(self.emission, np.float32, (3,), "emission")
+        self.emission = as_array(self.emission, np.float32, (3,), "emission")
         for name in ("roughness", "specular"):
             if getattr(self, name) is None:
                 setattr(self, name, np.zeros(m, np.float32))
         for name in ("reflectivity", "transmission", "ior", "thickness", "roughness", "specular"):
-            setattr(self, name, _as(getattr(self, name), np.float32, (), name))
+            setattr(self, name, as_array(getattr(self, name), np.float32, (), name))
         for name in ("emission", "reflectivity", "transmission", "ior", "thickness", "roughness", "specular"):
             if len(getattr(self, name)) != m:
                 raise SceneDataError(f"material {name} has {len(getattr(self, name))} rows, expected {m}")
@@ -262,12 +95,12 @@ class MaterialTable:
         self.textures = [_texture(t, i) for i, t in enumerate(self.textures)]
         if self.normal_strength is None:
             self.normal_strength = np.ones(m, np.float32)
-        self.normal_strength = _as(self.normal_strength, np.float32, (), "normal_strength")
+        self.normal_strength = as_array(self.normal_strength, np.float32, (), "normal_strength")
         if len(self.normal_strength) != m:
             raise SceneDataError(f"material normal_strength has {len(self.normal_strength)} rows, expected {m}")
         for name in ("roughness_channel", "metallic_channel"):
             value = getattr(self, name)
-            channel = np.full(m, LUMINANCE_CHANNEL, np.int32) if value is None else _as(value, np.int32, (), name)
+            channel = np.full(m, LUMINANCE_CHANNEL, np.int32) if value is None else as_array(value, np.int32, (), name)
             if len(channel) != m or ((channel < 0) | (channel >= len(TEXTURE_CHANNELS))).any():
                 raise SceneDataError(f"material {name} must hold {m} values in 0..{len(TEXTURE_CHANNELS) - 1} "
                                      f"({', '.join(TEXTURE_CHANNELS)})")
@@ -275,7 +108,7 @@ class MaterialTable:
         for name in ("base_color_texture", "emission_texture", "normal_texture", "roughness_texture",
                      "metallic_texture"):
             value = getattr(self, name)
-            index = np.full(m, -1, np.int32) if value is None else _as(value, np.int32, (), name)
+            index = np.full(m, -1, np.int32) if value is None else as_array(value, np.int32, (), name)
             if len(index) != m:
                 raise SceneDataError(f"material {name} has {len(index)} rows, expected {m}")
             bad = np.flatnonzero((index < -1) | (index >= len(self.textures)))
@@ -426,15 +259,15 @@ class Lights:
     names: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
-        self.kind = _as(self.kind, np.int32, (), "kind")
+        self.kind = as_array(self.kind, np.int32, (), "kind")
         n = len(self.kind)
-        self.position = _as(self.position, np.float32, (3,), "position")
-        self.direction = _as(self.direction, np.float32, (3,), "direction")
-        self.color = _as(self.color, np.float32, (3,), "color")
-        self.radius = _as(self.radius, np.float32, (), "radius")
-        self.spot_size = _as(self.spot_size, np.float32, (), "spot_size")
-        self.spot_blend = _as(self.spot_blend, np.float32, (), "spot_blend")
-        self.cast_shadow = _as(self.cast_shadow, bool, (), "cast_shadow")
+        self.position = as_array(self.position, np.float32, (3,), "position")
+        self.direction = as_array(self.direction, np.float32, (3,), "direction")
+        self.color = as_array(self.color, np.float32, (3,), "color")
+        self.radius = as_array(self.radius, np.float32, (), "radius")
+        self.spot_size = as_array(self.spot_size, np.float32, (), "spot_size")
+        self.spot_blend = as_array(self.spot_blend, np.float32, (), "spot_blend")
+        self.cast_shadow = as_array(self.cast_shadow, bool, (), "cast_shadow")
         for name in ("position", "direction", "color", "radius", "spot_size", "spot_blend", "cast_shadow"):
             if len(getattr(self, name)) != n:
                 raise SceneDataError(f"light {name} has {len(getattr(self, name))} rows, expected {n}")

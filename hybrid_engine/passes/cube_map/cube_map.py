@@ -31,6 +31,7 @@ from ...scene.camera import CUBE_FACE_DIRECTIONS, cube_face_views, perspective_m
 from ...scene.data import SceneData
 from ...scene.raster_view import RasterView, gl_matrix
 from ...scene.settings import RenderSettings
+from ..frame_context import FrameContext, PassIO
 from ..gbuffer.gbuffer import GBufferPass
 from ..scene_upload.scene_buffers import GPUScene
 from ..view_cull.view_cull import CullView, CulledDraws, ViewTriangleCuller
@@ -97,8 +98,20 @@ def face_of_direction(direction: np.ndarray) -> np.ndarray:
     return axis * 2 + negative
 
 
+@dataclass(frozen=True)
+class MarchableCubeMap:
+    """What a ray needs to march a rendered cube map (cube_march.glsl, paper §3.4): the
+    marching shaders' defines, its samplers' textures (the faces' depth, normals and
+    materials, hit-interval pyramid, surface UVs and geometric normals) and its uniforms."""
+
+    defines: dict
+    textures: dict
+    uniforms: dict
+
+
 class CubeMapPass:
-    """Renders the six face G-buffers into one atlas and prepares them for marching.
+    """Renders the six face G-buffers into one atlas and prepares them for marching (the
+    frame's ``cube_map_raster`` pass).
 
     The faces are neither shaded nor textured here: the tracer shades the few texels its
     rays hit (with the ray's own view direction and the ray cone's texture level) instead
@@ -106,6 +119,8 @@ class CubeMapPass:
     The HIERARCHICAL march needs the hit-interval pyramid (:mod:`.cube_pyramid`), built
     here after the faces.
     """
+
+    name = "cube_map_raster"
 
     def __init__(self, ctx, gbuffer: GBufferPass) -> None:
         self.ctx = ctx
@@ -129,6 +144,26 @@ class CubeMapPass:
             if old is not None:
                 old.release()
         return self.targets
+
+    def io(self, settings: RenderSettings) -> PassIO:
+        return PassIO(reads=("scene", "world_triangles"), writes=("cube_map",))
+
+    def run(self, frame: FrameContext) -> None:
+        """The faces around the eye, their draws culled per triangle from the frame's world
+        triangles."""
+        buffers = frame.read("world_triangles")
+        submitted = self.render(buffers, frame.read("scene"), frame.center, frame.settings,
+                                triangles=(buffers.positions.buffer, buffers.triangle_count))
+        frame.counts["triangles_cube_map_submitted"] = int(submitted)
+        frame.write("cube_map", self.marchable(frame.settings))
+
+    def marchable(self, settings: RenderSettings) -> MarchableCubeMap:
+        """The last render, as a ray marching it binds it."""
+        return MarchableCubeMap(
+            defines=self.march_defines(),
+            textures={**self.march_textures(), "u_cube_surface": self.targets.surface,
+                      "u_cube_geometric": self.targets.geometric},
+            uniforms=self.march_uniforms(settings))
 
     def render(self, gpu: GPUScene, scene: SceneData, center, settings: RenderSettings,
                triangles: tuple[object, int] | None = None) -> int:

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The G-buffer pass (gpu_shaders/raster/gbuffer.*.glsl): paper §3.1's primary visibility
+"""The G-buffer pass (gpu_shaders/gbuffer/gbuffer.*.glsl): paper §3.1's primary visibility
 and §3.2's cube-map faces.
 
 The primary G-buffer's normal alpha holds the material index; its targets are allocated
@@ -15,12 +15,17 @@ from ...gpu.bindings import bind, set_uniforms
 from ...gpu.render_targets import GBufferTargets, RenderTargets
 from ...scene.data import SceneData
 from ...scene.raster_view import RasterView, gl_matrix
+from ...scene.settings import RenderSettings
+from ..frame_context import FrameContext, PassIO
 from ..scene_upload.scene_buffers import GPUScene
 from ..view_cull.draw import SceneDrawer
 
 
 class GBufferPass:
-    """Rasterizes views into G-buffers: the primary camera's and the cube map's faces."""
+    """Rasterizes views into G-buffers: the primary camera's (the frame's ``primary_raster``
+    pass) and the cube map's faces (for cube_map.py)."""
+
+    name = "primary_raster"
 
     def __init__(self, ctx, drawer: SceneDrawer | None = None) -> None:
         self.ctx = ctx
@@ -46,6 +51,14 @@ class GBufferPass:
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE)  # Blender shades both sides of a face
         bind(prog, gpu.bindings())
+
+    def io(self, settings: RenderSettings) -> PassIO:
+        return PassIO(reads=("scene", "world_triangles"), writes=("gbuffer",))
+
+    def run(self, frame: FrameContext) -> None:
+        targets, submitted = self.render_primary(frame.read("world_triangles"), frame.read("scene"), frame.view)
+        frame.counts["triangles_primary_submitted"] = int(submitted)
+        frame.write("gbuffer", targets)
 
     def render_primary(self, gpu: GPUScene, scene: SceneData, view: RasterView) -> tuple[GBufferTargets, int]:
         """Clear the primary G-buffer and rasterize ``view`` into it (§3.1), its draws culled

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The lighting data of a frame, in one owner: lights, shadow atlas, sky, irradiance and the
-reach of the ambient occlusion.
+"""The lighting data of a frame, in one owner: lights, the shadow maps' atlas, sky,
+irradiance and the reach of the ambient occlusion.
 
 Every pass that shades a surface (the deferred shading of the primary G-buffer, paper §3.5,
 and the tracer's BVH and cube-map hits, §3.4) must light it alike, or a surface would change
@@ -11,11 +11,13 @@ include/lighting.glsl, sky.glsl and world_light.glsl declare.
 from __future__ import annotations
 
 from ...gpu.bindings import Bindings
-from ...gpu.dispatch import GrowBuffer, SceneLimitError
+from ...gpu.dispatch import GrowBuffer, SceneLimitError, bytes_of
 from ...scene.data import Lights, Sky
 from ...scene.settings import RenderSettings
-from ..scene_upload.scene_buffers import LIGHT_DTYPE, bytes_of, pack_lights
-from .shadow_atlas import ShadowAtlas
+from ..frame_context import FrameContext, PassIO
+from ..shadow_maps.shadow_atlas import ShadowAtlas
+from ..shadow_maps.shadow_depth import ShadowMaps
+from .lights import LIGHT_DTYPE, pack_lights
 from .sky_light import SkyLight
 
 # Rows of the LightBuffer uniform block (include/lighting.glsl): 64 KiB of 64-byte lights.
@@ -30,20 +32,21 @@ class FrameResources:
         self.lights = GrowBuffer(ctx, "scene lights", LIGHT_DTYPE.itemsize)
         # The uniform block's whole size (lighting.glsl): a block reads what it declares.
         self.lights.ensure(MAX_LIGHTS * LIGHT_DTYPE.itemsize)
-        self.shadows = ShadowAtlas(ctx)
+        self.shadows: ShadowAtlas | None = None  # the shadow maps' atlas of this frame
         self.sky = SkyLight(ctx)
         self.light_count = 0
         self.shadow_bias = 0.0
         self.ao_distance = 0.0
         self.sky_rays = False
 
-    def update_lights(self, lights: Lights, shadow_slots: list[tuple[int, int]], settings: RenderSettings) -> None:
-        """This frame's lights with their shadow slots (laid out in ``shadows``), and the
-        settings of the lighting (shadow bias, ambient-occlusion reach)."""
+    def update_lights(self, lights: Lights, shadows: ShadowMaps, settings: RenderSettings) -> None:
+        """This frame's lights with their shadow slots (laid out in ``shadows.atlas``), and
+        the settings of the lighting (shadow bias, ambient-occlusion reach)."""
         if len(lights) > MAX_LIGHTS:
             raise SceneLimitError(f"the scene has {len(lights)} lamps; Hybrid RT renders at most {MAX_LIGHTS}: "
                                   "hide some, or light with emissive meshes or the World")
-        self.lights.upload(bytes_of(pack_lights(lights, shadow_slots)))
+        self.lights.upload(bytes_of(pack_lights(lights, shadows.per_light)))
+        self.shadows = shadows.atlas
         self.light_count = len(lights)
         self.shadow_bias = float(settings.shadow_bias)
         self.ao_distance = float(settings.ao_distance)
@@ -60,6 +63,8 @@ class FrameResources:
 
     def bindings(self) -> Bindings:
         """The lighting's storage blocks, samplers and uniforms, for every shading pass."""
+        if self.shadows is None:
+            raise RuntimeError("FrameResources.update_lights must run before the lighting is bound")
         self.shadows.ensure_bindable()
         return Bindings(
             storage={"LightBuffer": self.lights.buffer, "ShadowSlotBuffer": self.shadows.slot_buffer,
@@ -72,5 +77,23 @@ class FrameResources:
 
     def release(self) -> None:
         self.lights.release()
-        self.shadows.release()
         self.sky.release()
+
+
+class LightingPass:
+    """The lighting resources of a frame: the lamps with the slots the shadow pass laid out,
+    and the World's light (paper §3.5); every shading pass binds them."""
+
+    name = "lighting"
+
+    def __init__(self, resources: FrameResources) -> None:
+        self.resources = resources
+
+    def io(self, settings: RenderSettings) -> PassIO:
+        return PassIO(reads=("scene", "shadow_maps"), writes=("lighting",))
+
+    def run(self, frame: FrameContext) -> None:
+        scene = frame.read("scene")
+        self.resources.update_lights(scene.lights, frame.read("shadow_maps"), frame.settings)
+        self.resources.update_sky(scene.sky)
+        frame.write("lighting", self.resources)

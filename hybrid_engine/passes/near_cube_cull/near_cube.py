@@ -42,6 +42,8 @@ from ...gpu.bindings import Storage, bind
 from ...gpu.dispatch import GrowBuffer, dispatch, max_block_bytes, storage_barrier
 from ...gpu.prefix_scan import PrefixScan
 from ...gpu.triangle_input import input_defines, input_split, input_storage
+from ...scene.settings import RenderSettings
+from ..frame_context import FrameContext, PassIO
 from ..view_cull.frustum import draw_ranges
 
 LOCAL_SIZE = 64
@@ -86,7 +88,10 @@ class CullResult:
 
 
 class NearCubeCuller:
-    """Culls triangles against the near cube every frame with persistent programs and buffers."""
+    """Culls triangles against the near cube every frame with persistent programs and buffers
+    (the frame's ``cull`` pass)."""
+
+    name = "cull"
 
     def __init__(self, ctx=None, triangles_per_chunk: int = TRIANGLES_PER_CHUNK) -> None:
         self.ctx = ctx if ctx is not None else gl_context.get_context()
@@ -105,6 +110,20 @@ class NearCubeCuller:
         self._counts = GrowBuffer(ctx, "cull chunk counts")
         self._indices = GrowBuffer(ctx, "cull kept indices")
         self._candidates = GrowBuffer(ctx, "cull candidate triangles")
+
+    def io(self, settings: RenderSettings) -> PassIO:
+        return PassIO(reads=("scene", "world_triangles"), writes=("near_triangles",))
+
+    def run(self, frame: FrameContext) -> None:
+        """The triangles of the frame's world buffer that overlap the near cube around the eye."""
+        geometry = frame.read("scene").geometry
+        buffers = frame.read("world_triangles")
+        culled = self.cull(buffers.positions.buffer, buffers.triangle_count, frame.center,
+                           frame.settings.near_size, geometry.object_ranges, geometry.object_bounds)
+        frame.counts.update(objects_near_inside=culled.objects_inside,
+                            objects_near_straddling=culled.objects_straddling,
+                            objects_near_outside=culled.objects_outside)
+        frame.write("near_triangles", culled)
 
     def cull_array(self, triangles: np.ndarray, center, near_size: float,
                    object_ranges: np.ndarray | None = None,

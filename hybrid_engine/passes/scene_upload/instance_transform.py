@@ -12,20 +12,27 @@ transform of that object's triangles on the GPU; an unchanged scene costs nothin
 
 The world-space outputs can exceed one storage block (128 MiB on llvmpipe, 3.7 M triangles
 of positions): the work is cut into chunks of rows that fit, each bound from its first row,
-so the shader never needs the split-array code. The object-space store is bound whole and a
-store past the block limit fails with bindings' message naming it.
+so the shader never needs the split-array code. The object-space store is cut into pages
+the same way: whole meshes, as many as fit one block in every array, each page bound on its
+own for the instances of its meshes. Only a single mesh larger than a block cannot be
+placed; it fails with a message naming its object and the limit.
+
+The work is two steps, so that timings follow them: ``update`` is the host's part (the store,
+the table, which instances changed: the frame's ``upload``), ``transform`` the GPU's (the
+dispatches: ``instance_transform``).
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ...gpu import shader_loader
 from ...gpu.bindings import Storage, bind
-from ...gpu.dispatch import BLOCK_ITEM_GRANULE, GrowBuffer, dispatch, max_block_bytes
-from ...scene.instances import InstancedGeometry, ObjectMesh, normal_matrices
+from ...gpu.dispatch import BLOCK_ITEM_GRANULE, GrowBuffer, SceneLimitError, dispatch, max_block_bytes
+from ...scene.geometry import InstancedGeometry
+from ...scene.meshes import ObjectMesh, normal_matrices
 
 LOCAL_SIZE = 64
 
@@ -40,10 +47,24 @@ _OUTPUT_BLOCKS = {"positions": "WorldPositions", "normals": "WorldNormals", "uvs
                   "triangle_materials": "WorldMaterials", "uv_rows": "WorldUVRows"}
 
 
+# The object-space store's arrays and their bytes per vertex, normal, triangle or UV'd triangle
+# of a mesh; a store page keeps each of them within one storage block.
+STORE_ARRAYS = ("positions", "normals", "corner_vertices", "corner_normals", "slots", "uvs")
+
+
+def mesh_store_bytes(mesh: ObjectMesh) -> dict[str, int]:
+    """Bytes ``mesh`` takes in each array of a store page."""
+    n = mesh.triangle_count
+    return {"positions": 12 * len(mesh.positions), "normals": 12 * len(mesh.normals),
+            "corner_vertices": 12 * n, "corner_normals": 12 * n, "slots": 4 * n,
+            "uvs": 24 * n if mesh.uvs is not None else 0}
+
+
 @dataclass(frozen=True)
 class _Placement:
-    """Where one mesh lies in the object-space store."""
+    """Where one mesh lies in the object-space store: its page and its first items there."""
 
+    page: int
     vertex: int
     normal: int
     triangle: int
@@ -57,7 +78,11 @@ class TransformStats:
 
     meshes_uploaded: int = 0  # meshes whose data was written (whole or deformed)
     store_rebuilt: bool = False
+    store_pages: int = 0
+    rows_packed: int = 0  # table rows packed and compared (a producer's edit limits them)
     instances_written: int = 0  # table rows that changed
+    # The instances whose rows the transform (re)writes, sorted, and their triangles.
+    changed: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     triangles_transformed: int = 0
     dispatches: int = 0
     # Milliseconds inside the dispatch calls: a GPU queues them and returns, a software
@@ -84,39 +109,30 @@ def rows_per_chunk() -> int:
     return max(BLOCK_ITEM_GRANULE, max_block_bytes() // widest // BLOCK_ITEM_GRANULE * BLOCK_ITEM_GRANULE)
 
 
-class InstanceTransformPass:
+class InstanceTransformer:
     """The object-space store, the instance table and the transform dispatch."""
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
         self.program = shader_loader.compute(ctx, "scene_upload/instance_transform.comp.glsl", {"LOCAL_SIZE": LOCAL_SIZE})
-        names = ("positions", "normals", "corner_vertices", "corner_normals", "slots", "uvs",
-                 "slot_materials", "instances", "segments", "segment_starts")
+        names = ("slot_materials", "instances", "segments", "segment_starts")
         self._store = {name: GrowBuffer(ctx, f"instance {name.replace('_', ' ')}") for name in names}
+        self._pages: list[dict[str, GrowBuffer]] = []  # the object-space store, page by page
         self._placements: dict[int, _Placement] = {}
+        # The slot and UV arrays each mesh's store holds (compared by identity: a deformed
+        # mesh shares them with its previous version).
+        self._sent: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}
+        self._pending: tuple | None = None  # (geometry, instances, outputs) for ``transform``
         self._mesh_order: list[tuple] = []
         self._rows: np.ndarray | None = None
         self._slot_materials: np.ndarray | None = None
         self._seen: tuple | None = None  # (geometry id, edit) of the last update
         self.stats = TransformStats()
 
-    @staticmethod
-    def fits(geometry: InstancedGeometry) -> bool:
-        """Whether each array of the object-space store fits one storage block. One that
-        does not (over ten million unique triangles on a 128 MiB limit) is uploaded as
-        world-space rows made on the host, as a ``Geometry`` is: a documented fallback
-        that costs a transform of the whole scene per frame, never a failed frame."""
-        seen, vertices, normals, triangles, uv_corners = set(), 0, 0, 0, 0
-        for mesh in geometry.instances.meshes:
-            if mesh.mesh_id in seen:
-                continue
-            seen.add(mesh.mesh_id)
-            vertices += len(mesh.positions)
-            normals += len(mesh.normals)
-            triangles += mesh.triangle_count
-            uv_corners += 3 * mesh.triangle_count if mesh.uvs is not None else 0
-        largest = max(12 * vertices, 12 * normals, 12 * triangles, 8 * uv_corners, 160 * len(geometry.instances))
-        return largest <= max_block_bytes()
+    def store_capacity(self) -> dict[str, int]:
+        """Bytes allocated for each array of the object-space store, over all its pages
+        (what the meshes cost on the GPU)."""
+        return {name: sum(page[name].capacity for page in self._pages) for name in STORE_ARRAYS}
 
     def forget(self) -> None:
         """The outputs were written by someone else: the next update transforms everything."""
@@ -124,9 +140,10 @@ class InstanceTransformPass:
         self._seen = None
 
     def update(self, geometry: InstancedGeometry, outputs: dict[str, object]) -> TransformStats:
-        """Bring the store and the table up to ``geometry`` and write the world rows of every
+        """Bring the store and the table up to ``geometry`` and plan the world rows of every
         instance that changed into ``outputs`` (GPUScene's buffers by name, at least
-        ``triangle_count`` rows each).
+        ``triangle_count`` rows each), which ``transform`` then writes on the GPU;
+        ``stats.changed`` lists those instances.
 
         A producer's version seen already (``Geometry.edit``) costs nothing; its next version
         costs the rows it lists (packed, compared, written); anything else packs and compares
@@ -137,7 +154,7 @@ class InstanceTransformPass:
         if seen is not None and seen == self._seen and self._rows is not None:
             return stats
         instances = geometry.instances
-        deformed = self._update_store(instances.meshes, stats)
+        deformed = self._update_store(geometry, stats)
         slot_table = instances.slot_table()
         same_table = self._slot_materials is not None and np.array_equal(self._slot_materials, slot_table[0])
         follows = (seen is not None and self._seen is not None and edit.objects is not None
@@ -149,12 +166,14 @@ class InstanceTransformPass:
                 and not stats.store_rebuilt):
             which = np.union1d(np.asarray(edit.objects, np.int64), np.flatnonzero(of_deformed))
             rows = self._pack(geometry, which, slot_table)
+            stats.rows_packed = len(which)
             differs = _rows_differ(self._rows[which], rows) | of_deformed[which]
             changed = which[differs]
             self._rows[changed] = rows[differs]
             self._write_rows(changed)
         else:
             rows = self._pack(geometry, None, slot_table)
+            stats.rows_packed = len(instances)
             if (self._rows is not None and len(self._rows) == len(rows) and not stats.store_rebuilt
                     and same_table):
                 changed = np.flatnonzero(_rows_differ(self._rows, rows)[:len(instances)] | of_deformed)
@@ -166,11 +185,20 @@ class InstanceTransformPass:
         if not same_table:
             self._store["slot_materials"].upload(slot_table[0].tobytes())
             self._slot_materials = slot_table[0].copy()
-        if len(changed):
-            self._transform(geometry, changed, outputs, stats)
+        self._pending = (geometry, changed, outputs) if len(changed) else None
         stats.instances_written = int(len(changed))
+        stats.changed = changed
+        stats.triangles_transformed = int(geometry.object_ranges[changed, 1].astype(np.int64).sum())
         self._seen = seen
         return stats
+
+    def transform(self) -> None:
+        """Write the world rows the last ``update`` planned (the GPU's part of the step)."""
+        if self._pending is None:
+            return
+        geometry, changed, outputs = self._pending
+        self._pending = None
+        self._transform(geometry, changed, outputs, self.stats)
 
     def _write_rows(self, changed: np.ndarray) -> None:
         """Write the table rows ``changed`` (sorted) to the GPU: row by row when few, whole
@@ -183,14 +211,21 @@ class InstanceTransformPass:
             self._store["instances"].write_at(self._rows[row:row + 1].tobytes(), int(row) * size)
 
     # -- the object-space store --------------------------------------------------------------
-    def _update_store(self, meshes: list[ObjectMesh], stats: TransformStats) -> set[int]:
-        """Upload what changed among ``meshes``; returns the indices of deformed meshes (their
-        instances must be transformed again). A different list of topologies rebuilds it."""
+    def _update_store(self, geometry: InstancedGeometry, stats: TransformStats) -> set[int]:
+        """Upload what changed among the geometry's meshes; returns the indices of deformed
+        meshes (their instances must be transformed again). A different list of topologies
+        rebuilds it."""
+        meshes = geometry.instances.meshes
         order = [(m.mesh_id, len(m.positions), len(m.normals), m.triangle_count, m.uvs is not None) for m in meshes]
         if order != self._mesh_order:
-            self._rebuild_store(meshes)
+            instances = geometry.instances
+            names = {}
+            for row, mesh_index in enumerate(instances.mesh):
+                names.setdefault(meshes[mesh_index].mesh_id, geometry.object_names[row])
+            self._rebuild_store(meshes, names)
             self._mesh_order = order
             stats.store_rebuilt = True
+            stats.store_pages = len(self._pages)
             stats.meshes_uploaded = len(meshes)
             return set()
         deformed = set()
@@ -198,37 +233,66 @@ class InstanceTransformPass:
             place = self._placements[mesh.mesh_id]
             if place.version == mesh.version:
                 continue
-            self._store["positions"].write_at(np.ascontiguousarray(mesh.positions, np.float32).tobytes(),
-                                              place.vertex * 12)
-            self._store["normals"].write_at(np.ascontiguousarray(mesh.normals, np.float32).tobytes(),
-                                            place.normal * 12)
-            self._placements[mesh.mesh_id] = _Placement(place.vertex, place.normal, place.triangle, place.uv,
-                                                        mesh.version)
+            page = self._pages[place.page]
+            page["positions"].write_at(np.ascontiguousarray(mesh.positions, np.float32).tobytes(), place.vertex * 12)
+            page["normals"].write_at(np.ascontiguousarray(mesh.normals, np.float32).tobytes(), place.normal * 12)
+            # A deformation keeps the slot and UV arrays (the same objects); an edited flat
+            # object brings new ones, written into place too.
+            slots, uvs = self._sent[mesh.mesh_id]
+            if mesh.slots is not slots:
+                page["slots"].write_at(np.ascontiguousarray(mesh.slots, np.int32).tobytes(), place.triangle * 4)
+            if mesh.uvs is not None and mesh.uvs is not uvs:
+                page["uvs"].write_at(np.ascontiguousarray(mesh.uvs, np.float32).tobytes(), place.uv * 8)
+            self._sent[mesh.mesh_id] = (mesh.slots, mesh.uvs)
+            self._placements[mesh.mesh_id] = _Placement(place.page, place.vertex, place.normal, place.triangle,
+                                                        place.uv, mesh.version)
             deformed.add(index)
         stats.meshes_uploaded = len(deformed)
         return deformed
 
-    def _rebuild_store(self, meshes: list[ObjectMesh]) -> None:
+    def _rebuild_store(self, meshes: list[ObjectMesh], names: dict[int, str]) -> None:
+        """Place every unique mesh in a page (a new page when the next mesh would overflow a
+        block in any array) and upload the pages. ``names`` gives a mesh's object for the
+        message about a mesh too large for any page."""
+        limit = max_block_bytes()
         self._placements = {}
-        vertex = normal = triangle = uv = 0
-        unique: list[ObjectMesh] = []
+        self._sent = {}
+        pages: list[list[ObjectMesh]] = [[]]
+        used = dict.fromkeys(STORE_ARRAYS, 0)
         for mesh in meshes:
             if mesh.mesh_id in self._placements:
                 continue
-            has_uv = mesh.uvs is not None
-            self._placements[mesh.mesh_id] = _Placement(vertex, normal, triangle, uv if has_uv else -1, mesh.version)
-            vertex += len(mesh.positions)
-            normal += len(mesh.normals)
-            triangle += mesh.triangle_count
-            uv += 3 * mesh.triangle_count if has_uv else 0
-            unique.append(mesh)
-        store = self._store
-        store["positions"].upload(_concat([m.positions for m in unique], np.float32, 3).tobytes())
-        store["normals"].upload(_concat([m.normals for m in unique], np.float32, 3).tobytes())
-        store["corner_vertices"].upload(_concat([m.corner_vertices for m in unique], np.int32, 0).tobytes())
-        store["corner_normals"].upload(_concat([m.corner_normals for m in unique], np.int32, 0).tobytes())
-        store["slots"].upload(_concat([m.slots for m in unique], np.int32, 0).tobytes())
-        store["uvs"].upload(_concat([m.uvs for m in unique if m.uvs is not None], np.float32, 2).tobytes())
+            need = mesh_store_bytes(mesh)
+            if any(size > limit for size in need.values()):
+                raise SceneLimitError(
+                    f"the mesh of {names.get(mesh.mesh_id, 'an object')!r} ({mesh.triangle_count:,} triangles, "
+                    f"{len(mesh.positions):,} vertices) is larger than one GPU storage block "
+                    f"({limit / 2**20:,.0f} MiB) holds: split it into several objects or decimate it")
+            if pages[-1] and any(used[name] + need[name] > limit for name in STORE_ARRAYS):
+                pages.append([])
+                used = dict.fromkeys(STORE_ARRAYS, 0)
+            self._placements[mesh.mesh_id] = _Placement(
+                len(pages) - 1, used["positions"] // 12, used["normals"] // 12, used["slots"] // 4,
+                used["uvs"] // 8 if mesh.uvs is not None else -1, mesh.version)
+            for name in STORE_ARRAYS:
+                used[name] += need[name]
+            pages[-1].append(mesh)
+            self._sent[mesh.mesh_id] = (mesh.slots, mesh.uvs)
+        while len(self._pages) < len(pages):
+            index = len(self._pages)
+            self._pages.append({name: GrowBuffer(self.ctx, f"instance mesh {name.replace('_', ' ')} (page {index})")
+                                for name in STORE_ARRAYS})
+        for extra in self._pages[len(pages):]:
+            for buf in extra.values():
+                buf.release()
+        del self._pages[len(pages):]
+        for page, unique in zip(self._pages, pages):
+            page["positions"].upload(_concat([m.positions for m in unique], np.float32, 3).tobytes())
+            page["normals"].upload(_concat([m.normals for m in unique], np.float32, 3).tobytes())
+            page["corner_vertices"].upload(_concat([m.corner_vertices for m in unique], np.int32, 0).tobytes())
+            page["corner_normals"].upload(_concat([m.corner_normals for m in unique], np.int32, 0).tobytes())
+            page["slots"].upload(_concat([m.slots for m in unique], np.int32, 0).tobytes())
+            page["uvs"].upload(_concat([m.uvs for m in unique if m.uvs is not None], np.float32, 2).tobytes())
         self._rows = None  # every instance's mesh offsets may have moved
 
     # -- the instance table ------------------------------------------------------------------
@@ -242,7 +306,7 @@ class InstanceTransformPass:
         if k == 0:
             return rows
         places = [self._placements[m.mesh_id] for m in instances.meshes]
-        mesh_offsets = np.array([(p.vertex, p.normal, p.triangle, p.uv) for p in places], np.int32)
+        mesh_offsets = np.array([(p.vertex, p.normal, p.triangle, p.uv) for p in places], np.int32).reshape(-1, 4)
         matrices = instances.matrices[picked]
         rows["matrix"][:k] = matrices.transpose(0, 2, 1).reshape(k, 16)  # GLSL mat4 is column-major
         normal = normal_matrices(matrices).astype(np.float32)  # (k, 3, 3), columns normal[:, :, j]
@@ -265,6 +329,19 @@ class InstanceTransformPass:
         which, ranges = which[keep], ranges[keep]
         if len(which) == 0:
             return
+        instances = geometry.instances
+        page_of_mesh = np.array([self._placements[m.mesh_id].page for m in instances.meshes], np.int64)
+        pages = page_of_mesh[instances.mesh[which]]
+        for page in np.unique(pages):
+            on_page = pages == page
+            self._transform_page(self._pages[int(page)], geometry, which[on_page], ranges[on_page], outputs, stats)
+        # The outputs are read as storage blocks and as vertex attributes: every barrier.
+        self.ctx.memory_barrier()
+
+    def _transform_page(self, page: dict[str, GrowBuffer], geometry: InstancedGeometry, which: np.ndarray,
+                        ranges: np.ndarray, outputs: dict[str, object], stats: TransformStats) -> None:
+        """The dispatches for the instances ``which`` (whose meshes all lie in ``page``), chunk
+        by chunk of output rows."""
         chunk = rows_per_chunk()
         store = self._store
         for chunk_first in range(int(ranges[:, 0].min()) // chunk * chunk, int((ranges[:, 0] + ranges[:, 1]).max()),
@@ -287,10 +364,10 @@ class InstanceTransformPass:
             store["segment_starts"].upload(starts.tobytes())
             rows = min(chunk, geometry.triangle_count - chunk_first)
             bind(self.program,
-                 storage={"MeshPositions": store["positions"].buffer, "MeshNormals": store["normals"].buffer,
-                          "MeshCornerVertices": store["corner_vertices"].buffer,
-                          "MeshCornerNormals": store["corner_normals"].buffer,
-                          "MeshSlots": store["slots"].buffer, "MeshUVs": store["uvs"].buffer,
+                 storage={"MeshPositions": page["positions"].buffer, "MeshNormals": page["normals"].buffer,
+                          "MeshCornerVertices": page["corner_vertices"].buffer,
+                          "MeshCornerNormals": page["corner_normals"].buffer,
+                          "MeshSlots": page["slots"].buffer, "MeshUVs": page["uvs"].buffer,
                           "SlotMaterials": store["slot_materials"].buffer,
                           "InstanceTable": store["instances"].buffer, "Segments": store["segments"].buffer,
                           "SegmentStarts": store["segment_starts"].buffer,
@@ -301,10 +378,11 @@ class InstanceTransformPass:
             dispatch(self.program, total, LOCAL_SIZE)
             stats.dispatch_ms += (time.perf_counter() - start) * 1e3
             stats.dispatches += 1
-            stats.triangles_transformed += total
-        # The outputs are read as storage blocks and as vertex attributes: every barrier.
-        self.ctx.memory_barrier()
 
     def release(self) -> None:
         for buf in self._store.values():
             buf.release()
+        for page in self._pages:
+            for buf in page.values():
+                buf.release()
+        self._pages = []

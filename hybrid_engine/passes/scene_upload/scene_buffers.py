@@ -1,24 +1,20 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Scene data on the GPU: vertex attributes, the material buffer, image textures.
+"""The scene on the GPU: world-space vertex attributes, the material buffer, image textures.
+
+Every triangle reaches the GPU one way (paper §3.3: the meshes live on the GPU and are
+transformed there every frame): the geometry as instances of object-space meshes
+(scene/geometry.py converts a flat world-space geometry at this boundary), the meshes and
+the instance table uploaded by ``instance_transform.py``, which writes the world-space rows
+below on the GPU. One row per triangle, one buffer per attribute: ``positions`` (N, 3, 3)
+float32 is both the rasterizer's position attribute and the LBVH's input, ``normals`` both
+the shading-normal attribute and the normals the tracer interpolates at BVH hits, the
+per-triangle material ids are read by the G-buffer vertex stage (``gl_VertexID / 3``) and
+the tracer alike, and ``uv_rows`` hold each triangle's UVs and texture level for the
+tracer's textured hits.
 
 Buffers are persistent and grow-only: a frame whose data fits reuses last frame's buffer
-objects and only writes into them (paper §3.3: the BVH is rebuilt every frame so that any
-deformation works, from world-space triangles made or written every frame).
-
-An ``InstancedGeometry`` (the Blender adapter's) keeps its meshes on the GPU in object space
-and has the world-space buffers below made there by instance_transform.py. Any other
-``Geometry`` is uploaded as it arrives, one array per attribute, with no packing:
-``Geometry.triangles`` (N, 3, 3) float32 is both the rasterizer's position attribute and
-the tracer's LBVH input, ``Geometry.normals`` both the shading-normal attribute and the
-normals the tracer interpolates at BVH hits, and the per-triangle material ids are read by
-the G-buffer vertex stage (``gl_VertexID / 3``) and the tracer alike. Interleaving them into
-vertex rows and packing separate tracer rows would cost three passes over every moved
-triangle per frame; a raw range write costs one memcpy.
-
-Non-finite input never reaches the rasterizer: a triangle with a NaN/inf corner is collapsed
-to the origin (zero area: no fragments, and no ray hits it), and non-finite normals and UVs
-are zeroed so that the G-buffer pass substitutes the geometric normal. The sanitising copies
-are made only for ranges that hold such values.
+objects. Which instances the transform rewrote is this frame's ``GeometryDelta``: what the
+shadow layers and the frame's reuse decide on.
 """
 from __future__ import annotations
 
@@ -27,86 +23,15 @@ import time
 import numpy as np
 
 from ...gpu.bindings import Bindings
-from ...gpu.dispatch import GrowBuffer
-from ...scene.changes import GeometryDelta
-from ...scene.data import Geometry, LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, Lights, MATERIAL_DTYPE, SceneData
-from ...scene.instances import InstancedGeometry
-from .instance_transform import InstanceTransformPass, OUTPUT_ROW_BYTES
+from ...gpu.dispatch import GrowBuffer, bytes_of
+from ...scene.changes import GeometryDelta, merge_ranges, range_mask
+from ...scene.data import MATERIAL_DTYPE, SceneData
+from ...scene.geometry import InstancedGeometry
+from .instance_transform import OUTPUT_ROW_BYTES, InstanceTransformer
 from .textures import GPUTextures
 
 # Per-vertex attributes: (GLSL input, moderngl format, GPUScene buffer attribute).
 VERTEX_ATTRIBUTES = (("in_pos", "3f", "positions"), ("in_normal", "3f", "normals"), ("in_uv", "2f", "uvs"))
-
-# struct Light (gpu_shaders/include/scene_layout.glsl)              // total: 64 bytes
-LIGHT_DTYPE = np.dtype(
-    [("position", np.float32, 4), ("direction", np.float32, 4), ("color", np.float32, 4), ("info", np.int32, 4)]
-)
-assert LIGHT_DTYPE.itemsize == 64
-
-
-def finite_positions(triangles: np.ndarray) -> np.ndarray:
-    """``triangles`` ((N, 3, 3) float32), with every triangle that has a non-finite corner
-    collapsed to the origin; the input itself (no copy) when all corners are finite."""
-    if np.isfinite(triangles).all():
-        return triangles
-    finite = np.isfinite(triangles).all(axis=(1, 2))
-    return np.where(finite[:, None, None], triangles, np.float32(0.0)).astype(np.float32)
-
-
-def finite_or_zero(values: np.ndarray) -> np.ndarray:
-    """``values`` with non-finite entries zeroed; the input itself when all are finite."""
-    if np.isfinite(values).all():
-        return values
-    return np.where(np.isfinite(values), values, np.float32(0.0)).astype(values.dtype)
-
-
-def attribute_arrays(geometry: Geometry, zero_uvs: bool = True) -> dict[str, np.ndarray]:
-    """The arrays GPUScene uploads for ``geometry`` (sanitised, C-contiguous), by buffer.
-    Geometry without UVs gets zero UVs, or (``zero_uvs`` False: the buffer already holds
-    them) none."""
-    arrays = {
-        "positions": np.ascontiguousarray(finite_positions(geometry.triangles), np.float32),
-        "normals": np.ascontiguousarray(finite_or_zero(geometry.normals), np.float32),
-        "triangle_materials": np.ascontiguousarray(geometry.material_ids, np.int32),
-    }
-    if geometry.uvs is not None:
-        arrays["uvs"] = np.ascontiguousarray(finite_or_zero(geometry.uvs), np.float32)
-    elif zero_uvs:
-        arrays["uvs"] = np.zeros((geometry.triangle_count, 3, 2), np.float32)
-    return arrays
-
-
-def pack_lights(lights: Lights, shadow_slots: list[tuple[int, int]] | None = None) -> np.ndarray:
-    """Rows of ``struct Light`` (std430 and std140 alike); ``shadow_slots[i] = (first, count)`` or (-1, 0)."""
-    out = np.zeros(max(len(lights), 1), LIGHT_DTYPE)  # never a zero-sized buffer
-    count = len(lights)
-    if count == 0:
-        return out
-    direction = lights.direction.astype(np.float64)
-    length = np.linalg.norm(direction, axis=1, keepdims=True)
-    direction = np.where(length > 0, direction / np.where(length > 0, length, 1), [0.0, 0.0, -1.0])
-    half = np.clip(lights.spot_size.astype(np.float64) * 0.5, 0.0, np.pi / 2)
-    out["position"][:count, :3] = lights.position
-    out["position"][:count, 3] = lights.radius
-    out["direction"][:count, :3] = direction
-    out["direction"][:count, 3] = np.where(lights.kind == LIGHT_SPOT, np.cos(half), -1.0)
-    out["color"][:count, :3] = np.nan_to_num(lights.color, nan=0.0, posinf=0.0, neginf=0.0)
-    out["color"][:count, 3] = np.clip(lights.spot_blend, 0.0, 1.0)
-    out["info"][:count, 0] = lights.kind
-    slots = shadow_slots or [(-1, 0)] * count
-    out["info"][:count, 1] = [s[0] for s in slots]
-    out["info"][:count, 2] = [s[1] for s in slots]
-    return out
-
-
-def needs_cube_shadow(kind: int) -> bool:
-    """Point and area lights shine in all directions of a hemisphere or more: six slots."""
-    return kind in (LIGHT_POINT, LIGHT_AREA)
-
-
-def bytes_of(array: np.ndarray) -> np.ndarray:
-    """A flat uint8 view of a contiguous array (no copy)."""
-    return np.ascontiguousarray(array).reshape(-1).view(np.uint8)
 
 
 class GPUScene:
@@ -118,21 +43,19 @@ class GPUScene:
         self.normals = GrowBuffer(ctx, "scene normals", 36)
         self.uvs = GrowBuffer(ctx, "scene uvs", 24)
         self.triangle_materials = GrowBuffer(ctx, "scene triangle materials", 4)
-        self.materials = GrowBuffer(ctx, "scene materials", MATERIAL_DTYPE.itemsize)
-        self._geometry_buffers = (self.positions, self.normals, self.uvs, self.triangle_materials)
-        for buf in (*self._geometry_buffers, self.materials):
-            buf.ensure(0)  # passes bind these before the first upload
-        # The tracer's per-triangle UV rows when the GPU makes them (instanced geometry);
-        # otherwise the tracer packs its own (tracer.pack_triangle_uvs).
+        # The tracer's per-triangle UV rows (the corners' UVs and the texture level).
         self.uv_rows = GrowBuffer(ctx, "scene triangle uv rows", 32)
-        self.uv_rows_resident = False
-        self.instance_transform = InstanceTransformPass(ctx)
+        self.materials = GrowBuffer(ctx, "scene materials", MATERIAL_DTYPE.itemsize)
+        self._world_buffers = {"positions": self.positions, "normals": self.normals, "uvs": self.uvs,
+                               "triangle_materials": self.triangle_materials, "uv_rows": self.uv_rows}
+        for buf in (*self._world_buffers.values(), self.materials):
+            buf.ensure(0)  # passes bind these before the first upload
+        self.instance_transform = InstanceTransformer(ctx)
         self.generation = 0  # bumps when a vertex attribute's buffer object changes
-        # Host time of the last upload, the time inside its dispatch calls left out: a GPU
-        # queues them and returns, a software driver runs the transform there, on the CPU.
-        self.host_ms = 0.0
+        self.host_ms = 0.0  # host time of the last upload
         self.triangle_count = 0
-        self._synced = -1  # sequence of the last GeometryDelta applied (scene/changes.py)
+        self.sequence = 0  # counts uploads: a GeometryDelta's sequence
+        self.geometry: InstancedGeometry | None = None  # what the last upload placed
         self.textures = GPUTextures(ctx)  # re-uploaded only when the scene's images change
 
     def vertex_content(self, program) -> list[tuple]:
@@ -148,67 +71,52 @@ class GPUScene:
                                  "TriangleMaterials": self.triangle_materials.buffer},
                         textures={"u_textures": self.textures.array})
 
-    def upload(self, scene: SceneData, delta: GeometryDelta | None = None) -> None:
-        """Geometry, materials and textures. With a ``delta`` that follows this scene's last
-        upload only the changed triangle ranges are written (scene/changes.py)."""
+    def upload(self, scene: SceneData) -> tuple[SceneData, GeometryDelta]:
+        """The host's part of bringing ``scene`` to the GPU: the geometry as instances, the
+        object-space store and the instance table, materials and textures. Returns the
+        scene as the passes read it (its geometry as instances) and the frame's delta; the
+        world rows of the changed instances are written by ``transform``."""
         start = time.perf_counter()
-        self.instance_transform.stats.dispatch_ms = 0.0
-        try:
-            self._upload(scene, delta)
-        finally:
-            spent = (time.perf_counter() - start) * 1e3
-            self.host_ms = spent - (self.instance_transform.stats.dispatch_ms if self.uv_rows_resident else 0.0)
-
-    def _upload(self, scene: SceneData, delta: GeometryDelta | None) -> None:
-        geo = scene.geometry
-        n = geo.triangle_count
-        if isinstance(geo, InstancedGeometry) and self.instance_transform.fits(geo):
-            self._upload_instanced(geo, delta)
-            self.materials.upload(bytes_of(scene.materials.packed()))
-            self.textures.upload(scene.materials.textures)
-            return
-        if self.uv_rows_resident:
-            self.instance_transform.forget()  # the world buffers now hold host-made rows
-            self.uv_rows_resident = False
-        incremental = (delta is not None and not delta.full and delta.sequence == self._synced + 1
-                       and n == self.triangle_count)
-        self._synced = delta.sequence if delta is not None else -1
-        if incremental:
-            for first, count in delta.ranges:
-                # (A delta never switches UVs on or off: that is a layout change.)
-                for name, array in attribute_arrays(geo.rows(first, count), zero_uvs=False).items():
-                    getattr(self, name).write_at(bytes_of(array), first * array.strides[0])
-        else:
-            allocations = [buf.allocations for buf in self._geometry_buffers]
-            for name, array in attribute_arrays(geo).items():
-                getattr(self, name).upload(bytes_of(array))  # byte views: tobytes() would copy
-            if [buf.allocations for buf in self._geometry_buffers] != allocations:
-                self.generation += 1  # a new buffer object: dependent VAOs must be rebuilt
-            self.triangle_count = n
-        self.materials.upload(bytes_of(scene.materials.packed()))
-        self.textures.upload(scene.materials.textures)
-
-    def _upload_instanced(self, geo: InstancedGeometry, delta: GeometryDelta | None) -> None:
-        """The world rows made on the GPU from the object-space meshes and the instance table
-        (instance_transform.py): only instances that changed are transformed."""
-        n = geo.triangle_count
-        buffers = {"positions": self.positions, "normals": self.normals, "uvs": self.uvs,
-                   "triangle_materials": self.triangle_materials, "uv_rows": self.uv_rows}
-        allocations = [buf.allocations for buf in buffers.values()]
-        for name, buf in buffers.items():
+        geometry = scene.geometry.as_instances(self.geometry)
+        n = geometry.triangle_count
+        allocations = [buf.allocations for buf in self._world_buffers.values()]
+        for name, buf in self._world_buffers.items():
             buf.ensure(n * OUTPUT_ROW_BYTES[name])
-        grown = [buf.allocations for buf in buffers.values()] != allocations
-        if grown or not self.uv_rows_resident or n != self.triangle_count:
-            self.instance_transform.forget()
+        grown = [buf.allocations for buf in self._world_buffers.values()] != allocations
+        if grown or n != self.triangle_count:
+            self.instance_transform.forget()  # every row must be written again
         if grown:
             self.generation += 1  # a new buffer object: dependent VAOs must be rebuilt
-        self.instance_transform.update(geo, buffers)
-        self.uv_rows_resident = True
+        stats = self.instance_transform.update(geometry, self._world_buffers)
+        self.sequence += 1
+        delta = self._delta(geometry, stats.changed, whole=stats.store_rebuilt or self.geometry is None)
+        self.geometry = geometry
         self.triangle_count = n
-        self._synced = -1  # a later host-made upload starts over
+        self.materials.upload(bytes_of(scene.materials.packed()))
+        self.textures.upload(scene.materials.textures)
+        self.host_ms = (time.perf_counter() - start) * 1e3
+        return (scene if geometry is scene.geometry else SceneData(geometry=geometry, materials=scene.materials,
+                                                                   lights=scene.lights, sky=scene.sky)), delta
+
+    def transform(self) -> None:
+        """The GPU's part: the world rows of the instances the last upload found changed."""
+        self.instance_transform.transform()
+
+    def _delta(self, geometry: InstancedGeometry, changed: np.ndarray, whole: bool) -> GeometryDelta:
+        """The frame's delta: everything on a first upload or a rebuilt store, else the
+        triangle ranges of the instances whose rows are rewritten."""
+        if whole:
+            return GeometryDelta.everything(geometry.triangle_count, self.sequence)
+        ranges = geometry.object_ranges[changed].astype(np.int64)
+        ranges = ranges[ranges[:, 1] > 0]
+        if len(ranges) == 0:
+            return GeometryDelta(full=False, sequence=self.sequence)
+        merged = merge_ranges(range_mask(ranges, geometry.triangle_count))
+        return GeometryDelta(full=False, ranges=tuple(merged), changed_triangles=int(ranges[:, 1].sum()),
+                             sequence=self.sequence)
 
     def release(self) -> None:
-        for buf in (*self._geometry_buffers, self.materials, self.uv_rows):
+        for buf in (*self._world_buffers.values(), self.materials):
             buf.release()
         self.instance_transform.release()
         self.textures.release()

@@ -11,18 +11,32 @@ from ...gpu import shader_loader
 from ...gpu.bindings import Image, bind
 from ...gpu.render_targets import GBufferTargets
 from ...scene.raster_view import RasterView
+from ...scene.settings import RenderSettings
+from ..frame_context import FrameContext, PassIO
 from ..lighting.resources import FrameResources
 from ..scene_upload.scene_buffers import GPUScene
 
 
 class DeferredShadePass:
-    """Shades a G-buffer into its ``color`` target."""
+    """Shades a G-buffer into its ``color`` target (the frame's ``shade`` step)."""
+
+    name = "shade"
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
         self.program = shader_loader.compute(ctx, "shading/deferred_shade.comp.glsl")
 
-    def run(self, gpu: GPUScene, view: RasterView, targets: GBufferTargets, resources: FrameResources, *,
+    def io(self, settings: RenderSettings) -> PassIO:
+        return PassIO(reads=("scene_buffers", "gbuffer", "ambient", "lighting"), writes=("color",))
+
+    def run(self, frame: FrameContext) -> None:
+        targets = frame.read("gbuffer")
+        self.shade(frame.read("scene_buffers"), frame.view, targets, frame.read("lighting"),
+                   traced_specular=frame.settings.mode != "RASTER", transparent=frame.outputs.transparent,
+                   sample=frame.sample)
+        frame.write("color", targets.color)
+
+    def shade(self, gpu: GPUScene, view: RasterView, targets: GBufferTargets, resources: FrameResources, *,
             traced_specular: bool = False, transparent: bool = False, sample: int = 0) -> None:
         """Shade ``targets`` into ``targets.color``, lit by ``resources``.
         ``traced_specular`` leaves the lobes the tracer follows out (every traced mode);

@@ -22,19 +22,32 @@ import math
 
 from ...gpu import shader_loader
 from ...gpu.bindings import Image, bind
+from ...scene.settings import RenderSettings
+from ..frame_context import FrameContext, PassIO
 from ..lighting.resources import FrameResources
 
 WORKGROUP = 8
 
 
 class ScreenSpaceOcclusion:
-    """The occlusion pass on the shared context (its program is compiled once)."""
+    """The occlusion pass on the shared context (its program is compiled once); part of the
+    frame's ``shade`` step when the World's light is not gathered by rays."""
+
+    name = "shade"
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
         self.program = shader_loader.compute(ctx, "shading/screen_ao.comp.glsl")
 
-    def run(self, targets, view, resources: FrameResources, sample: int = 0) -> None:
+    def io(self, settings: RenderSettings) -> PassIO:
+        return PassIO(reads=("gbuffer", "lighting"), writes=("ambient",))
+
+    def run(self, frame: FrameContext) -> None:
+        targets = frame.read("gbuffer")
+        self.occlude(targets, frame.view, frame.read("lighting"), frame.sample)
+        frame.write("ambient", targets.ambient)
+
+    def occlude(self, targets, view, resources: FrameResources, sample: int = 0) -> None:
         """Fill ``targets.ambient``'s alpha for the G-buffer of ``view`` (nothing to do when
         the reach is 0: the shading then takes the whole sky)."""
         if not resources.ao_distance > 0.0:

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The shadow-map pass (gpu_shaders/raster/shadow_depth.*.glsl, paper §3.5).
+"""The shadow-map pass (gpu_shaders/shadow_maps/shadow_depth.*.glsl, paper §3.5).
 
 Every lamp that casts shadows gets slots in the shadow atlas (shadow_atlas.py) fitted to
 the scene's bounds: a sun one orthographic map (after its cascades over the first stretches
@@ -21,15 +21,29 @@ from ...scene.bounds import SceneBounds
 from ..view_cull.draw import SceneDrawer
 from ...scene.camera import (Camera, cube_face_views, look_at, orthographic_matrix, perspective_matrix, view_from_world)
 from ...scene.changes import GeometryDelta
-from ...scene.data import LIGHT_SPOT, LIGHT_SUN, SceneData
+from ...scene.data import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN, Lights, SceneData
 from ...scene.settings import RenderSettings
-from ..lighting.shadow_atlas import ShadowAtlas, ShadowView
-from ..scene_upload.scene_buffers import GPUScene, needs_cube_shadow, pack_lights
+from ..frame_context import FrameContext, PassIO
+from ..scene_upload.scene_buffers import GPUScene
+from .shadow_atlas import ShadowAtlas, ShadowView
 from .shadow_cache import ShadowCache, ShadowPlan, snapped_bounds
 from .sun_cascades import sun_cascade_views
 
 # Spots wider than this get a cube shadow: a single perspective map degenerates near 180°.
 MAX_SPOT_SHADOW_FOV = math.radians(150.0)
+
+
+def needs_cube_shadow(kind: int) -> bool:
+    """Point and area lights shine in all directions of a hemisphere or more: six slots."""
+    return kind in (LIGHT_POINT, LIGHT_AREA)
+
+
+def shadow_key(lights: Lights) -> bytes:
+    """What of the lamps the shadow maps depend on: kind, place, direction, size, cone and
+    whether they cast shadows (not their colour or power)."""
+    return b"".join(np.ascontiguousarray(a).tobytes() for a in (
+        lights.kind, lights.position, lights.direction, lights.radius, lights.spot_size, lights.spot_blend,
+        lights.cast_shadow))
 
 
 @dataclass
@@ -105,10 +119,11 @@ def frame_shadow_views(scene: SceneData, camera: Camera | None = None, cascades:
 
 @dataclass
 class ShadowMaps:
-    """What one frame's shadow pass did: each light's (first, count) slots, whether any
-    layer, the static layer and the sun cascades were re-rendered, and the triangles
-    submitted."""
+    """What one frame's shadow pass did: the atlas it drew into, each light's (first,
+    count) slots, whether any layer, the static layer and the sun cascades were re-rendered,
+    and the triangles submitted."""
 
+    atlas: ShadowAtlas
     per_light: list[tuple[int, int]]
     rendered: bool
     static_rendered: bool
@@ -149,15 +164,30 @@ class LayerDraws:
 class ShadowDepthPass:
     """Renders the shadow atlas's layers that this frame's changes invalidated."""
 
+    name = "shadow_maps"
+
     def __init__(self, ctx, drawer: SceneDrawer) -> None:
         self.ctx = ctx
         self.drawer = drawer
+        self.atlas = ShadowAtlas(ctx)  # every lamp's slots, in a static and a dynamic layer
         self.program = shader_loader.program(
             ctx, vertex="shadow_maps/shadow_depth.vert.glsl", fragment="shadow_maps/shadow_depth.frag.glsl")
         self.cache = ShadowCache()  # the slots fitted to the scene
         self.cascade_cache = ShadowCache()  # the sun cascades, fitted to the view
         # The last frame's cascade matrices, None for the other slots (_moved_cascades).
         self._cascade_matrices: list[bytes | None] | None = None
+
+    def io(self, settings: RenderSettings) -> PassIO:
+        return PassIO(reads=("scene", "world_triangles", "delta"), writes=("shadow_maps",))
+
+    def run(self, frame: FrameContext) -> None:
+        shadows = self.render(frame.read("world_triangles"), frame.read("scene"), frame.camera, frame.settings,
+                              self.atlas, frame.read("delta"))
+        frame.counts.update(shadows.counts())
+        frame.write("shadow_maps", shadows)
+
+    def release(self) -> None:
+        self.atlas.release()
 
     def render(self, gpu: GPUScene, scene: SceneData, camera: Camera | None, settings: RenderSettings,
                atlas: ShadowAtlas, delta: GeometryDelta) -> ShadowMaps:
@@ -171,7 +201,7 @@ class ShadowDepthPass:
         resolution = int(settings.shadow_resolution)
         layout = frame_shadow_views(scene, camera, int(settings.shadow_cascades), resolution)
         views, cascade = layout.views, layout.cascade
-        key = (pack_lights(scene.lights).tobytes(), resolution, len(views), cascade.tobytes(),
+        key = (shadow_key(scene.lights), resolution, len(views), cascade.tobytes(),
                b"".join(np.asarray(v.view_proj, np.float64).tobytes() for v, c in zip(views, cascade) if not c))
         ranges = scene.geometry.object_ranges
         draws = [LayerDraws.planned("shadow", self.cache.plan(ranges, delta, key), ~cascade, np.zeros_like(cascade))]
@@ -206,7 +236,7 @@ class ShadowDepthPass:
                 raise
         cascade_maps = int((draws[-1].static | draws[-1].dynamic).sum()) if len(draws) > 1 else 0
         scene_static, scene_dynamic = bool(draws[0].static.any()), bool(draws[0].dynamic.any())
-        return ShadowMaps(layout.per_light, scene_static or scene_dynamic or cascade_maps > 0, scene_static,
+        return ShadowMaps(atlas, layout.per_light, scene_static or scene_dynamic or cascade_maps > 0, scene_static,
                           submitted, cascade_maps > 0, cascade_maps)
 
     def _moved_cascades(self, views: list[ShadowView], cascade: np.ndarray) -> np.ndarray:

@@ -30,7 +30,7 @@ import numpy as np
 
 from ...scene.bounds import SceneBounds
 from ...scene.camera import Camera, look_at, orthographic_matrix, view_from_world
-from ..lighting.shadow_atlas import ShadowView
+from ..shadow_maps.shadow_atlas import ShadowView
 
 # Each cascade reaches this many times less far than the next coarser one (the last, the
 # scene map, reaches everywhere).

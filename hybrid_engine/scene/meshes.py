@@ -3,16 +3,11 @@
 
 The paper keeps its meshes on the GPU and transforms them to world space there every frame
 (§3.3), so that rigid motion costs a matrix, not a pass over the object's triangles on the
-host. ``InstancedGeometry`` is that description: each mesh is stored once, indexed as
-Blender stores it (vertices, corners, normals on their own domain), and each instance names
-a mesh, an object-to-world matrix and the materials of its slots. The GPU produces the
-world-space triangle soup every other pass reads (instance_transform.py); nothing on the
-host makes it, except :meth:`InstancedGeometry.world_arrays` for the CPU oracles (embree,
-the Whitted reference) and tests, with the same arithmetic as the shader.
-
-An ``InstancedGeometry`` is a ``Geometry``: the per-object data the host passes use
-(object ranges, bounds, closedness, names, the producer's edits) are plain arrays, and the
-world-space arrays are made on first access.
+host. ``ObjectMesh`` is a mesh stored once, indexed as Blender stores it (vertices,
+corners, normals on their own domain); ``Instances`` name a mesh, an object-to-world matrix
+and the materials of its slots for each object. ``geometry.InstancedGeometry`` holds them
+for a frame; the GPU makes the world-space triangle soup every other pass reads
+(passes/scene_upload/instance_transform.py).
 
 Bounds of an instance are its mesh's object-space box, transformed corner by corner: never
 smaller than the world-space box of its vertices, and what lets a moved object cost eight
@@ -26,9 +21,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .data import Geometry, GeometryEdit, SceneDataError
+from .arrays import SceneDataError, as_array
 
 _mesh_ids = itertools.count(1)
+
 
 # Corner order of a triangle seen through a mirroring transform (negative determinant): the
 # winding reverses, so corners 1 and 2 swap to keep it counter-clockwise from outside.
@@ -67,11 +63,11 @@ class ObjectMesh:
     finite: bool = field(init=False)  # every used vertex is finite
 
     def __post_init__(self) -> None:
-        self.positions = _array(self.positions, np.float32, (3,), "positions")
-        self.normals = _array(self.normals, np.float32, (3,), "normals")
-        self.corner_vertices = _array(self.corner_vertices, np.int32, (), "corner_vertices")
-        self.corner_normals = _array(self.corner_normals, np.int32, (), "corner_normals")
-        self.slots = _array(self.slots, np.int32, (), "slots")
+        self.positions = as_array(self.positions, np.float32, (3,), "positions")
+        self.normals = as_array(self.normals, np.float32, (3,), "normals")
+        self.corner_vertices = as_array(self.corner_vertices, np.int32, (), "corner_vertices")
+        self.corner_normals = as_array(self.corner_normals, np.int32, (), "corner_normals")
+        self.slots = as_array(self.slots, np.int32, (), "slots")
         n = len(self.slots)
         if len(self.corner_vertices) != 3 * n or len(self.corner_normals) != 3 * n:
             raise SceneDataError(f"a mesh of {n} triangles needs {3 * n} corner indices, got "
@@ -80,7 +76,7 @@ class ObjectMesh:
                   or self.corner_normals.min() < 0 or self.corner_normals.max() >= len(self.normals)):
             raise SceneDataError("corner indices point outside the mesh's vertices or normals")
         if self.uvs is not None:
-            self.uvs = _array(self.uvs, np.float32, (2,), "uvs")
+            self.uvs = as_array(self.uvs, np.float32, (2,), "uvs")
             if len(self.uvs) != 3 * n:
                 raise SceneDataError(f"uvs has {len(self.uvs)} corners, the mesh {3 * n}")
         self._measure()
@@ -108,15 +104,26 @@ class ObjectMesh:
     def triangle_count(self) -> int:
         return int(len(self.slots))
 
-    def deformed(self, positions: np.ndarray, normals: np.ndarray) -> "ObjectMesh":
+    def deformed(self, positions: np.ndarray, normals: np.ndarray, slots: np.ndarray | None = None,
+                 uvs: np.ndarray | None = None) -> "ObjectMesh":
         """The same topology with new vertex positions and normals (an armature, a shape
-        key, a Wave modifier): same ``mesh_id``, next ``version``."""
+        key, a Wave modifier), and optionally new per-triangle slots or corner UVs of the
+        same counts (a flat geometry's object whose materials or UVs were edited): same
+        ``mesh_id``, next ``version``, so the GPU re-sends its arrays into place."""
         mesh = ObjectMesh.__new__(ObjectMesh)
         mesh.__dict__.update(self.__dict__)
-        mesh.positions = _array(positions, np.float32, (3,), "positions")
-        mesh.normals = _array(normals, np.float32, (3,), "normals")
+        mesh.positions = as_array(positions, np.float32, (3,), "positions")
+        mesh.normals = as_array(normals, np.float32, (3,), "normals")
         if len(mesh.positions) != len(self.positions) or len(mesh.normals) != len(self.normals):
             raise SceneDataError("a deformed mesh must keep its vertex and normal counts")
+        if slots is not None:
+            mesh.slots = as_array(slots, np.int32, (), "slots")
+            if len(mesh.slots) != len(self.slots):
+                raise SceneDataError("a deformed mesh must keep its triangle count")
+        if uvs is not None:
+            mesh.uvs = as_array(uvs, np.float32, (2,), "uvs")
+            if self.uvs is None or len(mesh.uvs) != len(self.uvs):
+                raise SceneDataError("a deformed mesh must keep its UV corners")
         mesh.version = self.version + 1
         mesh._measure()
         return mesh
@@ -134,7 +141,7 @@ class Instances:
     slot_materials: list[np.ndarray]  # K arrays of int32
 
     def __post_init__(self) -> None:
-        self.mesh = _array(self.mesh, np.int32, (), "instance meshes")
+        self.mesh = as_array(self.mesh, np.int32, (), "instance meshes")
         self.matrices = np.ascontiguousarray(np.asarray(self.matrices, np.float32).reshape(-1, 4, 4))
         k = len(self.mesh)
         if len(self.matrices) != k or len(self.slot_materials) != k:
@@ -202,113 +209,3 @@ def normal_matrices(matrices: np.ndarray) -> np.ndarray:
     cofactor = np.stack([np.cross(a1, a2), np.cross(a2, a0), np.cross(a0, a1)], axis=2)
     sign = np.where(np.linalg.det(linear) < 0, -1.0, 1.0)
     return cofactor * sign[:, None, None]
-
-
-class InstancedGeometry(Geometry):
-    """A ``Geometry`` made of instances of object-space meshes (module docstring).
-
-    ``triangles``, ``normals``, ``uvs`` and ``material_ids`` are the world-space arrays of
-    ``Geometry``, made on the host only when read. ``edit`` works as for ``Geometry``: the
-    producer lists the instances it changed since its last version.
-    """
-
-    def __init__(self, instances: Instances, names: list[str] | None = None,
-                 edit: GeometryEdit | None = None) -> None:
-        self.instances = instances
-        counts = instances.triangle_counts()
-        firsts = np.concatenate([[0], np.cumsum(counts)[:-1]]) if len(counts) else np.zeros(0, np.int64)
-        self.object_ranges = np.stack([firsts, counts], axis=1).astype(np.int32).reshape(-1, 2)
-        self.object_names = list(names) if names else [f"object_{i}" for i in range(len(instances))]
-        self.edit = edit
-        self._count = int(counts.sum())
-        self.refresh()
-
-    def refresh(self, rows: list[int] | None = None) -> None:
-        """Recompute the per-object data after the producer changed ``instances`` in place
-        (matrices, meshes of unchanged triangle counts, slot materials); ``rows`` limits the
-        bounds to those instances. The host's world arrays, if made, are dropped."""
-        instances = self.instances
-        if rows is None:
-            self.object_bounds = instances.world_bounds()
-        elif rows:
-            self.object_bounds[rows] = instances.world_bounds(rows)
-        closed = np.array([m.closed and m.finite for m in instances.meshes], bool)
-        self.object_closed = closed[instances.mesh] if len(instances) else np.zeros(0, bool)
-        self._has_uvs = any(m.uvs is not None for m in instances.meshes)
-        self._world = None
-
-    @property
-    def triangle_count(self) -> int:
-        return self._count
-
-    def clamp_material_ids(self, count: int) -> None:
-        """Slot materials outside a table of ``count`` use material 0 (Geometry's fallback,
-        applied to the instance table instead of per-triangle ids)."""
-        instances = self.instances
-        if not len(instances):
-            return
-        flat = instances.slot_table()[0]
-        if flat.min() < 0 or flat.max() >= count:
-            for row, table in enumerate(instances.slot_materials):
-                instances.set_slots(row, np.where((table >= 0) & (table < count), table, 0))
-            self._world = None
-
-    def _array_of(self, name: str) -> np.ndarray | None:
-        if self._world is None:
-            self._world = self.world_arrays()
-        return self._world[name]
-
-    triangles = property(lambda self: self._array_of("triangles"))
-    normals = property(lambda self: self._array_of("normals"))
-    material_ids = property(lambda self: self._array_of("material_ids"))
-    uvs = property(lambda self: self._array_of("uvs") if self._has_uvs else None)
-    has_uvs = property(lambda self: self._has_uvs)
-
-    def world_arrays(self) -> dict[str, np.ndarray]:
-        """World-space triangle soup with the arithmetic of instance_transform.comp.glsl:
-        positions through the matrix, normals through ``normal_matrices`` and renormalised
-        (zero or non-finite ones become 0, as the upload leaves them for the G-buffer to
-        replace), corners 1 and 2 swapped under a mirroring matrix, missing slots material
-        0, and a triangle with a non-finite corner collapsed to the origin."""
-        n = self._count
-        out = {"triangles": np.zeros((n, 3, 3), np.float32), "normals": np.zeros((n, 3, 3), np.float32),
-               "material_ids": np.zeros(n, np.int32), "uvs": np.zeros((n, 3, 2), np.float32)}
-        instances = self.instances
-        mirrored = instances.mirrored()
-        normal_matrix = normal_matrices(instances.matrices).astype(np.float32)
-        for k, (first, count) in enumerate(self.object_ranges):
-            if count == 0:
-                continue
-            mesh = instances.meshes[instances.mesh[k]]
-            matrix = instances.matrices[k]
-            order = np.arange(3) if not mirrored[k] else MIRROR_CORNERS
-            corners_v = mesh.corner_vertices.reshape(-1, 3)[:, order]
-            corners_n = mesh.corner_normals.reshape(-1, 3)[:, order]
-            with np.errstate(invalid="ignore", over="ignore"):
-                world = mesh.positions @ matrix[:3, :3].T + matrix[:3, 3]
-                normals = mesh.normals @ normal_matrix[k].T
-                length = np.sqrt(np.einsum("ij,ij->i", normals, normals))
-                ok = np.isfinite(length) & (length > 0)
-                normals = np.where(ok[:, None], normals / np.where(ok, length, 1.0)[:, None], 0.0)
-            tris = world[corners_v]
-            bad = ~np.isfinite(tris).all(axis=(1, 2))
-            tris[bad] = 0.0
-            end = first + count
-            out["triangles"][first:end] = tris
-            out["normals"][first:end] = normals[corners_n]
-            slots = mesh.slots
-            table = instances.slot_materials[k]
-            valid = (slots >= 0) & (slots < len(table))
-            out["material_ids"][first:end] = np.where(valid, table[np.clip(slots, 0, max(len(table) - 1, 0))]
-                                                      if len(table) else 0, 0)
-            if mesh.uvs is not None:
-                uvs = mesh.uvs.reshape(-1, 3, 2)[:, order]
-                out["uvs"][first:end] = np.where(np.isfinite(uvs), uvs, 0.0)
-        return out
-
-
-def _array(values, dtype, tail: tuple[int, ...], name: str) -> np.ndarray:
-    array = np.ascontiguousarray(np.asarray(values, dtype))
-    if array.ndim != 1 + len(tail) or tuple(array.shape[1:]) != tail:
-        raise SceneDataError(f"{name} must have shape (N{''.join(', ' + str(t) for t in tail)}), got {array.shape}")
-    return array

@@ -3,10 +3,11 @@
 
 Each frame goes through the same path as F12 (``scene.frame_set``, the evaluated depsgraph,
 ``blender_adapter.engine.render_depsgraph``: extraction plus the renderer) without writing
-images; ``hybrid_engine.reports.timing_report`` turns the frames into PREFIX.json, PREFIX.csv and a
-stacked-bar chart PREFIX.png (paper Figure 5). With ``compare_full_bvh`` the range is
-rendered a second time in FULL_BVH mode (PREFIX_full_bvh.*) and PREFIX_compare.png draws
-both frame times (paper Figure 6).
+images; ``hybrid_engine.reports.timing_report`` turns the frames into PREFIX.json, PREFIX.csv and
+the stacked-bar charts PREFIX.svg and PREFIX.png (paper Figure 5; the PNG written by
+``blender_adapter.chart_images``, its text drawn by Blender's font engine). With
+``compare_full_bvh`` the range is rendered a second time in FULL_BVH mode (PREFIX_full_bvh.*)
+and PREFIX_compare.png draws both frame times (paper Figure 6).
 
 Everything is validated before the first frame is rendered (frame range, output directory,
 camera, settings). The scene's current frame is restored afterwards, also after an error.
@@ -24,7 +25,7 @@ from dataclasses import asdict, replace
 
 import bpy
 
-from ..blender_adapter import engine, properties, scene_cache
+from ..blender_adapter import chart_images, engine, properties, scene_cache
 from ..blender_adapter.export.camera import render_resolution
 from ..hybrid_engine.reports import timing_report
 from ..hybrid_engine.frame.near_budget import NearCubeSizer
@@ -139,9 +140,9 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
                 prefix, frames.start, frames.stop - 1, main.render,
                 requested_mode=settings.mode, settings=asdict(settings), target_fps=target_fps(scene),
                 scene=scene_info(scene), progress=main.progress, warnings=main.warnings,
-                warmup_frames=self.warmup_frames,
+                warmup_frames=self.warmup_frames, chart_writer=chart_images.write_chart,
             )
-            written = [paths["json"], paths["csv"], paths["png"], paths["svg"]]
+            written = list(paths.values())
             if self.compare_full_bvh:
                 written += self._compare(prefix, frames, settings, report, compare)
         except Exception as exc:  # noqa: BLE001 - any failure is reported, the scene restored
@@ -182,15 +183,16 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
             f"{prefix}{COMPARE_SUFFIX}", frames.start, frames.stop - 1, renderer.render,
             requested_mode=COMPARE_MODE, settings=asdict(replace(settings, mode=COMPARE_MODE)),
             target_fps=report.target_fps, scene=report.scene, progress=renderer.progress,
-            warnings=renderer.warnings, warmup_frames=self.warmup_frames,
+            warnings=renderer.warnings, warmup_frames=self.warmup_frames, chart_writer=chart_images.write_chart,
         )
         label = "+".join(report.rendered_modes)
         if label == COMPARE_MODE:
             label += " (SCENE)"
         chart = timing_report.write_comparison_chart(
-            {label: report, COMPARE_MODE: compare_report}, f"{prefix}{COMPARISON_CHART_SUFFIX}"
+            {label: report, COMPARE_MODE: compare_report}, f"{prefix}{COMPARISON_CHART_SUFFIX}",
+            chart_images.write_chart,
         )
-        return [compare_paths["json"], compare_paths["csv"], compare_paths["png"], compare_paths["svg"], chart]
+        return [*compare_paths.values(), chart]
 
 
     # -- interactive: one frame per timer event, Esc cancels -------------------------------------
@@ -221,7 +223,7 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
             prefix, self._frames.start, self._frames.stop - 1, self._renderer.render,
             requested_mode=settings.mode, settings=asdict(settings), target_fps=target_fps(scene),
             scene=scene_info(scene), progress=self._renderer.progress, warnings=self._renderer.warnings,
-            warmup_frames=self.warmup_frames)
+            warmup_frames=self.warmup_frames, chart_writer=chart_images.write_chart)
 
     def _close_job(self, context) -> None:
         """Write the current job's report (partial when cancelled) and stop its scene tracking."""
@@ -230,7 +232,7 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
         if job is not None and job.records:
             report, paths = job.finish()
             self._reports.append(report)
-            self._written += [paths["json"], paths["csv"], paths["png"], paths["svg"]]
+            self._written += list(paths.values())
 
     def modal(self, context, event):
         if event.type == "ESC":
@@ -266,12 +268,13 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
             label = "+".join(self._reports[0].rendered_modes)
             self._written.append(timing_report.write_comparison_chart(
                 {label if label != COMPARE_MODE else f"{label} (SCENE)": self._reports[0],
-                 COMPARE_MODE: self._reports[1]}, f"{self._runs[0][0]}{COMPARISON_CHART_SUFFIX}"))
+                 COMPARE_MODE: self._reports[1]}, f"{self._runs[0][0]}{COMPARISON_CHART_SUFFIX}",
+                chart_images.write_chart))
         if not self._reports:
             self.report({"WARNING"}, "Timing report cancelled before its first frame: nothing written")
             return {"CANCELLED"}
         self._announce(self._reports[0], self._written, self._renderer.warnings, incomplete=cancelled)
-        _show_in_image_editor(context, self._written[2])
+        _show_in_image_editor(context, next(path for path in self._written if path.suffix == ".png"))
         return {"CANCELLED"} if cancelled else {"FINISHED"}
 
     def _announce(self, report, written, warnings, *, incomplete: bool = False) -> None:

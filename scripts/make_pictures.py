@@ -16,7 +16,9 @@ scene, ``<out>/<scene>.png``, holds the six tiles in two rows (HYBRID, FULL_BVH,
 FLIP, EEVEE, Cycles) at full size, and the numbers (triangles, per-pass frame times, FLIP
 mean, Cycles and EEVEE seconds, settings) go to ``<scene>.json``. ``--tiles`` also writes
 each tile alone (``<scene>_hybrid.png`` ...); off by default, because the sheets already hold
-them pixel for pixel and they are kept in git.
+them pixel for pixel and they are kept in git. Labels and titles are drawn by Blender's font
+engine and the PNGs written by Blender's OpenImageIO at the highest compression
+(``blender_adapter/chart_images.py``).
 
 Every tile is the renderer's linear Render Result (read back from a 32-bit EXR) clamped to
 [0, 1] and sRGB-encoded, the encoding FLIP is given (benchmarks/bench.py ``to_srgb_ldr``):
@@ -73,7 +75,10 @@ SHEET_BACKGROUND = (255, 255, 255)
 LABEL_BACKGROUND = (0, 0, 0)
 LABEL_TEXT = (255, 255, 255)
 PLACEHOLDER_BACKGROUND = (60, 60, 60)
-LABEL_SCALE_MIN_TILE_WIDTH = 320  # tiles narrower than this get 1-pixel glyphs, wider ones 2
+LABEL_SIZE = 14  # font size of labels and title in pixels
+SMALL_LABEL_SIZE = 10  # on tiles narrower than LABEL_SIZE_MIN_TILE_WIDTH
+LABEL_SIZE_MIN_TILE_WIDTH = 320
+SHEET_COMPRESSION = 9  # zlib level: the sheets are kept in git
 EXIT_MISSING_ASSETS = 2
 
 
@@ -185,59 +190,68 @@ def flip_map(reference_linear: np.ndarray, test_linear: np.ndarray) -> tuple[np.
     return (colours * 255.0 + 0.5).astype(np.uint8), mean
 
 
-def label_scale(width: int) -> int:
-    return 2 if width >= LABEL_SCALE_MIN_TILE_WIDTH else 1
+def label_size(width: int) -> int:
+    """The font size in pixels of a tile's labels and the sheet's title: smaller on narrow tiles."""
+    return LABEL_SIZE if width >= LABEL_SIZE_MIN_TILE_WIDTH else SMALL_LABEL_SIZE
+
+
+def label_band(size: int) -> tuple[int, int]:
+    """(height of a label's band, its padding) for text of ``size`` pixels: one line of text
+    (descenders included) between two paddings."""
+    from hybrid_rt.hybrid_engine.reports.chart_raster import LINE_EM
+
+    pad = max(size // 4, 2)
+    return math.ceil(LINE_EM * size) + 2 * pad, pad
 
 
 def labelled(tile: np.ndarray, text: str) -> np.ndarray:
-    """A copy of ``tile`` with ``text`` in white on a black band along its top edge."""
-    from hybrid_rt.hybrid_engine.reports import chart_png
+    """A copy of ``tile`` with ``text`` in white on a black band along its top edge, drawn
+    by Blender's font engine and clipped to the tile."""
+    from hybrid_rt.blender_adapter import chart_images
+    from hybrid_rt.hybrid_engine.reports.chart_raster import Label
 
     out = tile.copy()
-    scale = label_scale(tile.shape[1])
-    pad = 2 * scale
-    band = chart_png.GLYPH_HEIGHT * scale + 2 * pad
-    chart_png.fill_rect(out, 0, 0, min(chart_png.text_width(text, scale) + 2 * pad, tile.shape[1]), band,
-                        LABEL_BACKGROUND)
-    chart_png.draw_text(out, text, pad, pad, LABEL_TEXT, scale)
-    return out
+    size = label_size(tile.shape[1])
+    band, pad = label_band(size)
+    out[:band, :math.ceil(chart_images.text_width(text, size)) + 2 * pad] = LABEL_BACKGROUND
+    return chart_images.draw_labels(out, [Label(text, pad, band / 2, size, LABEL_TEXT)])
 
 
 def placeholder(width: int, height: int, text: str) -> np.ndarray:
     """A grey tile saying why there is no image (never a stand-in picture)."""
-    from hybrid_rt.hybrid_engine.reports import chart_png
+    from hybrid_rt.blender_adapter import chart_images
+    from hybrid_rt.hybrid_engine.reports.chart_raster import LINE_EM, Label
 
     tile = np.empty((height, width, 3), np.uint8)
     tile[:] = PLACEHOLDER_BACKGROUND
-    scale = label_scale(width)
+    size = label_size(width)
     lines, line = [], ""
-    limit = max((width - 8) // (chart_png.GLYPH_ADVANCE * scale), 8)
     for word in text.split():  # wrap to the tile's width
-        if line and len(line) + 1 + len(word) > limit:
+        joined = f"{line} {word}".strip()
+        if line and chart_images.text_width(joined, size) > width - 8:
             lines.append(line)
             line = word
         else:
-            line = f"{line} {word}".strip()
+            line = joined
     lines.append(line)
-    row_height = (chart_png.GLYPH_HEIGHT + 3) * scale
-    top = height // 2 - len(lines) * row_height // 2
-    for k, text_line in enumerate(lines):
-        chart_png.draw_text(tile, text_line, width // 2, top + k * row_height, LABEL_TEXT, scale, align="center")
-    return tile
+    row_height = LINE_EM * size
+    top = height / 2 - (len(lines) - 1) * row_height / 2
+    return chart_images.draw_labels(tile, [Label(text_line, width / 2, top + k * row_height, size, LABEL_TEXT,
+                                                 "center") for k, text_line in enumerate(lines)])
 
 
 def compose_sheet(tiles: dict[str, np.ndarray], labels: dict[str, str], title: str) -> np.ndarray:
     """The six labelled tiles in TILE_ORDER's two rows under a title bar, GAP_PX apart."""
-    from hybrid_rt.hybrid_engine.reports import chart_png
+    from hybrid_rt.blender_adapter import chart_images
+    from hybrid_rt.hybrid_engine.reports.chart_raster import TEXT, Label
 
     height, width = tiles[TILE_ORDER[0][0]].shape[:2]
-    scale = label_scale(width)
-    title_height = chart_png.GLYPH_HEIGHT * scale + 4 * scale
+    size = label_size(width)
+    title_height, _pad = label_band(size)  # as tall as a tile's label band
     columns = len(TILE_ORDER[0])
     sheet = np.empty((title_height + len(TILE_ORDER) * (height + GAP_PX), columns * width + (columns + 1) * GAP_PX, 3),
                      np.uint8)
     sheet[:] = SHEET_BACKGROUND
-    chart_png.draw_text(sheet, title, GAP_PX, 2 * scale, chart_png.TEXT, scale)
     for r, row in enumerate(TILE_ORDER):
         for c, key in enumerate(row):
             tile = tiles[key]
@@ -246,22 +260,16 @@ def compose_sheet(tiles: dict[str, np.ndarray], labels: dict[str, str], title: s
             y = title_height + r * (height + GAP_PX)
             x = GAP_PX + c * (width + GAP_PX)
             sheet[y:y + height, x:x + width] = labelled(tile, labels[key])
-    return sheet
-
-
-def encode_png(pixels: np.ndarray, compression: int = 9) -> bytes:
-    """The sheets' PNG encoding: chart_png's encoder with a scanline filter chosen per row
-    (renders compress about twice as well that way, and the sheets are kept in git)."""
-    from hybrid_rt.hybrid_engine.reports import chart_png
-
-    return chart_png.encode_png(pixels, compression, adaptive_filter=True)
+    return chart_images.draw_labels(sheet, [Label(title, GAP_PX, title_height / 2, size, TEXT)])
 
 
 def write_png(path: Path, pixels: np.ndarray) -> int:
-    """Write ``pixels`` (row 0 at the top) as PNG; returns the file's size in bytes."""
-    data = encode_png(pixels)
-    path.write_bytes(data)
-    return len(data)
+    """Write ``pixels`` (row 0 at the top) as PNG at the highest compression (the sheets are
+    kept in git); returns the file's size in bytes."""
+    from hybrid_rt.blender_adapter import chart_images
+
+    chart_images.write_png(path, pixels, compression=SHEET_COMPRESSION)
+    return path.stat().st_size
 
 
 # ---------------------------------------------------------------------------------------------
@@ -390,19 +398,19 @@ def render_scene(request: SceneRequest, assets: Path) -> SceneResult:
                 "passes_ms": {k: round(v, 2) for k, v in frames[mode].passes.items()},
                 "counts": dict(frames[mode].counts), "timing_source": frames[mode].timing_source}
             result.tiles[mode.lower()] = display_bytes(linear[mode])
-            result.labels[mode.lower()] = f"{mode} {frames[mode].total_ms:,.0f} MS"
+            result.labels[mode.lower()] = f"{mode} {frames[mode].total_ms:,.0f} ms"
             print(f"pictures: {request.name} {mode:<10} {frames[mode].total_ms:9.1f} ms "
                   f"(render call {seconds:.1f} s)", flush=True)
         flip_tile, flip_mean = flip_map(linear["FULL_BVH"], linear["HYBRID"])
         result.tiles["flip"] = flip_tile
-        result.labels["flip"] = f"FLIP HYBRID VS FULL_BVH, MEAN {flip_mean:.4f}"
+        result.labels["flip"] = f"FLIP HYBRID vs FULL_BVH, mean {flip_mean:.4f}"
         numbers["flip_mean"] = round(flip_mean, 5)
         print(f"pictures: {request.name} FLIP mean {flip_mean:.4f} (HYBRID against FULL_BVH)", flush=True)
 
         cycles_image, cycles_s, cycles_settings = render_cycles(scene, request.cycles_samples, folder)
         result.tiles["cycles"] = display_bytes(cycles_image)
-        denoised = ", DENOISED" if cycles_settings["denoiser"] else ""
-        result.labels["cycles"] = f"CYCLES {request.cycles_samples} SPP{denoised}, {cycles_s:.0f} S"
+        denoised = ", denoised" if cycles_settings["denoiser"] else ""
+        result.labels["cycles"] = f"Cycles {request.cycles_samples} spp{denoised}, {cycles_s:.0f} s"
         numbers["cycles"] = {"seconds": round(cycles_s, 1), **cycles_settings}
         print(f"pictures: {request.name} Cycles {cycles_s:.1f} s", flush=True)
 
@@ -413,18 +421,18 @@ def render_scene(request: SceneRequest, assets: Path) -> SceneResult:
             print(f"pictures: {request.name} EEVEE unavailable: {eevee_info['reason']}", flush=True)
         else:
             result.tiles["eevee"] = display_bytes(eevee_image)
-            result.labels["eevee"] = f"EEVEE {request.eevee_samples} SAMPLES, {eevee_s:.0f} S"
+            result.labels["eevee"] = f"EEVEE {request.eevee_samples} samples, {eevee_s:.0f} s"
             print(f"pictures: {request.name} EEVEE {eevee_s:.1f} s", flush=True)
         numbers["eevee"] = {"seconds": round(eevee_s, 1), **eevee_info}
 
         # The look: HYBRID and its peer EEVEE against Cycles, FLIP on the same LDR encoding.
         _, hybrid_vs_cycles = flip_map(cycles_image, linear["HYBRID"])
         numbers["flip_vs_cycles"] = {"HYBRID": round(hybrid_vs_cycles, 5)}
-        result.labels["hybrid"] += f", FLIP VS CYCLES {hybrid_vs_cycles:.4f}"
+        result.labels["hybrid"] += f", FLIP vs Cycles {hybrid_vs_cycles:.4f}"
         if eevee_image is not None:
             _, eevee_vs_cycles = flip_map(cycles_image, eevee_image)
             numbers["flip_vs_cycles"]["EEVEE"] = round(eevee_vs_cycles, 5)
-            result.labels["eevee"] += f", FLIP VS CYCLES {eevee_vs_cycles:.4f}"
+            result.labels["eevee"] += f", FLIP vs Cycles {eevee_vs_cycles:.4f}"
         print(f"pictures: {request.name} FLIP against Cycles: {numbers['flip_vs_cycles']}", flush=True)
 
     hybrid = frames["HYBRID"]

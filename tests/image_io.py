@@ -64,9 +64,3 @@ def read_png(path: str | Path) -> np.ndarray:
     """An 8-bit PNG's pixels as (H, W, C) uint8, row 0 at the top (as stored)."""
     return np.round(read_image(path) * 255.0).astype(np.uint8)
 
-
-def decode_png(data: bytes, tmp_dir: str | Path) -> np.ndarray:
-    """``read_png`` of PNG bytes (written to ``tmp_dir`` first)."""
-    path = Path(tmp_dir) / "decoded.png"
-    path.write_bytes(data)
-    return read_png(path)

@@ -439,3 +439,123 @@ def test_the_circle_finder_finds_a_circle_and_mutual_folders():
     (circle,) = import_circles(graph)
     assert set(circle) == set(graph) and circle[0] == circle[-1]
     assert mutual_folders(graph, 2) == [("hybrid_engine.frame", "hybrid_engine.gpu")]
+
+
+# ---------------------------------------------------------------------------------------------
+# (e) No hand-made PNG: the add-on writes images through Blender's own image libraries
+# (blender_adapter/chart_images.py: OpenImageIO, imbuf), never by packing PNG bytes itself.
+
+PNG_SIGNATURE = b"\x89PNG"
+PNG_CHUNK_NAMES = ("IHDR", "IDAT", "IEND", "PLTE")
+# A PNG encoder makes its zlib stream and chunk CRC-32s and packs big-endian fields; either
+# alone has other uses, both in one module is an encoder.
+ZLIB_CALLS = frozenset({"zlib.compress", "zlib.compressobj", "zlib.crc32", "binascii.crc32"})
+STRUCT_CALLS = frozenset({"struct.pack", "struct.pack_into", "struct.Struct"})
+
+
+def _called_name(func: ast.expr, aliases: dict[str, str]) -> str:
+    """'zlib.crc32' for ``zlib.crc32(...)``, ``z.crc32(...)`` after ``import zlib as z`` and
+    ``crc32(...)`` after ``from zlib import crc32``."""
+    if isinstance(func, ast.Name):
+        return aliases.get(func.id, func.id)
+    if isinstance(func, ast.Attribute) and isinstance(func.value, ast.Name):
+        return f"{aliases.get(func.value.id, func.value.id)}.{func.attr}"
+    return ""
+
+
+def hand_made_png(path: Path, source: str | None = None) -> list[str]:
+    """What in a module writes PNG bytes by hand, as ``file:line: reason``: the PNG signature
+    or a chunk name in a bytes literal, a chunk name as a string of its own, or zlib's
+    compression or CRC-32 together with struct packing."""
+    source = path.read_text(encoding="utf-8") if source is None else source
+    tree = ast.parse(source, filename=str(path))
+    rel = path.relative_to(REPO_ROOT).as_posix()
+    aliases: dict[str, str] = {}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            aliases.update({alias.asname or alias.name: alias.name for alias in node.names})
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            aliases.update({alias.asname or alias.name: f"{node.module}.{alias.name}" for alias in node.names})
+    problems, zlib_calls, struct_calls = [], [], []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, bytes):
+            if PNG_SIGNATURE in node.value or any(name.encode() in node.value for name in PNG_CHUNK_NAMES):
+                problems.append(f"{rel}:{node.lineno}: PNG bytes {node.value[:12]!r}")
+        elif isinstance(node, ast.Constant) and node.value in PNG_CHUNK_NAMES:
+            problems.append(f"{rel}:{node.lineno}: the PNG chunk name {node.value!r}")
+        elif isinstance(node, ast.Call):
+            name = _called_name(node.func, aliases)
+            if name in ZLIB_CALLS:
+                zlib_calls.append(f"{name} (line {node.lineno})")
+            elif name in STRUCT_CALLS:
+                struct_calls.append(f"{name} (line {node.lineno})")
+    if zlib_calls and struct_calls:
+        problems.append(f"{rel}: {zlib_calls[0]} and {struct_calls[0]} in one module: a hand-made encoder")
+    return problems
+
+
+def test_no_product_module_writes_png_bytes_by_hand():
+    """Images are written by Blender's libraries; the core hands over pixels and labels."""
+    files = python_files()
+    assert REPO_ROOT / "blender_adapter" / "chart_images.py" in files
+    problems = [p for f in files for p in hand_made_png(f)]
+    assert problems == [], "\n".join(problems)
+
+
+@pytest.mark.parametrize(
+    ("source", "expected"),
+    [
+        ('SIGNATURE = b"\\x89PNG\\r\\n\\x1a\\n"\n', "PNG bytes"),
+        ('def chunk(data):\n    return b"IDAT" + data\n', "PNG bytes"),
+        ('TAG = "IHDR".encode()\n', "chunk name 'IHDR'"),
+        ("import struct, zlib\ndef crc(tag, data):\n    return struct.pack('>I', zlib.crc32(tag + data))\n",
+         "zlib.crc32 (line 3) and struct.pack (line 3)"),
+        ("from zlib import compress as deflate\nfrom struct import pack\n"
+         "def encode(rows, w, h):\n    return pack('>II', w, h) + deflate(rows)\n", "zlib.compress"),
+        ("import struct as s, binascii\nheader = s.Struct('>IIBBBBB')\ncrc = binascii.crc32(b'x')\n",
+         "binascii.crc32"),
+    ],
+)
+def test_the_png_scanner_flags_a_hand_written_encoder(source, expected):
+    """The check above must be able to fail: each sign of a hand-made encoder is reported."""
+    problems = hand_made_png(REPO_ROOT / "blender_adapter" / "x.py", source)
+    assert any(expected in p for p in problems), problems
+
+
+@pytest.mark.parametrize(
+    "source",
+    [
+        "spec.attribute('png:compressionLevel', 9)\noutput = oiio.ImageOutput.create(path)\n",
+        '"""A PNG starts with its IHDR chunk; OpenImageIO writes it."""\nimport zlib\ndata = zlib.compress(b"x")\n',
+        "import struct\nheader = struct.pack('<I', 4)\n",
+    ],
+)
+def test_the_png_scanner_accepts_image_library_calls_and_zlib_or_struct_alone(source):
+    assert hand_made_png(REPO_ROOT / "blender_adapter" / "x.py", source) == []
+
+
+# The core has no image library either: it hands pixels and labels to the adapter.
+IMAGE_LIBRARIES = frozenset({"OpenImageIO", "PIL", "imageio", "png", "cv2", "matplotlib"})
+
+
+def image_library_imports(path: Path, source: str | None = None) -> list[str]:
+    """Every import of an image library in ``path``, as ``file:line: name``."""
+    source = path.read_text(encoding="utf-8") if source is None else source
+    rel = path.relative_to(REPO_ROOT).as_posix()
+    found = []
+    for node in ast.walk(ast.parse(source, filename=str(path))):
+        names = [alias.name for alias in node.names] if isinstance(node, ast.Import) else (
+            [node.module] if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module else [])
+        found += [f"{rel}:{node.lineno}: {name}" for name in names if name.split(".")[0] in IMAGE_LIBRARIES]
+    return found
+
+
+def test_the_core_imports_no_image_library():
+    files = [f for f in python_files() if f.relative_to(REPO_ROOT).parts[0] == "hybrid_engine"]
+    problems = [p for f in files for p in image_library_imports(f)]
+    assert problems == [], "\n".join(problems)
+
+
+@pytest.mark.parametrize("source", ["def f():\n    import OpenImageIO as oiio\n", "from PIL import Image\n"])
+def test_the_image_library_check_flags_an_import(source):
+    assert image_library_imports(REPO_ROOT / "hybrid_engine" / "x.py", source), source

@@ -6,7 +6,8 @@ colours, and Cycles in the same orientation as Hybrid RT; a file-based scene wit
 files must stop the run, naming the file, before anything is rendered.
 
 Oracles: the benchmark's ``flip_mean`` (benchmarks/bench.py) for the FLIP convention,
-chart_png's PNG decoder for the encoder, the single tile files for the sheet's layout.
+OpenImageIO read straight from the tests (image_io.py) for the files written, the single tile
+files for the sheet's layout.
 """
 from __future__ import annotations
 
@@ -152,18 +153,30 @@ def test_flip_map_gives_the_benchmarks_mean_with_the_error_where_the_images_diff
     assert colours[:10].mean() > colours[10:].mean() + 50
 
 
-def test_the_png_encoder_round_trips_and_beats_unfiltered_rows(rng, pictures, tmp_path):
+def test_sheets_are_written_losslessly_at_the_highest_compression(pictures, tmp_path):
+    """The sheets are kept in git: written by OpenImageIO at zlib level 9, smaller than at
+    its default level, and read back exactly."""
     load_addon()
-    from hybrid_rt.hybrid_engine.reports import chart_png
+    from hybrid_rt.blender_adapter import chart_images
 
-    y, x = np.mgrid[0:60, 0:90]
-    smooth = np.stack([x * 2, y * 3, (x + y)], axis=-1).astype(np.uint8)
-    noisy = rng.integers(0, 256, (17, 23, 4), dtype=np.uint8)
-    for image in (smooth, noisy):
-        path = tmp_path / "encoded.png"
-        path.write_bytes(pictures.encode_png(image))
-        np.testing.assert_array_equal(read_png(path), image)
-    assert len(pictures.encode_png(smooth)) < len(chart_png.encode_png(smooth, compression=9))
+    y, x = np.mgrid[0:120, 0:180]
+    smooth = np.stack([x * 2 + y, y * 3, (x + y) // 2], axis=-1).astype(np.uint8)
+    size = pictures.write_png(tmp_path / "sheet.png", smooth)
+    np.testing.assert_array_equal(read_png(tmp_path / "sheet.png"), smooth)
+    assert size == (tmp_path / "sheet.png").stat().st_size
+    chart_images.write_png(tmp_path / "default.png", smooth)
+    assert size < (tmp_path / "default.png").stat().st_size
+
+
+def test_a_label_is_white_text_on_a_black_band_that_leaves_the_rest_of_the_tile(pictures):
+    """blf draws the label inside its band; the tile's pixels below the band are untouched."""
+    load_addon()
+    tile = np.full((54, 96, 3), 128, np.uint8)
+    out = pictures.labelled(tile, "HYBRID 12 ms")
+    band, _pad = pictures.label_band(pictures.label_size(96))
+    np.testing.assert_array_equal(out[band:], tile[band:])
+    assert (out[:band] == 0).all(axis=-1).sum() > 50  # the black band
+    assert (out[:band] > 200).all(axis=-1).sum() > 10  # the white text on it
 
 
 def test_detail_takes_one_number_or_scene_pairs(pictures):

@@ -21,7 +21,7 @@ import pytest
 
 from conftest import REPO_ROOT
 from image_io import read_png
-from hybrid_engine.reports import chart_png
+from hybrid_engine.reports import chart_raster
 from hybrid_engine.reports import timing_report
 from hybrid_engine.frame.renderer import FrameResult
 from hybrid_engine.gpu.timing import TIMING_SOURCE_WALL
@@ -39,12 +39,25 @@ CUBE_X_PER_FRAME = 2.0
 POSITION_ATOL = 1e-5
 TINY = (32, 24)
 FRAMES = (1, 5)
+# The band above the plot where the chart's title is drawn; the core leaves it white.
+TITLE_ROWS = 24
 
 
 def fake_result(passes: dict[str, float], counts: dict[str, int] | None = None, mode: str = "HYBRID",
                 extra_ms: float = 0.0) -> FrameResult:
     return FrameResult(image=np.zeros((1, 1, 4), np.float32), passes=dict(passes), counts=dict(counts or {}),
                        timing_source=TIMING_SOURCE_WALL, total_ms=sum(passes.values()) + extra_ms, mode=mode)
+
+
+class RecordingChartWriter:
+    """A chart writer that keeps what it is handed (and writes a placeholder file)."""
+
+    def __init__(self) -> None:
+        self.charts: list[tuple[object, chart_raster.ChartPicture]] = []
+
+    def __call__(self, path, picture: chart_raster.ChartPicture) -> None:
+        self.charts.append((path, picture))
+        path.write_bytes(b"")
 
 
 class CountingRenderer:
@@ -214,9 +227,10 @@ def test_report_files_carry_whatever_passes_and_counts_the_frames_have(tmp_path)
     """Tracer pass names and per-bounce ray counts (unknown to RASTER) reach JSON and CSV in
     the documented order; warm-up renders are not recorded."""
     renderer = CountingRenderer()
+    writer = RecordingChartWriter()
     report, paths = run_timing_report(tmp_path / "out" / "r", 3, 6, renderer, requested_mode="HYBRID",
                                       settings={"mode": "HYBRID"}, target_fps=30.0, scene={"name": "Test"},
-                                      warmup_frames=2)
+                                      warmup_frames=2, chart_writer=writer)
     assert renderer.calls == [3, 3, 3, 4, 5, 6]
     data = json.loads(paths["json"].read_text())
     assert [f["frame"] for f in data["frames"]] == [3, 4, 5, 6]
@@ -243,11 +257,22 @@ def test_report_files_carry_whatever_passes_and_counts_the_frames_have(tmp_path)
     assert all(row[3] == "" for row in rows[1:])  # these frames used no near cube
     assert all(row[8:13] == [""] * 5 for row in rows[1:])  # nor traced rays: no rays' story
 
-    image = read_png(paths["png"])
-    assert image.shape == (520, 1000, 3)
-    # Every pass's colour appears in the chart.
+    ((png, chart),) = writer.charts
+    assert png == paths["png"] == tmp_path / "out" / "r.png"
+    assert chart.pixels.shape == (520, 1000, 3)
+    # Every pass's colour appears in the chart, and its name in the labels.
     for color in timing_report.pass_colors(data["pass_order"]):
-        assert np.all(image == np.array(color, np.uint8), axis=-1).any()
+        assert np.all(chart.pixels == np.array(color, np.uint8), axis=-1).any()
+    assert set(data["pass_order"]) <= {label.text for label in chart.labels}
+
+
+def test_without_a_chart_writer_the_report_writes_json_csv_and_svg_and_says_so(tmp_path):
+    """The core has no image library: without a writer it writes no PNG, and the paths it
+    returns are the files written."""
+    _report, paths = run_timing_report(tmp_path / "r", 1, 2, CountingRenderer())
+    assert set(paths) == {"json", "csv", "svg"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.csv", "r.json", "r.svg"]
+    assert all(path.is_file() for path in paths.values())
 
 
 def test_a_pass_missing_from_a_frame_is_an_empty_csv_cell(tmp_path):
@@ -261,10 +286,13 @@ def test_a_pass_missing_from_a_frame_is_an_empty_csv_cell(tmp_path):
 def test_comparison_chart_draws_each_run(tmp_path):
     fast, _ = run_timing_report(tmp_path / "fast", 1, 4, CountingRenderer(lambda f: {"trace": 5.0}))
     slow, _ = run_timing_report(tmp_path / "slow", 1, 4, CountingRenderer(lambda f: {"trace": 20.0}))
-    path = timing_report.write_comparison_chart({"HYBRID": fast, "FULL_BVH": slow}, tmp_path / "cmp.png")
-    image = read_png(path)
-    for color in chart_png.PALETTE[:2]:
-        assert np.all(image == np.array(color, np.uint8), axis=-1).sum() > 50
+    writer = RecordingChartWriter()
+    path = timing_report.write_comparison_chart({"HYBRID": fast, "FULL_BVH": slow}, tmp_path / "cmp.png", writer)
+    ((written, chart),) = writer.charts
+    assert written == path == tmp_path / "cmp.png"
+    for color in chart_raster.PALETTE[:2]:
+        assert np.all(chart.pixels == np.array(color, np.uint8), axis=-1).sum() > 50
+    assert {"HYBRID", "FULL_BVH"} <= {label.text for label in chart.labels}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -342,6 +370,9 @@ def test_operator_writes_a_row_per_frame_whose_passes_sum_to_the_total(addon, ex
 
     png = tmp_path / "report.png"
     decoded = read_png(png)
+    assert decoded.shape == (520, 1000, 3)
+    # Blender's font engine drew the title into the band the core leaves white.
+    assert (decoded[:TITLE_ROWS] < 128).all(axis=-1).sum() > 20
     image = bpy.data.images.load(str(png))
     try:
         assert tuple(image.size) == (decoded.shape[1], decoded.shape[0])

@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The timing report's chart as SVG: vector, with real text, for reading and for documents.
 
-The same stacked per-pass bars as the PNG (``chart_png``, the paper's Figure 5), with what a
-bitmap with a 3x5 font cannot carry: a frame-time axis in milliseconds on the left, the
+The same stacked per-pass bars as the PNG (``chart_raster``, the paper's Figure 5), with more
+than the PNG's compact chart carries: a frame-time axis in milliseconds on the left, the
 frames-per-second those times mean on the right, the target frame rate as a dashed line, a
 legend naming every pass, the near cube's size per frame where it varied (Frame Budget), a
 strip under the frames showing where each frame's secondary rays ended (BVH, cube map, sky),

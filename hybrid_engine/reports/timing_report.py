@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Timing reports of an animation: per-frame pass times, summary statistics, JSON/CSV/PNG/SVG.
+"""Timing reports of an animation: per-frame pass times, summary statistics, JSON/CSV/SVG/PNG.
 
 The paper evaluates the method on animations (§4, Figures 5 and 6): every frame of a
 200-frame sequence broken down into its passes, and the hybrid method's frame time next to a
@@ -8,7 +8,10 @@ a ``TimingReportJob`` calls a ``render_frame(frame_number)`` callback one frame 
 (the Blender operator passes one that steps the scene and renders through the engine, from
 a modal handler that can cancel between frames; ``run_timing_report`` steps it to the end)
 and keeps each ``FrameResult``'s passes and counts, which ``write_report`` turns into
-``PREFIX.json``, ``PREFIX.csv`` and the stacked-bar charts ``PREFIX.png`` and ``PREFIX.svg``.
+``PREFIX.json``, ``PREFIX.csv`` and the stacked-bar chart ``PREFIX.svg``, and ``PREFIX.png``
+when the caller hands in a ``ChartWriter``: the core has no image library and no font
+engine, so it hands the chart over as data (``chart_raster.ChartPicture``: text-free pixels
+and the labels to draw on them); inside Blender, ``blender_adapter.chart_images`` writes it.
 
 Pass names and counts are not fixed here: a report carries whatever the frames carry.
 Passes are ordered by ``PIPELINE_PASSES`` (the order of paper §3's frame), names it does not
@@ -34,7 +37,8 @@ from typing import Any, Callable, Iterable, Mapping, Protocol, Sequence
 
 import numpy as np
 
-from . import chart_png, chart_svg
+from . import chart_raster, chart_svg
+from .chart_raster import ChartPicture
 
 # The passes of one frame in the order they run (paper §3): host extraction, upload, shadow
 # maps (§3.5), primary G-buffer (§3.1), cube map (§3.2), near-cube culling and LBVH (§3.3),
@@ -108,6 +112,8 @@ class FrameResultLike(Protocol):
 
 
 RenderFrame = Callable[[int], FrameResultLike]
+# Writes a chart (pixels and labels) as an image file at the path: the caller's image library.
+ChartWriter = Callable[[Path, ChartPicture], None]
 ProgressCallback = Callable[[int, int], None]  # (frames done, frames in all)
 
 
@@ -138,7 +144,8 @@ def validate_frame_range(frame_start: int, frame_end: int, max_frames: int = MAX
 
 
 def output_paths(prefix: str | os.PathLike) -> dict[str, Path]:
-    """``{'json': PREFIX.json, 'csv': PREFIX.csv, 'png': PREFIX.png, 'svg': PREFIX.svg}``."""
+    """The files a report may write: ``{'json': PREFIX.json, 'csv': PREFIX.csv, 'png': PREFIX.png,
+    'svg': PREFIX.svg}`` (the PNG only with a chart writer, see ``write_report``)."""
     base = str(prefix)
     return {suffix[1:]: Path(base + suffix) for suffix in SUFFIXES}
 
@@ -432,10 +439,10 @@ def write_csv(report: TimingReport, path: str | os.PathLike) -> None:
             )
 
 
-def pass_colors(pass_names: Sequence[str]) -> list[chart_png.RGB]:
+def pass_colors(pass_names: Sequence[str]) -> list[chart_raster.RGB]:
     """A colour per pass that does not depend on which other passes a report has: pipeline
     passes keep their own palette entry, other names take the entries after them."""
-    palette = chart_png.PALETTE
+    palette = chart_raster.PALETTE
     colors = []
     extra = len(PIPELINE_PASSES)
     for name in pass_names:
@@ -454,11 +461,11 @@ def chart_title(report: TimingReport) -> str:
     return " - ".join(part for part in (name, modes, frames) if part)
 
 
-def render_chart(report: TimingReport, **chart_options) -> np.ndarray:
-    """The stacked per-pass bars of every frame (paper Figure 5) as an RGB array."""
+def render_chart(report: TimingReport, **chart_options) -> ChartPicture:
+    """The stacked per-pass bars of every frame (paper Figure 5): pixels and labels."""
     pass_names = report.pass_names
     series = {name: [record.passes.get(name, 0.0) for record in report.records] for name in pass_names}
-    return chart_png.stacked_bar_chart(
+    return chart_raster.stacked_bar_chart(
         [record.frame for record in report.records], series, colors=pass_colors(pass_names),
         target_ms=report.target_ms, target_fps=report.target_fps, title=chart_title(report),
         **chart_options,
@@ -499,17 +506,22 @@ def render_chart_svg(report: TimingReport) -> str:
                                                       r.ray_story.ended_sky) for r in report.records])
 
 
-def write_report(report: TimingReport, prefix: str | os.PathLike) -> dict[str, Path]:
-    """Write PREFIX.json, PREFIX.csv, PREFIX.png and PREFIX.svg; return their paths."""
-    paths = output_paths(prefix)
+def write_report(report: TimingReport, prefix: str | os.PathLike,
+                 chart_writer: ChartWriter | None = None) -> dict[str, Path]:
+    """Write PREFIX.json, PREFIX.csv and PREFIX.svg, and PREFIX.png through ``chart_writer``
+    when one is given; return the paths written, keyed by suffix ('png' only with a writer)."""
+    candidates = output_paths(prefix)
+    paths = {key: candidates[key] for key in ("json", "csv", "svg")}
     write_json(report, paths["json"])
     write_csv(report, paths["csv"])
-    chart_png.write_png(paths["png"], render_chart(report))
     paths["svg"].write_text(render_chart_svg(report), encoding="utf-8")
+    if chart_writer is not None:
+        chart_writer(candidates["png"], render_chart(report))
+        paths["png"] = candidates["png"]
     return paths
 
 
-def write_comparison_chart(reports: Mapping[str, TimingReport], path: str | os.PathLike) -> Path:
+def render_comparison_chart(reports: Mapping[str, TimingReport]) -> ChartPicture:
     """Total frame time of several runs over the same frames as lines (paper Figure 6).
     Frames missing from a run are dropped from all of them."""
     if not reports:
@@ -523,10 +535,16 @@ def write_comparison_chart(reports: Mapping[str, TimingReport], path: str | os.P
         series[label] = [by_frame[frame] for frame in common]
     first = next(iter(reports.values()))
     title = " - ".join(part for part in (first.scene.get("name", ""), "frame time", " vs ".join(reports)) if part)
-    image = chart_png.line_chart(common, series, target_ms=first.target_ms, target_fps=first.target_fps,
-                                 title=title)
-    chart_png.write_png(path, image)
-    return Path(path)
+    return chart_raster.line_chart(common, series, target_ms=first.target_ms, target_fps=first.target_fps,
+                                   title=title)
+
+
+def write_comparison_chart(reports: Mapping[str, TimingReport], path: str | os.PathLike,
+                           chart_writer: ChartWriter) -> Path:
+    """``render_comparison_chart`` written at ``path`` by ``chart_writer``; returns the path."""
+    path = Path(path)
+    chart_writer(path, render_comparison_chart(reports))
+    return path
 
 
 class TimingReportJob:
@@ -540,12 +558,12 @@ class TimingReportJob:
                  requested_mode: str = "", settings: Mapping[str, Any] | None = None,
                  target_fps: float | None = None, scene: Mapping[str, Any] | None = None,
                  progress: ProgressCallback | None = None, warnings: Sequence[str] | None = None,
-                 warmup_frames: int = 0) -> None:
+                 warmup_frames: int = 0, chart_writer: ChartWriter | None = None) -> None:
         self.frames = validate_frame_range(frame_start, frame_end)
         if isinstance(warmup_frames, bool) or not 0 <= int(warmup_frames) <= MAX_WARMUP_FRAMES:
             raise TimingReportError(f"warmup_frames must lie in [0, {MAX_WARMUP_FRAMES}], got {warmup_frames!r}")
         self.base = prepare_output_prefix(prefix)
-        self.render_frame, self.progress = render_frame, progress
+        self.render_frame, self.progress, self.chart_writer = render_frame, progress, chart_writer
         self.warmup_frames = int(warmup_frames)
         self._warmups_left = self.warmup_frames
         self._next = 0  # index into frames of the next recorded frame
@@ -584,7 +602,7 @@ class TimingReportJob:
         report = TimingReport(records=list(self.records), gl_renderer=gl_renderer_name(),
                               warnings=list(self._warnings or ()), warmup_frames=self.warmup_frames,
                               complete=self.done, **self._meta)
-        return report, write_report(report, self.base)
+        return report, write_report(report, self.base, self.chart_writer)
 
 
 def run_timing_report(
@@ -600,6 +618,7 @@ def run_timing_report(
     progress: ProgressCallback | None = None,
     warnings: Sequence[str] | None = None,
     warmup_frames: int = 0,
+    chart_writer: ChartWriter | None = None,
 ) -> tuple[TimingReport, dict[str, Path]]:
     """Validate, render every frame of the range, write the report; return it and its paths.
 
@@ -607,11 +626,11 @@ def run_timing_report(
     ``warmup_frames`` renders of the first frame come first and are not recorded: the first
     frame of a process compiles shaders and allocates GPU buffers, which a steady-state
     measurement (the paper's) leaves out. ``warnings`` is read after the last frame, so
-    ``render_frame`` may add to it.
+    ``render_frame`` may add to it. ``chart_writer`` writes PREFIX.png (see ``write_report``).
     """
     job = TimingReportJob(prefix, frame_start, frame_end, render_frame, requested_mode=requested_mode,
                           settings=settings, target_fps=target_fps, scene=scene, progress=progress,
-                          warnings=warnings, warmup_frames=warmup_frames)
+                          warnings=warnings, warmup_frames=warmup_frames, chart_writer=chart_writer)
     while job.step():
         pass
     return job.finish()

@@ -1,12 +1,18 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Frame-time charts drawn with numpy and written as PNG without any plotting library.
+"""Frame-time charts as text-free pixels plus the labels to write on them, drawn with numpy.
 
 Timing reports must be producible wherever the renderer runs: inside Blender (whose Python
 has numpy but no matplotlib), headless on a build machine, in tests. So the charts of the
 paper's evaluation (Figure 5: per-pass time of every frame of an animation as stacked bars;
 Figure 6: the frame time of two modes as lines) are rasterized here straight into an
-(H, W, 3) uint8 array, text included (a 3x5 bitmap font, scaled by whole pixels), and
-encoded with ``zlib`` + ``struct`` (the tests read them back with Blender's OpenImageIO).
+(H, W, 3) uint8 array: bars, lines, axes, grid, legend swatches, the target line.
+
+Text is not drawn here. The core has neither a font engine nor an image library (it runs
+without Blender), so a chart is a ``ChartPicture``: the pixels and a list of ``Label``s
+(text, anchor, size, colour, alignment) that an image writer with a font engine draws and
+saves (``blender_adapter/chart_images.py``: Blender's blf and OpenImageIO). Without a font
+the margins cannot be measured, so they are laid out with an upper bound of the text's
+width (``estimated_width``).
 
 Arrays are row 0 at the top, as PNG stores them. Drawing is vectorised per image, not per
 bar or per pixel, so a 100 000-frame chart takes as long as a 10-frame one.
@@ -14,14 +20,12 @@ bar or per pixel, so a 100 000-frame chart takes as long as a 10-frame one.
 from __future__ import annotations
 
 import math
-import struct
-import zlib
+from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 import numpy as np
 
-from .diagnostic_legend import GLYPH_ADVANCE, GLYPH_HEIGHT, _paint_mask, fill_rect, text_mask, text_width  # noqa: F401
-from .diagnostic_legend import draw_text as _draw_text
+from .diagnostic_legend import fill_rect
 
 RGB = tuple[int, int, int]
 
@@ -42,17 +46,59 @@ PALETTE: tuple[RGB, ...] = (
 # the scale would squash every bar into the bottom few pixels: the legend names it instead.
 TARGET_OFF_SCALE_FACTOR = 4.0
 
-def draw_text(image: np.ndarray, text: str, x: int, y: int, color: RGB = TEXT, scale: int = 2,
-              align: str = "left") -> None:
-    """The legend font's ``draw_text`` in the charts' text colour."""
-    _draw_text(image, text, x, y, color, scale, align)
+FONT_SIZE = 14  # label size in pixels (the font's em)
+ALIGNMENTS = ("left", "center", "right")
+# Upper bounds of a character's advance in ems, by kind, for laying out margins without a
+# font: capitals are the widest in proportional fonts (Blender's Inter included), digits
+# next; everything else is narrower.
+CAPITAL_EM, DIGIT_EM, OTHER_EM = 0.75, 0.65, 0.6
+# A line of text: capitals centred on the label's row, descenders and ascenders inside.
+LINE_EM = 1.2
 
 
-def draw_vertical_text(image: np.ndarray, text: str, x: int, y_center: int, color: RGB = TEXT,
-                       scale: int = 2) -> None:
-    """Draw ``text`` rotated a quarter turn anticlockwise (an axis title), centred on ``y_center``."""
-    mask = np.rot90(text_mask(text, scale))
-    _paint_mask(image, mask, x, y_center - mask.shape[0] // 2, color)
+def estimated_width(text: str, size: int) -> float:
+    """An upper bound of ``text``'s width in pixels at ``size`` (see CAPITAL_EM)."""
+    ems = sum(CAPITAL_EM if char.isupper() else DIGIT_EM if char.isdigit() else OTHER_EM for char in text)
+    return ems * size
+
+
+@dataclass(frozen=True)
+class Label:
+    """A piece of chart text, for a writer with a font engine to draw over the pixels.
+
+    ``x`` is the column of the text's left edge, centre or right edge for ``align`` 'left',
+    'center' or 'right'; ``y`` the row the middle of its capitals lies on (row 0 at the top);
+    ``size`` the font size in pixels. Text is always horizontal: Blender's font engine does
+    not rotate text it draws into an image, so the value axis is titled above its ticks.
+    """
+
+    text: str
+    x: float
+    y: float
+    size: int = FONT_SIZE
+    color: RGB = TEXT
+    align: str = "left"
+
+    def __post_init__(self) -> None:
+        if self.align not in ALIGNMENTS:
+            raise ValueError(f"align must be one of {ALIGNMENTS}, got {self.align!r}")
+
+    def box(self) -> tuple[int, int, int, int]:
+        """(x0, y0, x1, y1): columns [x0, x1) and rows [y0, y1) the text lies in, from its
+        estimated width (not clipped to the image)."""
+        width = estimated_width(self.text, self.size)
+        left = self.x - {"left": 0.0, "center": width / 2, "right": width}[self.align]
+        half = LINE_EM * self.size / 2
+        return (math.floor(left), math.floor(self.y - half), math.ceil(left + width), math.ceil(self.y + half))
+
+
+@dataclass(frozen=True, eq=False)
+class ChartPicture:
+    """A chart without its text: (H, W, 3) uint8 ``pixels`` (row 0 at the top) and the
+    ``labels`` an image writer draws on them."""
+
+    pixels: np.ndarray
+    labels: tuple[Label, ...]
 
 
 def nice_step(span: float, target_ticks: int = 6) -> float:
@@ -79,17 +125,22 @@ def format_tick(value: float, step: float) -> str:
 class _Frame:
     """The geometry of one chart: where the plot area lies and how values map to pixels."""
 
-    def __init__(self, width: int, height: int, legend_labels: Sequence[str], scale: int) -> None:
-        self.scale = scale
-        self.swatch = GLYPH_HEIGHT * scale
-        legend_text = max((text_width(label, scale) for label in legend_labels), default=0)
-        # Gap, swatch (two glyph heights wide), gap, text, margin.
-        legend_width = 14 + 2 * self.swatch + 2 * scale + legend_text + 10
-        # Margin, the rotated y title, a gap, tick labels of up to 7 characters, the ticks.
-        self.left = 4 + self.swatch + 6 + text_width("0" * 7, scale) + 3 * scale
+    def __init__(self, width: int, height: int, legend_labels: Sequence[str], font_size: int) -> None:
+        size = self.font_size = font_size
+        self.line = math.ceil(LINE_EM * size)  # a row of text
+        self.swatch = max(round(0.8 * size), 2)
+        self.tick = max(size // 3, 2)
+        self.gap = max(size // 4, 2)
+        legend_text = max((estimated_width(label, size) for label in legend_labels), default=0.0)
+        # Gap, swatch (two swatch heights wide), gap, text, margin.
+        legend_width = 14 + 2 * self.swatch + 2 * self.gap + math.ceil(legend_text) + 10
+        # Margin, tick labels of up to 7 characters, a gap, the ticks.
+        self.left = 4 + math.ceil(estimated_width("0" * 7, size)) + self.gap + self.tick
         self.right = width - legend_width
-        self.top = 2 * GLYPH_HEIGHT * scale + 10
-        self.bottom = height - 3 * GLYPH_HEIGHT * scale - 14
+        # Margin, the title, a gap, the value axis' title, room for the top tick's label.
+        self.top = 6 + math.ceil(2.5 * self.line) + 2 * self.gap
+        # The ticks, their labels, the frame axis' title, a margin.
+        self.bottom = height - self.tick - self.gap - 2 * self.line - 6
         if self.right - self.left < 40 or self.bottom - self.top < 40:
             raise ValueError(f"a {width}x{height} chart leaves no room for the plot area")
         self.legend_x = self.right + 14
@@ -107,6 +158,9 @@ class _Frame:
         """Image row (fractional) of a value: 0 lies on the plot's bottom edge, y_max on its top."""
         return self.bottom - np.asarray(value, dtype=np.float64) / self.y_max * self.plot_height
 
+    def label(self, text: str, x: float, y: float, align: str = "left") -> Label:
+        return Label(text, x, y, self.font_size, TEXT, align)
+
 
 def _new_image(width: int, height: int) -> np.ndarray:
     image = np.empty((height, width, 3), dtype=np.uint8)
@@ -119,38 +173,33 @@ def target_on_scale(data_max: float, target_ms: float | None) -> bool:
     return bool(target_ms) and target_ms <= TARGET_OFF_SCALE_FACTOR * max(data_max, 1e-9)
 
 
-def _y_axis(image: np.ndarray, frame: _Frame, data_max: float, target_ms: float | None,
-            y_label: str) -> bool:
-    """Choose the value range (``frame.y_max``), draw grid, y ticks and the y title.
-    Returns whether the target line is on the scale."""
+def _y_axis(image: np.ndarray, frame: _Frame, labels: list[Label], data_max: float, target_ms: float | None,
+            y_label: str) -> None:
+    """Choose the value range (``frame.y_max``), draw grid and y ticks, label them and the axis."""
     on_scale = target_on_scale(data_max, target_ms)
     top_value = max(data_max, target_ms if on_scale else 0.0, 1e-6)
     step = nice_step(top_value * 1.05)
     frame.y_max = math.ceil(top_value * 1.05 / step - 1e-9) * step
     fill_rect(image, frame.left, frame.top, frame.right, frame.bottom, PLOT_BACKGROUND)
-    scale = frame.scale
     for index in range(int(round(frame.y_max / step)) + 1):
         value = index * step
         row = int(round(float(frame.y_pixel(value))))
         fill_rect(image, frame.left, row, frame.right, row + 1, GRID)
-        fill_rect(image, frame.left - 2 * scale, row, frame.left, row + 1, AXIS)
-        draw_text(image, format_tick(value, step), frame.left - 3 * scale, row - GLYPH_HEIGHT * scale // 2,
-                  scale=scale, align="right")
-    draw_vertical_text(image, y_label, 4, (frame.top + frame.bottom) // 2, scale=scale)
-    return on_scale
+        fill_rect(image, frame.left - frame.tick, row, frame.left, row + 1, AXIS)
+        labels.append(frame.label(format_tick(value, step), frame.left - frame.tick - frame.gap, row, "right"))
+    labels.append(frame.label(y_label, 4, frame.top - frame.gap - frame.line))
 
 
-def _x_axis(image: np.ndarray, frame: _Frame, first: int, last: int, x_of_frame) -> None:
-    scale = frame.scale
+def _x_axis(image: np.ndarray, frame: _Frame, labels: list[Label], first: int, last: int, x_of_frame) -> None:
     step = max(int(nice_step(max(last - first, 1), target_ticks=8)), 1)
     tick = int(math.ceil(first / step) * step)
+    tick_row = frame.bottom + frame.tick + frame.gap + frame.line / 2
     while tick <= last:
         column = int(round(float(x_of_frame(tick))))
-        fill_rect(image, column, frame.bottom, column + 1, frame.bottom + 2 * scale, AXIS)
-        draw_text(image, str(tick), column, frame.bottom + 3 * scale, scale=scale, align="center")
+        fill_rect(image, column, frame.bottom, column + 1, frame.bottom + frame.tick, AXIS)
+        labels.append(frame.label(str(tick), column, tick_row, "center"))
         tick += step
-    draw_text(image, "FRAME", (frame.left + frame.right) // 2, image.shape[0] - GLYPH_HEIGHT * scale - 4,
-              scale=scale, align="center")
+    labels.append(frame.label("Frame", (frame.left + frame.right) // 2, tick_row + frame.line, "center"))
     # Axis lines last, over the bars' bottom edge.
     fill_rect(image, frame.left, frame.bottom, frame.right, frame.bottom + 1, AXIS)
     fill_rect(image, frame.left - 1, frame.top, frame.left, frame.bottom + 1, AXIS)
@@ -166,19 +215,18 @@ def _target_line(image: np.ndarray, frame: _Frame, target_ms: float) -> None:
             image[row + thickness, dash] = TARGET_COLOR
 
 
-def _legend(image: np.ndarray, frame: _Frame, entries: Sequence[tuple[str, RGB, str]]) -> None:
+def _legend(image: np.ndarray, frame: _Frame, labels: list[Label], entries: Sequence[tuple[str, RGB, str]]) -> None:
     """Entries (label, colour, kind 'box' or 'line'), one per row, right of the plot."""
-    scale = frame.scale
-    row_height = GLYPH_HEIGHT * scale + 2 * scale + 2
+    swatch = frame.swatch
+    row_height = max(frame.line, swatch) + frame.gap
     x = frame.legend_x
     y = frame.top
-    swatch = frame.swatch
-    for label, color, kind in entries:
+    for text, color, kind in entries:
         if kind == "line":
             fill_rect(image, x, y + swatch // 2 - 1, x + 2 * swatch, y + swatch // 2 + 1, color)
         else:
             fill_rect(image, x, y, x + 2 * swatch, y + swatch, color)
-        draw_text(image, label, x + 2 * swatch + 2 * scale, y, scale=scale)
+        labels.append(frame.label(text, x + 2 * swatch + 2 * frame.gap, y + swatch / 2))
         y += row_height
 
 
@@ -188,9 +236,9 @@ def _target_legend(data_max: float, target_ms: float | None,
     if not target_ms:
         return []
     fps = f" {target_fps:.3g} FPS" if target_fps else ""
-    label = f"TARGET{fps} {target_ms:.1f} MS"
+    label = f"Target{fps} {target_ms:.1f} ms"
     if not target_on_scale(data_max, target_ms):
-        label += " (OFF SCALE)"
+        label += " (off scale)"
     return [(label, TARGET_COLOR, "line")]
 
 
@@ -209,13 +257,13 @@ def stacked_bar_chart(
     title: str = "",
     width: int = 1000,
     height: int = 520,
-    scale: int = 2,
-) -> np.ndarray:
+    font_size: int = FONT_SIZE,
+) -> ChartPicture:
     """Per-pass time of every frame as stacked bars (paper Figure 5).
 
     ``series`` maps each pass (bottom of the stack first) to one value per frame in
     milliseconds; ``colors`` gives one colour per series (PALETTE in order by default).
-    ``target_ms`` draws the target frame time as a dashed red line. Returns (H, W, 3) uint8.
+    ``target_ms`` draws the target frame time as a dashed red line.
     """
     names = list(series)
     frame_numbers = np.asarray(frames, dtype=np.int64)
@@ -237,9 +285,7 @@ def stacked_bar_chart(
     data_max = float(stacked[:, -1].max()) if names else 0.0
     legend = [(name, colors[i], "box") for i, name in enumerate(names)]
     legend += _target_legend(data_max, target_ms, target_fps)
-    image = _new_image(width, height)
-    frame = _Frame(width, height, [entry[0] for entry in legend], scale)
-    on_scale = _y_axis(image, frame, data_max, target_ms, "TIME (MS)")
+    image, frame, labels = _start(width, height, font_size, legend, data_max, target_ms)
 
     # Each plot column belongs to one frame's bar; wide bars keep a one-pixel gap.
     columns = np.arange(frame.plot_width)
@@ -262,12 +308,8 @@ def stacked_bar_chart(
         index = np.searchsorted(frame_numbers, number)
         return frame.left + (index + 0.5) * bar_pixels
 
-    _x_axis(image, frame, int(frame_numbers[0]), int(frame_numbers[-1]), x_of_frame)
-    if on_scale:
-        _target_line(image, frame, target_ms)
-    _legend(image, frame, legend)
-    draw_text(image, title, frame.left, 6, scale=scale)
-    return image
+    _x_axis(image, frame, labels, int(frame_numbers[0]), int(frame_numbers[-1]), x_of_frame)
+    return _finish(image, frame, labels, legend, data_max, target_ms, title)
 
 
 def line_chart(
@@ -280,8 +322,8 @@ def line_chart(
     title: str = "",
     width: int = 1000,
     height: int = 520,
-    scale: int = 2,
-) -> np.ndarray:
+    font_size: int = FONT_SIZE,
+) -> ChartPicture:
     """Frame time of several runs over the same frames as lines (paper Figure 6)."""
     frame_numbers = np.asarray(frames, dtype=np.float64)
     count = len(frame_numbers)
@@ -299,9 +341,7 @@ def line_chart(
     data_max = max((float(a.max()) for a in arrays), default=0.0)
     legend = [(name, colors[i], "line") for i, name in enumerate(names)]
     legend += _target_legend(data_max, target_ms, target_fps)
-    image = _new_image(width, height)
-    frame = _Frame(width, height, [entry[0] for entry in legend], scale)
-    on_scale = _y_axis(image, frame, data_max, target_ms, "TIME (MS)")
+    image, frame, labels = _start(width, height, font_size, legend, data_max, target_ms)
 
     first, last = float(frame_numbers[0]), float(frame_numbers[-1])
     margin = 4  # keep the end points off the axes
@@ -329,72 +369,25 @@ def line_chart(
         block[(rows >= low[None, :]) & (rows <= high[None, :])] = color
         plot_rows[:, columns] = block
 
-    _x_axis(image, frame, int(first), int(last), x_of_frame)
-    if on_scale:
+    _x_axis(image, frame, labels, int(first), int(last), x_of_frame)
+    return _finish(image, frame, labels, legend, data_max, target_ms, title)
+
+
+def _start(width: int, height: int, font_size: int, legend: Sequence[tuple[str, RGB, str]], data_max: float,
+           target_ms: float | None) -> tuple[np.ndarray, _Frame, list[Label]]:
+    """A chart's image, geometry and labels so far: background, plot area, value axis."""
+    image = _new_image(width, height)
+    frame = _Frame(width, height, [entry[0] for entry in legend], font_size)
+    labels: list[Label] = []
+    _y_axis(image, frame, labels, data_max, target_ms, "Time (ms)")
+    return image, frame, labels
+
+
+def _finish(image: np.ndarray, frame: _Frame, labels: list[Label], legend: Sequence[tuple[str, RGB, str]],
+            data_max: float, target_ms: float | None, title: str) -> ChartPicture:
+    """Draw the target line (over the data) and the legend; the picture, its title first."""
+    if target_on_scale(data_max, target_ms):
         _target_line(image, frame, target_ms)
-    _legend(image, frame, legend)
-    draw_text(image, title, frame.left, 6, scale=scale)
-    return image
-
-
-# ---------------------------------------------------------------------------------------------
-# PNG (ISO/IEC 15948): signature, IHDR, one zlib IDAT, IEND; every chunk CRC-32 checked.
-
-PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-_COLOR_TYPES = {1: 0, 3: 2, 4: 6}  # channels -> PNG colour type (grey, RGB, RGBA)
-_CHANNELS = {value: key for key, value in _COLOR_TYPES.items()}
-
-
-def _chunk(tag: bytes, data: bytes) -> bytes:
-    return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
-
-
-def _adaptive_filter_rows(array: np.ndarray) -> np.ndarray:
-    """Scanlines (filter byte first) with the filter chosen per row: None, Sub, Up, Average or
-    Paeth, whichever gives the smallest sum of absolute filtered bytes (libpng's heuristic).
-    The encoder side of every filter depends only on the raw bytes, so all rows are filtered
-    at once."""
-    height, width, channels = array.shape
-    raw = array.reshape(height, width * channels).astype(np.int16)
-    left = np.zeros_like(raw)
-    left[:, channels:] = raw[:, :-channels]
-    up = np.zeros_like(raw)
-    up[1:] = raw[:-1]
-    up_left = np.zeros_like(raw)
-    up_left[1:, channels:] = raw[:-1, :-channels]
-    estimate = left + up - up_left
-    distance_left, distance_up, distance_up_left = (np.abs(estimate - v) for v in (left, up, up_left))
-    paeth = np.where((distance_left <= distance_up) & (distance_left <= distance_up_left), left,
-                     np.where(distance_up <= distance_up_left, up, up_left))
-    candidates = np.stack([raw, raw - left, raw - up, raw - (left + up) // 2, raw - paeth]) & 0xFF
-    cost = np.abs(candidates.astype(np.uint8).view(np.int8).astype(np.int32)).sum(axis=2)  # (5, H)
-    chosen = np.argmin(cost, axis=0)
-    rows = candidates[chosen, np.arange(height)].astype(np.uint8)
-    return np.concatenate([chosen.astype(np.uint8)[:, None], rows], axis=1)
-
-
-def encode_png(pixels: np.ndarray, compression: int = 6, adaptive_filter: bool = False) -> bytes:
-    """An 8-bit PNG of an (H, W), (H, W, 3) or (H, W, 4) uint8 array, row 0 at the top.
-
-    Rows are written unfiltered, which suits flat charts; ``adaptive_filter`` picks a filter
-    per row, which halves the size of rendered images."""
-    array = np.asarray(pixels)
-    if array.dtype != np.uint8:
-        raise ValueError(f"PNG pixels must be uint8, got {array.dtype}")
-    if array.ndim == 2:
-        array = array[:, :, None]
-    if array.ndim != 3 or array.shape[2] not in _COLOR_TYPES or array.shape[0] < 1 or array.shape[1] < 1:
-        raise ValueError(f"PNG pixels must be (H, W), (H, W, 3) or (H, W, 4), got {np.shape(pixels)}")
-    height, width, channels = array.shape
-    if adaptive_filter:
-        raw = _adaptive_filter_rows(array)
-    else:  # filter type 0 (None) on every scanline: a zero byte in front of each row
-        raw = np.concatenate([np.zeros((height, 1), np.uint8), array.reshape(height, -1)], axis=1)
-    header = struct.pack(">IIBBBBB", width, height, 8, _COLOR_TYPES[channels], 0, 0, 0)
-    return (PNG_SIGNATURE + _chunk(b"IHDR", header)
-            + _chunk(b"IDAT", zlib.compress(raw.tobytes(), compression)) + _chunk(b"IEND", b""))
-
-
-def write_png(path, pixels: np.ndarray) -> None:
-    with open(path, "wb") as handle:
-        handle.write(encode_png(pixels))
+    _legend(image, frame, labels, legend)
+    heading = [frame.label(title, frame.left, 6 + frame.line / 2)] if title else []
+    return ChartPicture(image, tuple(heading + labels))

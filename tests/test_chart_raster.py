@@ -1,23 +1,19 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""hybrid_engine/reports/chart_png.py: PNG encoding and the charts.
+"""hybrid_engine/reports/chart_raster.py: the charts' pixels and the labels handed over with them.
 
-Oracles: zlib and the PNG specification's byte layout read by hand, and OpenImageIO (the
-library Blender reads images with) for the encoder; pixel positions computed from the
-chart's value scale for the bars, the lines and the target line.
+Oracles: pixel positions computed from the chart's value scale for the bars, the lines and
+the target line; the labels' boxes for where the chart must leave room for its text.
 """
 from __future__ import annotations
 
-import struct
 import time
-import zlib
 
 import numpy as np
 import pytest
 
-from hybrid_engine.reports import chart_png
-from image_io import decode_png
-from hybrid_engine.reports.chart_png import (
-    PALETTE, TARGET_COLOR, encode_png, line_chart, nice_step, stacked_bar_chart,
+from hybrid_engine.reports import chart_raster
+from hybrid_engine.reports.chart_raster import (
+    FONT_SIZE, PALETTE, TARGET_COLOR, Label, line_chart, nice_step, stacked_bar_chart,
 )
 
 # A bar's top edge is rounded to a whole pixel row: its height is exact to one row.
@@ -29,51 +25,6 @@ LARGE_CHART_SECONDS = 5.0
 def color_rows(column: np.ndarray, color) -> np.ndarray:
     """Row indices of one image column that have exactly ``color``."""
     return np.flatnonzero(np.all(column == np.array(color, np.uint8), axis=-1))
-
-
-# ---------------------------------------------------------------------------------------------
-# PNG
-
-@pytest.mark.parametrize("shape", [(1, 1, 3), (3, 7, 3), (5, 257, 4), (9, 2), (64, 33, 3)])
-def test_png_round_trip_is_bit_exact(rng, shape, tmp_path):
-    """What encode_png writes, OpenImageIO (Blender's image library) reads back exactly."""
-    pixels = rng.integers(0, 256, size=shape, dtype=np.uint8)
-    decoded = decode_png(encode_png(pixels), tmp_path)
-    expected = pixels if pixels.ndim == 3 else pixels[:, :, None]
-    assert decoded.shape == expected.shape
-    np.testing.assert_array_equal(decoded, expected)
-
-
-def test_png_bytes_follow_the_specification(rng):
-    """Read the file by hand: signature, IHDR fields, CRC-32 of every chunk, one filter byte
-    (0) in front of each row of the zlib stream, IEND last."""
-    pixels = rng.integers(0, 256, size=(4, 6, 3), dtype=np.uint8)
-    data = encode_png(pixels)
-    assert data[:8] == b"\x89PNG\r\n\x1a\n"
-    offset, chunks = 8, []
-    while offset < len(data):
-        (length,) = struct.unpack(">I", data[offset:offset + 4])
-        tag = data[offset + 4:offset + 8]
-        body = data[offset + 8:offset + 8 + length]
-        (crc,) = struct.unpack(">I", data[offset + 8 + length:offset + 12 + length])
-        assert crc == zlib.crc32(tag + body) & 0xFFFFFFFF, tag
-        chunks.append((tag, body))
-        offset += 12 + length
-    assert [tag for tag, _ in chunks] == [b"IHDR", b"IDAT", b"IEND"]
-    width, height, depth, color_type, compression, filtering, interlace = struct.unpack(">IIBBBBB", chunks[0][1])
-    assert (width, height, depth, color_type, compression, filtering, interlace) == (6, 4, 8, 2, 0, 0, 0)
-    rows = np.frombuffer(zlib.decompress(chunks[1][1]), np.uint8).reshape(4, 1 + 6 * 3)
-    assert np.all(rows[:, 0] == 0)
-    np.testing.assert_array_equal(rows[:, 1:].reshape(4, 6, 3), pixels)
-
-
-def test_encoder_rejects_what_png_cannot_hold():
-    with pytest.raises(ValueError, match="uint8"):
-        encode_png(np.zeros((2, 2, 3), np.float32))
-    with pytest.raises(ValueError, match=r"\(H, W, 3\)"):
-        encode_png(np.zeros((2, 2, 2), np.uint8))
-    with pytest.raises(ValueError):
-        encode_png(np.zeros((0, 4, 3), np.uint8))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -109,8 +60,8 @@ def test_stacked_bars_have_heights_proportional_to_pass_times():
     frames = [10, 11, 12]
     series = {"first": [2.0, 4.0, 1.0], "second": [6.0, 2.0, 3.0]}
     colors = [PALETTE[0], PALETTE[1]]
-    image = stacked_bar_chart(frames, series, colors=colors, width=600, height=400)
-    frame = chart_png._Frame(600, 400, ["first", "second"], 2)
+    image = stacked_bar_chart(frames, series, colors=colors, width=600, height=400).pixels
+    frame = chart_raster._Frame(600, 400, ["first", "second"], FONT_SIZE)
     plot_height = frame.plot_height
     y_max = 10.0  # tallest stack 8 ms * 1.05 rounded up to the 2-ms step
     bar_width = frame.plot_width / 3
@@ -124,8 +75,8 @@ def test_stacked_bars_have_heights_proportional_to_pass_times():
 
 
 def test_target_line_lies_at_the_target_frame_time():
-    image = stacked_bar_chart([1, 2], {"pass": [10.0, 20.0]}, target_ms=25.0, width=500, height=300)
-    frame = chart_png._Frame(500, 300, ["pass", "TARGET 25.0 MS"], 2)
+    image = stacked_bar_chart([1, 2], {"pass": [10.0, 20.0]}, target_ms=25.0, width=500, height=300).pixels
+    frame = chart_raster._Frame(500, 300, ["pass", "Target 25.0 ms"], FONT_SIZE)
     frame.y_max = 30.0  # 25 ms * 1.05 rounded up to the 5-ms step
     expected_row = int(round(float(frame.y_pixel(25.0))))
     red_rows = color_rows(image[:, frame.left + 1], TARGET_COLOR)
@@ -135,8 +86,8 @@ def test_target_line_lies_at_the_target_frame_time():
 def test_a_far_target_is_named_off_scale_instead_of_squashing_the_bars():
     """1 ms frames against a 41.7 ms target: the bars keep the plot's height."""
     image = stacked_bar_chart([1, 2], {"pass": [1.0, 1.0]}, target_ms=41.7, target_fps=24.0,
-                              width=500, height=300)
-    frame = chart_png._Frame(500, 300, ["pass", "TARGET 24 FPS 41.7 MS (OFF SCALE)"], 2)
+                              width=500, height=300).pixels
+    frame = chart_raster._Frame(500, 300, ["pass", "Target 24 FPS 41.7 ms (off scale)"], FONT_SIZE)
     column = frame.left + frame.plot_width // 4
     assert bar_rows(image, column, PALETTE[0]) > 0.8 * frame.plot_height
     assert color_rows(image[frame.top:frame.bottom, column], TARGET_COLOR).size == 0
@@ -144,8 +95,8 @@ def test_a_far_target_is_named_off_scale_instead_of_squashing_the_bars():
 
 def test_legend_shows_a_swatch_for_every_series():
     names = [f"pass_{i}" for i in range(5)]
-    image = stacked_bar_chart([1], {name: [1.0] for name in names}, width=700, height=400)
-    frame = chart_png._Frame(700, 400, names, 2)
+    image = stacked_bar_chart([1], {name: [1.0] for name in names}, width=700, height=400).pixels
+    frame = chart_raster._Frame(700, 400, names, FONT_SIZE)
     legend = image[:, frame.legend_x:]
     for color in PALETTE[:5]:
         assert np.all(legend == np.array(color, np.uint8), axis=-1).sum() >= frame.swatch ** 2
@@ -154,8 +105,8 @@ def test_legend_shows_a_swatch_for_every_series():
 def test_line_chart_passes_through_each_value():
     frames = [1, 2, 3, 4]
     series = {"slow": [40.0, 30.0, 35.0, 45.0], "fast": [10.0, 12.0, 8.0, 9.0]}
-    image = line_chart(frames, series, width=600, height=400)
-    frame = chart_png._Frame(600, 400, list(series), 2)
+    image = line_chart(frames, series, width=600, height=400).pixels
+    frame = chart_raster._Frame(600, 400, list(series), FONT_SIZE)
     frame.y_max = 50.0
     margin = 4
     for (name, values), color in zip(series.items(), PALETTE):
@@ -181,8 +132,69 @@ def test_a_hundred_thousand_frames_draw_quickly_and_fill_the_plot(rng):
     frames = np.arange(100_000)
     series = {"a": rng.uniform(1, 2, frames.size), "b": rng.uniform(1, 2, frames.size)}
     start = time.perf_counter()
-    image = stacked_bar_chart(frames, series)
+    image = stacked_bar_chart(frames, series).pixels
     assert time.perf_counter() - start < LARGE_CHART_SECONDS
-    frame = chart_png._Frame(1000, 520, ["a", "b"], 2)
+    frame = chart_raster._Frame(1000, 520, ["a", "b"], FONT_SIZE)
     bottom_row = image[frame.bottom - 1, frame.left:frame.right]
     assert np.all(bottom_row == np.array(PALETTE[0], np.uint8))  # every column has a bar
+
+
+# ---------------------------------------------------------------------------------------------
+# Labels: the core hands its text over and draws none
+
+def clipped_box(label: Label, image: np.ndarray) -> tuple[slice, slice]:
+    """The rows and columns of a label's box inside the image."""
+    x0, y0, x1, y1 = label.box()
+    height, width = image.shape[:2]
+    return slice(max(y0, 0), min(y1, height)), slice(max(x0, 0), min(x1, width))
+
+
+CHARTS = {
+    "stacked_bars": lambda: stacked_bar_chart([10, 11, 12], {"shade": [2.0, 4.0, 1.0], "trace": [6.0, 2.0, 3.0]},
+                                              target_ms=1000 / 24, target_fps=24.0, title="Chess - HYBRID - 3 frames"),
+    "lines": lambda: line_chart([10, 11, 12], {"HYBRID": [8.0, 6.0, 4.0], "FULL_BVH": [30.0, 20.0, 25.0]},
+                                target_ms=25.0, title="Chess - frame time - HYBRID vs FULL_BVH"),
+}
+
+
+@pytest.mark.parametrize("chart", CHARTS, ids=list(CHARTS))
+def test_a_chart_hands_over_its_title_ticks_legend_and_axis_titles_as_labels(chart):
+    """The core has no font engine: every piece of text must reach the writer as a label."""
+    picture = CHARTS[chart]()
+    texts = [label.text for label in picture.labels]
+    assert texts[0].startswith("Chess - ")  # the title first
+    assert {"Frame", "Time (ms)", "0", "10", "11", "12"} <= set(texts)
+    series = ["shade", "trace"] if chart == "stacked_bars" else ["HYBRID", "FULL_BVH"]
+    assert set(series) <= set(texts)
+    assert any(text.startswith("Target") for text in texts)
+    assert all(label.size == FONT_SIZE and label.color == chart_raster.TEXT for label in picture.labels)
+
+
+@pytest.mark.parametrize("chart", CHARTS, ids=list(CHARTS))
+def test_a_charts_pixels_leave_every_label_box_empty_for_the_writer(chart):
+    """Text-free pixels: inside each label's box the chart is one flat background colour (no
+    burned-in text, and nothing a label would be drawn over)."""
+    picture = CHARTS[chart]()
+    image = picture.pixels
+    assert image.shape == (520, 1000, 3) and image.dtype == np.uint8
+    assert not np.all(image == np.array(chart_raster.TEXT, np.uint8), axis=-1).any()
+    for label in picture.labels:
+        rows, columns = clipped_box(label, image)
+        region = image[rows, columns].reshape(-1, 3)
+        assert region.size, label
+        assert (region == np.array(chart_raster.BACKGROUND, np.uint8)).all(), label
+
+
+@pytest.mark.parametrize(("align", "columns"), [("left", (100, 139)), ("center", (80, 120)), ("right", (61, 100))])
+def test_a_label_box_lies_at_its_anchor_as_aligned(align, columns):
+    """'AB3x' is estimated at 0.75 + 0.75 + 0.65 + 0.6 = 2.75 ems, 38.5 pixels at 14 pixels
+    to the em, left of, around or right of x = 100 (x0 rounded down, x1 up); its rows are a
+    line of text (1.2 ems) centred on y = 50."""
+    x0, y0, x1, y1 = Label("AB3x", 100, 50, 14, align=align).box()
+    assert (x0, x1) == columns
+    assert (y0, y1) == (41, 59)
+
+
+def test_a_label_refuses_an_unknown_alignment():
+    with pytest.raises(ValueError, match="align"):
+        Label("x", 0, 0, align="middle")

@@ -534,15 +534,15 @@ def format_frame_table(frame: dict) -> str:
         f"({frame['triangles_bvh']} in the near-cube BVH, {frame['objects_near']} of "
         f"{frame['objects_total']} objects near), {frame['resolution']}, max depth "
         f"{frame['max_depth']}, cube faces {frame['cube_resolution']}, near size {frame['near_size']:g}",
-        f"{'pass':<16} {'HYBRID ms':>10} {'FULL_BVH ms':>12}",
+        f"{'pass':<18} {'HYBRID ms':>10} {'FULL_BVH ms':>12}",
     ]
     hybrid, full = frame["passes_hybrid"], frame["passes_full_bvh"]
     names = list(hybrid) + [name for name in full if name not in hybrid]
     for name in names:
         h = f"{hybrid[name]:>10.1f}" if name in hybrid else f"{'-':>10}"
         f = f"{full[name]:>12.1f}" if name in full else f"{'-':>12}"
-        lines.append(f"{name:<16} {h} {f}")
-    lines.append(f"{'frame (median)':<16} {frame['hybrid_ms']:>10.1f} {frame['full_bvh_ms']:>12.1f}")
+        lines.append(f"{name:<18} {h} {f}")
+    lines.append(f"{'frame (median)':<18} {frame['hybrid_ms']:>10.1f} {frame['full_bvh_ms']:>12.1f}")
     lines.append(
         f"speedup {frame['speedup']:.2f} (bar {FRAME_SPEEDUP_BAR:g}: "
         f"{'met' if frame['speedup'] >= FRAME_SPEEDUP_BAR else 'NOT met'}; without upload "

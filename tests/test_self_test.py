@@ -3,10 +3,8 @@
 it passes on this machine, and a shader broken on purpose makes it fail, naming the shader."""
 from __future__ import annotations
 
-import pytest
-
-from hybrid_engine.reports import self_test
 from hybrid_engine.gpu import shader_loader
+from hybrid_engine.reports import self_test
 
 
 def test_the_self_test_passes_here(gl):

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Image pixels for textures and the environment, read once per image content.
 
-Reading ``Image.pixels`` costs tens of milliseconds per megapixel: pixels are kept by what
+Reading ``Image.pixels`` is slow, in proportion to the image's size: pixels are kept by what
 identifies their content, so playback frames and viewport redraws do not read them again.
 Byte images are converted to the scene's working space by OpenColorIO (colour.py).
 """
@@ -16,7 +16,8 @@ from . import tell
 
 # Pixels of images read so far, keyed by what identifies their content (``_image_key``): a
 # playback frame or a viewport redraw reuses them instead of reading ``Image.pixels`` again
-# (tens of milliseconds per megapixel). Least recently used images are dropped beyond this.
+# (slow, in proportion to the image's size). Least recently used images are dropped beyond
+# this.
 IMAGE_CACHE_BYTES = 1 << 30
 _image_cache: OrderedDict[tuple, np.ndarray] = OrderedDict()
 # The environment's RGB pixels, kept as one array per image content (``environment_pixels``).

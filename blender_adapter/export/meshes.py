@@ -23,7 +23,8 @@ _EXACT_READ_LIMIT = 4096
 # half-triangle normals, as in Blender's is_quad_flip_v3_first_third_fast, is below this.
 _QUAD_CONVEX_COS = -0.1
 # Meshes above this many triangles skip the closed-surface check (solids.py) and draw
-# two-sided: the check sorts 3 edges per triangle, ~0.3 s per million.
+# two-sided: the check sorts 3 edges per triangle on the host, a cost that grows with the
+# mesh, so a very large mesh is spared it.
 CLOSED_CHECK_MAX_TRIANGLES = 1_000_000
 
 

@@ -27,10 +27,11 @@
 //   clear sheet. The vertex stage drops their triangles (gbuffer.vert.glsl), so that no
 //   variant of this shader discards and all keep the early depth test.
 // * The textures are not sampled: location 1 (RGBA32F) holds xy = UV, z = UV density (sqrt
-//   of UV area per world area, as tracer.pack_triangle_uvs gives BVH triangles), and
-//   location 2 (RG16F) the geometric normal's octahedral coordinates. The tracer samples
-//   the textures at the few texels its rays hit, with the ray cone's mip level, as at BVH
-//   hits (hybrid_trace.comp.glsl), instead of sampling them for all 6 x res^2 texels.
+//   of UV area per world area, as the UV rows of scene_upload/instance_transform.comp.glsl
+//   give BVH triangles), and location 2 (RG16F) the geometric normal's octahedral
+//   coordinates. The tracer samples the textures at the few texels its rays hit, with the
+//   ray cone's mip level, as at BVH hits (hybrid_trace.comp.glsl), instead of sampling them
+//   for all 6 x res^2 texels.
 // Samplers: u_textures (textures.glsl), sampled with the UV derivatives of the fragment
 // (mipmaps, anisotropic filtering). A normal map bends the shading normal written at
 // location 0 (both variants).

@@ -24,9 +24,9 @@
 //
 // Kept simple on purpose: while-while traversal (Aila & Laine 2009), postponed leaf tests, a
 // register short stack, a shorter stack and an FMA slab test on a precomputed origin *
-// inverse direction (which would void Ize's bound) were each slower or no faster on
-// llvmpipe (docs/BENCHMARKS.md). The node fetch's cache misses, the per-lane load loops and
-// the triangle tests take most of the time.
+// inverse direction (which would void Ize's bound) each add code to the loop without touching
+// what takes the time on llvmpipe: the node fetch's cache misses, the per-lane load loops and
+// the triangle tests.
 //
 // Ray-triangle test: the watertight algorithm of Woop, Benthin and Wald, "Watertight
 // Ray/Triangle Intersection", JCGT 2(1), 2013: shear the triangle into ray space, decide

@@ -55,8 +55,8 @@
 // K - b_K (b_K the bias at the back face): the object ends there. A ray that reaches the
 // object from behind (crossing K, or entering T nearer K than S) hits the back layer's
 // texel: the hidden side, with its own normal, material and UV. A compile-time switch, not a
-// uniform: its code, even switched off, made the marches 40-50 % slower on llvmpipe (the
-// loops' register pressure), so without it the shaders hold none of it.
+// uniform: its code, even switched off, slows the marches on llvmpipe (it adds to the loops'
+// register pressure), so without it the shaders hold none of it.
 //
 // Hierarchical march (settings.cube_march HIERARCHICAL, the default). The same rule made
 // continuous: the ray is followed through every texel T of the face it crosses, entering T
@@ -173,9 +173,10 @@ struct CubeMarch {
 };
 
 // The face of atlas column x for faces `res` texels wide: x / res, in float arithmetic
-// because a CPU driver has no vector integer division (the pyramid's base pass spent a fifth
-// of its time dividing). Exact: x + 0.5 lies at least 0.5 / res from a multiple of res,
-// far more than the rounding of a float division of numbers below 2^24.
+// because a CPU driver has no vector integer division and divides lane by lane, and the
+// pyramid's base pass divides once for every texel. Exact: x + 0.5 lies at least 0.5 / res
+// from a multiple of res, far more than the rounding of a float division of numbers below
+// 2^24.
 // Steps the marches of this invocation took so far: pyramid cells visited (hierarchical
 // march) or samples taken (sampled march; the bisection of a hit not counted). Diagnostics:
 // the tracer's march-step view and counters, the probe's output.

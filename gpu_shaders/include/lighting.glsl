@@ -17,10 +17,10 @@
 
 // Uniform blocks, not storage blocks: every pixel and hit reads them at indices that few
 // lanes disagree on, which a GPU serves from its constant cache and llvmpipe as gathers,
-// where a storage-block read is a loop over the SIMD lanes (the deferred pass 25 % and
-// the trace 10 % faster on Chess). Their sizes are MAX_LIGHTS and MAX_SHADOW_SLOTS of
-// hybrid_engine/passes/lighting/resources.py, 64 KiB and 48 KiB, within every desktop driver's
-// 64 KiB block limit.
+// where a storage-block read is a loop over the SIMD lanes; the lamp loop of the deferred
+// pass and of every traced hit runs that read once per lamp. Their sizes are MAX_LIGHTS and
+// MAX_SHADOW_SLOTS of hybrid_engine/passes/lighting/resources.py, 64 KiB and 48 KiB, within
+// every desktop driver's 64 KiB block limit.
 layout(std140) uniform LightBuffer { Light lights[1024]; };
 layout(std140) uniform ShadowSlotBuffer { ShadowSlot shadow_slots[512]; };
 

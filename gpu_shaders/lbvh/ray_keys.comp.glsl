@@ -6,9 +6,11 @@
 // Why: llvmpipe runs 8 invocations per SIMD vector and a vector loops until its slowest lane
 // is done, and each lane fetches its own nodes. Rays that start close together (and, for
 // reflection rays off a smooth surface, leave in similar directions) visit similar nodes: the
-// vector's lanes finish together and share cached nodes (docs/BENCHMARKS.md, Traversal).
-// 8 bits per axis order the rays about as well as 10 at three sort passes instead of four;
-// adding the direction's octant or a coarse direction code to the key did not help.
+// vector's lanes finish together and share cached nodes.
+// 8 bits per axis order the rays about as well as 10 at three sort passes instead of four.
+// The key holds no direction: rays that start close together off one surface already leave
+// in similar directions, so the direction's octant or a coarse direction code would add key
+// bits without ordering them better.
 //
 // Host defines: LOCAL_SIZE (the root is node 0, always in the first block of a split node
 //   array, so the split defines are not needed).

@@ -11,8 +11,8 @@
 //
 // Work comes as segments (instance, first local triangle, count, first output row) with the
 // exclusive prefix of their counts; an invocation finds its segment by binary search. The
-// outputs are bound from the first row of the chunk being written (hybrid_engine/
-// instance_transform.py), so every index fits one storage block.
+// outputs are bound from the first row of the chunk being written (hybrid_engine/passes/
+// scene_upload/instance_transform.py), so every index fits one storage block.
 //
 // Host defines: LOCAL_SIZE.
 // Storage blocks: MeshPositions, MeshNormals (vec3 as 3 floats), MeshCornerVertices,
@@ -137,7 +137,7 @@ void main() {
     int slot = mesh_slots[tri];
     world_materials[row] = (slot >= 0 && slot < inst.info.w) ? slot_materials[inst.info.z + slot] : 0;
 
-    // The tracer's texture level (tracer.pack_triangle_uvs).
+    // The tracer's texture level (uv_per_world of textures.glsl's texture_lod).
     float world_area = length(cross(p1 - p0, p2 - p0));
     vec2 f1 = uv1 - uv0, f2 = uv2 - uv0;
     float uv_area = abs(f1.x * f2.y - f1.y * f2.x);

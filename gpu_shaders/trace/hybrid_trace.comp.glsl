@@ -123,7 +123,7 @@ vec3 interpolated_normal(int tri, vec2 bary) {
 }
 
 #include "textures.glsl"
-// struct TriangleUV (hybrid_engine/passes/trace/tracer.py TRIANGLE_UV_DTYPE)             // total: 32 bytes
+// struct TriangleUV (GPUScene.uv_rows; scene_upload/instance_transform.comp.glsl)   // total: 32 bytes
 //   vec4 uv01;       xy = UV of corner 0, zw = UV of corner 1
 //   vec4 uv2_scale;  xy = UV of corner 2, z = UV units per metre (sqrt of UV area over
 //                    world area; 0 when degenerate), w unused
@@ -487,7 +487,7 @@ vec3 cosine_direction(vec3 n, vec3 g, vec2 xi) {
 }
 
 #ifdef WORLD_LIGHT_PASS
-// The World's light on a diffuse primary pixel (HybridTracer.gather_world_light): one ray in a
+// The World's light on a diffuse primary pixel (tracer.WorldLightRays): one ray in a
 // cosine-distributed direction, traced like a reflection through the BVH and the cube map.
 // Escaping, it brings the sky's radiance; meeting a surface, that surface's light (lamps
 // with shadows, emission, and the sky's irradiance if a second ray from there escapes: one
@@ -641,8 +641,8 @@ void main() {
         // The World's light at the first bounce's hits near the camera is hidden as at
         // primary pixels: one cosine ray within AO Distance through the BVH (hybrid ambient
         // occlusion, the paper's reference [14]), a fresh direction per sample. Hits in the
-        // cube map take the whole sky: marching one more ray from each of them cost Chess's
-        // frame 6 % and its trace 19 % (docs/BENCHMARKS.md), against 2 % here.
+        // cube map take the whole sky: one more ray from each of them would be a march
+        // through the cube map, which costs the trace far more than these short BVH rays.
         if (ray.depth == 1 && h.kind == HIT_BVH && u_ao_distance > 0.0 && hs.diffuse_weight > 0.0) {
             vec3 d_ao = cosine_direction(hs.n_facing, hs.g_facing, lobe_random(0x5ca3));
             push_occlusion(offset_origin(h.position, hs.g_facing), d_ao, world, u_ao_distance);

@@ -1,20 +1,21 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Per-triangle culling of raster draws, step 1: which triangles of a view's draw list can
 // produce a fragment. Used for the six G-buffer cube-map faces (paper §3.2), whose draws are
-// dominated by triangles that produce none: a distant chess piece of 5,500 triangles covers
-// a few hundred texels of a 512^2 face, so most of its triangles fall between texel centres,
-// and half face away. The rasterizer would set each of them up only to discard it; here
-// one test per triangle drops it first (the "small primitive" and back-face tests of
-// GPU-driven pipelines), and only the survivors are drawn.
+// dominated by triangles that produce none: a distant detailed object covers far fewer
+// texels of a face than it has triangles, so most of its triangles fall between texel
+// centres, and those of its far side face away. The rasterizer would set each of them up
+// only to discard it; here one test per triangle drops it first (the "small primitive" and
+// back-face tests of GPU-driven pipelines), and only the survivors are drawn.
 //
 // A triangle is dropped (and only then) when the GL would rasterize nothing of it:
 //   * all three vertices lie outside the same clip plane (x, y or z of [-w, w]);
 //   * all three have w > 0 and the bounding box of the projected triangle, clamped to the
 //     view and widened by CULL_PIXEL_EPS, holds no pixel centre (the GL samples at centres;
 //     the widening absorbs the rasterizer's fixed-point snapping);
-//   * its object is closed and back-face cullable in this view (raster.py draw_world: closed,
-//     outward wound, wholly beyond the near plane) and its window-space area, signed by the
-//     view's front-face winding, is <= 0 -- what glCullFace(GL_BACK) would drop.
+//   * its object is closed and back-face cullable in this view (view_cull/draw.py
+//     draw_world: closed, outward wound, wholly beyond the near plane) and its window-space
+//     area, signed by the view's front-face winding, is <= 0 -- what glCullFace(GL_BACK)
+//     would drop.
 // A triangle crossing the camera plane (some w <= 0) is kept: the clipper decides.
 //
 // Work list: the host concatenates, view by view, segments (first triangle, count) of the

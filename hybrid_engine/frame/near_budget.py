@@ -9,8 +9,8 @@ than model them, the controller measures: it watches the frames rendered at one 
 when their median leaves the budget's tolerance band it steps the size in log space by the
 amount the last two sizes' medians say it takes (a secant on log frame time over log size),
 bounded per step and by the artist's limits. It takes a larger cube to cost more, as it does
-where the BVH side dominates (the scenes measured); a secant that says otherwise is taken for
-noise. Three things keep it from flickering:
+wherever the BVH side dominates; a secant that says otherwise is taken for noise. Three
+things keep it from flickering:
 
 - the hysteresis band: inside ``budget * (1 ± tolerance)`` nothing changes;
 - a decision needs ``window`` frames at the current size (one frame when the budget is
@@ -18,10 +18,13 @@ noise. Three things keep it from flickering:
 - the median of those frames, not the last one, is compared.
 
 The band, the window and the urgent ratio were chosen by replaying frame times recorded at
-several fixed sizes on the library's Chess and Sponza camera paths
-(``scripts/budget_replay.py``): a band of ±10 % decided on two frames, acting at once on a
-frame more than 15 % over, keeps more frames within ±15 % of the budget on both paths, with
-and without added noise, than wider bands, longer windows or a later urgent reaction.
+several fixed sizes along camera paths, with and without added noise
+(``scripts/budget_replay.py``), for the most frames within the acceptance band (±15 % of the
+budget). The median of two frames rarely leaves a band of ±10 % by noise alone, and the band
+is narrow enough for the size to follow a changing load closely; a wider band or a longer
+window leaves frames off budget for longer before the size moves, and acting at once on a
+frame past the acceptance band, rather than later, keeps a rising load from running over
+for a whole window.
 """
 from __future__ import annotations
 
@@ -54,8 +57,8 @@ class NearCubeBudget:
     min_size: float
     max_size: float
     size: float  # the size the next frame renders with
-    # Inside this band nothing changes. A still frame's time wanders by about 5 % on the
-    # machines measured; the median of two frames rarely leaves ±10 % by noise alone.
+    # Inside this band nothing changes. It is wider than a still frame's time wanders from
+    # frame to frame, so the median of two frames rarely leaves it by noise alone.
     tolerance: float = 0.10
     window: int = 2
     max_step: float = 1.25  # largest factor between two successive sizes

@@ -2,10 +2,10 @@
 """The one OpenGL context of the process.
 
 Every renderer (RASTER, the LBVH builder, the hybrid tracer) shares a single standalone
-moderngl context. Creating a context costs tens of milliseconds and compiled programs
-belong to their context, so making one per frame or per renderer would defeat the shader
-cache and leak driver objects. Blender re-creates viewport engines on every frame change,
-hence the context lives at module level and outlives any engine instance.
+moderngl context. Creating a context is slow and compiled programs belong to their
+context, so making one per frame or per renderer would defeat the shader cache and leak
+driver objects. Blender re-creates viewport engines on every frame change, hence the
+context lives at module level and outlives any engine instance.
 
 OpenGL 4.3 is the floor because the LBVH and the tracer need compute shaders and shader
 storage buffers (both core in 4.3).
@@ -139,7 +139,7 @@ def limits() -> GLLimits:
         _state.limits = GLLimits(
             max_ssbo_block_bytes=int(info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27)),
             max_compute_workgroup_count=tuple(
-                int(info.get(f"GL_MAX_COMPUTE_WORK_GROUP_COUNT")[i]) for i in range(3)
+                int(info.get("GL_MAX_COMPUTE_WORK_GROUP_COUNT")[i]) for i in range(3)
             ) if isinstance(info.get("GL_MAX_COMPUTE_WORK_GROUP_COUNT"), tuple) else (65535,) * 3,
             max_compute_workgroup_size=tuple(info.get("GL_MAX_COMPUTE_WORK_GROUP_SIZE", (1024, 1024, 64))),
             max_compute_invocations=int(info.get("GL_MAX_COMPUTE_WORK_GROUP_INVOCATIONS", 1024)),

@@ -23,7 +23,8 @@ LIGHT_KINDS = {"POINT": LIGHT_POINT, "SUN": LIGHT_SUN, "SPOT": LIGHT_SPOT, "AREA
 
 @dataclass
 class MaterialTable:
-    """Per-material parameters, derived from Blender's Principled BSDF (see DESIGN.md).
+    """Per-material parameters, derived from Blender's Principled BSDF (see README.md,
+    "Materials and the per-material thickness").
 
     ``reflectivity`` is the weight of the metal lobe (Metallic), tinted by ``base_color``;
     ``transmission`` the weight of the glass lobe of index ``ior``; what remains is diffuse,

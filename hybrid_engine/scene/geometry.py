@@ -28,7 +28,8 @@ class GeometryEdit:
     objects whose rows it rewrote in place since ``generation - 1``, with the layout (object
     ranges, triangle count, UVs present) unchanged; None when it rebuilt the arrays. A
     consumer that uploaded ``generation - 1`` of the same ``source`` re-sends just those
-    objects' rows instead of comparing every triangle (scene_delta.GeometryTracker)."""
+    objects' rows instead of comparing every triangle (InstancedGeometry.from_world,
+    InstanceTransformer.update)."""
 
     source: int
     generation: int

@@ -61,8 +61,9 @@ def principled_to_params(
 ) -> dict:
     """Map Principled BSDF inputs to one ``MaterialTable.from_rows`` row.
 
-    The layers (DESIGN.md "Materials", gpu_shaders/include/shading.glsl), with the metallic
-    layer on top of the transmissive one as in the Principled BSDF itself:
+    The layers (README.md "Materials and the per-material thickness",
+    gpu_shaders/include/shading.glsl), with the metallic layer on top of the transmissive one
+    as in the Principled BSDF itself:
 
     * ``reflectivity = metallic`` -- the metal lobe, tinted by ``base_color``;
     * ``transmission = transmission * (1 - metallic)`` -- glass of index ``ior``;

@@ -6,10 +6,10 @@ For a closed surface whose triangles all wind counter-clockwise seen from outsid
 every back-facing triangle an outside eye could see lies behind a front-facing triangle of
 the same surface (a ray that reaches a back face from outside has entered the solid through
 a front face first), so culling it changes no depth and no G-buffer texel. On a software
-rasterizer, where per-triangle setup dominates, that removes a third of the raster passes'
-cost (shadow maps, primary and cube-map G-buffers). The condition "eye outside" is checked
-per view and object in :mod:`.frustum` (the object must lie wholly in front of the near
-plane: an object cut by the near plane shows its inside).
+rasterizer, where per-triangle setup dominates, that spares the setup of every back face, a
+large part of the raster passes' cost (shadow maps, primary and cube-map G-buffers). The
+condition "eye outside" is checked per view and object in :mod:`.frustum` (the object must
+lie wholly in front of the near plane: an object cut by the near plane shows its inside).
 """
 from __future__ import annotations
 

@@ -88,8 +88,8 @@ KEYS_PER_CHUNK_HARDWARE = 256
 BOUNDS_ITEMS_PER_INVOCATION = 16
 # Ray sorting before tracing (ray_keys.comp.glsl): from this many rays on, trace_buffers
 # orders the rays by a Morton code of their origins (a 3-pass radix sort of 24-bit keys) so
-# that the 8 lanes of a SIMD vector trace neighbouring rays. Below a few thousand rays its
-# ten dispatches cost more than the coherence saves (docs/BENCHMARKS.md, Traversal).
+# that the 8 lanes of a SIMD vector trace neighbouring rays. The sort's ten dispatches have a
+# fixed cost each, which a few thousand rays' coherence does not pay back.
 RAY_SORT_MIN_RAYS = 4096
 RAY_KEY_BITS = 24
 RAY_SORT_PASSES = math.ceil(RAY_KEY_BITS / RADIX_BITS)

@@ -14,8 +14,8 @@ cube map. Culling happens in two stages, as in the paper:
 
 Stage 2 walks only candidate triangles: the host lists the triangles of objects whose bounds
 touch the cube (a slightly larger one, so that the list holds everything stage 1 keeps) and of
-no object, from the object table alone; the Chess frame's 2.15 M triangles shrink to 0.1 M
-before any triangle is read.
+no object, from the object table alone, so the objects near the cube, not the whole
+scene's triangles, set stage 2's work before any triangle is read.
 
 The cube is grown by a small overlap margin (paper: "by introducing a small overlap of the BVH
 and the cube map the possibility of a gap at the boundary due to precision errors is

@@ -39,7 +39,8 @@ Compute shaders have none; the tracer picks the level from a ray cone
 its angular spread times the distance from the camera to the ray's origin plus the hit
 distance (a lower bound of the path length, exact for the first bounce off a flat mirror;
 curved mirrors widen the cone and are sampled too sharp), measured in texels of the hit
-triangle (``uv_per_world`` of ``tracer.pack_triangle_uvs``). The footprint is not
+triangle (``uv_per_world``, the scale in the triangle's UV row that
+``gpu_shaders/scene_upload/instance_transform.comp.glsl`` writes). The footprint is not
 stretched by the grazing angle, so grazing hits are sampled sharper rather than blurrier
 than the G-buffer samples them.
 """

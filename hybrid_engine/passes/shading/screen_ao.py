@@ -10,11 +10,10 @@ multiplies into the World's light. Its reach is the ``ao_distance`` setting, hel
 rest of the lighting data in FrameResources.
 
 The default, not rays through the paper's BVH and cube map (``sky_rays``,
-HybridTracer.gather_world_light): it costs a few depth reads per pixel and is smooth after the
+tracer.WorldLightRays): it costs a few depth reads per pixel and is smooth after the
 shading's 3x3 average, while a ray per pixel through the hybrid structures costs as much as
 a reflection ray; but what it cannot see (geometry off screen, behind the first surface or
-beyond its reach) does not occlude, which leaves enclosed spaces too bright
-(docs/BENCHMARKS.md).
+beyond its reach) does not occlude, which leaves enclosed spaces too bright.
 """
 from __future__ import annotations
 

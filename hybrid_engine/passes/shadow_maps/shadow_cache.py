@@ -2,8 +2,8 @@
 """Static and dynamic shadow-map layers, so that an animation re-renders only what moved.
 
 Paper §3.5 renders the shadow maps every frame. On a GPU that is a small cost; on a software
-rasterizer it is a third of the frame for the 2 M-triangle Chess scene, of which about 70 %
-(boards, floor, resting pieces) never moves. Every shadow slot therefore has two depth
+rasterizer it is a large share of the frame for a scene of millions of triangles, most of
+which (floors, walls, objects at rest) never move. Every shadow slot therefore has two depth
 layers: a *static* one holding the objects that have stayed still, re-rendered only when
 one of them changes (it is demoted) or a moving object has rested long enough to join
 (``PROMOTE_AFTER_FRAMES``), and a *dynamic* one holding the others, re-rendered when one of

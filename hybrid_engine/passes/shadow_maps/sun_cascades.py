@@ -2,14 +2,15 @@
 """Sun shadow cascades: shadow maps fitted to the first stretches of the camera's view.
 
 One orthographic map over the whole scene (shadow_depth.py) spends the same texels on a
-distant corner as next to the camera, where a sun's shadow edges are seen largest: on the
-library's Chess scene its 5 cm texels draw the board frames' shadows as a staircase of
-teeth. Cascaded shadow maps (Engel 2006; the sun lamps of EEVEE and of every real-time
-engine) add maps over nested parts of the view: cascade k covers the camera's frustum from
-its clip start to ``reach * CASCADE_SPLIT ** -(count - k)``, where ``reach`` is how far the
-camera sees into the scene, so two cascades give texels 4 and 16 times finer than the scene
-map near the camera. The lookup (include/lighting.glsl) takes the finest cascade that holds
-a point, else the scene map; the tracer's hits choose the same way, wherever they are.
+distant corner as next to the camera, where a sun's shadow edges are seen largest: over a
+large scene its texels are coarse, and thin objects' shadows near the camera are drawn as
+a staircase of teeth. Cascaded shadow maps (Engel 2006; the sun lamps of EEVEE and of
+every real-time engine) add maps over nested parts of the view: cascade k covers the
+camera's frustum from its clip start to ``reach * CASCADE_SPLIT ** -(count - k)``, where
+``reach`` is how far the camera sees into the scene, so two cascades give texels 4 and 16
+times finer than the scene map near the camera. The lookup (include/lighting.glsl) takes
+the finest cascade that holds a point, else the scene map; the tracer's hits choose the
+same way, wherever they are.
 
 Each cascade is fitted to the bounding sphere of its part of the frustum, with the radius
 rounded up to a quarter octave and the centre snapped to a grid in the sun's frame that is a

@@ -10,8 +10,8 @@ cube-map faces do): a dense mesh far from the camera puts many triangles on ever
 most of them cover no pixel centre or face away. The culling compute pass drops them before
 the rasterizer sets them up, and the images are bit-identical to drawing the object lists.
 On a software GL this matters twice over: vertex processing and triangle setup run on one
-thread there, the compute pass on all of them. A dense model far away (Sponza's dragon
-covers a few thousand pixels) keeps a small fraction of its triangles.
+thread there, the compute pass on all of them. A dense model far away, covering fewer
+pixels than it has triangles, keeps a small fraction of its triangles.
 """
 from __future__ import annotations
 

@@ -2,10 +2,10 @@
 """Per-triangle culling of raster draws on the GPU, for views drawn many triangles at a time.
 
 Per-object frustum culling (:func:`.frustum.visible_objects`) leaves the G-buffer cube map
-(paper §3.2) with the whole far scene: on the Chess frame 2.4 M triangles over the six faces,
-of which about 85 % produce no fragment -- they fall between the texel centres of a 512²
-face, face away, or lie outside the face. A rasterizer sets each of them up before finding
-that out (on a software GL it is most of the pass). Here a compute pass tests every
+(paper §3.2) with the whole far scene over the six faces, and most of a dense far scene's
+triangles produce no fragment -- they fall between the texel centres of a face, face away,
+or lie outside the face. A rasterizer sets each of them up before finding that out (on a
+software GL that set-up is most of the pass). Here a compute pass tests every
 triangle of every view's draw list once (``gpu_shaders/view_cull/view_cull.comp.glsl``: clip
 outcodes, pixel centres inside the projected bounding box, back faces of closed objects)
 and compacts the survivors into an index buffer with one indirect draw command per view

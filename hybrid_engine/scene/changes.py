@@ -14,8 +14,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import numpy as np
-
 
 @dataclass(frozen=True)
 class GeometryDelta:
@@ -41,24 +39,3 @@ class GeometryDelta:
     def everything(cls, count: int, sequence: int = 0) -> "GeometryDelta":
         return cls(full=True, ranges=((0, int(count)),) if count else (), changed_triangles=int(count),
                    sequence=sequence)
-
-
-def range_mask(ranges: np.ndarray, n: int) -> np.ndarray:
-    """Bool per row of ``n``: does row i lie in one of the (first, count) ``ranges``."""
-    marks = np.zeros(n + 1, np.int64)
-    ranges = np.asarray(ranges, np.int64).reshape(-1, 2)
-    np.add.at(marks, ranges[:, 0], 1)
-    np.add.at(marks, ranges[:, 0] + ranges[:, 1], -1)
-    return np.cumsum(marks[:n]) > 0
-
-
-def merge_ranges(mask: np.ndarray, gap: int = 1) -> list[tuple[int, int]]:
-    """(first, count) runs of True in ``mask``; runs closer than ``gap`` rows merged (1: the
-    exact runs)."""
-    idx = np.flatnonzero(mask)
-    if len(idx) == 0:
-        return []
-    breaks = np.flatnonzero(np.diff(idx) > gap)
-    starts = np.r_[idx[0], idx[breaks + 1]]
-    ends = np.r_[idx[breaks], idx[-1]] + 1
-    return [(int(s), int(e - s)) for s, e in zip(starts, ends)]

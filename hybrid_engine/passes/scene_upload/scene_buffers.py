@@ -24,7 +24,7 @@ import numpy as np
 
 from ...gpu.bindings import Bindings
 from ...gpu.dispatch import GrowBuffer, bytes_of
-from ...scene.changes import GeometryDelta, merge_ranges, range_mask
+from ...scene.changes import GeometryDelta
 from ...scene.data import MATERIAL_DTYPE, SceneData
 from ...scene.geometry import InstancedGeometry
 from .instance_transform import OUTPUT_ROW_BYTES, InstanceTransformer
@@ -111,8 +111,14 @@ class GPUScene:
         ranges = ranges[ranges[:, 1] > 0]
         if len(ranges) == 0:
             return GeometryDelta(full=False, sequence=self.sequence)
-        merged = merge_ranges(range_mask(ranges, geometry.triangle_count))
-        return GeometryDelta(full=False, ranges=tuple(merged), changed_triangles=int(ranges[:, 1].sum()),
+        # Objects' ranges follow one another without overlapping: adjacent changed objects are
+        # one range, and the work is per changed object, not per triangle of the scene.
+        ranges = ranges[np.argsort(ranges[:, 0], kind="stable")]
+        starts, ends = ranges[:, 0], ranges[:, 0] + ranges[:, 1]
+        breaks = np.flatnonzero(starts[1:] != ends[:-1])
+        firsts, lasts = np.r_[starts[0], starts[breaks + 1]], np.r_[ends[breaks], ends[-1]]
+        merged = tuple((int(a), int(b - a)) for a, b in zip(firsts, lasts))
+        return GeometryDelta(full=False, ranges=merged, changed_triangles=int(ranges[:, 1].sum()),
                              sequence=self.sequence)
 
     def release(self) -> None:

@@ -157,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{frame.counts.get('triangles_bvh', 0):,} in the near-cube BVH; "
               f"frame {frame.total_ms:.1f} ms, render call {wall:.1f} ms ({frame.timing_source})")
         for name, ms in frame.passes.items():
-            print(f"  {name:<16} {ms:9.2f} ms")
+            print(f"  {name:<18} {ms:9.2f} ms")
 
         provenance = output.with_name(output.stem + "_provenance.png")
         mode = scene.hybrid_rt.mode
@@ -182,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"demo: median frame {summary['frame_ms']['median']:.1f} ms "
                   f"({summary['fps']['median']:.2f} FPS), per-pass means:")
             for name, ms in summary["pass_mean_ms"].items():
-                print(f"  {name:<16} {ms:9.2f} ms")
+                print(f"  {name:<18} {ms:9.2f} ms")
         return 0
     finally:
         addon.unregister()

@@ -24,7 +24,7 @@ dispatches: ``instance_transform``).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -60,16 +60,17 @@ def mesh_store_bytes(mesh: ObjectMesh) -> dict[str, int]:
             "uvs": 24 * n if mesh.uvs is not None else 0}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class _Placement:
-    """Where one mesh lies in the object-space store: its page and its first items there."""
+    """Where one mesh lies in the object-space store (its page and its first items there),
+    and the version of it the store holds."""
 
     page: int
     vertex: int
     normal: int
     triangle: int
     uv: int  # first UV corner, -1: the mesh has none
-    version: int
+    sent: ObjectMesh
 
 
 @dataclass
@@ -119,9 +120,6 @@ class InstanceTransformer:
         self._store = {name: GrowBuffer(ctx, f"instance {name.replace('_', ' ')}") for name in names}
         self._pages: list[dict[str, GrowBuffer]] = []  # the object-space store, page by page
         self._placements: dict[int, _Placement] = {}
-        # The slot and UV arrays each mesh's store holds (compared by identity: a deformed
-        # mesh shares them with its previous version).
-        self._sent: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}
         self._pending: tuple | None = None  # (geometry, instances, outputs) for ``transform``
         self._mesh_order: list[tuple] = []
         self._rows: np.ndarray | None = None
@@ -231,21 +229,18 @@ class InstanceTransformer:
         deformed = set()
         for index, mesh in enumerate(meshes):
             place = self._placements[mesh.mesh_id]
-            if place.version == mesh.version:
+            if place.sent.version == mesh.version:
                 continue
             page = self._pages[place.page]
             page["positions"].write_at(np.ascontiguousarray(mesh.positions, np.float32).tobytes(), place.vertex * 12)
             page["normals"].write_at(np.ascontiguousarray(mesh.normals, np.float32).tobytes(), place.normal * 12)
             # A deformation keeps the slot and UV arrays (the same objects); an edited flat
             # object brings new ones, written into place too.
-            slots, uvs = self._sent[mesh.mesh_id]
-            if mesh.slots is not slots:
+            if mesh.slots is not place.sent.slots:
                 page["slots"].write_at(np.ascontiguousarray(mesh.slots, np.int32).tobytes(), place.triangle * 4)
-            if mesh.uvs is not None and mesh.uvs is not uvs:
+            if mesh.uvs is not None and mesh.uvs is not place.sent.uvs:
                 page["uvs"].write_at(np.ascontiguousarray(mesh.uvs, np.float32).tobytes(), place.uv * 8)
-            self._sent[mesh.mesh_id] = (mesh.slots, mesh.uvs)
-            self._placements[mesh.mesh_id] = _Placement(place.page, place.vertex, place.normal, place.triangle,
-                                                        place.uv, mesh.version)
+            self._placements[mesh.mesh_id] = replace(place, sent=mesh)
             deformed.add(index)
         stats.meshes_uploaded = len(deformed)
         return deformed
@@ -256,7 +251,6 @@ class InstanceTransformer:
         message about a mesh too large for any page."""
         limit = max_block_bytes()
         self._placements = {}
-        self._sent = {}
         pages: list[list[ObjectMesh]] = [[]]
         used = dict.fromkeys(STORE_ARRAYS, 0)
         for mesh in meshes:
@@ -273,11 +267,10 @@ class InstanceTransformer:
                 used = dict.fromkeys(STORE_ARRAYS, 0)
             self._placements[mesh.mesh_id] = _Placement(
                 len(pages) - 1, used["positions"] // 12, used["normals"] // 12, used["slots"] // 4,
-                used["uvs"] // 8 if mesh.uvs is not None else -1, mesh.version)
+                used["uvs"] // 8 if mesh.uvs is not None else -1, mesh)
             for name in STORE_ARRAYS:
                 used[name] += need[name]
             pages[-1].append(mesh)
-            self._sent[mesh.mesh_id] = (mesh.slots, mesh.uvs)
         while len(self._pages) < len(pages):
             index = len(self._pages)
             self._pages.append({name: GrowBuffer(self.ctx, f"instance mesh {name.replace('_', ' ')} (page {index})")

@@ -135,13 +135,8 @@ class HybridTracer:
         traced = traced_resources(settings)
         built = frame.read("bvh") if "bvh" in traced else None
         cube = frame.read("cube_map") if "cube_map" in traced else None
-        gpu = frame.read("world_triangles")
-        scene, targets, resources, view = frame.read("scene"), frame.read("gbuffer"), frame.read("lighting"), frame.view
-        self._run(gpu, scene, view, targets, resources, settings, frame.center, frame.sample, built, cube,
-                  world_light)
-
-    def _run(self, gpu, scene, view: RasterView, targets, resources, settings: RenderSettings, center,
-             sample: int, built, cube, world_light: bool) -> None:
+        gpu, scene = frame.read("world_triangles"), frame.read("scene")
+        targets, resources, view = frame.read("gbuffer"), frame.read("lighting"), frame.view
         ctx = self.ctx
         mode = settings.trace_mode
         diagnostic = is_diagnostic(settings) and not world_light
@@ -175,7 +170,7 @@ class HybridTracer:
         if cube is not None:
             textures.update(cube.textures)
         # Uniforms.
-        center = np.asarray(center, np.float64)
+        center = frame.center
         values = {
             **view.uniforms(),
             "u_mode": TRACE_MODES[mode],
@@ -183,7 +178,7 @@ class HybridTracer:
             "u_near_center": tuple(center),
             "u_near_half": float(settings.near_size),
             "u_bvh_half": float(settings.near_size + overlap_margin(settings.near_size)),
-            "u_sample": int(sample),
+            "u_sample": frame.sample,
         }
         values.update(scene_bound_uniforms(SceneBounds.of(scene)))
         values["u_pixel_width"], values["u_pixel_spread"] = pixel_footprint(

@@ -38,7 +38,7 @@ from dataclasses import dataclass, replace
 import bpy
 import numpy as np
 
-from ..hybrid_engine.frame.accumulation import DEFAULT_FILTER_WIDTH, SampleAccumulator
+from ..hybrid_engine.frame.accumulation import DEFAULT_FILTER_WIDTH, SampleSchedule
 from ..hybrid_engine.frame.antialias import jittered_camera
 from ..hybrid_engine.frame.film import FrameOutputs
 from ..hybrid_engine.gpu.gl_context import GLUnavailableError
@@ -61,7 +61,9 @@ ERROR_PREFIX = "Hybrid RT viewport"
 class ViewportFrame:
     """One frame for ``view_draw``: ``image`` (H, W, 4) float32 linear, row 0 at the bottom,
     to be stretched over ``rect`` = (x0, y0, x1, y1) region pixels; ``error`` is set (and
-    ``image`` may be None) when the frame failed; ``stats`` is the line for the header."""
+    ``image`` may be None) when the frame failed; ``stats`` is the line for the header.
+    ``image`` is the session's read-back array, overwritten by the next frame (a redraw
+    allocates nothing): copy it to keep it."""
 
     image: np.ndarray | None
     rect: tuple[int, int, int, int]
@@ -84,9 +86,10 @@ class ViewportSession:
         self.last_sync: SyncReport | None = None
         self.frames = 0
         self._last: ViewportFrame | None = None
-        # Samples of the view while nothing changes (accumulation.py); every view_update
-        # is a change of the scene and starts them over.
-        self.accumulator = SampleAccumulator()
+        # Samples of the view while nothing changes (accumulation.py; their mean is kept on
+        # the GPU); every view_update is a change of the scene and starts them over.
+        self.schedule = SampleSchedule()
+        self.readback = None  # the frame's one read-back (frame/readback.py), with the renderer
         # Frame Budget: the near cube sized from this viewport's frame times (later samples
         # of a view reuse the cube map and BVH, so only first samples are timed).
         self.sizer = NearCubeSizer()
@@ -115,40 +118,56 @@ class ViewportSession:
             if plan.view is None:
                 return ViewportFrame(None, rect, f"{ERROR_PREFIX} | render border outside the view")
             key = (accumulation_key(plan.view, settings, self.scene_version, transparent), filter_width)
-            self.accumulator.filter_width = filter_width
+            self.schedule.filter_width = filter_width
             target = settings.viewport_samples
-            if not self.accumulator.wants(key, target) and self._last is not None:
-                return replace(self._last, rect=rect, converged=True)  # nothing changed: no render
-            index = self.accumulator.count
-            view = jittered_camera(plan.view, *self.accumulator.offset())
+            if not self.schedule.wants(key, target) and self._last is not None:
+                return self._unchanged(rect)  # nothing changed: no render
+            index = self.schedule.count
+            view = jittered_camera(plan.view, *self.schedule.offset())
             with gl_block():
                 result = self._render(view, settings, FrameOutputs(transparent=transparent), index)
+                if self.readback.image is None:  # nothing of this size on the host yet
+                    self.readback.collect(wait=True)
+            self.schedule.advance()
             if index == 0:
                 self.sizer.observe(result.total_ms, settings)
-            image = self.accumulator.add(result.image)
+            image = self.readback.image
             draw_legend(image, result.legend)  # a diagnostic view's legend, over the mean
         except Exception as exc:  # noqa: BLE001 - a viewport frame must never raise
-            self.accumulator.restart()
+            self.schedule.restart()
             return self._failed(exc, rect)
         self.latch.clear()  # a later failure is news again
         self.frames += 1
         fps = self.clock.tick()
         frame_ms = (time.perf_counter() - start) * 1e3
         size = (plan.view.width, plan.view.height)
-        samples = f"sample {self.accumulator.count}/{target}"
+        samples = f"sample {self.schedule.count}/{target}"
         if settings.near_cube_mode == "BUDGET":
             samples += f" | near {settings.near_size:.2f}"
         stats = stats_line(result.mode, frame_ms, fps, result.counts, size, samples=samples)
         self._last = ViewportFrame(image, rect, stats, mode=result.mode, counts=dict(result.counts),
-                                   converged=self.accumulator.count >= target)
+                                   converged=self.schedule.count >= target and not self.readback.pending)
         return self._last
+
+    def _unchanged(self, rect) -> ViewportFrame:
+        """The last frame again, with the view's newest mean once an asynchronous read-back
+        has brought it (converged only then)."""
+        if self.readback is not None and self.readback.pending:
+            with gl_block():
+                self.readback.collect(wait=True)
+            self._last = replace(self._last, image=self.readback.image)
+        return replace(self._last, rect=rect, converged=True)
 
     def _render(self, view, settings: RenderSettings, outputs: FrameOutputs, sample: int = 0):
         """Render sample ``sample`` of the view with the scene's mode (later samples keep
         the first's cube map and BVH)."""
         renderer = self._ensure_renderer()
+        if self.readback is None:
+            from ..hybrid_engine.frame.readback import ImageReadback
+
+            self.readback = ImageReadback(renderer.ctx)
         return renderer.render(self.cache.scene_data, view, settings, timing=False, outputs=outputs,
-                               sample=sample, reuse_world=sample > 0)
+                               sample=sample, reuse_world=sample > 0, accumulate=True, readback=self.readback)
 
     def _ensure_renderer(self):
         if self.renderer is None:
@@ -178,8 +197,11 @@ class ViewportSession:
     def release(self) -> None:
         """Free the session's GL objects (the shared context stays) and its cached arrays."""
         renderer, self.renderer = self.renderer, None
+        readback, self.readback = self.readback, None
         if renderer is not None:
             with gl_block():
+                if readback is not None:
+                    readback.release()
                 renderer.release()
         self.cache.reset()
 
@@ -301,10 +323,14 @@ def _draw_frame(engine, scene, frame: ViewportFrame) -> None:
 
     x0, y0, x1, y1 = frame.rect
     if frame.image is not None:
-        image = np.ascontiguousarray(frame.image, np.float32)
+        image = np.ascontiguousarray(frame.image, np.float32)  # the read-back array: no copy
         height, width = image.shape[:2]
-        pixels = gpu.types.Buffer("FLOAT", width * height * 4, image.ravel())
-        texture = gpu.types.GPUTexture((width, height), format="RGBA16F", data=pixels)
+        # Buffer wraps an object with the buffer protocol without copying it
+        # (pygpu_buffer__tp_new in Blender's gpu_py_buffer.cc). The texture is made anew
+        # each redraw, as Python's GPUTexture has no update (clear, read only); RGBA32F, the
+        # data's own format, is uploaded as it is, where RGBA16F would be converted first.
+        pixels = gpu.types.Buffer("FLOAT", width * height * 4, image.reshape(-1))
+        texture = gpu.types.GPUTexture((width, height), format="RGBA32F", data=pixels)
         gpu.state.blend_set("ALPHA_PREMULT")
         engine.bind_display_space_shader(scene)
         try:

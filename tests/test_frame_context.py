@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
-from hybrid_engine.frame.renderer import MODE_STEPS, READBACK_READS, Renderer
+from hybrid_engine.frame.renderer import MODE_STEPS, READBACK_READS, Renderer, frame_steps
 from hybrid_engine.passes.frame_context import FrameContext, PassGraphError, PassIO, check_order
 from hybrid_engine.scene.raster_view import RasterView
 from hybrid_engine.scene.settings import MODES
@@ -75,6 +75,11 @@ def test_every_modes_passes_are_in_an_order_the_check_accepts_and_match_the_timi
         check_order(passes, settings, final_reads=READBACK_READS)
         names = list(dict.fromkeys(p.name for p in passes))
         assert names + ["readback"] == list(MODE_STEPS[mode])
+        # Accumulating, the frame ends with the running mean, which the read-back reads.
+        passes = renderer.passes(settings, accumulate=True)
+        check_order(passes, settings, final_reads=READBACK_READS + ("film",))
+        names = list(dict.fromkeys(p.name for p in passes))
+        assert names + ["readback"] == list(frame_steps(mode, accumulate=True)) and names[-1] == "accumulate"
     finally:
         renderer.release()
 
@@ -92,7 +97,7 @@ def test_the_renderer_refuses_a_pass_order_with_a_missing_input_before_any_pass_
     try:
         settings = RenderSettings(mode="HYBRID", cube_resolution=16)
         plan = [p for p in renderer.passes(settings) if p.name != "cull"]
-        monkeypatch.setattr(renderer, "passes", lambda _settings: plan)
+        monkeypatch.setattr(renderer, "passes", lambda _settings, _accumulate=False: plan)
         ran = []
         monkeypatch.setattr(renderer.upload, "run", lambda frame: ran.append("upload"))
         with pytest.raises(PassGraphError, match=r"'lbvh_build' .* reads 'near_triangles'"):

@@ -63,10 +63,18 @@ def _two_object_scene(bpy):
     return scene, cube, material
 
 
+def _kept(frame):
+    """``frame`` with its own copy of the image (a frame's image is the session's read-back
+    array, refilled by the next frame)."""
+    from dataclasses import replace
+
+    return replace(frame, image=None if frame.image is None else frame.image.copy())
+
+
 def _frame(addon, bpy, session):
     frame = session.frame(_region(bpy), _settings(addon, bpy))
     assert frame.error is None, frame.error
-    return frame
+    return _kept(frame)
 
 
 def test_moving_one_object_re_extracts_only_that_object_and_changes_the_image(addon, viewport):
@@ -279,8 +287,8 @@ def test_an_error_inside_a_frame_is_reported_once_and_the_next_frame_renders(add
         return real_render(*args, **kwargs)
 
     monkeypatch.setattr(renderer, "render", failing_twice)
-    first = session.frame(_region(bpy), _settings(addon, bpy))
-    second = session.frame(_region(bpy), _settings(addon, bpy))
+    first = _kept(session.frame(_region(bpy), _settings(addon, bpy)))
+    second = _kept(session.frame(_region(bpy), _settings(addon, bpy)))
     assert first.error and "simulated driver failure" in first.error and first.image is None
     assert second.error == first.error
     assert first.stats == first.error  # the header shows it too
@@ -452,7 +460,7 @@ def test_sixteen_still_redraws_converge_to_a_64_sample_final_render_of_the_view(
     camera = Camera(matrix_world=look_at((4.0, -5.0, 3.5), (0.0, 0.0, 0.7)), width=64, height=48, lens=35.0)
     region = RegionInput(camera.view_matrix(), camera.projection_matrix(), 64, 48)
     settings = _settings(addon, bpy)
-    frames = [session.frame(region, settings) for _ in range(16)]
+    frames = [_kept(session.frame(region, settings)) for _ in range(16)]
     assert frames[-1].converged and not frames[-2].converged
     from hybrid_engine.frame.viewport import plan_frame
 

@@ -1,14 +1,15 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Progressive samples of one view: the running mean the viewport and final renders share.
+"""Progressive samples of one view: where each lies and when another is due.
 
 One sample of the paper's frame is a real-time picture, but an aliased and noisy one: each
 pixel is sampled at its centre, and the glossy lobes, the ambient occlusion and the soft
 shadows draw one set of directions. While nothing changes, more samples of the same view
 (each moved by a different fraction of a pixel, the Halton points of
-:func:`sample_offset`, and drawing fresh directions, the renderer's ``sample`` index) average to an anti-aliased, converged image, as Cycles' and
-EEVEE's viewports do. The viewport adds one sample per redraw until its Viewport Samples
+:func:`sample_offset`, and drawing fresh directions, the renderer's ``sample`` index)
+average to an anti-aliased, converged image, as Cycles' and EEVEE's viewports do. The viewport adds one sample per redraw until its Viewport Samples
 are reached and starts again on any change (the view, the settings, the scene); a final
-render adds ``render_samples`` of them at once.
+render adds ``render_samples`` of them at once. The running mean itself is kept on the GPU
+by the frame's ``accumulate`` pass (passes/accumulate/).
 """
 from __future__ import annotations
 
@@ -64,13 +65,14 @@ def sample_offset(index: int, filter_width: float = DEFAULT_FILTER_WIDTH) -> tup
             filter_offset(_radical_inverse(index, 3), filter_width))
 
 
-class SampleAccumulator:
-    """The running mean of the samples rendered for one key (what the samples show)."""
+class SampleSchedule:
+    """Which sample of a view is next, for one key (what the samples show), and whether
+    another is due. The samples' sum lives on the GPU (passes/accumulate/): the host only
+    counts, so a redraw's host work does not grow with the image."""
 
     def __init__(self, filter_width: float = DEFAULT_FILTER_WIDTH) -> None:
         self.key: Hashable | None = None
-        self.count = 0
-        self._sum: np.ndarray | None = None
+        self.count = 0  # samples of ``key`` rendered so far
         self.filter_width = filter_width  # the pixel filter's width (Film > Pixel Filter)
 
     def wants(self, key: Hashable, target: int) -> bool:
@@ -82,23 +84,13 @@ class SampleAccumulator:
 
     def restart(self, key: Hashable | None = None) -> None:
         """Forget the samples (the next one is sample 0, at the pixels' centres)."""
-        self.key, self.count, self._sum = key, 0, None
+        self.key, self.count = key, 0
 
     def offset(self) -> tuple[float, float]:
         """The next sample's offset from the pixels' centres, in pixels."""
         return sample_offset(self.count, self.filter_width)
 
-    def add(self, image: np.ndarray) -> np.ndarray:
-        """Add the next sample's image; returns the mean so far."""
-        if self._sum is None or self._sum.shape != image.shape:
-            self._sum, self.count = np.zeros(image.shape, np.float64), 0
-        self._sum += image
+    def advance(self) -> int:
+        """Count the sample just rendered; returns the samples so far."""
         self.count += 1
-        return self.mean
-
-    @property
-    def mean(self) -> np.ndarray | None:
-        """The mean of the samples so far (float32), None before the first."""
-        if self._sum is None or self.count == 0:
-            return None
-        return (self._sum / self.count).astype(np.float32)
+        return self.count

@@ -23,7 +23,7 @@ import numpy as np
 from ..scene.camera import Camera
 from ..scene.data import SceneData
 from ..scene.settings import RenderSettings
-from .accumulation import DEFAULT_FILTER_WIDTH, SampleAccumulator, sample_offset
+from .accumulation import DEFAULT_FILTER_WIDTH, SampleSchedule, sample_offset
 from .film import FrameOutputs
 from .views import cropped_camera
 from .renderer import CancelCallback, FrameResult, ProgressCallback, Renderer
@@ -67,20 +67,24 @@ def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, set
     first: FrameResult | None = None
     passes: dict[str, float] = {}
     total_ms = 0.0
-    accumulator = SampleAccumulator(filter_width)
-    while accumulator.wants("frame", samples):
-        index = accumulator.count
-        dx, dy = accumulator.offset()
+    schedule = SampleSchedule(filter_width)
+    image = None
+    while schedule.wants("frame", samples):
+        index = schedule.count
+        dx, dy = schedule.offset()
+        last = index == samples - 1
+        # The mean is kept on the GPU (accumulate=True) and read back after the last sample.
         result = renderer.render(
             scene, jittered_camera(camera, float(dx), float(dy)), settings, timing=timing,
             cancel=cancel, progress=_sample_progress(progress, index, samples),
-            outputs=outputs if index == 0 else later_outputs, reuse_world=index > 0, sample=index)
+            outputs=outputs if index == 0 else later_outputs, reuse_world=index > 0, sample=index,
+            accumulate=True, read_image=last)
         first = first or result
-        accumulator.add(result.image)
+        image = result.image if last else None
+        schedule.advance()
         for name, ms in result.passes.items():
             passes[name] = passes.get(name, 0.0) + ms
         total_ms += result.total_ms
-    image = accumulator.mean
     counts = {**first.counts, "samples": int(samples)}
     return FrameResult(image=image, passes=passes, counts=counts, timing_source=first.timing_source,
                        total_ms=total_ms, mode=first.mode, data_passes=first.data_passes,

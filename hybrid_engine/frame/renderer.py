@@ -22,6 +22,11 @@ BVH_NODES,  (trace/diagnostic_views.py; FrameResult.diagnostic holds the counts 
 BOUNCE_PATHS FrameResult.legend what the colours mean)
 ==========  ===================================================================================
 
+A frame that accumulates (``render(accumulate=True)``: the viewport's redraws, a final
+render's samples) ends with ``accumulate``, the running mean of the view's samples on the
+GPU, and reads that back instead of the one sample: once per frame, or not at all before a
+final render's last sample.
+
 ``shade`` is the ambient occlusion (screen space, or the World's light by rays with
 ``sky_rays``) and the deferred shading of the primary G-buffer, lit by the frame's
 ``lighting`` resource, which the trace pass reads too. Each pass declares what it reads and
@@ -38,6 +43,7 @@ import numpy as np
 
 from ..gpu import gl_context
 from ..gpu.timing import PassTimer
+from ..passes.accumulate.accumulate import AccumulatePass
 from ..passes.cube_map.cube_map import CubeMapPass
 from ..passes.frame_context import FrameContext, FramePass, check_order
 from ..passes.gbuffer.gbuffer import GBufferPass
@@ -58,6 +64,7 @@ from ..scene.data import SceneData
 from ..scene.raster_view import RasterView
 from ..scene.settings import DIAGNOSTIC_VIEWS, RenderSettings
 from .film import FrameOutputs, depth_pass, normal_pass
+from .readback import ImageReadback
 
 CancelCallback = Callable[[], bool]
 ProgressCallback = Callable[[str, float], None]
@@ -76,6 +83,13 @@ MODE_STEPS = {
     "PROVENANCE": (*_RASTER, "shade", "trace", "readback"),
 }
 MODE_STEPS.update({view: MODE_STEPS["HYBRID"] for view in DIAGNOSTIC_VIEWS})
+
+
+def frame_steps(mode: str, accumulate: bool = False) -> tuple[str, ...]:
+    """The steps of a frame of ``mode``; one that accumulates adds ``accumulate`` before
+    the read-back."""
+    steps = MODE_STEPS[mode]
+    return (*steps[:-1], "accumulate", steps[-1]) if accumulate else steps
 # The passes that depend only on the geometry, the settings and the eye, and what they leave:
 # another sample of one view keeps them (render(reuse_world=True)).
 WORLD_PASSES = ("cube_map_raster", "cull", "lbvh_build")
@@ -125,6 +139,8 @@ class Renderer:
         self.gbuffer = GBufferPass(self.ctx, self.drawer)
         self.occlusion = ScreenSpaceOcclusion(self.ctx)
         self.deferred_shade = DeferredShadePass(self.ctx)
+        # The running mean of a view's samples (render(accumulate=True)).
+        self.accumulate = AccumulatePass(self.ctx)
         # The traced modes' passes, made on the first frame that needs them (their kernels
         # take a while to compile).
         self.cube_map: CubeMapPass | None = None
@@ -139,8 +155,9 @@ class Renderer:
         self._checked: set[tuple] = set()  # configurations whose pass order was checked
 
     # -- the passes ----------------------------------------------------------------------------
-    def passes(self, settings: RenderSettings) -> list[FramePass]:
-        """This renderer's passes for ``settings``, in the order a frame runs them."""
+    def passes(self, settings: RenderSettings, accumulate: bool = False) -> list[FramePass]:
+        """This renderer's passes for ``settings``, in the order a frame runs them;
+        ``accumulate`` adds the running mean of the view's samples after the colour."""
         mode = settings.mode
         traced = mode != "RASTER"
         if traced:
@@ -158,6 +175,8 @@ class Renderer:
         plan += [ambient, self.deferred_shade]
         if traced:
             plan.append(self.tracer)
+        if accumulate:
+            plan.append(self.accumulate)
         return plan
 
     def _ensure_traced(self) -> None:
@@ -168,12 +187,12 @@ class Renderer:
             self.tracer = HybridTracer(self.ctx)
             self.world_light = WorldLightRays(self.tracer)
 
-    def _checked_passes(self, settings: RenderSettings) -> list[FramePass]:
-        """``passes(settings)``, their order checked once per configuration."""
-        plan = self.passes(settings)
-        key = (settings.mode, settings.traces_sky)
+    def _checked_passes(self, settings: RenderSettings, accumulate: bool) -> list[FramePass]:
+        """``passes(settings, accumulate)``, their order checked once per configuration."""
+        plan = self.passes(settings, accumulate)
+        key = (settings.mode, settings.traces_sky, accumulate)
         if key not in self._checked:
-            check_order(plan, settings, final_reads=READBACK_READS)
+            check_order(plan, settings, final_reads=READBACK_READS + (("film",) if accumulate else ()))
             self._checked.add(key)
         return plan
 
@@ -195,6 +214,9 @@ class Renderer:
         outputs: FrameOutputs | None = None,
         reuse_world: bool = False,
         sample: int = 0,
+        accumulate: bool = False,
+        read_image: bool = True,
+        readback: ImageReadback | None = None,
     ) -> FrameResult:
         """Render one frame. Raises RenderCancelled when ``cancel()`` returns True between
         passes; the GPU state stays valid for the next frame. ``outputs`` asks for
@@ -210,12 +232,19 @@ class Renderer:
         ``sample`` numbers this frame among the samples of one view (antialias.py, the
         viewport's accumulation): the stochastic parts of the shading (glossy lobes,
         ambient occlusion) draw different directions for each, so that their average
-        converges."""
+        converges.
+
+        ``accumulate``: the frame's image is the mean of samples 0..``sample`` of the view,
+        kept on the GPU (passes/accumulate/; sample 0 starts it over, each later one must
+        follow the last). ``read_image`` False reads no image back (``image`` is None: a
+        final render's samples before its last). ``readback``: the image goes to the host
+        through this reader instead (frame/readback.py: a persistent array, possibly
+        asynchronous), and ``image`` is the newest one it holds."""
         settings = settings or RenderSettings()
         outputs = outputs or FrameOutputs()
-        steps = MODE_STEPS[settings.mode]  # RenderSettings admits no other mode
+        steps = frame_steps(settings.mode, accumulate)  # RenderSettings admits no other mode
         traced = settings.mode != "RASTER"
-        plan = self._checked_passes(settings)
+        plan = self._checked_passes(settings, accumulate)
         timer = PassTimer(self.ctx, enabled=timing)
         start = time.perf_counter()
         frame = FrameContext(self.ctx, scene_data=scene, camera=camera, settings=settings,
@@ -242,7 +271,7 @@ class Renderer:
                 frame_pass.run(frame)
         step("readback")
         with timer.measure("readback"):
-            result = self._read_back(frame)
+            result = self._read_back(frame, read_image, readback)
         if traced:
             self._world = {name: frame.resource(name) for name in WORLD_RESOURCES if frame.has(name)}
             self._world_key = world_key
@@ -255,11 +284,18 @@ class Renderer:
         result.total_ms = (time.perf_counter() - start) * 1e3
         return result
 
-    def _read_back(self, frame: FrameContext) -> FrameResult:
+    def _read_back(self, frame: FrameContext, read_image: bool, readback: ImageReadback | None) -> FrameResult:
         """The frame's image, data passes, counts and diagnostic counts, read from the GPU."""
         settings = frame.settings
         targets = frame.resource("gbuffer")
-        image = targets.read_color()
+        texture = frame.resource("film").mean if frame.has("film") else targets.color
+        image = None
+        if readback is not None:
+            readback.submit(texture, tag=frame.sample)
+            image = readback.image
+        elif read_image:
+            image = np.empty((texture.height, texture.width, 4), np.float32)
+            texture.read_into(image)
         data = self._data_passes(targets, frame.camera, frame.outputs)
         counts = dict(frame.counts)
         if settings.mode not in ("RASTER", "PROVENANCE"):
@@ -302,6 +338,7 @@ class Renderer:
 
     def release(self) -> None:
         """Free this renderer's GL objects (the shared context stays)."""
+        self.accumulate.release()
         for owner in (self.cube_map, self.culler, self.tracer):
             if owner is not None:
                 owner.release()

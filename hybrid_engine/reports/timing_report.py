@@ -42,10 +42,10 @@ from .chart_raster import ChartPicture
 
 # The passes of one frame in the order they run (paper §3): host extraction, upload, shadow
 # maps (§3.5), primary G-buffer (§3.1), cube map (§3.2), near-cube culling and LBVH (§3.3),
-# deferred shading, the recursive tracer (§3.4), read-back.
+# deferred shading, the recursive tracer (§3.4), the running mean of the samples, read-back.
 PIPELINE_PASSES = (
     "extract", "upload", "instance_transform", "shadow_maps", "lighting", "primary_raster",
-    "cube_map_raster", "cull", "lbvh_build", "shade", "trace", "readback",
+    "cube_map_raster", "cull", "lbvh_build", "shade", "trace", "accumulate", "readback",
 )
 # Counts that come first in tables; the rest (ray counts per bounce...) follow in natural order.
 LEADING_COUNTS = ("triangles_total", "triangles_bvh")

@@ -15,7 +15,7 @@ TEST_WORKERS ?= 2
 help:
 	@echo "make demo       render the generated Chess scene with Hybrid RT (out/demo*.png, timing report)"
 	@echo "make test       run the test suite"
-	@echo "make bench      run the benchmark, results in out/bench.json"
+	@echo "make bench      run the benchmark, results in out/bench.json and out/device_report.md"
 	@echo "make pictures   render docs/pictures/*.png: each scene in every mode next to EEVEE and Cycles (~11 min)"
 	@echo "make package    build the installable extension zips (Linux, Windows) into dist/"
 	@echo "make clean      remove build outputs (dist/, wheels/, out/, caches)"
@@ -39,7 +39,7 @@ test: setup
 
 bench: setup
 	@mkdir -p out
-	$(PYTHON_VENV) -m benchmarks.bench --json out/bench.json
+	$(PYTHON_VENV) -m benchmarks.bench --variants both --json out/bench.json --device-report out/device_report.md
 
 pictures: setup
 	$(PYTHON_VENV) scripts/make_pictures.py

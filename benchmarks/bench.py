@@ -4,7 +4,8 @@
 Usage::
 
     python -m benchmarks.bench [--quick] [--json PATH] [--rounds N] [--resolution WxH]
-                                  [--sections lbvh,trace,frame,host]
+                                  [--sections lbvh,trace,frame,host,kernels,lbvh_target,frame_target]
+                                  [--variants both|auto] [--device-report PATH]
 
 Sections (one function each; :func:`main` assembles them):
 
@@ -31,6 +32,17 @@ Sections (one function each; :func:`main` assembles them):
     sync and the upload per frame of a static scene with a moving camera, Chess, a deformed
     100k-vertex mesh and 10,000 instances, followed through Blender's change sets. Needs bpy;
     skipped, with the reason in the report, where it is absent (a GPU machine's Python).
+``kernels``, ``lbvh_target``, ``frame_target``
+    :mod:`benchmarks.kernel_bench`: every kernel with two shapes in the code in both
+    families side by side (``--variants both``) or in the chosen one (``--variants auto``),
+    and the two figures a hardware GPU is held to (LBVH build of 1M triangles <= 1 ms, a
+    1280x720 Chess frame at four bounces >= 60 FPS).
+
+Each section's table says which kernel variants it ran (gpu/variants.py). Without embreex
+(a GPU machine's Python may lack it) the Embree contenders are left out and reported as
+such; without flip_evaluator the frame section reports no FLIP. ``--device-report PATH``
+writes :mod:`benchmarks.device_report`'s Markdown page (GL strings, limits, variants, the
+measured sections) for docs/BENCHMARKS.md's "GPU figures".
 
 Method: all contenders run side by side in one process on the same data, warmed up first
 (shader compilation, buffer growth, page faults), then in interleaved rounds so that load
@@ -53,13 +65,13 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from hybrid_engine.gpu import gl_context
+from hybrid_engine.gpu import gl_context, variants
 from hybrid_engine.passes.lbvh import lbvh
 from hybrid_engine.scene.camera import Camera
 from hybrid_engine.scene.data import SceneData
 from hybrid_engine.scene.settings import CUBE_MARCHES, RenderSettings
 
-from . import lbvh_reference
+from . import device_report, kernel_bench, lbvh_reference
 from .scenes.chess import CHESS_CUBE_FAR, build_chess
 
 FULL_BUILD_SIZES = (100_000, 300_000, 1_000_000)
@@ -165,6 +177,15 @@ def reflection_rays(tris: np.ndarray, count: int, rng: np.random.Generator,
 
 # -- contenders -----------------------------------------------------------------------------
 
+def embree_available() -> bool:
+    """Whether embreex imports (the Embree contenders run only then)."""
+    try:
+        _embree_modules()
+    except ImportError:
+        return False
+    return True
+
+
 def _embree_modules():
     from embreex import rtcore_scene
     from embreex.mesh_construction import TriangleMesh
@@ -218,19 +239,22 @@ def lbvh_section(sizes=FULL_BUILD_SIZES, rounds: int = ROUNDS) -> list[dict]:
     builder = lbvh.LBVHBuilder(ctx)
     rng = np.random.default_rng(SEED)
     rows = []
+    embree = embree_available()
     try:
         for size in sizes:
             tris = mesh_like_scene(size, rng)
             buffer = ctx.buffer(tris.tobytes())
+            contenders = {"build_ms": lambda: gpu_build_ms(builder, buffer, len(tris)),
+                          "embree_build_ms": lambda: embree_build_ms(tris),
+                          "numpy_build_ms": lambda: numpy_build_ms(tris)}
+            if not embree:
+                del contenders["embree_build_ms"]
             try:
-                medians = _interleaved({
-                    "build_ms": lambda: gpu_build_ms(builder, buffer, len(tris)),
-                    "embree_build_ms": lambda: embree_build_ms(tris),
-                    "numpy_build_ms": lambda: numpy_build_ms(tris),
-                }, rounds)
+                medians = _interleaved(contenders, rounds)
             finally:
                 buffer.release()
-            rows.append({"triangles": int(size), **{k: round(v, 3) for k, v in medians.items()}})
+            rows.append({"triangles": int(size), "embree_build_ms": None,
+                         **{k: round(v, 3) for k, v in medians.items()}})
     finally:
         builder.release()
     return rows
@@ -244,10 +268,12 @@ def trace_section(triangles: int = FULL_TRACE["triangles"], rays: int = FULL_TRA
     tris = mesh_like_scene(triangles, rng)
     origins, dirs = reflection_rays(tris, rays, rng)
     builder = lbvh.LBVHBuilder(ctx)
-    rtcs, TriangleMesh = _embree_modules()
-    scene = rtcs.EmbreeScene()
-    TriangleMesh(scene, tris)
-    scene.run(origins[:1], dirs[:1], output=1)  # commit (build) outside the timing
+    embree = embree_available()
+    if embree:
+        rtcs, TriangleMesh = _embree_modules()
+        scene = rtcs.EmbreeScene()
+        TriangleMesh(scene, tris)
+        scene.run(origins[:1], dirs[:1], output=1)  # commit (build) outside the timing
     results: dict[str, tuple] = {}
     cpu_ratio: list[float] = []
     embree_threads = max(1, os.cpu_count() or 1)
@@ -278,7 +304,7 @@ def trace_section(triangles: int = FULL_TRACE["triangles"], rays: int = FULL_TRA
         def embree_chunk(index: np.ndarray):
             return scene.run(origins[index[0]:index[-1] + 1], dirs[index[0]:index[-1] + 1], output=1)
 
-        def embree() -> float:
+        def embree_run() -> float:
             wall, cpu = time.perf_counter(), time.process_time()
             parts = list(pool.map(embree_chunk, chunks))
             elapsed = time.perf_counter() - wall
@@ -287,15 +313,24 @@ def trace_section(triangles: int = FULL_TRACE["triangles"], rays: int = FULL_TRA
                                  np.concatenate([np.asarray(p["primID"], np.int32) for p in parts]))
             return elapsed
 
-        medians = _interleaved({"gpu": gpu_trace("gpu", None),
-                                "gpu_unsorted": gpu_trace("gpu_unsorted", False),
-                                "embree": embree}, rounds)
+        contenders = {"gpu": gpu_trace("gpu", None), "gpu_unsorted": gpu_trace("gpu_unsorted", False),
+                      "embree": embree_run}
+        if not embree:
+            del contenders["embree"]
+        medians = _interleaved(contenders, rounds)
         for buf in (org_buf, dir_buf, t_buf, tri_buf):
             buf.release()
     finally:
         builder.release()
         pool.shutdown()
     t_gpu, tri_gpu = results["gpu"]
+    if not embree:
+        return {"rays": int(rays), "triangles": int(len(tris)), "kind": "reflection",
+                "mrays_per_s": round(rays / medians["gpu"] / 1e6, 4),
+                "gpu_ray_sort": rays >= lbvh.RAY_SORT_MIN_RAYS,
+                "mrays_per_s_unsorted": round(rays / medians["gpu_unsorted"] / 1e6, 4),
+                "embree_mrays_per_s": None, "embree_threads": 0, "hit_agreement": None,
+                "embree": "not installed (embreex): GPU figures only"}
     t_emb, tri_emb = results["embree"]
     return {
         "rays": int(rays),
@@ -425,7 +460,10 @@ def _comparison_report(first: tuple[SceneData, Camera], hybrid_settings: RenderS
     scene, camera = first
     hybrid = results["HYBRID"][-1]
     full = results["FULL_BVH"][-1]
-    flips = [flip_mean(f.image, h.image) for h, f in zip(results["HYBRID"], results["FULL_BVH"])]
+    import importlib.util
+
+    flips = ([flip_mean(f.image, h.image) for h, f in zip(results["HYBRID"], results["FULL_BVH"])]
+             if importlib.util.find_spec("flip_evaluator") is not None else [])  # None: no FLIP here
     hybrid_ms = statistics.median(r.total_ms for r in results["HYBRID"])
     full_ms = statistics.median(r.total_ms for r in results["FULL_BVH"])
     medians = {mode: pass_medians(mode_results) for mode, mode_results in results.items()}
@@ -443,7 +481,7 @@ def _comparison_report(first: tuple[SceneData, Camera], hybrid_settings: RenderS
         "hybrid_ms": round(hybrid_ms, 3),
         "full_bvh_ms": round(full_ms, 3),
         "speedup": round(full_ms / hybrid_ms, 4),
-        "flip_mean": round(float(np.mean(flips)), 5),
+        "flip_mean": round(float(np.mean(flips)), 5) if flips else None,
         "passes_hybrid": medians["HYBRID"],
         "passes_full_bvh": medians["FULL_BVH"],
         # Context for reading the figures above.
@@ -490,20 +528,36 @@ def machine_info() -> dict:
     }
 
 
+def variants_line(report: dict, section: str) -> str:
+    """Which family each kernel ran in ``section`` (gpu/variants.py)."""
+    chosen = report.get("section_variants", {}).get(section, report.get("variants", {}))
+    return "variants: " + ", ".join(f"{kernel}={family}" for kernel, family in chosen.items())
+
+
 def format_tables(report: dict) -> str:
     lines = [f"renderer: {report['machine']['gl_renderer']}, {report['machine']['cpu_count']} CPUs",
              f"GPU times: {report['machine']['gpu_timing']}", ""]
     if report.get("lbvh"):
+        lines.append(f"lbvh ({variants_line(report, 'lbvh')})")
         lines.append(f"{'triangles':>10} {'GPU ms':>9} {'Embree ms':>10} {'numpy ms':>10} "
                      f"{'GPU/Embree':>11} {'numpy/GPU':>10}")
     for row in report.get("lbvh", []):
+        embree = row.get("embree_build_ms")
         lines.append(
-            f"{row['triangles']:>10} {row['build_ms']:>9.1f} {row['embree_build_ms']:>10.1f} "
-            f"{row['numpy_build_ms']:>10.1f} {row['build_ms'] / row['embree_build_ms']:>11.2f} "
-            f"{row['numpy_build_ms'] / row['build_ms']:>10.1f}")
+            f"{row['triangles']:>10} {row['build_ms']:>9.1f} "
+            + (f"{embree:>10.1f} " if embree else f"{'-':>10} ")
+            + f"{row['numpy_build_ms']:>10.1f} "
+            + (f"{row['build_ms'] / embree:>11.2f} " if embree else f"{'-':>11} ")
+            + f"{row['numpy_build_ms'] / row['build_ms']:>10.1f}")
     trace = report.get("trace")
-    if trace:
+    if trace and trace.get("embree_mrays_per_s") is None:
+        lines += ["", f"trace ({variants_line(report, 'trace')})",
+                  f"trace ({trace['kind']}, {trace['rays']} rays, {trace['triangles']} triangles): "
+                  f"GPU {trace['mrays_per_s']:.3f} Mrays/s, without the ray sort "
+                  f"{trace['mrays_per_s_unsorted']:.3f} Mrays/s; {trace['embree']}"]
+    elif trace:
         lines.append("")
+        lines.append(f"trace ({variants_line(report, 'trace')})")
         lines.append(
             f"trace ({trace['kind']}, {trace['rays']} rays, {trace['triangles']} triangles): "
             f"GPU {trace['mrays_per_s']:.3f} Mrays/s, Embree {trace['embree_mrays_per_s']:.3f} "
@@ -513,7 +567,17 @@ def format_tables(report: dict) -> str:
             f"{trace['mrays_per_s_unsorted']:.3f} Mrays/s")
     frame = report.get("frame")
     if frame:
-        lines.extend(["", format_frame_table(frame)])
+        lines.extend(["", f"frame ({variants_line(report, 'frame')})", format_frame_table(frame)])
+    kernels = report.get("kernels")
+    if kernels:
+        lines.extend(["", f"kernels ({kernels['mode']}; chosen: "
+                      + ", ".join(f"{k}={f}" for k, f in kernels["chosen"].items()) + ")"])
+        lines.extend(device_report.kernel_rows(kernels))
+    for name in ("lbvh_target", "frame_target"):
+        if report.get(name):
+            lines.extend(["", f"{name} ({variants_line(report, name)})"])
+            lines.extend(f"  {what}: {value} (target {target})"
+                         for section, what, value, target in device_report.section_rows({name: report[name]}))
     host = report.get("host")
     if host:
         lines.append("")
@@ -543,15 +607,18 @@ def format_frame_table(frame: dict) -> str:
         f = f"{full[name]:>12.1f}" if name in full else f"{'-':>12}"
         lines.append(f"{name:<18} {h} {f}")
     lines.append(f"{'frame (median)':<18} {frame['hybrid_ms']:>10.1f} {frame['full_bvh_ms']:>12.1f}")
+    flip = frame["flip_mean"]
     lines.append(
         f"speedup {frame['speedup']:.2f} (bar {FRAME_SPEEDUP_BAR:g}: "
         f"{'met' if frame['speedup'] >= FRAME_SPEEDUP_BAR else 'NOT met'}; without upload "
-        f"{frame['speedup_without_upload']:.2f}), FLIP {frame['flip_mean']:.4f} (bar "
-        f"{FRAME_FLIP_BAR:g}: {'met' if frame['flip_mean'] <= FRAME_FLIP_BAR else 'NOT met'})")
+        f"{frame['speedup_without_upload']:.2f}), "
+        + (f"FLIP {flip:.4f} (bar {FRAME_FLIP_BAR:g}: {'met' if flip <= FRAME_FLIP_BAR else 'NOT met'})"
+           if flip is not None else "FLIP not measured (no flip_evaluator)"))
     return "\n".join(lines)
 
 
-SECTIONS = ("lbvh", "trace", "frame", "host")
+SECTIONS = ("lbvh", "trace", "frame", "host", "kernels", "lbvh_target", "frame_target")
+VARIANT_MODES = ("both", "auto")
 # The host section follows Blender scenes (scripts/bench_host.py): it runs where bpy does, in a
 # process of its own that imports this checkout as the add-on.
 HOST_SCRIPT = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "scripts", "bench_host.py")
@@ -576,13 +643,15 @@ def host_section(quick: bool) -> dict:
 def run(quick: bool = False, sections=SECTIONS, rounds: int = ROUNDS,
         resolution: tuple[int, int] | None = None, near_size: float = FRAME_NEAR_SIZE,
         detail: float | None = None, cube_march: str = "HIERARCHICAL",
-        cube_back_layer: bool = FRAME_BACK_LAYER) -> dict:
+        cube_back_layer: bool = FRAME_BACK_LAYER, variant_mode: str = "both") -> dict:
     """Run the requested sections and return the report dictionary (``resolution``: the
     frame section's image size, default :func:`default_frame_resolution`; ``near_size``: its
     near-cube half-size; ``detail``: the Chess scene's detail, default 1.0 (0.02 quick);
     ``cube_march``: how HYBRID marches the cube map; ``cube_back_layer``: whether its cube map
-    keeps the back layer)."""
-    report: dict = {"machine": machine_info(), "quick": bool(quick), "rounds": rounds}
+    keeps the back layer; ``variant_mode``: the kernels section's "both" or "auto")."""
+    report: dict = {"machine": machine_info(), "quick": bool(quick), "rounds": rounds,
+                    "device": device_report.gl_description(), "variants": variants.chosen(),
+                    "section_variants": {name: variants.chosen() for name in sections}}
     if "lbvh" in sections:
         report["lbvh"] = lbvh_section(QUICK_BUILD_SIZES if quick else FULL_BUILD_SIZES, rounds)
     if "trace" in sections:
@@ -597,6 +666,12 @@ def run(quick: bool = False, sections=SECTIONS, rounds: int = ROUNDS,
             cube_march=cube_march, cube_back_layer=cube_back_layer)
     if "host" in sections:
         report["host"] = host_section(quick)
+    if "kernels" in sections:
+        report["kernels"] = kernel_bench.kernel_section(variant_mode, quick, rounds)
+    if "lbvh_target" in sections:
+        report["lbvh_target"] = kernel_bench.lbvh_target_section(quick, rounds)
+    if "frame_target" in sections:
+        report["frame_target"] = kernel_bench.frame_target_section(quick)
     return report
 
 
@@ -643,6 +718,12 @@ def main(argv: list[str] | None = None) -> int:
                         "default on: --no-back-layer for the paper's single layer)")
     parser.add_argument("--sections", type=choice_list(SECTIONS), default=list(SECTIONS),
                         help=f"comma-separated subset of {', '.join(SECTIONS)}")
+    parser.add_argument("--variants", choices=VARIANT_MODES, default="both",
+                        help="kernels section: both families of every kernel with two shapes side by "
+                        "side (default), or only the family chosen for this GL renderer (auto)")
+    parser.add_argument("--device-report", metavar="PATH",
+                        help="write a Markdown page (GL strings, limits, chosen variants, the measured "
+                        "sections) for docs/BENCHMARKS.md's GPU figures to PATH")
     args = parser.parse_args(argv)
     sections = args.sections
     if args.rounds < 1:
@@ -652,8 +733,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.detail is not None and not 0 < args.detail <= 1:
         parser.error("--detail must lie in (0, 1]")
     report = run(args.quick, sections, args.rounds, args.resolution, args.near_size,
-                 args.detail, args.cube_march, args.back_layer)
+                 args.detail, args.cube_march, args.back_layer, args.variants)
     print(format_tables(report))
+    if args.device_report:
+        command = "python -m benchmarks.bench " + " ".join(sys.argv[1:] if argv is None else argv)
+        with open(args.device_report, "w", encoding="utf-8") as handle:
+            handle.write(device_report.device_report(report, command.strip()))
     if args.json:
         with open(args.json, "w", encoding="utf-8") as handle:
             json.dump(report, handle, indent=2)

@@ -98,3 +98,76 @@ def test_bench_never_imports_blender(tmp_path):
     proc = subprocess.run([sys.executable, "-c", code], cwd=REPO_ROOT, capture_output=True,
                           text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
+
+
+# Run as a GPU machine's Python may be: no Blender, no Embree, no FLIP (imports of them fail).
+WITHOUT_BPY_EMBREE_FLIP = (
+    "import sys, runpy\n"
+    "for name in ('bpy', 'embreex', 'flip_evaluator'):\n"
+    "    sys.modules[name] = None  # import raises ImportError, find_spec raises ValueError\n"
+    "import importlib.util\n"
+    "_find_spec = importlib.util.find_spec\n"
+    "def find_spec(name, *args):\n"
+    "    return None if name in ('bpy', 'embreex', 'flip_evaluator') else _find_spec(name, *args)\n"
+    "importlib.util.find_spec = find_spec\n"
+    "sys.argv = ['bench'] + sys.argv[1:]\n"
+    "runpy.run_module('benchmarks.bench', run_name='__main__')\n"
+)
+
+
+def test_quick_bench_without_blender_embree_or_flip_writes_a_device_report(tmp_path):
+    """The command a GPU machine runs: every kernel with two shapes in both families side by
+    side, the two target sections, and a Markdown device report with the GL strings,
+    limits, chosen variants and a table of the measured sections; the Embree contenders and
+    FLIP are reported as absent rather than failing the run."""
+    from benchmarks.kernel_bench import kernels_in_code
+    from hybrid_engine.gpu import gl_context, variants
+
+    report_path, json_path = tmp_path / "device.md", tmp_path / "bench.json"
+    proc = subprocess.run(
+        [sys.executable, "-c", WITHOUT_BPY_EMBREE_FLIP, "--quick", "--rounds", "1", "--variants", "both",
+         "--sections", "lbvh,trace,frame,host,kernels,lbvh_target,frame_target",
+         "--device-report", str(report_path), "--json", str(json_path)],
+        cwd=REPO_ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    report = json.loads(json_path.read_text())
+    assert report["host"]["skipped"].startswith("needs bpy")
+    assert report["lbvh"][0]["embree_build_ms"] is None and report["trace"]["embree_mrays_per_s"] is None
+    assert report["frame"]["flip_mean"] is None
+    # Both families of each kernel whose two shapes exist, each with the same measurements.
+    assert "faces" in kernels_in_code()
+    kernels = report["kernels"]["kernels"]
+    assert set(kernels) == set(kernels_in_code())
+    for per_family in kernels.values():
+        assert set(per_family) == set(variants.FAMILIES)
+        assert per_family["gpu"].keys() == per_family["cpu"].keys()
+        assert all(v > 0 for family in per_family.values() for v in family.values())
+    assert report["lbvh_target"]["triangles"] == 20_000 and report["lbvh_target"]["build_ms"] > 0
+    assert report["frame_target"]["resolution"] == "96x54" and report["frame_target"]["max_depth"] == 4
+    # Each section's printed table says which variants it ran.
+    assert proc.stdout.count("variants: sort=") >= 5
+    page = report_path.read_text()
+    assert page.startswith(f"### {gl_context.renderer_name()}")
+    for text in ("| vendor |", "| version |", "max SSBO block size", "max compute workgroup count",
+                 "max compute workgroup size", "max texture size", "--device-report"):
+        assert text in page
+    for kernel, family in variants.chosen().items():
+        assert f"| {kernel} | {family} |" in page
+    assert "| lbvh_target | LBVH build, 20,000 triangles (ms) |" in page
+    assert "<= 1 ms" in page and ">= 60 FPS" in page
+    faces = kernels["faces"]
+    assert (f"| faces | cube_map_ms | {faces['cpu']['cube_map_ms']:,.3f} | {faces['gpu']['cube_map_ms']:,.3f} |"
+            in page)
+    for line in page.splitlines():  # every table row has as many cells as its header
+        if line.startswith("|"):
+            assert line.endswith("|")
+
+
+def test_the_auto_variant_mode_measures_only_the_chosen_family(tmp_path):
+    from benchmarks import kernel_bench
+    from hybrid_engine.gpu import variants
+
+    section = kernel_bench.kernel_section("auto", quick=True, rounds=1)
+    chosen = variants.chosen()
+    assert section["kernels"] and all(list(per_family) == [chosen[kernel]]
+                                      for kernel, per_family in section["kernels"].items())

@@ -337,3 +337,98 @@ def test_a_frame_sees_nothing_of_the_previous_frames_cube_map(gl):
         reused.release()
         fresh.release()
     np.testing.assert_array_equal(after, alone)
+
+
+@pytest.fixture
+def draw_counter(monkeypatch):
+    """How the culled faces were drawn: calls of CulledDraws.draw (one view) and draw_all
+    (every view in one multi-draw)."""
+    from hybrid_engine.passes.view_cull.view_cull import CulledDraws
+
+    calls = {"draw": 0, "draw_all": 0}
+    for name in calls:
+        original = getattr(CulledDraws, name)
+
+        def counted(self, *args, _name=name, _original=original):
+            calls[_name] += 1
+            return _original(self, *args)
+        monkeypatch.setattr(CulledDraws, name, counted)
+    return calls
+
+
+def cube_faces_with_variant(gl, family: str, draw_counter: dict, back_layer: bool) -> tuple[dict, int, dict]:
+    """The G-buffer cube map of a Chess frame with the faces kernel forced to ``family``: its
+    targets' bytes, the triangles submitted and how many draws of each kind drew it."""
+    from hybrid_engine.gpu import variants
+    from benchmarks.scenes.chess import CHESS_CUBE_FAR, build_chess
+
+    scene, camera = build_chess(detail=0.03, frame=3, width=64, height=36)
+    settings = RenderSettings(mode="HYBRID", near_size=3.5, cube_far=CHESS_CUBE_FAR, cube_resolution=128,
+                              cube_back_layer=back_layer)
+    raster = GBufferPass(gl)
+    gpu = GPUScene(gl)
+    cube = CubeMapPass(gl, raster)
+    variants.set_override(f"faces={family}")
+    try:
+        gpu.upload(scene)
+        gpu.transform()
+        for key in draw_counter:
+            draw_counter[key] = 0
+        submitted = cube.render(gpu, scene, np.asarray(camera.position, np.float64), settings,
+                                triangles=(gpu.positions.buffer, gpu.triangle_count))
+        counts = dict(draw_counter)
+        targets = {name: getattr(cube.targets, name).read() for name in ("depth", "normal_material", "surface",
+                                                                          "geometric")}
+    finally:
+        variants.set_override(None)
+        cube.release()
+        raster.release()
+        gpu.release()
+    return targets, submitted, counts
+
+
+@pytest.mark.parametrize("back_layer", [False, True])
+def test_all_six_faces_in_one_draw_equal_one_draw_per_face_bit_for_bit(gl, draw_counter, back_layer):
+    """The faces kernel's "gpu" variant draws each row of the atlas (the faces, and the back
+    layer's) with one multi-draw of the six culled lists, each face choosing its viewport in
+    the vertex stage; the "cpu" variant one draw per face. Same depth, normals, materials,
+    UVs and geometric normals, bit for bit, and the same triangles submitted."""
+    per_face, submitted_cpu, cpu_draws = cube_faces_with_variant(gl, "cpu", draw_counter, back_layer)
+    one_draw, submitted_gpu, gpu_draws = cube_faces_with_variant(gl, "gpu", draw_counter, back_layer)
+    rows = 2 if back_layer else 1
+    assert cpu_draws == {"draw": 6 * rows, "draw_all": 0}
+    assert gpu_draws == {"draw": 0, "draw_all": rows}
+    assert submitted_cpu == submitted_gpu > 0
+    for name in per_face:
+        a, b = np.frombuffer(per_face[name], np.uint8), np.frombuffer(one_draw[name], np.uint8)
+        assert np.array_equal(a, b), f"{name}: {np.count_nonzero(a != b)} bytes differ"
+    materials = np.frombuffer(one_draw["normal_material"], np.float32).reshape(-1, 4)[:, 3]
+    assert (materials != 0).mean() > 0.1  # the faces hold the scene, not an empty atlas
+
+
+def test_faces_with_nothing_to_draw_draw_nothing_in_the_one_draw(cube_pass):
+    """A face whose list is empty has no culling work, so its command is not written by the
+    compaction; the one multi-draw must still draw nothing for it -- not the command a
+    previous frame left there (here: the six-box scene's, then a box on +X only)."""
+    from hybrid_engine.gpu import variants
+
+    cube, gpu = cube_pass
+    settings = RenderSettings(near_size=2.0, cube_far=50.0, cube_resolution=32)
+    one_box = six_box_scene(inner=False)
+    one_box = SceneData(Geometry.from_objects([(box((5.0, -1.0, -1.0), (7.0, 1.0, 1.0)), None, 0)]),
+                        one_box.materials, one_box.lights, one_box.sky)
+    atlases = {}
+    try:
+        for family in ("gpu", "cpu"):
+            variants.set_override(f"faces={family}")
+            for scene in (six_box_scene(), one_box):
+                gpu.upload(scene)
+                gpu.transform()
+                cube.render(gpu, scene, (0.0, 0.0, 0.0), settings,
+                            triangles=(gpu.positions.buffer, gpu.triangle_count))
+            assert cube.culled is not None and cube.culled.submitted[1:] == [0] * 5
+            atlases[family] = cube.targets.read("normal_material")
+    finally:
+        variants.set_override(None)
+    np.testing.assert_array_equal(atlases["gpu"], atlases["cpu"])
+    assert (atlases["gpu"][:, 32:, 3] == 0).all()  # only the +X face holds anything

@@ -19,6 +19,7 @@ from ...scene.settings import RenderSettings
 from ..frame_context import FrameContext, PassIO
 from ..scene_upload.scene_buffers import GPUScene
 from ..view_cull.draw import SceneDrawer
+from ..view_cull.view_cull import MAX_VIEWS
 
 
 class GBufferPass:
@@ -36,6 +37,7 @@ class GBufferPass:
         self.cube_program = shader_loader.program(
             ctx, vertex="gbuffer/gbuffer.vert.glsl", fragment="gbuffer/gbuffer.frag.glsl",
             defines={"CUBE_FACE": 1})
+        self._cube_faces_program = None  # compiled on first use (the faces kernel's "gpu" variant)
         self.primary: GBufferTargets | None = None
 
     def primary_targets(self, width: int, height: int) -> GBufferTargets:
@@ -90,9 +92,18 @@ class GBufferPass:
         if back_layer and closed is not None:
             rows.append((1, culled_back, True))
         submitted = 0
+        one_draw = self.drawer.faces_in_one_draw()
         for row, row_culled, back_faces in rows:
+            rects = [(i * view.width, row * view.height, view.width, view.height) for i, view in enumerate(views)]
+            if one_draw and row_culled is not None:
+                drawn = self.drawer.draw_faces(self.cube_faces_program(gpu), gpu, targets.fbo, row_culled,
+                                               [(view.view_proj, rect) for view, rect in zip(views, rects)],
+                                               "front" if back_faces else None)
+                if drawn is not None:
+                    submitted += drawn
+                    continue
             for i, view in enumerate(views):
-                targets.fbo.viewport = (i * view.width, row * view.height, view.width, view.height)
+                targets.fbo.viewport = rects[i]
                 set_uniforms(prog, {"u_view_proj": gl_matrix(view.view_proj)})
                 if row_culled is None:
                     submitted += self.drawer.draw_world(vao, view.view_proj, scene,
@@ -102,6 +113,16 @@ class GBufferPass:
                     with self.drawer.face_culling(view.view_proj, "front" if back_faces else None):
                         submitted += row_culled.draw(prog, gpu, i)
         return submitted
+
+    def cube_faces_program(self, gpu: GPUScene):
+        """The cube-face program that draws all six faces in one multi-draw (the ``faces``
+        kernel's "gpu" variant, draw.py SceneDrawer.draw_faces), bound like the per-face one."""
+        if self._cube_faces_program is None:
+            self._cube_faces_program = shader_loader.program(
+                self.ctx, vertex="gbuffer/gbuffer.vert.glsl", fragment="gbuffer/gbuffer.frag.glsl",
+                defines={"CUBE_FACE": 1, "FACE_VIEWPORTS": MAX_VIEWS})
+        self._bind(gpu, self._cube_faces_program)
+        return self._cube_faces_program
 
     def release(self) -> None:
         if self.primary is not None:

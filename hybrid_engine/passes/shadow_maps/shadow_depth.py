@@ -19,6 +19,7 @@ import numpy as np
 from ...gpu import shader_loader
 from ...scene.bounds import SceneBounds
 from ..view_cull.draw import SceneDrawer
+from ..view_cull.view_cull import MAX_VIEWS
 from ...scene.camera import (Camera, cube_face_views, look_at, orthographic_matrix, perspective_matrix, view_from_world)
 from ...scene.changes import GeometryDelta
 from ...scene.data import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN, Lights, SceneData
@@ -172,6 +173,7 @@ class ShadowDepthPass:
         self.atlas = ShadowAtlas(ctx)  # every lamp's slots, in a static and a dynamic layer
         self.program = shader_loader.program(
             ctx, vertex="shadow_maps/shadow_depth.vert.glsl", fragment="shadow_maps/shadow_depth.frag.glsl")
+        self._faces_program = None  # compiled on first use (the faces kernel's "gpu" variant)
         self.cache = ShadowCache()  # the slots fitted to the scene
         self.cascade_cache = ShadowCache()  # the sun cascades, fitted to the view
         # The last frame's cascade matrices, None for the other slots (_moved_cascades).
@@ -268,4 +270,17 @@ class ShadowDepthPass:
 
         draws = [(views[i].view_proj, atlas.rect(int(i))) for i in chosen]
         return self.drawer.draw_views(layer, prog, self.drawer.vertex_array(prog, gpu), gpu, scene,
-                                      atlas.layer_framebuffer(dynamic), draws, bind, include)
+                                      atlas.layer_framebuffer(dynamic), draws, bind, include,
+                                      faces_prog=self.faces_program())
+
+    def faces_program(self):
+        """The depth program that draws up to view_cull.MAX_VIEWS slots (a point lamp's six
+        faces) in one multi-draw (draw.py SceneDrawer.draw_faces); None where the ``faces``
+        kernel's "cpu" variant draws them one by one."""
+        if not self.drawer.faces_in_one_draw():
+            return None
+        if self._faces_program is None:
+            self._faces_program = shader_loader.program(
+                self.ctx, vertex="shadow_maps/shadow_depth.vert.glsl",
+                fragment="shadow_maps/shadow_depth.frag.glsl", defines={"FACE_VIEWPORTS": MAX_VIEWS})
+        return self._faces_program

@@ -12,6 +12,12 @@ the rasterizer sets them up, and the images are bit-identical to drawing the obj
 On a software GL this matters twice over: vertex processing and triangle setup run on one
 thread there, the compute pass on all of them. A dense model far away, covering fewer
 pixels than it has triangles, keeps a small fraction of its triangles.
+
+The views of one culled batch -- the cube map's six faces, a point lamp's six shadow faces --
+are drawn one draw per view (the ``faces`` kernel's "cpu" variant, gpu/variants.py: the
+faster on llvmpipe, whose draws cost little to issue) or all in one multi-draw, each view
+picking its viewport in the vertex stage (the "gpu" variant, :meth:`SceneDrawer.draw_faces`:
+one submission instead of six, as a GPU wants). Both write the same images bit for bit.
 """
 from __future__ import annotations
 
@@ -20,12 +26,14 @@ from contextlib import contextmanager
 
 import numpy as np
 
+from ...gpu import variants
 from ...gpu.bindings import set_uniforms
+from ...gpu.viewport_array import viewport_array
 from ...scene.data import SceneData
 from ...scene.raster_view import gl_matrix
 from ..scene_upload.scene_buffers import GPUScene
 from .frustum import beyond_near_plane, draw_ranges, front_face_winding, visible_objects
-from .view_cull import CullView, MAX_VIEWS, ViewTriangleCuller
+from .view_cull import CullView, CulledDraws, MAX_VIEWS, ViewTriangleCuller
 
 # Scenes with fewer triangles draw their object lists directly: the culling pass's three
 # dispatches cost more than it saves.
@@ -94,6 +102,34 @@ class SceneDrawer:
                     submitted += count
         return submitted
 
+    def faces_in_one_draw(self) -> bool:
+        """Whether culled batches of views are drawn by one multi-draw (the ``faces``
+        kernel's "gpu" variant, where the context has viewport arrays) or one draw per view."""
+        return variants.choose("faces") == "gpu" and viewport_array(self.ctx) is not None
+
+    def draw_faces(self, prog, gpu: GPUScene, fbo, culled: CulledDraws, views: list[ViewDraw],
+                   cull: str | None = None) -> int | None:
+        """Draw the survivors of all ``views`` (one culled batch, in ``culled``'s order) with
+        one multi-draw: ``prog`` is a FACE_VIEWPORTS variant whose draw d takes view d's
+        matrix and viewport (gbuffer.vert.glsl, shadow_depth.vert.glsl), ``cull`` the GL face
+        culling of the draws as in :meth:`face_culling`. Returns the triangles submitted, or
+        None where one draw cannot do it (no viewport array, or views of different front-face
+        windings under face culling): the caller then draws view by view."""
+        array = viewport_array(self.ctx)
+        if array is None or not 1 <= len(views) <= min(MAX_VIEWS, array.count):
+            return None
+        if cull is not None and len({front_face_winding(view_proj) for view_proj, _ in views}) > 1:
+            return None
+        matrices = [gl_matrix(view_proj) for view_proj, _ in views]
+        matrices += [matrices[0]] * (MAX_VIEWS - len(matrices))  # the declared array's size
+        set_uniforms(prog, {"u_face_view_proj": b"".join(matrices)})
+        array.set([rect for _, rect in views])
+        try:
+            with self.face_culling(views[0][0], cull):
+                return culled.draw_all(prog, gpu)
+        finally:
+            fbo.viewport = fbo.viewport  # glViewport: every viewport back to moderngl's one
+
     @contextmanager
     def face_culling(self, view_proj: np.ndarray, cull: str | None):
         """GL face culling of ``cull`` ("back", "front") faces for the draws of the block,
@@ -113,7 +149,7 @@ class SceneDrawer:
 
     def draw_views(self, layer: str, prog, vao, gpu: GPUScene, scene: SceneData, fbo,
                    views: list[ViewDraw], bind: Callable[[], None],
-                   include: np.ndarray | None = None) -> int:
+                   include: np.ndarray | None = None, faces_prog=None) -> int:
         """Draw the scene with ``prog`` into ``fbo`` once per (view_proj, viewport) of
         ``views``: the objects whose bounds touch the view and that ``include`` selects (all
         when None). Returns triangles submitted after per-object culling. The draws are
@@ -122,7 +158,9 @@ class SceneDrawer:
         (``CULL_MIN_TRIANGLES``) or a batch's index buffer would not fit one storage block
         (then that batch draws its object lists: the documented fallback). ``bind`` sets
         the draws' GL state; it runs after the culling, whose dispatches rebind storage
-        buffers. ``layer`` names the caller's cullers."""
+        buffers. ``layer`` names the caller's cullers. ``faces_prog``, the FACE_VIEWPORTS
+        variant of ``prog``, draws each culled batch in one multi-draw where the ``faces``
+        kernel's variant asks for it (:meth:`draw_faces`)."""
         geo = scene.geometry
         batches = [views[start:start + MAX_VIEWS] for start in range(0, len(views), MAX_VIEWS)]
         culled = [None] * len(batches)
@@ -138,7 +176,13 @@ class SceneDrawer:
         fbo.use()
         bind()
         submitted = 0
+        one_draw = faces_prog is not None and self.faces_in_one_draw()
         for batch, batch_culled in zip(batches, culled):
+            if one_draw and batch_culled is not None:
+                drawn = self.draw_faces(faces_prog, gpu, fbo, batch_culled, batch)
+                if drawn is not None:
+                    submitted += drawn
+                    continue
             for i, (view_proj, rect) in enumerate(batch):
                 fbo.viewport = rect
                 set_uniforms(prog, {"u_view_proj": gl_matrix(view_proj)})

@@ -125,6 +125,16 @@ class CulledDraws:
         vao.render_indirect(self._culler.commands.buffer, count=1, first=view)
         return self.submitted[view]
 
+    def draw_all(self, program, gpu) -> int:
+        """Draw every view's survivors with one multi-draw of the views' commands in order
+        (the draw index is the view: ``program`` is a FACE_VIEWPORTS variant, draw.py
+        SceneDrawer.draw_faces); returns the triangles submitted to the culler."""
+        if not any(self.submitted):
+            return 0
+        vao = self._culler.vertex_array(program, gpu)
+        vao.render_indirect(self._culler.commands.buffer, count=len(self.submitted), first=0)
+        return sum(self.submitted)
+
     def drawn(self) -> list[int]:
         """Triangles each view drew (reads the commands back: a synchronisation point)."""
         data = np.frombuffer(self._culler.commands.buffer.read(size=COMMAND_BYTES * len(self.submitted)),
@@ -205,8 +215,12 @@ class ViewTriangleCuller:
         if 3 * 4 * total > max_block_bytes() or (num_chunks + 1) * 4 > max_block_bytes():
             return None, None
         ctx = self.ctx
-        for culler, _ in pairs:
-            culler.commands.ensure(COMMAND_BYTES * MAX_VIEWS)
+        for culler, counts in pairs:
+            commands = culler.commands.ensure(COMMAND_BYTES * MAX_VIEWS)
+            # The compaction writes the command of each view with work; an empty view's
+            # command is zeroed here, so that a multi-draw over all views draws nothing for it.
+            for v in (v for v, count in enumerate(counts) if count == 0):
+                commands.write(bytes(COMMAND_BYTES), offset=COMMAND_BYTES * v)
         results = tuple(CulledDraws(culler, counts) for culler, counts in pairs)
         if not paired:
             results += (None,)

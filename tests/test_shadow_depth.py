@@ -1,0 +1,76 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The shadow-map pass (hybrid_engine/passes/shadow_maps/shadow_depth.py): a point lamp's six
+cube faces (and the other slots of a culled batch) drawn in one multi-draw equal one draw
+per slot, bit for bit, and the faces kernel's variant picks which."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hybrid_engine import RenderSettings
+from hybrid_engine.gpu import variants
+from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
+from hybrid_engine.passes.shadow_maps.shadow_depth import ShadowDepthPass
+from hybrid_engine.passes.view_cull import draw as draw_module
+from hybrid_engine.passes.view_cull.draw import SceneDrawer
+from hybrid_engine.passes.view_cull.view_cull import CulledDraws
+from hybrid_engine.scene.changes import GeometryDelta
+from benchmarks.scenes.chess import build_chess
+
+
+def shadow_layers_with_variant(gl, monkeypatch, family: str) -> tuple[bytes, int, dict]:
+    """The static shadow layer of a Chess frame (a sun, its two cascades and a point lamp's
+    six faces: nine slots, culled in batches of six) with the faces kernel forced to
+    ``family``: the layer's bytes, the triangles submitted and the draws of each kind."""
+    calls = {"draw": 0, "draw_all": 0}
+    for name in calls:
+        original = getattr(CulledDraws, name)
+
+        def counted(self, *args, _name=name, _original=original):
+            calls[_name] += 1
+            return _original(self, *args)
+        monkeypatch.setattr(CulledDraws, name, counted)
+    scene, camera = build_chess(detail=0.02, frame=3, width=64, height=36)
+    assert scene.geometry.triangle_count >= draw_module.CULL_MIN_TRIANGLES  # the culled path
+    settings = RenderSettings(mode="RASTER", shadow_resolution=256, shadow_cascades=2)
+    gpu, drawer = GPUScene(gl), SceneDrawer(gl)
+    shadows = ShadowDepthPass(gl, drawer)
+    variants.set_override(f"faces={family}")
+    try:
+        gpu.upload(scene)
+        gpu.transform()
+        maps = shadows.render(gpu, scene, camera, settings, shadows.atlas, GeometryDelta.everything(0))
+        layer = shadows.atlas.static.read()
+    finally:
+        variants.set_override(None)
+        shadows.release()
+        drawer.release()
+        gpu.release()
+    return layer, maps.submitted, dict(calls)
+
+
+def test_shadow_slots_in_one_draw_per_batch_equal_one_draw_per_slot_bit_for_bit(gl, monkeypatch):
+    per_slot, submitted_cpu, cpu_draws = shadow_layers_with_variant(gl, monkeypatch, "cpu")
+    one_draw, submitted_gpu, gpu_draws = shadow_layers_with_variant(gl, monkeypatch, "gpu")
+    assert cpu_draws["draw_all"] == 0 and cpu_draws["draw"] >= 9
+    # Two layers (static, dynamic) of batches of at most six slots: 9 slots, 2 batches each.
+    assert gpu_draws["draw"] == 0 and 2 <= gpu_draws["draw_all"] <= 4
+    assert submitted_cpu == submitted_gpu > 0
+    a, b = np.frombuffer(per_slot, np.uint8), np.frombuffer(one_draw, np.uint8)
+    assert np.array_equal(a, b), f"{np.count_nonzero(a != b)} bytes differ"
+    depth = np.frombuffer(one_draw, np.float32)
+    assert 0.05 < (depth < 1.0).mean(), "the layer holds the scene's depths"
+
+
+@pytest.mark.parametrize("family", ["cpu", "gpu"])
+def test_the_shadow_pass_compiles_the_one_draw_program_only_for_the_gpu_variant(gl, family):
+    drawer = SceneDrawer(gl)
+    shadows = ShadowDepthPass(gl, drawer)
+    variants.set_override(f"faces={family}")
+    try:
+        program = shadows.faces_program()
+    finally:
+        variants.set_override(None)
+        shadows.release()
+        drawer.release()
+    assert (program is not None) == (family == "gpu")

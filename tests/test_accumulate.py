@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The running mean of a view's samples on the GPU (hybrid_engine/passes/accumulate/), and the
+"""The running mean of a view's samples on the GPU (hybrid_engine/passes/film/), and the
 frame's one read-back of it (hybrid_engine/frame/readback.py)."""
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from hybrid_engine import RenderSettings
 from hybrid_engine.frame.accumulation import sample_offset
 from hybrid_engine.frame.antialias import jittered_camera
 from hybrid_engine.frame.readback import ImageReadback
-from hybrid_engine.passes.accumulate.accumulate import AccumulatePass, AccumulationError
+from hybrid_engine.passes.film.accumulate import AccumulatePass, AccumulationError
 from test_film import cameras as film_cameras, floor_scene
 
 # Sizes that do not divide the 8 x 8 workgroup.

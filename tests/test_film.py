@@ -10,7 +10,7 @@ import pytest
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
 from hybrid_engine.scene.camera import look_at
-from hybrid_engine.frame.film import BACKGROUND_DEPTH, FilmError, FrameOutputs, normal_pass
+from hybrid_engine.frame.film import BACKGROUND_DEPTH, FilmError, FrameOutputs
 from hybrid_engine.frame.views import border_pixels, region_camera
 from scenes_analytic import quad, ray_plane_z
 
@@ -84,13 +84,26 @@ def test_normal_pass_faces_the_camera_on_both_sides_of_a_surface(renderer):
         assert (normal[~hit & ~(normal != 0).any(axis=-1)] == 0).all()
 
 
-def test_normal_pass_normalises_and_uses_the_back_side_flag():
+def test_normal_pass_normalises_and_uses_the_back_side_flag(ctx):
+    """The GPU pass on a hand-made G-buffer: an unnormalised front side, a back side
+    (negative material code) reported flipped, and the background 0."""
+    from hybrid_engine.passes.film.data_passes import DataPassesPass, read_data_passes
+
     nm = np.zeros((1, 3, 4), np.float32)
     nm[0, 0] = (0.0, 0.0, 2.0, 3.0)  # front side, unnormalised
     nm[0, 1] = (0.0, 0.6, 0.8, -1.0)  # back side: reported flipped
-    np.testing.assert_allclose(normal_pass(nm)[0], [[0, 0, 1], [0, -0.6, -0.8], [0, 0, 0]], atol=1e-7)
-    with pytest.raises(FilmError, match=r"\(H, W, 4\)"):
-        normal_pass(np.zeros((2, 2, 3), np.float32))
+    normal_material = ctx.texture((3, 1), 4, nm.tobytes(), dtype="f4")
+    depth = ctx.depth_texture((3, 1), np.array([0.5, 0.5, 1.0], np.float32).tobytes())
+    data_passes = DataPassesPass(ctx)
+    try:
+        textures = data_passes.compute(depth, normal_material, Camera(width=3, height=1))
+        out = read_data_passes(textures, ("depth", "normal"))
+    finally:
+        data_passes.release()
+        normal_material.release()
+        depth.release()
+    np.testing.assert_allclose(out["normal"][0], [[0, 0, 1], [0, -0.6, -0.8], [0, 0, 0]], atol=1e-7)
+    assert out["depth"][0, 2] == BACKGROUND_DEPTH and 0 < out["depth"][0, 0] < BACKGROUND_DEPTH
 
 
 def test_frames_without_data_passes_carry_none(renderer):

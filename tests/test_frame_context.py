@@ -97,7 +97,7 @@ def test_the_renderer_refuses_a_pass_order_with_a_missing_input_before_any_pass_
     try:
         settings = RenderSettings(mode="HYBRID", cube_resolution=16)
         plan = [p for p in renderer.passes(settings) if p.name != "cull"]
-        monkeypatch.setattr(renderer, "passes", lambda _settings, _accumulate=False: plan)
+        monkeypatch.setattr(renderer, "passes", lambda *_args: plan)
         ran = []
         monkeypatch.setattr(renderer.upload, "run", lambda frame: ran.append("upload"))
         with pytest.raises(PassGraphError, match=r"'lbvh_build' .* reads 'near_triangles'"):

@@ -9,7 +9,7 @@ shadows draw one set of directions. While nothing changes, more samples of the s
 average to an anti-aliased, converged image, as Cycles' and EEVEE's viewports do. The viewport adds one sample per redraw until its Viewport Samples
 are reached and starts again on any change (the view, the settings, the scene); a final
 render adds ``render_samples`` of them at once. The running mean itself is kept on the GPU
-by the frame's ``accumulate`` pass (passes/accumulate/).
+by the frame's ``accumulate`` pass (passes/film/).
 """
 from __future__ import annotations
 
@@ -67,7 +67,7 @@ def sample_offset(index: int, filter_width: float = DEFAULT_FILTER_WIDTH) -> tup
 
 class SampleSchedule:
     """Which sample of a view is next, for one key (what the samples show), and whether
-    another is due. The samples' sum lives on the GPU (passes/accumulate/): the host only
+    another is due. The samples' sum lives on the GPU (passes/film/): the host only
     counts, so a redraw's host work does not grow with the image."""
 
     def __init__(self, filter_width: float = DEFAULT_FILTER_WIDTH) -> None:

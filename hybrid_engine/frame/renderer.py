@@ -43,7 +43,8 @@ import numpy as np
 
 from ..gpu import gl_context
 from ..gpu.timing import PassTimer
-from ..passes.accumulate.accumulate import AccumulatePass
+from ..passes.film.accumulate import AccumulatePass
+from ..passes.film.data_passes import DataPassesPass, read_data_passes
 from ..passes.cube_map.cube_map import CubeMapPass
 from ..passes.frame_context import FrameContext, FramePass, check_order
 from ..passes.gbuffer.gbuffer import GBufferPass
@@ -63,7 +64,7 @@ from ..scene.camera import Camera
 from ..scene.data import SceneData
 from ..scene.raster_view import RasterView
 from ..scene.settings import DIAGNOSTIC_VIEWS, RenderSettings
-from .film import FrameOutputs, depth_pass, normal_pass
+from .film import FrameOutputs
 from .readback import ImageReadback
 
 CancelCallback = Callable[[], bool]
@@ -85,11 +86,13 @@ MODE_STEPS = {
 MODE_STEPS.update({view: MODE_STEPS["HYBRID"] for view in DIAGNOSTIC_VIEWS})
 
 
-def frame_steps(mode: str, accumulate: bool = False) -> tuple[str, ...]:
-    """The steps of a frame of ``mode``; one that accumulates adds ``accumulate`` before
-    the read-back."""
+def frame_steps(mode: str, accumulate: bool = False, data: bool = False) -> tuple[str, ...]:
+    """The steps of a frame of ``mode`` (RenderSettings admits no other); one that
+    accumulates adds ``accumulate``, one with data passes ``data_passes``, before the
+    read-back."""
     steps = MODE_STEPS[mode]
-    return (*steps[:-1], "accumulate", steps[-1]) if accumulate else steps
+    extra = ("accumulate",) * accumulate + ("data_passes",) * data
+    return (*steps[:-1], *extra, steps[-1])
 # The passes that depend only on the geometry, the settings and the eye, and what they leave:
 # another sample of one view keeps them (render(reuse_world=True)).
 WORLD_PASSES = ("cube_map_raster", "cull", "lbvh_build")
@@ -139,8 +142,10 @@ class Renderer:
         self.gbuffer = GBufferPass(self.ctx, self.drawer)
         self.occlusion = ScreenSpaceOcclusion(self.ctx)
         self.deferred_shade = DeferredShadePass(self.ctx)
-        # The running mean of a view's samples (render(accumulate=True)).
+        # The running mean of a view's samples (render(accumulate=True)), and the data
+        # passes a final render asks for (FrameOutputs).
         self.accumulate = AccumulatePass(self.ctx)
+        self.data_passes = DataPassesPass(self.ctx)
         # The traced modes' passes, made on the first frame that needs them (their kernels
         # take a while to compile).
         self.cube_map: CubeMapPass | None = None
@@ -155,9 +160,10 @@ class Renderer:
         self._checked: set[tuple] = set()  # configurations whose pass order was checked
 
     # -- the passes ----------------------------------------------------------------------------
-    def passes(self, settings: RenderSettings, accumulate: bool = False) -> list[FramePass]:
+    def passes(self, settings: RenderSettings, accumulate: bool = False, data: bool = False) -> list[FramePass]:
         """This renderer's passes for ``settings``, in the order a frame runs them;
-        ``accumulate`` adds the running mean of the view's samples after the colour."""
+        ``accumulate`` adds the running mean of the view's samples after the colour, ``data``
+        the Depth and Normal passes."""
         mode = settings.mode
         traced = mode != "RASTER"
         if traced:
@@ -177,6 +183,8 @@ class Renderer:
             plan.append(self.tracer)
         if accumulate:
             plan.append(self.accumulate)
+        if data:
+            plan.append(self.data_passes)
         return plan
 
     def _ensure_traced(self) -> None:
@@ -187,10 +195,10 @@ class Renderer:
             self.tracer = HybridTracer(self.ctx)
             self.world_light = WorldLightRays(self.tracer)
 
-    def _checked_passes(self, settings: RenderSettings, accumulate: bool) -> list[FramePass]:
-        """``passes(settings, accumulate)``, their order checked once per configuration."""
-        plan = self.passes(settings, accumulate)
-        key = (settings.mode, settings.traces_sky, accumulate)
+    def _checked_passes(self, settings: RenderSettings, accumulate: bool, data: bool) -> list[FramePass]:
+        """``passes(settings, accumulate, data)``, their order checked once per configuration."""
+        plan = self.passes(settings, accumulate, data)
+        key = (settings.mode, settings.traces_sky, accumulate, data)
         if key not in self._checked:
             check_order(plan, settings, final_reads=READBACK_READS + (("film",) if accumulate else ()))
             self._checked.add(key)
@@ -235,16 +243,17 @@ class Renderer:
         converges.
 
         ``accumulate``: the frame's image is the mean of samples 0..``sample`` of the view,
-        kept on the GPU (passes/accumulate/; sample 0 starts it over, each later one must
+        kept on the GPU (passes/film/; sample 0 starts it over, each later one must
         follow the last). ``read_image`` False reads no image back (``image`` is None: a
         final render's samples before its last). ``readback``: the image goes to the host
         through this reader instead (frame/readback.py: a persistent array, possibly
         asynchronous), and ``image`` is the newest one it holds."""
         settings = settings or RenderSettings()
         outputs = outputs or FrameOutputs()
-        steps = frame_steps(settings.mode, accumulate)  # RenderSettings admits no other mode
+        steps = frame_steps(settings.mode, accumulate, outputs.depth or outputs.normal)
         traced = settings.mode != "RASTER"
-        plan = self._checked_passes(settings, accumulate)
+        data = outputs.depth or outputs.normal
+        plan = self._checked_passes(settings, accumulate, data)
         timer = PassTimer(self.ctx, enabled=timing)
         start = time.perf_counter()
         frame = FrameContext(self.ctx, scene_data=scene, camera=camera, settings=settings,
@@ -296,7 +305,8 @@ class Renderer:
         elif read_image:
             image = np.empty((texture.height, texture.width, 4), np.float32)
             texture.read_into(image)
-        data = self._data_passes(targets, frame.camera, frame.outputs)
+        names = tuple(name for name in ("depth", "normal") if getattr(frame.outputs, name))
+        data = read_data_passes(frame.resource("data_passes"), names) if names else {}
         counts = dict(frame.counts)
         if settings.mode not in ("RASTER", "PROVENANCE"):
             counts.update(self.tracer.read_stats(settings.max_depth).as_counts())
@@ -325,20 +335,10 @@ class Renderer:
         return (scene_id == old_id and settings == old_settings
                 and float(np.max(np.abs(center - old_center))) <= 1e-9 * scale)
 
-    @staticmethod
-    def _data_passes(targets, camera: Camera, outputs: FrameOutputs) -> dict[str, np.ndarray]:
-        """The data passes ``outputs`` asks for, from the primary G-buffer (read back only
-        then: a frame without passes reads nothing more)."""
-        data = {}
-        if outputs.depth:
-            data["depth"] = depth_pass(targets.read("depth")[..., 0], camera)
-        if outputs.normal:
-            data["normal"] = normal_pass(targets.read("normal_material"))
-        return data
-
     def release(self) -> None:
         """Free this renderer's GL objects (the shared context stays)."""
         self.accumulate.release()
+        self.data_passes.release()
         for owner in (self.cube_map, self.culler, self.tracer):
             if owner is not None:
                 owner.release()

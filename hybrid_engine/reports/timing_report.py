@@ -45,7 +45,7 @@ from .chart_raster import ChartPicture
 # deferred shading, the recursive tracer (§3.4), the running mean of the samples, read-back.
 PIPELINE_PASSES = (
     "extract", "upload", "instance_transform", "shadow_maps", "lighting", "primary_raster",
-    "cube_map_raster", "cull", "lbvh_build", "shade", "trace", "accumulate", "readback",
+    "cube_map_raster", "cull", "lbvh_build", "shade", "trace", "accumulate", "data_passes", "readback",
 )
 # Counts that come first in tables; the rest (ray counts per bounce...) follow in natural order.
 LEADING_COUNTS = ("triangles_total", "triangles_bvh")

@@ -6,7 +6,7 @@ A viewport adds one sample per redraw and a final render ``render_samples`` of t
 cost a full read-back of every sample and a float64 numpy sum per pixel, work that grows
 with the image and dwarfs the frame's own host cost at 1080p. Here the sum stays in GPU
 textures: each frame adds its ``color`` into a float32 sum with Kahan's compensation
-(``gpu_shaders/accumulate/accumulate.comp.glsl``; the mean matches a float64 sum to
+(``gpu_shaders/film/accumulate.comp.glsl``; the mean matches a float64 sum to
 float32 precision) and writes the mean, the frame's ``film`` resource, which the frame's end
 reads back once.
 
@@ -51,7 +51,7 @@ class AccumulatePass:
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
-        self.program = shader_loader.compute(ctx, "accumulate/accumulate.comp.glsl")
+        self.program = shader_loader.compute(ctx, "film/accumulate.comp.glsl")
         self.size: tuple[int, int] | None = None
         self.count = 0
         self._textures: dict[str, object] = {}

@@ -520,3 +520,50 @@ def test_a_diagnostic_view_shows_its_legend_in_the_viewport(addon, viewport):
     assert np.allclose(top_left[0], diagnostic_legend.LEGEND_BACKGROUND)
     first = diagnostic_views.legend(settings)[0]
     assert np.isclose(top_left, first.colour, atol=1e-6).all(axis=1).any(), first.label
+
+
+def _count_reads(monkeypatch) -> dict:
+    """Count every host read of GL data (buffer, texture and framebuffer reads) and every
+    ctx.finish(), by wrapping moderngl's classes."""
+    import moderngl
+
+    counts = {"reads": 0, "finish": 0}
+
+    def counting(cls, name, key):
+        original = getattr(cls, name)
+
+        def wrapper(self, *args, **kwargs):
+            counts[key] += 1
+            return original(self, *args, **kwargs)
+
+        monkeypatch.setattr(cls, name, wrapper)
+
+    for cls in (moderngl.Buffer, moderngl.Texture, moderngl.Framebuffer):
+        for name in ("read", "read_into"):
+            counting(cls, name, "reads")
+    counting(moderngl.Context, "finish", "finish")
+    return counts
+
+
+@pytest.mark.parametrize("mode", ["RASTER", "HYBRID", "FULL_BVH"])
+def test_a_viewport_redraw_reads_back_exactly_one_image_and_never_waits(addon, viewport, monkeypatch, mode):
+    """Each accumulating redraw (first samples, which build the world, and later ones, which
+    keep it) brings one image to the host and syncs nowhere else."""
+    import bpy
+
+    _module, session, _reports = viewport
+    scene, _cube, material = _two_object_scene(bpy)
+    material.node_tree.nodes["Principled BSDF"].inputs["Metallic"].default_value = 1.0  # the trace has work
+    material.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.0
+    scene.hybrid_rt.mode = mode
+    scene.hybrid_rt.viewport_samples = 4
+    _sync(bpy)
+    _frame(addon, bpy, session)  # compiles and sizes everything once
+    counts = _count_reads(monkeypatch)
+    per_redraw = []
+    for eye in ((6.0, -7.0, 5.0), (6.0, -7.0, 5.0), (6.5, -7.0, 5.0), (6.5, -7.0, 5.0)):
+        counts["reads"] = counts["finish"] = 0
+        frame = session.frame(_region(bpy, eye=eye), _settings(addon, bpy))
+        assert frame.error is None, frame.error
+        per_redraw.append((counts["reads"], counts["finish"]))
+    assert per_redraw == [(1, 0)] * 4

@@ -53,7 +53,7 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from hybrid_engine.gpu import gl_context
+from hybrid_engine.gpu import gl_context, variants
 from hybrid_engine.passes.lbvh import lbvh
 from hybrid_engine.scene.camera import Camera
 from hybrid_engine.scene.data import SceneData
@@ -96,6 +96,9 @@ FRAME_FLIP_BAR = 0.05
 # (float32 arithmetic in different orders; 1e-3 is far above it and far below a wrong hit).
 AGREEMENT_T_RELATIVE = 1e-3
 SEED = 20140101
+# The kernels (variants.KERNELS) whose shape an LBVH build's time depends on: its radix sort
+# and the near-cube cull's scan before it in a frame (the sort's histogram scan in its GPU shape).
+LBVH_KERNELS = ("sort", "scan")
 
 
 # -- scenes ---------------------------------------------------------------------------------
@@ -213,9 +216,12 @@ def _interleaved(contenders: dict[str, Callable[[], float]], rounds: int) -> dic
 # -- sections -------------------------------------------------------------------------------
 
 def lbvh_section(sizes=FULL_BUILD_SIZES, rounds: int = ROUNDS) -> list[dict]:
-    """GPU LBVH build vs Embree build vs numpy reference build, per scene size."""
+    """GPU LBVH build vs Embree build vs numpy reference build, per scene size; each row
+    records the shapes of the sort and scan kernels (``kernels``, :mod:`variants`)."""
     ctx = gl_context.get_context()
     builder = lbvh.LBVHBuilder(ctx)
+    kernels = {kernel: family for kernel, family in variants.chosen().items() if kernel in LBVH_KERNELS}
+    assert builder.sorter.family == kernels["sort"]
     rng = np.random.default_rng(SEED)
     rows = []
     try:
@@ -230,7 +236,8 @@ def lbvh_section(sizes=FULL_BUILD_SIZES, rounds: int = ROUNDS) -> list[dict]:
                 }, rounds)
             finally:
                 buffer.release()
-            rows.append({"triangles": int(size), **{k: round(v, 3) for k, v in medians.items()}})
+            rows.append({"triangles": int(size), **{k: round(v, 3) for k, v in medians.items()},
+                         "kernels": kernels})
     finally:
         builder.release()
     return rows
@@ -494,6 +501,8 @@ def format_tables(report: dict) -> str:
     lines = [f"renderer: {report['machine']['gl_renderer']}, {report['machine']['cpu_count']} CPUs",
              f"GPU times: {report['machine']['gpu_timing']}", ""]
     if report.get("lbvh"):
+        kernels = report["lbvh"][0]["kernels"]
+        lines.append("LBVH build kernels: " + ", ".join(f"{name}={family}" for name, family in kernels.items()))
         lines.append(f"{'triangles':>10} {'GPU ms':>9} {'Embree ms':>10} {'numpy ms':>10} "
                      f"{'GPU/Embree':>11} {'numpy/GPU':>10}")
     for row in report.get("lbvh", []):

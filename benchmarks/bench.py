@@ -108,6 +108,9 @@ FRAME_FLIP_BAR = 0.05
 # (float32 arithmetic in different orders; 1e-3 is far above it and far below a wrong hit).
 AGREEMENT_T_RELATIVE = 1e-3
 SEED = 20140101
+# The kernels (variants.KERNELS) whose shape an LBVH build's time depends on: its radix sort
+# and the near-cube cull's scan before it in a frame (the sort's histogram scan in its GPU shape).
+LBVH_KERNELS = ("sort", "scan")
 
 
 # -- scenes ---------------------------------------------------------------------------------
@@ -234,9 +237,12 @@ def _interleaved(contenders: dict[str, Callable[[], float]], rounds: int) -> dic
 # -- sections -------------------------------------------------------------------------------
 
 def lbvh_section(sizes=FULL_BUILD_SIZES, rounds: int = ROUNDS) -> list[dict]:
-    """GPU LBVH build vs Embree build vs numpy reference build, per scene size."""
+    """GPU LBVH build vs Embree build vs numpy reference build, per scene size; each row
+    records the shapes of the sort and scan kernels (``kernels``, :mod:`variants`)."""
     ctx = gl_context.get_context()
     builder = lbvh.LBVHBuilder(ctx)
+    kernels = {kernel: family for kernel, family in variants.chosen().items() if kernel in LBVH_KERNELS}
+    assert builder.sorter.family == kernels["sort"]
     rng = np.random.default_rng(SEED)
     rows = []
     embree = embree_available()
@@ -254,7 +260,7 @@ def lbvh_section(sizes=FULL_BUILD_SIZES, rounds: int = ROUNDS) -> list[dict]:
             finally:
                 buffer.release()
             rows.append({"triangles": int(size), "embree_build_ms": None,
-                         **{k: round(v, 3) for k, v in medians.items()}})
+                         **{k: round(v, 3) for k, v in medians.items()}, "kernels": kernels})
     finally:
         builder.release()
     return rows

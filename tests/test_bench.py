@@ -9,6 +9,7 @@ import sys
 
 from conftest import REPO_ROOT
 from hybrid_engine import RenderSettings
+from hybrid_engine.gpu import variants
 
 LBVH_KEYS = {"triangles", "build_ms", "embree_build_ms", "numpy_build_ms"}
 TRACE_KEYS = {"rays", "kind", "mrays_per_s", "embree_mrays_per_s", "embree_threads",
@@ -32,9 +33,12 @@ def test_quick_bench_writes_every_key(tmp_path):
     assert "ctx.finish()" in proc.stdout, "the table must say how GPU time was measured"
     report = json.loads(out.read_text())
     assert [row["triangles"] for row in report["lbvh"]] == [2000, 10000]
+    chosen = variants.chosen()
     for row in report["lbvh"]:
         assert LBVH_KEYS <= row.keys()
         assert all(row[k] > 0 and math.isfinite(row[k]) for k in LBVH_KEYS)
+        assert row["kernels"] == {"sort": chosen["sort"], "scan": chosen["scan"]}
+    assert f"sort={chosen['sort']}, scan={chosen['scan']}" in proc.stdout, "the table names the kernels' shapes"
     trace = report["trace"]
     assert TRACE_KEYS <= trace.keys()
     assert trace["kind"] == "reflection"

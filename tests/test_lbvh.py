@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from benchmarks import lbvh_reference
-from hybrid_engine.gpu import triangle_input
+from hybrid_engine.gpu import triangle_input, variants
 from hybrid_engine.gpu import dispatch as gpu_dispatch
 from hybrid_engine.passes.lbvh import lbvh
 from benchmarks.bench import hit_agreement, mesh_like_scene, reflection_rays
@@ -25,6 +25,8 @@ MIN_AGREEMENT = 0.999
 # Below this fraction of hitting rays an agreement figure would mostly count misses.
 MIN_HIT_FRACTION = 0.1
 SIZES = [0, 1, 2, 255, 256, 257, 2049, 100_003]
+# The radix sort's shapes (hybrid_engine/gpu/radix_sort.py), forced through LBVHBuilder.
+SORT_FAMILIES = ["cpu", "gpu"]
 
 
 @pytest.fixture(scope="module")
@@ -106,6 +108,48 @@ def test_tree_equals_reference_build(ctx, builder, rng, count):
     np.testing.assert_array_equal(nodes["left_max"], ref.child_max[:, 0])
     np.testing.assert_array_equal(nodes["right_min"], ref.child_min[:, 1])
     np.testing.assert_array_equal(nodes["right_max"], ref.child_max[:, 1])
+
+
+@pytest.mark.parametrize("count", [1, 2, 257, 2049, 100_003])
+@pytest.mark.parametrize("scene", ["soup", "duplicates"])
+def test_either_sort_shape_builds_the_same_tree_as_the_reference(ctx, rng, scene, count):
+    """The chunk-shaped and the tile-shaped radix sort (each with either histogram scan for
+    the latter) give the same sorted codes, leaf order, nodes and leaf triangles, byte for
+    byte, and the reference's: both are stable, so equal codes keep the triangles' order."""
+    tris = random_soup(rng, count) if scene == "soup" else duplicate_centroid_scene(rng, count)
+    ref = lbvh_reference.build(tris)
+    results = []
+    for sort_family, scan_family in (("cpu", None), ("gpu", "gpu"), ("gpu", "cpu")):
+        builder = LBVHBuilder(ctx, sort_family=sort_family, scan_family=scan_family)
+        try:
+            built = builder.build_from_array(tris)
+            assert builder.sorter.family == sort_family
+            results.append((built.read_sorted_keys(), built.read_leaf_primitives(),
+                            built.read_nodes().tobytes(), built.read_triangles().tobytes()))
+        finally:
+            builder.release()
+    np.testing.assert_array_equal(results[0][0], ref.sorted_codes)
+    np.testing.assert_array_equal(results[0][1], ref.leaf_primitives)
+    for other in results[1:]:
+        np.testing.assert_array_equal(other[0], results[0][0])
+        np.testing.assert_array_equal(other[1], results[0][1])
+        assert other[2] == results[0][2] and other[3] == results[0][3]
+
+
+def test_a_builder_sorts_with_the_shape_the_variants_choose(ctx):
+    renderer = ctx.info["GL_RENDERER"]
+    variants.set_override("sort=gpu,scan=gpu")
+    try:
+        forced = LBVHBuilder(ctx)
+    finally:
+        variants.set_override(None)
+    automatic = LBVHBuilder(ctx)
+    try:
+        assert (forced.sorter.family, forced.sorter.scan.family) == ("gpu", "gpu")
+        assert automatic.sorter.family == variants.choose("sort", renderer=renderer)
+    finally:
+        forced.release()
+        automatic.release()
 
 
 # -- invariants on the GPU tree alone -------------------------------------------------------
@@ -251,12 +295,14 @@ def test_non_finite_and_degenerate_triangles_do_not_poison_other_rays(ctx, rng):
     assert np.all(tri_nan == -1)
 
 
-def test_sorted_and_unsorted_ray_orders_give_the_same_hits_as_embree(ctx, rng):
+@pytest.mark.parametrize("sort_family", SORT_FAMILIES)
+def test_sorted_and_unsorted_ray_orders_give_the_same_hits_as_embree(ctx, rng, sort_family):
     """Tracing the rays in their origins' Morton order (ray_keys.comp.glsl) changes only the
-    order in which the invocations run: every ray's hit is bit for bit the same, and Embree's."""
+    order in which the invocations run: every ray's hit is bit for bit the same, and Embree's,
+    whichever shape of radix sort ordered the triangles and the rays."""
     tris = mesh_like_scene(40_000, rng, triangles_per_object=4_000)
     origins, dirs = reflection_rays(tris, 8000, rng)
-    builder = LBVHBuilder(ctx)
+    builder = LBVHBuilder(ctx, sort_family=sort_family)
     try:
         builder.build_from_array(tris)
         t_sorted, tri_sorted = builder.trace(origins, dirs, sort_rays=True)
@@ -286,8 +332,9 @@ def ray_keys_reference(origins: np.ndarray, root) -> np.ndarray:
     return np.where(np.isfinite(origins).all(axis=1), keys, 0).astype(np.uint32)
 
 
+@pytest.mark.parametrize("sort_family", SORT_FAMILIES)
 @pytest.mark.parametrize("scene", ["soup", "flat"])
-def test_ray_order_sorts_the_rays_stably_by_the_morton_code_of_their_origins(ctx, rng, scene):
+def test_ray_order_sorts_the_rays_stably_by_the_morton_code_of_their_origins(ctx, rng, scene, sort_family):
     """The order the sorted trace uses is a permutation of the rays, stably sorted by a Morton
     code recomputed in numpy; origins outside the root box clamp to it, non-finite ones go
     first, and a flat scene (zero extent in z) puts every ray in cell 0 along z."""
@@ -296,7 +343,7 @@ def test_ray_order_sorts_the_rays_stably_by_the_morton_code_of_their_origins(ctx
         tris[:, :, 2] = 0.5
     origins = rng.uniform(-0.3, 1.3, (5000, 3)).astype(np.float32)
     origins[::500] = np.nan
-    builder = LBVHBuilder(ctx)
+    builder = LBVHBuilder(ctx, sort_family=sort_family)
     origin_buffer = ctx.buffer(origins.tobytes())
     try:
         built = builder.build_from_array(tris)

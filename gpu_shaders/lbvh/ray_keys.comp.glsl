@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Sort keys of the rays given to LBVHBuilder.trace_buffers: a 24-bit Morton code of each
-// ray's origin in the BVH's root box, so that the radix sort (radix_*.comp.glsl) lines up
-// rays that start close together, and trace.comp.glsl then traces them in that order.
+// ray's origin in the BVH's root box, so that the radix sort (hybrid_engine/gpu/radix_sort.py)
+// lines up rays that start close together, and trace.comp.glsl then traces them in that order.
 //
 // Why: llvmpipe runs 8 invocations per SIMD vector and a vector loops until its slowest lane
 // is done, and each lane fetches its own nodes. Rays that start close together (and, for

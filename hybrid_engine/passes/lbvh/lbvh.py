@@ -10,8 +10,8 @@ bottom-up with atomic flags. Everything runs in compute shaders under ``gpu_shad
 ====================  ================================================================
 centroid_bounds       bounds of the centroids (atomic min/max on order-preserving uints)
 morton                one 30-bit code per triangle, bit-identical to the numpy reference
-radix_count/scan/     LSD radix sort, 8-bit digits, 4 passes of count -> prefix sum ->
-radix_scatter         stable scatter (per-chunk serial loops; no barriers on llvmpipe)
+(radix sort)          stable LSD radix sort of the codes (hybrid_engine/gpu/radix_sort.py,
+                      in the shape :mod:`hybrid_engine.gpu.variants` picks for the device)
 hierarchy             Karras 2012 Algorithm 1 with the index tie-break for equal codes
 refit                 triangles reordered into leaf order; boxes bottom-up, atomic flags
 trace                 closest hit per ray via gpu_shaders/include/bvh_traverse.glsl
@@ -32,13 +32,13 @@ compiled once per block count; a build that fits single blocks uses the plain pr
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ...gpu import gl_context, shader_loader
 from ...gpu.bindings import Storage, bind, split_storage
+from ...gpu.radix_sort import KEYS_PER_CHUNK, RadixSort
 from ...gpu.triangle_input import input_defines, input_split, input_storage
 from ...gpu.dispatch import (
     BlockSplit, GrowBuffer, dispatch, max_block_bytes, max_split_items, split_blocks, storage_barrier,
@@ -76,23 +76,15 @@ assert TRIANGLE_DTYPE.itemsize == 48, "TRIANGLE_DTYPE must match BVHTriangle (48
 # Workgroup size of the element-wise passes: llvmpipe runs 8 lanes per SIMD op (256-bit), a
 # 64-lane group is 8 ops per step and keeps enough groups for both CPU threads.
 LOCAL_SIZE = 64
-# 8-bit digits: 4 passes cover the 30-bit codes; 256 counters per chunk fit in L1.
-RADIX_BITS = 8
 MORTON_BITS = 30
-SORT_PASSES = math.ceil(MORTON_BITS / RADIX_BITS)
-# Keys each sort invocation walks serially. On a CPU driver long chunks amortise the per-chunk
-# histogram (256 counters) and keep each lane streaming; a GPU wants many short chunks.
-KEYS_PER_CHUNK_SOFTWARE = 2048
-KEYS_PER_CHUNK_HARDWARE = 256
 # Triangles each invocation of the bounds pass folds before its six atomics.
 BOUNDS_ITEMS_PER_INVOCATION = 16
 # Ray sorting before tracing (ray_keys.comp.glsl): from this many rays on, trace_buffers
-# orders the rays by a Morton code of their origins (a 3-pass radix sort of 24-bit keys) so
+# orders the rays by a Morton code of their origins (a radix sort of 24-bit keys) so
 # that the 8 lanes of a SIMD vector trace neighbouring rays. The sort's ten dispatches have a
 # fixed cost each, which a few thousand rays' coherence does not pay back.
 RAY_SORT_MIN_RAYS = 4096
 RAY_KEY_BITS = 24
-RAY_SORT_PASSES = math.ceil(RAY_KEY_BITS / RADIX_BITS)
 
 # The storage blocks of a built LBVH (bvh_storage.glsl, bvh_traverse.glsl), each followed
 # by its blocks 1..3 when split: the node array seen as nodes and as dvec4 halves, and the
@@ -100,7 +92,6 @@ RAY_SORT_PASSES = math.ceil(RAY_KEY_BITS / RADIX_BITS)
 BVH_BLOCKS = ("BVHNodes", "BVHNodeHalves", "BVHTriangles")
 
 _INPUT_DEFINES = {"LOCAL_SIZE": LOCAL_SIZE}
-_SORT_DEFINES = {"LOCAL_SIZE": LOCAL_SIZE, "RADIX_BITS": RADIX_BITS}
 
 _ORDERED_MIN_RESET = 0xFFFFFFFF
 _ORDERED_MAX_RESET = 0
@@ -168,20 +159,16 @@ def _read(buffer, nbytes: int) -> bytes:
 
 
 class LBVHBuilder:
-    """Builds the LBVH of a triangle buffer every frame, reusing programs and buffers."""
+    """Builds the LBVH of a triangle buffer every frame, reusing programs and buffers.
 
-    def __init__(self, ctx=None, keys_per_chunk: int | None = None) -> None:
+    ``sort_family`` / ``scan_family`` force the radix sort's shape and its histogram scan's
+    (default: :mod:`hybrid_engine.gpu.variants`); ``keys_per_chunk`` is the ``"cpu"`` sort's
+    chunk."""
+
+    def __init__(self, ctx=None, keys_per_chunk: int = KEYS_PER_CHUNK, sort_family: str | None = None,
+                 scan_family: str | None = None) -> None:
         self.ctx = ctx if ctx is not None else gl_context.get_context()
-        if keys_per_chunk is None:
-            keys_per_chunk = (
-                KEYS_PER_CHUNK_SOFTWARE if gl_context.is_software_renderer()
-                else KEYS_PER_CHUNK_HARDWARE
-            )
-        self.keys_per_chunk = int(keys_per_chunk)
-        compute = shader_loader.compute
-        self._radix_count = compute(self.ctx, "lbvh/radix_count.comp.glsl", _SORT_DEFINES)
-        self._radix_scan = compute(self.ctx, "lbvh/radix_scan.comp.glsl", {"RADIX_BITS": RADIX_BITS, "RADIX": 1 << RADIX_BITS})
-        self._radix_scatter = compute(self.ctx, "lbvh/radix_scatter.comp.glsl", _SORT_DEFINES)
+        self.sorter = RadixSort(self.ctx, sort_family, scan_family, keys_per_chunk)
         # Passes that touch split arrays: compiled now for single blocks; variants for split
         # arrays come from the loader's cache (compiled on their first use).
         single = BlockSplit(1, 1, 1, 1)
@@ -193,7 +180,6 @@ class LBVHBuilder:
         self._bounds_buffer = ctx.buffer(reserve=24)
         self._keys = (GrowBuffer(ctx, "lbvh keys A"), GrowBuffer(ctx, "lbvh keys B"))
         self._values = (GrowBuffer(ctx, "lbvh values A"), GrowBuffer(ctx, "lbvh values B"))
-        self._histograms = GrowBuffer(ctx, "lbvh radix histograms")
         self._nodes = GrowBuffer(ctx, "lbvh nodes")
         self._leaf_parent = GrowBuffer(ctx, "lbvh leaf parents")
         self._flags = GrowBuffer(ctx, "lbvh refit flags")
@@ -310,41 +296,10 @@ class LBVHBuilder:
         self._refit = compute(ctx, "lbvh/refit.comp.glsl", {**inputs, **nodes, **tris})
         self._trace = compute(ctx, "lbvh/trace.comp.glsl", {"LOCAL_SIZE": LOCAL_SIZE, **nodes, **tris})
 
-    def sort_plan(self, count: int) -> tuple[int, int]:
-        """(chunk size, chunk count) used by the radix sort for ``count`` keys."""
-        num_chunks = max(1, math.ceil(count / self.keys_per_chunk))
-        chunk_size = max(1, math.ceil(count / num_chunks))
-        return chunk_size, math.ceil(count / chunk_size) if count else 1
-
-    def _sort(self, keys, values, count: int, passes: int = SORT_PASSES) -> int:
-        """LSD radix sort of keys[0]/values[0] on their low ``passes * RADIX_BITS`` bits;
-        returns the index of the sorted pair."""
-        ctx = self.ctx
-        n4 = max(count, 1) * 4
-        chunk_size, num_chunks = self.sort_plan(count)
-        radix = 1 << RADIX_BITS
-        histograms = Storage(self._histograms.ensure(num_chunks * radix * 4), num_chunks * radix * 4)
-        plan = {"u_count": count, "u_chunk_size": chunk_size, "u_num_chunks": num_chunks}
-        src = 0
-        for digit in range(passes):
-            shift = digit * RADIX_BITS
-            dst = 1 - src
-            bind(self._radix_count, storage={"Keys": Storage(keys[src], n4), "Histograms": histograms},
-                 uniforms={**plan, "u_shift": shift})
-            dispatch(self._radix_count, num_chunks, LOCAL_SIZE)
-            storage_barrier(ctx)
-            bind(self._radix_scan, storage={"Histograms": histograms}, uniforms={"u_num_chunks": num_chunks})
-            self._radix_scan.run(1, 1, 1)
-            storage_barrier(ctx)
-            bind(self._radix_scatter, storage={"KeysIn": Storage(keys[src], n4), "Histograms": histograms,
-                                               "ValuesIn": Storage(values[src], n4),
-                                               "KeysOut": Storage(keys[dst], n4),
-                                               "ValuesOut": Storage(values[dst], n4)},
-                 uniforms={**plan, "u_shift": shift})
-            dispatch(self._radix_scatter, num_chunks, LOCAL_SIZE)
-            storage_barrier(ctx)
-            src = dst
-        return src
+    def _sort(self, keys, values, count: int, bits: int = MORTON_BITS) -> int:
+        """Stable radix sort of keys[0]/values[0] on their low ``bits`` bits (whole 8-bit
+        digits); returns the index of the sorted pair."""
+        return self.sorter.sort(keys, values, count, bits)
 
     # -- tracing ----------------------------------------------------------------------------
 
@@ -416,11 +371,12 @@ class LBVHBuilder:
              uniforms={"u_count": count})
         dispatch(program, count, LOCAL_SIZE)
         storage_barrier(ctx)
-        return order[self._sort(keys, order, count, RAY_SORT_PASSES)]
+        return order[self._sort(keys, order, count, RAY_KEY_BITS)]
 
     def release(self) -> None:
         """Free the GL buffers (programs stay in the loader's per-context cache)."""
-        for grow in (self._input, *self._keys, *self._values, self._histograms, self._nodes,
+        self.sorter.release()
+        for grow in (self._input, *self._keys, *self._values, self._nodes,
                      self._leaf_parent, self._flags, self._triangles, *self._rays, *self._hits,
                      *self._ray_keys, *self._ray_order):
             grow.release()

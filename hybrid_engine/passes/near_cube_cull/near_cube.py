@@ -47,7 +47,7 @@ from ..frame_context import FrameContext, PassIO
 from ..view_cull.frustum import draw_ranges
 
 LOCAL_SIZE = 64
-# Triangles each culling invocation walks serially (see the radix sort's chunks in lbvh.py).
+# Triangles each culling invocation walks serially (see the "cpu" radix sort's chunks in gpu/radix_sort.py).
 TRIANGLES_PER_CHUNK = 1024
 # Overlap of BVH and cube map: a fraction of the cube's half-size plus a floor for tiny cubes,
 # several float32 ulps at scene scale yet invisible in the image.
@@ -235,6 +235,7 @@ class NearCubeCuller:
         for grow in (self._input, self._object_bounds, self._object_ranges, self._object_class,
                      self._flags, self._counts, self._indices, self._candidates):
             grow.release()
+        self._scan.release()
 
 
 # The host's candidate test uses a cube this much larger (relative, plus absolute) than the

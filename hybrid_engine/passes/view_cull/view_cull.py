@@ -285,3 +285,4 @@ class ViewTriangleCuller:
         self._release_vaos()
         for grow in (self._segments, self._masks, self._counts, self.indices, self.commands):
             grow.release()
+        self._scan.release()

@@ -9,6 +9,8 @@
 // (the megakernel: its per-pixel stack; a wave: the parent ray's child slots). The ray and
 // work counters (CounterBuffer, tracer.COUNTER_KINDS x COUNTER_DEPTHS) go to the buffer at
 // once, or, with WORKGROUP_COUNTERS, through shared memory (count, flush_workgroup_counts).
+// With TRACE_SHADING_ONLY only the shading and spawning (no tracing, none of its storage
+// blocks: the wave kernels that shade stay within the driver's block limit).
 // With TRACE_ANY_HIT, trace_ray stops at the first BVH surface it finds: the occlusion
 // rays' kernel (trace/wave_occlusion.comp.glsl).
 // Host defines, storage blocks, uniforms and samplers: as trace/hybrid_trace.comp.glsl's
@@ -24,13 +26,18 @@
 #include "shading.glsl"
 #include "octahedral.glsl"
 #include "float_order.glsl"
+#ifndef TRACE_SHADING_ONLY
 #include "bvh_traverse.glsl"
+#endif  // TRACE_SHADING_ONLY
 
 
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 
+#ifndef TRACE_SHADING_ONLY
 #include "cube_march.glsl"
+#endif  // TRACE_SHADING_ONLY
 
+#ifndef TRACE_SHADING_ONLY
 // Shading normals of triangle i, corners 0..2: floats 9 i .. 9 i + 8 of the scene's normal
 // buffer (Geometry.normals as uploaded by hybrid_engine/passes/scene_upload/scene_buffers.py; ORIGINAL order, as
 // the BVH reports). Past the storage-block limit (3.7 M triangles of 36 bytes on llvmpipe)
@@ -79,8 +86,10 @@ vec3 interpolated_normal(int tri, vec2 bary) {
     return (1.0 - bary.x - bary.y) * corner_normal(i, 0u) + bary.x * corner_normal(i, 1u)
            + bary.y * corner_normal(i, 2u);
 }
+#endif  // TRACE_SHADING_ONLY
 
 #include "textures.glsl"
+#ifndef TRACE_SHADING_ONLY
 // struct TriangleUV (GPUScene.uv_rows; scene_upload/instance_transform.comp.glsl)   // total: 32 bytes
 //   vec4 uv01;       xy = UV of corner 0, zw = UV of corner 1
 //   vec4 uv2_scale;  xy = UV of corner 2, z = UV units per metre (sqrt of UV area over
@@ -90,6 +99,7 @@ struct TriangleUV {
     vec4 uv2_scale;
 };
 layout(std430) readonly buffer TriangleUVBuffer { TriangleUV tri_uvs[]; };
+#endif  // TRACE_SHADING_ONLY
 uniform float u_pixel_width;   // a pixel's footprint at the camera (orthographic), metres
 uniform float u_pixel_spread;  // its growth per metre of distance (perspective), radians
 uniform float u_ao_distance;   // reach of the occlusion rays of the first bounce's hits (0: none)
@@ -103,7 +113,9 @@ uniform float u_ao_distance;   // reach of the occlusion rays of the first bounc
 #define COUNT_CUBE_HIT 5
 #define COUNT_BVH_NODES 6   // nodes the rays of a depth visited, summed
 #define COUNT_CUBE_STEPS 7  // march steps the rays of a depth took, summed
+#ifndef TRACE_SHADING_ONLY
 layout(std430) buffer CounterBuffer { uint counters[]; };
+#endif  // TRACE_SHADING_ONLY
 
 uniform sampler2D u_depth;
 uniform sampler2D u_normal_material;
@@ -192,6 +204,7 @@ vec3 offset_origin(vec3 p, vec3 towards) {
     return p + towards * scale;
 }
 
+#ifndef TRACE_SHADING_ONLY
 #ifdef WORKGROUP_COUNTERS
 // A wave's rays all have one depth: the counts of a workgroup gather in shared memory, and
 // flush_workgroup_counts adds them to CounterBuffer with one atomic per kind (every
@@ -373,6 +386,7 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
 }
 
 
+#endif  // TRACE_SHADING_ONLY
 // What rays see that find no room: the sky along their direction (and the rays past the
 // depth limit); the entry shader adds it to the pixel.
 vec3 past_depth_limit = vec3(0.0);

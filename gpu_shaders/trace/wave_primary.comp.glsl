@@ -9,6 +9,7 @@
 //   WaveState, Children, ChildMasks, BlockSums (wave_queue.glsl), PixelAccum (vec4 per
 //   pixel), and trace_ray.glsl's. Uniforms: u_wave_slot (0) and trace_ray.glsl's.
 #define WAVE_EMIT
+#define TRACE_SHADING_ONLY
 #include "trace_ray.glsl"
 #include "wave_queue.glsl"
 

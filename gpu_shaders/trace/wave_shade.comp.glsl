@@ -8,6 +8,7 @@
 //   Hits (read), Contributions (vec4[], written), Children, ChildMasks, BlockSums and
 //   trace_ray.glsl's. Uniforms: u_wave_slot and trace_ray.glsl's.
 #define WAVE_EMIT
+#define TRACE_SHADING_ONLY
 #include "trace_ray.glsl"
 #include "wave_queue.glsl"
 #include "wave_hit.glsl"

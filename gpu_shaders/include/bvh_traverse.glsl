@@ -298,6 +298,61 @@ bool bvh_closest_leaf(vec3 origin, vec3 dir, float tmin, float tmax,
     return hit_leaf >= 0;
 }
 
+// Any-hit traversal for occlusion rays: true as soon as some leaf is hit with t in
+// (tmin, tmax], which one unspecified (the first the walk meets). No child is visited
+// nearer-first and no hit shortens the search: an occlusion ray asks only whether anything
+// lies within its reach, so the first hit ends it.
+bool bvh_any_leaf(vec3 origin, vec3 dir, float tmin, float tmax, out int leaf) {
+    leaf = -1;
+    if (!(all_finite(origin) && all_finite(dir))) {
+        return false;
+    }
+    BVHRay ray = bvh_make_ray(origin, dir);
+    vec2 bary = vec2(0.0);
+    int stack[BVH_STACK_SIZE];
+    int stack_size = 0;
+    int node = 0;
+    for (;;) {
+        BVHNode n = bvh_fetch_node(uint(node));
+        bvh_nodes_visited += 1u;
+        float t_left = bvh_box_entry(ray, bvh_xyz(n.left_min), bvh_xyz(n.left_max), tmin, tmax);
+        float t_right = bvh_box_entry(ray, bvh_xyz(n.right_min), bvh_xyz(n.right_max), tmin, tmax);
+        int left = int(n.left_min.w);
+        int right = int(n.left_max.w);
+        float t_best = tmax;
+        if (t_left < FLOAT_MAX && bvh_is_leaf(left)) {
+            if (bvh_intersect_leaf(ray, ~left, tmin, t_best, bary)) {
+                leaf = ~left;
+                return true;
+            }
+            t_left = FLOAT_MAX;
+        }
+        if (t_right < FLOAT_MAX && bvh_is_leaf(right)) {
+            if (bvh_intersect_leaf(ray, ~right, tmin, t_best, bary)) {
+                leaf = ~right;
+                return true;
+            }
+            t_right = FLOAT_MAX;
+        }
+        bool go_left = t_left < FLOAT_MAX;
+        bool go_right = t_right < FLOAT_MAX;
+        if (go_left && go_right) {
+            node = left;
+            if (stack_size < BVH_STACK_SIZE) {
+                stack[stack_size++] = right;
+            }
+        } else if (go_left || go_right) {
+            node = go_left ? left : right;
+        } else {
+            if (stack_size == 0) {
+                return false;
+            }
+            node = stack[--stack_size];
+        }
+    }
+    return false;
+}
+
 // The original triangle index of leaf `leaf`.
 int bvh_leaf_original(int leaf) {
     return int(bvh_triangle(uint(leaf)).v0.w);

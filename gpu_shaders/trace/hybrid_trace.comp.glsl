@@ -54,99 +54,9 @@
 //   Samplers: primary u_depth, u_normal_material, u_albedo, u_emission_scale; the cube atlas u_cube_depth,
 //   u_cube_normal_material, u_cube_surface, u_cube_geometric, u_cube_hiz; u_shadow_atlas, u_shadow_dynamic; u_sky_env.
 // Workgroup 8x8: neighbouring pixels' rays are coherent for the first bounce.
-#define BVH_NODES
-#define BVH_TRIANGLES
-// Shadows seen in reflections and through glass are hard (lighting.glsl HARD_SHADOWS): every
-// pixel shades up to max_depth hits there, and a penumbra's filter at each would cost more
-// than the rest of their shading.
-#define HARD_SHADOWS 1
-#include "scene_layout.glsl"
-#include "storage_blocks.glsl"
-#include "shading.glsl"
-#include "octahedral.glsl"
-#include "float_order.glsl"
-#include "bvh_traverse.glsl"
+#include "trace_ray.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
-
-layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
-
-#include "cube_march.glsl"
-
-// Shading normals of triangle i, corners 0..2: floats 9 i .. 9 i + 8 of the scene's normal
-// buffer (Geometry.normals as uploaded by hybrid_engine/passes/scene_upload/scene_buffers.py; ORIGINAL order, as
-// the BVH reports). Past the storage-block limit (3.7 M triangles of 36 bytes on llvmpipe)
-// it is bound as up to four ranges (storage_blocks.glsl): blocks TriangleNormals1..3.
-#ifndef TRI_NORMAL_BLOCKS
-#define TRI_NORMAL_BLOCKS 1
-#define TRI_NORMAL_BLOCK_SIZE 1
-#endif
-layout(std430) readonly buffer TriangleNormals { float tri_normals[]; };
-#if TRI_NORMAL_BLOCKS > 1
-layout(std430) readonly buffer TriangleNormals1 { float tri_normals1[]; };
-#endif
-#if TRI_NORMAL_BLOCKS > 2
-layout(std430) readonly buffer TriangleNormals2 { float tri_normals2[]; };
-#endif
-#if TRI_NORMAL_BLOCKS > 3
-layout(std430) readonly buffer TriangleNormals3 { float tri_normals3[]; };
-#endif
-// Material index per triangle (Geometry.material_ids), original order.
-layout(std430) readonly buffer TriangleMaterials { int tri_materials[]; };
-
-#define TRI_NORMAL_AT(array, base) vec3(array[(base)], array[(base) + 1u], array[(base) + 2u])
-
-// The shading normal of corner `corner` of original triangle `tri` (the block picked as in
-// triangle_input.glsl input_vertex).
-vec3 corner_normal(uint tri, uint corner) {
-#if TRI_NORMAL_BLOCKS == 1
-    return TRI_NORMAL_AT(tri_normals, tri * 9u + corner * 3u);
-#else
-    uint block = STORAGE_BLOCK_OF(tri, TRI_NORMAL_BLOCK_SIZE, TRI_NORMAL_BLOCKS);
-    uint base = (tri - block * uint(TRI_NORMAL_BLOCK_SIZE)) * 9u + corner * 3u;
-#if TRI_NORMAL_BLOCKS > 3
-    if (block == 3u) return TRI_NORMAL_AT(tri_normals3, base);
-#endif
-#if TRI_NORMAL_BLOCKS > 2
-    if (block == 2u) return TRI_NORMAL_AT(tri_normals2, base);
-#endif
-    if (block == 1u) return TRI_NORMAL_AT(tri_normals1, base);
-    return TRI_NORMAL_AT(tri_normals, base);
-#endif
-}
-
-// The shading normal interpolated at barycentrics (b1, b2) of original triangle `tri`.
-vec3 interpolated_normal(int tri, vec2 bary) {
-    uint i = uint(tri);
-    return (1.0 - bary.x - bary.y) * corner_normal(i, 0u) + bary.x * corner_normal(i, 1u)
-           + bary.y * corner_normal(i, 2u);
-}
-
-#include "textures.glsl"
-// struct TriangleUV (GPUScene.uv_rows; scene_upload/instance_transform.comp.glsl)   // total: 32 bytes
-//   vec4 uv01;       xy = UV of corner 0, zw = UV of corner 1
-//   vec4 uv2_scale;  xy = UV of corner 2, z = UV units per metre (sqrt of UV area over
-//                    world area; 0 when degenerate), w unused
-struct TriangleUV {
-    vec4 uv01;
-    vec4 uv2_scale;
-};
-layout(std430) readonly buffer TriangleUVBuffer { TriangleUV tri_uvs[]; };
-uniform float u_pixel_width;   // a pixel's footprint at the camera (orthographic), metres
-uniform float u_pixel_spread;  // its growth per metre of distance (perspective), radians
-uniform float u_ao_distance;   // reach of the occlusion rays of the first bounce's hits (0: none)
-
-#define COUNTER_DEPTHS 17
-#define COUNT_TRACED 0
-#define COUNT_CUBE_MAP 1
-#define COUNT_SKY 2
-#define COUNT_BVH_REENTRY 3
-#define COUNT_BVH_HIT 4
-#define COUNT_CUBE_HIT 5
-#define COUNT_BVH_NODES 6   // nodes the rays of a depth visited, summed
-#define COUNT_CUBE_STEPS 7  // march steps the rays of a depth took, summed
-layout(std430) buffer CounterBuffer { uint counters[]; };
-
 layout(rgba32f) uniform image2D u_color;
 #ifdef WORLD_LIGHT_PASS
 layout(rgba32f) writeonly uniform image2D u_ambient;
@@ -169,246 +79,9 @@ uint diag_bounces = 0u;
 uint diag_paths = 0u;
 #endif
 
-uniform sampler2D u_depth;
-uniform sampler2D u_normal_material;
-uniform sampler2D u_albedo;
-uniform sampler2D u_emission_scale;
-uniform sampler2D u_surface;         // primary roughness, metallic (gbuffer.frag.glsl)
-uniform sampler2D u_cube_surface;    // xy UV, z UV density (cube_map.CubeFaceTargets)
-uniform sampler2D u_cube_geometric;  // xy octahedral geometric normal
-uniform mat4 u_inv_view_proj;
-uniform vec3 u_camera_position;
-uniform vec3 u_camera_forward;
-uniform int u_orthographic;
-uniform ivec2 u_size;
-uniform int u_mode;          // MODE_* below
-uniform int u_max_depth;     // 0..MAX_DEPTH_LIMIT
-uniform vec3 u_near_center;  // the near cube (camera position)
-uniform float u_near_half;   // its half-size (near_size): decides where a ray starts
-uniform float u_bvh_half;    // half-size of the culled region (near_size + overlap)
-uniform int u_scene_bounded; // 1: u_scene_lo/hi bound all geometry (padded); 0: empty scene
-uniform vec3 u_scene_lo;
-uniform vec3 u_scene_hi;
-
-#define MODE_HYBRID 0
-#define MODE_FULL_BVH 1
-#define MODE_PROVENANCE 2
-
-#define MAX_DEPTH_LIMIT 16
-#define STACK_SIZE (MAX_DEPTH_LIMIT + 2)
-// Segments (BVH <-> cube map hand-overs) one ray may take before it is given the sky.
-#define MAX_SEGMENTS 12
-// Spawned rays start this far off the surface (relative to the position's magnitude), so
-// that neither the BVH nor the cube map finds the surface they leave.
-const float RAY_OFFSET_RELATIVE = 1e-4;
-const float RAY_OFFSET_ABSOLUTE = 1e-4;
-
-#define HIT_SKY 0
-#define HIT_BVH 1
-#define HIT_CUBE 2
-
-struct Hit {
-    int kind;
-    vec3 position;
-    vec3 normal;     // unit shading normal as modelled
-    vec3 geometric;  // unit normal of the hit triangle's plane (either orientation)
-    int material;
-    vec2 uv;         // texture coordinate (BVH hits: interpolated; cube hits: the texel's)
-    float lod;       // mip level of the ray cone's footprint (textured hits)
-};
-
-struct PendingRay {
-    vec3 origin;
-    vec3 dir;
-    vec3 weight;
-    int depth;   // bounce; -1: an occlusion ray (push_occlusion)
-    float blur;  // the roughest lobe on the ray's path (filters the lamp highlights it sees)
-    float reach; // how far it looks (FLOAT_MAX but for occlusion rays)
-};
-
-vec3 unproject_primary(vec2 ndc_xy, float ndc_z) {
-    vec4 world = u_inv_view_proj * vec4(ndc_xy, ndc_z, 1.0);
-    return world.xyz / world.w;
-}
-
-bool inside_near_cube(vec3 p) {
-    return all(lessThanEqual(abs(p - u_near_center), vec3(u_near_half)));
-}
-
-// [enter, exit] of the ray with the box [lo, hi]; enter > exit: no overlap.
-vec2 box_interval(vec3 o, vec3 d, vec3 lo, vec3 hi) {
-    vec3 safe = mix(d, vec3(1e-30), lessThan(abs(d), vec3(1e-30)));
-    vec3 inv = 1.0 / safe;
-    vec3 t0 = (lo - o) * inv;
-    vec3 t1 = (hi - o) * inv;
-    vec3 tn = min(t0, t1);
-    vec3 tf = max(t0, t1);
-    return vec2(max(max(tn.x, tn.y), tn.z), min(min(tf.x, tf.y), tf.z));
-}
-
-// [enter, exit] of the ray with the BVH region (the culled cube).
-vec2 bvh_region_interval(vec3 o, vec3 d) {
-    return box_interval(o, d, u_near_center - vec3(u_bvh_half), u_near_center + vec3(u_bvh_half));
-}
-
-vec3 offset_origin(vec3 p, vec3 towards) {
-    float scale = RAY_OFFSET_ABSOLUTE + RAY_OFFSET_RELATIVE * max(max(abs(p.x), abs(p.y)), abs(p.z));
-    return p + towards * scale;
-}
-
-void count(int kind, int depth) {
-    atomicAdd(counters[kind * COUNTER_DEPTHS + clamp(depth, 0, COUNTER_DEPTHS - 1)], 1u);
-}
-
-// Width in metres of a pixel's ray cone at distance t along a ray from o: the camera-to-
-// origin distance plus t is a lower bound of the path length (textures.py). A ray drawn from
-// a glossy lobe of roughness `blur` (the roughest on its path) stands for the lobe's spread
-// of directions, about 2 alpha radians across (GGX, alpha = roughness^2), which widens its
-// cone past its origin: what it meets is textured at the level the lobe would blur it to,
-// so one sample of a rough reflection already shows the blurred texture.
-float ray_cone_footprint(vec3 o, float t, float blur) {
-    return u_pixel_width + u_pixel_spread * (distance(o, u_camera_position) + t) + 2.0 * blur * blur * t;
-}
-
-Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary, float blur) {
-    Hit h;
-    h.kind = HIT_BVH;
-    h.position = o + d * t;
-    int tri = bvh_leaf_original(leaf);
-    h.geometric = safe_normalize(bvh_leaf_face_normal(leaf), -d);
-    h.normal = safe_normalize(interpolated_normal(tri, bary), h.geometric);
-    h.material = tri_materials[tri];
-    h.uv = vec2(0.0);
-    h.lod = 0.0;
-    ivec4 tex = materials[h.material].textures;
-    if (max(max(tex.x, tex.y), tex.z) >= 0 || material_has_surface_maps(materials[h.material])) {
-        // Texture coordinate by the hit's barycentrics.
-        TriangleUV tuv = tri_uvs[tri];
-        h.uv = (1.0 - bary.x - bary.y) * tuv.uv01.xy + bary.x * tuv.uv01.zw + bary.y * tuv.uv2_scale.xy;
-        h.lod = texture_lod(ray_cone_footprint(o, t, blur), tuv.uv2_scale.z);
-        if (tex.z >= 0) {
-            // The triangle's UV directions dp/du, dp/dv from its corners.
-            BVHTriangle tr = bvh_triangle(uint(leaf));
-            vec3 e1 = bvh_xyz(tr.v1) - bvh_xyz(tr.v0);
-            vec3 e2 = bvh_xyz(tr.v2) - bvh_xyz(tr.v0);
-            vec2 d1 = tuv.uv01.zw - tuv.uv01.xy;
-            vec2 d2 = tuv.uv2_scale.xy - tuv.uv01.xy;
-            float r = d1.x * d2.y - d2.x * d1.y;
-            if (abs(r) > 1e-20) {
-                vec3 tu = (e1 * d2.y - e2 * d1.y) / r;
-                vec3 tv = (e2 * d1.x - e1 * d2.x) / r;
-                h.normal = material_normal_lod(materials[h.material], h.normal, tu, tv, h.uv, h.lod);
-            }
-        }
-    }
-    return h;
-}
-
-// Where the ray leaves the bounds of all geometry (-1: it misses them; CUBE_NO_LIMIT: no
-// bounds). Past them neither the BVH nor the cube map holds anything to hit, so the march
-// stops there instead of walking the faces on to their far planes. The march takes a hit a
-// little behind its surface (the depth bias), so the bounds grow away from the map's centre
-// by that much (cube_max_hit_overshoot); a ray behind a thick object past them meets a
-// stretch of it, not the object itself.
-float scene_exit(vec3 o, vec3 d) {
-    if (u_scene_bounded == 0) return CUBE_NO_LIMIT;
-    float grow = 1.0 + cube_max_hit_overshoot();
-    vec3 lo = u_scene_lo - u_cube_center;
-    vec3 hi = u_scene_hi - u_cube_center;
-    vec2 span = box_interval(o, d, u_cube_center + min(lo, lo * grow), u_cube_center + max(hi, hi * grow));
-    return span.y < max(span.x, 0.0) ? -1.0 : span.y;
-}
-
-// Follow one ray through the BVH and the cube map until it hits something or the sky, or
-// passes t_max (then it sees the sky); `blur`: the roughest lobe on its path
-// (ray_cone_footprint). A depth below 0 marks an occlusion ray: it is left out of the ray
-// counts and of the diagnostic views, which show the reflection and refraction rays.
-Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
-    Hit h;
-    h.kind = HIT_SKY;
-    h.position = vec3(0.0);
-    h.normal = vec3(0.0, 0.0, 1.0);
-    h.geometric = h.normal;
-    h.material = 0;
-    h.uv = vec2(0.0);
-    h.lod = 0.0;
-    bool reached_cube = false;
-    bool reentered = false;
-    uint nodes_before = bvh_nodes_visited;
-    uint steps_before = cube_march_steps;
-    float t;
-    int leaf;
-    vec2 bary;
-    // One traversal serves both modes: FULL_BVH is a single BVH segment over the whole
-    // scene whose miss is the sky.
-    bool full = u_mode == MODE_FULL_BVH;
-    bool in_bvh = full || inside_near_cube(o);
-    float t_cur = 0.0;
-    for (int seg = 0; seg < MAX_SEGMENTS; ++seg) {
-        if (in_bvh) {
-            vec2 span = full ? vec2(0.0, FLOAT_MAX) : bvh_region_interval(o, d);
-            float t0 = max(t_cur, span.x);
-            float t1 = min(span.y, t_max);
-            if (t0 <= t1 && bvh_closest_leaf(o, d, t0, t1, t, leaf, bary)) {
-                h = bvh_hit(o, d, t, leaf, bary, blur);
-                break;
-            }
-            if (full) break;
-            // Leave the near cube: continue in the cube map at the exit point.
-            t_cur = max(t_cur, t1);
-            in_bvh = false;
-        } else {
-            reached_cube = true;
-            CubeMarch cm = cube_march_limited(o, d, t_cur, min(scene_exit(o, d), t_max));
-            if (cm.kind == CUBE_HIT) {
-                h.kind = HIT_CUBE;
-                h.position = cm.position;
-                h.normal = safe_normalize(cm.normal, -d);
-                vec2 g_oct = texelFetch(u_cube_geometric, cm.texel, 0).xy;
-                h.geometric = gbuffer_geometric(g_oct.x, g_oct.y, h.normal);
-                h.material = cm.material;
-                ivec4 tex = materials[h.material].textures;
-                if (max(max(tex.x, tex.y), tex.z) >= 0 || material_has_surface_maps(materials[h.material])) {
-                    // The face keeps the texel's UV and UV density (gbuffer.frag.glsl,
-                    // CUBE_FACE): textured like a BVH hit, with the same ray cone.
-                    vec4 surface = texelFetch(u_cube_surface, cm.texel, 0);
-                    h.uv = surface.xy;
-                    h.lod = texture_lod(ray_cone_footprint(o, distance(o, cm.position), blur), surface.z);
-                }
-                break;
-            }
-            if (cm.kind == CUBE_SKY) break;
-            // Back through a near plane into the near cube (paper: "using the original
-            // ray r_w"); never step backwards along the ray.
-            reentered = true;
-            t_cur = max(t_cur, cm.t);
-            in_bvh = true;
-        }
-    }
-    if (depth < 0) {
-        bvh_nodes_visited = nodes_before;
-        cube_march_steps = steps_before;
-        return h;
-    }
-    count(COUNT_TRACED, depth);
-    if (reached_cube) count(COUNT_CUBE_MAP, depth);
-    if (reentered) count(COUNT_BVH_REENTRY, depth);
-    if (h.kind == HIT_SKY) count(COUNT_SKY, depth);
-    if (h.kind == HIT_BVH) count(COUNT_BVH_HIT, depth);
-    if (h.kind == HIT_CUBE) count(COUNT_CUBE_HIT, depth);
-    int slot = clamp(depth, 0, COUNTER_DEPTHS - 1);
-    if (bvh_nodes_visited != nodes_before)
-        atomicAdd(counters[COUNT_BVH_NODES * COUNTER_DEPTHS + slot], bvh_nodes_visited - nodes_before);
-    if (cube_march_steps != steps_before)
-        atomicAdd(counters[COUNT_CUBE_STEPS * COUNTER_DEPTHS + slot], cube_march_steps - steps_before);
-    return h;
-}
-
 // The pending rays of this invocation (file-scope variables are private per invocation).
 PendingRay stack[STACK_SIZE];
 int stack_size = 0;
-// What rays see that find no room on the stack: the sky along their direction.
-vec3 past_depth_limit = vec3(0.0);
 
 // Put a ray on the stack (the caller checked that there is room).
 void store_ray(vec3 origin, vec3 dir, vec3 weight, int depth, float blur, float reach) {
@@ -416,75 +89,8 @@ void store_ray(vec3 origin, vec3 dir, vec3 weight, int depth, float blur, float 
     stack_size += 1;
 }
 
-// A ray one bounce past the depth limit (depth u_max_depth + 1) is still traced, through the
-// BVH and the cube map, and the surface it meets is shaded without spawning rays: the depth
-// limit then shows the environment along the last ray (as Cycles shades the last vertex of a
-// path with its lamps and emission), not the sky through every wall. Depth 0 keeps its
-// meaning, no secondary rays: there the sky is all a mirror shows.
-void push(vec3 origin, vec3 dir, vec3 weight, int depth, float blur) {
-    if (!(max(max(weight.r, weight.g), weight.b) > 0.0)) return;
-#ifdef NO_DEPTH_LIMIT_RAY  // a measurement switch (benchmarks/picture_cost.py): the sky at once
-    if (stack_size >= STACK_SIZE || depth > u_max_depth) {
-#else
-    if (stack_size >= STACK_SIZE || depth > u_max_depth + min(u_max_depth, 1)) {
-#endif
-        past_depth_limit += weight * sky_radiance(dir);
-        return;
-    }
-    store_ray(origin, dir, weight, depth, blur, FLOAT_MAX);
-}
 
-// An occlusion ray from a hit: `weight` is the World's light that hit takes if it sees the
-// sky along dir within `reach` (world_light_response times the path's weight); the ray
-// adds it times what it finds there, 1 for the sky, a surface's transmission otherwise.
-// It waits on the stack like the reflections: the loop below traces one ray per pixel and
-// step, so a pixel's occlusion ray shares a step with its neighbours' rays instead of
-// running a traversal of its own while they idle (8 pixels run in lockstep on a CPU
-// driver's SIMD lanes, and in a GPU's warps). Room for it is always left: a pixel holds at
-// most one, and the reflections' depth-first stack at most max_depth + 2 rays.
-void push_occlusion(vec3 origin, vec3 dir, vec3 weight, float reach) {
-    if (!(max(max(weight.r, weight.g), weight.b) > 0.0)) return;
-    if (stack_size >= STACK_SIZE) {
-        past_depth_limit += weight;  // never reached (above): the sky taken as seen
-        return;
-    }
-    store_ray(origin, dir, weight, -1, 1.0, reach);
-}
-
-// Spawn the reflected and refracted rays of a hit at p (offset off the surface). Outside the
-// near cube a refraction is the paper's thin fallback (§3.4, Figure 8): the ray refracts
-// once and looks the scene up in the cube map, whose faces hold what lies behind refractive
-// surfaces (cube_map.py: they are left out of the faces), not the surfaces themselves.
-// `blur`: the roughest lobe of the path up to and including this hit.
-void spawn_children(SpecularSplit split, vec3 p, vec3 weight, int depth, float blur) {
-    push(offset_origin(p, split.g_facing), split.reflect_dir, weight * split.reflect_weight, depth, blur);
-    push(offset_origin(p, -split.g_facing), split.refract_dir, weight * split.refract_weight, depth, blur);
-}
-
-// This sample's numbers for the lobes of the hit at bounce `depth` of the pixel whose
-// primary hit lies at pixel_key (position_key: a cropped view draws the same numbers).
-uvec3 pixel_key;
-vec2 lobe_random(int depth) {
-    return random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), uint(u_sample), uint(depth)));
-}
-
-// The material of a primary pixel, with the roughness and metallic its images give there.
-Material primary_material(int index, ivec2 pixel) {
-    Material m = materials[index];
-    if (!material_has_surface_maps(m)) return m;
-    vec2 surface = texelFetch(u_surface, pixel, 0).rg;
-    return material_with_surface(m, surface.x, surface.y);
-}
-
-// A cosine-distributed direction around the shading normal n from two uniform numbers,
-// kept above the true surface (g, the geometric normal on the same side).
-vec3 cosine_direction(vec3 n, vec3 g, vec2 xi) {
-    vec3 t, b;
-    basis_around(n, t, b);
-    float r = sqrt(xi.x);
-    vec3 d = r * cos(2.0 * PI * xi.y) * t + r * sin(2.0 * PI * xi.y) * b + sqrt(max(0.0, 1.0 - xi.x)) * n;
-    return keep_on_side(d, g, 0.01);
-}
+bool ray_room() { return stack_size < STACK_SIZE; }
 
 #ifdef WORLD_LIGHT_PASS
 // The World's light on a diffuse primary pixel (tracer.WorldLightRays): one ray in a
@@ -567,16 +173,9 @@ void main() {
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(pixel, u_size))) return;
 
-    vec4 nm = texelFetch(u_normal_material, pixel, 0);
+    vec4 nm;
     Material m;
-    bool specular = false;
-    int material_index = 0;
-    if (nm.w != 0.0) {
-        material_index = int(abs(nm.w) + 0.5) - 1;
-        m = primary_material(material_index, pixel);
-        specular = material_is_specular(m);
-    }
-    if (!specular) {
+    if (!primary_specular(pixel, nm, m)) {
         if (u_mode == MODE_PROVENANCE) imageStore(u_color, pixel, vec4(vec3(0.5), 1.0));
 #ifdef DIAGNOSTIC
         write_diagnostic(pixel, false);
@@ -584,34 +183,22 @@ void main() {
         return;  // the deferred-shaded colour stands
     }
 
-    vec2 ndc_xy = (vec2(pixel) + 0.5) / vec2(u_size) * 2.0 - 1.0;
-    vec3 near_point = unproject_primary(ndc_xy, -1.0);
-    vec3 view_dir = u_orthographic != 0 ? normalize(u_camera_forward)
-                                        : normalize(near_point - u_camera_position);
-    float depth = texelFetch(u_depth, pixel, 0).r;
-    vec3 p = unproject_primary(ndc_xy, depth * 2.0 - 1.0);
-    vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
-    vec3 albedo = albedo_g.rgb;
-    vec3 n = safe_normalize(nm.xyz, -view_dir);
-
+    vec3 p, view_dir, n;
+    primary_surface(pixel, nm, p, view_dir, n);
     if (u_mode == MODE_PROVENANCE) {
         vec3 where = inside_near_cube(p) ? vec3(0.0, 0.0, 1.0) : vec3(1.0, 0.0, 0.0);
         imageStore(u_color, pixel, vec4(where, 1.0));
         return;
     }
 
-    vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
-    pixel_key = position_key(p);
-    SpecularSplit split = specular_split_sampled(m, albedo, view_dir, n, g, lobe_random(0));
-
     vec3 traced = vec3(0.0);
-    spawn_children(split, p, vec3(1.0), 1, material_roughness(m));
+    spawn_primary(pixel, m, p, view_dir, n);
     while (stack_size > 0) {
         stack_size -= 1;
         PendingRay ray = stack[stack_size];
         Hit h = trace_ray(ray.origin, ray.dir, ray.depth, ray.blur, ray.reach);
         if (ray.depth < 0) {
-            traced += ray.weight * (h.kind == HIT_SKY ? 1.0 : material_transmission(materials[h.material]));
+            traced += ray.weight * occlusion_seen(h);
             continue;
         }
 #ifdef DIAGNOSTIC
@@ -623,32 +210,7 @@ void main() {
             traced += ray.weight * sky_radiance(ray.dir);
             continue;
         }
-        // A cube-map hit is shaded here from the face's G-buffer (normal, material, UV) at
-        // the reconstructed position, so only the texels rays hit are shaded and textured;
-        // reflection and refraction are traced from that position (no refractive surface
-        // is stored in the faces, paper Figure 8: refraction finds none there).
-        Material hm = material_at_lod(materials[h.material], h.uv, h.lod);
-        vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
-        vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
-        SpecularSplit hs = specular_split_sampled(hm, h_albedo, ray.dir, h.normal, h.geometric,
-                                                  lobe_random(ray.depth));
-        // Seen through a rough lobe, a sharp lamp highlight is a firefly: widen it to that
-        // lobe's roughness (Cycles' Filter Glossy does the same).
-        traced += ray.weight * lamp_light_response(hm, h_albedo, h_emission, h.position, ray.dir, hs, ray.blur);
-        vec3 world = ray.weight * world_light_response(hm, h_albedo, hs, sky_irradiance(hs.n_facing), 1.0);
-        if (ray.depth <= u_max_depth)
-            spawn_children(hs, h.position, ray.weight, ray.depth + 1, max(ray.blur, material_roughness(hm)));
-        // The World's light at the first bounce's hits near the camera is hidden as at
-        // primary pixels: one cosine ray within AO Distance through the BVH (hybrid ambient
-        // occlusion, the paper's reference [14]), a fresh direction per sample. Hits in the
-        // cube map take the whole sky: one more ray from each of them would be a march
-        // through the cube map, which costs the trace far more than these short BVH rays.
-        if (ray.depth == 1 && h.kind == HIT_BVH && u_ao_distance > 0.0 && hs.diffuse_weight > 0.0) {
-            vec3 d_ao = cosine_direction(hs.n_facing, hs.g_facing, lobe_random(0x5ca3));
-            push_occlusion(offset_origin(h.position, hs.g_facing), d_ao, world, u_ao_distance);
-        } else {
-            traced += world;
-        }
+        shade_hit(ray, h, traced);
     }
 #ifdef DIAGNOSTIC
     write_diagnostic(pixel, true);

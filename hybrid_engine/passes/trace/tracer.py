@@ -38,6 +38,7 @@ from ..near_cube_cull.near_cube import overlap_margin
 from ..scene_upload.textures import pixel_footprint
 from .diagnostic_views import is_diagnostic
 from .diagnostic_views import kernel_uniforms as diagnostic_uniforms
+from .wave_trace import TraceInputs, WaveTracer, uses_waves
 
 # Kernel modes (u_mode in hybrid_trace.comp.glsl).
 TRACE_MODES = {"HYBRID": 0, "FULL_BVH": 1, "PROVENANCE": 2}
@@ -115,6 +116,7 @@ class HybridTracer:
         self._dummy_rg = ctx.texture((1, 1), 2, dtype="f4")
         self.diagnostic = None  # the diagnostic views' per-pixel counts (diagnostic_views.py)
         self._bvh_leaves = 0  # triangles in the BVH the last trace read
+        self._waves: WaveTracer | None = None  # the wave pipeline, made when first chosen
 
     def io(self, settings: RenderSettings) -> PassIO:
         return PassIO(reads=("scene", "scene_buffers", "world_triangles", "gbuffer", "lighting", "color",
@@ -124,13 +126,33 @@ class HybridTracer:
     def run(self, frame: FrameContext) -> None:
         """Trace the reflections and refractions of the primary G-buffer, lit by the frame's
         lighting (the same the deferred shading used), adding their radiance to the frame's
-        colour (or writing the provenance colours)."""
-        self.dispatch(frame, world_light=False)
+        colour (or writing the provenance colours): by the megakernel, or in waves where the
+        ``trace`` kernel runs GPU-shaped (wave_trace.py)."""
+        if uses_waves(frame.settings):
+            if self._waves is None:
+                self._waves = WaveTracer(self.ctx)
+            self._waves.run(self.inputs(frame, world_light=False), frame.settings)
+        else:
+            self.dispatch(frame, world_light=False)
         frame.write("color", frame.read("gbuffer").color)
 
     def dispatch(self, frame: FrameContext, world_light: bool) -> None:
-        """Bind the scene, the BVH, the cube map and the lighting, and run the kernel: the
-        reflections and refractions, or (``world_light``) its World-light variant."""
+        """Run the megakernel: the reflections and refractions, or (``world_light``) its
+        World-light variant."""
+        inputs = self.inputs(frame, world_light)
+        prog = (shader_loader.compute(self.ctx, "trace/hybrid_trace.comp.glsl", inputs.defines)
+                if inputs.defines else self.program)
+        bind(prog, *inputs.parts, storage=inputs.storage, textures=inputs.textures,
+             images=inputs.images, uniforms=inputs.uniforms)
+        width, height = inputs.size
+        prog.run(math.ceil(width / WORKGROUP), math.ceil(height / WORKGROUP), 1)
+        storage_barrier(self.ctx)
+        if gl_context.debug_checks_enabled():
+            gl_context.check_error(f"{frame.settings.trace_mode} {'world light' if world_light else 'trace'}")
+
+    def inputs(self, frame: FrameContext, world_light: bool) -> TraceInputs:
+        """Everything a trace kernel binds: the scene, the BVH, the cube map and the
+        lighting, the kernel's defines, and the counters (zeroed)."""
         settings = frame.settings
         traced = traced_resources(settings)
         built = frame.read("bvh") if "bvh" in traced else None
@@ -151,7 +173,6 @@ class HybridTracer:
                    **(cube.defines if cube is not None else {}),
                    **({"WORLD_LIGHT_PASS": 1} if world_light else {}),
                    **({"DIAGNOSTIC": 1} if diagnostic else {})}
-        prog = shader_loader.compute(ctx, "trace/hybrid_trace.comp.glsl", defines) if defines else self.program
         self._counters.write(self._zero_counters)
 
         bvh = built.storage() if built is not None else dict.fromkeys(BVH_BLOCKS, self._dummy_ssbo)
@@ -194,14 +215,11 @@ class HybridTracer:
                 self.diagnostic = ctx.texture((view.width, view.height), 1, dtype="f4")
             images["u_diagnostic"] = Image(self.diagnostic, read=False, write=True)
             values.update(diagnostic_uniforms(settings))
-        bind(prog, gpu.bindings(), resources.bindings(),
-             storage={**bvh, **split_storage("TriangleNormals", gpu.normals.buffer, normal_split),
-                      "CounterBuffer": self._counters, "TriangleUVBuffer": gpu.uv_rows.buffer},
-             textures=textures, images=images, uniforms=values)
-        prog.run(math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
-        storage_barrier(ctx)
-        if gl_context.debug_checks_enabled():
-            gl_context.check_error(f"{mode} {'world light' if world_light else 'trace'}")
+        return TraceInputs(
+            defines=defines, parts=(gpu.bindings(), resources.bindings()),
+            storage={**bvh, **split_storage("TriangleNormals", gpu.normals.buffer, normal_split),
+                     "CounterBuffer": self._counters, "TriangleUVBuffer": gpu.uv_rows.buffer},
+            textures=textures, images=images, uniforms=values, size=(view.width, view.height))
 
     def read_stats(self, max_depth: int) -> TraceStats:
         raw = np.frombuffer(self._counters.read(), np.uint32).reshape(len(COUNTER_KINDS), COUNTER_DEPTHS)
@@ -219,6 +237,9 @@ class HybridTracer:
         if self.diagnostic is not None:
             self.diagnostic.release()
             self.diagnostic = None
+        if self._waves is not None:
+            self._waves.release()
+            self._waves = None
         for obj in (self._counters, self._dummy_ssbo, self._dummy_depth, self._dummy_rgba, self._dummy_rg):
             obj.release()
 

@@ -39,9 +39,11 @@ bound, its *capacity* (the number of triangles the cull tested), which sizes eve
 the bounds, Morton and sort dispatches, and every kernel reads the real count from the GPU
 (``gpu_shaders/include/build_count.glsl``): the Morton pass gives the elements past the count
 a padding key above every code, so the stable sort of all capacity keys leaves the real ones
-first, and the hierarchy and refit passes run either over the capacity, idle past the count,
-or indirectly over exactly the count (``variants.choose("lbvh_dispatch")``). The capacity is
-an exact upper bound (the cull cannot keep more than it tested), so no build overflows.
+first, and the hierarchy and refit passes run indirectly over exactly the count (the
+arguments written on the GPU by ``build_count``; on llvmpipe as fast as a dispatch over the
+capacity when the bound is tight, and a third faster when it is loose, and what a GPU wants
+too). The capacity is an exact upper bound (the cull cannot keep more than its candidates),
+so no build overflows.
 """
 from __future__ import annotations
 
@@ -52,7 +54,7 @@ import numpy as np
 
 import moderngl
 
-from ...gpu import gl_context, shader_loader, variants
+from ...gpu import gl_context, shader_loader
 from ...gpu.bindings import Storage, bind, split_storage
 from ...gpu.device_count import DeviceCount
 from ...gpu.triangle_input import input_defines, input_split, input_storage
@@ -248,8 +250,7 @@ class LBVHBuilder:
         buf = self._input.upload(tris.tobytes())
         return self.build(buf, len(tris))
 
-    def build(self, triangles, count: "int | DeviceCount", indices=None, input_count: int | None = None,
-              indirect: bool | None = None) -> BuiltLBVH:
+    def build(self, triangles, count: "int | DeviceCount", indices=None, input_count: int | None = None) -> BuiltLBVH:
         """Build over ``count`` triangles of a GL buffer of packed (N, 3, 3) float32.
 
         ``count``: an int, or a :class:`DeviceCount` that an earlier pass left on the GPU (the
@@ -258,17 +259,13 @@ class LBVHBuilder:
         element i is triangle ``indices[i]`` (the near-cube culler's compacted list); the
         reported hits are then indices into ``triangles``. ``input_count`` is the number of
         triangles stored in ``triangles`` (default: ``count`` without indices, else what the
-        buffer can hold); only that range is bound. ``indirect``: run the hierarchy and
-        refit passes over exactly the count by indirect dispatches, or over the capacity
-        (default: ``variants.choose("lbvh_dispatch")``).
+        buffer can hold); only that range is bound.
         """
         ctx = self.ctx
         on_device = isinstance(count, DeviceCount)
         capacity = count.capacity if on_device else int(count)
         if capacity < 0:
             raise ValueError(f"triangle count must be >= 0, got {capacity}")
-        if indirect is None:
-            indirect = variants.choose("lbvh_dispatch") == "gpu"
         use_indices = 1 if indices is not None else 0
         index_buffer = indices if indices is not None else self._dummy_index
         n4 = max(capacity, 1) * 4
@@ -326,7 +323,7 @@ class LBVHBuilder:
         bind(self._hierarchy, storage={**build_count, "Keys": Storage(keys[current], n4), **node_blocks,
                                        "LeafParent": Storage(leaf_parent, n4),
                                        "RefitFlags": Storage(flags, node_count * 4)})
-        self._run_sized(self._hierarchy, max(capacity - 1, 1), HIERARCHY_ARGS_OFFSET, indirect)
+        self._hierarchy.run_indirect(self._count, HIERARCHY_ARGS_OFFSET)
         storage_barrier(ctx)
 
         # 5. Reorder triangles and refit boxes bottom-up.
@@ -337,7 +334,7 @@ class LBVHBuilder:
                                        "RefitFlags": Storage(flags, node_count * 4),
                                        **split_storage("BVHTriangles", bvh_tris, tri_split)},
                  uniforms={"u_use_indices": 0})
-            self._run_sized(self._refit, capacity, REFIT_ARGS_OFFSET, indirect)
+            self._refit.run_indirect(self._count, REFIT_ARGS_OFFSET)
             storage_barrier(ctx)
 
         if gl_context.debug_checks_enabled():
@@ -348,15 +345,6 @@ class LBVHBuilder:
             node_split=node_split, triangle_split=tri_split, known_count=None if on_device else capacity,
         )
         return self.built
-
-    def _run_sized(self, program, invocations: int, args_offset: int, indirect: bool) -> None:
-        """Run a pass over the build's elements: indirectly, with the groups build_count
-        wrote at ``args_offset`` of the BuildCount buffer, or over ``invocations`` (the
-        capacity's bound), the invocations past the count returning at once."""
-        if indirect:
-            program.run_indirect(self._count, args_offset)
-        else:
-            dispatch(program, invocations, LOCAL_SIZE)
 
     def _select_programs(self, in_split: BlockSplit, node_split: BlockSplit,
                          tri_split: BlockSplit) -> None:

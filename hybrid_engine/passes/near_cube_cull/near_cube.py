@@ -24,8 +24,8 @@ an intersection in the overlap is found by either.
 
 The compacted index list feeds :meth:`hybrid_engine.passes.lbvh.lbvh.LBVHBuilder.build` directly; hit
 indices then refer to the full scene's triangles. Nothing is read back: the kept count stays
-where the prefix sum left it (a ``DeviceCount`` whose capacity, the number of triangles
-tested, bounds it exactly), and the objects per class are counted on the GPU for the frame's
+where the prefix sum left it (a ``DeviceCount`` whose capacity, the number of candidate
+triangles, bounds it exactly), and the objects per class are counted on the GPU for the frame's
 statistics, which are read after the frame, if at all.
 
 A scene larger than one storage block (3.7M triangles at llvmpipe's 128 MiB) is read as up to
@@ -199,7 +199,7 @@ class NearCubeCuller:
         half = float(near_size) + margin
         ranges, bounds = _objects(count, object_ranges, object_bounds)
         num_objects = len(ranges)
-        candidates = candidate_triangles(count, ranges, bounds, center, half)
+        candidates, bound = candidates_and_bound(count, ranges, bounds, center, half)
         elements = count if candidates is None else len(candidates)
 
         self._object_ranges.upload(ranges.tobytes())
@@ -253,11 +253,13 @@ class NearCubeCuller:
                  uniforms=chunks)
             dispatch(self._compact, num_chunks, LOCAL_SIZE)
             storage_barrier(ctx)
-        # The kept count: the scan's total, never more than the elements tested.
+        # The kept count: the scan's total, never more than the candidates (``bound``: the
+        # triangles of the objects the host found touching the slightly larger cube, and of
+        # no object), whether stage 2 walked only them or every triangle.
         total_offset = (num_chunks if elements > 0 else 0) * 4
         if gl_context.debug_checks_enabled():
             gl_context.check_error("near-cube culling")
-        return CullResult(indices=indices, kept=DeviceCount(counts, total_offset, elements),
+        return CullResult(indices=indices, kept=DeviceCount(counts, total_offset, min(bound, elements)),
                           class_counts=self._class_counts)
 
     def release(self) -> None:
@@ -281,8 +283,16 @@ def candidate_triangles(count: int, ranges: np.ndarray, bounds: np.ndarray, cent
     whose bounds (K, 6: min, max) touch the cube of half-size ``half`` (grown by the slack
     above; non-finite bounds always do) and those of no object. None when that is more than
     CANDIDATE_MAX_SHARE of the ``count`` triangles: stage 2 then walks them all."""
+    return candidates_and_bound(count, ranges, bounds, center, half)[0]
+
+
+def candidates_and_bound(count: int, ranges: np.ndarray, bounds: np.ndarray, center: np.ndarray,
+                         half: float) -> tuple[np.ndarray | None, int]:
+    """:func:`candidate_triangles`, and how many triangles they are even when it lists none:
+    an exact upper bound of what the cull keeps (nothing outside them can be kept), which
+    sizes the LBVH build without reading the kept count back."""
     if count == 0:
-        return None
+        return None, 0
     lo, hi = bounds[:, :3].astype(np.float64), bounds[:, 3:].astype(np.float64)
     reach = half * (1.0 + CANDIDATE_SLACK_RELATIVE) + CANDIDATE_SLACK_ABSOLUTE
     with np.errstate(invalid="ignore"):
@@ -297,12 +307,13 @@ def candidate_triangles(count: int, ranges: np.ndarray, bounds: np.ndarray, cent
     runs = np.asarray(draw_ranges(np.ones(len(runs), bool), runs), np.int64).reshape(-1, 2)
     total = int(runs[:, 1].sum()) if len(runs) else 0
     if total > CANDIDATE_MAX_SHARE * count:
-        return None
+        return None, total
     if total == 0:
-        return np.empty(0, np.uint32)
+        return np.empty(0, np.uint32), 0
     # Concatenated aranges: element e of run r is runs[r, 0] + (e - start of run r).
     run_start = np.concatenate([[0], np.cumsum(runs[:, 1])[:-1]])
-    return (np.arange(total, dtype=np.int64) + np.repeat(runs[:, 0] - run_start, runs[:, 1])).astype(np.uint32)
+    listed = (np.arange(total, dtype=np.int64) + np.repeat(runs[:, 0] - run_start, runs[:, 1])).astype(np.uint32)
+    return listed, total
 
 
 def _objects(count: int, object_ranges, object_bounds) -> tuple[np.ndarray, np.ndarray]:

@@ -449,7 +449,7 @@ def compare_modes(frames: Iterable[tuple[SceneData, Camera]], base_settings: dic
             if first is None:
                 first = (frame_scene, camera)
             for mode, mode_settings in settings.items():
-                result = renderers[mode].render(frame_scene, camera, mode_settings)
+                result = renderers[mode].render(frame_scene, camera, mode_settings, timing=True)
                 if index >= WARM_UP_FRAMES:
                     results[mode].append(result)
     finally:

@@ -70,7 +70,7 @@ def measure(quick: bool = False, rounds: int = 3, frames: int = bench.ROUNDS) ->
             for index, (scene, camera) in enumerate(scenes):
                 for name, (settings, _) in variants.items():
                     with switches(name):
-                        result = renderers[name].render(scene, camera, settings)
+                        result = renderers[name].render(scene, camera, settings, timing=True)
                     if index >= bench.WARM_UP_FRAMES:
                         results[name].append(result)
     finally:

@@ -30,6 +30,11 @@ from .scene_cache import Changes, SceneCache, SyncReport, TrackedScene, extract_
 
 _renderer: Renderer | None = None
 last_frame: FrameResult | None = None  # the most recent final render's result (image, passes, counts)
+# Whether F12 times each pass (``FrameResult.passes``). Timing brackets every pass with
+# ``ctx.finish()``, which drains the GPU between passes, so an artist's render does without;
+# tools that print or record the per-pass times of a final render (the demo, the pictures
+# script) switch it on.
+time_final_renders = False
 # F12's synced scene per view layer, (render depsgraph pointer, cache), kept while Persistent
 # Data is on (``final_scene_data``).
 _final_scenes: dict[str, tuple[int, SceneCache]] = {}
@@ -107,7 +112,7 @@ def final_camera(scene, depsgraph) -> Camera:
 
 def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, final=False,
                      source: TrackedScene | None = None, sizer: NearCubeSizer | None = None,
-                     settings: RenderSettings | None = None) -> FrameResult:
+                     settings: RenderSettings | None = None, timing: bool | None = None) -> FrameResult:
     """Export the evaluated scene and render one frame with the scene's settings, or with
     ``settings`` when given: a caller that renders with other settings than the artist's
     (the timing report's FULL_BVH comparison) passes them here instead of writing them
@@ -124,6 +129,10 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
 
     The near cube's size: with *Frame Budget*, a job's ``sizer`` chooses it frame by frame
     from the frames it timed; F12 takes the size the viewport settled on.
+
+    ``timing``: time each pass (``FrameResult.passes``; the timing report asks), at the cost
+    of a ``ctx.finish()`` around every pass. Default: only F12 with ``time_final_renders``.
+    ``total_ms`` is measured either way (the frame ends by reading its image back).
     """
     scene = depsgraph.scene
     if settings is None:
@@ -148,10 +157,12 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
     else:
         camera, outputs, samples = camera_from_scene(scene, depsgraph), FrameOutputs(), 1
     extract_ms = (time.perf_counter() - start) * 1e3
+    if timing is None:
+        timing = final and time_final_renders
     with gl_block():
         renderer = shared_renderer()
         result = render_antialiased(renderer, scene_data, camera, settings, samples, outputs=outputs,
-                                    cancel=cancel, progress=progress,
+                                    timing=timing, cancel=cancel, progress=progress,
                                     filter_width=float(scene.render.filter_size))
     draw_legend(result.image, result.legend)  # a diagnostic view's legend, kept in the render
     result.passes = {"extract": extract_ms, **result.passes}

@@ -338,7 +338,8 @@ class _FrameRenderer:
         self.source.listen()
         scene.frame_set(frame)
         return engine.render_depsgraph(self.context.evaluated_depsgraph_get(), report=self.warn,
-                                       source=self.source, sizer=self.sizer, settings=self.settings_for_frame())
+                                       source=self.source, sizer=self.sizer, settings=self.settings_for_frame(),
+                                       timing=True)
 
     def progress(self, done: int, _total: int) -> None:
         if self.window_manager is not None:

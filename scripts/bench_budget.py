@@ -55,7 +55,8 @@ def follow(scene, frames: range, mode: str, near_cube_mode: str, budget_ms: floa
         tracked.listen()
         for frame in [*warm_up, *frames]:
             scene.frame_set(frame)
-            result = engine.render_depsgraph(bpy.context.evaluated_depsgraph_get(), source=tracked, sizer=sizer)
+            result = engine.render_depsgraph(bpy.context.evaluated_depsgraph_get(), source=tracked, sizer=sizer,
+                                             timing=True)  # as the timing report renders
             if frame in frames:
                 out.append((result.total_ms, result.near_size, result.image))
     finally:

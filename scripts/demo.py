@@ -145,6 +145,7 @@ def main(argv: list[str] | None = None) -> int:
 
         from hybrid_rt.blender_adapter import engine
 
+        engine.time_final_renders = True  # the per-pass table below
         start = time.perf_counter()
         render_still(scene, output)
         wall = (time.perf_counter() - start) * 1e3

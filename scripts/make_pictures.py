@@ -324,7 +324,9 @@ def render_hybrid(scene, mode: str, folder: Path):
     from hybrid_rt.blender_adapter import engine
 
     before = engine.last_frame
-    with temporarily((scene.render, "engine", "HYBRID_RT"), (scene.hybrid_rt, "mode", mode)):
+    # Per-pass times are recorded: F12 times its passes only when asked.
+    with temporarily((scene.render, "engine", "HYBRID_RT"), (scene.hybrid_rt, "mode", mode),
+                     (engine, "time_final_renders", True)):
         image, seconds = render_linear(scene, folder / f"{mode.lower()}.exr")
     frame = engine.last_frame
     if frame is None or frame is before:

@@ -90,9 +90,10 @@ def test_raster_render_matches_cycles_radiance_of_a_lit_plane(addon, tmp_path, l
     np.testing.assert_allclose(ours[inner], cycles[inner], rtol=CYCLES_RTOL * 3)
 
 
-def test_render_reports_stats_and_keeps_the_frame_result(addon, tmp_path):
+def test_render_reports_stats_and_keeps_the_frame_result(addon, tmp_path, monkeypatch):
     import bpy
 
+    monkeypatch.setattr(addon.blender_adapter.engine, "time_final_renders", True)  # per-pass times
     scene = build_plane_scene(bpy, "SUN", 1.0, size=8)
     scene.render.engine = "HYBRID_RT"
     scene.hybrid_rt.mode = "RASTER"
@@ -139,9 +140,10 @@ def test_a_missing_image_reaches_the_artists_report_with_its_name(addon, tmp_pat
     assert any(levels == {"WARNING"} and "'lost texture'" in text for levels, text in reported), reported
 
 
-def test_hybrid_mode_renders_through_blenders_render_path(addon, tmp_path):
+def test_hybrid_mode_renders_through_blenders_render_path(addon, tmp_path, monkeypatch):
     import bpy
 
+    monkeypatch.setattr(addon.blender_adapter.engine, "time_final_renders", True)  # per-pass times
     scene = build_plane_scene(bpy, "SUN", 1.0, size=8)
     scene.render.engine = "HYBRID_RT"
     scene.hybrid_rt.mode = "HYBRID"

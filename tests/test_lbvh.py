@@ -604,3 +604,75 @@ def test_real_size_scene_culls_at_10_5m_and_builds_6_5m_triangles_agreeing_with_
         builder.release()
         culler.release()
         tri_buffer.release()
+
+
+# -- a count that stays on the GPU ----------------------------------------------------------
+
+def built_arrays(built: lbvh.BuiltLBVH) -> dict[str, np.ndarray]:
+    return {"nodes": built.read_nodes(), "keys": built.read_sorted_keys(), "leaves": built.read_leaf_primitives(),
+            "triangles": built.read_triangles()}
+
+
+@pytest.mark.parametrize("count, capacity", [(0, 0), (0, 5), (1, 1), (1, 300), (2, 2), (2, 7), (257, 257),
+                                             (300, 5000), (4097, 4500)])
+def test_build_from_a_gpu_resident_count_equals_the_build_from_the_host_count(ctx, builder, rng, count, capacity):
+    """The cull's kept count stays on the GPU: a build sized for a larger capacity, reading the
+    count where it lies, gives the same tree, keys, leaves and triangles as a build given the
+    count on the host, whatever the index list holds past the count."""
+    from hybrid_engine.gpu.device_count import DeviceCount
+
+    tris = random_soup(rng, 6000)
+    tri_buffer = ctx.buffer(tris.tobytes())
+    # The first `count` indices are the kept triangles; the rest is what a cull leaves behind.
+    indices = rng.choice(len(tris), size=max(capacity, 1), replace=False).astype(np.uint32)
+    index_buffer = ctx.buffer(indices.tobytes())
+    count_buffer = ctx.buffer(np.array([7, 9, count, 11], np.uint32).tobytes())
+    try:
+        expected = built_arrays(builder.build(tri_buffer, count, index_buffer, input_count=len(tris)))
+        built = builder.build(tri_buffer, DeviceCount(count_buffer, 8, capacity), index_buffer, input_count=len(tris))
+        assert built.known_count is None and built.capacity == capacity
+        assert built.leaf_count == count
+        got = built_arrays(built)
+    finally:
+        for buffer in (tri_buffer, index_buffer, count_buffer):
+            buffer.release()
+    for name in expected:
+        np.testing.assert_array_equal(got[name], expected[name], err_msg=name)
+    if count >= 2:
+        check_invariants_of(got, tris[indices[:count]], indices[:count])
+
+
+def check_invariants_of(arrays: dict[str, np.ndarray], tris: np.ndarray, prims: np.ndarray) -> None:
+    """The tree over ``tris`` (the build's elements, original indices ``prims``) reaches every
+    leaf once and its root covers them all."""
+    nodes = arrays["nodes"]
+    assert sorted(arrays["leaves"].tolist()) == sorted(prims.tolist())
+    assert int(nodes[0]["leaf_count"]) == len(tris)
+    lo = np.minimum(nodes[0]["left_min"], nodes[0]["right_min"])
+    hi = np.maximum(nodes[0]["left_max"], nodes[0]["right_max"])
+    np.testing.assert_array_equal(lo, tris.reshape(-1, 3).min(axis=0))
+    np.testing.assert_array_equal(hi, tris.reshape(-1, 3).max(axis=0))
+
+
+def test_a_gpu_count_build_traces_the_same_hits_as_the_host_count_build(ctx, builder, rng):
+    """Rays see only the first `count` elements of a capacity-sized build."""
+    from hybrid_engine.gpu.device_count import DeviceCount
+
+    tris = random_soup(rng, 3000, size=0.05)
+    origins = rng.random((2000, 3)).astype(np.float32)
+    dirs = rng.standard_normal((2000, 3)).astype(np.float32)
+    tri_buffer = ctx.buffer(tris.tobytes())
+    index_buffer = ctx.buffer(np.arange(len(tris), dtype=np.uint32).tobytes())
+    count_buffer = ctx.buffer(np.array([1800], np.uint32).tobytes())
+    try:
+        builder.build(tri_buffer, 1800, index_buffer, input_count=len(tris))
+        expected = builder.trace(origins, dirs)
+        builder.build(tri_buffer, DeviceCount(count_buffer, 0, len(tris)), index_buffer, input_count=len(tris))
+        got = builder.trace(origins, dirs)
+    finally:
+        for buffer in (tri_buffer, index_buffer, count_buffer):
+            buffer.release()
+    assert np.mean(expected[1] >= 0) > MIN_HIT_FRACTION
+    np.testing.assert_array_equal(got[0], expected[0])
+    np.testing.assert_array_equal(got[1], expected[1])
+    assert expected[1].max() < 1800

@@ -291,3 +291,21 @@ def test_scene_past_four_input_blocks_is_refused_with_the_numbers(ctx, rng):
         with pytest.raises(ValueError, match="input triangle buffer .* 5 storage blocks"):
             culler.cull_array(tris, (0, 0, 0), 1.0)
     assert culler.cull_array(tris, (0, 0, 0), 1.0).count > 0
+
+
+@pytest.mark.parametrize("layout", ["all_tested", "candidates"])
+def test_the_kept_count_never_exceeds_its_capacity_and_reaches_it_when_all_are_kept(ctx, rng, layout):
+    """The LBVH build is sized by the cull's capacity (the triangles it tested) and reads the
+    kept count on the GPU: the bound is exact, so no build can overflow. A cube around the
+    whole scene keeps every tested triangle (count == capacity); a small one keeps fewer."""
+    tris, ranges, bounds = scene_with_objects(rng, objects=30, per_object=100, spread=12.0)
+    culler = near_cube.NearCubeCuller(ctx, triangles_per_chunk=64)
+    use_objects = layout == "candidates"
+    args = (ranges, bounds) if use_objects else ()
+    whole = culler.cull_array(tris, (0, 0, 0), 100.0, *args)
+    assert whole.kept.capacity == len(tris) and whole.count == len(tris)
+    small = culler.cull_array(tris, bounds[0].mean(axis=0), 1.0, *args)  # around one object
+    if use_objects:
+        assert small.kept.capacity < len(tris), "the candidate list should bound the small cube's work"
+    assert 0 < small.count <= small.kept.capacity
+    assert small.read_indices().size == small.count

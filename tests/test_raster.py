@@ -218,15 +218,15 @@ def test_nan_and_degenerate_triangles_neither_crash_nor_poison_the_image(rendere
     np.testing.assert_array_equal(dirty_scene.geometry.triangles, before)  # input untouched
 
 
-def test_timing_reports_every_pass_and_is_off_on_request(renderer):
+def test_timing_reports_every_pass_on_request_and_is_off_by_default(renderer):
     camera = Camera(width=16, height=16)
     scene = diffuse_scene([(quad((0, 0, -3), (1, 0, 0), (0, 1, 0)), None, 0)], [])
-    timed = renderer.render(scene, camera, RASTER)
+    timed = renderer.render(scene, camera, RASTER, timing=True)
     assert set(timed.passes) == {"upload", "instance_transform", "shadow_maps", "lighting", "primary_raster",
                                  "shade", "readback"}
     assert timed.timing_source.startswith("wall clock")
     assert sum(timed.passes.values()) <= timed.total_ms * 1.01
-    untimed = renderer.render(scene, camera, RASTER, timing=False)
+    untimed = renderer.render(scene, camera, RASTER)
     assert untimed.passes == {} and untimed.timing_source == "off"
     np.testing.assert_array_equal(timed.image, untimed.image)
 

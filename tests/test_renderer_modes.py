@@ -32,7 +32,7 @@ def test_every_mode_has_a_pass_list():
 
 @pytest.mark.parametrize("mode", MODES)
 def test_each_mode_renders_and_times_exactly_its_passes(renderer, mode):
-    result = renderer.render(scene(), CAMERA, RenderSettings(mode=mode, **SMALL))
+    result = renderer.render(scene(), CAMERA, RenderSettings(mode=mode, **SMALL), timing=True)
     assert result.mode == mode
     assert result.image.shape == (16, 24, 4) and np.isfinite(result.image).all()
     assert tuple(result.passes) == MODE_STEPS[mode]

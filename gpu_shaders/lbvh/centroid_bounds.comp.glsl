@@ -11,8 +11,10 @@
 //   last two only for an input split over storage blocks).
 // Storage blocks: TriangleInput (read; TriangleInput1..3 when split), TriangleIndex (read, if
 //   u_use_indices), Bounds (read/write: 6 uints, ordered-float min xyz then max xyz; the host
-//   resets them).
-// Uniforms: u_count (elements), u_use_indices.
+//   resets them), BuildCount (read: the element count, build_count.glsl).
+// Uniforms: u_use_indices. The host dispatches for the build's capacity (an upper bound of
+//   the count); invocations past the count fold nothing.
+#include "build_count.glsl"
 #include "dispatch.glsl"
 #include "float_order.glsl"
 #include "triangle_input.glsl"
@@ -23,9 +25,8 @@ layout(std430) buffer Bounds {
     uint bounds[6];
 };
 
-uniform uint u_count;
-
 void main() {
+    uint count = build_count();
     // Block-strided: lane l of group g reads g*B + l, g*B + l + LOCAL_SIZE, ... so that the
     // lanes of one SIMD op touch neighbouring triangles.
     uint block = flat_workgroup_index() * uint(LOCAL_SIZE * ITEMS_PER_INVOCATION);
@@ -34,7 +35,7 @@ void main() {
     bool any_valid = false;
     for (uint k = 0u; k < uint(ITEMS_PER_INVOCATION); ++k) {
         uint element = block + k * uint(LOCAL_SIZE) + gl_LocalInvocationID.x;
-        if (element >= u_count) {
+        if (element >= count) {
             break;
         }
         uint prim = input_triangle(element);

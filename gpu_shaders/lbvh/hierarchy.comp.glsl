@@ -13,9 +13,12 @@
 // Host defines: LOCAL_SIZE, BVH_NODE_BLOCKS, BVH_NODE_BLOCK_SIZE (the last two only for a node
 //   array split over storage blocks: bvh_storage.glsl).
 // Storage blocks: Keys (read: sorted), BVHNodes (write: child refs, parents; BVHNodes1..3
-//   when split), LeafParent (write), RefitFlags (write: 0).
-// Uniforms: u_count (leaves N). The host dispatches max(N - 1, 1) invocations; for N < 2
-//   invocation 0 writes the special root described in bvh_layout.glsl.
+//   when split), LeafParent (write), RefitFlags (write: 0), BuildCount (read: the leaves N,
+//   build_count.glsl).
+// The host dispatches at least max(N - 1, 1) invocations (for its upper bound of N, or
+//   indirectly the exact number); for N < 2 invocation 0 writes the special root described in
+//   bvh_layout.glsl.
+#include "build_count.glsl"
 #include "dispatch.glsl"
 #include "float_order.glsl"
 #include "bvh_layout.glsl"
@@ -36,12 +39,12 @@ layout(std430) writeonly buffer RefitFlags {
     uint refit_flags[];
 };
 
-uniform uint u_count;
+uint leaves;  // N, read once per invocation
 
 // Length of the common prefix of key i (passed in, loaded once) and key j, with the index
 // tie-break for equal keys; -1 when j lies outside [0, N-1].
 int delta(uint key_i, int i, int j) {
-    if (j < 0 || j >= int(u_count)) {
+    if (j < 0 || j >= int(leaves)) {
         return -1;
     }
     uint diff = key_i ^ keys[j];
@@ -53,22 +56,23 @@ int delta(uint key_i, int i, int j) {
 
 void main() {
     uint index = flat_invocation_index();
-    if (u_count < 2u) {
+    leaves = build_count();
+    if (leaves < 2u) {
         // Degenerate trees: no inner node exists, so node 0 is a stand-in root whose left child
         // is leaf 0 (N = 1) and whose other boxes are empty; the refit fills the left box.
         if (index == 0u) {
             // Node 0 always lies in the first block.
             bvh_nodes[0] = BVHNode(bvh_pack(vec3(FLOAT_MAX), ~0), bvh_pack(vec3(-FLOAT_MAX), ~0),
                                bvh_pack(vec3(FLOAT_MAX), BVH_NO_PARENT),
-                               bvh_pack(vec3(-FLOAT_MAX), int(u_count)));
+                               bvh_pack(vec3(-FLOAT_MAX), int(leaves)));
             refit_flags[0] = 0u;
-            if (u_count == 1u) {
+            if (leaves == 1u) {
                 leaf_parent[0] = 0;
             }
         }
         return;
     }
-    if (index >= u_count - 1u) {
+    if (index >= leaves - 1u) {
         return;
     }
     int i = int(index);

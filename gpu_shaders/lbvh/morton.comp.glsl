@@ -5,9 +5,14 @@
 // Storage blocks: TriangleInput (read; TriangleInput1..3 when split), TriangleIndex (read, if
 //   u_use_indices), Bounds (read: the ordered-float centroid-sum bounds of
 //   centroid_bounds.comp.glsl), Keys (write: codes), Values (write: the ORIGINAL triangle
-//   index of each element, carried through the sort).
-// Uniforms: u_count (elements), u_use_indices.
-// One element per invocation; the dispatch may be split over x and y (dispatch.glsl).
+//   index of each element, carried through the sort), BuildCount (read: the element count N,
+//   build_count.glsl).
+// Uniforms: u_capacity (keys the sort orders: the host's upper bound of N), u_use_indices.
+// One element per invocation over the capacity; the dispatch may be split over x and y
+// (dispatch.glsl). Elements N .. capacity - 1 get the padding key 0xFFFFFFFF, above every
+// code (MORTON_INVALID included): the stable sort of all capacity keys leaves the N real ones
+// first, in the order a sort of N keys gives them.
+#include "build_count.glsl"
 #include "dispatch.glsl"
 #include "float_order.glsl"
 #include "morton.glsl"
@@ -25,11 +30,18 @@ layout(std430) writeonly buffer Values {
     uint values[];
 };
 
-uniform uint u_count;
+uniform uint u_capacity;
+
+#define PADDING_KEY 0xFFFFFFFFu
 
 void main() {
     uint element = flat_invocation_index();
-    if (element >= u_count) {
+    if (element >= u_capacity) {
+        return;
+    }
+    if (element >= build_count()) {
+        keys[element] = PADDING_KEY;
+        values[element] = PADDING_KEY;
         return;
     }
     vec3 lo = vec3(ordered_to_float(bounds[0]), ordered_to_float(bounds[1]),

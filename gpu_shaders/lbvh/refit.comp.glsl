@@ -19,8 +19,10 @@
 //   storage blocks: triangle_input.glsl, bvh_storage.glsl).
 // Storage blocks: TriangleInput (read; TriangleInput1..3 when split), Values (read: original
 //   triangle index per leaf), BVHNodes (read/write, coherent; BVHNodes1..3 when split),
-//   LeafParent (read), RefitFlags (atomic), BVHTriangles (write; BVHTriangles1..3 when split).
-// Uniforms: u_count (leaves N).
+//   LeafParent (read), RefitFlags (atomic), BVHTriangles (write; BVHTriangles1..3 when split),
+//   BuildCount (read: the leaves N, build_count.glsl).
+// The host dispatches at least N invocations (for its upper bound of N, or indirectly N).
+#include "build_count.glsl"
 #include "dispatch.glsl"
 #include "float_order.glsl"
 #include "bvh_layout.glsl"
@@ -45,11 +47,9 @@ layout(std430) coherent buffer RefitFlags {
     uint refit_flags[];
 };
 
-uniform uint u_count;
-
 void main() {
     uint leaf = flat_invocation_index();
-    if (leaf >= u_count) {
+    if (leaf >= build_count()) {
         return;
     }
     uint prim = values[leaf];

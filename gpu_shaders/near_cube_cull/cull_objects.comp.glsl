@@ -7,7 +7,8 @@
 //
 // Host defines: LOCAL_SIZE.
 // Storage blocks: ObjectBounds (read: float[6 K], min xyz then max xyz per object),
-//   ObjectClass (write: uint[K]).
+//   ObjectClass (write: uint[K]), ClassCounts (atomic: uint[3], objects per class, zeroed by
+//   the host: the frame's statistics, read after the frame, never by the cull).
 // Uniforms: u_num_objects (K), u_center, u_half_size (near-cube half-size + overlap margin).
 #include "dispatch.glsl"
 #include "float_order.glsl"
@@ -19,6 +20,9 @@ layout(std430) readonly buffer ObjectBounds {
 };
 layout(std430) writeonly buffer ObjectClass {
     uint object_class[];
+};
+layout(std430) buffer ClassCounts {
+    uint class_counts[3];
 };
 
 uniform uint u_num_objects;
@@ -48,4 +52,5 @@ void main() {
         result = CLASS_STRADDLING;
     }
     object_class[object] = result;
+    atomicAdd(class_counts[result], 1u);
 }

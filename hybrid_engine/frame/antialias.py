@@ -46,7 +46,7 @@ def jittered_camera(camera: Camera, dx: float, dy: float) -> Camera:
 
 
 def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, settings: RenderSettings,
-                       samples: int, *, outputs: FrameOutputs | None = None, timing: bool = True,
+                       samples: int, *, outputs: FrameOutputs | None = None, timing: bool = False,
                        cancel: CancelCallback | None = None,
                        progress: ProgressCallback | None = None,
                        filter_width: float = DEFAULT_FILTER_WIDTH) -> FrameResult:

@@ -32,16 +32,24 @@ final render's last sample.
 ``lighting`` resource, which the trace pass reads too. Each pass declares what it reads and
 writes; the renderer checks the order once per configuration, before its first frame
 (``check_order``), and the frame lets a pass touch only what it declared.
+
+Nothing in a frame waits for the GPU before its end: the near-cube cull's kept count stays on
+the GPU for the LBVH build (gpu/device_count.py), the passes' counters are copied into a
+statistics ring on the GPU and read only when a caller asks for ``FrameResult.counts``
+(gpu/statistics.py), and per-pass timing, which brackets every pass with ``ctx.finish()``, is
+off unless asked for. The frame's one wait is reading its image back.
 """
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 
 from ..gpu import gl_context
+from ..gpu.statistics import LazyCounts, StatisticsRing
 from ..gpu.timing import PassTimer
 from ..passes.film.accumulate import AccumulatePass
 from ..passes.film.data_passes import DataPassesPass, read_data_passes
@@ -107,14 +115,15 @@ class FrameResult:
 
     ``image`` is (H, W, 4) float32 linear RGBA, row 0 at the bottom (Blender's and OpenGL's
     order), alpha 0 on the background with transparent film. ``passes`` maps pass names to
-    milliseconds (empty when timing is off); ``counts`` holds triangle and ray counts;
-    ``timing_source`` says how time was measured. ``data_passes`` holds the data passes the
+    milliseconds (empty when timing is off); ``counts`` holds triangle and ray counts, the
+    GPU's read back on first access (a ``LazyCounts``: a caller that never looks reads
+    nothing); ``timing_source`` says how time was measured. ``data_passes`` holds the data passes the
     frame was asked for (film.FrameOutputs: "depth" (H, W), "normal" (H, W, 3)), same rows.
     """
 
     image: np.ndarray
     passes: dict[str, float] = field(default_factory=dict)
-    counts: dict[str, int] = field(default_factory=dict)
+    counts: Mapping[str, int] = field(default_factory=dict)
     timing_source: str = "off"
     total_ms: float = 0.0
     mode: str = "RASTER"
@@ -158,6 +167,7 @@ class Renderer:
         self._world_key: tuple | None = None
         self._world: dict[str, object] = {}
         self._checked: set[tuple] = set()  # configurations whose pass order was checked
+        self.statistics = StatisticsRing(self.ctx)  # where frames' GPU counters are copied
 
     # -- the passes ----------------------------------------------------------------------------
     def passes(self, settings: RenderSettings, accumulate: bool = False, data: bool = False) -> list[FramePass]:
@@ -216,7 +226,8 @@ class Renderer:
         camera: Camera,
         settings: RenderSettings | None = None,
         *,
-        timing: bool = True,
+        timing: bool = False,
+        statistics: bool = True,
         cancel: CancelCallback | None = None,
         progress: ProgressCallback | None = None,
         outputs: FrameOutputs | None = None,
@@ -247,7 +258,13 @@ class Renderer:
         follow the last). ``read_image`` False reads no image back (``image`` is None: a
         final render's samples before its last). ``readback``: the image goes to the host
         through this reader instead (frame/readback.py: a persistent array, possibly
-        asynchronous), and ``image`` is the newest one it holds."""
+        asynchronous), and ``image`` is the newest one it holds.
+
+        ``timing``: bracket every pass with ``ctx.finish()`` and report its milliseconds in
+        ``FrameResult.passes`` (timing reports, benchmarks); each bracket drains the GPU, so
+        a frame without it waits only for its image. ``statistics``: copy the passes' GPU
+        counters for ``FrameResult.counts`` (read when first asked for); without, the counts
+        hold only what the host knows."""
         settings = settings or RenderSettings()
         outputs = outputs or FrameOutputs()
         steps = frame_steps(settings.mode, accumulate, outputs.depth or outputs.normal)
@@ -280,7 +297,7 @@ class Renderer:
                 frame_pass.run(frame)
         step("readback")
         with timer.measure("readback"):
-            result = self._read_back(frame, read_image, readback)
+            result = self._read_back(frame, read_image, readback, statistics)
         if traced:
             self._world = {name: frame.resource(name) for name in WORLD_RESOURCES if frame.has(name)}
             self._world_key = world_key
@@ -293,9 +310,13 @@ class Renderer:
         result.total_ms = (time.perf_counter() - start) * 1e3
         return result
 
-    def _read_back(self, frame: FrameContext, read_image: bool, readback: ImageReadback | None) -> FrameResult:
-        """The frame's image, data passes, counts and diagnostic counts, read from the GPU."""
+    def _read_back(self, frame: FrameContext, read_image: bool, readback: ImageReadback | None,
+                   statistics: bool = True) -> FrameResult:
+        """The frame's image, data passes and diagnostic counts, read from the GPU, and its
+        counts: the host's, and the GPU's copied into the statistics ring (after the last
+        pass, before the image is read) to be read when first asked for."""
         settings = frame.settings
+        pending = self.statistics.collect(frame.statistics) if statistics else None
         targets = frame.resource("gbuffer")
         texture = frame.resource("film").mean if frame.has("film") else targets.color
         image = None
@@ -308,16 +329,14 @@ class Renderer:
         names = tuple(name for name in ("depth", "normal") if getattr(frame.outputs, name))
         data = read_data_passes(frame.resource("data_passes"), names) if names else {}
         counts = dict(frame.counts)
-        if settings.mode not in ("RASTER", "PROVENANCE"):
-            counts.update(self.tracer.read_stats(settings.max_depth).as_counts())
         diagnostic = self.tracer.read_diagnostic(frame.view) if is_diagnostic(settings) else None
         scene = frame.resource("scene")
-        counts = {
+        counts = LazyCounts({
             "triangles_total": scene.geometry.triangle_count,
             "triangles_primary_submitted": counts.pop("triangles_primary_submitted", 0),
             "lights": len(scene.lights),
             **counts,
-        }
+        }, pending)
         return FrameResult(image=image, counts=counts, mode=settings.mode, data_passes=data,
                            diagnostic=diagnostic, legend=legend(settings) if diagnostic is not None else [],
                            near_size=float(settings.near_size) if "cube_map_raster" in MODE_STEPS[settings.mode]
@@ -347,6 +366,7 @@ class Renderer:
         self.cube_map = self.culler = self.lbvh = self.tracer = self.world_light = None
         self._world = {}
         self._world_key = None
+        self.statistics.release()
         self.shadow_maps.release()
         self.gbuffer.release()
         self.drawer.release()

@@ -5,8 +5,9 @@ As Falcor's render passes declare their inputs and outputs (``RenderPass::reflec
 one ``RenderData``, a pass here declares a ``PassIO`` (the named resources it reads and
 writes, which may depend on the settings: FULL_BVH's LBVH reads no near-cube cull) and runs
 on one ``FrameContext``: the frame's inputs (the scene, the camera, the settings, the raster
-view, the film outputs asked for, the sample index), its counts, and the resources earlier
-passes wrote, by name. No pass constructs another or reaches into another's fields: what it
+view, the film outputs asked for, the sample index), its counts (those the host knows, in
+``counts``; the GPU's counters are deposited in ``statistics``, gpu/statistics.py, and never
+read while the frame runs), and the resources earlier passes wrote, by name. No pass constructs another or reaches into another's fields: what it
 needs is a resource of the frame.
 
 The declarations are checked twice:
@@ -25,6 +26,7 @@ from typing import Iterator, Protocol, Sequence
 
 import numpy as np
 
+from ..gpu.statistics import FrameStatistics
 # What a frame starts with, before any pass ran.
 FRAME_INPUTS = ("scene_data", "camera", "settings", "view", "outputs")
 
@@ -93,6 +95,7 @@ class FrameContext:
         self.sample = int(sample)
         self.keep_world = bool(keep_world)
         self.counts: dict[str, int] = {}
+        self.statistics = FrameStatistics()
         self._resources: dict[str, object] = {"scene_data": scene_data, "camera": camera, "settings": settings,
                                               "view": view, "outputs": outputs}
         self._running: tuple[str, PassIO] | None = None

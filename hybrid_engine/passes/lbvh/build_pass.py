@@ -29,7 +29,8 @@ class LBVHBuildPass:
         buffers = frame.read("world_triangles")
         if builds_over_near_cube(frame.settings):
             culled = frame.read("near_triangles")
-            built = self.builder.build(buffers.positions.buffer, culled.count, indices=culled.indices,
+            # The cull's count stays on the GPU: the build is sized for what it tested.
+            built = self.builder.build(buffers.positions.buffer, culled.kept, indices=culled.indices,
                                        input_count=buffers.triangle_count)
         else:
             built = self.builder.build(buffers.positions.buffer, buffers.triangle_count)

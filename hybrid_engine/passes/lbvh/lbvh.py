@@ -8,6 +8,8 @@ CPU. Tree construction is reduced to sorting 30-bit Morton codes; the hierarchy 
 bottom-up with atomic flags. Everything runs in compute shaders under ``gpu_shaders/lbvh/``:
 
 ====================  ================================================================
+build_count           the element count where an earlier pass left it on the GPU, and
+                      the indirect dispatch arguments of hierarchy and refit
 centroid_bounds       bounds of the centroids (atomic min/max on order-preserving uints)
 morton                one 30-bit code per triangle, bit-identical to the numpy reference
 (radix sort)          stable LSD radix sort of the codes (hybrid_engine/gpu/radix_sort.py,
@@ -29,6 +31,19 @@ Arrays past the driver's storage-block limit (128 MiB on llvmpipe: 2^21 nodes, i
 (:func:`hybrid_engine.gpu.dispatch.split_blocks`, ``gpu_shaders/include/storage_blocks.glsl``):
 one build then holds up to 8.4M triangles and reads a scene of up to 14.9M. The passes are
 compiled once per block count; a build that fits single blocks uses the plain programs.
+
+The element count need not be known to the host. The near-cube cull leaves the number of
+triangles it kept in a GPU buffer (:class:`DeviceCount`); reading it back would drain the GPU
+between the cull and the build, mid-frame. The build is then recorded for a host-side upper
+bound, its *capacity* (the number of triangles the cull tested), which sizes every buffer and
+the bounds, Morton and sort dispatches, and every kernel reads the real count from the GPU
+(``gpu_shaders/include/build_count.glsl``): the Morton pass gives the elements past the count
+a padding key above every code, so the stable sort of all capacity keys leaves the real ones
+first, and the hierarchy and refit passes run indirectly over exactly the count (the
+arguments written on the GPU by ``build_count``; on llvmpipe as fast as a dispatch over the
+capacity when the bound is tight, and a third faster when it is loose, and what a GPU wants
+too). The capacity is an exact upper bound (the cull cannot keep more than its candidates),
+so no build overflows.
 """
 from __future__ import annotations
 
@@ -36,12 +51,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+import moderngl
+
 from ...gpu import gl_context, shader_loader
 from ...gpu.bindings import Storage, bind, split_storage
+from ...gpu.device_count import DeviceCount
 from ...gpu.radix_sort import KEYS_PER_CHUNK, RadixSort
 from ...gpu.triangle_input import input_defines, input_split, input_storage
 from ...gpu.dispatch import (
-    BlockSplit, GrowBuffer, dispatch, max_block_bytes, max_split_items, split_blocks, storage_barrier,
+    BlockSplit, GrowBuffer, dispatch, grid_for, max_block_bytes, max_split_items, max_workgroups_x,
+    split_blocks, storage_barrier,
 )
 
 # Mirror of struct BVHNode in bvh_layout.glsl (64 bytes). Child refs: >= 0 inner node,
@@ -95,6 +114,11 @@ _INPUT_DEFINES = {"LOCAL_SIZE": LOCAL_SIZE}
 
 _ORDERED_MIN_RESET = 0xFFFFFFFF
 _ORDERED_MAX_RESET = 0
+# The BuildCount block (build_count.glsl): the count, then (x, y, z) groups of the hierarchy
+# and of the refit, as uint32 words; the indirect dispatches read them at these byte offsets.
+BUILD_COUNT_WORDS = 7
+HIERARCHY_ARGS_OFFSET = 4
+REFIT_ARGS_OFFSET = 16
 
 
 @dataclass
@@ -107,15 +131,26 @@ class BuiltLBVH:
     Morton codes. ``node_split`` / ``triangle_split``: how the node and triangle arrays are
     bound (one block each below 2.1M leaves at 128 MiB blocks); a shader that traverses the
     build compiles with :meth:`traversal_defines` and binds :meth:`storage`.
+
+    The leaf count lives on the GPU: ``count`` is a :class:`DeviceCount` (word 0 of the
+    builder's BuildCount buffer) and ``capacity`` the host's upper bound the arrays are sized
+    for. ``leaf_count`` is the count on the host: known when the build was given it, else read
+    back (a synchronisation point; the frame never asks, its statistics copy the count).
     """
 
     nodes: object
     triangles: object
     leaf_primitives: object
     sorted_keys: object
-    leaf_count: int
+    count: DeviceCount
+    capacity: int
     node_split: BlockSplit
     triangle_split: BlockSplit
+    known_count: int | None = None
+
+    @property
+    def leaf_count(self) -> int:
+        return self.known_count if self.known_count is not None else self.count.read()
 
     @property
     def node_count(self) -> int:
@@ -137,7 +172,7 @@ class BuiltLBVH:
                 **split_storage("BVHTriangles", self.triangles, self.triangle_split)}
 
     def read_nodes(self) -> np.ndarray:
-        raw = self.nodes.read(size=self.node_count * NODE_DTYPE.itemsize)
+        raw = _read(self.nodes, self.node_count * NODE_DTYPE.itemsize)
         return np.frombuffer(raw, dtype=NODE_DTYPE).copy()
 
     def read_triangles(self) -> np.ndarray:
@@ -177,6 +212,8 @@ class LBVHBuilder:
         ctx = self.ctx
         self._input = GrowBuffer(ctx, "lbvh input triangles")
         self._dummy_index = ctx.buffer(reserve=16)
+        # The build's count and its dispatch arguments (build_count.glsl), rewritten per build.
+        self._count = ctx.buffer(reserve=BUILD_COUNT_WORDS * 4)
         self._bounds_buffer = ctx.buffer(reserve=24)
         self._keys = (GrowBuffer(ctx, "lbvh keys A"), GrowBuffer(ctx, "lbvh keys B"))
         self._values = (GrowBuffer(ctx, "lbvh values A"), GrowBuffer(ctx, "lbvh values B"))
@@ -199,28 +236,31 @@ class LBVHBuilder:
         buf = self._input.upload(tris.tobytes())
         return self.build(buf, len(tris))
 
-    def build(self, triangles, count: int, indices=None, input_count: int | None = None) -> BuiltLBVH:
+    def build(self, triangles, count: "int | DeviceCount", indices=None, input_count: int | None = None) -> BuiltLBVH:
         """Build over ``count`` triangles of a GL buffer of packed (N, 3, 3) float32.
 
-        With ``indices`` (a GL buffer of uint32), element i is triangle ``indices[i]`` (the
-        near-cube culler's compacted list); the reported hits are then indices into
-        ``triangles``. ``input_count`` is the number of triangles stored in ``triangles``
-        (default: ``count`` without indices, else what the buffer can hold); only that range
-        is bound.
+        ``count``: an int, or a :class:`DeviceCount` that an earlier pass left on the GPU (the
+        near-cube cull's kept count); the build is then sized for its capacity and the count
+        is never read back (module docstring). With ``indices`` (a GL buffer of uint32),
+        element i is triangle ``indices[i]`` (the near-cube culler's compacted list); the
+        reported hits are then indices into ``triangles``. ``input_count`` is the number of
+        triangles stored in ``triangles`` (default: ``count`` without indices, else what the
+        buffer can hold); only that range is bound.
         """
         ctx = self.ctx
-        count = int(count)
-        if count < 0:
-            raise ValueError(f"triangle count must be >= 0, got {count}")
+        on_device = isinstance(count, DeviceCount)
+        capacity = count.capacity if on_device else int(count)
+        if capacity < 0:
+            raise ValueError(f"triangle count must be >= 0, got {capacity}")
         use_indices = 1 if indices is not None else 0
         index_buffer = indices if indices is not None else self._dummy_index
-        n4 = max(count, 1) * 4
-        node_count = max(count - 1, 1)
+        n4 = max(capacity, 1) * 4
+        node_count = max(capacity - 1, 1)
         node_bytes = node_count * NODE_DTYPE.itemsize
-        tri_bytes = max(count, 1) * TRIANGLE_DTYPE.itemsize
+        tri_bytes = max(capacity, 1) * TRIANGLE_DTYPE.itemsize
         if input_count is None:
-            input_count = count if indices is None else triangles.size // 36
-        in_split, node_split, tri_split = _plan_blocks(count, int(input_count))
+            input_count = capacity if indices is None else triangles.size // 36
+        in_split, node_split, tri_split = _plan_blocks(capacity, int(input_count))
         self._select_programs(in_split, node_split, tri_split)
         keys = [b.ensure(n4) for b in self._keys]
         values = [b.ensure(n4) for b in self._values]
@@ -229,53 +269,66 @@ class LBVHBuilder:
         flags = self._flags.ensure(node_count * 4)
         bvh_tris = self._triangles.ensure(tri_bytes)
 
-        if count > 0:
+        # 0. The count and the dispatch arguments, on the GPU when the GPU holds the count.
+        if on_device:
+            bind(self._count_program, storage={"SourceCount": count.buffer, "BuildCountOut": self._count},
+                 uniforms={"u_source_at": count.offset // 4, "u_capacity": capacity,
+                           "u_max_groups_x": max_workgroups_x()})
+            self._count_program.run(1, 1, 1)
+            ctx.memory_barrier(moderngl.SHADER_STORAGE_BARRIER_BIT | moderngl.COMMAND_BARRIER_BIT)
+        else:
+            self._count.write(_count_words(capacity).tobytes())
+        build_count = {"BuildCount": self._count}
+
+        if capacity > 0:
             # 1. Centroid bounds.
             self._bounds_buffer.write(
                 np.array([_ORDERED_MIN_RESET] * 3 + [_ORDERED_MAX_RESET] * 3, np.uint32).tobytes()
             )
             inputs = input_storage(triangles, in_split, Storage(index_buffer, n4 if use_indices else None))
-            step = {"u_count": count, "u_use_indices": use_indices}
-            bind(self._bounds, storage={**inputs, "Bounds": self._bounds_buffer}, uniforms=step)
-            dispatch(self._bounds, count, LOCAL_SIZE, BOUNDS_ITEMS_PER_INVOCATION)
+            step = {"u_capacity": capacity, "u_use_indices": use_indices}
+            bind(self._bounds, storage={**inputs, **build_count, "Bounds": self._bounds_buffer}, uniforms=step)
+            dispatch(self._bounds, capacity, LOCAL_SIZE, BOUNDS_ITEMS_PER_INVOCATION)
             storage_barrier(ctx)
 
-            # 2. Morton codes; values carry the original triangle index through the sort.
-            bind(self._morton, storage={**inputs, "Bounds": self._bounds_buffer, "Keys": Storage(keys[0], n4),
-                                        "Values": Storage(values[0], n4)}, uniforms=step)
-            dispatch(self._morton, count, LOCAL_SIZE)
+            # 2. Morton codes (padding keys past the count); values carry the original
+            # triangle index through the sort.
+            bind(self._morton, storage={**inputs, **build_count, "Bounds": self._bounds_buffer,
+                                        "Keys": Storage(keys[0], n4), "Values": Storage(values[0], n4)},
+                 uniforms=step)
+            dispatch(self._morton, capacity, LOCAL_SIZE)
             storage_barrier(ctx)
 
-            # 3. Radix sort (ping-pong A -> B -> A ...).
-            current = self._sort(keys, values, count)
+            # 3. Radix sort of all capacity keys (ping-pong A -> B -> A ...).
+            current = self._sort(keys, values, capacity)
         else:
             current = 0
 
         # 4. Karras hierarchy (also the special roots for N < 2 and the refit flag reset).
         node_blocks = split_storage("BVHNodes", nodes, node_split)
-        bind(self._hierarchy, storage={"Keys": Storage(keys[current], n4), **node_blocks,
+        bind(self._hierarchy, storage={**build_count, "Keys": Storage(keys[current], n4), **node_blocks,
                                        "LeafParent": Storage(leaf_parent, n4),
-                                       "RefitFlags": Storage(flags, node_count * 4)},
-             uniforms={"u_count": count})
-        dispatch(self._hierarchy, max(count - 1, 1), LOCAL_SIZE)
+                                       "RefitFlags": Storage(flags, node_count * 4)})
+        self._hierarchy.run_indirect(self._count, HIERARCHY_ARGS_OFFSET)
         storage_barrier(ctx)
 
         # 5. Reorder triangles and refit boxes bottom-up.
-        if count > 0:
-            bind(self._refit, storage={**input_storage(triangles, in_split), "Values": Storage(values[current], n4),
+        if capacity > 0:
+            bind(self._refit, storage={**input_storage(triangles, in_split), **build_count,
+                                       "Values": Storage(values[current], n4),
                                        **node_blocks, "LeafParent": Storage(leaf_parent, n4),
                                        "RefitFlags": Storage(flags, node_count * 4),
                                        **split_storage("BVHTriangles", bvh_tris, tri_split)},
-                 uniforms={"u_count": count, "u_use_indices": 0})
-            dispatch(self._refit, count, LOCAL_SIZE)
+                 uniforms={"u_use_indices": 0})
+            self._refit.run_indirect(self._count, REFIT_ARGS_OFFSET)
             storage_barrier(ctx)
 
         if gl_context.debug_checks_enabled():
             gl_context.check_error("LBVH build")
         self.built = BuiltLBVH(
             nodes=nodes, triangles=bvh_tris, leaf_primitives=values[current],
-            sorted_keys=keys[current], leaf_count=count, node_split=node_split,
-            triangle_split=tri_split,
+            sorted_keys=keys[current], count=DeviceCount(self._count, 0, capacity), capacity=capacity,
+            node_split=node_split, triangle_split=tri_split, known_count=None if on_device else capacity,
         )
         return self.built
 
@@ -295,6 +348,7 @@ class LBVHBuilder:
         self._hierarchy = compute(ctx, "lbvh/hierarchy.comp.glsl", {"LOCAL_SIZE": LOCAL_SIZE, **nodes})
         self._refit = compute(ctx, "lbvh/refit.comp.glsl", {**inputs, **nodes, **tris})
         self._trace = compute(ctx, "lbvh/trace.comp.glsl", {"LOCAL_SIZE": LOCAL_SIZE, **nodes, **tris})
+        self._count_program = compute(ctx, "lbvh/build_count.comp.glsl", {"LOCAL_SIZE": LOCAL_SIZE})
 
     def _sort(self, keys, values, count: int, bits: int = MORTON_BITS) -> int:
         """Stable radix sort of keys[0]/values[0] on their low ``bits`` bits (whole 8-bit
@@ -381,6 +435,7 @@ class LBVHBuilder:
                      *self._ray_keys, *self._ray_order):
             grow.release()
         self._dummy_index.release()
+        self._count.release()
         self._bounds_buffer.release()
         self.built = None
 
@@ -413,6 +468,18 @@ def _plan_blocks(count: int, input_count: int) -> tuple[BlockSplit, BlockSplit, 
             f"an LBVH over {count} triangles cannot be bound: {err}; build at most "
             f"{max_build_triangles()} triangles at once (cull to a smaller near cube)"
         ) from err
+
+
+def _count_words(count: int) -> np.ndarray:
+    """The BuildCount block (build_count.glsl) for a count the host knows: what
+    build_count.comp.glsl writes for one it does not."""
+    words = np.zeros(BUILD_COUNT_WORDS, np.uint32)
+    words[0] = count
+    words[1:3] = grid_for(-(-max(count - 1, 1) // LOCAL_SIZE))
+    words[3] = 1
+    words[4:6] = grid_for(-(-count // LOCAL_SIZE)) if count else (0, 1)
+    words[6] = 1
+    return words
 
 
 def _as_triangles(triangles: np.ndarray) -> np.ndarray:

@@ -23,7 +23,10 @@ removed"): triangles just outside the near planes are in both the BVH and the cu
 an intersection in the overlap is found by either.
 
 The compacted index list feeds :meth:`hybrid_engine.passes.lbvh.lbvh.LBVHBuilder.build` directly; hit
-indices then refer to the full scene's triangles.
+indices then refer to the full scene's triangles. Nothing is read back: the kept count stays
+where the prefix sum left it (a ``DeviceCount`` whose capacity, the number of candidate
+triangles, bounds it exactly), and the objects per class are counted on the GPU for the frame's
+statistics, which are read after the frame, if at all.
 
 A scene larger than one storage block (3.7M triangles at llvmpipe's 128 MiB) is read as up to
 four blocks of the same buffer (``gpu_shaders/include/triangle_input.glsl``), so scenes of up
@@ -39,6 +42,7 @@ import numpy as np
 
 from ...gpu import gl_context, shader_loader
 from ...gpu.bindings import Storage, bind
+from ...gpu.device_count import DeviceCount
 from ...gpu.dispatch import GrowBuffer, dispatch, max_block_bytes, storage_barrier
 from ...gpu.prefix_scan import PrefixScan
 from ...gpu.triangle_input import input_defines, input_split, input_storage
@@ -66,25 +70,55 @@ def overlap_margin(near_size: float) -> float:
     return float(near_size) * OVERLAP_RELATIVE + OVERLAP_ABSOLUTE
 
 
+# Statistics names of the stage-1 classes, in the order of ClassCounts (CLASS_*).
+CLASS_COUNT_NAMES = ("objects_near_outside", "objects_near_inside", "objects_near_straddling")
+
+
 @dataclass
 class CullResult:
-    """The compacted triangle list of one frame (valid until the next cull).
+    """The compacted triangle list of one frame (valid until the next cull), all on the GPU.
 
-    ``indices``: GL buffer of uint32 triangle indices, ascending, ``count`` of them.
-    ``objects_inside`` / ``objects_straddling`` / ``objects_outside``: stage-1 counts.
+    ``indices``: GL buffer of uint32 triangle indices, ascending; ``kept``: how many, where
+    the GPU holds the number, with the number of triangles tested as its capacity.
+    ``class_counts``: GL buffer of uint32[3], the stage-1 objects per class (CLASS_*).
+    The properties below read them back (synchronisation points: tests and diagnostics;
+    the frame copies them into its statistics instead).
     """
 
     indices: object
-    count: int
-    objects_inside: int
-    objects_straddling: int
-    objects_outside: int
+    kept: DeviceCount
+    class_counts: object
+
+    @property
+    def count(self) -> int:
+        return self.kept.read()
+
+    def read_class_counts(self) -> dict[str, int]:
+        return class_counts_of(np.frombuffer(self.class_counts.read(size=12), np.uint32))
+
+    @property
+    def objects_inside(self) -> int:
+        return self.read_class_counts()["objects_near_inside"]
+
+    @property
+    def objects_straddling(self) -> int:
+        return self.read_class_counts()["objects_near_straddling"]
+
+    @property
+    def objects_outside(self) -> int:
+        return self.read_class_counts()["objects_near_outside"]
 
     def read_indices(self) -> np.ndarray:
-        if self.count == 0:
+        count = self.count
+        if count == 0:
             return np.empty(0, np.int64)
-        raw = self.indices.read(size=self.count * 4)
+        raw = self.indices.read(size=count * 4)
         return np.frombuffer(raw, dtype=np.uint32).astype(np.int64)
+
+
+def class_counts_of(words: np.ndarray) -> dict[str, int]:
+    """The statistics of a ClassCounts block (uint32[3])."""
+    return {name: int(words[index]) for index, name in enumerate(CLASS_COUNT_NAMES)}
 
 
 class NearCubeCuller:
@@ -110,6 +144,7 @@ class NearCubeCuller:
         self._counts = GrowBuffer(ctx, "cull chunk counts")
         self._indices = GrowBuffer(ctx, "cull kept indices")
         self._candidates = GrowBuffer(ctx, "cull candidate triangles")
+        self._class_counts = ctx.buffer(reserve=16)
 
     def io(self, settings: RenderSettings) -> PassIO:
         return PassIO(reads=("scene", "world_triangles"), writes=("near_triangles",))
@@ -120,9 +155,7 @@ class NearCubeCuller:
         buffers = frame.read("world_triangles")
         culled = self.cull(buffers.positions.buffer, buffers.triangle_count, frame.center,
                            frame.settings.near_size, geometry.object_ranges, geometry.object_bounds)
-        frame.counts.update(objects_near_inside=culled.objects_inside,
-                            objects_near_straddling=culled.objects_straddling,
-                            objects_near_outside=culled.objects_outside)
+        frame.statistics.deposit(culled.class_counts, 3, class_counts_of)
         frame.write("near_triangles", culled)
 
     def cull_array(self, triangles: np.ndarray, center, near_size: float,
@@ -166,7 +199,7 @@ class NearCubeCuller:
         half = float(near_size) + margin
         ranges, bounds = _objects(count, object_ranges, object_bounds)
         num_objects = len(ranges)
-        candidates = candidate_triangles(count, ranges, bounds, center, half)
+        candidates, bound = candidates_and_bound(count, ranges, bounds, center, half)
         elements = count if candidates is None else len(candidates)
 
         self._object_ranges.upload(ranges.tobytes())
@@ -193,8 +226,10 @@ class NearCubeCuller:
             self._candidates.upload(candidates.tobytes())
             candidate_storage = Storage(self._candidates.buffer, elements * 4)
         # 1. Objects.
+        self._class_counts.write(bytes(12))
         bind(self._classify, storage={"ObjectBounds": Storage(self._object_bounds.buffer, num_objects * 24),
-                                      "ObjectClass": class_storage}, uniforms=cube)
+                                      "ObjectClass": class_storage, "ClassCounts": self._class_counts},
+             uniforms=cube)
         dispatch(self._classify, num_objects, LOCAL_SIZE)
         storage_barrier(ctx)
         # 2. Triangles: flags and per-chunk counts.
@@ -218,24 +253,21 @@ class NearCubeCuller:
                  uniforms=chunks)
             dispatch(self._compact, num_chunks, LOCAL_SIZE)
             storage_barrier(ctx)
+        # The kept count: the scan's total, never more than the candidates (``bound``: the
+        # triangles of the objects the host found touching the slightly larger cube, and of
+        # no object), whether stage 2 walked only them or every triangle.
         total_offset = (num_chunks if elements > 0 else 0) * 4
-        kept = int(np.frombuffer(counts.read(size=4, offset=total_offset), np.uint32)[0])
-        classes = (np.frombuffer(object_class.read(size=num_objects * 4), np.uint32)
-                   if num_objects else np.empty(0, np.uint32))
         if gl_context.debug_checks_enabled():
             gl_context.check_error("near-cube culling")
-        return CullResult(
-            indices=indices, count=kept,
-            objects_inside=int(np.count_nonzero(classes == CLASS_INSIDE)),
-            objects_straddling=int(np.count_nonzero(classes == CLASS_STRADDLING)),
-            objects_outside=int(np.count_nonzero(classes == CLASS_OUTSIDE)),
-        )
+        return CullResult(indices=indices, kept=DeviceCount(counts, total_offset, min(bound, elements)),
+                          class_counts=self._class_counts)
 
     def release(self) -> None:
         for grow in (self._input, self._object_bounds, self._object_ranges, self._object_class,
                      self._flags, self._counts, self._indices, self._candidates):
             grow.release()
         self._scan.release()
+        self._class_counts.release()
 
 
 # The host's candidate test uses a cube this much larger (relative, plus absolute) than the
@@ -252,8 +284,16 @@ def candidate_triangles(count: int, ranges: np.ndarray, bounds: np.ndarray, cent
     whose bounds (K, 6: min, max) touch the cube of half-size ``half`` (grown by the slack
     above; non-finite bounds always do) and those of no object. None when that is more than
     CANDIDATE_MAX_SHARE of the ``count`` triangles: stage 2 then walks them all."""
+    return candidates_and_bound(count, ranges, bounds, center, half)[0]
+
+
+def candidates_and_bound(count: int, ranges: np.ndarray, bounds: np.ndarray, center: np.ndarray,
+                         half: float) -> tuple[np.ndarray | None, int]:
+    """:func:`candidate_triangles`, and how many triangles they are even when it lists none:
+    an exact upper bound of what the cull keeps (nothing outside them can be kept), which
+    sizes the LBVH build without reading the kept count back."""
     if count == 0:
-        return None
+        return None, 0
     lo, hi = bounds[:, :3].astype(np.float64), bounds[:, 3:].astype(np.float64)
     reach = half * (1.0 + CANDIDATE_SLACK_RELATIVE) + CANDIDATE_SLACK_ABSOLUTE
     with np.errstate(invalid="ignore"):
@@ -268,12 +308,13 @@ def candidate_triangles(count: int, ranges: np.ndarray, bounds: np.ndarray, cent
     runs = np.asarray(draw_ranges(np.ones(len(runs), bool), runs), np.int64).reshape(-1, 2)
     total = int(runs[:, 1].sum()) if len(runs) else 0
     if total > CANDIDATE_MAX_SHARE * count:
-        return None
+        return None, total
     if total == 0:
-        return np.empty(0, np.uint32)
+        return np.empty(0, np.uint32), 0
     # Concatenated aranges: element e of run r is runs[r, 0] + (e - start of run r).
     run_start = np.concatenate([[0], np.cumsum(runs[:, 1])[:-1]])
-    return (np.arange(total, dtype=np.int64) + np.repeat(runs[:, 0] - run_start, runs[:, 1])).astype(np.uint32)
+    listed = (np.arange(total, dtype=np.int64) + np.repeat(runs[:, 0] - run_start, runs[:, 1])).astype(np.uint32)
+    return listed, total
 
 
 def _objects(count: int, object_ranges, object_bounds) -> tuple[np.ndarray, np.ndarray]:

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -53,6 +54,7 @@ WORK_KINDS = ("bvh_nodes", "cube_steps")
 COUNTER_KINDS = RAY_KINDS + WORK_KINDS
 
 COUNTER_DEPTHS = 17
+COUNTER_WORDS = len(COUNTER_KINDS) * COUNTER_DEPTHS
 assert FIELD_LIMITS["max_depth"][1] < COUNTER_DEPTHS, "the kernel's counters cover every depth"
 
 WORKGROUP = 8  # the kernel's local size in x and y
@@ -80,10 +82,19 @@ class TraceStats:
     """What one frame's tracing did (goes into FrameResult.counts)."""
 
     per_depth: dict[str, list[int]]  # kind -> [count at depth 1, 2, ...]
-    bvh_triangles: int
+    bvh_triangles: int | None = None  # None: counted elsewhere (the BVH's own count)
+
+    @classmethod
+    def of(cls, words: np.ndarray, max_depth: int, bvh_triangles: int | None = None) -> "TraceStats":
+        """The statistics of the kernel's counters (uint32[COUNTER_WORDS])."""
+        raw = np.asarray(words, np.uint32).reshape(len(COUNTER_KINDS), COUNTER_DEPTHS)
+        # Rays of depth 1 .. max_depth, and the one more the depth limit traces.
+        depths = range(1, max(int(max_depth), 0) + min(max(int(max_depth), 0), 1) + 1)
+        per_depth = {kind: [int(raw[k, d]) for d in depths] for k, kind in enumerate(COUNTER_KINDS)}
+        return cls(per_depth=per_depth, bvh_triangles=bvh_triangles)
 
     def as_counts(self) -> dict[str, int]:
-        counts = {"triangles_bvh": int(self.bvh_triangles)}
+        counts = {} if self.bvh_triangles is None else {"triangles_bvh": int(self.bvh_triangles)}
         for kind, values in self.per_depth.items():
             name = kind if kind in WORK_KINDS else f"rays_{kind}"
             counts[name] = int(sum(values))
@@ -115,7 +126,6 @@ class HybridTracer:
         self._dummy_rgba = ctx.texture((1, 1), 4, dtype="f4")
         self._dummy_rg = ctx.texture((1, 1), 2, dtype="f4")
         self.diagnostic = None  # the diagnostic views' per-pixel counts (diagnostic_views.py)
-        self._bvh_leaves = 0  # triangles in the BVH the last trace read
         self._waves: WaveTracer | None = None  # the wave pipeline, made when first chosen
 
     def io(self, settings: RenderSettings) -> PassIO:
@@ -134,7 +144,18 @@ class HybridTracer:
             self._waves.run(self.inputs(frame, world_light=False), frame.settings)
         else:
             self.dispatch(frame, world_light=False)
+        self.deposit_statistics(frame)
         frame.write("color", frame.read("gbuffer").color)
+
+    def deposit_statistics(self, frame: FrameContext) -> None:
+        """The BVH's leaf count and the kernel's counters, into the frame's statistics: copied
+        on the GPU, read after the frame if a caller asks (gpu/statistics.py). PROVENANCE
+        traces nothing and counts nothing."""
+        if "bvh" not in traced_resources(frame.settings):
+            return
+        count = frame.read("bvh").count
+        frame.statistics.deposit(count.buffer, 1, _bvh_counts, offset=count.offset)
+        frame.statistics.deposit(self._counters, COUNTER_WORDS, partial(_ray_counts, int(frame.settings.max_depth)))
 
     def dispatch(self, frame: FrameContext, world_light: bool) -> None:
         """Run the megakernel: the reflections and refractions, or (``world_light``) its
@@ -162,7 +183,6 @@ class HybridTracer:
         ctx = self.ctx
         mode = settings.trace_mode
         diagnostic = is_diagnostic(settings) and not world_light
-        self._bvh_leaves = 0 if built is None else int(built.leaf_count)
         # A BVH whose arrays span several storage blocks needs the kernel compiled for them,
         # and the cube-map march its own defines (MarchableCubeMap.defines: the march kind,
         # the back layer, the hidden-exit rule); compiled once per define set, and without
@@ -222,11 +242,9 @@ class HybridTracer:
             textures=textures, images=images, uniforms=values, size=(view.width, view.height))
 
     def read_stats(self, max_depth: int) -> TraceStats:
-        raw = np.frombuffer(self._counters.read(), np.uint32).reshape(len(COUNTER_KINDS), COUNTER_DEPTHS)
-        # Rays of depth 1 .. max_depth, and the one more the depth limit traces.
-        depths = range(1, max(int(max_depth), 0) + min(max(int(max_depth), 0), 1) + 1)
-        per_depth = {kind: [int(raw[k, d]) for d in depths] for k, kind in enumerate(COUNTER_KINDS)}
-        return TraceStats(per_depth=per_depth, bvh_triangles=self._bvh_leaves)
+        """The last trace's counters, read back now (a synchronisation point: tests; the
+        frame deposits them instead)."""
+        return TraceStats.of(np.frombuffer(self._counters.read(), np.uint32), max_depth)
 
     def read_diagnostic(self, view: RasterView) -> np.ndarray:
         """The diagnostic view's per-pixel counts of the last trace, (H, W) float32, row 0 at
@@ -242,6 +260,14 @@ class HybridTracer:
             self._waves = None
         for obj in (self._counters, self._dummy_ssbo, self._dummy_depth, self._dummy_rgba, self._dummy_rg):
             obj.release()
+
+
+def _bvh_counts(words: np.ndarray) -> dict[str, int]:
+    return {"triangles_bvh": int(words[0])}
+
+
+def _ray_counts(max_depth: int, words: np.ndarray) -> dict[str, int]:
+    return TraceStats.of(words, max_depth).as_counts()
 
 
 class WorldLightRays:

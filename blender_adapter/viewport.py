@@ -46,7 +46,7 @@ from ..hybrid_engine.frame.near_budget import NearCubeSizer
 from ..hybrid_engine.reports.diagnostic_legend import draw_legend
 from ..hybrid_engine.scene.settings import RenderSettings
 from ..hybrid_engine.frame.viewport import RegionInput, accumulation_key, plan_frame
-from ..hybrid_engine.frame.viewport_status import FrameClock, MessageLatch, stats_line
+from ..hybrid_engine.frame.viewport_status import FrameClock, MessageLatch, StatsRefresh, stats_line
 from . import messages, properties
 from .export.camera import camera_from_scene
 from .gl_host import gl_block
@@ -82,6 +82,10 @@ class ViewportSession:
         self._renderer_factory = renderer_factory
         self.renderer = None
         self.clock = FrameClock()
+        # The header's counts are a read-back: taken only when the line refreshes.
+        self.stats_refresh = StatsRefresh()
+        self._counts: dict = {}
+        self._last_mode = ""
         self.latch = MessageLatch()
         self.last_sync: SyncReport | None = None
         self.frames = 0
@@ -124,8 +128,10 @@ class ViewportSession:
                 return self._unchanged(rect)  # nothing changed: no render
             index = self.schedule.count
             view = jittered_camera(plan.view, *self.schedule.offset())
+            # The header's counts only when it refreshes (or shows another mode).
+            counted = self.stats_refresh.due() or settings.mode != self._last_mode
             with gl_block():
-                result = self._render(view, settings, FrameOutputs(transparent=transparent), index)
+                result = self._render(view, settings, FrameOutputs(transparent=transparent), index, counted)
                 if self.readback.image is None:  # nothing of this size on the host yet
                     self.readback.collect(wait=True)
             self.schedule.advance()
@@ -144,8 +150,11 @@ class ViewportSession:
         samples = f"sample {self.schedule.count}/{target}"
         if settings.near_cube_mode == "BUDGET":
             samples += f" | near {settings.near_size:.2f}"
-        stats = stats_line(result.mode, frame_ms, fps, result.counts, size, samples=samples)
-        self._last = ViewportFrame(image, rect, stats, mode=result.mode, counts=dict(result.counts),
+        # The host's counts every frame (they cost nothing); the GPU's when the line refreshes.
+        self._counts = {**self._counts, **(dict(result.counts) if counted else result.counts.host)}
+        self._last_mode = result.mode
+        stats = stats_line(result.mode, frame_ms, fps, self._counts, size, samples=samples)
+        self._last = ViewportFrame(image, rect, stats, mode=result.mode, counts=dict(self._counts),
                                    converged=self.schedule.count >= target and not self.readback.pending)
         return self._last
 
@@ -158,16 +167,18 @@ class ViewportSession:
             self._last = replace(self._last, image=self.readback.image)
         return replace(self._last, rect=rect, converged=True)
 
-    def _render(self, view, settings: RenderSettings, outputs: FrameOutputs, sample: int = 0):
+    def _render(self, view, settings: RenderSettings, outputs: FrameOutputs, sample: int = 0,
+                statistics: bool = True):
         """Render sample ``sample`` of the view with the scene's mode (later samples keep
-        the first's cube map and BVH)."""
+        the first's cube map and BVH); ``statistics``: copy the GPU's counts for reading."""
         renderer = self._ensure_renderer()
         if self.readback is None:
             from ..hybrid_engine.frame.readback import ImageReadback
 
             self.readback = ImageReadback(renderer.ctx)
         return renderer.render(self.cache.scene_data, view, settings, timing=False, outputs=outputs,
-                               sample=sample, reuse_world=sample > 0, accumulate=True, readback=self.readback)
+                               sample=sample, reuse_world=sample > 0, accumulate=True, readback=self.readback,
+                               statistics=statistics)
 
     def _ensure_renderer(self):
         if self.renderer is None:

@@ -558,7 +558,8 @@ def test_a_viewport_redraw_reads_back_exactly_one_image_and_never_waits(addon, v
     scene.hybrid_rt.mode = mode
     scene.hybrid_rt.viewport_samples = 4
     _sync(bpy)
-    _frame(addon, bpy, session)  # compiles and sizes everything once
+    _frame(addon, bpy, session)  # compiles and sizes everything once, and reads the counts
+    session.stats_refresh._clock = lambda: session.stats_refresh._last  # the header is not due again
     counts = _count_reads(monkeypatch)
     per_redraw = []
     for eye in ((6.0, -7.0, 5.0), (6.0, -7.0, 5.0), (6.5, -7.0, 5.0), (6.5, -7.0, 5.0)):
@@ -567,3 +568,31 @@ def test_a_viewport_redraw_reads_back_exactly_one_image_and_never_waits(addon, v
         assert frame.error is None, frame.error
         per_redraw.append((counts["reads"], counts["finish"]))
     assert per_redraw == [(1, 0)] * 4
+
+
+def test_the_header_takes_the_gpus_counts_only_when_it_refreshes(addon, viewport, monkeypatch):
+    """A redraw whose header is due reads the statistics too (one more read-back, after the
+    image's frame ran), and its line shows the BVH's triangles; between refreshes the line
+    keeps the last counts and the redraw reads only its image."""
+    import bpy
+
+    _module, session, _reports = viewport
+    scene, _cube, _material = _two_object_scene(bpy)
+    scene.hybrid_rt.mode = "HYBRID"
+    scene.hybrid_rt.viewport_samples = 8
+    _sync(bpy)
+    now = [0.0]
+    session.stats_refresh._clock = lambda: now[0]
+    counts = _count_reads(monkeypatch)
+    reads = []
+    lines = []
+    for step in range(4):
+        now[0] = 0.3 * step  # due at 0.0 and 0.6 (every 0.5 s)
+        counts["reads"] = 0
+        frame = session.frame(_region(bpy, eye=(6.0 + 0.1 * step, -7.0, 5.0)), _settings(addon, bpy))
+        assert frame.error is None, frame.error
+        reads.append(counts["reads"])
+        lines.append(frame.stats)
+    assert reads == [2, 1, 2, 1]
+    bvh = int(frame.counts["triangles_bvh"])
+    assert bvh > 0 and f"BVH {bvh:,} /" in lines[-1] and lines[1].split("| BVH")[1] == lines[0].split("| BVH")[1]

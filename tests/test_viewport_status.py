@@ -27,3 +27,17 @@ def test_message_latch_says_each_message_once_until_cleared():
     assert latch.first_time("no GL") and not latch.first_time("no GL") and latch.first_time("other")
     latch.clear()
     assert latch.first_time("no GL")
+
+
+def test_the_stats_line_refreshes_at_most_every_interval():
+    from hybrid_engine.frame.viewport_status import StatsRefresh
+
+    now = [10.0]
+    refresh = StatsRefresh(0.5, clock=lambda: now[0])
+    taken = []
+    for t in (10.0, 10.2, 10.49, 10.5, 10.6, 11.2):
+        now[0] = t
+        taken.append(refresh.due())
+    assert taken == [True, False, False, True, False, True]
+    refresh.reset()
+    assert refresh.due()  # a reset takes the counts on the next redraw

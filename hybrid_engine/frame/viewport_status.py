@@ -30,6 +30,30 @@ class FrameClock:
         return None if self.interval_s is None else 1.0 / self.interval_s
 
 
+class StatsRefresh:
+    """When the viewport's statistics line takes new counts. Counts come from the GPU (the
+    frame's statistics ring) and reading them is a read-back, so a redraw reads them only
+    when the line is due to change: at most every ``interval_s``, as a header refreshed for a
+    person to read needs no more; in between the line keeps the last counts read."""
+
+    def __init__(self, interval_s: float = 0.5, clock=time.perf_counter) -> None:
+        self.interval_s = float(interval_s)
+        self._clock = clock
+        self._last: float | None = None
+
+    def due(self) -> bool:
+        """Whether this redraw should read the counts (and, if so, count it as read)."""
+        now = self._clock()
+        if self._last is not None and now - self._last < self.interval_s:
+            return False
+        self._last = now
+        return True
+
+    def reset(self) -> None:
+        """Read the counts on the next redraw (a new scene, an error)."""
+        self._last = None
+
+
 def stats_line(mode: str, frame_ms: float, fps: float | None, counts: dict, size: tuple[int, int],
                samples: str = "") -> str:
     """The viewport's one-line statistics: mode, render size, the accumulated samples

@@ -92,6 +92,8 @@ class StatisticsRing:
             raise ValueError(f"a statistics ring needs at least one slot, got {slots}")
         self.ctx = ctx
         self._slots = [GrowBuffer(ctx, f"frame statistics {index}", min_bytes=64) for index in range(slots)]
+        for slot in self._slots:  # made now, so that frames that copy nothing leave none to make later
+            slot.ensure(64)
         self._pending: list[weakref.ref | None] = [None] * slots
         self._next = 0
 
@@ -132,6 +134,11 @@ class LazyCounts(Mapping):
         self._host = dict(host)
         self._pending = pending
         self._all: dict[str, int] | None = None if pending is not None else self._host
+
+    @property
+    def host(self) -> dict[str, int]:
+        """The counts the host knows, read from nothing."""
+        return dict(self._host)
 
     @property
     def resolved(self) -> bool:

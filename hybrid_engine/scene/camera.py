@@ -209,10 +209,17 @@ CUBE_FACE_UPS = np.array(
 )
 
 
+# The faces' world → view rotations, the same at any centre (made once: the cube map and
+# every point lamp's shadow faces take six views each frame).
+CUBE_FACE_ROTATIONS = np.stack([view_from_world(look_at((0.0, 0.0, 0.0), d, up))[:3, :3]
+                                for d, up in zip(CUBE_FACE_DIRECTIONS, CUBE_FACE_UPS)])
+
+
 def cube_face_views(center) -> list[np.ndarray]:
     """World → view matrices of the six cube faces centred on ``center``."""
-    c = np.asarray(center, np.float64)
-    return [
-        view_from_world(look_at(c, c + d, up))
-        for d, up in zip(CUBE_FACE_DIRECTIONS, CUBE_FACE_UPS)
-    ]
+    c = np.asarray(center, np.float64).reshape(3)
+    views = np.zeros((6, 4, 4))
+    views[:, :3, :3] = CUBE_FACE_ROTATIONS
+    views[:, :3, 3] = -(CUBE_FACE_ROTATIONS @ c)
+    views[:, 3, 3] = 1.0
+    return list(views)

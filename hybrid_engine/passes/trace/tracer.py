@@ -222,11 +222,22 @@ class HybridTracer:
             textures=textures, images=images, uniforms=values, size=(view.width, view.height))
 
     def read_stats(self, max_depth: int) -> TraceStats:
+        if self._waves is not None:
+            self._waves.note_overflow()  # read with the frame's statistics: queues grow for the next frame
         raw = np.frombuffer(self._counters.read(), np.uint32).reshape(len(COUNTER_KINDS), COUNTER_DEPTHS)
         # Rays of depth 1 .. max_depth, and the one more the depth limit traces.
         depths = range(1, max(int(max_depth), 0) + min(max(int(max_depth), 0), 1) + 1)
         per_depth = {kind: [int(raw[k, d]) for d in depths] for k, kind in enumerate(COUNTER_KINDS)}
         return TraceStats(per_depth=per_depth, bvh_triangles=self._bvh_leaves)
+
+    def queue_overflows(self) -> int:
+        """How many frames so far wanted more rays than the wave queues held (their rays past
+        the queues took the sky; the queues have grown since): a final render compares the
+        count before and after its samples (frame/antialias.py). 0 for the megakernel."""
+        if self._waves is None:
+            return 0
+        self._waves.note_overflow()
+        return self._waves.overflows
 
     def read_diagnostic(self, view: RasterView) -> np.ndarray:
         """The diagnostic view's per-pixel counts of the last trace, (H, W) float32, row 0 at

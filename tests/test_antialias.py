@@ -131,3 +131,32 @@ def test_a_kept_world_is_rebuilt_when_the_geometry_or_the_eye_moved(renderer, mo
     scene.geometry.triangles[:, :, 2] += 0.5  # edited in place: the same scene object
     renderer.render(scene, elsewhere, settings, reuse_world=True)
     assert len(built) == 3
+
+
+def test_a_final_render_whose_wave_queues_overflowed_renders_its_samples_again(gl):
+    from hybrid_engine.frame.renderer import Renderer
+    from hybrid_engine.gpu import variants
+    import test_tracer as scenes
+
+    make_scene, make_camera = scenes.SCENES["glass_ball"]
+    scene, camera = make_scene(), make_camera()
+    settings = scenes.settings("HYBRID", max_depth=4, near_size=6.0, ao_distance=1.0)
+    renderer = Renderer(gl)
+    variants.set_override("trace=gpu")
+    try:
+        expected = render_antialiased(renderer, scene, camera, settings, 3).image
+        waves = renderer.tracer._waves
+        wanted = waves.overflowed()
+        assert waves.overflows == 0 and wanted[0] > 0
+        waves.set_capacity(wanted[0] // 3, wanted[1] // 3)
+        passes = []
+        real_render = renderer.render
+        renderer.render = lambda *a, **kw: passes.append(kw["sample"]) or real_render(*a, **kw)
+        again = render_antialiased(renderer, scene, camera, settings, 3).image
+        assert waves.overflows > 0
+        assert passes[:4] == [0, 1, 2, 0]  # started over once the queues had grown
+        assert len(passes) == 3 * (waves.overflows + 1)
+        np.testing.assert_array_equal(again, expected)
+    finally:
+        variants.set_override(None)
+        renderer.release()

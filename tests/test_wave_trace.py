@@ -10,11 +10,14 @@ megakernel twice.
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from hybrid_engine.frame.renderer import Renderer
-from hybrid_engine.gpu import variants
+from hybrid_engine.gpu import shader_loader, variants
+from hybrid_engine.gpu.bindings import bind
 from hybrid_engine.passes.trace import wave_trace
 from hybrid_engine.passes.trace.tracer import COUNTER_KINDS
 from hybrid_engine.scene.settings import RenderSettings
@@ -152,6 +155,105 @@ def test_the_tracer_runs_the_variant_chosen(gl):
         assert renderer.tracer._waves is not None and renderer.tracer._waves.overflowed()[0] > 0
     finally:
         renderer.release()
+
+
+WEIGHT_PROBE = Path(__file__).resolve().parent / "shaders" / "wave_weight_probe.comp.glsl"
+
+
+def test_a_queued_weight_keeps_18_bits_below_its_largest_channel_and_every_positive_channel(gl, rng):
+    # Weights as paths make them: colours from 1 down to far below any half float, and
+    # channels far below their largest (a Fresnel-weighted path through tinted glass), all
+    # normal floats (the megakernel's own products flush below them).
+    largest = 10.0 ** rng.uniform(-30, 1, 400)
+    ratios = np.where(rng.random((400, 3)) < 0.3, 10.0 ** rng.uniform(-7, 0, (400, 3)), rng.random((400, 3)))
+    weights = np.concatenate([largest[:, None] * ratios, [[0, 0, 0], [1, 0, 0], [0, 2.0 ** -100, 0], [2.0, 1.0, 0.5]]])
+    weights = weights.astype(np.float32)
+    prog = shader_loader.compute(gl, WEIGHT_PROBE)
+    source = gl.buffer(np.c_[weights, np.zeros(len(weights))].astype(np.float32).tobytes())
+    out = gl.buffer(reserve=source.size)
+    try:
+        bind(prog, storage={"Weights": source, "Unpacked": out, "WaveState": None}, uniforms={"u_count": len(weights)})
+        prog.run(-(-len(weights) // 64), 1, 1)
+        back = np.frombuffer(out.read(), np.float32).reshape(-1, 4)[:, :3]
+    finally:
+        source.release()
+        out.release()
+    # Rounded to half a step of 2^-17 of the largest channel's power of two; a positive
+    # channel below one step is kept at one.
+    top = weights.max(axis=1, keepdims=True)
+    assert (np.abs(back - weights) <= top * 2.0 ** -17).all()
+    assert np.median(np.abs(back - weights)[:-4] / top[:-4]) < 2.0 ** -19
+    np.testing.assert_array_equal(back > 0, weights > 0)  # the spawned rays depend on it
+    np.testing.assert_array_equal(back[-4:], weights[-4:])  # exact where the bits suffice
+
+
+def overflowing_frame(renderer):
+    """The glass ball at depth 4 with occlusion rays, and the most rays and occlusion rays
+    any of its waves wants."""
+    make_scene, make_camera = scenes.SCENES["glass_ball"]
+    scene, camera = make_scene(), make_camera()
+    settings = scenes.settings("HYBRID", max_depth=4, near_size=6.0, ao_distance=1.0)
+    variants.set_override("trace=cpu")
+    mega = renderer.render(scene, camera, settings)
+    variants.set_override("trace=gpu")
+    renderer.render(scene, camera, settings)
+    wanted = renderer.tracer._waves.overflowed()
+    assert wanted[0] > 2 * wave_trace.WAVE_LOCAL and wanted[1] > wave_trace.WAVE_LOCAL
+    return scene, camera, settings, mega, wanted
+
+
+def test_the_queues_start_at_one_ray_per_pixel_in_packed_records(renderer):
+    make_scene, make_camera = scenes.SCENES["glass_ball"]
+    camera = scenes.camera_at((0, -2, 0.2), (0, 3, 0), width=ODD_W, height=ODD_H)
+    variants.set_override("trace=gpu")
+    fresh = Renderer(renderer.ctx)
+    try:
+        fresh.render(make_scene(), camera, scenes.settings("HYBRID", max_depth=4, near_size=3.0))
+        waves = fresh.tracer._waves
+        pixels = ODD_W * ODD_H
+        assert (waves.ray_capacity, waves.occlusion_capacity) == (pixels, pixels)
+        queues = wave_trace.queue_bytes(pixels, pixels, pixels)
+        assert waves.bytes_allocated() - queues <= 2048  # the state and overflow words
+        # Two ray queues, the hits, the occlusion queue and a vec4 per pixel, nothing more.
+        assert queues <= 176 * pixels
+    finally:
+        fresh.release()
+
+
+@pytest.mark.parametrize("short", [1, 2 * wave_trace.WAVE_LOCAL - 1, 2 * wave_trace.WAVE_LOCAL,
+                                   2 * wave_trace.WAVE_LOCAL + 1])
+def test_a_frame_that_overflows_its_queues_grows_them_and_the_next_frame_is_exact(renderer, short):
+    scene, camera, settings, mega, wanted = overflowing_frame(renderer)
+    waves = renderer.tracer._waves
+    # Queues a little short of what the waves want, ending inside, at the edge and past the
+    # edge of a workgroup's children.
+    waves.set_capacity(wanted[0] - short, wanted[1] - 1)
+    overflows = waves.overflows
+    cut = renderer.render(scene, camera, settings)
+    assert waves.overflows == overflows  # nothing read in the frame
+    assert cut.counts["wave_rays_wanted"] == wanted[0]  # reading the frame's counts notes the overflow
+    assert waves.overflows == overflows + 1
+    assert not waves.note_overflow()  # noted once, with the frame's statistics
+    assert renderer.tracer.queue_overflows() == overflows + 1
+    assert waves.overflowed() == wanted  # the GPU counted every ray the waves wanted
+    assert np.abs(cut.image - mega.image).max() > 1e-3  # rays past the queues took the sky
+    assert waves.ray_capacity == wanted[0] - short  # the frame itself never waited to grow
+    grown = renderer.render(scene, camera, settings)
+    assert waves.ray_capacity >= wanted[0] and waves.occlusion_capacity >= wanted[1]
+    assert waves.overflows == overflows + 1
+    assert_same(mega, grown)
+
+
+def test_queues_exactly_as_long_as_the_waves_want_trace_every_ray(renderer):
+    scene, camera, settings, mega, wanted = overflowing_frame(renderer)
+    assert wanted[0] % wave_trace.WAVE_LOCAL != 0  # the last workgroup is partly full
+    waves = renderer.tracer._waves
+    waves.set_capacity(*wanted)
+    overflows = waves.overflows
+    exact = renderer.render(scene, camera, settings)
+    assert (waves.ray_capacity, waves.occlusion_capacity) == wanted
+    assert waves.overflows == overflows
+    assert_same(mega, exact)
 
 
 def test_the_waves_fill_the_counter_layout_the_stats_read(renderer):

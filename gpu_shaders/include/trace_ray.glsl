@@ -6,7 +6,8 @@
 // the including shader defines
 //   bool ray_room();   // false: the ray takes the sky along its direction instead
 //   void store_ray(vec3 origin, vec3 dir, vec3 weight, int depth, float blur, float reach);
-// (the megakernel: its per-pixel stack; a wave: the parent ray's child slots). The ray and
+// (the megakernel: its per-pixel stack; a wave: the parent's children, counted, then written
+// into the next queues, wave_queue.glsl). The ray and
 // work counters (CounterBuffer, tracer.COUNTER_KINDS x COUNTER_DEPTHS) go to the buffer at
 // once, or, with WORKGROUP_COUNTERS, through shared memory (count, flush_workgroup_counts).
 // With TRACE_SHADING_ONLY only the shading and spawning (no tracing, none of its storage
@@ -511,6 +512,19 @@ bool primary_specular(ivec2 pixel, out vec4 nm, out Material m) {
     return material_is_specular(m);
 }
 
+// The position of the primary surface at the pixel (its depth unprojected).
+vec3 primary_position(ivec2 pixel) {
+    vec2 ndc_xy = (vec2(pixel) + 0.5) / vec2(u_size) * 2.0 - 1.0;
+    float depth = texelFetch(u_depth, pixel, 0).r;
+    return unproject_primary(ndc_xy, depth * 2.0 - 1.0);
+}
+
+// The key of the numbers every bounce of the pixel draws (pixel_key), from its primary
+// surface alone: the wave tracer recomputes it per ray instead of queueing it.
+uvec3 primary_key(ivec2 pixel) {
+    return position_key(primary_position(pixel));
+}
+
 // The primary surface at the pixel: its position p, the view direction and the shading
 // normal n (nm: its G-buffer normal and material).
 void primary_surface(ivec2 pixel, vec4 nm, out vec3 p, out vec3 view_dir, out vec3 n) {
@@ -518,8 +532,7 @@ void primary_surface(ivec2 pixel, vec4 nm, out vec3 p, out vec3 view_dir, out ve
     vec3 near_point = unproject_primary(ndc_xy, -1.0);
     view_dir = u_orthographic != 0 ? normalize(u_camera_forward)
                                    : normalize(near_point - u_camera_position);
-    float depth = texelFetch(u_depth, pixel, 0).r;
-    p = unproject_primary(ndc_xy, depth * 2.0 - 1.0);
+    p = primary_position(pixel);
     n = safe_normalize(nm.xyz, -view_dir);
 }
 

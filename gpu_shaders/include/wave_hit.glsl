@@ -1,33 +1,53 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // A ray's hit as the wave tracer's traversal kernel hands it to the shading kernel
-// (trace_ray.glsl's Hit in std430, 64 bytes).
+// (trace_ray.glsl's Hit): HIT_WORDS 32-bit words per ray (wave_trace.py HIT_BYTES),
+//   0    kind (bits 30-31) and material (bits 0-29)
+//   1-3  shading normal, 4-6 geometric normal (float bits)
+//   7-8  texture coordinate, 9 its mip level (float bits)
+// and the position in the ray's own record (wave_queue.glsl words 0-2, over the origin the
+// shading no longer needs). Every field is kept to the bit: the shading spawns the next
+// rays from them, and the waves trace exactly the megakernel's rays. Needs WAVE_READ.
 #ifndef HYBRID_WAVE_HIT_GLSL
 #define HYBRID_WAVE_HIT_GLSL
 
-struct WaveHit {
-    vec3 position;
-    int kind;
-    vec3 normal;
-    int material;
-    vec3 geometric;
-    float lod;
-    vec4 uv;  // xy
-};
+#define HIT_WORDS 10u
 
-WaveHit pack_hit(Hit h) {
-    return WaveHit(h.position, h.kind, h.normal, h.material, h.geometric, h.lod, vec4(h.uv, 0.0, 0.0));
+#ifdef WAVE_HIT_WRITE
+layout(std430) writeonly buffer Hits { uint hits[]; };
+
+void store_hit(uint i, Hit h) {
+    uint at = i * HIT_WORDS;
+    hits[at] = (uint(h.kind) << 30u) | uint(h.material);
+    if (h.kind == HIT_SKY) return;  // the shading needs no more
+    store_ray_words_vec3(i, h.position);
+    QUEUE_STORE_VEC3(hits, at + 1u, h.normal)
+    QUEUE_STORE_VEC3(hits, at + 4u, h.geometric)
+    hits[at + 7u] = floatBitsToUint(h.uv.x);
+    hits[at + 8u] = floatBitsToUint(h.uv.y);
+    hits[at + 9u] = floatBitsToUint(h.lod);
 }
+#else
+layout(std430) readonly buffer Hits { uint hits[]; };
 
-Hit unpack_hit(WaveHit w) {
+Hit load_hit(uint i) {
+    uint at = i * HIT_WORDS;
     Hit h;
-    h.kind = w.kind;
-    h.position = w.position;
-    h.normal = w.normal;
-    h.geometric = w.geometric;
-    h.material = w.material;
-    h.uv = w.uv.xy;
-    h.lod = w.lod;
+    uint head = hits[at];
+    h.kind = int(head >> 30u);
+    h.material = int(head & 0x3fffffffu);
+    h.position = vec3(0.0);
+    h.normal = vec3(0.0, 0.0, 1.0);
+    h.geometric = h.normal;
+    h.uv = vec2(0.0);
+    h.lod = 0.0;
+    if (h.kind == HIT_SKY) return h;
+    h.position = ray_words_vec3(i);
+    h.normal = QUEUE_VEC3(hits, at + 1u);
+    h.geometric = QUEUE_VEC3(hits, at + 4u);
+    h.uv = uintBitsToFloat(uvec2(hits[at + 7u], hits[at + 8u]));
+    h.lod = uintBitsToFloat(hits[at + 9u]);
     return h;
 }
+#endif
 
 #endif

@@ -1,13 +1,16 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Wave tracer, compaction offsets: one workgroup turns the per-workgroup child counts of a
-// wave's parents (BlockSums, written by wave_primary / wave_shade) into their exclusive
-// prefix sums, in place, and writes the next queues' counts and indirect dispatch arguments
-// (WaveState). The counts never leave the GPU: the next wave's kernels are dispatched from
-// them. Stable: children keep their parents' order, so a pixel's rays stay together in
-// every queue (wave_resolve.comp.glsl adds them per pixel in that order). A queue holds at
-// most u_capacity rays; the most any wave wanted is kept in the last slot (overflow).
-// Storage blocks: WaveState, BlockSums. Uniforms: u_wave_slot (the parents' slot),
-//   u_ray_slot, u_occlusion_slot (the children's), u_overflow_slot, u_capacity, u_max_groups_x.
+// wave's parents (BlockSums, counted by wave_primary with WAVE_COUNT / wave_traverse) into
+// their exclusive prefix sums, in place, and writes the next queues' counts and indirect
+// dispatch arguments (WaveState). The counts never leave the GPU: the next wave's kernels
+// are dispatched from them. Stable: children keep their parents' order, so a pixel's rays
+// stay together in every queue (wave_resolve.comp.glsl adds them per pixel in that order).
+// A queue holds at most its capacity; the most any wave wanted is kept in the frame's last
+// slot and, across frames until the host reads and clears it, in WaveOverflow
+// (wave_trace.py WaveTracer.note_overflow grows the queues from it).
+// Storage blocks: WaveState, BlockSums, WaveOverflow. Uniforms: u_wave_slot (the parents'
+//   slot), u_ray_slot, u_occlusion_slot (the children's), u_overflow_slot, u_ray_capacity,
+//   u_occlusion_capacity, u_max_groups_x.
 #include "wave_queue.glsl"
 
 #define SCAN_LOCAL 256
@@ -17,7 +20,9 @@ layout(std430) buffer BlockSums { uvec2 block_sums[]; };
 uniform int u_ray_slot;
 uniform int u_occlusion_slot;
 uniform int u_overflow_slot;
-uniform uint u_capacity;
+layout(std430) buffer WaveOverflow { uvec4 wanted_since_read; };
+uniform uint u_ray_capacity;
+uniform uint u_occlusion_capacity;
 uniform uint u_max_groups_x;
 
 shared uvec2 partial[SCAN_LOCAL];
@@ -57,9 +62,10 @@ void main() {
         offset += v;
     }
     if (t == 0u) {
-        wave_args[u_ray_slot] = dispatch_args(min(total.x, u_capacity));
-        wave_args[u_occlusion_slot] = dispatch_args(min(total.y, u_capacity));
+        wave_args[u_ray_slot] = dispatch_args(min(total.x, u_ray_capacity));
+        wave_args[u_occlusion_slot] = dispatch_args(min(total.y, u_occlusion_capacity));
         uvec4 seen = wave_args[u_overflow_slot];
         wave_args[u_overflow_slot] = uvec4(max(seen.x, total.x), max(seen.y, total.y), seen.zw);
+        wanted_since_read.xy = max(wanted_since_read.xy, total);
     }
 }

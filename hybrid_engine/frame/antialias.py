@@ -25,6 +25,7 @@ from ..scene.data import SceneData
 from ..scene.settings import RenderSettings
 from .accumulation import DEFAULT_FILTER_WIDTH, SampleSchedule, sample_offset
 from .film import FrameOutputs
+from ..passes.trace.wave_trace import wave_count
 from .views import cropped_camera
 from .renderer import CancelCallback, FrameResult, ProgressCallback, Renderer
 
@@ -57,10 +58,32 @@ def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, set
     ``samples`` added, and ``data_passes`` are the first sample's. Each sample draws its own
     directions in the glossy lobes and the ambient occlusion (``Renderer.render``'s
     ``sample``), so the average converges there too. Raises RenderCancelled between samples
-    as between passes.
+    as between passes. Never an image whose wave queues overflowed: the samples are rendered
+    again with the grown queues.
     """
     if samples < 1:
         raise ValueError(f"a frame needs at least one sample, got {samples}")
+    # The wave tracer's queues hold what earlier frames wanted; a sample whose waves wanted
+    # more gave the rays past them the sky. Its film already holds that sample, so the
+    # render starts over once the queues have grown (they grow from every overflow noted),
+    # and at most once per wave: each attempt fits at least the first wave that overflowed.
+    for _ in range(wave_count(settings.max_depth) + 1):
+        overflows = _queue_overflows(renderer)
+        result = _render_samples(renderer, scene, camera, settings, samples, outputs, timing, cancel, progress,
+                                 filter_width)
+        if _queue_overflows(renderer) == overflows:
+            break
+    return result
+
+
+def _queue_overflows(renderer: Renderer) -> int:
+    """Frames so far whose wave queues overflowed (tracer.HybridTracer.queue_overflows)."""
+    return 0 if renderer.tracer is None else renderer.tracer.queue_overflows()
+
+
+def _render_samples(renderer: Renderer, scene: SceneData, camera: Camera, settings: RenderSettings,
+                    samples: int, outputs: FrameOutputs | None, timing: bool, cancel: CancelCallback | None,
+                    progress: ProgressCallback | None, filter_width: float) -> FrameResult:
     outputs = outputs or FrameOutputs()
     # Only the first sample reads the data passes back.
     later_outputs = FrameOutputs(transparent=outputs.transparent)

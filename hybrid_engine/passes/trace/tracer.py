@@ -156,6 +156,8 @@ class HybridTracer:
         count = frame.read("bvh").count
         frame.statistics.deposit(count.buffer, 1, _bvh_counts, offset=count.offset)
         frame.statistics.deposit(self._counters, COUNTER_WORDS, partial(_ray_counts, int(frame.settings.max_depth)))
+        if uses_waves(frame.settings) and self._waves is not None:
+            self._waves.deposit_statistics(frame.statistics)
 
     def dispatch(self, frame: FrameContext, world_light: bool) -> None:
         """Run the megakernel: the reflections and refractions, or (``world_light``) its
@@ -243,8 +245,19 @@ class HybridTracer:
 
     def read_stats(self, max_depth: int) -> TraceStats:
         """The last trace's counters, read back now (a synchronisation point: tests; the
-        frame deposits them instead)."""
+        frame deposits them instead), and the wave queues' overflow noted."""
+        if self._waves is not None:
+            self._waves.note_overflow()
         return TraceStats.of(np.frombuffer(self._counters.read(), np.uint32), max_depth)
+
+    def queue_overflows(self) -> int:
+        """How many frames so far wanted more rays than the wave queues held (their rays past
+        the queues took the sky; the queues have grown since): a final render compares the
+        count before and after its samples (frame/antialias.py). 0 for the megakernel."""
+        if self._waves is None:
+            return 0
+        self._waves.note_overflow()
+        return self._waves.overflows
 
     def read_diagnostic(self, view: RasterView) -> np.ndarray:
         """The diagnostic view's per-pixel counts of the last trace, (H, W) float32, row 0 at

@@ -243,10 +243,11 @@ class WaveTracer:
         return int(state[self._overflow_slot, 0]), int(state[self._overflow_slot, 1])
 
     def deposit_statistics(self, statistics) -> None:
-        """The most rays any wave wanted, into the frame's statistics (gpu/statistics.py):
+        """The most rays any wave of this frame wanted, into the frame's statistics
+        (gpu/statistics.py):
         when a caller reads the frame's counts (the viewport's header, a report), a queue
         that was too short grows for the frames after, and nothing waits in the frame."""
-        statistics.deposit(self._wanted, 2, self._observe_wanted)
+        statistics.deposit(self._state, 2, self._observe_wanted, offset=16 * self._overflow_slot)
 
     def _observe_wanted(self, words: np.ndarray) -> dict[str, int]:
         rays, occlusions = int(words[0]), int(words[1])

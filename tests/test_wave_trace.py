@@ -227,6 +227,7 @@ def test_a_frame_that_overflows_its_queues_grows_them_and_the_next_frame_is_exac
     waves = renderer.tracer._waves
     # Queues a little short of what the waves want, ending inside, at the edge and past the
     # edge of a workgroup's children.
+    waves.note_overflow()  # forget what earlier frames of other views wanted
     waves.set_capacity(wanted[0] - short, wanted[1] - 1)
     overflows = waves.overflows
     cut = renderer.render(scene, camera, settings)

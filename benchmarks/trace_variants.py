@@ -57,7 +57,7 @@ def measure(detail: float, size: tuple[int, int], rounds: int) -> dict:
         for index in range(rounds + 1):
             for family in ("cpu", "gpu") if index % 2 == 0 else ("gpu", "cpu"):
                 variants.set_override(f"trace={family}")
-                result = renderer.render(scene, camera, settings, sample=0)
+                result = renderer.render(scene, camera, settings, sample=0, timing=True)
                 counts[family] = {k: v for k, v in result.counts.items() if k.startswith(("rays_", "bvh_nodes",
                                                                                            "cube_steps"))}
                 images[family] = result.image

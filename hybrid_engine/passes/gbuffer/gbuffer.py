@@ -16,7 +16,7 @@ post-transform cache shades shared vertices once). Both write the same G-buffer 
 """
 from __future__ import annotations
 
-from ...gpu import shader_loader, variants
+from ...gpu import shader_loader
 from ...gpu.bindings import bind, set_uniforms
 from ...gpu.render_targets import GBufferTargets, RenderTargets
 from ...scene.data import SceneData
@@ -25,7 +25,6 @@ from ...scene.settings import RenderSettings
 from ..frame_context import FrameContext, PassIO
 from ..scene_upload.scene_buffers import GPUScene
 from ..view_cull.draw import SceneDrawer
-from ..view_cull.instanced_draw import InstancedDrawer
 from ..view_cull.view_cull import MAX_VIEWS
 
 
@@ -46,7 +45,6 @@ class GBufferPass:
             defines={"CUBE_FACE": 1})
         self._cube_faces_program = None  # compiled on first use (the faces kernel's "gpu" variant)
         self._instanced_program = None  # compiled on first use (the vertices kernel's "gpu" variant)
-        self._instanced: InstancedDrawer | None = None
         self.primary: GBufferTargets | None = None
 
     def primary_targets(self, width: int, height: int) -> GBufferTargets:
@@ -76,7 +74,7 @@ class GBufferPass:
         per triangle (view_cull/draw.py). Returns the targets and the triangles submitted."""
         targets = self.primary_targets(view.width, view.height)
         targets.clear()
-        if variants.choose("vertices") == "gpu":
+        if self.drawer.draws_instanced():
             return targets, self._render_primary_instanced(gpu, scene, view, targets)
         prog = self.program
         vao = self.drawer.vertex_array(prog, gpu)
@@ -88,26 +86,19 @@ class GBufferPass:
     def _render_primary_instanced(self, gpu: GPUScene, scene: SceneData, view: RasterView,
                                   targets: GBufferTargets) -> int:
         """The primary view drawn instanced and indexed (module doc); returns the triangles
-        submitted. ``last_instanced`` holds what it drew (InstancedStats: the vertices shaded)."""
+        submitted (the drawer's ``instanced["primary"]``: what was drawn, vertices shaded)."""
         if self._instanced_program is None:
             self._instanced_program = shader_loader.program(
                 self.ctx, vertex="gbuffer/gbuffer.vert.glsl", fragment="gbuffer/gbuffer.frag.glsl",
                 defines={"INSTANCED": 1})
-            self._instanced = InstancedDrawer(self.ctx)
-        meshes = gpu.raster_meshes
-        meshes.update(scene.geometry)
-        self.drawer.culled["primary"] = [None]  # nothing culled per triangle
-        targets.fbo.use()
-        targets.fbo.viewport = (0, 0, view.width, view.height)
-        rows_vao = self.drawer.vertex_array(self.program, gpu)
-        stats = self._instanced.draw(self._instanced_program, lambda prog: self._bind(gpu, prog), self.program,
-                                     rows_vao, meshes, scene, view.view_proj, self.drawer.face_culling)
-        return stats.triangles
+        return self.drawer.draw_instanced("primary", self._instanced_program, self.program, gpu, scene, targets.fbo,
+                                          [(view.view_proj, (0, 0, view.width, view.height))],
+                                          lambda prog: self._bind(gpu, prog))
 
     @property
     def last_instanced(self):
         """What the last instanced primary draw drew (None before the first)."""
-        return None if self._instanced is None else self._instanced.stats
+        return self.drawer.instanced.get("primary")
 
     def render_cube_faces(self, gpu: GPUScene, scene: SceneData, views: list[RasterView], targets: RenderTargets,
                           culled=None, culled_back=None, back_layer: bool = False) -> int:
@@ -160,9 +151,6 @@ class GBufferPass:
         return self._cube_faces_program
 
     def release(self) -> None:
-        if self._instanced is not None:
-            self._instanced.release()
-            self._instanced = None
         if self.primary is not None:
             self.primary.release()
             self.primary = None

@@ -95,56 +95,71 @@ class InstancedDrawer:
         return vao
 
     def draw(self, program, bind_program: Callable[[object], None], rows_program, rows_vao,
-             meshes: RasterMeshes, scene: SceneData, view_proj: np.ndarray, face_culling) -> InstancedStats:
-        """Draw ``scene``'s objects in ``view_proj``: indexed with ``program`` where the
-        raster meshes allow it, else from the rows with ``rows_program`` (its vertex array
-        ``rows_vao``). ``bind_program(p)`` binds p's buffers and GL state (before each run,
+             meshes: RasterMeshes, scene: SceneData, fbo, views: list[tuple[np.ndarray, tuple[int, int, int, int]]],
+             face_culling, include: np.ndarray | None = None) -> InstancedStats:
+        """Draw ``scene``'s objects (those ``include`` selects, all when None) into ``fbo``
+        once per (view_proj, viewport rectangle) of ``views``: indexed with ``program``
+        where the raster meshes allow it, else from the rows with ``rows_program`` (its
+        vertex array ``rows_vao``); both take the view's matrix as ``u_view_proj``.
+        ``bind_program(p)`` binds p's buffers and sets the pass's GL state (before each run,
         as the two programs' binding points differ); ``face_culling`` is draw.py's
-        SceneDrawer.face_culling. ``meshes`` must be updated to the scene's geometry."""
+        SceneDrawer.face_culling. ``meshes`` must be updated to the scene's geometry. The
+        commands of all views are written at once, before the first draw."""
         geo = scene.geometry
         ranges = geo.object_ranges
-        mask = visible_objects(view_proj, geo.object_bounds) & (ranges[:, 1] > 0)
-        culled = np.zeros_like(mask)
-        if geo.object_closed is not None and mask.any():
-            culled = mask & geo.object_closed & beyond_near_plane(view_proj, geo.object_bounds)
         draws = meshes.draws(geo)
-        visible = np.flatnonzero(mask)
-        stats = self.stats = InstancedStats(
-            triangles=int(ranges[visible, 1].astype(np.int64).sum()), vertices=int(draws.vertices[visible].sum()),
-            instanced=int(draws.instanced[visible].sum()))
-        stats.from_rows = len(visible) - stats.instanced
-        if not len(visible):
-            return stats
-        indexed = draws.instanced[visible]
-        picked = visible[indexed]
-        commands = np.zeros(len(picked), COMMAND_DTYPE)
-        commands["count"] = draws.count[picked]
-        commands["instances"] = 1
-        commands["first_index"] = draws.first_index[picked]
-        commands["base_vertex"] = draws.base_vertex[picked]
-        commands["base_instance"] = picked
-        if len(picked):
-            self.commands.upload(commands.tobytes())
-        command_of = np.cumsum(indexed) - indexed  # each visible object's command, if indexed
-        # Runs of consecutive visible objects drawn the same way (module doc).
-        way = indexed.astype(np.int8) * 2 + culled[visible]
-        starts = np.flatnonzero(np.r_[True, way[1:] != way[:-1]])
-        ends = np.r_[starts[1:], len(visible)]
-        matrix = gl_matrix(view_proj)
-        set_uniforms(program, {"u_view_proj": matrix})
-        set_uniforms(rows_program, {"u_view_proj": matrix})
-        vao = self.vertex_array(program, meshes) if len(picked) else None
-        for start, end in zip(starts, ends):
-            # Bound outside the face culling: binding sets the pass's GL state afresh.
-            bind_program(program if indexed[start] else rows_program)
-            with face_culling(view_proj, "back" if culled[visible[start]] else None):
-                if indexed[start]:
-                    vao.render_indirect(self.commands.buffer, count=int(end - start), first=int(command_of[start]))
-                else:
-                    run = np.zeros(len(mask), bool)
-                    run[visible[start:end]] = True
-                    for first, count in draw_ranges(run, ranges):
-                        rows_vao.render(self.ctx.TRIANGLES, vertices=count * 3, first=first * 3)
+        stats = self.stats = InstancedStats()
+        plans, commands = [], []
+        for view_proj, rect in views:
+            mask = visible_objects(view_proj, geo.object_bounds) & (ranges[:, 1] > 0)
+            if include is not None:
+                mask &= include
+            culled = np.zeros_like(mask)
+            if geo.object_closed is not None and mask.any():
+                culled = mask & geo.object_closed & beyond_near_plane(view_proj, geo.object_bounds)
+            visible = np.flatnonzero(mask)
+            indexed = draws.instanced[visible]
+            stats.triangles += int(ranges[visible, 1].astype(np.int64).sum())
+            stats.vertices += int(draws.vertices[visible].sum())
+            stats.instanced += int(indexed.sum())
+            stats.from_rows += int((~indexed).sum())
+            picked = visible[indexed]
+            rows = np.zeros(len(picked), COMMAND_DTYPE)
+            rows["count"] = draws.count[picked]
+            rows["instances"] = 1
+            rows["first_index"] = draws.first_index[picked]
+            rows["base_vertex"] = draws.base_vertex[picked]
+            rows["base_instance"] = picked
+            # Each visible object's command (if indexed), counted over all views' commands.
+            first_command = sum(len(c) for c in commands)
+            commands.append(rows)
+            plans.append((view_proj, rect, visible, indexed, culled[visible], first_command + np.cumsum(indexed) - indexed))
+        if sum(len(c) for c in commands):
+            self.commands.upload(np.concatenate(commands).tobytes())
+            vao = self.vertex_array(program, meshes)
+        for view_proj, rect, visible, indexed, culled, command_of in plans:
+            if not len(visible):
+                continue
+            fbo.viewport = rect
+            matrix = gl_matrix(view_proj)
+            set_uniforms(program, {"u_view_proj": matrix})
+            set_uniforms(rows_program, {"u_view_proj": matrix})
+            # Runs of consecutive visible objects drawn the same way (module doc).
+            way = indexed.astype(np.int8) * 2 + culled
+            starts = np.flatnonzero(np.r_[True, way[1:] != way[:-1]])
+            ends = np.r_[starts[1:], len(visible)]
+            for start, end in zip(starts, ends):
+                # Bound outside the face culling: binding sets the pass's GL state afresh.
+                bind_program(program if indexed[start] else rows_program)
+                with face_culling(view_proj, "back" if culled[start] else None):
+                    if indexed[start]:
+                        vao.render_indirect(self.commands.buffer, count=int(end - start),
+                                            first=int(command_of[start]))
+                    else:
+                        run = np.zeros(len(ranges), bool)
+                        run[visible[start:end]] = True
+                        for first, count in draw_ranges(run, ranges):
+                            rows_vao.render(self.ctx.TRIANGLES, vertices=count * 3, first=first * 3)
         return stats
 
     def release(self) -> None:

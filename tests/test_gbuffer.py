@@ -151,3 +151,28 @@ def test_the_draw_follows_the_renderer_string_and_the_override(raster, monkeypat
     gpu.transform()
     gbuffer.render_primary(gpu, uploaded, RasterView.from_camera(camera()))
     assert (gbuffer.last_instanced is not None) == instanced
+
+
+def test_whole_frames_are_the_same_in_both_shapes(ctx):
+    """RASTER (shadow maps, G-buffer, shading) and HYBRID (the tracer reading the G-buffer)
+    frames of the Chess scene are the same images with the vertices kernel in either shape."""
+    from benchmarks.scenes.chess import CHESS_CUBE_FAR, build_chess
+    from hybrid_engine import RenderSettings
+    from hybrid_engine.frame.renderer import Renderer
+
+    scene, cam = build_chess(0.1, 3, 160, 90)
+    images = {}
+    for family in ("cpu", "gpu"):
+        variants.set_override(f"vertices={family}")
+        renderer = Renderer(ctx)
+        try:
+            for mode in ("RASTER", "HYBRID"):
+                settings = RenderSettings(mode=mode, cube_far=CHESS_CUBE_FAR, near_size=3.5)
+                images[family, mode] = renderer.render(scene, cam, settings).image.view(np.uint32).copy()
+            assert bool(renderer.gbuffer.drawer.instanced) == (family == "gpu")
+        finally:
+            variants.set_override(None)
+            renderer.release()
+    for mode in ("RASTER", "HYBRID"):
+        differ = (images["cpu", mode] != images["gpu", mode]).any(axis=-1)
+        assert not differ.any(), f"{mode}: {int(differ.sum())} pixels differ"

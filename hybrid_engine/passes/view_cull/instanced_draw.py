@@ -12,11 +12,11 @@ for a scene of hundreds of objects), the vertex stage fetching the instance's ma
 gl_BaseInstance (gbuffer.vert.glsl with INSTANCED). The buffers are
 scene_upload/raster_meshes.py's.
 
-The draws follow draw.py's ``draw_world`` exactly, so that the images equal those of the
+The draws take draw.py's ``draw_world`` choices, so that the images equal those of the
 rows bit for bit: the same objects, GL back-face culling for the closed objects wholly
-beyond the near plane, and the same order -- object by object, each mesh's triangles in
-order, as the per-triangle culled lists keep them (view_cull.py), so that depth ties resolve
-alike. Consecutive objects drawn the same way (indexed or from the rows, with or without
+beyond the near plane; and they keep the order of the per-triangle culled lists
+(view_cull.py) -- object by object, each mesh's triangles in order -- so that depth ties
+between objects resolve alike. Consecutive objects drawn the same way (indexed or from the rows, with or without
 face culling) form one run: one multi-draw, or the rows' direct draws. Instances the raster
 buffers cannot draw (raster_meshes.py: meshes without shared vertices, as flat geometry
 becomes, or non-finite ones) are drawn from the rows in their place.

@@ -11,7 +11,7 @@
     machine hits both alike) and each figure is the median over the rounds. A kernel's
     probe (:data:`KERNEL_PROBES`) times the work its variants change: the cube-map and
     shadow faces for ``faces``, the LBVH build for ``sort`` and ``scan``, the traversal for
-    ``trace``, whole frames for ``readback``. A new kernel with two shapes is measured
+    ``trace``, the primary G-buffer for ``vertices``, whole frames for ``readback``. A new kernel with two shapes is measured
     without changes here as soon as its module calls ``variants.choose``; one without a
     probe of its own is measured by whole frames.
 ``lbvh_target``, ``frame_target``
@@ -119,6 +119,27 @@ def faces_probe(quick: bool, repeats: int) -> dict[str, float]:
     return {"cube_map_ms": cube_ms, "shadow_maps_ms": shadow_ms}
 
 
+def primary_probe(quick: bool, repeats: int) -> dict[str, float]:
+    """The primary G-buffer of a Chess frame (a fresh pass): drawn from the world-space rows
+    or instanced and indexed, as the ``vertices`` kernel's variant says."""
+    from hybrid_engine.passes.gbuffer.gbuffer import GBufferPass
+    from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
+    from hybrid_engine.scene.raster_view import RasterView
+
+    (scene, camera), _ = _chess(quick)
+    ctx = gl_context.get_context()
+    gpu, raster = GPUScene(ctx), GBufferPass(ctx)
+    try:
+        uploaded, _ = gpu.upload(scene)
+        gpu.transform()
+        view = RasterView.from_camera(camera)
+        primary_ms = _timed(ctx, lambda: raster.render_primary(gpu, uploaded, view), repeats)
+    finally:
+        raster.release()
+        gpu.release()
+    return {"primary_raster_ms": primary_ms}
+
+
 def lbvh_probe(quick: bool, repeats: int) -> dict[str, float]:
     """An LBVH build (Morton codes, sort, hierarchy, refit) with a fresh builder."""
     from hybrid_engine.passes.lbvh import lbvh
@@ -185,7 +206,7 @@ def frame_probe(quick: bool, repeats: int) -> dict[str, float]:
 
 # What each kernel's variants change (module doc); a kernel not named here: whole frames.
 KERNEL_PROBES: dict[str, Probe] = {"faces": faces_probe, "sort": lbvh_probe, "scan": lbvh_probe,
-                                   "trace": trace_probe, "readback": frame_probe}
+                                   "trace": trace_probe, "readback": frame_probe, "vertices": primary_probe}
 
 
 def kernel_section(mode: str, quick: bool, rounds: int) -> dict:

@@ -74,3 +74,79 @@ def test_the_shadow_pass_compiles_the_one_draw_program_only_for_the_gpu_variant(
         shadows.release()
         drawer.release()
     assert (program is not None) == (family == "gpu")
+
+
+def shadow_layers_with_vertices(gl, family: str) -> tuple[tuple[np.ndarray, np.ndarray], int, dict]:
+    """Both shadow layers of a Chess frame (a sun, its two cascades, a point lamp's six faces;
+    the pieces that move in the dynamic layer) with the vertices kernel forced to ``family``:
+    the layers, the triangles submitted and the instanced draws' statistics per layer."""
+    scene, camera = build_chess(detail=0.02, frame=3, width=64, height=36)
+    settings = RenderSettings(mode="RASTER", shadow_resolution=256, shadow_cascades=2)
+    gpu, drawer = GPUScene(gl), SceneDrawer(gl)
+    shadows = ShadowDepthPass(gl, drawer)
+    variants.set_override(f"vertices={family}")
+    try:
+        uploaded, _ = gpu.upload(scene)
+        gpu.transform()
+        everything = GeometryDelta.everything(scene.geometry.triangle_count)
+        dynamic = np.zeros(len(scene.geometry.object_ranges), bool)
+        dynamic[-40:] = True  # some pieces moved: both layers are drawn
+        delta = GeometryDelta(full=False, ranges=tuple((int(a), int(b)) for a, b in
+                                                       scene.geometry.object_ranges[dynamic]),
+                              changed_triangles=1, sequence=1)
+        shadows.render(gpu, uploaded, camera, settings, shadows.atlas, everything)
+        maps = shadows.render(gpu, uploaded, camera, settings, shadows.atlas, delta)
+        layers = shadows.atlas.read_layers()
+        layers = (layers[0].copy(), layers[1].copy())
+    finally:
+        variants.set_override(None)
+        shadows.release()
+        drawer.release()
+        gpu.release()
+    return layers, maps.submitted, dict(drawer.instanced)
+
+
+def test_shadow_slots_drawn_instanced_and_indexed_equal_the_rows_bit_for_bit(gl):
+    """The vertices kernel's "gpu" variant draws the shadow slots from object-space meshes
+    (view_cull/instanced_draw.py): the same depths in every slot of both layers."""
+    rows, submitted_rows, rows_stats = shadow_layers_with_vertices(gl, "cpu")
+    indexed, submitted_indexed, stats = shadow_layers_with_vertices(gl, "gpu")
+    assert rows_stats == {} and stats and all(s.instanced > 0 and s.from_rows == 0 for s in stats.values())
+    assert submitted_rows == submitted_indexed > 0
+    assert sum(s.vertices for s in stats.values()) < 3 * sum(s.triangles for s in stats.values())
+    for layer_rows, layer_indexed in zip(rows, indexed):
+        assert (layer_rows < 1).any()
+        differ = layer_rows.view(np.uint32) != layer_indexed.view(np.uint32)
+        assert not differ.any(), f"{int(differ.sum())} texels differ"
+
+
+def test_shadow_slots_of_rotated_and_mirrored_instances_are_the_same_drawn_instanced(gl):
+    """Instances under rotations, non-uniform scales and mirrors (scenes_instanced.py), a sun
+    and a point lamp's six faces: the instanced, indexed depths equal the rows' bit for bit."""
+    from hybrid_engine import Lights
+    from scenes_instanced import camera, instanced_scene
+
+    scene = instanced_scene()
+    scene.lights = Lights.from_rows([dict(kind="SUN", direction=(0.3, 0.5, -1.0), color=(3.0, 3.0, 3.0)),
+                                     dict(kind="POINT", position=(0.5, -1.5, 2.5), color=(50.0, 50.0, 50.0))])
+    settings = RenderSettings(mode="RASTER", shadow_resolution=256)
+    layers = {}
+    for family in ("cpu", "gpu"):
+        gpu, drawer = GPUScene(gl), SceneDrawer(gl)
+        shadows = ShadowDepthPass(gl, drawer)
+        variants.set_override(f"vertices={family}")
+        try:
+            uploaded, _ = gpu.upload(scene)
+            gpu.transform()
+            shadows.render(gpu, uploaded, camera(), settings, shadows.atlas,
+                           GeometryDelta.everything(scene.geometry.triangle_count))
+            layers[family] = shadows.atlas.read_layers()[0].copy()
+            assert bool(drawer.instanced) == (family == "gpu")
+        finally:
+            variants.set_override(None)
+            shadows.release()
+            drawer.release()
+            gpu.release()
+    assert (layers["cpu"] < 1).mean() > 0.05
+    differ = layers["cpu"].view(np.uint32) != layers["gpu"].view(np.uint32)
+    assert not differ.any(), f"{int(differ.sum())} texels differ"

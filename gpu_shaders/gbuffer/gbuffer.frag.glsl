@@ -35,16 +35,26 @@
 // Samplers: u_textures (textures.glsl), sampled with the UV derivatives of the fragment
 // (mipmaps, anisotropic filtering). A normal map bends the shading normal written at
 // location 0 (both variants).
+// INSTANCED defined (gbuffer.vert.glsl's indexed draws of object-space meshes): the triangle's
+// material is read here, at its world row (the instance's first row, v_first_row, plus
+// gl_PrimitiveID, the triangle's index in its draw), since its vertices are shared.
 #include "scene_layout.glsl"
 #include "textures.glsl"
 #include "octahedral.glsl"
 
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
+#ifdef INSTANCED
+layout(std430) readonly buffer TriangleMaterials { int triangle_materials[]; };
+#endif
 
 in vec3 v_world;
 in vec3 v_normal;
 in vec2 v_uv;
+#ifdef INSTANCED
+flat in int v_first_row;
+#else
 flat in int v_material;
+#endif
 
 layout(location = 0) out vec4 out_normal_material;
 layout(location = 1) out vec4 out_albedo;
@@ -54,7 +64,12 @@ layout(location = 3) out vec4 out_surface;
 #endif
 
 void main() {
-    Material m = materials[v_material];
+#ifdef INSTANCED
+    int material = triangle_materials[v_first_row + gl_PrimitiveID];
+#else
+    int material = v_material;
+#endif
+    Material m = materials[material];
     // Derivatives outside any branch (they are undefined in non-uniform control flow).
     vec3 dp_dx = dFdx(v_world);
     vec3 dp_dy = dFdy(v_world);
@@ -83,7 +98,7 @@ void main() {
         vec3 b = dp2_perp * duv_dx.y + dp1_perp * duv_dy.y;
         n = material_normal_grad(m, n, t, b, v_uv, duv_dx, duv_dy);
     }
-    float id = float(v_material + 1);
+    float id = float(material + 1);
     out_normal_material = vec4(n, gl_FrontFacing ? id : -id);
 #ifdef CUBE_FACE
     // Locations 1 and 2 in the faces' layout (header): UV and density, geometric normal.

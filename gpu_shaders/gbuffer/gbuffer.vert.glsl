@@ -14,11 +14,30 @@
 // faces in one multi-draw of their culled lists (view_cull.py), draw d being face d: its
 // matrix is u_face_view_proj[d] and it rasterizes into viewport d, its tile of the atlas
 // (gpu/viewport_array.py). Same arithmetic per vertex as one draw per face.
-#ifdef FACE_VIEWPORTS
-#extension GL_ARB_shader_viewport_layer_array : require
+// INSTANCED defined (the "gpu" variant of the vertices kernel, gpu/variants.py; the primary
+// view only): indexed draws of object-space meshes (scene_upload/raster_meshes.py), one
+// indirect command per instance whose baseInstance is the instance (view_cull/
+// instanced_draw.py). Inputs in_object_pos, in_object_normal, in_uv: a mesh's distinct
+// corners, shared by its triangles, so the post-transform vertex cache shades each once.
+// The vertex stage transforms them by the instance's matrices (InstanceTable, read at
+// gl_BaseInstanceARB) with instance_space.glsl, the instance transform's own arithmetic, so
+// positions and normals equal the world-space rows bit for bit. A vertex belongs to several
+// triangles, so it cannot carry a triangle's material: it passes the instance's first world
+// row, and the fragment stage reads the material of row + gl_PrimitiveID (the draw draws
+// the mesh's triangles in order). No CUBE_FACE or FACE_VIEWPORTS variant of it.
+#if defined(INSTANCED) && (defined(CUBE_FACE) || defined(FACE_VIEWPORTS))
+#error "INSTANCED draws the primary view only"
+#endif
+#if defined(FACE_VIEWPORTS) || defined(INSTANCED)
 #extension GL_ARB_shader_draw_parameters : require
 #endif
+#ifdef FACE_VIEWPORTS
+#extension GL_ARB_shader_viewport_layer_array : require
+#endif
 #include "scene_layout.glsl"
+#ifdef INSTANCED
+#include "instance_space.glsl"
+#endif
 
 #ifdef FACE_VIEWPORTS
 uniform mat4 u_face_view_proj[FACE_VIEWPORTS];
@@ -26,11 +45,17 @@ uniform mat4 u_face_view_proj[FACE_VIEWPORTS];
 uniform mat4 u_view_proj;
 #endif
 
+#ifdef INSTANCED
+in vec3 in_object_pos;
+in vec3 in_object_normal;
+layout(std430) readonly buffer InstanceTable { Instance instances[]; };
+#else
 in vec3 in_pos;
 in vec3 in_normal;
+layout(std430) readonly buffer TriangleMaterials { int triangle_materials[]; };
+#endif
 in vec2 in_uv;
 
-layout(std430) readonly buffer TriangleMaterials { int triangle_materials[]; };
 #ifdef CUBE_FACE
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 #endif
@@ -38,18 +63,30 @@ layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 out vec3 v_world;
 out vec3 v_normal;
 out vec2 v_uv;
+#ifdef INSTANCED
+flat out int v_first_row;
+#else
 flat out int v_material;
+#endif
 
 void main() {
-    v_world = in_pos;
+#ifdef INSTANCED
+    Instance inst = instances[gl_BaseInstanceARB];
+    vec3 world = instance_point(inst, in_object_pos);
+    v_normal = instance_normal(instance_normal_matrix(inst), in_object_normal);
+    v_first_row = inst.info.x;
+#else
+    vec3 world = in_pos;
     v_normal = in_normal;
-    v_uv = in_uv;
     v_material = triangle_materials[gl_VertexID / 3];
+#endif
+    v_world = world;
+    v_uv = in_uv;
 #ifdef FACE_VIEWPORTS
-    gl_Position = u_face_view_proj[gl_DrawIDARB] * vec4(in_pos, 1.0);
+    gl_Position = u_face_view_proj[gl_DrawIDARB] * vec4(world, 1.0);
     gl_ViewportIndex = gl_DrawIDARB;
 #else
-    gl_Position = u_view_proj * vec4(in_pos, 1.0);
+    gl_Position = u_view_proj * vec4(world, 1.0);
 #endif
 #ifdef CUBE_FACE
     if (materials[v_material].emission_trans.a > 0.0) {

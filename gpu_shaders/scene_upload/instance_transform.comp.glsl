@@ -21,16 +21,9 @@
 //   WorldUVRows (written).
 // Uniforms: u_count (invocations), u_segments.
 #include "dispatch.glsl"
+#include "instance_space.glsl"
 
 layout(local_size_x = LOCAL_SIZE) in;
-
-struct Instance {
-    mat4 matrix;          // object to world
-    vec4 normal_cols[3];  // columns of the normal matrix (xyz)
-    ivec4 mesh;           // first vertex, first normal, first triangle, first UV corner (-1: none)
-    ivec4 info;           // first world row, triangles, first slot material, slots
-    ivec4 flags;          // x: mirrored
-};
 
 layout(std430) readonly buffer MeshPositions { float mesh_positions[]; };
 layout(std430) readonly buffer MeshNormals { float mesh_normals[]; };
@@ -66,11 +59,9 @@ bool finite3(vec3 v) {
     return !any(isnan(v)) && !any(isinf(v));
 }
 
-// Unit normal through the normal matrix; 0 when it has no direction.
+// Unit normal through the normal matrix; 0 when it has no direction (instance_space.glsl).
 vec3 world_normal(mat3 normal_matrix, int index) {
-    vec3 n = normal_matrix * mesh_normal(index);
-    float len = length(n);
-    return (len > 0.0 && !isinf(len) && !isnan(len)) ? n / len : vec3(0.0);
+    return instance_normal(normal_matrix, mesh_normal(index));
 }
 
 vec2 corner_uv(Instance inst, int corner) {
@@ -118,10 +109,10 @@ void main() {
     int c1 = inst.flags.x != 0 ? 2 : 1;
     int c2 = 3 - c1;
     int k0 = tri * 3, k1 = tri * 3 + c1, k2 = tri * 3 + c2;
-    vec3 p0 = (inst.matrix * vec4(mesh_position(inst.mesh.x + corner_vertices[k0]), 1.0)).xyz;
-    vec3 p1 = (inst.matrix * vec4(mesh_position(inst.mesh.x + corner_vertices[k1]), 1.0)).xyz;
-    vec3 p2 = (inst.matrix * vec4(mesh_position(inst.mesh.x + corner_vertices[k2]), 1.0)).xyz;
-    mat3 normal_matrix = mat3(inst.normal_cols[0].xyz, inst.normal_cols[1].xyz, inst.normal_cols[2].xyz);
+    vec3 p0 = instance_point(inst, mesh_position(inst.mesh.x + corner_vertices[k0]));
+    vec3 p1 = instance_point(inst, mesh_position(inst.mesh.x + corner_vertices[k1]));
+    vec3 p2 = instance_point(inst, mesh_position(inst.mesh.x + corner_vertices[k2]));
+    mat3 normal_matrix = instance_normal_matrix(inst);
     vec3 n0 = world_normal(normal_matrix, inst.mesh.y + corner_normals[k0]);
     vec3 n1 = world_normal(normal_matrix, inst.mesh.y + corner_normals[k1]);
     vec3 n2 = world_normal(normal_matrix, inst.mesh.y + corner_normals[k2]);

@@ -4,21 +4,42 @@
 // FACE_VIEWPORTS defined (the "gpu" variant of the faces kernel, gpu/variants.py): up to
 // FACE_VIEWPORTS slots -- a point lamp's six cube faces -- in one multi-draw of their culled
 // lists (view_cull.py), draw d into slot d's viewport (gpu/viewport_array.py).
+// INSTANCED defined (the "gpu" variant of the vertices kernel): object-space mesh vertices
+// drawn indexed, one indirect command per instance (view_cull/instanced_draw.py), moved to
+// world space by the instance at gl_BaseInstanceARB with the instance transform's own
+// arithmetic (instance_space.glsl; gbuffer/gbuffer.vert.glsl says why): the same depths
+// as drawing the world-space rows, bit for bit. Not combined with FACE_VIEWPORTS.
+#if defined(INSTANCED) && defined(FACE_VIEWPORTS)
+#error "INSTANCED draws one slot per draw"
+#endif
+#if defined(FACE_VIEWPORTS) || defined(INSTANCED)
+#extension GL_ARB_shader_draw_parameters : require
+#endif
 #ifdef FACE_VIEWPORTS
 #extension GL_ARB_shader_viewport_layer_array : require
-#extension GL_ARB_shader_draw_parameters : require
 uniform mat4 u_face_view_proj[FACE_VIEWPORTS];
 #else
 uniform mat4 u_view_proj;
 #endif
 
+#ifdef INSTANCED
+#include "instance_space.glsl"
+in vec3 in_object_pos;
+layout(std430) readonly buffer InstanceTable { Instance instances[]; };
+#else
 in vec3 in_pos;
+#endif
 
 void main() {
+#ifdef INSTANCED
+    vec3 world = instance_point(instances[gl_BaseInstanceARB], in_object_pos);
+#else
+    vec3 world = in_pos;
+#endif
 #ifdef FACE_VIEWPORTS
-    gl_Position = u_face_view_proj[gl_DrawIDARB] * vec4(in_pos, 1.0);
+    gl_Position = u_face_view_proj[gl_DrawIDARB] * vec4(world, 1.0);
     gl_ViewportIndex = gl_DrawIDARB;
 #else
-    gl_Position = u_view_proj * vec4(in_pos, 1.0);
+    gl_Position = u_view_proj * vec4(world, 1.0);
 #endif
 }

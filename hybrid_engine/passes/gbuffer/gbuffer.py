@@ -7,6 +7,12 @@ once and again only when the image size changes. The cube-map faces use a varian
 same shaders (``CUBE_FACE``) that leaves refractive surfaces out and stores UVs instead of
 sampling the textures: a variant of its own, also because a shader that may discard loses
 the early depth test.
+
+The primary view is drawn in one of two shapes (the ``vertices`` kernel, gpu/variants.py):
+from the instance transform's world-space rows, per-triangle culled (view_cull/draw.py; the
+"cpu" variant, faster on llvmpipe), or instanced and indexed from object-space meshes
+(view_cull/instanced_draw.py, shaders with ``INSTANCED``; the "gpu" variant, where the
+post-transform cache shades shared vertices once). Both write the same G-buffer bit for bit.
 """
 from __future__ import annotations
 
@@ -38,6 +44,7 @@ class GBufferPass:
             ctx, vertex="gbuffer/gbuffer.vert.glsl", fragment="gbuffer/gbuffer.frag.glsl",
             defines={"CUBE_FACE": 1})
         self._cube_faces_program = None  # compiled on first use (the faces kernel's "gpu" variant)
+        self._instanced_program = None  # compiled on first use (the vertices kernel's "gpu" variant)
         self.primary: GBufferTargets | None = None
 
     def primary_targets(self, width: int, height: int) -> GBufferTargets:
@@ -52,7 +59,7 @@ class GBufferPass:
         ctx = self.ctx
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE)  # Blender shades both sides of a face
-        bind(prog, gpu.bindings())
+        bind(prog, gpu.bindings(), storage={"InstanceTable": gpu.instance_transform.instance_table})
 
     def io(self, settings: RenderSettings) -> PassIO:
         return PassIO(reads=("scene", "world_triangles"), writes=("gbuffer",))
@@ -67,12 +74,31 @@ class GBufferPass:
         per triangle (view_cull/draw.py). Returns the targets and the triangles submitted."""
         targets = self.primary_targets(view.width, view.height)
         targets.clear()
+        if self.drawer.draws_instanced():
+            return targets, self._render_primary_instanced(gpu, scene, view, targets)
         prog = self.program
         vao = self.drawer.vertex_array(prog, gpu)
         submitted = self.drawer.draw_views("primary", prog, vao, gpu, scene, targets.fbo,
                                            [(view.view_proj, (0, 0, view.width, view.height))],
                                            lambda: self._bind(gpu, prog))
         return targets, submitted
+
+    def _render_primary_instanced(self, gpu: GPUScene, scene: SceneData, view: RasterView,
+                                  targets: GBufferTargets) -> int:
+        """The primary view drawn instanced and indexed (module doc); returns the triangles
+        submitted (the drawer's ``instanced["primary"]``: what was drawn, vertices shaded)."""
+        if self._instanced_program is None:
+            self._instanced_program = shader_loader.program(
+                self.ctx, vertex="gbuffer/gbuffer.vert.glsl", fragment="gbuffer/gbuffer.frag.glsl",
+                defines={"INSTANCED": 1})
+        return self.drawer.draw_instanced("primary", self._instanced_program, self.program, gpu, scene, targets.fbo,
+                                          [(view.view_proj, (0, 0, view.width, view.height))],
+                                          lambda prog: self._bind(gpu, prog))
+
+    @property
+    def last_instanced(self):
+        """What the last instanced primary draw drew (None before the first)."""
+        return self.drawer.instanced.get("primary")
 
     def render_cube_faces(self, gpu: GPUScene, scene: SceneData, views: list[RasterView], targets: RenderTargets,
                           culled=None, culled_back=None, back_layer: bool = False) -> int:

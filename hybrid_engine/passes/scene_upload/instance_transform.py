@@ -127,6 +127,12 @@ class InstanceTransformer:
         self._seen: tuple | None = None  # (geometry id, edit) of the last update
         self.stats = TransformStats()
 
+    @property
+    def instance_table(self):
+        """The instance table's GL buffer (INSTANCE_DTYPE rows; instance_space.glsl's struct
+        Instance), which the raster passes' indexed draws also read (view_cull/instanced_draw.py)."""
+        return self._store["instances"].buffer
+
     def store_capacity(self) -> dict[str, int]:
         """Bytes allocated for each array of the object-space store, over all its pages
         (what the meshes cost on the GPU)."""

@@ -28,6 +28,7 @@ from ...scene.changes import GeometryDelta
 from ...scene.data import MATERIAL_DTYPE, SceneData
 from ...scene.geometry import InstancedGeometry
 from .instance_transform import OUTPUT_ROW_BYTES, InstanceTransformer
+from .raster_meshes import RasterMeshes
 from .textures import GPUTextures
 
 # Per-vertex attributes: (GLSL input, moderngl format, GPUScene buffer attribute).
@@ -51,6 +52,9 @@ class GPUScene:
         for buf in (*self._world_buffers.values(), self.materials):
             buf.ensure(0)  # passes bind these before the first upload
         self.instance_transform = InstanceTransformer(ctx)
+        # The meshes' object-space vertex and index buffers for indexed raster draws (the
+        # ``vertices`` kernel's "gpu" variant); allocated when first updated.
+        self.raster_meshes = RasterMeshes(ctx)
         self.generation = 0  # bumps when a vertex attribute's buffer object changes
         self.host_ms = 0.0  # host time of the last upload
         self.triangle_count = 0
@@ -125,4 +129,5 @@ class GPUScene:
         for buf in (*self._world_buffers.values(), self.materials):
             buf.release()
         self.instance_transform.release()
+        self.raster_meshes.release()
         self.textures.release()

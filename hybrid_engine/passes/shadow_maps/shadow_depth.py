@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...gpu import shader_loader
+from ...gpu.bindings import bind as bind_storage
 from ...scene.bounds import SceneBounds
 from ..view_cull.draw import SceneDrawer
 from ..view_cull.view_cull import MAX_VIEWS
@@ -174,6 +175,7 @@ class ShadowDepthPass:
         self.program = shader_loader.program(
             ctx, vertex="shadow_maps/shadow_depth.vert.glsl", fragment="shadow_maps/shadow_depth.frag.glsl")
         self._faces_program = None  # compiled on first use (the faces kernel's "gpu" variant)
+        self._instanced_program = None  # compiled on first use (the vertices kernel's "gpu" variant)
         self.cache = ShadowCache()  # the slots fitted to the scene
         self.cascade_cache = ShadowCache()  # the sun cascades, fitted to the view
         # The last frame's cascade matrices, None for the other slots (_moved_cascades).
@@ -269,9 +271,27 @@ class ShadowDepthPass:
             ctx.disable(ctx.CULL_FACE)
 
         draws = [(views[i].view_proj, atlas.rect(int(i))) for i in chosen]
+        if self.drawer.draws_instanced():
+            table = gpu.instance_transform.instance_table
+
+            def bind_program(program) -> None:
+                bind()
+                bind_storage(program, storage={"InstanceTable": table})
+
+            return self.drawer.draw_instanced(layer, self.instanced_program(), prog, gpu, scene,
+                                              atlas.layer_framebuffer(dynamic), draws, bind_program, include)
         return self.drawer.draw_views(layer, prog, self.drawer.vertex_array(prog, gpu), gpu, scene,
                                       atlas.layer_framebuffer(dynamic), draws, bind, include,
                                       faces_prog=self.faces_program())
+
+    def instanced_program(self):
+        """The depth program of the instanced, indexed draws (the ``vertices`` kernel's "gpu"
+        variant, view_cull/instanced_draw.py), compiled on first use."""
+        if self._instanced_program is None:
+            self._instanced_program = shader_loader.program(
+                self.ctx, vertex="shadow_maps/shadow_depth.vert.glsl",
+                fragment="shadow_maps/shadow_depth.frag.glsl", defines={"INSTANCED": 1})
+        return self._instanced_program
 
     def faces_program(self):
         """The depth program that draws up to view_cull.MAX_VIEWS slots (a point lamp's six

@@ -33,6 +33,7 @@ from ...scene.data import SceneData
 from ...scene.raster_view import gl_matrix
 from ..scene_upload.scene_buffers import GPUScene
 from .frustum import beyond_near_plane, draw_ranges, front_face_winding, visible_objects
+from .instanced_draw import InstancedDrawer, InstancedStats
 from .view_cull import CullView, CulledDraws, MAX_VIEWS, ViewTriangleCuller
 
 # Scenes with fewer triangles draw their object lists directly: the culling pass's three
@@ -59,6 +60,35 @@ class SceneDrawer:
         # Each program's vertex array over the scene's buffers, and the scene and buffer
         # generation it was made for (GPUScene.generation bumps when a buffer is replaced).
         self._vaos: dict[int, tuple[int, int, object]] = {}
+        # The ``vertices`` kernel's "gpu" variant: instanced, indexed draws (instanced_draw.py),
+        # one drawer per layer, and each layer's last InstancedStats.
+        self._instanced: dict[str, InstancedDrawer] = {}
+        self.instanced: dict[str, InstancedStats] = {}
+
+    def draws_instanced(self) -> bool:
+        """Whether the raster passes draw instanced and indexed from object-space meshes (the
+        ``vertices`` kernel's "gpu" variant) rather than from the world-space rows."""
+        return variants.choose("vertices") == "gpu"
+
+    def draw_instanced(self, layer: str, prog, rows_prog, gpu: GPUScene, scene: SceneData, fbo,
+                       views: list[ViewDraw], bind_program: Callable[[object], None],
+                       include: np.ndarray | None = None) -> int:
+        """:meth:`draw_views` in the ``vertices`` kernel's "gpu" shape: the objects whose bounds
+        touch each view (and that ``include`` selects) drawn instanced and indexed with
+        ``prog`` (an INSTANCED program), those the raster meshes cannot draw from the rows
+        with ``rows_prog`` (instanced_draw.py); no per-triangle culling. ``bind_program(p)``
+        binds program p and sets the draws' GL state. Returns triangles submitted;
+        ``instanced[layer]`` holds what was drawn."""
+        drawer = self._instanced.get(layer)
+        if drawer is None:
+            drawer = self._instanced[layer] = InstancedDrawer(self.ctx)
+        gpu.raster_meshes.update(scene.geometry)
+        self.culled[layer] = [None]
+        fbo.use()
+        stats = drawer.draw(prog, bind_program, rows_prog, self.vertex_array(rows_prog, gpu), gpu.raster_meshes,
+                            scene, fbo, views, self.face_culling, include)
+        self.instanced[layer] = stats
+        return stats.triangles
 
     def vertex_array(self, prog, gpu: GPUScene):
         """``prog``'s vertex array over ``gpu``'s buffers, rebuilt only when they change."""
@@ -193,6 +223,9 @@ class SceneDrawer:
         return submitted
 
     def release(self) -> None:
+        for drawer in self._instanced.values():
+            drawer.release()
+        self._instanced.clear()
         for culler in self._cullers.values():
             culler.release()
         self._cullers.clear()

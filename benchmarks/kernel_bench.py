@@ -10,8 +10,9 @@
     well as one that picks it per call; the families alternate sample by sample (a drifting
     machine hits both alike) and each figure is the median over the rounds. A kernel's
     probe (:data:`KERNEL_PROBES`) times the work its variants change: the cube-map and
-    shadow faces for ``faces``, the LBVH build for ``sort`` and ``scan``, the traversal for
-    ``trace``, the primary G-buffer for ``vertices``, whole frames for ``readback``. A new kernel with two shapes is measured
+    shadow faces for ``faces``, the LBVH build for ``sort`` and ``scan``, a Chess frame's
+    trace pass for ``trace``, the primary G-buffer for ``vertices``, one 1080p image's trip to
+    the host for ``readback``. A new kernel with two shapes is measured
     without changes here as soon as its module calls ``variants.choose``; one without a
     probe of its own is measured by whole frames.
 ``lbvh_target``, ``frame_target``
@@ -49,10 +50,11 @@ Probe = Callable[[bool, int], dict[str, float]]
 @lru_cache(maxsize=1)
 def kernels_in_code() -> tuple[str, ...]:
     """The kernels of variants.KERNELS whose two shapes exist in the code: those some module
-    of the renderer asks ``variants.choose`` about (read from the source, so that a kernel
-    gains its section the day its variant lands)."""
+    of the renderer asks ``variants.choose`` about, directly or through a helper that is
+    handed the kernel's name (read from the source, so that a kernel gains its section the
+    day its variant lands)."""
     found: set[str] = set()
-    pattern = re.compile(r"""choose\(\s*["'](\w+)["']""")
+    pattern = re.compile(r"""(?:choose|resolve_family)\(\s*(?:\w+\s*,\s*)?["'](\w+)["']""")
     for path in PACKAGE_ROOT.rglob("*.py"):
         if path.name == "variants.py":
             continue
@@ -160,41 +162,60 @@ def lbvh_probe(quick: bool, repeats: int) -> dict[str, float]:
 
 
 def trace_probe(quick: bool, repeats: int) -> dict[str, float]:
-    """Closest-hit reflection rays through a fresh builder's BVH, in Mrays/s."""
-    from hybrid_engine.passes.lbvh import lbvh
-
-    from .bench import FULL_TRACE, QUICK_TRACE, SEED, mesh_like_scene, reflection_rays
-
-    params = QUICK_TRACE if quick else FULL_TRACE
-    ctx = gl_context.get_context()
-    rng = np.random.default_rng(SEED + 1)
-    tris = mesh_like_scene(params["triangles"], rng)
-    origins, dirs = reflection_rays(tris, params["rays"], rng)
-    builder = lbvh.LBVHBuilder(ctx)
-    buffers = [ctx.buffer(origins.tobytes()), ctx.buffer(dirs.tobytes()),
-               ctx.buffer(reserve=len(origins) * 4), ctx.buffer(reserve=len(origins) * 4)]
-    try:
-        builder.build_from_array(tris)
-        ms = _timed(ctx, lambda: builder.trace_buffers(*buffers, len(origins)), repeats)
-    finally:
-        for buffer in buffers:
-            buffer.release()
-        builder.release()
-    return {"trace_mrays_per_s": len(origins) / ms / 1e3}
-
-
-def frame_probe(quick: bool, repeats: int) -> dict[str, float]:
-    """Whole HYBRID Chess frames with a fresh renderer (what any kernel changes)."""
+    """The ``trace`` pass of a HYBRID Chess frame (the megakernel or the waves), timed by the
+    renderer's pass timer, with a fresh renderer."""
     from hybrid_engine.frame.renderer import Renderer
+
+    (scene, camera), params = _chess(quick)
+    renderer = Renderer(gl_context.get_context())
+    try:
+        settings = _frame_settings(params)
+        renderer.render(scene, camera, settings)  # uploads and compiles everything
+        times = [renderer.render(scene, camera, settings, timing=True).passes["trace"] for _ in range(repeats)]
+    finally:
+        renderer.release()
+    return {"trace_pass_ms": statistics.median(times)}
+
+
+def readback_probe(quick: bool, repeats: int) -> dict[str, float]:
+    """One viewport image (RGBA32F, 1920x1080; 192x108 quick) brought to the host by a fresh
+    reader: synchronous, or through a pixel buffer and a fence (waited for here)."""
+    from hybrid_engine.frame.readback import ImageReadback
+
+    width, height = (192, 108) if quick else (1920, 1080)
+    ctx = gl_context.get_context()
+    texture = ctx.texture((width, height), 4, dtype="f4")
+    readback = ImageReadback(ctx)
+    try:
+        def read() -> None:
+            readback.submit(texture)
+            readback.collect(wait=True)
+
+        read()
+        ms = _timed(ctx, read, repeats)
+    finally:
+        readback.release()
+        texture.release()
+    return {f"readback_{height}p_ms": ms}
+
+
+def _frame_settings(params: dict):
     from hybrid_engine.scene.settings import RenderSettings
 
     from .bench import FRAME_BACK_LAYER, FRAME_MAX_DEPTH, FRAME_NEAR_SIZE
     from .scenes.chess import CHESS_CUBE_FAR
 
+    return RenderSettings(mode="HYBRID", near_size=FRAME_NEAR_SIZE, cube_far=CHESS_CUBE_FAR,
+                          max_depth=FRAME_MAX_DEPTH, cube_resolution=params["cube_resolution"],
+                          cube_back_layer=FRAME_BACK_LAYER)
+
+
+def frame_probe(quick: bool, repeats: int) -> dict[str, float]:
+    """Whole HYBRID Chess frames with a fresh renderer (what any kernel changes)."""
+    from hybrid_engine.frame.renderer import Renderer
+
     (scene, camera), params = _chess(quick)
-    settings = RenderSettings(mode="HYBRID", near_size=FRAME_NEAR_SIZE, cube_far=CHESS_CUBE_FAR,
-                              max_depth=FRAME_MAX_DEPTH, cube_resolution=params["cube_resolution"],
-                              cube_back_layer=FRAME_BACK_LAYER)
+    settings = _frame_settings(params)
     renderer = Renderer(gl_context.get_context())
     try:
         renderer.render(scene, camera, settings)  # uploads everything
@@ -206,7 +227,7 @@ def frame_probe(quick: bool, repeats: int) -> dict[str, float]:
 
 # What each kernel's variants change (module doc); a kernel not named here: whole frames.
 KERNEL_PROBES: dict[str, Probe] = {"faces": faces_probe, "sort": lbvh_probe, "scan": lbvh_probe,
-                                   "trace": trace_probe, "readback": frame_probe, "vertices": primary_probe}
+                                   "trace": trace_probe, "readback": readback_probe, "vertices": primary_probe}
 
 
 def kernel_section(mode: str, quick: bool, rounds: int) -> dict:

@@ -166,8 +166,8 @@ def test_plan_frame_scales_and_places_the_render_border():
     region = RegionInput(zoomed.view_matrix(), zoomed.projection_matrix(), 100, 50, "CAMERA", camera,
                          ((0.0, 0.0), (0.5, 1.0)))
     plan = plan_frame(region, 0.5)
-    assert plan.rect == (25, 12, 50, 38)  # left half of the frame (25..75 x 12.5..37.5)
-    assert (plan.view.width, plan.view.height) == (12, 13)
+    assert plan.rect == (25, 13, 50, 38)  # left half of the frame (25..75 x 12.5..37.5), halves rounded up
+    assert (plan.view.width, plan.view.height) == (12, 12)  # 25 x 25 pixels at half scale
     whole = plan_frame(RegionInput(zoomed.view_matrix(), zoomed.projection_matrix(), 100, 50), 1.0)
     assert whole.rect == (0, 0, 100, 50) and whole.view.width == 100
     outside = RegionInput(zoomed.view_matrix(), zoomed.projection_matrix(), 100, 50, "CAMERA",

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..scene import matrix4
 from ..scene.camera import Camera
 from .film import FilmError
 
@@ -82,14 +83,15 @@ class ViewportView(Camera):
         window = _matrix4(self.window, "window_matrix")
         if int(self.width) < 1 or int(self.height) < 1:
             raise ViewportError(f"viewport size must be at least 1x1, got {self.width}x{self.height}")
-        if abs(np.linalg.det(window[:2, :2])) < _MIN_PROJECTION_DET or abs(np.linalg.det(view)) < _MIN_PROJECTION_DET:
+        window_xy_det = window[0, 0] * window[1, 1] - window[0, 1] * window[1, 0]
+        if abs(window_xy_det) < _MIN_PROJECTION_DET or abs(matrix4.determinant(view)) < _MIN_PROJECTION_DET:
             raise ViewportError("view or window matrix is singular (zero zoom or scale)")
         near, far = clip_range(window)
         if not (np.isfinite(near) and np.isfinite(far) and near < far):
             raise ViewportError(f"window matrix has no usable depth range ({near}..{far})")
         object.__setattr__(self, "world_to_view", view)
         object.__setattr__(self, "window", window)
-        object.__setattr__(self, "matrix_world", np.linalg.inv(view))
+        object.__setattr__(self, "matrix_world", matrix4.inverse(view))
         object.__setattr__(self, "projection", "ORTHO" if is_orthographic(window) else "PERSP")
         object.__setattr__(self, "clip_start", float(near))
         object.__setattr__(self, "clip_end", float(far))
@@ -171,7 +173,7 @@ def camera_frame_rect(view: Camera, camera: Camera) -> tuple[float, float, float
     to NDC of the other by a 2D affine map; the camera's NDC corners (±1, ±1) are mapped through
     ``view.view_projection() @ inverse(camera.view_projection())`` at the camera's near plane.
     """
-    to_view = view.view_projection() @ np.linalg.inv(camera.view_projection())
+    to_view = view.view_projection() @ matrix4.inverse(camera.view_projection())
     corners = np.array([[-1, -1, -1, 1], [1, 1, -1, 1]], np.float64)
     mapped = corners @ to_view.T
     ndc = mapped[:, :2] / mapped[:, 3:4]
@@ -190,8 +192,13 @@ def border_rect(frame: tuple[float, float, float, float], border_min: tuple[floa
     x1 = fx0 + border_max[0] * (fx1 - fx0)
     y0 = fy0 + border_min[1] * (fy1 - fy0)
     y1 = fy0 + border_max[1] * (fy1 - fy0)
-    ix0, iy0 = max(0, int(math.floor(x0 + 0.5))), max(0, int(math.floor(y0 + 0.5)))
-    ix1, iy1 = min(int(width), int(math.floor(x1 + 0.5))), min(int(height), int(math.floor(y1 + 0.5)))
+    def nearest(v: float) -> int:
+        # Rounded to a millionth of a pixel first: an edge that lies on a half pixel stays
+        # there whatever rounding the matrices around it carried.
+        return int(math.floor(round(v, 6) + 0.5))
+
+    ix0, iy0 = max(0, nearest(x0)), max(0, nearest(y0))
+    ix1, iy1 = min(int(width), nearest(x1)), min(int(height), nearest(y1))
     if ix1 <= ix0 or iy1 <= iy0:
         return None
     return ix0, iy0, ix1, iy1

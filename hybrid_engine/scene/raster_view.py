@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import matrix4
 from .camera import Camera
 
 
@@ -43,7 +44,7 @@ class RasterView:
         """The camera uniforms that the passes reconstructing positions from a G-buffer
         share (deferred_shade.comp.glsl, hybrid_trace.comp.glsl)."""
         return {
-            "u_inv_view_proj": gl_matrix(np.linalg.inv(self.view_proj)),
+            "u_inv_view_proj": gl_matrix(matrix4.inverse(self.view_proj)),
             "u_camera_position": tuple(np.asarray(self.position, float)),
             "u_camera_forward": tuple(np.asarray(self.forward, float)),
             "u_orthographic": int(self.orthographic),

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...gpu.render_targets import RenderTargets
+from ...scene import matrix4
 from ...scene.camera import CUBE_FACE_DIRECTIONS, cube_face_views, perspective_matrix
 from ...scene.data import SceneData
 from ...scene.raster_view import RasterView, gl_matrix
@@ -78,7 +79,7 @@ class CubeFaces:
         c = np.asarray(center, np.float64)
         proj = perspective_matrix(CUBE_FACE_FOV, 1.0, near, far)
         vp = np.stack([proj @ v for v in cube_face_views(c)])
-        inv = np.linalg.inv(vp)
+        inv = np.stack([matrix4.inverse(m) for m in vp])
         f2f = np.einsum("jab,ibc->ijac", vp, inv)
         return cls(c, float(near), float(far), vp, inv, f2f)
 

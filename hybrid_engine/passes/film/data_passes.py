@@ -17,6 +17,7 @@ import numpy as np
 from ...gpu import shader_loader
 from ...gpu.bindings import Image, bind
 from ...gpu.render_targets import release_all
+from ...scene import matrix4
 from ...scene.settings import RenderSettings
 from ..frame_context import FrameContext, PassIO
 
@@ -47,7 +48,7 @@ class DataPassesPass:
         """{"depth": R32F texture, "normal": RGBA32F texture} of the G-buffer's size."""
         size = tuple(int(v) for v in depth.size)
         self._ensure(size)
-        inverse = np.linalg.inv(np.asarray(camera.projection_matrix(), np.float64))
+        inverse = matrix4.inverse(camera.projection_matrix())
         self.ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT)
         bind(self.program, textures={"u_depth": depth, "u_normal_material": normal_material},
              images={"u_depth_pass": Image(self._textures["depth"], read=False, write=True),

@@ -53,6 +53,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ...gpu import gl_context
+from ...scene import matrix4
 
 log = logging.getLogger(__name__)
 
@@ -157,7 +158,7 @@ def pixel_footprint(view_proj: np.ndarray, height: int, orthographic: bool) -> t
     perspective camera's pixel has width 0 and spreads by its vertical angle; an
     orthographic one has a constant world width and no spread.
     """
-    inv = np.linalg.inv(np.asarray(view_proj, np.float64))
+    inv = matrix4.inverse(view_proj)
     step = 2.0 / max(int(height), 1)
 
     def unproject(y: float, z: float) -> np.ndarray:

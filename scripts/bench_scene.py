@@ -169,7 +169,7 @@ def main(argv: list[str] | None = None) -> int:
         except SettingsError as error:
             print(f"bench_scene: {error}", file=sys.stderr)
             return 2
-        print(bench.format_tables({"machine": report["machine"], "frame": report}))
+        print(bench.format_tables({"machine": report["machine"], "frame": report, "variants": bench.variants.chosen()}))
         print(f"scene: {report['scene_label']}; built in {report['scene_build_s']:.1f} s, "
               f"extraction {report['extract_ms']:.1f} ms per frame (not in the frame times)")
         if args.json:

@@ -596,3 +596,35 @@ def test_the_header_takes_the_gpus_counts_only_when_it_refreshes(addon, viewport
     assert reads == [2, 1, 2, 1]
     bvh = int(frame.counts["triangles_bvh"])
     assert bvh > 0 and f"BVH {bvh:,} /" in lines[-1] and lines[1].split("| BVH")[1] == lines[0].split("| BVH")[1]
+
+
+def test_the_asynchronous_read_back_shows_every_sample_at_most_one_redraw_late_and_ends_on_the_mean(
+        addon, viewport, monkeypatch):
+    """With the pixel-buffer read-back (a GPU's shape), the viewport keeps asking for redraws
+    until the last sample's mean has reached the host, and ends on the same image as the
+    synchronous read-back."""
+    import bpy
+
+    _module, session, _reports = viewport
+    scene, _cube, _material = _two_object_scene(bpy)
+    scene.hybrid_rt.viewport_samples = 3
+    _sync(bpy)
+
+    def converge(family: str) -> tuple[list, np.ndarray]:
+        monkeypatch.setenv("HYBRID_RT_KERNELS", f"readback={family}")
+        session.release()  # a new renderer and read-back in the chosen shape
+        session.update(bpy.context.evaluated_depsgraph_get(), full=True)
+        flags = []
+        for _ in range(8):
+            frame = session.frame(_region(bpy), _settings(addon, bpy))
+            flags.append(frame.converged)
+            if frame.converged:
+                break
+        assert session.readback.asynchronous == (family == "gpu")
+        return flags, frame.image.copy()
+
+    sync_flags, sync_image = converge("cpu")
+    async_flags, async_image = converge("gpu")
+    assert sync_flags == [False, False, True]
+    assert async_flags[-1] and len(async_flags) in (3, 4)  # the last mean may come one redraw later
+    np.testing.assert_array_equal(async_image, sync_image)

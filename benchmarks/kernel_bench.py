@@ -144,21 +144,25 @@ def primary_probe(quick: bool, repeats: int) -> dict[str, float]:
 
 def lbvh_probe(quick: bool, repeats: int) -> dict[str, float]:
     """An LBVH build (Morton codes, sort, hierarchy, refit) with a fresh builder."""
+    size = 10_000 if quick else 1_000_000
+    return {f"lbvh_build_{size // 1000}k_ms": _lbvh_build_ms(size, repeats)}
+
+
+def _lbvh_build_ms(size: int, repeats: int) -> float:
+    """The median build of a mesh-like scene of ``size`` triangles with a fresh builder."""
     from hybrid_engine.passes.lbvh import lbvh
 
     from .bench import SEED, mesh_like_scene
 
-    size = 10_000 if quick else 1_000_000
     ctx = gl_context.get_context()
     tris = mesh_like_scene(size, np.random.default_rng(SEED))
     builder = lbvh.LBVHBuilder(ctx)
     buffer = ctx.buffer(tris.tobytes())
     try:
-        build_ms = _timed(ctx, lambda: builder.build(buffer, len(tris)), repeats)
+        return _timed(ctx, lambda: builder.build(buffer, len(tris)), repeats)
     finally:
         buffer.release()
         builder.release()
-    return {f"lbvh_build_{size // 1000}k_ms": build_ms}
 
 
 def trace_probe(quick: bool, repeats: int) -> dict[str, float]:
@@ -257,20 +261,8 @@ def kernel_section(mode: str, quick: bool, rounds: int) -> dict:
 
 def lbvh_target_section(quick: bool, rounds: int) -> dict:
     """The LBVH build of 1M triangles (20k with ``quick``), median of ``rounds`` builds."""
-    from hybrid_engine.passes.lbvh import lbvh
-
-    from .bench import SEED, mesh_like_scene
-
     size = TARGET_LBVH_TRIANGLES[bool(quick)]
-    ctx = gl_context.get_context()
-    tris = mesh_like_scene(size, np.random.default_rng(SEED))
-    builder = lbvh.LBVHBuilder(ctx)
-    buffer = ctx.buffer(tris.tobytes())
-    try:
-        build_ms = _timed(ctx, lambda: builder.build(buffer, len(tris)), rounds)
-    finally:
-        buffer.release()
-        builder.release()
+    build_ms = _lbvh_build_ms(size, rounds)
     return {"triangles": int(size), "build_ms": round(build_ms, 3), "target_ms": LBVH_TARGET_MS,
             "met": bool(build_ms <= LBVH_TARGET_MS), "variants": variants.chosen()}
 

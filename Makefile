@@ -10,13 +10,14 @@ PYTEST_ARGS ?=
 # Test worker processes (pytest-xdist); 0 runs the suite in this process.
 TEST_WORKERS ?= 2
 
-.PHONY: help setup demo test bench pictures package clean distclean
+.PHONY: help setup demo test bench pictures light package clean distclean
 
 help:
 	@echo "make demo       render the generated Chess scene with Hybrid RT (out/demo*.png, timing report)"
 	@echo "make test       run the test suite"
 	@echo "make bench      run the benchmark, results in out/bench.json and out/device_report.md"
 	@echo "make pictures   render docs/pictures/*.png: each scene in every mode next to EEVEE and Cycles (~11 min)"
+	@echo "make light      interiors: Hybrid RT, EEVEE and Cycles side by side (luminance, FLIP), docs/pictures/lighting.json"
 	@echo "make package    build the installable extension zips (Linux, Windows) into dist/"
 	@echo "make clean      remove build outputs (dist/, wheels/, out/, caches)"
 	@echo "make distclean  clean, and remove the virtual environment .venv"
@@ -43,6 +44,9 @@ bench: setup
 
 pictures: setup
 	$(PYTHON_VENV) scripts/make_pictures.py
+
+light: setup
+	$(PYTHON_VENV) scripts/measure_light.py --json docs/pictures/lighting.json
 
 package: setup
 	$(PYTHON_VENV) scripts/build_extension.py

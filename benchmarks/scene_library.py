@@ -57,11 +57,15 @@ from hybrid_engine.scene.camera import look_at
 from hybrid_engine.scene.data import LIGHT_KINDS
 
 from .bench import FRAME_NEAR_SIZE
+from .scene_parts import (box_mesh as _box_mesh, light as _light,
+                          new_collection as _new_collection, new_mesh as _new_mesh, principled as _principled,
+                          set_inputs as _set_inputs, world as _world)
+from . import interior_scenes
 from .scenes import chess as chess_core
 
 log = logging.getLogger(__name__)
 
-SCENES = ("chess", "chess_real", "sponza", "large", "room")
+SCENES = ("chess", "chess_real", "sponza", "large", "room", *interior_scenes.INTERIOR_SCENES)
 DEFAULT_FRAMES = chess_core.CHESS_FRAMES  # the paper's sequences are 200 frames long (§4)
 DEFAULT_RESOLUTION = (1280, 720)  # the paper's 720p
 MAX_DETAIL = chess_core.MAX_DETAIL
@@ -82,7 +86,7 @@ BUNNY_OBJ = "stanford/stanford-bunny.obj"
 DRAGON_PLY_GZ = "stanford/dragon_vrip.ply.gz"  # ASCII PLY, gunzipped to a temporary folder
 _SPONZA_FILES = (SPONZA_GLTF, BUDDHA_OBJ, BUNNY_OBJ, DRAGON_PLY_GZ)
 ASSETS = {"chess": (), "chess_real": (CHESS_SET_GLTF,), "sponza": _SPONZA_FILES, "large": _SPONZA_FILES,
-          "room": ()}
+          "room": (), **interior_scenes.ASSETS}
 
 CREDITS = {
     "chess": "procedural (benchmarks/scenes/chess.py)",
@@ -93,6 +97,7 @@ CREDITS = {
     "Graphics Laboratory, Stanford 3D Scanning Repository",
 }
 CREDITS["large"] = CREDITS["sponza"]
+CREDITS.update(interior_scenes.CREDITS)
 
 # -- chess_real ---------------------------------------------------------------------------------
 CHESS_SETS = chess_core.SETS
@@ -227,12 +232,6 @@ def _layer_collection(layer, collection):
     return None
 
 
-def _new_collection(scene, name: str, parent=None):
-    collection = bpy.data.collections.new(name)
-    (parent or scene.collection).children.link(collection)
-    return collection
-
-
 @contextlib.contextmanager
 def _quiet_gltf_importer() -> Iterator[None]:
     # The glTF importer logs one INFO line per node unless Blender's debug value is 1
@@ -311,34 +310,6 @@ def _world_bounds(objects) -> np.ndarray:
     return np.stack([points.min(axis=0), points.max(axis=0)])
 
 
-def _new_mesh(name: str, positions: np.ndarray, corner_verts: np.ndarray, face_starts: np.ndarray,
-              *, smooth: bool, corner_normals: np.ndarray | None = None,
-              face_materials: np.ndarray | None = None):
-    """A mesh from flat arrays with ``foreach_set`` (no per-element Python).
-
-    ``corner_normals`` become Blender's float "free" custom normals (attribute
-    ``custom_normal`` on the face corners): exact, unlike the compressed split normals.
-    """
-    mesh = bpy.data.meshes.new(name)
-    mesh.vertices.add(len(positions))
-    mesh.vertices.foreach_set("co", np.ascontiguousarray(positions, np.float32).reshape(-1))
-    mesh.loops.add(len(corner_verts))
-    mesh.loops.foreach_set("vertex_index", np.ascontiguousarray(corner_verts, np.int32))
-    mesh.polygons.add(len(face_starts))
-    mesh.polygons.foreach_set("loop_start", np.ascontiguousarray(face_starts, np.int32))
-    if face_materials is not None:
-        mesh.polygons.foreach_set("material_index", np.ascontiguousarray(face_materials, np.int32))
-    mesh.update(calc_edges=True)
-    if smooth:
-        mesh.shade_smooth()
-    else:
-        mesh.shade_flat()
-    if corner_normals is not None:
-        attribute = mesh.attributes.new("custom_normal", "FLOAT_VECTOR", "CORNER")
-        attribute.data.foreach_set("vector", np.ascontiguousarray(corner_normals, np.float32).reshape(-1))
-    return mesh
-
-
 def _mesh_from_triangles(name: str, triangles: np.ndarray, normals: np.ndarray | None = None,
                          face_materials: np.ndarray | None = None):
     """A triangle-soup mesh (three vertices per triangle, order kept) with optional
@@ -378,68 +349,6 @@ def _uv_sphere(name: str, rings: int):
     sizes = np.concatenate([np.full(segments, 3), np.full(len(quads), 4), np.full(segments, 3)])
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
     return _new_mesh(name, positions, corner_verts, starts, smooth=True)
-
-
-def _principled(name: str, base_color=(0.8, 0.8, 0.8), *, metallic: float = 0.0, roughness: float = 0.5,
-                transmission: float = 0.0, ior: float = 1.5, thickness: float = 0.5):
-    """A Principled BSDF material: EEVEE, Cycles and Hybrid RT all read the same inputs."""
-    material = bpy.data.materials.new(name)  # Blender 5 materials always have a node tree
-    bsdf = material.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (*base_color[:3], 1.0)
-    _set_inputs(material, Metallic=metallic, Roughness=roughness, **{"Transmission Weight": transmission},
-                IOR=ior)
-    material.hybrid_rt.thickness = thickness
-    return material
-
-
-def _bsdf(material):
-    node = next((n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED"), None)
-    if node is None:
-        raise RuntimeError(f"material {material.name!r} has no Principled BSDF")
-    return node
-
-
-def _set_inputs(material, **values: float) -> None:
-    """Set Principled BSDF inputs, unlinking any texture that drove them (a mirror is
-    metallic 1, roughness 0 everywhere). Base Color and its texture are left alone."""
-    bsdf = _bsdf(material)
-    links = material.node_tree.links
-    for name, value in values.items():
-        socket = bsdf.inputs[name]
-        for link in list(socket.links):
-            links.remove(link)
-        socket.default_value = value
-
-
-def _light(scene, collection, name: str, kind: str, color, *, position=(0.0, 0.0, 0.0),
-           direction=(0.0, 0.0, -1.0), radius: float = 0.0):
-    """A light whose colour x power equals ``color`` and whose size is ``radius`` (the core's
-    Lights convention: a sun's angle, a point or spot radius)."""
-    color = np.asarray(color, np.float64)
-    power = float(color.max())
-    light = bpy.data.lights.new(name, kind)
-    light.energy = power
-    light.color = tuple(color / power) if power > 0 else (1.0, 1.0, 1.0)
-    if kind == "SUN":
-        light.angle = radius
-    else:
-        light.shadow_soft_size = radius
-    obj = bpy.data.objects.new(name, light)
-    obj.location = position
-    # A light shines along its -Z axis.
-    obj.rotation_mode = "QUATERNION"
-    obj.rotation_quaternion = Vector((0.0, 0.0, -1.0)).rotation_difference(Vector(direction).normalized())
-    collection.objects.link(obj)
-    return obj
-
-
-def _world(scene, color, strength: float) -> None:
-    world = bpy.data.worlds.new(f"{scene.name} world")  # with Background and World Output nodes
-    background = world.node_tree.nodes["Background"]
-    background.inputs["Color"].default_value = (*color[:3], 1.0)
-    background.inputs["Strength"].default_value = strength
-    world.color = color[:3]
-    scene.world = world
 
 
 _LINEAR = bpy.types.Keyframe.bl_rna.properties["interpolation"].enum_items["LINEAR"].value
@@ -1039,15 +948,6 @@ ROOM_SUN_ANGLE = math.radians(4.0)
 ROOM_NEAR_SIZE = 10.0  # the balls and boxes in the BVH, the back wall in the cube map
 
 
-def _box_mesh(name: str, lo, hi):
-    """An axis-aligned box as a closed mesh with flat faces."""
-    corners = np.array([[x, y, z] for z in (lo[2], hi[2]) for y in (lo[1], hi[1]) for x in (lo[0], hi[0])],
-                       np.float32)
-    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
-    return _new_mesh(name, corners, np.array(quads, np.int32).reshape(-1), np.arange(0, 24, 4, dtype=np.int32),
-                     smooth=False)
-
-
 def _build_room(scene, assets: Path | None, detail: float, frame_count: int) -> None:
     """Three walls and a floor under an open sky and a sun: a mirror ball, a glass ball and a
     brushed-metal ball on a glossy floor, with painted boxes; everything lit by the World
@@ -1102,6 +1002,14 @@ def _build_room(scene, assets: Path | None, detail: float, frame_count: int) -> 
 
 _BUILDERS = {"chess": _build_chess, "chess_real": _build_chess_real, "sponza": _build_sponza,
              "large": _build_large, "room": _build_room}
+
+
+def _interior(build: Callable) -> Callable:
+    """An interior (interior_scenes.py) as a library builder: static, one detail."""
+    return lambda scene, assets, detail, frame_count: build(scene, assets)
+
+
+_BUILDERS.update({name: _interior(build) for name, build in interior_scenes.BUILDERS.items()})
 
 
 # ---------------------------------------------------------------------------------------

@@ -52,7 +52,8 @@ REPO_ROOT = Path(__file__).resolve().parent.parent
 DEFAULT_OUT = REPO_ROOT / "docs" / "pictures"
 DEFAULT_ASSETS = REPO_ROOT.parent / "shared" / "scenes"
 ASSETS_ENV = "HYBRID_RT_SCENES"  # as benchmarks.scene_library.ASSETS_ENV (not importable before bpy)
-SCENE_NAMES = ("chess", "chess_real", "sponza", "large", "room")
+SCENE_NAMES = ("chess", "chess_real", "sponza", "large", "room", "closed_room", "closed_room_lamp", "window_room",
+               "wall_floor", "cornell")
 DEFAULT_RESOLUTION = (640, 360)  # the software renderer's size in the demo and benchmarks
 DEFAULT_FRAME = 0  # every scene's first frame: the demo's chess view, the atrium seen from its +x end
 FRAME_COUNT = 200  # the library's animations (the paper's 200-frame sequences)
@@ -61,7 +62,9 @@ FRAME_COUNT = 200  # the library's animations (the paper's 200-frame sequences)
 # triangle counts they give. ``large`` keeps 10 of its 40 Sponzas (2.9 M triangles): on
 # llvmpipe, FULL_BVH (the FLIP reference) over 8 M triangles or more needs more storage
 # blocks than the driver has, and EEVEE's time grows with every copy.
-DEFAULT_DETAIL = {"chess": 1.0, "chess_real": 1.0, "sponza": 1.0, "large": 0.25, "room": 1.0}
+DEFAULT_DETAIL = {"chess": 1.0, "chess_real": 1.0, "sponza": 1.0, "large": 0.25, "room": 1.0,
+                  # the interiors (benchmarks/interior_scenes.py) have one size
+                  "closed_room": 1.0, "closed_room_lamp": 1.0, "window_room": 1.0, "wall_floor": 1.0, "cornell": 1.0}
 MODES = ("HYBRID", "FULL_BVH", "PROVENANCE")
 # Cycles, denoised, is the reference for the look: HYBRID and EEVEE are both measured against it.
 CYCLES_SAMPLES = 256

@@ -7,6 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hybrid_engine.gpu import dispatch as gpu_dispatch
+from hybrid_engine.gpu.triangle_input import input_split
 from hybrid_engine.passes.emitters.emitter_table import (
     EmitterTable, emissive_materials, emissive_rows, levels_for)
 from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
@@ -139,5 +141,23 @@ def test_a_scene_without_emission_costs_no_list_and_no_dispatch(gl, upload):
         upload(scene, table)
         assert table.count == 0 and not table.stats.listed and table.stats.gpu_steps == 0
         assert table.bindings().uniforms["u_emitter_count"] == 0
+    finally:
+        table.release()
+
+
+def test_emitters_are_read_from_every_block_of_a_split_triangle_input(gl, upload):
+    # A driver whose storage blocks hold 682 triangles of positions: the scene's 1,008
+    # triangles are bound as two blocks (triangle_input.glsl), its lamps in both.
+    scene = instanced_scene()
+    table = EmitterTable(gl)
+    try:
+        with gpu_dispatch.forced_limits(max_block=24576):
+            assert input_split(scene.geometry.triangle_count).blocks == 2
+            upload(scene, table)
+        rows, tris, power = oracle(scene)
+        assert rows.min() < 682 <= rows.max()
+        got = table.read_table()
+        np.testing.assert_allclose(got["corner"][:, :3], tris[:, 0], atol=1e-5)
+        np.testing.assert_allclose(got["edge2"][:, 3], power, rtol=1e-5)
     finally:
         table.release()

@@ -15,7 +15,8 @@ from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
 from hybrid_engine.scene.data import MaterialTable, SceneData
 from hybrid_engine.scene.geometry import InstancedGeometry
 from hybrid_engine.scene.meshes import Instances
-from scenes_instanced import grid_mesh, placed, rotation_z, sphere_mesh
+from hybrid_engine.scene.settings import RenderSettings
+from scenes_instanced import camera, grid_mesh, placed, rotation_z, sphere_mesh
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 GREY, LAMP, DIM_RED, DARK = 0, 1, 2, 3
@@ -161,3 +162,17 @@ def test_emitters_are_read_from_every_block_of_a_split_triangle_input(gl, upload
         np.testing.assert_allclose(got["edge2"][:, 3], power, rtol=1e-5)
     finally:
         table.release()
+
+
+@pytest.mark.parametrize("mode", ["HYBRID", "FULL_BVH"])
+def test_a_traced_frame_hands_its_passes_the_table_of_this_frame_s_emitters(renderer, mode):
+    scene = instanced_scene()
+    plan = [type(p).__name__ for p in renderer.passes(RenderSettings(mode=mode))]
+    assert plan.index("EmitterTablePass") == plan.index("InstanceTransformPass") + 1
+    assert "EmitterTablePass" not in [type(p).__name__ for p in renderer.passes(RenderSettings(mode="RASTER"))]
+    result = renderer.render(scene, camera(40, 30), RenderSettings(mode=mode), timing=True)
+    table = renderer.emitters.table
+    rows, tris, _ = oracle(scene)
+    assert table.count == len(rows)
+    np.testing.assert_allclose(table.read_table()["corner"][:, :3], tris[:, 0], atol=1e-5)
+    assert "emitters" not in result.passes  # timed with the transform's step

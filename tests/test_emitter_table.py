@@ -61,9 +61,9 @@ def upload(gl):
         if world is None:
             world = GPUScene(gl)
             made.append(world)
-        uploaded, _ = world.upload(scene)
+        uploaded, delta = world.upload(scene)
         world.transform()
-        table.update(uploaded, world)
+        table.update(uploaded, world, rows_unchanged=delta.unchanged)
         return world
 
     yield run
@@ -109,20 +109,26 @@ def test_each_emitter_s_power_is_its_world_area_times_luminance_and_the_cdf_scan
         table.release()
 
 
-def test_the_host_lists_emitters_only_when_materials_or_triangles_change_and_motion_moves_them(gl, upload):
+def test_the_table_is_remade_only_for_what_changed_and_motion_moves_the_lights(gl, upload):
     scene = instanced_scene()
     table = EmitterTable(gl)
     try:
         world = upload(scene, table)
         assert table.stats.listed and table.stats.gpu_steps == 3
         first = table.read_table()
+        # Nothing moved, the same emission: the table stands, no dispatch.
         upload(scene, table, world)
+        assert not table.stats.listed and table.stats.gpu_steps == 0
+        # A brighter lamp: the same list, new powers.
+        brighter = SceneData(geometry=scene.geometry, materials=materials(lamp=(8.0, 6.0, 4.0)))
+        upload(brighter, table, world)
         assert not table.stats.listed and table.stats.gpu_steps == 3
+        np.testing.assert_allclose(table.read_table()["edge2"][:, 3], oracle(brighter)[2], rtol=1e-5)
         # A moved lamp: no new list, its triangles follow on the GPU.
         scene.geometry.instances.matrices[0] = placed(np.eye(3), (1.0, 2.0, 3.5))
         scene.geometry.refresh([0])
         upload(scene, table, world)
-        assert not table.stats.listed
+        assert not table.stats.listed and table.stats.gpu_steps == 3
         moved = table.read_table()
         _, tris, _ = oracle(scene)
         np.testing.assert_allclose(moved["corner"][:, :3], tris[:, 0], atol=1e-5)

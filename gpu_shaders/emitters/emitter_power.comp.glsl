@@ -39,5 +39,9 @@ void main() {
     // A collapsed (non-finite) triangle or a non-finite emission is no light.
     if (!(power > 0.0) || isinf(power) || isinf(area)) power = 0.0;
     emitters[i] = Emitter(vec4(v0, intBitsToFloat(int(tri))), vec4(e1, area), vec4(e2, power));
-    if (power > 0.0) atomicMax(emitter_max_bits, floatBitsToUint(power));
+    // Atomics on one word serialise the invocations (on a CPU driver they cost more than the
+    // rest of the kernel): only a power above the largest seen so far takes one. A stale
+    // read only costs an atomic that changes nothing.
+    uint bits = floatBitsToUint(power);
+    if (power > 0.0 && bits > emitter_max_bits) atomicMax(emitter_max_bits, bits);
 }

@@ -5,8 +5,8 @@ that gathers light reads it (the ``emitters`` resource: an ``EmitterTable``, who
 ``bindings()`` a kernel compiled with ``EMITTER_LIGHT`` binds).
 
 Its timing row is the transform's step (``instance_transform``): the table is a few
-dispatches over the emissive triangles of the rows the transform just wrote, and none at all
-when nothing emits."""
+dispatches over the emissive triangles when the transform wrote rows or an emission changed,
+and none at all when nothing emits or nothing changed."""
 from __future__ import annotations
 
 from ...scene.settings import RenderSettings
@@ -23,10 +23,11 @@ class EmitterTablePass:
         self.table = EmitterTable(ctx)
 
     def io(self, settings: RenderSettings) -> PassIO:
-        return PassIO(reads=("scene", "world_triangles"), writes=("emitters",))
+        return PassIO(reads=("scene", "world_triangles", "delta"), writes=("emitters",))
 
     def run(self, frame: FrameContext) -> None:
-        self.table.update(frame.read("scene"), frame.read("world_triangles"))
+        self.table.update(frame.read("scene"), frame.read("world_triangles"),
+                          rows_unchanged=frame.read("delta").unchanged)
         frame.write("emitters", self.table)
 
     def release(self) -> None:

@@ -12,13 +12,14 @@ The work is split by how often its inputs change:
 * the host lists the world rows of the emissive triangles (those whose material's emission
   colour x strength is above 0) when the materials or the triangle set change, and keeps
   the list otherwise (``emissive_rows``, cached on what it depends on);
-* every frame the GPU reads those rows from the instance transform's world-space output,
+* every frame whose triangles or emission changed, the GPU reads those rows from the instance transform's world-space output,
   writes each emitter's corner, edges, area and power (``emitters/emitter_power.comp.glsl``),
   quantises the powers to integer weights against the frame's largest
   (``emitters/emitter_weights.comp.glsl``) and turns them into a CDF by the prefix scan
   (``gpu/prefix_scan.py``, in the shape ``gpu/variants.py`` picks for kernel ``scan``). A
   moving lamp therefore costs no host work. Emission textures count at their constant factor
-  in the power; the sampled point reads the texture itself.
+  in the power; the sampled point reads the texture itself. A frame in which no triangle
+  moved and no emission changed keeps the table as it is.
 
 With no emissive material the table is empty: no host list, no dispatch, and
 ``emitter_irradiance`` returns 0 without tracing.
@@ -111,7 +112,7 @@ class EmitterStats:
     """What the last update did (tests, timing)."""
 
     listed: bool = False  # the host rebuilt the list of emissive rows
-    gpu_steps: int = 0  # the table, the weights and the scan: 3 when anything emits, else 0
+    gpu_steps: int = 0  # the table, the weights and the scan: 3 when rebuilt, else 0
 
 
 class EmitterTable:
@@ -136,6 +137,7 @@ class EmitterTable:
         self._zero = np.zeros(1, np.uint32).tobytes()
         self._key: tuple | None = None
         self._key_refs: tuple = ()  # keeps the keyed slot arrays alive, so their ids stay theirs
+        self._built_for: tuple | None = None  # the world and the emission the table was built from
         self.count = 0
         self.stats = EmitterStats()
 
@@ -144,16 +146,18 @@ class EmitterTable:
         """The prefix scan's shape ("cpu" or "gpu")."""
         return self._scan.family
 
-    def update(self, scene: SceneData, world) -> None:
+    def update(self, scene: SceneData, world, rows_unchanged: bool = False) -> None:
         """Bring the table up to this frame: the list of emissive rows when the materials or
         the triangle set changed (host), every emitter's power and the CDF (GPU). ``scene``
         holds the geometry as instances (the frame's ``scene``); ``world`` is the ``GPUScene``
-        whose world-space rows the instance transform wrote."""
+        whose world-space rows the instance transform wrote. ``rows_unchanged``: the
+        transform rewrote no row since the last update (the frame's ``GeometryDelta``), so
+        with the same emission the table stands as it is and the GPU does nothing."""
         self.stats = EmitterStats()
         geometry = scene.geometry
         emissive = emissive_materials(scene.materials)
         if not emissive.any() or not isinstance(geometry, InstancedGeometry):
-            self._key, self._key_refs, self.count = None, (), 0
+            self._key, self._key_refs, self.count, self._built_for = None, (), 0, None
             return
         key = _list_key(geometry, emissive)
         if key != self._key:
@@ -162,8 +166,10 @@ class EmitterTable:
             self.count = len(rows)
             self._key, self._key_refs = key, tuple(m.slots for m in geometry.instances.meshes)
             self.stats.listed = True
-        if self.count:
+        built_for = (id(world), np.ascontiguousarray(scene.materials.emission).tobytes())
+        if self.count and not (rows_unchanged and not self.stats.listed and built_for == self._built_for):
             self._build(world)
+            self._built_for = built_for
 
     def _build(self, world) -> None:
         """The GPU's part: rows, powers, weights and their scan."""

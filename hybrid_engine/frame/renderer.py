@@ -54,6 +54,7 @@ from ..gpu.timing import PassTimer
 from ..passes.film.accumulate import AccumulatePass
 from ..passes.film.data_passes import DataPassesPass, read_data_passes
 from ..passes.cube_map.cube_map import CubeMapPass
+from ..passes.emitters.emitter_pass import EmitterTablePass
 from ..passes.frame_context import FrameContext, FramePass, check_order
 from ..passes.gbuffer.gbuffer import GBufferPass
 from ..passes.lbvh.build_pass import LBVHBuildPass
@@ -162,6 +163,7 @@ class Renderer:
         self.lbvh: LBVHBuildPass | None = None
         self.tracer: HybridTracer | None = None
         self.world_light: WorldLightRays | None = None
+        self.emitters: EmitterTablePass | None = None  # the emissive triangles as lights
         # What the last frame's cube map, cull and BVH were built for, and them
         # (render(reuse_world=True)).
         self._world_key: tuple | None = None
@@ -179,8 +181,8 @@ class Renderer:
         if traced:
             self._ensure_traced()
         ambient = self.world_light if settings.traces_sky else self.occlusion
-        plan: list[FramePass] = [self.upload, self.instance_transform, self.shadow_maps, self.lighting,
-                                 self.gbuffer]
+        plan: list[FramePass] = [self.upload, self.instance_transform, *([self.emitters] if traced else []),
+                                 self.shadow_maps, self.lighting, self.gbuffer]
         steps = MODE_STEPS[mode]
         if "cube_map_raster" in steps:
             plan.append(self.cube_map)
@@ -204,6 +206,7 @@ class Renderer:
             self.lbvh = LBVHBuildPass(LBVHBuilder(self.ctx))
             self.tracer = HybridTracer(self.ctx)
             self.world_light = WorldLightRays(self.tracer)
+            self.emitters = EmitterTablePass(self.ctx)
 
     def _checked_passes(self, settings: RenderSettings, accumulate: bool, data: bool) -> list[FramePass]:
         """``passes(settings, accumulate, data)``, their order checked once per configuration."""
@@ -358,12 +361,12 @@ class Renderer:
         """Free this renderer's GL objects (the shared context stays)."""
         self.accumulate.release()
         self.data_passes.release()
-        for owner in (self.cube_map, self.culler, self.tracer):
+        for owner in (self.cube_map, self.culler, self.tracer, self.emitters):
             if owner is not None:
                 owner.release()
         if self.lbvh is not None:
             self.lbvh.builder.release()
-        self.cube_map = self.culler = self.lbvh = self.tracer = self.world_light = None
+        self.cube_map = self.culler = self.lbvh = self.tracer = self.world_light = self.emitters = None
         self._world = {}
         self._world_key = None
         self.statistics.release()

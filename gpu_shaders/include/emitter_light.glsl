@@ -1,0 +1,115 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Emissive surfaces as lights, by next-event estimation: a diffuse gather adds, at each
+// vertex, the light of one point drawn on the scene's emissive triangles, seen through one
+// shadow ray, instead of waiting for its cosine paths to hit a small bright emitter by
+// chance (the fireflies such hits make, and the slow convergence). The table and its CDF
+// are built every frame on the GPU (hybrid_engine/passes/emitters/emitter_table.py).
+//
+// Compiled only under #define EMITTER_LIGHT, by kernels that include trace_ray.glsl first
+// (the shadow ray is a trace_ray; materials, TriangleMaterials, TriangleUVBuffer and
+// u_textures are its blocks). The host binds EmitterTable.bindings():
+//   storage blocks EmitterTriangles (Emitter[count], emitter_layout.glsl),
+//                  EmitterCdf (uint[count + 1]: the exclusive prefix of the integer weights,
+//                  the total at [count]);
+//   uniform u_emitter_count (0: no emitter; emitter_irradiance returns 0 and traces nothing).
+//
+// Emission is two-sided, as Cycles' Emission shader (and lamp_light_response, which adds a
+// surface's emission whichever side it is seen from): |cos| at the light.
+#ifdef EMITTER_LIGHT
+#ifndef HYBRID_EMITTER_LIGHT_GLSL
+#define HYBRID_EMITTER_LIGHT_GLSL
+#ifdef TRACE_SHADING_ONLY
+#error "emitter_light.glsl traces shadow rays: it needs trace_ray.glsl's tracing (no TRACE_SHADING_ONLY)"
+#endif
+#include "emitter_layout.glsl"
+
+layout(std430) readonly buffer EmitterTriangles { Emitter emitters[]; };
+layout(std430) readonly buffer EmitterCdf { uint emitter_cdf[]; };
+uniform int u_emitter_count;
+
+// Shadow rays this invocation traced toward emitters (a kernel may count them).
+uint emitter_shadow_rays = 0u;
+
+// The emitter whose CDF interval holds u in [0, 1) (binary search of the exclusive prefix:
+// the last entry not above u x total, so a zero-weight emitter is never picked) and the
+// probability of picking it (its weight over the total); -1 when nothing emits.
+int emitter_pick(float u, out float probability) {
+    probability = 0.0;
+    if (u_emitter_count <= 0) return -1;
+    uint count = uint(u_emitter_count);
+    uint total = emitter_cdf[count];
+    if (total == 0u) return -1;
+    uint target = min(uint(u * float(total)), total - 1u);
+    uint lo = 0u;
+    uint hi = count - 1u;
+    while (lo < hi) {
+        uint mid = (lo + hi + 1u) >> 1u;
+        if (emitter_cdf[mid] <= target) lo = mid; else hi = mid - 1u;
+    }
+    probability = float(emitter_cdf[lo + 1u] - emitter_cdf[lo]) / float(total);
+    return int(lo);
+}
+
+// One-sample estimate of the irradiance the emissive triangles give the surface at p (unit
+// shading normal n_facing and geometric normal g_facing, both on the side the light is
+// gathered for): an emitter picked by power (xi.x), a uniform point on it (xi.yz), its
+// emission there (the emission texture read at the point's UV), and a shadow ray from p to
+// it: L_e cos_p |cos_l| / (d^2 pdf_area), pdf_area = P(pick) / area. What lies in between
+// lets through its transmission, as occlusion_seen (trace_ray.glsl) has glass do. Not
+// divided by pi, not multiplied by albedo: an irradiance, as sky_irradiance's.
+vec3 emitter_irradiance(vec3 p, vec3 n_facing, vec3 g_facing, vec3 xi) {
+    float probability;
+    int picked = emitter_pick(xi.x, probability);
+    if (picked < 0 || !(probability > 0.0)) return vec3(0.0);
+    Emitter e = emitters[picked];
+    // Uniform on the triangle (the square-root warp of two numbers).
+    float su = sqrt(xi.y);
+    vec2 bary = vec2(su * (1.0 - xi.z), su * xi.z);
+    vec3 q = e.corner.xyz + bary.x * e.edge1.xyz + bary.y * e.edge2.xyz;
+    vec3 to_light = q - p;
+    float d2 = dot(to_light, to_light);
+    if (!(d2 > 1e-12)) return vec3(0.0);
+    float d = sqrt(d2);
+    vec3 w = to_light / d;
+    float cos_p = dot(n_facing, w);
+    // Below the shading normal, or below the true surface (light through the surface itself).
+    if (cos_p <= 0.0 || dot(g_facing, w) <= 0.0) return vec3(0.0);
+    vec3 cross_edges = cross(e.edge1.xyz, e.edge2.xyz);
+    float twice_area = length(cross_edges);
+    if (!(twice_area > 0.0)) return vec3(0.0);
+    float cos_l = abs(dot(cross_edges, w)) / twice_area;
+    if (!(cos_l > 0.0)) return vec3(0.0);
+    int tri = floatBitsToInt(e.corner.w);
+    Material m = materials[tri_materials[tri]];
+    vec2 uv = vec2(0.0);
+    if (m.textures.y >= 0) {
+        TriangleUV tuv = tri_uvs[tri];
+        uv = (1.0 - bary.x - bary.y) * tuv.uv01.xy + bary.x * tuv.uv01.zw + bary.y * tuv.uv2_scale.xy;
+    }
+    vec3 emission = max(material_emission_lod(m, uv, 0.0), vec3(0.0));
+    if (!(max(max(emission.r, emission.g), emission.b) > 0.0)) return vec3(0.0);
+    // The shadow ray runs from the offset origin to the point itself and stops short of the
+    // light's own surface (its offset, and a sliver of the distance for the traversal's
+    // rounding at grazing angles).
+    vec3 o = offset_origin(p, g_facing);
+    vec3 to_point = q - o;
+    float reach = length(to_point);
+    vec3 shadow_dir = to_point / max(reach, 1e-30);
+    reach = (reach - (RAY_OFFSET_ABSOLUTE + RAY_OFFSET_RELATIVE * max(max(abs(q.x), abs(q.y)), abs(q.z)))) * (1.0 - 1e-4);
+    float seen = 1.0;
+    if (reach > 0.0) {
+        emitter_shadow_rays += 1u;
+        Hit h = trace_ray(o, shadow_dir, -1, 1.0, reach);
+        // A cube-map march takes a hit a little behind its surface (cube_max_hit_overshoot):
+        // the light's own texel found at the end of the ray is the light, not a blocker.
+        bool itself = h.kind == HIT_CUBE
+                      && distance(h.position, q) <= cube_max_hit_overshoot() * distance(q, u_cube_center);
+        if (h.kind != HIT_SKY && !itself) seen = material_transmission(materials[h.material]);
+    }
+    if (!(seen > 0.0)) return vec3(0.0);
+    float area = 0.5 * twice_area;
+    return emission * (seen * cos_p * cos_l * area / (probability * d2));
+}
+
+#endif  // HYBRID_EMITTER_LIGHT_GLSL
+#endif  // EMITTER_LIGHT

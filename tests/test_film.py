@@ -271,3 +271,20 @@ def test_denoising_means_refuse_a_sample_that_does_not_follow_the_last(renderer)
     renderer.render(floor_scene(), camera, settings, outputs=FrameOutputs(denoising=True), sample=0)
     with pytest.raises(AccumulationError, match="denoising sample 2"):
         renderer.render(floor_scene(), camera, settings, outputs=FrameOutputs(denoising=True), sample=2)
+
+
+def test_denoising_albedo_is_the_base_colour_times_its_image_texture(renderer):
+    """A uniform image (so that filtering cannot blur it) multiplies the base colour."""
+    image = np.ones((4, 4, 4), np.float32)
+    image[..., :3] = (0.5, 0.25, 1.0)
+    table = MaterialTable.from_rows([dict(base_color=(0.8, 0.6, 0.4), base_color_texture=image)])
+    floor = quad((0, 0, 0), (3, 0, 0), (0, 3, 0))
+    scene = SceneData(Geometry.from_objects([(floor, None, 0)]), table, Lights.from_rows([]), Sky(color=SKY))
+    camera = cameras()["persp"]
+    result = renderer.render(scene, camera, RenderSettings(mode="RASTER", **SMALL), outputs=FrameOutputs(denoising=True))
+    albedo = result.data_passes["denoising_albedo"]
+    hit, _ = analytic_floor(camera)
+    inside = hit & (albedo != 0).any(axis=-1)
+    assert inside.sum() > 100
+    np.testing.assert_allclose(albedo[inside], np.broadcast_to((0.4, 0.15, 0.4), albedo[inside].shape),
+                               atol=ALBEDO_ATOL)

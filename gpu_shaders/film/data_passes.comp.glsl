@@ -48,6 +48,8 @@ uniform sampler2D u_albedo;   // rgb: base colour times its texture (gbuffer.fra
 uniform sampler2D u_surface;  // roughness, metallic of their images
 uniform mat3 u_world_to_camera;  // Cycles' camera space: Blender's with z towards the view
 uniform int u_sample;  // this sample's index among the view's: 0 starts the means over
+// 0: this frame reads no Depth or Normal back (a final render's later samples), skip them.
+uniform int u_depth_normal;
 
 // The layers' weights as shading.glsl reads them (that include brings the lamps and the
 // sky, which this pass does not bind): metal, glass, and the diffuse rest.
@@ -86,19 +88,23 @@ void main() {
     if (any(greaterThanEqual(texel, u_size))) {
         return;
     }
-    double window_depth = double(texelFetch(u_depth, texel, 0).r);
-    dvec2 ndc_xy = (dvec2(texel) + 0.5lf) / dvec2(u_size) * 2.0lf - 1.0lf;
-    dvec4 view = u_inv_projection * dvec4(ndc_xy, window_depth * 2.0lf - 1.0lf, 1.0lf);
-    double depth = -view.z / view.w;
-    float result = float(depth);
-    bool finite = !isinf(result) && !isnan(result);
-    imageStore(u_depth_pass, texel, vec4(window_depth < 1.0lf && finite ? result : u_background_depth));
-
     vec4 normal_material = texelFetch(u_normal_material, texel, 0);
     float len = length(normal_material.xyz);
     float side = sign(normal_material.w);
     vec3 unit = len > 0.0 ? normal_material.xyz / len : vec3(0.0);
-    imageStore(u_normal_pass, texel, vec4(unit * side, 0.0));
+#ifdef DENOISING
+    if (u_depth_normal != 0)
+#endif
+    {
+        double window_depth = double(texelFetch(u_depth, texel, 0).r);
+        dvec2 ndc_xy = (dvec2(texel) + 0.5lf) / dvec2(u_size) * 2.0lf - 1.0lf;
+        dvec4 view = u_inv_projection * dvec4(ndc_xy, window_depth * 2.0lf - 1.0lf, 1.0lf);
+        double depth = -view.z / view.w;
+        float result = float(depth);
+        bool finite = !isinf(result) && !isnan(result);
+        imageStore(u_depth_pass, texel, vec4(window_depth < 1.0lf && finite ? result : u_background_depth));
+        imageStore(u_normal_pass, texel, vec4(unit * side, 0.0));
+    }
 
 #ifdef DENOISING
     vec3 albedo = vec3(0.0);  // the background has neither (Cycles writes nothing there)

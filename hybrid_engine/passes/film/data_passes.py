@@ -50,6 +50,7 @@ class DenoisingInputs:
     surface: object
     scene: GPUScene
     sample: int
+    depth_normal: bool = True  # the frame reads the Depth or Normal too (else they are skipped)
 
 
 class DataPassesPass:
@@ -73,7 +74,8 @@ class DataPassesPass:
         targets = frame.read("gbuffer")
         features = None
         if frame.outputs.denoising:
-            features = DenoisingInputs(targets.albedo, targets.surface, frame.read("scene_buffers"), frame.sample)
+            features = DenoisingInputs(targets.albedo, targets.surface, frame.read("scene_buffers"), frame.sample,
+                                       depth_normal=frame.outputs.depth or frame.outputs.normal)
         frame.write("data_passes", self.compute(targets.depth, targets.normal_material, frame.camera, features))
 
     def compute(self, depth, normal_material, camera, features: DenoisingInputs | None = None) -> dict[str, object]:
@@ -104,7 +106,7 @@ class DataPassesPass:
             textures.update(u_albedo=features.albedo, u_surface=features.surface)
             to_camera = CYCLES_CAMERA_AXES @ camera.view_matrix()[:3, :3]
             uniforms.update(u_world_to_camera=np.ascontiguousarray(to_camera.T, np.float32).tobytes(),
-                            u_sample=int(features.sample))
+                            u_sample=int(features.sample), u_depth_normal=int(features.depth_normal))
         self.ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT | moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)
         bind(program, *parts, textures=textures, images=images, uniforms=uniforms)
         program.run(math.ceil(size[0] / WORKGROUP), math.ceil(size[1] / WORKGROUP), 1)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 import traceback
+from operator import attrgetter
 
 import bpy
 import numpy as np
@@ -82,19 +83,32 @@ def release_renderer() -> None:
             _renderer = None
 
 
-# The view layer's data passes this engine writes: (property of ViewLayer, Blender's pass
-# name, channels, channel ids, pass type), as register_pass and the render result name them.
+# The view layer's data passes this engine writes: (property of ViewLayer, dotted for our
+# own, that asks for it; Blender's pass name, channels, channel ids, pass type), as
+# register_pass and the render result name them. The denoising passes are named as Cycles'
+# Denoising Data names them, so a compositor setup made for Cycles finds them.
 DATA_PASSES = {
     "depth": ("use_pass_z", "Depth", 1, "Z", "VALUE"),
     "normal": ("use_pass_normal", "Normal", 3, "XYZ", "VECTOR"),
+    "denoising_albedo": ("hybrid_rt.denoising_store_passes", "Denoising Albedo", 3, "RGB", "COLOR"),
+    "denoising_normal": ("hybrid_rt.denoising_store_passes", "Denoising Normal", 3, "XYZ", "VECTOR"),
 }
 
 
+def pass_wanted(view_layer, flag: str) -> bool:
+    """Whether ``view_layer`` asks for a pass: ``flag`` is a DATA_PASSES property path."""
+    owner, _, name = flag.rpartition(".")
+    return bool(getattr(attrgetter(owner)(view_layer) if owner else view_layer, name))
+
+
 def frame_outputs(scene, view_layer) -> FrameOutputs:
-    """What the final render delivers besides the colour: the Film panel's transparency and
-    the view layer's Z and Normal passes (film.py gives their conventions)."""
-    wanted = {name: bool(getattr(view_layer, spec[0])) for name, spec in DATA_PASSES.items()}
-    return FrameOutputs(transparent=bool(scene.render.film_transparent), **wanted)
+    """What the final render delivers besides the colour: the Film panel's transparency, the
+    view layer's Z and Normal passes and our Denoising Data (film.py gives their
+    conventions)."""
+    return FrameOutputs(transparent=bool(scene.render.film_transparent),
+                        depth=pass_wanted(view_layer, DATA_PASSES["depth"][0]),
+                        normal=pass_wanted(view_layer, DATA_PASSES["normal"][0]),
+                        denoising=pass_wanted(view_layer, DATA_PASSES["denoising_albedo"][0]))
 
 
 def final_camera(scene, depsgraph) -> Camera:
@@ -227,7 +241,7 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
         node shows them as sockets)."""
         self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
         for flag, name, channels, chan_id, kind in DATA_PASSES.values():
-            if getattr(renderlayer, flag):
+            if pass_wanted(renderlayer, flag):
                 self.register_pass(scene, renderlayer, name, channels, chan_id, kind)
 
     # -- viewport (blender_adapter/viewport.py does the work) --------------------------------

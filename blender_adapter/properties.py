@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Blender properties: ``scene.hybrid_rt`` (engine settings) and ``material.hybrid_rt``.
+"""Blender properties: ``scene.hybrid_rt`` (engine settings), ``material.hybrid_rt`` and
+``view_layer.hybrid_rt`` (the passes a final render writes beside Blender's own).
 
 The scene settings are *generated* from ``hybrid_engine.scene.settings``: one Blender property
 per ``RenderSettings`` field, with the dataclass default, ``FIELD_LIMITS`` as min/max and
@@ -206,8 +207,29 @@ class HybridRTMaterialSettings(bpy.types.PropertyGroup):
     )
 
 
-_CLASSES = (HybridRTSceneSettings, HybridRTMaterialSettings)
-_POINTERS = ((bpy.types.Scene, HybridRTSceneSettings), (bpy.types.Material, HybridRTMaterialSettings))
+def _update_render_passes(_settings, context) -> None:
+    # The compositor's Render Layers node shows the passes the engine registers
+    # (engine.update_render_passes); ask it again when the passes asked for change.
+    view_layer = getattr(context, "view_layer", None)
+    if view_layer is not None:
+        view_layer.update_render_passes()
+
+
+class HybridRTViewLayerSettings(bpy.types.PropertyGroup):
+    """Per-view-layer Hybrid RT settings: passes Blender's view layer has no switch for."""
+
+    denoising_store_passes: bpy.props.BoolProperty(
+        name="Denoising Data",
+        description="Store the Denoising Albedo and Denoising Normal passes, as Cycles' Denoising Data "
+        "does, for the compositor's Denoise node",
+        default=False,
+        update=_update_render_passes,
+    )
+
+
+_CLASSES = (HybridRTSceneSettings, HybridRTMaterialSettings, HybridRTViewLayerSettings)
+_POINTERS = ((bpy.types.Scene, HybridRTSceneSettings), (bpy.types.Material, HybridRTMaterialSettings),
+             (bpy.types.ViewLayer, HybridRTViewLayerSettings))
 
 
 def settings_from_scene(scene) -> RenderSettings:

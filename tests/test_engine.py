@@ -518,3 +518,146 @@ def test_a_texture_in_each_colour_space_glows_as_in_cycles(addon, tmp_path, spac
     np.testing.assert_allclose(ours[centre].mean(axis=(0, 1)), want, rtol=0.02, err_msg=space)
     if space == "ACEScg":  # a wider gamut: Rec.709 red comes out redder than the stored 0.8
         assert want[0] > 0.8 * 1.05
+
+
+# ---------------------------------------------------------------------------------------------
+# Denoising Data: the Denoising Albedo and Normal passes, and the compositor's Denoise node on them.
+
+def test_denoising_data_passes_match_cycles_on_both_sides_of_a_plane(addon, tmp_path):
+    """Cycles' own passes are the oracle: the same names, the normal in its camera space (the
+    side the camera sees), the albedo of a diffuse surface its colour."""
+    import bpy
+
+    scene = build_film_scene(bpy)
+    layer = scene.view_layers[0]
+    layer.cycles.denoising_store_passes = True
+    layer.hybrid_rt.denoising_store_passes = True
+    scene.render.film_transparent = True
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 1
+    scene.cycles.filter_width = 0.01  # one sample at each pixel's centre, like a rasterizer
+    scene.cycles.device = "CPU"
+    cycles = render_multilayer(bpy, scene, tmp_path / "cycles.exr")
+    scene.render.engine = "HYBRID_RT"
+    ours = render_multilayer(bpy, scene, tmp_path / "ours.exr")
+    both = (ours["ViewLayer.Combined.A"] == 1) & (cycles["ViewLayer.Combined.A"] == 1)
+    assert both.sum() > 100
+    for name, channels, atol in (("Denoising Normal", "XYZ", 1e-4), ("Denoising Albedo", "RGB", 0.01)):
+        mine = np.stack([ours[f"ViewLayer.{name}.{c}"] for c in channels], axis=-1)
+        theirs = np.stack([cycles[f"ViewLayer.{name}.{c}"] for c in channels], axis=-1)
+        np.testing.assert_allclose(mine[both], theirs[both], atol=atol, err_msg=name)
+    normal_z = ours["ViewLayer.Denoising Normal.Z"][both]
+    assert (normal_z < -0.1).all(), "every normal faces the camera (Cycles' z points into the view)"
+    layer.hybrid_rt.denoising_store_passes = False
+    assert not any("Denoising" in name for name in render_multilayer(bpy, scene, tmp_path / "off.exr"))
+
+
+def test_the_denoising_data_switch_adds_and_removes_the_render_layers_nodes_sockets(addon):
+    """As Cycles' switch does: a compositor setup made before the switch is turned on sees
+    the passes at once (the property asks the engine for its passes again)."""
+    import bpy
+
+    scene = bpy.context.scene
+    scene.render.engine = "HYBRID_RT"
+    scene.compositing_node_group = tree = bpy.data.node_groups.new("Passes", "CompositorNodeTree")
+    layers = tree.nodes.new("CompositorNodeRLayers")
+
+    def shown():
+        return {socket.name for socket in layers.outputs if socket.enabled}
+
+    assert not shown() & {"Denoising Albedo", "Denoising Normal"}
+    scene.view_layers[0].hybrid_rt.denoising_store_passes = True
+    assert {"Denoising Albedo", "Denoising Normal"} <= shown()
+    scene.view_layers[0].hybrid_rt.denoising_store_passes = False
+    assert not shown() & {"Denoising Albedo", "Denoising Normal"}
+
+
+def build_glossy_scene(bpy):
+    """Three coloured cubes on a rough metal floor under a sun and a dim World, seen at an
+    angle: at one sample per pixel the floor's sampled glossy reflections are noisy."""
+    import math
+
+    def material(name, color, metallic=0.0, roughness=0.5):
+        mat = bpy.data.materials.new(name)
+        bsdf = mat.node_tree.nodes["Principled BSDF"]
+        bsdf.inputs["Base Color"].default_value = (*color, 1.0)
+        bsdf.inputs["Metallic"].default_value = metallic
+        bsdf.inputs["Roughness"].default_value = roughness
+        return mat
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=12)
+    bpy.context.object.data.materials.append(material("floor", GLOSSY_FLOOR, metallic=1.0, roughness=0.3))
+    for i, (x, y, color) in enumerate([(-1.5, 1.0, (0.9, 0.1, 0.1)), (1.5, 1.5, (0.1, 0.8, 0.2)),
+                                       (0.2, 2.5, (0.1, 0.2, 0.9))]):
+        bpy.ops.mesh.primitive_cube_add(size=1.0, location=(x, y, 0.5))
+        bpy.context.object.data.materials.append(material(f"cube{i}", color))
+    bpy.ops.object.light_add(type="SUN", location=(0, 0, 5), rotation=(0.5, 0.3, 0))
+    bpy.context.object.data.energy = 3.0
+    bpy.context.object.data.angle = math.radians(10)
+    cam_obj = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+    cam_obj.location, cam_obj.rotation_euler = (0, -6, 4), (math.radians(58), 0, 0)
+    scene.collection.objects.link(cam_obj)
+    scene.camera = cam_obj
+    scene.world = bpy.data.worlds.new("world")
+    scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.5
+    scene.render.resolution_x, scene.render.resolution_y = 64, 48
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.mode = "HYBRID"
+    return scene
+
+
+GLOSSY_FLOOR = (0.8, 0.6, 0.4)
+
+
+def denoise_in_compositor(bpy, scene):
+    """Blender 5's compositor: Render Layers -> Denoise (Image, Albedo, Normal) -> Group Output."""
+    tree = bpy.data.node_groups.new("Denoise", "CompositorNodeTree")
+    scene.compositing_node_group = tree
+    layers, denoise, output = (tree.nodes.new(kind) for kind in
+                               ("CompositorNodeRLayers", "CompositorNodeDenoise", "NodeGroupOutput"))
+    tree.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
+    tree.links.new(layers.outputs["Image"], denoise.inputs["Image"])
+    tree.links.new(layers.outputs["Denoising Albedo"], denoise.inputs["Albedo"])
+    tree.links.new(layers.outputs["Denoising Normal"], denoise.inputs["Normal"])
+    tree.links.new(denoise.outputs["Image"], output.inputs["Image"])
+
+
+def _rgb(channels, layer, name, components="RGB"):
+    return np.stack([channels[f"{layer}.{name}.{c}"] for c in components], axis=-1)
+
+
+def test_the_compositors_denoise_node_cleans_a_one_sample_render_with_our_denoising_data(addon, tmp_path):
+    import bpy
+
+    scene = build_glossy_scene(bpy)
+    scene.view_layers[0].hybrid_rt.denoising_store_passes = True
+    denoise_in_compositor(bpy, scene)  # fails here without the passes: no such sockets
+    scene.hybrid_rt.render_samples = 1
+    one = render_multilayer(bpy, scene, tmp_path / "one.exr")
+    scene.hybrid_rt.render_samples = 32
+    reference = _rgb(render_multilayer(bpy, scene, tmp_path / "many.exr"), "ViewLayer", "Combined")
+
+    # The guides: the floor's colour and its face normal at the centre pixel, which sees the
+    # floor at the origin.
+    albedo = _rgb(one, "ViewLayer", "Denoising Albedo")
+    normal = _rgb(one, "ViewLayer", "Denoising Normal", "XYZ")
+    np.testing.assert_allclose(albedo[24, 32], GLOSSY_FLOOR, atol=2e-3)
+    camera_axes = np.array(scene.camera.matrix_world.to_3x3())
+    np.testing.assert_allclose(normal[24, 32], np.diag([1, 1, -1]) @ camera_axes.T @ (0, 0, 1), atol=1e-5)
+
+    noisy, denoised = _rgb(one, "ViewLayer", "Combined"), _rgb(one, "Composite", "Combined")
+
+    def rmse(a, b):
+        return float(np.sqrt(np.mean((a - b) ** 2)))
+
+    def local_variance(image):
+        windows = np.lib.stride_tricks.sliding_window_view(image, (3, 3), axis=(0, 1))
+        return float(windows.var(axis=(-2, -1)).mean())
+
+    assert rmse(noisy, denoised) > 0.01, "the Denoise node changed the render"
+    assert rmse(denoised, reference) < 0.7 * rmse(noisy, reference), "denoised is nearer the converged render"
+    assert local_variance(denoised) < 0.8 * local_variance(noisy)

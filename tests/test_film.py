@@ -150,3 +150,141 @@ def test_region_camera_renders_exactly_the_regions_pixels_of_the_whole_frame(ren
     np.testing.assert_allclose(part.image, whole.image[y0:y1, x0:x1], rtol=1e-4, atol=1e-5)
     np.testing.assert_allclose(part.data_passes["depth"], whole.data_passes["depth"][y0:y1, x0:x1], rtol=DEPTH_RTOL)
     assert region_camera(camera, (0, 0, camera.width, camera.height)) is camera
+
+
+# ---------------------------------------------------------------------------------------------
+# The Denoising Albedo and Normal (Cycles' Denoising Data passes, the Denoise node's guides).
+
+# Patches lying on the diffuse floor, z = PATCH_Z, each (x centre, material row, its expected
+# Denoising Albedo): Cycles' rule splits closures at GGX alpha 0.075 (roughness 0.274) and
+# writes a surface's diffuse-like albedo when more than a quarter of it is diffuse-like, its
+# specular tint otherwise (gpu_shaders/film/data_passes.comp.glsl).
+PATCH_Z = 0.01
+FLOOR_COLOR = (0.8, 0.5, 0.2)
+PATCHES = (
+    (-2.0, dict(base_color=(0.9, 0.7, 0.6), reflectivity=1.0, roughness=0.0), (0.9, 0.7, 0.6)),  # mirror: tint
+    (-1.0, dict(base_color=(0.3, 0.6, 0.9), reflectivity=1.0, roughness=0.6), (0.3, 0.6, 0.9)),  # rough metal
+    (0.0, dict(base_color=(0.2, 0.9, 0.4), reflectivity=0.5, roughness=0.1), (0.1, 0.45, 0.2)),  # half smooth metal
+    (1.0, dict(base_color=(0.95, 0.9, 1.0), transmission=1.0, roughness=0.0, ior=1.5), (0.95, 0.9, 1.0)),  # glass
+    (2.0, dict(base_color=(0.9, 0.7, 0.6), reflectivity=0.8, roughness=0.2), (0.72, 0.56, 0.48)),  # smooth metal
+)
+PATCH_HALF = 0.4
+# The G-buffer stores the albedo in half floats.
+ALBEDO_ATOL = 2e-3
+
+
+def patches_scene() -> SceneData:
+    rows = [dict(base_color=FLOOR_COLOR, roughness=0.5)] + [row for _, row, _ in PATCHES]
+    objects = [(quad((0, 0, 0), (3, 0, 0), (0, 3, 0)), None, 0)]
+    objects += [(quad((x, 0.0, PATCH_Z), (PATCH_HALF, 0, 0), (0, PATCH_HALF, 0)), None, i + 1)
+                for i, (x, _, _) in enumerate(PATCHES)]
+    return SceneData(Geometry.from_objects(objects), MaterialTable.from_rows(rows),
+                     Lights.from_rows([dict(kind="SUN", direction=(0.2, 0.3, -1), color=(2, 2, 2))]), Sky(color=SKY))
+
+
+def cycles_camera_normal(camera: Camera, world_normal) -> np.ndarray:
+    """A world direction in Cycles' camera space: Blender's camera axes with z into the view."""
+    return np.diag([1.0, 1.0, -1.0]) @ camera.rotation.T @ np.asarray(world_normal, np.float64)
+
+
+def expected_albedo(camera: Camera, margin: float = 0.03) -> tuple[np.ndarray, np.ndarray]:
+    """(pixels safely inside one surface, the Denoising Albedo there) from the pixel rays: a
+    patch where a ray meets z = PATCH_Z inside it, else the floor, else nothing."""
+    origins, dirs = camera.pixel_rays()
+    albedo = np.zeros(origins.shape, np.float64)
+    known = np.zeros(origins.shape[:2], bool)
+    hit_floor, _ = analytic_floor(camera)
+    t = ray_plane_z(origins.reshape(-1, 3) - (0, 0, PATCH_Z), dirs.reshape(-1, 3)).reshape(origins.shape[:2])
+    p = origins + dirs * np.where(np.isfinite(t), t, 0.0)[..., None]
+    near_edge = np.zeros_like(known)
+    on_patch = np.zeros_like(known)
+    for x, _, colour in PATCHES:
+        dx, dy = np.abs(p[..., 0] - x), np.abs(p[..., 1])
+        inside = (dx <= PATCH_HALF - margin) & (dy <= PATCH_HALF - margin)
+        near_edge |= (dx <= PATCH_HALF + margin) & (dy <= PATCH_HALF + margin) & ~inside
+        albedo[inside] = colour
+        on_patch |= inside
+    inner_floor = hit_floor & (np.abs(p[..., 0]) < 3 - margin) & (np.abs(p[..., 1]) < 3 - margin)
+    albedo[inner_floor & ~on_patch & ~near_edge] = FLOOR_COLOR
+    known = (on_patch | (inner_floor & ~near_edge)) | (~hit_floor & ~near_edge & ~(np.abs(p[..., :2]) < 3 + margin).all(-1))
+    return known, albedo
+
+
+def test_denoising_albedo_is_the_diffuse_colour_or_a_specular_surfaces_tint_and_the_normal_is_in_cycles_camera_space(
+        renderer):
+    camera = Camera(matrix_world=look_at((0.0, -4.5, 3.5), (0.0, 0.3, 0.0)), width=64, height=48, lens=30.0)
+    result = renderer.render(patches_scene(), camera, RenderSettings(mode="RASTER", **SMALL),
+                             outputs=FrameOutputs(denoising=True))
+    albedo, normal = result.data_passes["denoising_albedo"], result.data_passes["denoising_normal"]
+    assert albedo.shape == normal.shape == (48, 64, 3) and albedo.dtype == np.float32
+    known, expected = expected_albedo(camera)
+    assert known.sum() > 0.8 * known.size
+    np.testing.assert_allclose(albedo[known], expected[known], atol=ALBEDO_ATOL)
+    for x, _, colour in PATCHES:  # every patch is in view
+        assert (np.abs(albedo[known] - colour).max(axis=-1) < ALBEDO_ATOL).sum() > 20, colour
+    surface = known & (expected != 0).any(axis=-1)
+    np.testing.assert_allclose(normal[surface], np.broadcast_to(cycles_camera_normal(camera, (0, 0, 1)),
+                                                                normal[surface].shape), atol=1e-5)
+    assert (normal[~(expected != 0).any(axis=-1) & known] == 0).all(), "nothing on the background"
+    assert (albedo[~(expected != 0).any(axis=-1) & known] == 0).all()
+
+
+def test_denoising_normal_faces_the_camera_seeing_a_back_side(renderer):
+    camera = cameras()["below"]
+    result = renderer.render(floor_scene(), camera, RenderSettings(mode="RASTER", **SMALL),
+                             outputs=FrameOutputs(denoising=True))
+    normal = result.data_passes["denoising_normal"]
+    hit, _ = analytic_floor(camera)
+    inside = hit & (normal != 0).any(axis=-1)
+    assert inside.sum() > 100
+    toward = cycles_camera_normal(camera, (0, 0, -1))
+    assert toward[2] < 0, "a normal facing the camera points against Cycles' view axis"
+    np.testing.assert_allclose(normal[inside], np.broadcast_to(toward, normal[inside].shape), atol=1e-5)
+
+
+def test_denoising_passes_are_the_mean_over_a_final_renders_samples_like_its_colour(renderer):
+    """Edge pixels: the floor covers a fraction of each (the transparent film's alpha, the
+    mean of the samples' coverage), and the guides are that fraction of the surface's."""
+    from hybrid_engine.frame.antialias import render_antialiased
+
+    camera = cameras()["persp"]
+    outputs = FrameOutputs(transparent=True, depth=True, denoising=True)
+    result = render_antialiased(renderer, floor_scene(), camera, RenderSettings(mode="RASTER", **SMALL), 8,
+                                outputs=outputs)
+    alpha = result.image[..., 3]
+    partial = (alpha > 0.05) & (alpha < 0.95)
+    assert partial.sum() >= 10, "the view has edge pixels"
+    np.testing.assert_allclose(result.data_passes["denoising_albedo"],
+                               np.repeat(alpha[..., None] * np.float32(0.8), 3, axis=-1), atol=ALBEDO_ATOL)
+    np.testing.assert_allclose(result.data_passes["denoising_normal"],
+                               alpha[..., None] * cycles_camera_normal(camera, (0, 0, 1)), atol=1e-5)
+    # The Depth stays the first sample's, at the pixels' centres.
+    single = renderer.render(floor_scene(), camera, RenderSettings(mode="RASTER", **SMALL),
+                             outputs=FrameOutputs(depth=True))
+    np.testing.assert_array_equal(result.data_passes["depth"], single.data_passes["depth"])
+
+
+def test_denoising_means_refuse_a_sample_that_does_not_follow_the_last(renderer):
+    from hybrid_engine.passes.film.accumulate import AccumulationError
+
+    camera, settings = cameras()["persp"], RenderSettings(mode="RASTER", **SMALL)
+    renderer.render(floor_scene(), camera, settings, outputs=FrameOutputs(denoising=True), sample=0)
+    with pytest.raises(AccumulationError, match="denoising sample 2"):
+        renderer.render(floor_scene(), camera, settings, outputs=FrameOutputs(denoising=True), sample=2)
+
+
+def test_denoising_albedo_is_the_base_colour_times_its_image_texture(renderer):
+    """A uniform image (so that filtering cannot blur it) multiplies the base colour."""
+    image = np.ones((4, 4, 4), np.float32)
+    image[..., :3] = (0.5, 0.25, 1.0)
+    table = MaterialTable.from_rows([dict(base_color=(0.8, 0.6, 0.4), base_color_texture=image)])
+    floor = quad((0, 0, 0), (3, 0, 0), (0, 3, 0))
+    scene = SceneData(Geometry.from_objects([(floor, None, 0)]), table, Lights.from_rows([]), Sky(color=SKY))
+    camera = cameras()["persp"]
+    result = renderer.render(scene, camera, RenderSettings(mode="RASTER", **SMALL), outputs=FrameOutputs(denoising=True))
+    albedo = result.data_passes["denoising_albedo"]
+    hit, _ = analytic_floor(camera)
+    inside = hit & (albedo != 0).any(axis=-1)
+    assert inside.sum() > 100
+    np.testing.assert_allclose(albedo[inside], np.broadcast_to((0.4, 0.15, 0.4), albedo[inside].shape),
+                               atol=ALBEDO_ATOL)

@@ -81,6 +81,7 @@ def test_properties_survive_saving_and_reloading_the_blend(addon, tmp_path):
     material = bpy.data.materials.new("Thick")
     material.use_fake_user = True
     material.hybrid_rt.thickness = 0.875
+    scene.view_layers[0].hybrid_rt.denoising_store_passes = True
     path = tmp_path / "settings.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -91,6 +92,7 @@ def test_properties_survive_saving_and_reloading_the_blend(addon, tmp_path):
     assert scene.hybrid_rt.near_size == pytest.approx(3.25)
     assert scene.hybrid_rt.cube_resolution == 128
     assert bpy.data.materials["Thick"].hybrid_rt.thickness == pytest.approx(0.875)
+    assert scene.view_layers[0].hybrid_rt.denoising_store_passes
 
 
 def test_repeated_register_unregister_leaves_nothing_behind(addon):
@@ -101,6 +103,7 @@ def test_repeated_register_unregister_leaves_nothing_behind(addon):
         addon.unregister()
         assert not hasattr(bpy.types.Scene, "hybrid_rt")
         assert not hasattr(bpy.types.Material, "hybrid_rt")
+        assert not hasattr(bpy.types.ViewLayer, "hybrid_rt")
         assert not addon.blender_adapter.properties.HybridRTSceneSettings.is_registered
         assert not addon.blender_adapter.properties.HybridRTMaterialSettings.is_registered
         assert not panels.RENDER_PT_hybrid_rt_sampling.is_registered
@@ -268,7 +271,7 @@ def test_film_and_passes_panels_draw_the_properties_the_final_render_reads(addon
         panel.draw(FakePanel(), FakeContext)
     engine = addon.blender_adapter.engine
     assert "film_transparent" in drawn
-    assert {flag for flag, *_ in engine.DATA_PASSES.values()} <= set(drawn)
+    assert {flag.rpartition(".")[2] for flag, *_ in engine.DATA_PASSES.values()} <= set(drawn)
 
 
 @pytest.mark.parametrize("kind", ["POINT", "SPOT", "SUN", "AREA"])

@@ -222,6 +222,8 @@ class VIEWLAYER_PT_hybrid_rt_passes(HybridRTPanel, bpy.types.Panel):
         col.prop(view_layer, "use_pass_combined")
         col.prop(view_layer, "use_pass_z")
         col.prop(view_layer, "use_pass_normal")
+        # Cycles' switch of the same name: the Denoise node's Albedo and Normal guides.
+        col.prop(view_layer.hybrid_rt, "denoising_store_passes")
 
 
 class MATERIAL_PT_hybrid_rt(HybridRTPanel, bpy.types.Panel):

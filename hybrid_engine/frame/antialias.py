@@ -14,7 +14,9 @@ The samples see the scene from the same point, so the cube map and the near-cube
 the first are kept for the others (``Renderer.render(reuse_world=True)``); each further
 sample costs a primary raster, the shading and the trace. The Depth and Normal passes are
 taken from the first sample, which lies at the pixels' centres (data passes are not
-averaged: the mean of two depths is a depth nothing lies at).
+averaged: the mean of two depths is a depth nothing lies at). The Denoising Albedo and
+Normal are the exception, averaged over all samples as Cycles does: a denoiser compares them
+with the colour, and an edge pixel's colour is a mix of both sides.
 """
 from __future__ import annotations
 
@@ -55,7 +57,8 @@ def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, set
 
     The result's ``passes`` sum each pass over the samples (the kept cube map and BVH are
     timed once), ``total_ms`` is the whole render, ``counts`` are the first sample's with
-    ``samples`` added, and ``data_passes`` are the first sample's. Each sample draws its own
+    ``samples`` added, and ``data_passes`` are the first sample's (the denoising passes: the
+mean of all, read with the last sample's image). Each sample draws its own
     directions in the glossy lobes and the ambient occlusion (``Renderer.render``'s
     ``sample``), so the average converges there too. Raises RenderCancelled between samples
     as between passes. Never an image whose wave queues overflowed: the samples are rendered
@@ -85,13 +88,15 @@ def _render_samples(renderer: Renderer, scene: SceneData, camera: Camera, settin
                     samples: int, outputs: FrameOutputs | None, timing: bool, cancel: CancelCallback | None,
                     progress: ProgressCallback | None, filter_width: float) -> FrameResult:
     outputs = outputs or FrameOutputs()
-    # Only the first sample reads the data passes back.
-    later_outputs = FrameOutputs(transparent=outputs.transparent)
+    # Only the first sample reads the Depth and Normal back; every sample adds to the
+    # denoising means, which the last reads with the image.
+    later_outputs = FrameOutputs(transparent=outputs.transparent, denoising=outputs.denoising)
     first: FrameResult | None = None
     passes: dict[str, float] = {}
     total_ms = 0.0
     schedule = SampleSchedule(filter_width)
     image = None
+    data: dict[str, np.ndarray] = {}
     while schedule.wants("frame", samples):
         index = schedule.count
         dx, dy = schedule.offset()
@@ -103,6 +108,7 @@ def _render_samples(renderer: Renderer, scene: SceneData, camera: Camera, settin
             outputs=outputs if index == 0 else later_outputs, reuse_world=index > 0, sample=index,
             accumulate=True, read_image=last)
         first = first or result
+        data.update(result.data_passes)
         image = result.image if last else None
         schedule.advance()
         for name, ms in result.passes.items():
@@ -110,7 +116,7 @@ def _render_samples(renderer: Renderer, scene: SceneData, camera: Camera, settin
         total_ms += result.total_ms
     counts = {**first.counts, "samples": int(samples)}
     return FrameResult(image=image, passes=passes, counts=counts, timing_source=first.timing_source,
-                       total_ms=total_ms, mode=first.mode, data_passes=first.data_passes,
+                       total_ms=total_ms, mode=first.mode, data_passes=data,
                        near_size=first.near_size, diagnostic=first.diagnostic, legend=first.legend)
 
 

@@ -14,11 +14,17 @@ the same way (tests/test_engine.py compares both engines in one process):
   in scene units, and ``BACKGROUND_DEPTH`` where nothing was hit;
 * Normal: the world-space shading normal turned towards the camera (a surface seen from its
   back side reports the back side's normal), 0 where nothing was hit;
+* Denoising Albedo and Denoising Normal (Cycles' *Denoising Data* passes, which the
+  compositor's Denoise node reads beside the noisy image): the albedo of the surface's
+  diffuse-like closures, or a specular-dominant surface's tint, and the shading normal on
+  the viewer's side in Cycles' camera space (x right, y up, z into the view), both 0 on the
+  background and both the mean over the render's samples, as the colour is
+  (gpu_shaders/film/data_passes.comp.glsl gives the rules);
 * render region: Blender's render pipeline asks for the pixels ``views.border_pixels`` gives
   (its ``disprect``: fractions times the resolution, truncated), and places them in the
   full frame itself unless the render is cropped to the region.
 
-The Depth and Normal passes are made on the GPU from the primary G-buffer by the frame's
+The data passes are made on the GPU from the primary G-buffer by the frame's
 ``data_passes`` pass (passes/film/data_passes.py), and only in frames that ask for them.
 """
 from __future__ import annotations
@@ -26,6 +32,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..passes.film.data_passes import BACKGROUND_DEPTH as DATA_PASS_BACKGROUND_DEPTH
+from ..passes.film.data_passes import DENOISING, DEPTH_NORMAL
 
 # Cycles' Depth of a pixel that hit nothing (kernel film: "no hit" leaves the 1e10 it
 # starts the pass with); compositing setups test for it.
@@ -43,8 +50,23 @@ class FrameOutputs:
     ``transparent``: background pixels get alpha 0 (Blender's ``render.film_transparent``).
     ``depth`` / ``normal``: fill ``FrameResult.data_passes["depth"]`` ((H, W) float32) and
     ``["normal"]`` ((H, W, 3) float32), as the view layer's Z and Normal passes.
+    ``denoising``: fill ``["denoising_albedo"]`` and ``["denoising_normal"]`` ((H, W, 3)
+    float32), the means over the view's samples: every sample of the view must ask for them,
+    and the frame that reads its image reads them.
     """
 
     transparent: bool = False
     depth: bool = False
     normal: bool = False
+    denoising: bool = False
+
+    @property
+    def wants_data(self) -> bool:
+        """Whether the frame runs the ``data_passes`` pass."""
+        return self.depth or self.normal or self.denoising
+
+    def data_names(self, reads_image: bool) -> tuple[str, ...]:
+        """The data passes a frame reads back: those asked for, the denoising means only in a
+        frame that reads its image (the last of a final render's samples)."""
+        names = tuple(name for name in DEPTH_NORMAL if getattr(self, name))
+        return names + (DENOISING if self.denoising and reads_image else ())

@@ -119,7 +119,7 @@ class FrameResult:
     milliseconds (empty when timing is off); ``counts`` holds triangle and ray counts, the
     GPU's read back on first access (a ``LazyCounts``: a caller that never looks reads
     nothing); ``timing_source`` says how time was measured. ``data_passes`` holds the data passes the
-    frame was asked for (film.FrameOutputs: "depth" (H, W), "normal" (H, W, 3)), same rows.
+    frame was asked for (film.FrameOutputs: "depth" (H, W), the others (H, W, 3)), same rows.
     """
 
     image: np.ndarray
@@ -270,9 +270,9 @@ class Renderer:
         hold only what the host knows."""
         settings = settings or RenderSettings()
         outputs = outputs or FrameOutputs()
-        steps = frame_steps(settings.mode, accumulate, outputs.depth or outputs.normal)
+        steps = frame_steps(settings.mode, accumulate, outputs.wants_data)
         traced = settings.mode != "RASTER"
-        data = outputs.depth or outputs.normal
+        data = outputs.wants_data
         plan = self._checked_passes(settings, accumulate, data)
         timer = PassTimer(self.ctx, enabled=timing)
         start = time.perf_counter()
@@ -329,7 +329,7 @@ class Renderer:
         elif read_image:
             image = np.empty((texture.height, texture.width, 4), np.float32)
             texture.read_into(image)
-        names = tuple(name for name in ("depth", "normal") if getattr(frame.outputs, name))
+        names = frame.outputs.data_names(reads_image=read_image or readback is not None)
         data = read_data_passes(frame.resource("data_passes"), names) if names else {}
         counts = dict(frame.counts)
         diagnostic = self.tracer.read_diagnostic(frame.view) if is_diagnostic(settings) else None

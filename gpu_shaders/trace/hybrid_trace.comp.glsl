@@ -28,7 +28,11 @@
 //   * a hit is shaded like the deferred pass (shading.glsl shade_surface: the lamps with
 //     shadow maps, the World's irradiance, lamp highlights, too-rough reflections as the
 //     prefiltered sky); its reflected and refracted directions come from the GGX lobe,
-//     drawn per sample (random.glsl, u_sample) and exact when the roughness is 0;
+//     drawn per sample (random.glsl, u_sample) and exact when the roughness is 0; the
+//     World's irradiance at the first bounce's hits is hidden by one occlusion ray within
+//     AO Distance (near BVH hits), or with the host define DIFFUSE_GATHER (World Light
+//     Rays) gathered by one cosine ray of unlimited reach, BVH and cube-map hits alike
+//     (trace_ray.glsl shade_hit, gather_light);
 //   * a ray that would pass max_depth is not traced: it takes the sky in its direction, so
 //     glass and mirrors at the depth limit show the environment, not black
 //     (tests/whitted_reference.py does the same).

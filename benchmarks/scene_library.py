@@ -899,7 +899,7 @@ def _build_sponza(scene, assets: Path, detail: float, frame_count: int) -> None:
     # The atrium sees its sky through the roof opening: its walls and arcades hide most of
     # it at distances the screen's occlusion does not reach, so the sky (and the light the
     # sunlit floor bounces) is found by rays.
-    _settings(scene, near_size=SPONZA_NEAR_SIZE, cube_far=SPONZA_CUBE_FAR, sky_rays=True)
+    _settings(scene, near_size=SPONZA_NEAR_SIZE, cube_far=SPONZA_CUBE_FAR, world_light="RAYS")
     total = _mesh_triangle_count(sponza_meshes) + _mesh_triangle_count(models.values())
     scene["hybrid_rt_label"] = (f"Sponza + Buddha (decimated, 100k) + bunny + dragon: {total:,} triangles "
                                 f"(paper: Sponza Buddha Bunny, {PAPER_SPONZA_TRIANGLES:,})")
@@ -995,7 +995,7 @@ def _build_room(scene, assets: Path | None, detail: float, frame_count: int) -> 
     _add_camera(scene, collection, "Camera", matrices, frames, lens=30.0, clip_start=0.1, clip_end=100.0)
     # Light bounces between the floor, the walls and the boxes: gathered by the sky rays,
     # whose noise 16 samples of a final render smooth (the room is small: about a second each).
-    _settings(scene, near_size=ROOM_NEAR_SIZE, cube_far=100.0, sky_rays=True, render_samples=16)
+    _settings(scene, near_size=ROOM_NEAR_SIZE, cube_far=100.0, world_light="RAYS", render_samples=16)
     scene["hybrid_rt_label"] = "sky-lit room: mirror, glass and brushed-metal balls on a glossy floor"
     scene.name = "room: sky-lit room"
 

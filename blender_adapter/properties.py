@@ -21,7 +21,8 @@ import numpy as np
 from ..hybrid_engine.scene.materials import DEFAULT_THICKNESS
 from ..hybrid_engine.scene.settings import (CUBE_MARCH_DOCS, CUBE_MARCH_LABELS, CUBE_MARCHES, FIELD_DOCS, FIELD_LIMITS,
                                       MODE_DOCS, MODE_LABELS, MODES, NEAR_CUBE_MODE_DOCS, NEAR_CUBE_MODE_LABELS,
-                                      NEAR_CUBE_MODES, RenderSettings, SettingsError)
+                                      NEAR_CUBE_MODES, WORLD_LIGHT_DOCS, WORLD_LIGHT_LABELS, WORLD_LIGHTS,
+                                      RenderSettings, SettingsError)
 
 # Blender display details the core does not know about (units and sliders).
 _FLOAT_SUBTYPES = {
@@ -50,7 +51,9 @@ LABELS = {
     "render_samples": "Render Samples",
     "viewport_samples": "Viewport Samples",
     "ao_distance": "AO Distance",
-    "sky_rays": "World Light Rays",
+    "world_light": "World Light",
+    "diffuse_bounces": "Diffuse Bounces",
+    "diffuse_rays": "Diffuse Rays",
     "near_cube_mode": "Near Cube",
     "frame_budget_ms": "Frame Budget",
     "near_min": "Min Size",
@@ -76,6 +79,8 @@ SOFT_LIMITS = {
     "frame_budget_ms": (5.0, 2000.0),
     "near_min": (0.1, 100.0),
     "near_max": (0.1, 100.0),
+    "diffuse_bounces": (0, 4),
+    "diffuse_rays": (1, 8),
 }
 # cube_far is kept past near_size by this factor when either is edited.
 _CUBE_FAR_MARGIN = 1.01
@@ -105,7 +110,8 @@ def _pushing(edited: str, other: str, *, above: bool, margin: float = 1.0):
 
 # String fields of RenderSettings: their allowed values and each value's tooltip.
 _ENUMS = {"mode": (MODES, MODE_LABELS, MODE_DOCS), "cube_march": (CUBE_MARCHES, CUBE_MARCH_LABELS, CUBE_MARCH_DOCS),
-          "near_cube_mode": (NEAR_CUBE_MODES, NEAR_CUBE_MODE_LABELS, NEAR_CUBE_MODE_DOCS)}
+          "near_cube_mode": (NEAR_CUBE_MODES, NEAR_CUBE_MODE_LABELS, NEAR_CUBE_MODE_DOCS),
+          "world_light": (WORLD_LIGHTS, WORLD_LIGHT_LABELS, WORLD_LIGHT_DOCS)}
 
 _UPDATES = {
     "n_min": _pushing("n_min", "n_max", above=False),

@@ -53,7 +53,9 @@ def test_the_hybrid_table_is_every_pass_in_order_with_its_declarations(passes_of
     ("FULL_BVH (no", RenderSettings(mode="FULL_BVH"), "LBVHBuildPass"),
     ("FULL_BVH", RenderSettings(mode="FULL_BVH"), "HybridTracer"),
     ("PROVENANCE", RenderSettings(mode="PROVENANCE"), "HybridTracer"),
-    ("*World Light Rays*", RenderSettings(mode="HYBRID", sky_rays=True), "WorldLightRays"),
+    ("FULL_BVH", RenderSettings(mode="FULL_BVH"), "DiffuseLightPass"),
+    ("PROVENANCE and RASTER", RenderSettings(mode="HYBRID", world_light="SCREEN"), "ScreenSpaceOcclusion"),
+    ("PROVENANCE and RASTER", RenderSettings(mode="RASTER"), "ScreenSpaceOcclusion"),
     ("Depth, Normal or Denoising", RenderSettings(mode="HYBRID"), "DataPassesPass"),
 ])
 def test_the_variants_table_gives_each_changed_declaration(passes_of, label, settings, cls):

@@ -297,8 +297,10 @@ def test_render_region_renders_the_regions_pixels_of_the_whole_frame(addon, tmp_
 
     scene = build_film_scene(bpy, size=(37, 23))
     scene.render.engine = "HYBRID_RT"
-    # Ambient occlusion is screen-space: in a region it sees only the region's depths.
+    # Ambient occlusion is screen-space, and the traced diffuse light is smoothed over
+    # neighbouring pixels: in a region both see only the region's pixels.
     scene.hybrid_rt.ao_distance = 0.0
+    scene.hybrid_rt.world_light = "SCREEN"
     whole = render_exr(bpy, scene, tmp_path / "whole.exr")
     render = scene.render
     render.use_border, render.use_crop_to_border = True, crop

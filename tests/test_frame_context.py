@@ -66,9 +66,9 @@ def test_a_running_pass_may_touch_only_what_it_declared():
 
 
 @pytest.mark.parametrize("mode", MODES)
-@pytest.mark.parametrize("sky_rays", [False, True])
-def test_every_modes_passes_are_in_an_order_the_check_accepts_and_match_the_timing_rows(gl, mode, sky_rays):
-    settings = RenderSettings(mode=mode, sky_rays=sky_rays)
+@pytest.mark.parametrize("world_light", ["RAYS", "SCREEN"])
+def test_every_modes_passes_are_in_an_order_the_check_accepts_and_match_the_timing_rows(gl, mode, world_light):
+    settings = RenderSettings(mode=mode, world_light=world_light)
     renderer = Renderer(gl)
     try:
         passes = renderer.passes(settings)

@@ -8,7 +8,7 @@ from dataclasses import asdict, fields
 import bpy
 import pytest
 
-from hybrid_engine.scene.settings import CUBE_MARCHES, FIELD_LIMITS, MODES, RenderSettings
+from hybrid_engine.scene.settings import CUBE_MARCHES, FIELD_LIMITS, MODES, WORLD_LIGHTS, RenderSettings
 
 FLOAT32_TOLERANCE = 1e-6  # Blender stores float properties as float32
 
@@ -42,6 +42,7 @@ def test_every_render_setting_is_stored_with_its_type_and_clamped_to_the_cores_l
     assert asdict(addon.blender_adapter.properties.settings_from_scene(bpy.context.scene)) == asdict(defaults)
     assert [item.identifier for item in _rna(group, "mode").enum_items] == list(MODES)
     assert [item.identifier for item in _rna(group, "cube_march").enum_items] == list(CUBE_MARCHES)
+    assert [item.identifier for item in _rna(group, "world_light").enum_items] == list(WORLD_LIGHTS)
 
 
 def test_settings_from_scene_returns_the_stored_values(addon):
@@ -93,6 +94,20 @@ def test_properties_survive_saving_and_reloading_the_blend(addon, tmp_path):
     assert scene.hybrid_rt.cube_resolution == 128
     assert bpy.data.materials["Thick"].hybrid_rt.thickness == pytest.approx(0.875)
     assert scene.view_layers[0].hybrid_rt.denoising_store_passes
+
+
+def test_a_blend_saved_with_the_retired_world_light_rays_switch_loads_with_traced_diffuse_light(addon, tmp_path):
+    """Files saved before World Light became a choice hold a ``sky_rays`` value the add-on no
+    longer registers: they open, and render with the traced diffuse light (the default)."""
+    scene = bpy.context.scene
+    scene.hybrid_rt["sky_rays"] = True  # as an older add-on stored it
+    scene.hybrid_rt.diffuse_bounces = 2
+    path = tmp_path / "old.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    settings = addon.blender_adapter.properties.settings_from_scene(bpy.context.scene)
+    assert (settings.world_light, settings.diffuse_bounces, settings.traces_diffuse) == ("RAYS", 2, True)
 
 
 def test_repeated_register_unregister_leaves_nothing_behind(addon):

@@ -27,7 +27,7 @@ def renderer(gl):
 
 def render(renderer, scene, camera, samples=1, **kw):
     settings = RenderSettings(mode="FULL_BVH", cube_resolution=64, shadow_resolution=256, ao_distance=0.0,
-                              **kw)
+                              **{"world_light": "SCREEN", **kw})
     images = [renderer.render(scene, camera, settings, timing=False, sample=i).image[..., :3]
               for i in range(samples)]
     return np.mean(images, axis=0)
@@ -88,7 +88,7 @@ def test_glass_at_the_depth_limit_shows_the_environment_not_black(renderer):
 
 
 @pytest.mark.parametrize("mode", ["FULL_BVH", "HYBRID"])
-def test_sky_rays_darken_a_floor_under_a_distant_roof_that_screen_space_occlusion_misses(renderer, mode):
+def test_world_light_rays_darken_a_floor_under_a_distant_roof_that_screen_space_occlusion_misses(renderer, mode):
     # A floor under a black roof 6 m up (its underside out of view, beyond the occlusion's
     # reach, reflecting nothing), lit by a white World only: rays through the BVH (and, in
     # HYBRID, the cube map, which holds the roof beyond the near cube) find the roof; the
@@ -101,14 +101,14 @@ def test_sky_rays_darken_a_floor_under_a_distant_roof_that_screen_space_occlusio
     images = {}
     for rays in (False, True):
         settings = RenderSettings(mode=mode, near_size=3.0, cube_resolution=128, shadow_resolution=256,
-                                  sky_rays=rays)
+                                  world_light="RAYS" if rays else "SCREEN")
         images[rays] = np.mean([renderer.render(scene, camera, settings, timing=False, sample=i).image[..., :3]
                                 for i in range(4)], axis=0)
     assert images[False][floor].mean() > 0.7  # the screen sees no roof: the whole sky (0.8)
     assert images[True][floor].mean() < 0.25 * images[False][floor].mean()
 
 
-def test_sky_rays_bring_the_light_of_the_surfaces_they_meet(renderer):
+def test_world_light_rays_bring_the_light_of_the_surfaces_they_meet(renderer):
     # A white floor beside a red wall lit by a sun, no sky: without rays the floor gets only
     # the sun; with them, also the wall's red light (one bounce), as in a path tracer.
     objects = [(quad((0, 0, 0), (10, 0, 0), (0, 10, 0)), None, 0), (quad((0, 2, 2), (10, 0, 0), (0, 0, 2)), None, 1)]
@@ -120,7 +120,7 @@ def test_sky_rays_bring_the_light_of_the_surfaces_they_meet(renderer):
     floor = (slice(0, H // 4), slice(W // 4, 3 * W // 4))
     images = {}
     for rays in (False, True):
-        settings = RenderSettings(mode="FULL_BVH", shadow_resolution=256, sky_rays=rays)
+        settings = RenderSettings(mode="FULL_BVH", shadow_resolution=256, world_light="RAYS" if rays else "SCREEN")
         images[rays] = np.mean([renderer.render(scene, camera, settings, timing=False, sample=i).image[..., :3]
                                 for i in range(4)], axis=0)
     plain, bounced = images[False][floor].mean(axis=(0, 1)), images[True][floor].mean(axis=(0, 1))

@@ -561,7 +561,8 @@ def test_a_normal_map_tilts_the_lit_normal_of_primary_pixels_and_of_reflections(
     blended = (1 - strength) * np.array([0.0, 0.0, 1.0]) + strength * mapped
     expected = 0.8 / np.pi * 3.0 * (blended / np.linalg.norm(blended))[2]
     camera = Camera(matrix_world=look_at((0, -6, 2.5), (0, 1, 0.5)), width=64, height=48)
-    image = renderer.render(scene, camera, RenderSettings(mode="FULL_BVH", ao_distance=0.0), timing=False).image
+    image = renderer.render(scene, camera, RenderSettings(mode="FULL_BVH", ao_distance=0.0, world_light="SCREEN"),
+                            timing=False).image
     origins, dirs = camera.pixel_rays()
     t = ray_plane_z(origins, dirs)
     hit = origins + dirs * np.where(np.isfinite(t), t, 0)[..., None]

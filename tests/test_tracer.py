@@ -40,7 +40,7 @@ MAX_FLIP_HYBRID_GLASS_IN_CUBE_MAP = 0.13
 SKY = (0.25, 0.35, 0.5)
 
 # The reference has no ambient occlusion (its hits see the whole sky), so neither do these frames.
-BASE = dict(cube_resolution=128, shadow_resolution=256, cube_far=200.0, ao_distance=0.0)
+BASE = dict(cube_resolution=128, shadow_resolution=256, cube_far=200.0, ao_distance=0.0, world_light="SCREEN")
 
 
 @pytest.fixture(scope="module")

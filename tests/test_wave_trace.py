@@ -86,13 +86,29 @@ def test_occlusion_rays_of_the_first_bounce_are_traced_in_waves(renderer, mode):
     # Mirrors see a floor beside a box: the floor's first-bounce hits near the box send
     # occlusion rays that it stops (AO Distance), darkening them in both variants.
     make_scene, make_camera = scenes.SCENES["mirror_and_emitters"]
-    settings = scenes.settings(mode, max_depth=2, near_size=6.0, ao_distance=3.0)
+    settings = scenes.settings(mode, max_depth=2, near_size=6.0, ao_distance=3.0, world_light="SCREEN")
     mega, waves, held = both(renderer, make_scene(), make_camera(), settings)
     assert held[1] > 0  # occlusion rays were queued
     variants.set_override("trace=cpu")
     open_sky = renderer.render(make_scene(), make_camera(), scenes.settings(mode, max_depth=2, near_size=6.0,
-                                                                            ao_distance=0.0))
+                                                                            ao_distance=0.0, world_light="SCREEN"))
     assert np.abs(open_sky.image - mega.image).max() > 1e-3  # the occlusion matters here
+    assert_same(mega, waves)
+
+
+@pytest.mark.parametrize("mode", ["HYBRID", "FULL_BVH"])
+def test_diffuse_gather_rays_of_the_first_bounce_are_traced_in_waves(renderer, mode):
+    # World Light Rays: the mirrors' first-bounce hits gather their diffuse light with one
+    # ray of unlimited reach (closest hit, shaded) in the occlusion queue; both variants
+    # give one image, and it differs from the occlusion rays' within AO Distance.
+    make_scene, make_camera = scenes.SCENES["mirror_and_emitters"]
+    settings = scenes.settings(mode, max_depth=2, near_size=6.0, ao_distance=3.0, world_light="RAYS")
+    mega, waves, held = both(renderer, make_scene(), make_camera(), settings)
+    assert held[1] > 0  # gather rays were queued
+    variants.set_override("trace=cpu")
+    occluded = renderer.render(make_scene(), make_camera(), scenes.settings(mode, max_depth=2, near_size=6.0,
+                                                                            ao_distance=3.0, world_light="SCREEN"))
+    assert np.abs(occluded.image - mega.image).max() > 1e-3
     assert_same(mega, waves)
 
 

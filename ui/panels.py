@@ -116,9 +116,16 @@ class RENDER_PT_hybrid_rt_light_paths(HybridRTPanel, bpy.types.Panel):
         layout.prop(settings, "mode")
         col = layout.column()
         col.prop(settings, "max_depth")
-        col = layout.column(heading="World Light")
+        layout.prop(settings, "world_light")
+        # RASTER and PROVENANCE build no BVH to trace through: they take the screen space.
+        rays = settings.world_light == "RAYS" and settings.mode not in ("RASTER", "PROVENANCE")
+        col = layout.column(align=True)
+        col.active = rays
+        col.prop(settings, "diffuse_bounces", text="Bounces")
+        col.prop(settings, "diffuse_rays", text="Rays")
+        col = layout.column()
+        col.active = not rays
         col.prop(settings, "ao_distance")
-        col.prop(settings, "sky_rays", text="Trace Rays")
 
 
 class RENDER_PT_hybrid_rt_hybrid(HybridRTPanel, bpy.types.Panel):

@@ -424,7 +424,11 @@ void push(vec3 origin, vec3 dir, vec3 weight, int depth, float blur) {
 void push_occlusion(vec3 origin, vec3 dir, vec3 weight, float reach) {
     if (!(max(max(weight.r, weight.g), weight.b) > 0.0)) return;
     if (!ray_room()) {
+#ifdef DIFFUSE_GATHER
+        past_depth_limit += weight * sky_radiance(dir);  // never reached (above): the sky taken as seen
+#else
         past_depth_limit += weight;  // never reached (above): the sky taken as seen
+#endif
         return;
     }
     store_ray(origin, dir, weight, -1, 1.0, reach);
@@ -472,6 +476,31 @@ float occlusion_seen(Hit h) {
     return h.kind == HIT_SKY ? 1.0 : material_transmission(materials[h.material]);
 }
 
+// The radiance a diffuse gather ray along d brings back from what it met (closest hit): the
+// sky, or the surface's emission and lamp light (shadow maps; highlights filtered as the
+// roughest lobe, the ray stands for a whole hemisphere), plus the sky through it by its
+// transmission (as occlusion_seen). No further bounce: the one-ray gather of the first
+// bounce's hits (DIFFUSE_GATHER, shade_hit) and the last vertex of a diffuse path.
+vec3 gather_light(Hit h, vec3 d) {
+    if (h.kind == HIT_SKY) return sky_radiance(d);
+    Material hm = material_at_lod(materials[h.material], h.uv, h.lod);
+    vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
+    SpecularSplit hs = specular_split_geometric(hm, h_albedo, d, h.normal, h.geometric);
+    return lamp_light_response(hm, h_albedo, material_emission_lod(hm, h.uv, h.lod), h.position, d, hs, 1.0)
+           + material_transmission(hm) * sky_radiance(d);
+}
+
+// What a ray of depth -1 (push_occlusion) adds, times its weight: with DIFFUSE_GATHER (the
+// World Light setting Rays) the light it gathers at any distance, otherwise the share of the
+// sky it sees within AO Distance.
+vec3 occlusion_result(Hit h, vec3 d) {
+#ifdef DIFFUSE_GATHER
+    return gather_light(h, d);
+#else
+    return vec3(occlusion_seen(h));
+#endif
+}
+
 // The light a ray of `ray.depth` brings from the surface h it met (not the sky), added to
 // `traced`; spawns its reflected and refracted rays and, at the first bounce, its occlusion
 // ray. A cube-map hit is shaded here from the face's G-buffer (normal, material, UV) at the
@@ -487,9 +516,22 @@ void shade_hit(PendingRay ray, Hit h, inout vec3 traced) {
     // Seen through a rough lobe, a sharp lamp highlight is a firefly: widen it to that
     // lobe's roughness (Cycles' Filter Glossy does the same).
     traced += ray.weight * lamp_light_response(hm, h_albedo, h_emission, h.position, ray.dir, hs, ray.blur);
-    vec3 world = ray.weight * world_light_response(hm, h_albedo, hs, sky_irradiance(hs.n_facing), 1.0);
     if (ray.depth <= u_max_depth)
         spawn_children(hs, h.position, ray.weight, ray.depth + 1, max(ray.blur, material_roughness(hm)));
+#ifdef DIFFUSE_GATHER
+    // World Light Rays (passes/diffuse_light/): the first bounce's hits, in the BVH and in
+    // the cube map, gather their diffuse light with one cosine ray of unlimited reach (the
+    // sky, or the lamp light of the surface it meets), so that a closed room's reflections
+    // are as dark as the room; the rough reflections of the sky are left unoccluded.
+    if (ray.depth == 1 && hs.diffuse_weight > 0.0) {
+        traced += ray.weight * world_light_response(hm, h_albedo, hs, vec3(0.0), 1.0);
+        vec3 d_gather = cosine_direction(hs.n_facing, hs.g_facing, lobe_random(0x5ca3));
+        push_occlusion(offset_origin(h.position, hs.g_facing), d_gather, ray.weight * hs.diffuse_weight * h_albedo,
+                       FLOAT_MAX);
+        return;
+    }
+#endif
+    vec3 world = ray.weight * world_light_response(hm, h_albedo, hs, sky_irradiance(hs.n_facing), 1.0);
     // The World's light at the first bounce's hits near the camera is hidden as at
     // primary pixels: one cosine ray within AO Distance through the BVH (hybrid ambient
     // occlusion, the paper's reference [14]), a fresh direction per sample. Hits in the

@@ -28,7 +28,11 @@
 //   * a hit is shaded like the deferred pass (shading.glsl shade_surface: the lamps with
 //     shadow maps, the World's irradiance, lamp highlights, too-rough reflections as the
 //     prefiltered sky); its reflected and refracted directions come from the GGX lobe,
-//     drawn per sample (random.glsl, u_sample) and exact when the roughness is 0;
+//     drawn per sample (random.glsl, u_sample) and exact when the roughness is 0; the
+//     World's irradiance at the first bounce's hits is hidden by one occlusion ray within
+//     AO Distance (near BVH hits), or with the host define DIFFUSE_GATHER (World Light
+//     Rays) gathered by one cosine ray of unlimited reach, BVH and cube-map hits alike
+//     (trace_ray.glsl shade_hit, gather_light);
 //   * a ray that would pass max_depth is not traced: it takes the sky in its direction, so
 //     glass and mirrors at the depth limit show the environment, not black
 //     (tests/whitted_reference.py does the same).
@@ -58,9 +62,6 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f) uniform image2D u_color;
-#ifdef WORLD_LIGHT_PASS
-layout(rgba32f) writeonly uniform image2D u_ambient;
-#endif
 #ifdef DIAGNOSTIC
 // The diagnostic views (hybrid_engine/passes/trace/diagnostic_views.py): each pixel's value in r of
 // u_diagnostic, its false colour in u_color.
@@ -92,52 +93,6 @@ void store_ray(vec3 origin, vec3 dir, vec3 weight, int depth, float blur, float 
 
 bool ray_room() { return stack_size < STACK_SIZE; }
 
-#ifdef WORLD_LIGHT_PASS
-// The World's light on a diffuse primary pixel (tracer.WorldLightRays): one ray in a
-// cosine-distributed direction, traced like a reflection through the BVH and the cube map.
-// Escaping, it brings the sky's radiance; meeting a surface, that surface's light (lamps
-// with shadows, emission, and the sky's irradiance if a second ray from there escapes: one
-// bounce of diffuse light), plus the sky through glass by the glass's transmission. rgb = pi times that radiance (a cosine-
-// distributed sample's irradiance estimate), a = the sky's visibility.
-void main() {
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
-    if (any(greaterThanEqual(pixel, u_size))) return;
-    vec4 nm = texelFetch(u_normal_material, pixel, 0);
-    vec4 ambient = vec4(0.0, 0.0, 0.0, 1.0);
-    if (nm.w != 0.0 && material_diffuse(primary_material(int(abs(nm.w) + 0.5) - 1, pixel)) > 0.0) {
-        vec2 ndc_xy = (vec2(pixel) + 0.5) / vec2(u_size) * 2.0 - 1.0;
-        vec3 p = unproject_primary(ndc_xy, texelFetch(u_depth, pixel, 0).r * 2.0 - 1.0);
-        vec3 view_dir = u_orthographic != 0 ? normalize(u_camera_forward) : normalize(p - u_camera_position);
-        vec3 n = safe_normalize(nm.xyz, -view_dir);
-        vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
-        vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
-        vec3 g_facing = dot(g, view_dir) < 0.0 ? g : -g;
-        vec3 n_facing = dot(n, g_facing) >= 0.0 ? n : -n;
-        pixel_key = position_key(p);
-        vec3 d = cosine_direction(n_facing, g_facing, lobe_random(0x5ca1));
-        Hit h = trace_ray(offset_origin(p, g_facing), d, 0, 0.0, FLOAT_MAX);
-        if (h.kind == HIT_SKY) {
-            ambient = vec4(PI * sky_radiance(d), 1.0);
-        } else {
-            Material hm = material_at_lod(materials[h.material], h.uv, h.lod);
-            vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
-            vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
-            SpecularSplit hs = specular_split_geometric(hm, h_albedo, d, h.normal, h.geometric);
-            // The surface met sees the sky only where nothing hides it either: a second
-            // cosine ray from it decides (an enclosed space's walls lit by the whole sky
-            // would bounce far too much light).
-            vec3 d2 = cosine_direction(hs.n_facing, hs.g_facing, lobe_random(0x5ca2));
-            Hit h2 = trace_ray(offset_origin(h.position, hs.g_facing), d2, 0, 0.0, FLOAT_MAX);
-            float seen = h2.kind == HIT_SKY ? 1.0 : material_transmission(materials[h2.material]);
-            vec3 bounce = shade_surface(hm, h_albedo, h_emission, h.position, d, hs,
-                                        sky_irradiance(hs.n_facing) * seen, seen, 1.0);
-            float through = material_transmission(hm);
-            ambient = vec4(PI * (bounce + through * sky_radiance(d)), through);
-        }
-    }
-    imageStore(u_ambient, pixel, ambient);
-}
-#else
 #ifdef DIAGNOSTIC
 vec3 diag_ramp(float x) {
     float f = clamp(x, 0.0, 1.0) * 4.0;
@@ -198,7 +153,7 @@ void main() {
         PendingRay ray = stack[stack_size];
         Hit h = trace_ray(ray.origin, ray.dir, ray.depth, ray.blur, ray.reach);
         if (ray.depth < 0) {
-            traced += ray.weight * occlusion_seen(h);
+            traced += ray.weight * occlusion_result(h, ray.dir);
             continue;
         }
 #ifdef DIAGNOSTIC
@@ -222,4 +177,3 @@ void main() {
     if (any(isnan(color)) || any(isinf(color))) color = vec3(0.0);
     imageStore(u_color, pixel, vec4(color, 1.0));
 }
-#endif

@@ -3,12 +3,16 @@
 // near the camera, trace_ray.glsl shade_hit) traces it any-hit (TRACE_ANY_HIT: the first
 // BVH surface found ends it, no nearest-first search) within AO Distance and writes weight
 // times what it found (1 for the sky, the surface's transmission) over its record
-// (wave_queue.glsl words 0-2). Occlusion rays are left out of the counters, as in the
+// (wave_queue.glsl words 0-2). With DIFFUSE_GATHER (World Light Rays) the ray is a diffuse
+// gather of unlimited reach instead: closest hit, and weight times the light it brings
+// (trace_ray.glsl gather_light). Occlusion rays are left out of the counters, as in the
 // megakernel.
 // Host defines: those of trace/hybrid_trace.comp.glsl. Storage blocks: WaveState, Rays (the
 //   occlusion queue) and trace_ray.glsl's. Uniforms: u_wave_slot, u_ray_words and
 //   trace_ray.glsl's.
+#ifndef DIFFUSE_GATHER
 #define TRACE_ANY_HIT
+#endif
 #define WAVE_READ
 #include "trace_ray.glsl"
 #include "wave_queue.glsl"
@@ -22,6 +26,10 @@ void main() {
     uint i = wave_index();
     if (i >= wave_count()) return;
     QueuedRay r = load_ray(i);
+#ifdef DIFFUSE_GATHER
+    Hit h = trace_ray(r.origin, r.dir, -1, r.blur, FLOAT_MAX);
+#else
     Hit h = trace_ray(r.origin, r.dir, -1, r.blur, u_ao_distance);
-    store_ray_words_vec3(i, r.weight * occlusion_seen(h));
+#endif
+    store_ray_words_vec3(i, r.weight * occlusion_result(h, r.dir));
 }

@@ -27,8 +27,8 @@ render's samples) ends with ``accumulate``, the running mean of the view's sampl
 GPU, and reads that back instead of the one sample: once per frame, or not at all before a
 final render's last sample.
 
-``shade`` is the ambient occlusion (screen space, or the World's light by rays with
-``sky_rays``) and the deferred shading of the primary G-buffer, lit by the frame's
+``shade`` is the diffuse light (traced paths, passes/diffuse_light/, or with World Light
+Screen Space the screen-space occlusion) and the deferred shading of the primary G-buffer, lit by the frame's
 ``lighting`` resource, which the trace pass reads too. Each pass declares what it reads and
 writes; the renderer checks the order once per configuration, before its first frame
 (``check_order``), and the frame lets a pass touch only what it declared.
@@ -55,6 +55,7 @@ from ..passes.film.accumulate import AccumulatePass
 from ..passes.film.data_passes import DataPassesPass, read_data_passes
 from ..passes.cube_map.cube_map import CubeMapPass
 from ..passes.emitters.emitter_pass import EmitterTablePass
+from ..passes.diffuse_light.diffuse_light import DiffuseLightPass
 from ..passes.frame_context import FrameContext, FramePass, check_order
 from ..passes.gbuffer.gbuffer import GBufferPass
 from ..passes.lbvh.build_pass import LBVHBuildPass
@@ -67,7 +68,7 @@ from ..passes.shading.deferred_shade import DeferredShadePass
 from ..passes.shading.screen_ao import ScreenSpaceOcclusion
 from ..passes.shadow_maps.shadow_depth import ShadowDepthPass
 from ..passes.trace.diagnostic_views import LegendEntry, is_diagnostic, legend
-from ..passes.trace.tracer import HybridTracer, WorldLightRays
+from ..passes.trace.tracer import HybridTracer
 from ..passes.view_cull.draw import SceneDrawer
 from ..scene.camera import Camera
 from ..scene.data import SceneData
@@ -162,7 +163,7 @@ class Renderer:
         self.culler: NearCubeCuller | None = None
         self.lbvh: LBVHBuildPass | None = None
         self.tracer: HybridTracer | None = None
-        self.world_light: WorldLightRays | None = None
+        self.diffuse_light: DiffuseLightPass | None = None
         self.emitters: EmitterTablePass | None = None  # the emissive triangles as lights
         # What the last frame's cube map, cull and BVH were built for, and them
         # (render(reuse_world=True)).
@@ -180,7 +181,7 @@ class Renderer:
         traced = mode != "RASTER"
         if traced:
             self._ensure_traced()
-        ambient = self.world_light if settings.traces_sky else self.occlusion
+        ambient = self.diffuse_light if settings.traces_diffuse else self.occlusion
         plan: list[FramePass] = [self.upload, self.instance_transform, *([self.emitters] if traced else []),
                                  self.shadow_maps, self.lighting, self.gbuffer]
         steps = MODE_STEPS[mode]
@@ -205,13 +206,13 @@ class Renderer:
             self.culler = NearCubeCuller(self.ctx)
             self.lbvh = LBVHBuildPass(LBVHBuilder(self.ctx))
             self.tracer = HybridTracer(self.ctx)
-            self.world_light = WorldLightRays(self.tracer)
+            self.diffuse_light = DiffuseLightPass(self.tracer)
             self.emitters = EmitterTablePass(self.ctx)
 
     def _checked_passes(self, settings: RenderSettings, accumulate: bool, data: bool) -> list[FramePass]:
         """``passes(settings, accumulate, data)``, their order checked once per configuration."""
         plan = self.passes(settings, accumulate, data)
-        key = (settings.mode, settings.traces_sky, accumulate, data)
+        key = (settings.mode, settings.traces_diffuse, accumulate, data)
         if key not in self._checked:
             check_order(plan, settings, final_reads=READBACK_READS + (("film",) if accumulate else ()))
             self._checked.add(key)
@@ -361,12 +362,12 @@ class Renderer:
         """Free this renderer's GL objects (the shared context stays)."""
         self.accumulate.release()
         self.data_passes.release()
-        for owner in (self.cube_map, self.culler, self.tracer, self.emitters):
+        for owner in (self.cube_map, self.culler, self.tracer, self.diffuse_light, self.emitters):
             if owner is not None:
                 owner.release()
         if self.lbvh is not None:
             self.lbvh.builder.release()
-        self.cube_map = self.culler = self.lbvh = self.tracer = self.world_light = self.emitters = None
+        self.cube_map = self.culler = self.lbvh = self.tracer = self.diffuse_light = self.emitters = None
         self._world = {}
         self._world_key = None
         self.statistics.release()

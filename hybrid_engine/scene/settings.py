@@ -51,6 +51,19 @@ MODE_LABELS = {"HYBRID": "Hybrid", "FULL_BVH": "Full BVH", "PROVENANCE": "Proven
                "RASTER": "Raster"}
 CUBE_MARCH_LABELS = {"HIERARCHICAL": "Hierarchical", "SAMPLED": "Sampled"}
 
+# How diffuse surfaces find the World's (and the other surfaces') light: traced paths
+# (passes/diffuse_light/), or the screen-space occlusion within AO Distance
+# (passes/shading/screen_ao.py), which RASTER, having no BVH, always uses.
+WORLD_LIGHTS = ("RAYS", "SCREEN")
+WORLD_LIGHT_DOCS = {
+    "RAYS": "Trace rays from every diffuse surface through the BVH and the cube map: the sky "
+    "where they escape, the light of the surfaces they meet, bounce after bounce. Closed rooms "
+    "stay dark, whatever their size",
+    "SCREEN": "Look for what hides the sky in the screen's depths, within AO Distance: faster "
+    "and smoother, but light leaks through walls and from off screen",
+}
+WORLD_LIGHT_LABELS = {"RAYS": "Rays", "SCREEN": "Screen Space"}
+
 FIELD_DOCS = {
     "mode": "How reflections and refractions are rendered",
     "near_size": "Half the size of the box around the camera whose objects reflections and "
@@ -84,16 +97,21 @@ FIELD_DOCS = {
     "camera, each 4 times finer than the next: sharp sun shadows close by, with one more "
     "shadow render whenever the camera moves. 0: one map over the whole scene",
     "viewport_scale": "Fraction of the viewport's resolution that is rendered (lower is faster)",
-    "sky_rays": "Gather the World's light with rays through the BVH and the cube map: the sky each "
-    "surface sees at any distance, and the light of the surfaces that hide it (one bounce); "
-    "slower than the screen-space occlusion within AO Distance",
     "viewport_samples": "Viewport: samples accumulated while nothing changes (each moved by a "
     "fraction of a pixel, with fresh glossy and shadow directions); any change starts over",
-    "ao_distance": "How far (scene units) a surface looks for geometry that hides the World's "
-    "light from it (ambient occlusion); 0 lights every surface by the whole sky",
+    "ao_distance": "Screen Space World Light: how far (scene units) a surface looks for geometry "
+    "that hides the World's light from it (ambient occlusion); 0 lights every surface by the "
+    "whole sky",
     "render_samples": "Final renders: samples per pixel, each with the camera moved by a different "
     "fraction of a pixel, averaged (anti-aliasing; each sample after the first costs a primary "
     "raster, the shading and the trace). The viewport takes one",
+    "world_light": "How diffuse surfaces find the light of the World and of the surfaces around "
+    "them",
+    "diffuse_bounces": "Rays World Light: how many times light bounces between diffuse surfaces "
+    "before it reaches the eye. 0: direct light only (the sky and lamps a surface sees), each "
+    "bounce more lights rooms from their walls, at the cost of one more ray",
+    "diffuse_rays": "Rays World Light: paths traced from each diffuse pixel per sample: less "
+    "noise, proportionally slower",
 }
 
 FIELD_LIMITS = {
@@ -114,6 +132,8 @@ FIELD_LIMITS = {
     "render_samples": (1, 256),
     "ao_distance": (0.0, 1.0e4),
     "viewport_samples": (1, 4096),
+    "diffuse_bounces": (0, 8),
+    "diffuse_rays": (1, 16),
 }
 
 
@@ -140,12 +160,14 @@ class RenderSettings:
     render_samples: int = 4
     ao_distance: float = 1.0
     viewport_samples: int = 16
-    sky_rays: bool = False
     near_cube_mode: str = "FIXED"
     frame_budget_ms: float = 33.3
     near_min: float = 0.5
     near_max: float = 20.0
     diagnostic_bounce: int = 1
+    world_light: str = "RAYS"
+    diffuse_bounces: int = 1
+    diffuse_rays: int = 1
 
     @property
     def trace_mode(self) -> str:
@@ -153,9 +175,11 @@ class RenderSettings:
         return "HYBRID" if self.mode in DIAGNOSTIC_VIEWS else self.mode
 
     @property
-    def traces_sky(self) -> bool:
-        """Whether the World's light is gathered by sky rays (only where a BVH is built)."""
-        return self.sky_rays and self.trace_mode in ("HYBRID", "FULL_BVH")
+    def traces_diffuse(self) -> bool:
+        """Whether diffuse light is gathered by traced paths (passes/diffuse_light/): asked
+        for, and a BVH is built to trace them through (RASTER and PROVENANCE build none and
+        fall back to the screen-space occlusion)."""
+        return self.world_light == "RAYS" and self.trace_mode in ("HYBRID", "FULL_BVH")
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -163,6 +187,9 @@ class RenderSettings:
         if self.near_cube_mode not in NEAR_CUBE_MODES:
             raise SettingsError(f"near_cube_mode must be one of {', '.join(NEAR_CUBE_MODES)}, "
                                 f"got {self.near_cube_mode!r}")
+        if self.world_light not in WORLD_LIGHTS:
+            raise SettingsError(
+                f"world_light must be one of {', '.join(WORLD_LIGHTS)}, got {self.world_light!r}")
         if self.cube_march not in CUBE_MARCHES:
             raise SettingsError(
                 f"cube_march must be one of {', '.join(CUBE_MARCHES)}, got {self.cube_march!r}")

@@ -37,7 +37,7 @@ class FrameResources:
         self.light_count = 0
         self.shadow_bias = 0.0
         self.ao_distance = 0.0
-        self.sky_rays = False
+        self.diffuse_rays = False  # diffuse light gathered by paths (passes/diffuse_light/)
 
     def update_lights(self, lights: Lights, shadows: ShadowMaps, settings: RenderSettings) -> None:
         """This frame's lights with their shadow slots (laid out in ``shadows.atlas``), and
@@ -50,12 +50,12 @@ class FrameResources:
         self.light_count = len(lights)
         self.shadow_bias = float(settings.shadow_bias)
         self.ao_distance = float(settings.ao_distance)
-        self.sky_rays = settings.traces_sky
+        self.diffuse_rays = settings.traces_diffuse
 
     @property
     def occludes(self) -> bool:
-        """Whether a pass estimates the sky's visibility (screen_ao.py, or rays)."""
-        return self.ao_distance > 0.0 or self.sky_rays
+        """Whether a pass estimates the sky's visibility (screen_ao.py, or the diffuse paths)."""
+        return self.ao_distance > 0.0 or self.diffuse_rays
 
     def update_sky(self, sky: Sky) -> None:
         """The World (recomputed only when it changed, sky_light.py)."""
@@ -73,7 +73,7 @@ class FrameResources:
                       "u_sky_env": self.sky.texture()},
             uniforms={**self.sky.uniforms(), "u_light_count": self.light_count, "u_shadow_bias": self.shadow_bias,
                       "u_ao_distance": self.ao_distance, "u_sky_visibility_known": int(self.occludes),
-                      "u_ambient_from_rays": int(self.sky_rays)})
+                      "u_ambient_from_rays": int(self.diffuse_rays)})
 
     def release(self) -> None:
         self.lights.release()

@@ -9,11 +9,12 @@ target, which the deferred shading smooths over neighbouring pixels of the same 
 multiplies into the World's light. Its reach is the ``ao_distance`` setting, held with the
 rest of the lighting data in FrameResources.
 
-The default, not rays through the paper's BVH and cube map (``sky_rays``,
-tracer.WorldLightRays): it costs a few depth reads per pixel and is smooth after the
-shading's 3x3 average, while a ray per pixel through the hybrid structures costs as much as
-a reflection ray; but what it cannot see (geometry off screen, behind the first surface or
-beyond its reach) does not occlude, which leaves enclosed spaces too bright.
+The fallback (*World Light* Screen Space, and RASTER and PROVENANCE, which build no BVH),
+not the default: the default traces the diffuse light through the paper's BVH and cube map
+(passes/diffuse_light/). This pass costs a few depth reads per pixel and is smooth after the
+shading's 3x3 average, but what it cannot see (geometry off screen, behind the first surface
+or beyond its reach) does not occlude, which leaves enclosed spaces too bright: light leaks
+through walls.
 """
 from __future__ import annotations
 

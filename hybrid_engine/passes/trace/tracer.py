@@ -16,8 +16,11 @@ triangle index the BVH reports (the face normal comes from the hit leaf's own co
 buffers are fixed-size and the kernel is compiled once per define set: a frame of the same
 size as the last allocates nothing and compiles nothing.
 
-The same kernel, compiled with ``WORLD_LIGHT_PASS``, gathers the World's light by rays
-(``WorldLightRays``, the ``sky_rays`` setting): part of the frame's ``shade`` step.
+With World Light Rays (``RenderSettings.traces_diffuse``) the kernel is compiled with
+``DIFFUSE_GATHER``: the first bounce's hits gather their diffuse light with one cosine ray
+of unlimited reach instead of an occlusion ray within AO Distance (trace_ray.glsl
+shade_hit). The diffuse light of primary pixels is the ``diffuse_light`` pass's
+(passes/diffuse_light/), which binds what this kernel binds (``inputs``).
 """
 from __future__ import annotations
 
@@ -141,9 +144,9 @@ class HybridTracer:
         if uses_waves(frame.settings):
             if self._waves is None:
                 self._waves = WaveTracer(self.ctx)
-            self._waves.run(self.inputs(frame, world_light=False), frame.settings)
+            self._waves.run(self.inputs(frame), frame.settings)
         else:
-            self.dispatch(frame, world_light=False)
+            self.dispatch(frame)
         self.deposit_statistics(frame)
         frame.write("color", frame.read("gbuffer").color)
 
@@ -159,10 +162,9 @@ class HybridTracer:
         if uses_waves(frame.settings) and self._waves is not None:
             self._waves.deposit_statistics(frame.statistics)
 
-    def dispatch(self, frame: FrameContext, world_light: bool) -> None:
-        """Run the megakernel: the reflections and refractions, or (``world_light``) its
-        World-light variant."""
-        inputs = self.inputs(frame, world_light)
+    def dispatch(self, frame: FrameContext) -> None:
+        """Run the megakernel: the reflections and refractions."""
+        inputs = self.inputs(frame)
         prog = (shader_loader.compute(self.ctx, "trace/hybrid_trace.comp.glsl", inputs.defines)
                 if inputs.defines else self.program)
         bind(prog, *inputs.parts, storage=inputs.storage, textures=inputs.textures,
@@ -171,11 +173,13 @@ class HybridTracer:
         prog.run(math.ceil(width / WORKGROUP), math.ceil(height / WORKGROUP), 1)
         storage_barrier(self.ctx)
         if gl_context.debug_checks_enabled():
-            gl_context.check_error(f"{frame.settings.trace_mode} {'world light' if world_light else 'trace'}")
+            gl_context.check_error(f"{frame.settings.trace_mode} trace")
 
-    def inputs(self, frame: FrameContext, world_light: bool) -> TraceInputs:
+    def inputs(self, frame: FrameContext, gather: bool = False) -> TraceInputs:
         """Everything a trace kernel binds: the scene, the BVH, the cube map and the
-        lighting, the kernel's defines, and the counters (zeroed)."""
+        lighting, the kernel's defines, and the counters (zeroed). ``gather``: for the
+        diffuse-light kernel (passes/diffuse_light/), which traces through the same
+        structures but draws no diagnostic view."""
         settings = frame.settings
         traced = traced_resources(settings)
         built = frame.read("bvh") if "bvh" in traced else None
@@ -184,7 +188,7 @@ class HybridTracer:
         targets, resources, view = frame.read("gbuffer"), frame.read("lighting"), frame.view
         ctx = self.ctx
         mode = settings.trace_mode
-        diagnostic = is_diagnostic(settings) and not world_light
+        diagnostic = is_diagnostic(settings) and not gather
         # A BVH whose arrays span several storage blocks needs the kernel compiled for them,
         # and the cube-map march its own defines (MarchableCubeMap.defines: the march kind,
         # the back layer, the hidden-exit rule); compiled once per define set, and without
@@ -193,7 +197,7 @@ class HybridTracer:
         defines = {**(built.traversal_defines() if built is not None else {}),
                    **normal_split.defines("TRI_NORMAL_BLOCKS", "TRI_NORMAL_BLOCK_SIZE"),
                    **(cube.defines if cube is not None else {}),
-                   **({"WORLD_LIGHT_PASS": 1} if world_light else {}),
+                   **({"DIFFUSE_GATHER": 1} if settings.traces_diffuse else {}),
                    **({"DIAGNOSTIC": 1} if diagnostic else {})}
         self._counters.write(self._zero_counters)
 
@@ -228,8 +232,7 @@ class HybridTracer:
             view.view_proj, view.height, view.orthographic)
         if cube is not None:
             values.update(cube.uniforms)
-        images = {"u_color": Image(targets.color, read=True, write=True),
-                  "u_ambient": Image(targets.ambient, read=False, write=True)}
+        images = {"u_color": Image(targets.color, read=True, write=True)}
         if diagnostic:
             if self.diagnostic is None or self.diagnostic.size != (view.width, view.height):
                 if self.diagnostic is not None:
@@ -282,27 +285,3 @@ def _bvh_counts(words: np.ndarray) -> dict[str, int]:
 def _ray_counts(max_depth: int, words: np.ndarray) -> dict[str, int]:
     return TraceStats.of(words, max_depth).as_counts()
 
-
-class WorldLightRays:
-    """The World's light gathered by rays (the ``sky_rays`` setting; part of the frame's
-    ``shade`` step, before the deferred shading): one cosine-distributed ray per diffuse
-    primary pixel through the BVH and the cube map, as the reflections are traced (the
-    hybrid ambient occlusion of Reinbothe et al., the paper's reference [14], extended to one
-    bounce): rgb the World's light it brings (the sky, or the light of the surface it meets),
-    alpha the sky's visibility, at any distance, into the G-buffer's ambient target, which
-    the shading smooths as it does the screen-space estimate. Runs the tracer's kernel
-    compiled with ``WORLD_LIGHT_PASS``."""
-
-    name = "shade"
-
-    def __init__(self, tracer: HybridTracer) -> None:
-        self.tracer = tracer
-
-    def io(self, settings: RenderSettings) -> PassIO:
-        return PassIO(reads=("scene", "scene_buffers", "world_triangles", "gbuffer", "lighting",
-                             *traced_resources(settings)),
-                      writes=("ambient",))
-
-    def run(self, frame: FrameContext) -> None:
-        self.tracer.dispatch(frame, world_light=True)
-        frame.write("ambient", frame.read("gbuffer").ambient)

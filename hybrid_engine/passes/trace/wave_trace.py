@@ -41,8 +41,10 @@ which reads that record and grows the queues for the next frame; a final render 
 ``overflows`` whether any of its samples overflowed (frame/antialias.py) and renders them
 again.
 
-PROVENANCE, the diagnostic views and the World's light by rays (``WorldLightRays``) stay on
-the megakernel: they are per-pixel answers, not ray traffic.
+PROVENANCE and the diagnostic views stay on the megakernel: they are per-pixel answers, not
+ray traffic. With World Light Rays (``DIFFUSE_GATHER``) the occlusion queue carries the first
+bounce's diffuse gather rays instead, traced closest-hit at any distance and shaded
+(``wave_occlusion.comp.glsl``).
 """
 from __future__ import annotations
 

@@ -1,0 +1,135 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Diffuse light by traced paths (hybrid_engine/passes/diffuse_light/diffuse_light.py): the
+// World's light, the lamps' light off other surfaces and, with EMITTER_LIGHT, the emissive
+// triangles' light, arriving at every diffuse primary pixel, with occlusion at any distance.
+//
+// Per diffuse primary pixel, u_diffuse_rays cosine-distributed paths through the near-cube
+// BVH and the cube map (FULL_BVH: the whole scene's BVH), traced as the reflections are
+// (trace_ray.glsl, paper §3.4; the hybrid ambient occlusion of Reinbothe et al., the paper's
+// reference [14], carried on to several bounces). At each vertex of a path:
+//   * escaping, the sky's radiance along the ray;
+//   * meeting a surface: its emission (not with EMITTER_LIGHT, whose next-event estimate
+//     already counts it), and while bounces remain the light its lamps give it (shadow maps)
+//     and, with EMITTER_LIGHT, the emitters' (emitter_irradiance), then one more cosine
+//     bounce, the path's throughput times the surface's diffuse albedo;
+//   * meeting glass: straight on through it, times its transmission (as the tracer's
+//     occlusion rays take it), without spending a bounce.
+// u_diffuse_bounces 0 is direct light only: the sky or emission the primary's ray meets (and
+// the emitters' next-event estimate at the primary point), no light off other surfaces.
+//
+// Writes u_ambient (RGBA32F): rgb the diffuse irradiance at the pixel (demodulated: not times
+// its albedo; the deferred shading multiplies, shade_surface's world_irradiance), a the share
+// of the first rays that saw the sky (the rough reflections' sky visibility). Pixels that are
+// background or not diffuse: (0, 0, 0, 1).
+//
+// Host defines: those of trace/hybrid_trace.comp.glsl (tracer.HybridTracer.inputs), and
+//   EMITTER_LIGHT (the emissive triangles' table, include/emitter_light.glsl).
+// Storage blocks, uniform blocks, samplers: as trace/hybrid_trace.comp.glsl's contract lists
+//   them; CounterBuffer counts this kernel's rays per path vertex (tracer.COUNTER_KINDS).
+// Uniforms: trace_ray.glsl's, u_diffuse_bounces, u_diffuse_rays.
+// Workgroup 8x8: neighbouring pixels' first rays start close together.
+#include "trace_ray.glsl"
+// EMITTER_LIGHT needs include/emitter_light.glsl (the emitters' part) included here: the
+// shader loader expands includes before the preprocessor runs, so the line waits for its file.
+
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(rgba32f) writeonly uniform image2D u_ambient;
+uniform int u_diffuse_bounces;  // 0..MAX_DIFFUSE_BOUNCES
+uniform int u_diffuse_rays;     // paths per pixel
+
+#define MAX_DIFFUSE_BOUNCES 8    // settings.FIELD_LIMITS["diffuse_bounces"]
+#define MAX_GLASS_CROSSINGS 4    // glass surfaces one path passes straight through
+#define PATH_SALT 0x5ca1         // random numbers of path i, vertex k: lobe_random(PATH_SALT + 32 i + k)
+#define EMITTER_SALT 0x6ca1
+
+// trace_ray.glsl's spawning is the tracer's: nothing is spawned here.
+bool ray_room() { return false; }
+void store_ray(vec3 origin, vec3 dir, vec3 weight, int depth, float blur, float reach) {}
+
+#ifdef EMITTER_LIGHT
+vec3 random3(int salt) {
+    return vec3(lobe_random(salt), lobe_random(salt + 0x10000).x);
+}
+#endif
+
+// One path from the primary point p (facing normals n, g): the radiance it brings back along
+// its first direction (a cosine-distributed sample: pi times it estimates the irradiance),
+// and `sky` the share of the first ray that escaped (through glass by its transmission).
+vec3 diffuse_path(vec3 p, vec3 n, vec3 g, int path, out float sky) {
+    vec3 radiance = vec3(0.0);
+    vec3 throughput = vec3(1.0);
+    int salt = PATH_SALT + 32 * path;
+    vec3 d = cosine_direction(n, g, lobe_random(salt));
+    vec3 o = offset_origin(p, g);
+    int vertex = 1;
+    int crossings = 0;
+    sky = 0.0;
+    for (int step = 0; step <= MAX_DIFFUSE_BOUNCES + MAX_GLASS_CROSSINGS; ++step) {
+        Hit h = trace_ray(o, d, vertex, 1.0, FLOAT_MAX);
+        if (h.kind == HIT_SKY) {
+            radiance += throughput * sky_radiance(d);
+            if (vertex == 1) sky = throughput.g;
+            break;
+        }
+        Material hm = material_at_lod(materials[h.material], h.uv, h.lod);
+        vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
+        SpecularSplit hs = specular_split_geometric(hm, h_albedo, d, h.normal, h.geometric);
+#ifndef EMITTER_LIGHT
+        radiance += throughput * material_emission_lod(hm, h.uv, h.lod);
+#endif
+        bool bounces_left = vertex <= u_diffuse_bounces;
+        if (bounces_left) {
+            // The lamps' light off this surface (its emission counted above); the ray
+            // stands for a whole hemisphere, so highlights are filtered as the roughest lobe.
+            radiance += throughput * lamp_light_response(hm, h_albedo, vec3(0.0), h.position, d, hs, 1.0);
+        }
+        float through = material_transmission(hm);
+        if (through > 0.0 && crossings < MAX_GLASS_CROSSINGS) {
+            throughput *= through;
+            o = offset_origin(h.position, -hs.g_facing);
+            crossings += 1;
+            continue;
+        }
+        if (!bounces_left || !(hs.diffuse_weight > 0.0)) break;
+        throughput *= hs.diffuse_weight * h_albedo;
+        if (!(max(max(throughput.r, throughput.g), throughput.b) > 0.0)) break;
+#ifdef EMITTER_LIGHT
+        radiance += throughput / PI * emitter_irradiance(h.position, hs.n_facing, hs.g_facing,
+                                                         random3(EMITTER_SALT + 32 * path + vertex));
+#endif
+        d = cosine_direction(hs.n_facing, hs.g_facing, lobe_random(salt + vertex));
+        o = offset_origin(h.position, hs.g_facing);
+        vertex += 1;
+    }
+    return radiance;
+}
+
+void main() {
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(pixel, u_size))) return;
+    vec4 nm = texelFetch(u_normal_material, pixel, 0);
+    vec4 ambient = vec4(0.0, 0.0, 0.0, 1.0);
+    if (nm.w != 0.0 && material_diffuse(primary_material(int(abs(nm.w) + 0.5) - 1, pixel)) > 0.0) {
+        vec3 p, view_dir, n;
+        primary_surface(pixel, nm, p, view_dir, n);
+        vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
+        vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
+        vec3 g_facing = dot(g, view_dir) < 0.0 ? g : -g;
+        vec3 n_facing = dot(n, g_facing) >= 0.0 ? n : -n;
+        pixel_key = position_key(p);
+        vec3 irradiance = vec3(0.0);
+        float sky = 0.0;
+        int paths = max(u_diffuse_rays, 1);
+        for (int i = 0; i < paths; ++i) {
+            float seen;
+            irradiance += PI * diffuse_path(p, n_facing, g_facing, i, seen);
+            sky += seen;
+#ifdef EMITTER_LIGHT
+            irradiance += emitter_irradiance(p, n_facing, g_facing, random3(EMITTER_SALT + 32 * i));
+#endif
+        }
+        ambient = vec4(irradiance, sky) / float(paths);
+        if (any(isnan(ambient)) || any(isinf(ambient))) ambient = vec4(0.0, 0.0, 0.0, 1.0);
+    }
+    imageStore(u_ambient, pixel, ambient);
+}

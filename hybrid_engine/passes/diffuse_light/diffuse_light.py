@@ -1,0 +1,90 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The diffuse light of primary pixels, gathered by paths traced through the paper's structures.
+
+The World lights a room only through its openings, and a wall lit by a lamp lights the room
+in turn. Screen-space occlusion within a distance (passes/shading/screen_ao.py) cannot know
+either: what hides the sky may lie behind the first surface, off screen or farther than its
+reach, so closed rooms glow. The near-cube BVH and the cube map answer "what does this point
+see in that direction" at any distance (paper §3.2-3.4), which is the question global
+illumination asks: per diffuse primary pixel, ``diffuse_rays`` cosine-distributed paths of
+up to ``diffuse_bounces`` bounces are traced through them as the reflections are
+(``gpu_shaders/diffuse_light/diffuse_gather.comp.glsl`` with trace_ray.glsl; the hybrid
+ambient occlusion of Reinbothe et al., the paper's reference [14], carried on to several
+bounces). Escaping, a path takes the sky; at each surface it meets, that surface's lamp
+light (shadow maps) and emission, then bounces on.
+
+The pass writes the frame's ``ambient``: rgb the diffuse irradiance (demodulated, not times
+the albedo, which the deferred shading applies: a denoiser may filter it without blurring
+textures), a the sky's visibility. It is part of the frame's ``shade`` step, in place of the
+screen-space occlusion when ``RenderSettings.traces_diffuse``. It binds what the tracer's
+kernel binds (``HybridTracer.inputs``) with counters of its own, deposited in the frame's
+statistics as ``gather_*`` counts (rays per path vertex).
+"""
+from __future__ import annotations
+
+import math
+from functools import partial
+
+import numpy as np
+
+from ...gpu import gl_context, shader_loader
+from ...gpu.bindings import Image, bind
+from ...gpu.dispatch import storage_barrier
+from ...scene.settings import FIELD_LIMITS, RenderSettings
+from ..frame_context import FrameContext, PassIO
+from ..trace.tracer import (COUNTER_DEPTHS, COUNTER_KINDS, COUNTER_WORDS, HybridTracer, TraceStats,
+                            traced_resources)
+
+WORKGROUP = 8  # the kernel's local size in x and y
+SHADER = "diffuse_light/diffuse_gather.comp.glsl"
+
+
+def gather_counts(bounces: int, words: np.ndarray) -> dict[str, int]:
+    """The kernel's counters as ``gather_*`` counts: ``gather_rays_traced`` and the others of
+    tracer.COUNTER_KINDS, in total and per path vertex (``..._bounce_1`` the primary's rays)."""
+    raw = np.asarray(words, np.uint32).reshape(len(COUNTER_KINDS), COUNTER_DEPTHS)
+    vertices = range(1, int(bounces) + 2)  # a path's rays: the primary's, then one per bounce
+    counts = TraceStats({kind: [int(raw[k, d]) for d in vertices]
+                         for k, kind in enumerate(COUNTER_KINDS)}).as_counts()
+    return {f"gather_{name}": value for name, value in counts.items()}
+
+
+class DiffuseLightPass:
+    """The diffuse-light kernel and its counters (the frame's ``shade`` step, before the
+    deferred shading)."""
+
+    name = "shade"
+
+    def __init__(self, tracer: HybridTracer) -> None:
+        self.tracer = tracer
+        self.ctx = tracer.ctx
+        self._counters = self.ctx.buffer(reserve=COUNTER_WORDS * 4)
+        self._zero_counters = bytes(self._counters.size)
+
+    def io(self, settings: RenderSettings) -> PassIO:
+        return PassIO(reads=("scene", "scene_buffers", "world_triangles", "gbuffer", "lighting",
+                             *traced_resources(settings)),
+                      writes=("ambient",))
+
+    def run(self, frame: FrameContext) -> None:
+        settings = frame.settings
+        inputs = self.tracer.inputs(frame, gather=True)
+        targets = frame.read("gbuffer")
+        prog = shader_loader.compute(self.ctx, SHADER, inputs.defines)
+        self._counters.write(self._zero_counters)
+        bounces = int(settings.diffuse_bounces)
+        assert bounces <= FIELD_LIMITS["diffuse_bounces"][1]
+        bind(prog, *inputs.parts, storage={**inputs.storage, "CounterBuffer": self._counters},
+             textures=inputs.textures, images={"u_ambient": Image(targets.ambient, read=False, write=True)},
+             uniforms={**inputs.uniforms, "u_diffuse_bounces": bounces,
+                       "u_diffuse_rays": int(settings.diffuse_rays)})
+        width, height = inputs.size
+        prog.run(math.ceil(width / WORKGROUP), math.ceil(height / WORKGROUP), 1)
+        storage_barrier(self.ctx)
+        if gl_context.debug_checks_enabled():
+            gl_context.check_error(f"{settings.trace_mode} diffuse light")
+        frame.statistics.deposit(self._counters, COUNTER_WORDS, partial(gather_counts, bounces))
+        frame.write("ambient", targets.ambient)
+
+    def release(self) -> None:
+        self._counters.release()

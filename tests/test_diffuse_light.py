@@ -1,0 +1,177 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Diffuse light by traced paths (passes/diffuse_light/): occlusion at any distance, and
+bounces that raise what the lamps and the sky do not reach directly."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hybrid_engine.scene.camera import Camera, look_at
+from hybrid_engine.scene.data import Lights, MaterialTable, SceneData, Sky
+from hybrid_engine.scene.geometry import Geometry
+from hybrid_engine.scene.settings import RenderSettings
+from scenes_analytic import box, quad
+
+W, H = 48, 36
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709, as Blender's scene-linear space
+GREY, MIRROR = 0, 1
+ROOM_HALF = 3.0
+
+
+def luminance(image: np.ndarray) -> np.ndarray:
+    return image[..., :3] @ LUMINANCE
+
+
+def mean_image(renderer, scene, camera, settings, samples) -> np.ndarray:
+    return np.mean([renderer.render(scene, camera, settings, timing=False, sample=i).image[..., :3]
+                    for i in range(samples)], axis=0)
+
+
+def closed_room(lamp: dict | None = None, partition: bool = False) -> SceneData:
+    """A closed box (six walls facing in) under a white World of strength 1, with a mirror
+    on the floor; ``partition``: a wall across the room, two thirds of its height."""
+    walls = box((-ROOM_HALF,) * 3, (ROOM_HALF,) * 3)[:, ::-1].copy()  # corners reversed: normals inward
+    objects = [(walls, None, GREY), (quad((-1.5, 1.0, -ROOM_HALF + 0.01), (0.8, 0, 0), (0, 0.8, 0)), None, MIRROR)]
+    if partition:
+        objects.append((quad((0.0, 0.0, -1.0), (0, ROOM_HALF, 0), (0, 0, 2.0)), None, GREY))
+    rows = [dict(base_color=(0.8, 0.8, 0.8)), dict(base_color=(1.0, 1.0, 1.0), reflectivity=1.0, roughness=0.0)]
+    lights = Lights.from_rows([lamp]) if lamp is not None else Lights.from_rows([])
+    return SceneData(Geometry.from_objects(objects), MaterialTable.from_rows(rows), lights,
+                     Sky(color=(1.0, 1.0, 1.0)))
+
+
+def room_settings(mode: str, **kw) -> RenderSettings:
+    # HYBRID's near cube holds the camera's half of the room: the far walls are found in the
+    # cube map, as are the mirror's reflections of them.
+    return RenderSettings(mode=mode, near_size=2.0, shadow_resolution=512, **kw)
+
+
+ROOM_CAMERA = dict(eye=(0.5, -2.0, 0.5), target=(-0.5, 1.0, -1.5))
+
+
+@pytest.mark.parametrize("mode", ["HYBRID", "FULL_BVH"])
+def test_a_closed_room_is_black_without_lamps_and_leaks_the_sky_when_occlusion_stops_at_a_distance(renderer, mode):
+    # Six walls and no opening: no ray from inside reaches the sky, however far the walls
+    # are. The mirror on the floor shows walls whose light is gathered too (the tracer's
+    # first-bounce gather). Screen-space occlusion within a short AO Distance lets the sky in.
+    scene = closed_room()
+    camera = Camera(matrix_world=look_at(ROOM_CAMERA["eye"], ROOM_CAMERA["target"]), width=W, height=H)
+    rays = mean_image(renderer, scene, camera, room_settings(mode), samples=2)
+    leak = mean_image(renderer, scene, camera, room_settings(mode, world_light="SCREEN", ao_distance=0.5), samples=2)
+    assert luminance(rays).mean() <= 0.01
+    assert luminance(leak).mean() > 0.3
+
+
+def test_the_mirrors_reflection_of_a_closed_room_is_black_too(renderer):
+    # Only the mirror's pixels: its reflection rays meet walls in the BVH and the cube map,
+    # whose diffuse light the first-bounce gather finds at any distance (AO Distance 0 would
+    # give them the whole sky).
+    scene = closed_room()
+    camera = Camera(matrix_world=look_at((-1.5, 0.0, 0.0), (-1.5, 1.0, -ROOM_HALF)), width=W, height=H)
+    settings = room_settings("HYBRID", ao_distance=0.0)
+    image = luminance(mean_image(renderer, scene, camera, settings, samples=2))
+    origins, dirs = camera.pixel_rays()
+    t = (-ROOM_HALF + 0.01 - origins[..., 2]) / dirs[..., 2]
+    hit = origins + dirs * t[..., None]
+    on_mirror = (np.abs(hit[..., 0] + 1.5) < 0.7) & (np.abs(hit[..., 1] - 1.0) < 0.7)
+    assert on_mirror.sum() > 50
+    assert image[on_mirror].mean() <= 0.01
+
+
+def test_a_lamp_lit_rooms_shadowed_half_is_lit_by_bounces(renderer):
+    # A lamp low in one half of the closed room, a partition two thirds high: the other
+    # half's floor never sees the lamp. Without bounces it is black; each bounce brings
+    # more of the light the lit walls and ceiling send on.
+    lamp = dict(kind="POINT", position=(-2.0, 0.0, -2.0), color=(400.0, 400.0, 400.0), radius=0.1)
+    scene = closed_room(lamp, partition=True)
+    camera = Camera(matrix_world=look_at((2.0, -2.0, 0.5), (2.0, 0.0, -ROOM_HALF)), width=W, height=H)
+    means = [luminance(mean_image(renderer, scene, camera, room_settings("FULL_BVH", diffuse_bounces=b),
+                                  samples=4)).mean()
+             for b in (0, 1, 2)]
+    assert means[0] < 0.01 * means[1], means
+    assert means[2] > 1.05 * means[1], means
+
+
+# -- a grey wall beside a grey floor under a white World ---------------------------------------
+ALBEDO = 0.6
+WALL_BAND = (0.3, 1.3)  # the wall's heights the comparison averages over
+
+
+def wall_and_floor() -> SceneData:
+    """The floor z = 0 in front of (y < 0) the wall y = 0, which faces -y: wide enough to be
+    the two half-planes of the reference below."""
+    size = 200.0
+    floor = quad((0.0, -size / 2, 0.0), (size, 0, 0), (0, size / 2, 0))
+    wall = quad((0.0, 0.0, size / 2), (size, 0, 0), (0, 0, size / 2))  # facing -y
+    rows = [dict(base_color=(ALBEDO,) * 3, specular=0.0, roughness=1.0)]
+    return SceneData(Geometry.from_objects([(floor, None, 0), (wall, None, 0)]), MaterialTable.from_rows(rows),
+                     sky=Sky(color=(1.0, 1.0, 1.0)))
+
+
+def reference_wall_radiance(bounces: int, paths: int = 400_000, seed: int = 36) -> float:
+    """The wall's mean radiance over WALL_BAND, by Monte Carlo in numpy over the two
+    half-planes (floor z = 0, y < 0; wall y = 0, z > 0), paths built as the kernel builds
+    them: cosine directions, the sky's radiance 1 where one escapes, at most ``bounces``
+    bounces, the albedo per bounce; Lambertian surfaces, so radiance = albedo times the mean
+    of what the paths bring back."""
+    rng = np.random.default_rng(seed)
+    p = np.stack([rng.uniform(-1, 1, paths), np.zeros(paths), rng.uniform(*WALL_BAND, paths)], axis=1)
+    n = np.tile([0.0, -1.0, 0.0], (paths, 1))
+    radiance = np.zeros(paths)
+    throughput = np.ones(paths)
+    alive = np.ones(paths, bool)
+    for vertex in range(1, bounces + 2):
+        d = cosine_directions(n, rng)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t_floor = np.where(d[:, 2] < 0, -p[:, 2] / d[:, 2], np.inf)
+            t_wall = np.where(d[:, 1] > 0, -p[:, 1] / d[:, 1], np.inf)
+        t = np.minimum(t_floor, t_wall)
+        escaped = alive & ~np.isfinite(t)
+        radiance[escaped] += throughput[escaped]
+        alive &= np.isfinite(t)
+        if vertex > bounces:
+            break
+        throughput *= ALBEDO
+        p = np.where(alive[:, None], p + d * np.where(np.isfinite(t), t, 0.0)[:, None], p)
+        n = np.where((t_floor < t_wall)[:, None], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0])
+        p[:, 2] = np.where(t_floor < t_wall, 0.0, p[:, 2])  # exactly on the plane it met
+        p[:, 1] = np.where(t_floor < t_wall, p[:, 1], 0.0)
+    return float(ALBEDO * radiance.mean())
+
+
+def cosine_directions(n: np.ndarray, rng) -> np.ndarray:
+    """Cosine-distributed unit directions about each unit normal of ``n`` (axis-aligned)."""
+    u1, u2 = rng.random(len(n)), rng.random(len(n))
+    r, phi = np.sqrt(u1), 2 * np.pi * u2
+    local = np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(1 - u1)], axis=1)
+    helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    t = np.cross(helper, n)
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    b = np.cross(n, t)
+    return local[:, :1] * t + local[:, 1:2] * b + local[:, 2:] * n
+
+
+def test_the_reference_of_the_vertical_wall_sees_half_the_sky_without_bounces():
+    # A vertical face's cosine-weighted upper hemisphere is half of it: radiance albedo / 2.
+    assert reference_wall_radiance(0) == pytest.approx(ALBEDO / 2, rel=0.01)
+
+
+@pytest.mark.parametrize("mode", ["HYBRID", "FULL_BVH"])
+def test_a_wall_beside_a_floor_gains_the_floors_bounce_as_a_path_tracer_does(renderer, mode):
+    # The wall's lower hemisphere sees the floor, not the sky: without bounces it takes half
+    # the sky; each bounce adds the floor's light (and the wall's light on the floor), and
+    # the radiance follows an independent Monte-Carlo estimate of the same two planes.
+    scene = wall_and_floor()
+    camera = Camera(matrix_world=look_at((0.0, -4.0, 0.8), (0.0, 0.0, 0.8)), width=W, height=H)
+    origins, dirs = camera.pixel_rays()
+    hit = origins + dirs * (-origins[..., 1:2] / dirs[..., 1:2])
+    band = (hit[..., 2] > WALL_BAND[0]) & (hit[..., 2] < WALL_BAND[1]) & (np.abs(hit[..., 0]) < 1.0)
+    assert band.sum() > 200
+    measured = []
+    for bounces in (0, 1, 2):
+        settings = RenderSettings(mode=mode, near_size=5.0, shadow_resolution=256, diffuse_bounces=bounces)
+        measured.append(float(mean_image(renderer, scene, camera, settings, samples=8)[band].mean()))
+    assert measured[0] < measured[1] < measured[2], measured
+    assert measured[1] > 1.1 * measured[0], measured
+    for bounces, value in enumerate(measured):
+        assert value == pytest.approx(reference_wall_radiance(bounces), rel=0.04), (bounces, measured)

@@ -175,3 +175,57 @@ def test_a_wall_beside_a_floor_gains_the_floors_bounce_as_a_path_tracer_does(ren
     assert measured[1] > 1.1 * measured[0], measured
     for bounces, value in enumerate(measured):
         assert value == pytest.approx(reference_wall_radiance(bounces), rel=0.04), (bounces, measured)
+
+
+# -- emissive meshes as lights ---------------------------------------------------------------------
+PANEL_HEIGHT = 1.0
+PANEL_HALF = 0.25
+PANEL_RADIANCE = 8.0
+FLOOR_ALBEDO = 0.5
+
+
+def panel_over_floor() -> SceneData:
+    """A small emissive square facing down over a wide grey floor, a black World, no lamps:
+    the floor is lit by the panel alone."""
+    floor = quad((0.0, 0.0, 0.0), (6.0, 0, 0), (0, 6.0, 0))
+    panel = quad((0.0, 0.0, PANEL_HEIGHT), (PANEL_HALF, 0, 0), (0, -PANEL_HALF, 0))
+    # The floor is matte without a specular coat: its light is the diffuse gather alone.
+    rows = [dict(base_color=(FLOOR_ALBEDO,) * 3, specular=0.0, roughness=1.0),
+            dict(base_color=(0.0,) * 3, specular=0.0, emission=(PANEL_RADIANCE,) * 3)]
+    return SceneData(Geometry.from_objects([(floor, None, 0), (panel, None, 1)]), MaterialTable.from_rows(rows),
+                     Lights.from_rows([]), Sky(color=(0.0, 0.0, 0.0)))
+
+
+def panel_irradiance(points: np.ndarray) -> np.ndarray:
+    """Lambert's closed form for the panel's irradiance on the floor (normal +z) at points."""
+    corners = np.array([[-PANEL_HALF, -PANEL_HALF], [PANEL_HALF, -PANEL_HALF], [PANEL_HALF, PANEL_HALF],
+                        [-PANEL_HALF, PANEL_HALF]])
+    out = []
+    for p in points:
+        v = np.column_stack([corners - p[:2], np.full(4, PANEL_HEIGHT - p[2])])
+        v /= np.linalg.norm(v, axis=1, keepdims=True)
+        total = 0.0
+        for a, b in zip(v, np.roll(v, -1, axis=0)):
+            c = np.cross(a, b)
+            total += np.arctan2(np.linalg.norm(c), a @ b) * c[2] / np.linalg.norm(c)
+        out.append(PANEL_RADIANCE * 0.5 * abs(total))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("mode", ["HYBRID", "FULL_BVH"])
+def test_an_emissive_panel_lights_the_floor_and_falls_off_as_lamberts_closed_form(renderer, mode):
+    # Cycles' light from an emissive quad is this closed form: radiance times the projected
+    # solid angle. The next-event estimate towards the panel makes a handful of samples enough.
+    scene = panel_over_floor()
+    camera = Camera(matrix_world=look_at((0.0, -3.0, 0.8), (0.0, 0.0, 0.0)), width=W, height=H)
+    settings = RenderSettings(mode=mode, near_size=2.0, diffuse_bounces=0)
+    image = luminance(mean_image(renderer, scene, camera, settings, samples=8))
+    origins, dirs = camera.pixel_rays()
+    t = -origins[..., 2] / np.minimum(dirs[..., 2], -1e-9)
+    points = origins + t[..., None] * dirs
+    radius = np.hypot(points[..., 0], points[..., 1])
+    for lo, hi in [(0.0, 0.4), (0.8, 1.2), (1.6, 2.2)]:  # under the panel, and farther out
+        ring = (dirs[..., 2] < 0) & (radius >= lo) & (radius < hi) & (np.abs(points[..., 0]) < 2.0)
+        assert ring.sum() > 10
+        expected = FLOOR_ALBEDO / np.pi * panel_irradiance(points[ring]).mean()
+        assert image[ring].mean() == pytest.approx(expected, rel=0.1), (lo, hi)

@@ -29,8 +29,8 @@
 // Uniforms: trace_ray.glsl's, u_diffuse_bounces, u_diffuse_rays.
 // Workgroup 8x8: neighbouring pixels' first rays start close together.
 #include "trace_ray.glsl"
-// EMITTER_LIGHT needs include/emitter_light.glsl (the emitters' part) included here: the
-// shader loader expands includes before the preprocessor runs, so the line waits for its file.
+// Compiled only with EMITTER_LIGHT (some triangles emit).
+#include "emitter_light.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f) writeonly uniform image2D u_ambient;

@@ -62,7 +62,7 @@ class DiffuseLightPass:
         self._zero_counters = bytes(self._counters.size)
 
     def io(self, settings: RenderSettings) -> PassIO:
-        return PassIO(reads=("scene", "scene_buffers", "world_triangles", "gbuffer", "lighting",
+        return PassIO(reads=("scene", "scene_buffers", "world_triangles", "gbuffer", "lighting", "emitters",
                              *traced_resources(settings)),
                       writes=("ambient",))
 
@@ -70,11 +70,16 @@ class DiffuseLightPass:
         settings = frame.settings
         inputs = self.tracer.inputs(frame, gather=True)
         targets = frame.read("gbuffer")
-        prog = shader_loader.compute(self.ctx, SHADER, inputs.defines)
+        # Emissive triangles are sampled towards (next-event estimation) only where some emit:
+        # a scene without them runs the kernel without the emitters' code.
+        emitters = frame.read("emitters")
+        emitter_parts = (emitters.bindings(),) if emitters.count else ()
+        defines = {**inputs.defines, "EMITTER_LIGHT": 1} if emitters.count else inputs.defines
+        prog = shader_loader.compute(self.ctx, SHADER, defines)
         self._counters.write(self._zero_counters)
         bounces = int(settings.diffuse_bounces)
         assert bounces <= FIELD_LIMITS["diffuse_bounces"][1]
-        bind(prog, *inputs.parts, storage={**inputs.storage, "CounterBuffer": self._counters},
+        bind(prog, *inputs.parts, *emitter_parts, storage={**inputs.storage, "CounterBuffer": self._counters},
              textures=inputs.textures, images={"u_ambient": Image(targets.ambient, read=False, write=True)},
              uniforms={**inputs.uniforms, "u_diffuse_bounces": bounces,
                        "u_diffuse_rays": int(settings.diffuse_rays)})

@@ -466,6 +466,10 @@ vec3 cosine_direction(vec3 n, vec3 g, vec2 xi) {
 }
 
 
+#ifdef LIT_CUBE
+#include "lit_cube.glsl"
+#endif
+
 // What an occlusion ray finds (its weight is the World's light it may let in): 1 for the
 // sky, the transmission of the surface it met.
 float occlusion_seen(Hit h) {
@@ -486,8 +490,16 @@ void shade_hit(PendingRay ray, Hit h, inout vec3 traced) {
                                               lobe_random(ray.depth));
     // Seen through a rough lobe, a sharp lamp highlight is a firefly: widen it to that
     // lobe's roughness (Cycles' Filter Glossy does the same).
+#ifdef LIT_CUBE
+    // A cube-map hit's diffuse light (lamps, emission, World) is the lit cube map's (lit_cube.glsl).
+    bool stored = h.kind == HIT_CUBE;
+    if (stored) traced += ray.weight * cube_hit_light(hm, h, ray.dir, hs, ray.blur);
+    else traced += ray.weight * lamp_light_response(hm, h_albedo, h_emission, h.position, ray.dir, hs, ray.blur);
+#else
+    const bool stored = false;
     traced += ray.weight * lamp_light_response(hm, h_albedo, h_emission, h.position, ray.dir, hs, ray.blur);
-    vec3 world = ray.weight * world_light_response(hm, h_albedo, hs, sky_irradiance(hs.n_facing), 1.0);
+#endif
+    vec3 world = ray.weight * world_light_response(hm, h_albedo, hs, stored ? vec3(0.0) : sky_irradiance(hs.n_facing), 1.0);
     if (ray.depth <= u_max_depth)
         spawn_children(hs, h.position, ray.weight, ray.depth + 1, max(ray.blur, material_roughness(hm)));
     // The World's light at the first bounce's hits near the camera is hidden as at

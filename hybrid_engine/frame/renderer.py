@@ -53,6 +53,7 @@ from ..gpu.statistics import LazyCounts, StatisticsRing
 from ..gpu.timing import PassTimer
 from ..passes.film.accumulate import AccumulatePass
 from ..passes.film.data_passes import DataPassesPass, read_data_passes
+from ..passes.cube_light.cube_light import CubeLightPass
 from ..passes.cube_map.cube_map import CubeMapPass
 from ..passes.frame_context import FrameContext, FramePass, check_order
 from ..passes.gbuffer.gbuffer import GBufferPass
@@ -87,7 +88,7 @@ class RenderCancelled(Exception):
 _RASTER = ("upload", "instance_transform", "shadow_maps", "lighting", "primary_raster")
 MODE_STEPS = {
     "RASTER": (*_RASTER, "shade", "readback"),
-    "HYBRID": (*_RASTER, "cube_map_raster", "cull", "lbvh_build", "shade", "trace", "readback"),
+    "HYBRID": (*_RASTER, "cube_map_raster", "cube_light", "cull", "lbvh_build", "shade", "trace", "readback"),
     "FULL_BVH": (*_RASTER, "lbvh_build", "shade", "trace", "readback"),
     "PROVENANCE": (*_RASTER, "shade", "trace", "readback"),
 }
@@ -158,6 +159,7 @@ class Renderer:
         # The traced modes' passes, made on the first frame that needs them (their kernels
         # take a while to compile).
         self.cube_map: CubeMapPass | None = None
+        self.cube_light: CubeLightPass | None = None
         self.culler: NearCubeCuller | None = None
         self.lbvh: LBVHBuildPass | None = None
         self.tracer: HybridTracer | None = None
@@ -184,6 +186,8 @@ class Renderer:
         steps = MODE_STEPS[mode]
         if "cube_map_raster" in steps:
             plan.append(self.cube_map)
+            if settings.lit_cube:
+                plan.append(self.cube_light)
         if "cull" in steps:
             plan.append(self.culler)
         if "lbvh_build" in steps:
@@ -200,6 +204,7 @@ class Renderer:
     def _ensure_traced(self) -> None:
         if self.tracer is None:
             self.cube_map = CubeMapPass(self.ctx, self.gbuffer)
+            self.cube_light = CubeLightPass(self.ctx)
             self.culler = NearCubeCuller(self.ctx)
             self.lbvh = LBVHBuildPass(LBVHBuilder(self.ctx))
             self.tracer = HybridTracer(self.ctx)
@@ -208,7 +213,7 @@ class Renderer:
     def _checked_passes(self, settings: RenderSettings, accumulate: bool, data: bool) -> list[FramePass]:
         """``passes(settings, accumulate, data)``, their order checked once per configuration."""
         plan = self.passes(settings, accumulate, data)
-        key = (settings.mode, settings.traces_sky, accumulate, data)
+        key = (settings.mode, settings.traces_sky, settings.lit_cube, accumulate, data)
         if key not in self._checked:
             check_order(plan, settings, final_reads=READBACK_READS + (("film",) if accumulate else ()))
             self._checked.add(key)
@@ -358,12 +363,12 @@ class Renderer:
         """Free this renderer's GL objects (the shared context stays)."""
         self.accumulate.release()
         self.data_passes.release()
-        for owner in (self.cube_map, self.culler, self.tracer):
+        for owner in (self.cube_map, self.cube_light, self.culler, self.tracer):
             if owner is not None:
                 owner.release()
         if self.lbvh is not None:
             self.lbvh.builder.release()
-        self.cube_map = self.culler = self.lbvh = self.tracer = self.world_light = None
+        self.cube_map = self.cube_light = self.culler = self.lbvh = self.tracer = self.world_light = None
         self._world = {}
         self._world_key = None
         self.statistics.release()

@@ -94,6 +94,9 @@ FIELD_DOCS = {
     "render_samples": "Final renders: samples per pixel, each with the camera moved by a different "
     "fraction of a pixel, averaged (anti-aliasing; each sample after the first costs a primary "
     "raster, the shading and the trace). The viewport takes one",
+    "lit_cube": "Shade the cube map's surfaces once per frame (lamps, World and light bounced between "
+    "them, built up over frames) and let reflections read that light, blurred to their roughness, "
+    "instead of shading every hit again",
 }
 
 FIELD_LIMITS = {
@@ -146,6 +149,7 @@ class RenderSettings:
     near_min: float = 0.5
     near_max: float = 20.0
     diagnostic_bounce: int = 1
+    lit_cube: bool = True
 
     @property
     def trace_mode(self) -> str:

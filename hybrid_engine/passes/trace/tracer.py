@@ -107,7 +107,8 @@ def traced_resources(settings: RenderSettings) -> tuple[str, ...]:
     """What the kernel traces through in ``settings.mode``: the BVH (not in PROVENANCE, which
     only decides where each first secondary ray starts) and the cube map (the hybrid modes)."""
     mode = settings.trace_mode
-    return (("bvh",) if mode != "PROVENANCE" else ()) + (("cube_map",) if mode == "HYBRID" else ())
+    return ((("bvh",) if mode != "PROVENANCE" else ()) + (("cube_map",) if mode == "HYBRID" else ())
+            + (("cube_light",) if mode == "HYBRID" and settings.lit_cube else ()))
 
 
 class HybridTracer:
@@ -180,6 +181,7 @@ class HybridTracer:
         traced = traced_resources(settings)
         built = frame.read("bvh") if "bvh" in traced else None
         cube = frame.read("cube_map") if "cube_map" in traced else None
+        lit = frame.read("cube_light") if "cube_light" in traced else None
         gpu, scene = frame.read("world_triangles"), frame.read("scene")
         targets, resources, view = frame.read("gbuffer"), frame.read("lighting"), frame.view
         ctx = self.ctx
@@ -193,6 +195,7 @@ class HybridTracer:
         defines = {**(built.traversal_defines() if built is not None else {}),
                    **normal_split.defines("TRI_NORMAL_BLOCKS", "TRI_NORMAL_BLOCK_SIZE"),
                    **(cube.defines if cube is not None else {}),
+                   **(lit.defines if lit is not None else {}),
                    **({"WORLD_LIGHT_PASS": 1} if world_light else {}),
                    **({"DIAGNOSTIC": 1} if diagnostic else {})}
         self._counters.write(self._zero_counters)
@@ -212,6 +215,8 @@ class HybridTracer:
         }
         if cube is not None:
             textures.update(cube.textures)
+        if lit is not None:
+            textures.update(lit.textures)
         # Uniforms.
         center = frame.center
         values = {
@@ -228,6 +233,8 @@ class HybridTracer:
             view.view_proj, view.height, view.orthographic)
         if cube is not None:
             values.update(cube.uniforms)
+        if lit is not None:
+            values.update(lit.uniforms)
         images = {"u_color": Image(targets.color, read=True, write=True),
                   "u_ambient": Image(targets.ambient, read=False, write=True)}
         if diagnostic:

@@ -50,6 +50,7 @@ LABELS = {
     "viewport_samples": "Viewport Samples",
     "ao_distance": "AO Distance",
     "sky_rays": "World Light Rays",
+    "lit_cube": "Lit Cube Map",
     "near_cube_mode": "Near Cube",
     "frame_budget_ms": "Frame Budget",
     "near_min": "Min Size",

@@ -28,6 +28,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 
+#include "cube_march.glsl"
 #include "cube_radiance.glsl"
 #include "cube_light_texels.glsl"
 #include "random.glsl"

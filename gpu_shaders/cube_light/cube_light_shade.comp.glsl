@@ -17,7 +17,8 @@
 // SkyIrradiance. Samplers: the cube map's (cube_march.glsl, u_cube_surface, u_cube_geometric),
 // u_gather (this frame's gather), u_textures, u_shadow_atlas, u_shadow_dynamic, u_sky_env.
 // Image u_radiance (rgba16f, level 0, written). Uniforms: cube_march.glsl's,
-// u_cube_radiance_res, u_gather_res, the lighting's (FrameResources.bindings).
+// u_cube_radiance_res, u_gather_res, u_gathered (0: V = 1 and no bounce, without reading
+// u_gather), the lighting's (FrameResources.bindings).
 #define HARD_SHADOWS 1
 #include "scene_layout.glsl"
 
@@ -35,6 +36,7 @@ uniform sampler2D u_cube_surface;
 uniform sampler2D u_gather;
 uniform int u_cube_radiance_res;
 uniform int u_gather_res;
+uniform int u_gathered;  // 0: no gather (AO Distance 0 lights every surface by the whole sky)
 
 const float CUBE_LIGHT_MAX = 60000.0;
 
@@ -102,7 +104,7 @@ void main() {
     SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n_facing, g_facing);
     if (split.diffuse_weight > 0.0) {
         DirectLight direct = direct_lighting(p, split.n_facing, -view_dir, vec3(0.0), 0.0, 1.0, true);
-        vec4 gathered = gathered_light(face, row, local, p, split.n_facing);
+        vec4 gathered = u_gathered != 0 ? gathered_light(face, row, local, p, split.n_facing) : vec4(0.0, 0.0, 0.0, 1.0);
         vec3 irradiance = direct.irradiance + sky_irradiance(split.n_facing) * gathered.a + gathered.rgb;
         light += split.diffuse_weight * albedo / PI * irradiance;
     }

@@ -13,12 +13,12 @@
 // a > 0): rgb is premultiplied by coverage there, and a read divides by it, so that a
 // blurred surface is not darkened by the empty texels (sky) around it.
 //
-// Needs cube_march.glsl's uniforms (u_face_view_proj, u_cube_res, u_cube_depth, the near and
-// far planes). Uniforms: u_cube_radiance (RGBA16F, mipmapped), u_cube_radiance_res,
+// Needs cube_march.glsl (its uniforms: u_face_view_proj, u_cube_res, u_cube_depth, the near
+// and far planes), included first: the shader loader includes a file once per program, where
+// it first appears, even inside a disabled #if. Uniforms: u_cube_radiance (RGBA16F, mipmapped), u_cube_radiance_res,
 // u_cube_radiance_levels.
 #ifndef HYBRID_CUBE_RADIANCE_GLSL
 #define HYBRID_CUBE_RADIANCE_GLSL
-#include "cube_march.glsl"
 
 uniform sampler2D u_cube_radiance;
 uniform int u_cube_radiance_res;
@@ -35,6 +35,7 @@ float cube_texel_angle() {
 // (the previous frame's) has the same matrices up to its translation, so p is moved by the
 // difference of the centres.
 void cube_locate(vec3 p, vec3 center, out int face, out ivec2 local, out float axial) {
+    local = ivec2(0);
     vec3 d = p - center;
     vec3 a = abs(d);
     face = a.x >= a.y && a.x >= a.z ? (d.x >= 0.0 ? 0 : 1) : a.y >= a.z ? (d.y >= 0.0 ? 2 : 3) : (d.z >= 0.0 ? 4 : 5);

@@ -22,16 +22,34 @@ vec3 cube_stored_radiance(Hit h, float cone) {
     ivec2 local;
     float axial;
     cube_locate(h.position, u_cube_center, face, local, axial);
-    return cube_radiance_at_level(face, cube_layer_of(face, local, axial), local, cube_radiance_level(cone));
+    int row = cube_layer_of(face, local, axial);
+    // A hit the march found where the ray entered a texel (a surface stretched by its
+    // thickness, met from the side) lies on that texel's edge, and its position may round
+    // into the neighbour: the nearest texel around that holds the hit's material is its own.
+    ivec2 base = ivec2(face * u_cube_res, row * u_cube_res);
+    if (int(abs(texelFetch(u_cube_normal_material, base + local, 0).w) + 0.5) - 1 != h.material) {
+        for (int k = 0; k < 8; ++k) {
+            ivec2 step = ivec2(k < 3 ? k - 1 : k < 5 ? (k == 3 ? -1 : 1) : k - 6, k < 3 ? -1 : k < 5 ? 0 : 1);
+            ivec2 near_texel = clamp(local + step, ivec2(0), ivec2(u_cube_res - 1));
+            if (int(abs(texelFetch(u_cube_normal_material, base + near_texel, 0).w) + 0.5) - 1 == h.material) {
+                local = near_texel;
+                break;
+            }
+        }
+    }
+    return cube_radiance_at_level(face, row, local, cube_radiance_level(cone));
 }
 
 // The light a ray along view_dir takes from cube-map hit h (material m, its specular split):
-// the stored diffuse light over the ray's cone -- a pixel's spread, widened by the glossy
-// lobes on its path as ray_cone_footprint widens it (about 2 alpha radians across, taken as
-// seen from the map's centre, which is the camera) -- plus the lamps' highlights, widened to
-// `blur` as lamp_light_response widens them.
+// the stored diffuse light over the cone of the glossy lobes on the ray's path (about
+// 2 alpha radians across, as ray_cone_footprint widens a ray's cone, taken as seen from the
+// map's centre, the camera), plus the lamps' highlights, widened to `blur` as
+// lamp_light_response widens them. A pixel's own footprint is left out of the cone: the
+// film's jittered samples filter it (antialias.py), and a mirror reads each texel sharp, as
+// a ray shaded per hit would see it, rather than blending a silhouette into what lies
+// behind it.
 vec3 cube_hit_light(Material m, Hit h, vec3 view_dir, SpecularSplit split, float blur) {
-    float cone = u_pixel_spread + 2.0 * blur * blur;
+    float cone = 2.0 * blur * blur;
     float highlight_roughness = max(material_roughness(m), blur);
     vec3 glossy = direct_lighting(h.position, split.n_facing, -view_dir, split.lamp_f0, split.lamp_f90,
                                   highlight_roughness, false).glossy;

@@ -34,9 +34,10 @@
 
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 
-#ifndef TRACE_SHADING_ONLY
+// The lit cube map's reads (lit_cube.glsl) locate hits in the faces: the shading kernels need the march's uniforms too.
+#if !defined(TRACE_SHADING_ONLY) || defined(LIT_CUBE)
 #include "cube_march.glsl"
-#endif  // TRACE_SHADING_ONLY
+#endif
 
 #ifndef TRACE_SHADING_ONLY
 // Shading normals of triangle i, corners 0..2: floats 9 i .. 9 i + 8 of the scene's normal

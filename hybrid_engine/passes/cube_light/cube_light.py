@@ -131,14 +131,18 @@ class CubeLightPass:
         common = {**cube.uniforms, **scene_bound_uniforms(SceneBounds.of(frame.read("scene"))),
                   "u_cube_radiance_res": self.face_size, "u_cube_radiance_levels": self.levels,
                   "u_gather_res": self.gather_res}
-        gathers = 1 if history else WARMUP
+        # AO Distance 0 lights every surface by the whole sky (RenderSettings): then the
+        # texels see it all, and no ray looks for what hides it or what it bounces.
+        gathered = frame.settings.ao_distance > 0.0
+        gathers = 1 if history or not gathered else WARMUP
         for k in range(gathers):
             # Swap: the previous frame's (or warm-up step's) atlas and gather become the history.
             self.radiance.reverse()
             self.gather.reverse()
             blend = BLEND if history else 1.0 / (k + 1)
-            self._gather(cube, materials, common, center, history or k > 0, blend)
-            self._shade(cube, materials, lighting, common)
+            if gathered:
+                self._gather(cube, materials, common, center, history or k > 0, blend)
+            self._shade(cube, materials, lighting, {**common, "u_gathered": int(gathered)})
             self._prev_center = center
         self._downsample()
         frame.write("cube_light", self.lit(rows))

@@ -55,7 +55,8 @@ def test_the_hybrid_table_is_every_pass_in_order_with_its_declarations(passes_of
     ("PROVENANCE", RenderSettings(mode="PROVENANCE"), "HybridTracer"),
     ("*World Light Rays*", RenderSettings(mode="HYBRID", sky_rays=True), "WorldLightRays"),
     ("Depth or Normal pass", RenderSettings(mode="HYBRID"), "DataPassesPass"),
-    ("*Lit Cube Map* off", RenderSettings(mode="HYBRID", lit_cube=False), "HybridTracer"),
+    ("*Lit Cube Map*", RenderSettings(mode="HYBRID", lit_cube=True), "CubeLightPass"),
+    ("*Lit Cube Map*", RenderSettings(mode="HYBRID", lit_cube=True), "HybridTracer"),
 ])
 def test_the_variants_table_gives_each_changed_declaration(passes_of, label, settings, cls):
     rows = [r for r in table_rows() if len(r) == 4 and r[0].startswith(label) and r[1] == f"`{cls}`"]

@@ -9,7 +9,7 @@ import pytest
 
 from conftest import save_failure_images
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
-from hybrid_engine.frame.renderer import Renderer
+from hybrid_engine.frame.renderer import Renderer, frame_steps
 from hybrid_engine.gpu import variants
 from hybrid_engine.passes.cube_light.cube_light import FADE_FRAMES
 from hybrid_engine.scene.camera import look_at
@@ -17,7 +17,7 @@ from scenes_analytic import box, quad
 from whitted_reference import flip_mean
 
 W, H = 64, 48
-BASE = dict(cube_resolution=128, shadow_resolution=256, cube_far=200.0, ao_distance=0.0, near_size=1.0)
+BASE = dict(cube_resolution=128, shadow_resolution=256, cube_far=200.0, ao_distance=0.0, near_size=1.0, lit_cube=True)
 
 
 @pytest.fixture(scope="module")
@@ -195,3 +195,10 @@ def test_a_closed_white_room_converges_to_a_bounded_light(renderer):
     assert means.max() <= 1.2 * direct / (1.0 - 0.8), (direct, means)
     late, later = means[-20:-10].mean(), means[-10:].mean()
     assert abs(later - late) <= 0.05 * later, (late, later)
+
+
+def test_the_lit_cube_map_is_a_step_of_its_own_after_the_cube_map(renderer):
+    scene, camera = shadowed_floor_scene(), camera_at((0, 0, 0), (0, 1, -0.2))
+    result = renderer.render(scene, camera, RenderSettings(**BASE), timing=True)
+    assert tuple(result.passes) == frame_steps("HYBRID", lit_cube=True)
+    assert frame_steps("HYBRID", lit_cube=True).index("cube_light") == frame_steps("HYBRID").index("cube_map_raster") + 1

@@ -42,11 +42,9 @@ def test_each_mode_renders_and_times_exactly_its_passes(renderer, mode):
 
 
 def test_switching_modes_on_one_renderer_gives_the_same_images_as_fresh_frames(renderer):
-    # The lit cube map carries light from frame to frame by design (its bounces build up,
-    # tests/test_cube_light.py): without it a frame depends on nothing of the last.
-    first = {m: renderer.render(scene(), CAMERA, RenderSettings(mode=m, lit_cube=False, **SMALL)).image for m in MODES}
+    first = {m: renderer.render(scene(), CAMERA, RenderSettings(mode=m, **SMALL)).image for m in MODES}
     for mode in reversed(MODES):
-        again = renderer.render(scene(), CAMERA, RenderSettings(mode=mode, lit_cube=False, **SMALL)).image
+        again = renderer.render(scene(), CAMERA, RenderSettings(mode=mode, **SMALL)).image
         np.testing.assert_array_equal(again, first[mode], err_msg=mode)
     # RASTER's mirror sees the sky, the traced modes see the floor too: they differ.
     assert not np.array_equal(first["RASTER"], first["FULL_BVH"])

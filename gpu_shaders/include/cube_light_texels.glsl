@@ -28,9 +28,10 @@ vec3 cube_texel_position(int face, ivec2 atlas) {
 }
 
 // The shading and geometric normals of the surface at `atlas`, turned to the side the map's
-// centre sees (the side the camera sees, lit and looked at).
+// centre sees (the side the camera sees, lit and looked at); on the back layer
+// (CUBE_BACK_LAYER, rows past the first) the far side of a closed object, turned away from it.
 void cube_texel_normals(ivec2 atlas, vec4 nm, vec3 p, out vec3 n_facing, out vec3 g_facing) {
-    vec3 to_center = u_cube_center - p;
+    vec3 to_center = atlas.y >= u_cube_res ? p - u_cube_center : u_cube_center - p;
     vec3 n = normalize(nm.xyz);
     vec2 g_oct = texelFetch(u_cube_geometric, atlas, 0).xy;
     vec3 g = gbuffer_geometric(g_oct.x, g_oct.y, n);

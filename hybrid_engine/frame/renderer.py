@@ -88,18 +88,21 @@ class RenderCancelled(Exception):
 _RASTER = ("upload", "instance_transform", "shadow_maps", "lighting", "primary_raster")
 MODE_STEPS = {
     "RASTER": (*_RASTER, "shade", "readback"),
-    "HYBRID": (*_RASTER, "cube_map_raster", "cube_light", "cull", "lbvh_build", "shade", "trace", "readback"),
+    "HYBRID": (*_RASTER, "cube_map_raster", "cull", "lbvh_build", "shade", "trace", "readback"),
     "FULL_BVH": (*_RASTER, "lbvh_build", "shade", "trace", "readback"),
     "PROVENANCE": (*_RASTER, "shade", "trace", "readback"),
 }
 MODE_STEPS.update({view: MODE_STEPS["HYBRID"] for view in DIAGNOSTIC_VIEWS})
 
 
-def frame_steps(mode: str, accumulate: bool = False, data: bool = False) -> tuple[str, ...]:
+def frame_steps(mode: str, accumulate: bool = False, data: bool = False, lit_cube: bool = False) -> tuple[str, ...]:
     """The steps of a frame of ``mode`` (RenderSettings admits no other); one that
     accumulates adds ``accumulate``, one with data passes ``data_passes``, before the
-    read-back."""
+    read-back; the lit cube map (``lit_cube``) adds ``cube_light`` after the cube map."""
     steps = MODE_STEPS[mode]
+    if lit_cube and "cube_map_raster" in steps:
+        at = steps.index("cube_map_raster") + 1
+        steps = (*steps[:at], "cube_light", *steps[at:])
     extra = ("accumulate",) * accumulate + ("data_passes",) * data
     return (*steps[:-1], *extra, steps[-1])
 # The passes that depend only on the geometry, the settings and the eye, and what they leave:
@@ -272,7 +275,7 @@ class Renderer:
         hold only what the host knows."""
         settings = settings or RenderSettings()
         outputs = outputs or FrameOutputs()
-        steps = frame_steps(settings.mode, accumulate, outputs.depth or outputs.normal)
+        steps = frame_steps(settings.mode, accumulate, outputs.depth or outputs.normal, settings.lit_cube)
         traced = settings.mode != "RASTER"
         data = outputs.depth or outputs.normal
         plan = self._checked_passes(settings, accumulate, data)

@@ -149,7 +149,7 @@ class RenderSettings:
     near_min: float = 0.5
     near_max: float = 20.0
     diagnostic_bounce: int = 1
-    lit_cube: bool = True
+    lit_cube: bool = False
 
     @property
     def trace_mode(self) -> str:

@@ -26,9 +26,10 @@ lamps and the sky; a bounce returns at most albedo < 1 of what arrives (the cosi
 a Lambertian surface), so the stored light obeys L' <= e + rho K L with ||rho K|| < 1 and its
 frames converge to the bounded multi-bounce solution instead of growing; every sample and
 texel is clamped to what float16 holds, so no estimate turns infinite. When a light goes, its
-direct part goes at once (it is shaded anew each frame), and the bounced part decays by at
-most (1 - BLEND) + BLEND rho per frame, rho the scene's albedo times the share of bounce rays
-that meet a surface: with BLEND 1/2 and rho <= 1/2 below 1 % after ``FADE_FRAMES`` frames
+direct part goes at once (it is shaded anew each frame), and what it bounced decays by at most
+(1 - BLEND) + BLEND rho per frame, rho the albedo times the share of bounce rays that meet a
+surface, starting from the bounced share of the light (at most rho / (1 - rho) of the direct):
+in a room of albedo 1/2 open on two sides it is below 1 % after ``FADE_FRAMES`` frames
 (tests/test_cube_light.py). A closed room of white walls holds its light longer, as it
 physically does, converging or fading at 1/2 + rho/2 per frame.
 
@@ -59,7 +60,7 @@ from ..trace.tracer import scene_bound_uniforms
 WORKGROUP = 8  # local size of the pass's shaders in x and y
 GATHER_BLOCK = 4  # texels per side of a gather block (cube_light_texels.glsl CUBE_GATHER_BLOCK)
 BLEND = 0.5  # weight of a frame's gather sample in the running average
-FADE_FRAMES = 8  # frames after which a light switched off leaves < 1 % (rho <= 1/2; docstring)
+FADE_FRAMES = 8  # frames after which a light switched off leaves < 1 % (albedo 1/2, open room; docstring)
 WARMUP = 4  # gathers run at once when there is no history
 
 

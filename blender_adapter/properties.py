@@ -54,6 +54,7 @@ LABELS = {
     "world_light": "World Light",
     "diffuse_bounces": "Diffuse Bounces",
     "diffuse_rays": "Diffuse Rays",
+    "lit_cube": "Lit Cube Map",
     "near_cube_mode": "Near Cube",
     "frame_budget_ms": "Frame Budget",
     "near_min": "Min Size",

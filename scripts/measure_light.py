@@ -105,6 +105,39 @@ def measure(image: np.ndarray, regions: dict[str, np.ndarray]) -> dict[str, floa
     return numbers
 
 
+def cached(folder: str | None, key: str, render) -> tuple[np.ndarray, float]:
+    """``render()``'s (image, seconds), kept in ``folder`` (``--references``) under ``key``:
+    Cycles and EEVEE do not change while Hybrid RT does, and Cycles takes minutes."""
+    if folder is None:
+        return render()
+    path = Path(folder) / f"{key}.npz"
+    if path.is_file():
+        stored = np.load(path)
+        return stored["image"], float(stored["seconds"])
+    image, seconds = render()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, image=image, seconds=seconds)
+    return image, seconds
+
+
+def cached_eevee(folder: str | None, key: str, render) -> tuple[np.ndarray | None, float, dict]:
+    """EEVEE through ``cached``; a failed EEVEE render is not kept."""
+    failure: dict = {}
+
+    def attempt():
+        image, seconds, info = render()
+        if image is None:
+            failure.update(info)
+            raise LookupError
+        return image, seconds
+
+    try:
+        image, seconds = cached(folder, key, attempt)
+    except LookupError:
+        return None, 0.0, failure
+    return image, seconds, {}
+
+
 def measure_scene(name: str, args, variants: list[tuple[str, dict]]) -> dict:
     import bpy
     from benchmarks import scene_library
@@ -114,10 +147,13 @@ def measure_scene(name: str, args, variants: list[tuple[str, dict]]) -> dict:
     results: dict[str, dict] = {}
     with tempfile.TemporaryDirectory(prefix="hybrid_rt_light_") as temporary:
         folder = Path(temporary)
-        cycles, cycles_s, _ = render_cycles(scene, args.cycles_samples, folder)
+        cycles, cycles_s = cached(args.references, f"{name}_{args.width}x{args.height}_cycles{args.cycles_samples}",
+                                  lambda: render_cycles(scene, args.cycles_samples, folder)[:2])
         results["cycles"] = {**measure(cycles, regions), "seconds": round(cycles_s, 2),
                              "samples": args.cycles_samples}
-        eevee, eevee_s, info = render_eevee(scene, args.eevee_samples, folder)
+        eevee, eevee_s, info = cached_eevee(args.references,
+                                            f"{name}_{args.width}x{args.height}_eevee{args.eevee_samples}",
+                                            lambda: render_eevee(scene, args.eevee_samples, folder))
         if eevee is not None:
             results["eevee"] = {**measure(eevee, regions), "seconds": round(eevee_s, 2),
                                 "flip_vs_cycles": flip_map(cycles, eevee)[1]}
@@ -169,6 +205,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--variant", action="append", default=[],
                         help="NAME:setting=value,... Hybrid RT settings of one more render (repeatable)")
     parser.add_argument("--json", default=None, help="write every number to this file")
+    parser.add_argument("--references", default=None,
+                        help="keep the Cycles and EEVEE images in this folder and reuse them")
     args = parser.parse_args(argv)
     try:
         variants = [parse_variant(text) for text in args.variant] or [("hybrid", {})]

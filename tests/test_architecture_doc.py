@@ -57,6 +57,8 @@ def test_the_hybrid_table_is_every_pass_in_order_with_its_declarations(passes_of
     ("PROVENANCE and RASTER", RenderSettings(mode="HYBRID", world_light="SCREEN"), "ScreenSpaceOcclusion"),
     ("PROVENANCE and RASTER", RenderSettings(mode="RASTER"), "ScreenSpaceOcclusion"),
     ("Depth, Normal or Denoising", RenderSettings(mode="HYBRID"), "DataPassesPass"),
+    ("*Lit Cube Map*", RenderSettings(mode="HYBRID", lit_cube=True), "CubeLightPass"),
+    ("*Lit Cube Map*", RenderSettings(mode="HYBRID", lit_cube=True), "HybridTracer"),
 ])
 def test_the_variants_table_gives_each_changed_declaration(passes_of, label, settings, cls):
     rows = [r for r in table_rows() if len(r) == 4 and r[0].startswith(label) and r[1] == f"`{cls}`"]

@@ -153,6 +153,7 @@ class RENDER_PT_hybrid_rt_hybrid(HybridRTPanel, bpy.types.Panel):
         col.prop(settings, "cube_far")
         col.prop(settings, "cube_back_layer")
         col.prop(settings, "cube_hidden_exit")
+        col.prop(settings, "lit_cube")
         col.prop(settings, "cube_march")
         sub = col.column(align=True)
         sub.active = settings.cube_march == "SAMPLED"

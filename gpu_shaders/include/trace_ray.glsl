@@ -34,9 +34,10 @@
 
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 
-#ifndef TRACE_SHADING_ONLY
+// The lit cube map's reads (lit_cube.glsl) locate hits in the faces: the shading kernels need the march's uniforms too.
+#if !defined(TRACE_SHADING_ONLY) || defined(LIT_CUBE)
 #include "cube_march.glsl"
-#endif  // TRACE_SHADING_ONLY
+#endif
 
 #ifndef TRACE_SHADING_ONLY
 // Shading normals of triangle i, corners 0..2: floats 9 i .. 9 i + 8 of the scene's normal
@@ -470,6 +471,10 @@ vec3 cosine_direction(vec3 n, vec3 g, vec2 xi) {
 }
 
 
+#ifdef LIT_CUBE
+#include "lit_cube.glsl"
+#endif
+
 // What an occlusion ray finds (its weight is the World's light it may let in): 1 for the
 // sky, the transmission of the surface it met.
 float occlusion_seen(Hit h) {
@@ -515,7 +520,15 @@ void shade_hit(PendingRay ray, Hit h, inout vec3 traced) {
                                               lobe_random(ray.depth));
     // Seen through a rough lobe, a sharp lamp highlight is a firefly: widen it to that
     // lobe's roughness (Cycles' Filter Glossy does the same).
+#ifdef LIT_CUBE
+    // A cube-map hit's diffuse light (lamps, emission, World) is the lit cube map's (lit_cube.glsl).
+    bool stored = h.kind == HIT_CUBE;
+    if (stored) traced += ray.weight * cube_hit_light(hm, h, ray.dir, hs, ray.blur);
+    else traced += ray.weight * lamp_light_response(hm, h_albedo, h_emission, h.position, ray.dir, hs, ray.blur);
+#else
+    const bool stored = false;
     traced += ray.weight * lamp_light_response(hm, h_albedo, h_emission, h.position, ray.dir, hs, ray.blur);
+#endif
     if (ray.depth <= u_max_depth)
         spawn_children(hs, h.position, ray.weight, ray.depth + 1, max(ray.blur, material_roughness(hm)));
 #ifdef DIFFUSE_GATHER
@@ -525,13 +538,14 @@ void shade_hit(PendingRay ray, Hit h, inout vec3 traced) {
     // are as dark as the room; the rough reflections of the sky are left unoccluded.
     if (ray.depth == 1 && hs.diffuse_weight > 0.0) {
         traced += ray.weight * world_light_response(hm, h_albedo, hs, vec3(0.0), 1.0);
+        if (stored) return;  // the lit cube map's light holds the World's, occluded and bounced
         vec3 d_gather = cosine_direction(hs.n_facing, hs.g_facing, lobe_random(0x5ca3));
         push_occlusion(offset_origin(h.position, hs.g_facing), d_gather, ray.weight * hs.diffuse_weight * h_albedo,
                        FLOAT_MAX);
         return;
     }
 #endif
-    vec3 world = ray.weight * world_light_response(hm, h_albedo, hs, sky_irradiance(hs.n_facing), 1.0);
+    vec3 world = ray.weight * world_light_response(hm, h_albedo, hs, stored ? vec3(0.0) : sky_irradiance(hs.n_facing), 1.0);
     // The World's light at the first bounce's hits near the camera is hidden as at
     // primary pixels: one cosine ray within AO Distance through the BVH (hybrid ambient
     // occlusion, the paper's reference [14]), a fresh direction per sample. Hits in the

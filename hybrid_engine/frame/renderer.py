@@ -53,6 +53,7 @@ from ..gpu.statistics import LazyCounts, StatisticsRing
 from ..gpu.timing import PassTimer
 from ..passes.film.accumulate import AccumulatePass
 from ..passes.film.data_passes import DataPassesPass, read_data_passes
+from ..passes.cube_light.cube_light import CubeLightPass
 from ..passes.cube_map.cube_map import CubeMapPass
 from ..passes.emitters.emitter_pass import EmitterTablePass
 from ..passes.diffuse_light.diffuse_light import DiffuseLightPass
@@ -96,11 +97,14 @@ MODE_STEPS = {
 MODE_STEPS.update({view: MODE_STEPS["HYBRID"] for view in DIAGNOSTIC_VIEWS})
 
 
-def frame_steps(mode: str, accumulate: bool = False, data: bool = False) -> tuple[str, ...]:
+def frame_steps(mode: str, accumulate: bool = False, data: bool = False, lit_cube: bool = False) -> tuple[str, ...]:
     """The steps of a frame of ``mode`` (RenderSettings admits no other); one that
     accumulates adds ``accumulate``, one with data passes ``data_passes``, before the
-    read-back."""
+    read-back; the lit cube map (``lit_cube``) adds ``cube_light`` after the cube map."""
     steps = MODE_STEPS[mode]
+    if lit_cube and "cube_map_raster" in steps:
+        at = steps.index("cube_map_raster") + 1
+        steps = (*steps[:at], "cube_light", *steps[at:])
     extra = ("accumulate",) * accumulate + ("data_passes",) * data
     return (*steps[:-1], *extra, steps[-1])
 # The passes that depend only on the geometry, the settings and the eye, and what they leave:
@@ -160,6 +164,7 @@ class Renderer:
         # The traced modes' passes, made on the first frame that needs them (their kernels
         # take a while to compile).
         self.cube_map: CubeMapPass | None = None
+        self.cube_light: CubeLightPass | None = None
         self.culler: NearCubeCuller | None = None
         self.lbvh: LBVHBuildPass | None = None
         self.tracer: HybridTracer | None = None
@@ -187,6 +192,8 @@ class Renderer:
         steps = MODE_STEPS[mode]
         if "cube_map_raster" in steps:
             plan.append(self.cube_map)
+            if settings.lit_cube:
+                plan.append(self.cube_light)
         if "cull" in steps:
             plan.append(self.culler)
         if "lbvh_build" in steps:
@@ -203,6 +210,7 @@ class Renderer:
     def _ensure_traced(self) -> None:
         if self.tracer is None:
             self.cube_map = CubeMapPass(self.ctx, self.gbuffer)
+            self.cube_light = CubeLightPass(self.ctx)
             self.culler = NearCubeCuller(self.ctx)
             self.lbvh = LBVHBuildPass(LBVHBuilder(self.ctx))
             self.tracer = HybridTracer(self.ctx)
@@ -212,7 +220,7 @@ class Renderer:
     def _checked_passes(self, settings: RenderSettings, accumulate: bool, data: bool) -> list[FramePass]:
         """``passes(settings, accumulate, data)``, their order checked once per configuration."""
         plan = self.passes(settings, accumulate, data)
-        key = (settings.mode, settings.traces_diffuse, accumulate, data)
+        key = (settings.mode, settings.traces_diffuse, settings.lit_cube, accumulate, data)
         if key not in self._checked:
             check_order(plan, settings, final_reads=READBACK_READS + (("film",) if accumulate else ()))
             self._checked.add(key)
@@ -271,7 +279,7 @@ class Renderer:
         hold only what the host knows."""
         settings = settings or RenderSettings()
         outputs = outputs or FrameOutputs()
-        steps = frame_steps(settings.mode, accumulate, outputs.wants_data)
+        steps = frame_steps(settings.mode, accumulate, outputs.wants_data, settings.lit_cube)
         traced = settings.mode != "RASTER"
         data = outputs.wants_data
         plan = self._checked_passes(settings, accumulate, data)
@@ -362,12 +370,13 @@ class Renderer:
         """Free this renderer's GL objects (the shared context stays)."""
         self.accumulate.release()
         self.data_passes.release()
-        for owner in (self.cube_map, self.culler, self.tracer, self.diffuse_light, self.emitters):
+        for owner in (self.cube_map, self.cube_light, self.culler, self.tracer, self.diffuse_light, self.emitters):
             if owner is not None:
                 owner.release()
         if self.lbvh is not None:
             self.lbvh.builder.release()
-        self.cube_map = self.culler = self.lbvh = self.tracer = self.diffuse_light = self.emitters = None
+        self.cube_map = self.cube_light = self.culler = self.lbvh = self.tracer = None
+        self.diffuse_light = self.emitters = None
         self._world = {}
         self._world_key = None
         self.statistics.release()

@@ -112,6 +112,9 @@ FIELD_DOCS = {
     "bounce more lights rooms from their walls, at the cost of one more ray",
     "diffuse_rays": "Rays World Light: paths traced from each diffuse pixel per sample: less "
     "noise, proportionally slower",
+    "lit_cube": "Shade the cube map's surfaces once per frame (lamps, World and light bounced between "
+    "them, built up over frames) and let reflections read that light, blurred to their roughness, "
+    "instead of shading every hit again",
 }
 
 FIELD_LIMITS = {
@@ -168,6 +171,7 @@ class RenderSettings:
     world_light: str = "RAYS"
     diffuse_bounces: int = 1
     diffuse_rays: int = 1
+    lit_cube: bool = False
 
     @property
     def trace_mode(self) -> str:

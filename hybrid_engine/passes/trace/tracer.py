@@ -110,7 +110,8 @@ def traced_resources(settings: RenderSettings) -> tuple[str, ...]:
     """What the kernel traces through in ``settings.mode``: the BVH (not in PROVENANCE, which
     only decides where each first secondary ray starts) and the cube map (the hybrid modes)."""
     mode = settings.trace_mode
-    return (("bvh",) if mode != "PROVENANCE" else ()) + (("cube_map",) if mode == "HYBRID" else ())
+    return ((("bvh",) if mode != "PROVENANCE" else ()) + (("cube_map",) if mode == "HYBRID" else ())
+            + (("cube_light",) if mode == "HYBRID" and settings.lit_cube else ()))
 
 
 class HybridTracer:
@@ -184,6 +185,7 @@ class HybridTracer:
         traced = traced_resources(settings)
         built = frame.read("bvh") if "bvh" in traced else None
         cube = frame.read("cube_map") if "cube_map" in traced else None
+        lit = frame.read("cube_light") if "cube_light" in traced else None
         gpu, scene = frame.read("world_triangles"), frame.read("scene")
         targets, resources, view = frame.read("gbuffer"), frame.read("lighting"), frame.view
         ctx = self.ctx
@@ -198,6 +200,7 @@ class HybridTracer:
                    **normal_split.defines("TRI_NORMAL_BLOCKS", "TRI_NORMAL_BLOCK_SIZE"),
                    **(cube.defines if cube is not None else {}),
                    **({"DIFFUSE_GATHER": 1} if settings.traces_diffuse else {}),
+                   **(lit.defines if lit is not None else {}),
                    **({"DIAGNOSTIC": 1} if diagnostic else {})}
         self._counters.write(self._zero_counters)
 
@@ -216,6 +219,8 @@ class HybridTracer:
         }
         if cube is not None:
             textures.update(cube.textures)
+        if lit is not None:
+            textures.update(lit.textures)
         # Uniforms.
         center = frame.center
         values = {
@@ -232,6 +237,8 @@ class HybridTracer:
             view.view_proj, view.height, view.orthographic)
         if cube is not None:
             values.update(cube.uniforms)
+        if lit is not None:
+            values.update(lit.uniforms)
         images = {"u_color": Image(targets.color, read=True, write=True)}
         if diagnostic:
             if self.diagnostic is None or self.diagnostic.size != (view.width, view.height):

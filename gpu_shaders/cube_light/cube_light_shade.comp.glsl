@@ -1,0 +1,113 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Level 0 of the lit cube map (hybrid_engine/passes/cube_light/, layout in
+// include/cube_radiance.glsl): each texel of the cube map's faces (paper §3.2) shaded with
+// its diffuse, view-independent light,
+//   emission + diffuse_weight * albedo / pi * (E_lamps + E_sky * V + E_bounce)
+// where E_lamps is the lamps' irradiance through their shadow maps (lighting.glsl, hard
+// shadows as the tracer's hits take them), E_sky the World's irradiance (world_light.glsl),
+// and V and E_bounce the sky's visibility and the bounced irradiance of the gather
+// (cube_light_gather.comp.glsl), upsampled from its blocks to the texel: the blocks around it
+// weighted bilinearly and by how well their representative surface agrees with the texel's
+// (normal and plane), so that light does not leak across an edge of the geometry. The
+// diffuse layer's share (diffuse_weight, after its specular coat's Fresnel share) is the one
+// the map's centre, the camera, sees. a = the texel's distance from the centre (0: none).
+// Texels of the padding up to the power-of-two face size, and empty ones, are cleared.
+//
+// Storage block MaterialBuffer; uniform blocks LightBuffer, ShadowSlotBuffer; storage block
+// SkyIrradiance. Samplers: the cube map's (cube_march.glsl, u_cube_surface, u_cube_geometric),
+// u_gather (this frame's gather), u_textures, u_shadow_atlas, u_shadow_dynamic, u_sky_env.
+// Image u_radiance (rgba16f, level 0, written). Uniforms: cube_march.glsl's,
+// u_cube_radiance_res, u_gather_res, u_gathered (0: V = 1 and no bounce, without reading
+// u_gather), the lighting's (FrameResources.bindings).
+#define HARD_SHADOWS 1
+#include "scene_layout.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
+
+#include "shading.glsl"
+#include "textures.glsl"
+#include "cube_march.glsl"
+#include "cube_light_texels.glsl"
+
+layout(rgba16f) writeonly uniform image2D u_radiance;
+uniform sampler2D u_cube_surface;
+uniform sampler2D u_gather;
+uniform int u_cube_radiance_res;
+uniform int u_gather_res;
+uniform int u_gathered;  // 0: no gather (AO Distance 0 lights every surface by the whole sky)
+
+const float CUBE_LIGHT_MAX = 60000.0;
+
+// The gather's visibility (a) and bounced irradiance (rgb) at the texel `local` of (face,
+// row) whose surface is at p with facing normal n (see the header).
+vec4 gathered_light(int face, int row, ivec2 local, vec3 p, vec3 n) {
+    vec2 at = (vec2(local) + 0.5) / float(CUBE_GATHER_BLOCK) - 0.5;
+    ivec2 c = ivec2(floor(at));
+    vec2 f = at - vec2(c);
+    float texel_world = distance(p, u_cube_center) * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
+    vec4 sum = vec4(0.0);
+    float total = 0.0;
+    for (int j = 0; j < 2; ++j) {
+        for (int i = 0; i < 2; ++i) {
+            ivec2 block = c + ivec2(i, j);
+            if (any(lessThan(block, ivec2(0))) || any(greaterThanEqual(block, ivec2(u_gather_res)))) continue;
+            ivec2 rep = ivec2(face, row) * u_cube_res + cube_gather_texel(block);
+            vec4 nm = texelFetch(u_cube_normal_material, rep, 0);
+            if (nm.w == 0.0) continue;
+            vec3 q = cube_texel_position(face, rep);
+            float facing = max(dot(normalize(nm.xyz), n), 0.0);
+            facing *= facing;
+            facing *= facing;
+            float plane = abs(dot(q - p, n)) / (2.0 * CUBE_GATHER_BLOCK * texel_world);
+            float w = (i == 1 ? f.x : 1.0 - f.x) * (j == 1 ? f.y : 1.0 - f.y) * facing * facing / (1.0 + plane * plane);
+            sum += w * texelFetch(u_gather, ivec2(face, row) * u_gather_res + block, 0);
+            total += w;
+        }
+    }
+    if (total > 1e-4) return sum / total;
+    // No block agrees: the one the texel lies in, whatever surface it stands for.
+    ivec2 own = min(local / CUBE_GATHER_BLOCK, ivec2(u_gather_res - 1));
+    return texelFetch(u_gather, ivec2(face, row) * u_gather_res + own, 0);
+}
+
+void main() {
+    ivec2 texel = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(u_radiance);
+    if (any(greaterThanEqual(texel, size))) return;
+    int face = texel.x / u_cube_radiance_res;
+    int row = texel.y / u_cube_radiance_res;
+    ivec2 local = texel - ivec2(face, row) * u_cube_radiance_res;
+    if (any(greaterThanEqual(local, ivec2(u_cube_res)))) {
+        imageStore(u_radiance, texel, vec4(0.0));
+        return;
+    }
+    ivec2 atlas = ivec2(face, row) * u_cube_res + local;
+    vec4 nm = texelFetch(u_cube_normal_material, atlas, 0);
+    if (nm.w == 0.0) {
+        imageStore(u_radiance, texel, vec4(0.0));
+        return;
+    }
+    vec3 p = cube_texel_position(face, atlas);
+    vec3 view_dir = normalize(p - u_cube_center);
+    float dist = distance(p, u_cube_center);
+    int index = int(abs(nm.w) + 0.5) - 1;
+    // The texel's textures at the level of its own footprint, as the face's raster would.
+    vec4 surface = texelFetch(u_cube_surface, atlas, 0);
+    float lod = texture_lod(dist * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res), surface.z);
+    Material m = material_at_lod(materials[index], surface.xy, lod);
+    vec3 albedo = material_albedo_lod(m, surface.xy, lod);
+    vec3 light = material_emission_lod(m, surface.xy, lod);
+    vec3 n_facing, g_facing;
+    cube_texel_normals(atlas, nm, p, n_facing, g_facing);
+    SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n_facing, g_facing);
+    if (split.diffuse_weight > 0.0) {
+        DirectLight direct = direct_lighting(p, split.n_facing, -view_dir, vec3(0.0), 0.0, 1.0, true);
+        vec4 gathered = u_gathered != 0 ? gathered_light(face, row, local, p, split.n_facing) : vec4(0.0, 0.0, 0.0, 1.0);
+        vec3 irradiance = direct.irradiance + sky_irradiance(split.n_facing) * gathered.a + gathered.rgb;
+        light += split.diffuse_weight * albedo / PI * irradiance;
+    }
+    if (any(isnan(light)) || any(isinf(light))) light = vec3(0.0);
+    imageStore(u_radiance, texel, vec4(clamp(light, vec3(0.0), vec3(CUBE_LIGHT_MAX)), dist));
+}

@@ -74,10 +74,23 @@ vec3 diffuse_path(vec3 p, vec3 n, vec3 g, int path, out float sky) {
         Material hm = material_at_lod(materials[h.material], h.uv, h.lod);
         vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
         SpecularSplit hs = specular_split_geometric(hm, h_albedo, d, h.normal, h.geometric);
+        bool bounces_left = vertex <= u_diffuse_bounces;
+#ifdef LIT_CUBE
+        // A surface in the cube map holds its light already (the lit cube map: lamps, World,
+        // emission and the bounces fed back from earlier frames): the path ends there.
+        if (bounces_left && h.kind == HIT_CUBE) {
+            vec3 stored = cube_stored_radiance(h, 0.0);
+#ifdef EMITTER_LIGHT
+            // The emitters' light reached the last vertex by its next-event estimate.
+            stored = max(stored - material_emission_lod(hm, h.uv, h.lod), vec3(0.0));
+#endif
+            radiance += throughput * stored;
+            break;
+        }
+#endif
 #ifndef EMITTER_LIGHT
         radiance += throughput * material_emission_lod(hm, h.uv, h.lod);
 #endif
-        bool bounces_left = vertex <= u_diffuse_bounces;
         if (bounces_left) {
             // The lamps' light off this surface (its emission counted above); the ray
             // stands for a whole hemisphere, so highlights are filtered as the roughest lobe.

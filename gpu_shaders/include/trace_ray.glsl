@@ -488,6 +488,9 @@ float occlusion_seen(Hit h) {
 // bounce's hits (DIFFUSE_GATHER, shade_hit) and the last vertex of a diffuse path.
 vec3 gather_light(Hit h, vec3 d) {
     if (h.kind == HIT_SKY) return sky_radiance(d);
+#ifdef LIT_CUBE
+    if (h.kind == HIT_CUBE) return cube_stored_radiance(h, 0.0);  // the lit cube map's light
+#endif
     Material hm = material_at_lod(materials[h.material], h.uv, h.lod);
     vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
     SpecularSplit hs = specular_split_geometric(hm, h_albedo, d, h.normal, h.geometric);

@@ -50,7 +50,7 @@ def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, set
                        samples: int, *, outputs: FrameOutputs | None = None, timing: bool = False,
                        cancel: CancelCallback | None = None,
                        progress: ProgressCallback | None = None,
-                       filter_width: float = DEFAULT_FILTER_WIDTH) -> FrameResult:
+                       filter_width: float = DEFAULT_FILTER_WIDTH, denoise: bool = False) -> FrameResult:
     """The frame averaged over ``samples`` sub-pixel positions (``sample_offsets``).
 
     The result's ``passes`` sum each pass over the samples (the kept cube map and BVH are
@@ -60,6 +60,10 @@ def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, set
     ``sample``), so the average converges there too. Raises RenderCancelled between samples
     as between passes. Never an image whose wave queues overflowed: the samples are rendered
     again with the grown queues.
+
+    ``denoise``: each sample's ambient estimate is filtered (passes/denoise/) over the image
+    and over the samples so far; the filter's history starts with the first sample, so a
+    render does not depend on what the renderer drew before.
     """
     if samples < 1:
         raise ValueError(f"a frame needs at least one sample, got {samples}")
@@ -70,7 +74,7 @@ def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, set
     for _ in range(wave_count(settings.max_depth) + 1):
         overflows = _queue_overflows(renderer)
         result = _render_samples(renderer, scene, camera, settings, samples, outputs, timing, cancel, progress,
-                                 filter_width)
+                                 filter_width, denoise)
         if _queue_overflows(renderer) == overflows:
             break
     return result
@@ -83,8 +87,10 @@ def _queue_overflows(renderer: Renderer) -> int:
 
 def _render_samples(renderer: Renderer, scene: SceneData, camera: Camera, settings: RenderSettings,
                     samples: int, outputs: FrameOutputs | None, timing: bool, cancel: CancelCallback | None,
-                    progress: ProgressCallback | None, filter_width: float) -> FrameResult:
+                    progress: ProgressCallback | None, filter_width: float, denoise: bool) -> FrameResult:
     outputs = outputs or FrameOutputs()
+    if denoise and renderer.denoiser is not None:
+        renderer.denoiser.forget()
     # Only the first sample reads the data passes back.
     later_outputs = FrameOutputs(transparent=outputs.transparent)
     first: FrameResult | None = None
@@ -101,7 +107,7 @@ def _render_samples(renderer: Renderer, scene: SceneData, camera: Camera, settin
             scene, jittered_camera(camera, float(dx), float(dy)), settings, timing=timing,
             cancel=cancel, progress=_sample_progress(progress, index, samples),
             outputs=outputs if index == 0 else later_outputs, reuse_world=index > 0, sample=index,
-            accumulate=True, read_image=last)
+            accumulate=True, read_image=last, denoise=denoise)
         first = first or result
         image = result.image if last else None
         schedule.advance()

@@ -54,6 +54,7 @@ from ..gpu.timing import PassTimer
 from ..passes.film.accumulate import AccumulatePass
 from ..passes.film.data_passes import DataPassesPass, read_data_passes
 from ..passes.cube_map.cube_map import CubeMapPass
+from ..passes.denoise.denoise import DenoisePass
 from ..passes.frame_context import FrameContext, FramePass, check_order
 from ..passes.gbuffer.gbuffer import GBufferPass
 from ..passes.lbvh.build_pass import LBVHBuildPass
@@ -94,11 +95,14 @@ MODE_STEPS = {
 MODE_STEPS.update({view: MODE_STEPS["HYBRID"] for view in DIAGNOSTIC_VIEWS})
 
 
-def frame_steps(mode: str, accumulate: bool = False, data: bool = False) -> tuple[str, ...]:
+def frame_steps(mode: str, accumulate: bool = False, data: bool = False, denoise: bool = False) -> tuple[str, ...]:
     """The steps of a frame of ``mode`` (RenderSettings admits no other); one that
     accumulates adds ``accumulate``, one with data passes ``data_passes``, before the
-    read-back."""
+    read-back; one that denoises ``denoise`` after the ambient estimate (within ``shade``)."""
     steps = MODE_STEPS[mode]
+    if denoise:
+        at = steps.index("shade") + 1
+        steps = (*steps[:at], "denoise", *steps[at:])
     extra = ("accumulate",) * accumulate + ("data_passes",) * data
     return (*steps[:-1], *extra, steps[-1])
 # The passes that depend only on the geometry, the settings and the eye, and what they leave:
@@ -151,6 +155,7 @@ class Renderer:
         self.gbuffer = GBufferPass(self.ctx, self.drawer)
         self.occlusion = ScreenSpaceOcclusion(self.ctx)
         self.deferred_shade = DeferredShadePass(self.ctx)
+        self.denoiser: DenoisePass | None = None  # made on the first frame that denoises
         # The running mean of a view's samples (render(accumulate=True)), and the data
         # passes a final render asks for (FrameOutputs).
         self.accumulate = AccumulatePass(self.ctx)
@@ -170,10 +175,12 @@ class Renderer:
         self.statistics = StatisticsRing(self.ctx)  # where frames' GPU counters are copied
 
     # -- the passes ----------------------------------------------------------------------------
-    def passes(self, settings: RenderSettings, accumulate: bool = False, data: bool = False) -> list[FramePass]:
+    def passes(self, settings: RenderSettings, accumulate: bool = False, data: bool = False,
+               denoise: bool = False) -> list[FramePass]:
         """This renderer's passes for ``settings``, in the order a frame runs them;
         ``accumulate`` adds the running mean of the view's samples after the colour, ``data``
-        the Depth and Normal passes."""
+        the Depth and Normal passes, ``denoise`` the filter of the ambient estimate before
+        the shading reads it."""
         mode = settings.mode
         traced = mode != "RASTER"
         if traced:
@@ -188,7 +195,12 @@ class Renderer:
             plan.append(self.culler)
         if "lbvh_build" in steps:
             plan.append(self.lbvh)
-        plan += [ambient, self.deferred_shade]
+        plan.append(ambient)
+        if denoise:
+            if self.denoiser is None:
+                self.denoiser = DenoisePass(self.ctx)
+            plan.append(self.denoiser)
+        plan.append(self.deferred_shade)
         if traced:
             plan.append(self.tracer)
         if accumulate:
@@ -205,10 +217,12 @@ class Renderer:
             self.tracer = HybridTracer(self.ctx)
             self.world_light = WorldLightRays(self.tracer)
 
-    def _checked_passes(self, settings: RenderSettings, accumulate: bool, data: bool) -> list[FramePass]:
-        """``passes(settings, accumulate, data)``, their order checked once per configuration."""
-        plan = self.passes(settings, accumulate, data)
-        key = (settings.mode, settings.traces_sky, accumulate, data)
+    def _checked_passes(self, settings: RenderSettings, accumulate: bool, data: bool,
+                        denoise: bool) -> list[FramePass]:
+        """``passes(settings, accumulate, data, denoise)``, their order checked once per
+        configuration."""
+        plan = self.passes(settings, accumulate, data, denoise)
+        key = (settings.mode, settings.traces_sky, accumulate, data, denoise)
         if key not in self._checked:
             check_order(plan, settings, final_reads=READBACK_READS + (("film",) if accumulate else ()))
             self._checked.add(key)
@@ -236,6 +250,7 @@ class Renderer:
         accumulate: bool = False,
         read_image: bool = True,
         readback: ImageReadback | None = None,
+        denoise: bool = False,
     ) -> FrameResult:
         """Render one frame. Raises RenderCancelled when ``cancel()`` returns True between
         passes; the GPU state stays valid for the next frame. ``outputs`` asks for
@@ -264,17 +279,23 @@ class Renderer:
         ``FrameResult.passes`` (timing reports, benchmarks); each bracket drains the GPU, so
         a frame without it waits only for its image. ``statistics``: copy the passes' GPU
         counters for ``FrameResult.counts`` (read when first asked for); without, the counts
-        hold only what the host knows."""
+        hold only what the host knows.
+
+        ``denoise``: filter the ambient estimate (passes/denoise/) before the shading reads
+        it; the caller decides from the settings (``denoise_viewport``, ``denoise_render``).
+        The filter keeps its history from one denoised frame to the next of this renderer."""
         settings = settings or RenderSettings()
         outputs = outputs or FrameOutputs()
-        steps = frame_steps(settings.mode, accumulate, outputs.depth or outputs.normal)
+        steps = frame_steps(settings.mode, accumulate, outputs.depth or outputs.normal, denoise)
         traced = settings.mode != "RASTER"
         data = outputs.depth or outputs.normal
-        plan = self._checked_passes(settings, accumulate, data)
+        plan = self._checked_passes(settings, accumulate, data, denoise)
+        if not denoise and self.denoiser is not None:
+            self.denoiser.forget()  # its history would miss this frame
         timer = PassTimer(self.ctx, enabled=timing)
         start = time.perf_counter()
         frame = FrameContext(self.ctx, scene_data=scene, camera=camera, settings=settings,
-                             view=RasterView.from_camera(camera), outputs=outputs, sample=sample)
+                             view=RasterView.from_camera(camera), outputs=outputs, sample=sample, denoise=denoise)
         world_key = (id(scene), settings, frame.center)
         may_keep = reuse_world and traced and self._same_world(world_key)
         self._world_key = None  # set again once this frame's world is complete
@@ -358,6 +379,9 @@ class Renderer:
         """Free this renderer's GL objects (the shared context stays)."""
         self.accumulate.release()
         self.data_passes.release()
+        if self.denoiser is not None:
+            self.denoiser.release()
+            self.denoiser = None
         for owner in (self.cube_map, self.culler, self.tracer):
             if owner is not None:
                 owner.release()

@@ -94,6 +94,10 @@ FIELD_DOCS = {
     "render_samples": "Final renders: samples per pixel, each with the camera moved by a different "
     "fraction of a pixel, averaged (anti-aliasing; each sample after the first costs a primary "
     "raster, the shading and the trace). The viewport takes one",
+    "denoise_viewport": "Viewport: filter the noise of the World's and the bounced light, in space and "
+    "over the frames, following the surfaces as the camera moves (reflections and textures stay sharp)",
+    "denoise_render": "Final renders: filter the noise of the World's and the bounced light over the "
+    "image and the samples (reflections and textures stay sharp)",
 }
 
 FIELD_LIMITS = {
@@ -146,6 +150,8 @@ class RenderSettings:
     near_min: float = 0.5
     near_max: float = 20.0
     diagnostic_bounce: int = 1
+    denoise_viewport: bool = True
+    denoise_render: bool = True
 
     @property
     def trace_mode(self) -> str:

@@ -38,10 +38,6 @@ layout(rg32f) writeonly uniform image2D u_variance_out;
 
 const float B3[3] = float[3](3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
 
-bool inside(ivec2 q) {
-    return all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, u_size));
-}
-
 // The variance blurred over 3x3 pixels (a Gaussian's 1-2-1 weights): one pixel's estimate
 // is itself noisy, and stopping edges on it would keep noise as if it were detail.
 vec2 blurred_variance(ivec2 pixel) {
@@ -50,7 +46,7 @@ vec2 blurred_variance(ivec2 pixel) {
     for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
             ivec2 q = pixel + ivec2(dx, dy);
-            if (!inside(q)) continue;
+            if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, u_size))) continue;
             float w = (dx == 0 ? 2.0 : 1.0) * (dy == 0 ? 2.0 : 1.0);
             sum += w * texelFetch(u_variance_in, q, 0).rg;
             weight += w;
@@ -79,16 +75,17 @@ void main() {
     vec4 sum = center * (B3[0] * B3[0]);
     vec2 sum_variance = center_variance * (B3[0] * B3[0]) * (B3[0] * B3[0]);
     float weight = B3[0] * B3[0];
+    // No branch per tap: a tap off the image or on the background weighs 0 (a CPU driver
+    // runs a branch's both sides for a vector of pixels anyway, and the loop unrolls).
     for (int dy = -2; dy <= 2; ++dy) {
         for (int dx = -2; dx <= 2; ++dx) {
-            if (dx == 0 && dy == 0) continue;
-            ivec2 q = pixel + ivec2(dx, dy) * u_step;
-            if (!inside(q)) continue;
+            ivec2 want = pixel + ivec2(dx, dy) * u_step;
+            ivec2 q = clamp(want, ivec2(0), u_size - 1);
             vec4 surface_q = texelFetch(u_surface, q, 0);
-            if (denoise_is_background(surface_q)) continue;
             vec4 color_q = texelFetch(u_color_in, q, 0);
             vec2 guide_stop = abs(guide - denoise_guides(color_q)) / guide_scale;
-            float w = B3[abs(dx)] * B3[abs(dy)]
+            float keep = (want == q && !denoise_is_background(surface_q) && (dx != 0 || dy != 0)) ? 1.0 : 0.0;
+            float w = keep * B3[abs(dx)] * B3[abs(dy)]
                       * denoise_normal_weight(dot(n, denoise_surface_normal(surface_q)))
                       * exp(-denoise_plane_offset(p, n, surface_q.xyz, scale) / u_plane_sigma
                             - guide_stop.x - guide_stop.y);

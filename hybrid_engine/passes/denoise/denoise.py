@@ -21,9 +21,12 @@ the GPU (gpu_shaders/denoise/):
    (the albedo multiplies after), and reflections and refractions, which the tracer adds to
    the colour, are never touched.
 
-The first wavelet level is what the next frame reprojects (SVGF's choice: a history that
-is already spatially filtered converges in fewer frames). The pass writes the filtered
-estimate as the frame's ``ambient`` (a texture of its own; the G-buffer's stays as it came),
+What the next frame reprojects is the temporal blend, not a filtered level as in SVGF (whose
+history, filtered again every frame, keeps blurring a still view); instead the variance that
+guides the filter is the variance of that blend's mean, which shrinks as the history grows,
+so a view that stays still converges to the unfiltered mean while a moving one is filtered
+hard where its history is short. The pass writes the filtered estimate as the frame's
+``ambient`` (a texture of its own; the G-buffer's stays as it came),
 which the deferred shading then takes as it is, without its own 3x3 smoothing.
 """
 from __future__ import annotations
@@ -103,7 +106,7 @@ class DenoisePass:
         bind(self.reproject,
              textures={"u_depth": depth, "u_normal_material": normal_material, "u_ambient": ambient,
                        **{f"u_prev_{name}": history.previous(name) for name in ("color", "moments", "surface", "length")}},
-             images={"u_integrated": Image(work[0], read=False, write=True),
+             images={"u_integrated": Image(history.current("color"), read=False, write=True),
                      **{f"u_{name}": Image(history.current(name), read=False, write=True)
                         for name in ("moments", "surface", "length")}},
              uniforms={**camera, **history.previous_uniforms(), "u_alpha_color": ALPHA_COLOR,
@@ -114,12 +117,12 @@ class DenoisePass:
         bind(self.variance, textures={**surface, "u_moments": history.current("moments"),
                                       "u_length": history.current("length")},
              images={"u_variance": Image(variance[0], read=False, write=True)},
-             uniforms={**camera, "u_min_length": MIN_LENGTH, "u_plane_sigma": PLANE_SIGMA})
+             uniforms={**camera, "u_min_length": MIN_LENGTH, "u_plane_sigma": PLANE_SIGMA,
+                       "u_alpha_color": ALPHA_COLOR})
         self._run(self.variance, groups)
-        source, source_variance = work[0], variance[0]
+        source, source_variance = history.current("color"), variance[0]
         for level in range(ITERATIONS):
-            # The first level is the next frame's history; the others alternate in ``work``.
-            target = history.current("color") if level == 0 else work[level % 2]
+            target = work[level % 2]
             target_variance = variance[(level + 1) % 2]
             bind(self.atrous, textures={**surface, "u_color_in": source, "u_variance_in": source_variance},
                  images={"u_color_out": Image(target, read=False, write=True),

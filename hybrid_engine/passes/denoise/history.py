@@ -2,7 +2,7 @@
 """What the denoiser keeps from one frame to the next, on the GPU.
 
 The temporal step (gpu_shaders/denoise/reproject.comp.glsl) blends each pixel with what
-the same surface held last frame, so it needs last frame's filtered estimate, the moments
+the same surface held last frame, so it needs last frame's blended estimate, the moments
 of its guides (for the variance), how many frames each pixel's history holds, and the
 surfaces it showed (world point, normal and material) with the view-projection that drew them.
 Each is a pair of textures: one frame reads one while it writes the other, and the pair
@@ -21,7 +21,7 @@ from ...scene.raster_view import gl_matrix
 
 # name: (components, dtype) of each pair of textures.
 _PAIRS = {
-    "color": (4, "f4"),  # the filtered estimate (the wavelet filter's first level)
+    "color": (4, "f4"),  # the temporal blend of the estimate
     "moments": (4, "f4"),  # the guides' means and means of squares
     "length": (2, "f4"),  # how many frames each pixel's history holds (0: background), surface id
     "surface": (4, "f4"),  # world point and packed normal (include/denoise.glsl)

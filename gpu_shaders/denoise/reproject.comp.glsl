@@ -83,16 +83,17 @@ void main() {
         vec2 at = (clip.xy / clip.w * 0.5 + 0.5) * vec2(u_size) - 0.5;
         vec2 base = floor(at);
         vec2 f = at - base;
+        // No branch per tap: a tap off the image or of another surface weighs 0.
         for (int i = 0; i < 4; ++i) {
             ivec2 offset = ivec2(i & 1, i >> 1);
-            ivec2 q = ivec2(base) + offset;
-            if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, u_size))) continue;
+            ivec2 want = ivec2(base) + offset;
+            ivec2 q = clamp(want, ivec2(0), u_size - 1);
             vec2 prev_length_id = texelFetch(u_prev_length, q, 0).rg;
-            if (int(prev_length_id.y + 0.5) != id) continue;
             vec4 prev_surface = texelFetch(u_prev_surface, q, 0);
-            if (dot(denoise_surface_normal(prev_surface), n) < u_normal_cos) continue;
-            if (denoise_plane_offset(p, n, prev_surface.xyz, scale) > u_plane_tolerance) continue;
-            float w = (offset.x == 1 ? f.x : 1.0 - f.x) * (offset.y == 1 ? f.y : 1.0 - f.y);
+            bool same = want == q && int(prev_length_id.y + 0.5) == id
+                        && dot(denoise_surface_normal(prev_surface), n) >= u_normal_cos
+                        && denoise_plane_offset(p, n, prev_surface.xyz, scale) <= u_plane_tolerance;
+            float w = same ? (offset.x == 1 ? f.x : 1.0 - f.x) * (offset.y == 1 ? f.y : 1.0 - f.y) : 0.0;
             prev_color += w * texelFetch(u_prev_color, q, 0);
             prev_moments += w * texelFetch(u_prev_moments, q, 0);
             prev_length += w * prev_length_id.x;

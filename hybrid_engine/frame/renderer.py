@@ -29,7 +29,9 @@ final render's last sample.
 
 ``shade`` is the ambient occlusion (screen space, or the World's light by rays with
 ``sky_rays``) and the deferred shading of the primary G-buffer, lit by the frame's
-``lighting`` resource, which the trace pass reads too. Each pass declares what it reads and
+``lighting`` resource, which the trace pass reads too. A frame rendered with ``denoise``
+filters the ambient estimate between the two (passes/denoise/, step ``denoise``), and the
+filter's history follows the camera from one such frame to the next. Each pass declares what it reads and
 writes; the renderer checks the order once per configuration, before its first frame
 (``check_order``), and the frame lets a pass touch only what it declared.
 

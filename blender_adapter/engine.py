@@ -177,7 +177,8 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
         renderer = shared_renderer()
         result = render_antialiased(renderer, scene_data, camera, settings, samples, outputs=outputs,
                                     timing=timing, cancel=cancel, progress=progress,
-                                    filter_width=float(scene.render.filter_size))
+                                    filter_width=float(scene.render.filter_size),
+                                    denoise=settings.denoise_render if final else settings.denoise_viewport)
     draw_legend(result.image, result.legend)  # a diagnostic view's legend, kept in the render
     result.passes = {"extract": extract_ms, **result.passes}
     result.total_ms += extract_ms

@@ -60,6 +60,8 @@ LABELS = {
     "near_min": "Min Size",
     "diagnostic_bounce": "Bounce",
     "near_max": "Max Size",
+    "denoise_viewport": "Viewport",
+    "denoise_render": "Render",
 }
 # The range a slider drags over; typing can go on to the hard limits (FIELD_LIMITS).
 SOFT_LIMITS = {

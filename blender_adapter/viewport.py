@@ -178,7 +178,7 @@ class ViewportSession:
             self.readback = ImageReadback(renderer.ctx)
         return renderer.render(self.cache.scene_data, view, settings, timing=False, outputs=outputs,
                                sample=sample, reuse_world=sample > 0, accumulate=True, readback=self.readback,
-                               statistics=statistics)
+                               statistics=statistics, denoise=settings.denoise_viewport)
 
     def _ensure_renderer(self):
         if self.renderer is None:

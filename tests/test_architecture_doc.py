@@ -59,10 +59,11 @@ def test_the_hybrid_table_is_every_pass_in_order_with_its_declarations(passes_of
     ("Depth, Normal or Denoising", RenderSettings(mode="HYBRID"), "DataPassesPass"),
     ("*Lit Cube Map*", RenderSettings(mode="HYBRID", lit_cube=True), "CubeLightPass"),
     ("*Lit Cube Map*", RenderSettings(mode="HYBRID", lit_cube=True), "HybridTracer"),
+    ("*Denoise*", RenderSettings(mode="HYBRID"), "DenoisePass"),
 ])
 def test_the_variants_table_gives_each_changed_declaration(passes_of, label, settings, cls):
     rows = [r for r in table_rows() if len(r) == 4 and r[0].startswith(label) and r[1] == f"`{cls}`"]
     assert len(rows) == 1, (label, cls)
-    (frame_pass,) = [p for p in passes_of(settings, True, True) if type(p).__name__ == cls]
+    (frame_pass,) = [p for p in passes_of(settings, True, True, True) if type(p).__name__ == cls]
     io = frame_pass.io(settings)
     assert names(rows[0][2]) == set(io.reads) and names(rows[0][3]) == set(io.writes)

@@ -39,7 +39,10 @@ def _scene(bpy):
 def _frame(addon, bpy, session):
     camera = Camera(matrix_world=look_at((5.0, -6.0, 4.0), (0.0, 0.0, 0.5)), width=WIDTH, height=HEIGHT, lens=35.0)
     region = RegionInput(camera.view_matrix(), camera.projection_matrix(), WIDTH, HEIGHT)
-    settings = addon.blender_adapter.properties.settings_from_scene(bpy.context.scene)
+    # Without the viewport's denoiser: its history carries earlier frames into later ones (by
+    # design, tests/test_denoise.py), and these tests compare a session with a new one.
+    settings = replace(addon.blender_adapter.properties.settings_from_scene(bpy.context.scene),
+                       denoise_viewport=False)
     frame = session.frame(region, settings)
     assert frame.error is None, frame.error
     # A frame's image is the session's read-back array, refilled by its next frame.

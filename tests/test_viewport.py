@@ -40,7 +40,12 @@ def _region(bpy, eye=(6.0, -7.0, 5.0), target=(0.0, 0.0, 0.5)):
 
 
 def _settings(addon, bpy):
-    return addon.blender_adapter.properties.settings_from_scene(bpy.context.scene)
+    """The scene's settings, without the viewport's denoiser: these tests compare frames
+    that should be equal bit for bit, and its history (which follows the view from frame to
+    frame by design, tests/test_denoise.py) would carry earlier frames into later ones."""
+    from dataclasses import replace
+
+    return replace(addon.blender_adapter.properties.settings_from_scene(bpy.context.scene), denoise_viewport=False)
 
 
 def _sync(bpy):
@@ -628,3 +633,19 @@ def test_the_asynchronous_read_back_shows_every_sample_at_most_one_redraw_late_a
     assert sync_flags == [False, False, True]
     assert async_flags[-1] and len(async_flags) in (3, 4)  # the last mean may come one redraw later
     np.testing.assert_array_equal(async_image, sync_image)
+
+
+def test_the_viewport_denoises_as_its_setting_says(addon, viewport):
+    import bpy
+    from dataclasses import replace
+
+    _module, session, _reports = viewport
+    _two_object_scene(bpy)
+    _sync(bpy)
+    settings = addon.blender_adapter.properties.settings_from_scene(bpy.context.scene)
+    assert settings.denoise_viewport  # on by default
+    session.frame(_region(bpy), replace(settings, denoise_viewport=False))
+    assert session.renderer.denoiser is None
+    frame = session.frame(_region(bpy), settings)
+    assert frame.error is None, frame.error
+    assert session.renderer.denoiser is not None and session.renderer.denoiser.history.valid

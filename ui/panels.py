@@ -102,6 +102,9 @@ class RENDER_PT_hybrid_rt_sampling(HybridRTPanel, bpy.types.Panel):
         col = _split(self.layout).column(align=True)
         col.prop(settings, "viewport_samples", text="Viewport")
         col.prop(settings, "render_samples", text="Render")
+        col = _split(self.layout).column(heading="Denoise")
+        col.prop(settings, "denoise_viewport")
+        col.prop(settings, "denoise_render")
 
 
 class RENDER_PT_hybrid_rt_light_paths(HybridRTPanel, bpy.types.Panel):

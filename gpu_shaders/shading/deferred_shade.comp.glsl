@@ -12,7 +12,9 @@
 // The World's light on primary pixels: the sky's irradiance times its visibility from
 // screen_ao.comp.glsl, or what the tracer's sky rays gathered (WORLD_LIGHT_PASS: the sky,
 // and the light of the surfaces that hide it, one bounce), smoothed here over the pixels of
-// the same surface around each pixel. Background pixels get the sky, or
+// the same surface around each pixel, unless the denoiser filtered it already
+// (u_ambient_filtered = 1, denoise/atrous.comp.glsl: its wavelet filter reaches much
+// farther with the same edge tests, and a 3x3 average on top would only blur it). Background pixels get the sky, or
 // (0, 0, 0, 0) with u_transparent_background = 1 (Blender's transparent film, film.py):
 // alpha 0 there, and premultiplied colour 0; reflections still see the sky.
 //
@@ -40,6 +42,7 @@ uniform mat4 u_inv_view_proj;
 uniform sampler2D u_ambient;  // per pixel: rgb the World's irradiance gathered by sky rays, a the sky's visibility
 uniform int u_ambient_from_rays;     // 1: rgb holds the World's light (sky rays), 0: only a
 uniform int u_sky_visibility_known;  // 0: no pass estimated it, the whole sky is seen
+uniform int u_ambient_filtered;      // 1: the denoiser filtered u_ambient, take it as it is
 uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
 uniform int u_orthographic;
@@ -109,7 +112,8 @@ void main() {
     vec3 g = gbuffer_geometric(albedo_g.a, emission_g.a, n);
     SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n, g);
     vec3 emission = m.emission_trans.rgb * emission_g.rgb;
-    vec4 ambient = u_sky_visibility_known != 0 ? smoothed_ambient(local, p, split.n_facing) : vec4(0.0, 0.0, 0.0, 1.0);
+    vec4 ambient = u_sky_visibility_known == 0 ? vec4(0.0, 0.0, 0.0, 1.0)
+                   : u_ambient_filtered != 0 ? texelFetch(u_ambient, pixel, 0) : smoothed_ambient(local, p, split.n_facing);
     float visibility = ambient.a;
     vec3 world = u_ambient_from_rays != 0 ? ambient.rgb : sky_irradiance(split.n_facing) * visibility;
     vec3 color = shade_surface(m, albedo, emission, p, view_dir, split, world, visibility, 0.0);

@@ -52,7 +52,7 @@ def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, set
                        samples: int, *, outputs: FrameOutputs | None = None, timing: bool = False,
                        cancel: CancelCallback | None = None,
                        progress: ProgressCallback | None = None,
-                       filter_width: float = DEFAULT_FILTER_WIDTH) -> FrameResult:
+                       filter_width: float = DEFAULT_FILTER_WIDTH, denoise: bool = False) -> FrameResult:
     """The frame averaged over ``samples`` sub-pixel positions (``sample_offsets``).
 
     The result's ``passes`` sum each pass over the samples (the kept cube map and BVH are
@@ -63,6 +63,10 @@ mean of all, read with the last sample's image). Each sample draws its own
     ``sample``), so the average converges there too. Raises RenderCancelled between samples
     as between passes. Never an image whose wave queues overflowed: the samples are rendered
     again with the grown queues.
+
+    ``denoise``: each sample's ambient estimate is filtered (passes/denoise/) over the image
+    and over the samples so far; the filter's history starts with the first sample, so a
+    render does not depend on what the renderer drew before.
     """
     if samples < 1:
         raise ValueError(f"a frame needs at least one sample, got {samples}")
@@ -73,7 +77,7 @@ mean of all, read with the last sample's image). Each sample draws its own
     for _ in range(wave_count(settings.max_depth) + 1):
         overflows = _queue_overflows(renderer)
         result = _render_samples(renderer, scene, camera, settings, samples, outputs, timing, cancel, progress,
-                                 filter_width)
+                                 filter_width, denoise)
         if _queue_overflows(renderer) == overflows:
             break
     return result
@@ -86,8 +90,10 @@ def _queue_overflows(renderer: Renderer) -> int:
 
 def _render_samples(renderer: Renderer, scene: SceneData, camera: Camera, settings: RenderSettings,
                     samples: int, outputs: FrameOutputs | None, timing: bool, cancel: CancelCallback | None,
-                    progress: ProgressCallback | None, filter_width: float) -> FrameResult:
+                    progress: ProgressCallback | None, filter_width: float, denoise: bool) -> FrameResult:
     outputs = outputs or FrameOutputs()
+    if denoise and renderer.denoiser is not None:
+        renderer.denoiser.forget()
     # Only the first sample reads the Depth and Normal back; every sample adds to the
     # denoising means, which the last reads with the image.
     later_outputs = FrameOutputs(transparent=outputs.transparent, denoising=outputs.denoising)
@@ -106,7 +112,7 @@ def _render_samples(renderer: Renderer, scene: SceneData, camera: Camera, settin
             scene, jittered_camera(camera, float(dx), float(dy)), settings, timing=timing,
             cancel=cancel, progress=_sample_progress(progress, index, samples),
             outputs=outputs if index == 0 else later_outputs, reuse_world=index > 0, sample=index,
-            accumulate=True, read_image=last)
+            accumulate=True, read_image=last, denoise=denoise)
         first = first or result
         data.update(result.data_passes)
         image = result.image if last else None

@@ -29,7 +29,9 @@ final render's last sample.
 
 ``shade`` is the diffuse light (traced paths, passes/diffuse_light/, or with World Light
 Screen Space the screen-space occlusion) and the deferred shading of the primary G-buffer, lit by the frame's
-``lighting`` resource, which the trace pass reads too. Each pass declares what it reads and
+``lighting`` resource, which the trace pass reads too. A frame rendered with ``denoise``
+filters the diffuse light between the two (passes/denoise/, step ``denoise``), and the
+filter's history follows the camera from one such frame to the next. Each pass declares what it reads and
 writes; the renderer checks the order once per configuration, before its first frame
 (``check_order``), and the frame lets a pass touch only what it declared.
 
@@ -57,6 +59,7 @@ from ..passes.cube_light.cube_light import CubeLightPass
 from ..passes.cube_map.cube_map import CubeMapPass
 from ..passes.emitters.emitter_pass import EmitterTablePass
 from ..passes.diffuse_light.diffuse_light import DiffuseLightPass
+from ..passes.denoise.denoise import DenoisePass
 from ..passes.frame_context import FrameContext, FramePass, check_order
 from ..passes.gbuffer.gbuffer import GBufferPass
 from ..passes.lbvh.build_pass import LBVHBuildPass
@@ -97,14 +100,19 @@ MODE_STEPS = {
 MODE_STEPS.update({view: MODE_STEPS["HYBRID"] for view in DIAGNOSTIC_VIEWS})
 
 
-def frame_steps(mode: str, accumulate: bool = False, data: bool = False, lit_cube: bool = False) -> tuple[str, ...]:
+def frame_steps(mode: str, accumulate: bool = False, data: bool = False, lit_cube: bool = False,
+                denoise: bool = False) -> tuple[str, ...]:
     """The steps of a frame of ``mode`` (RenderSettings admits no other); one that
     accumulates adds ``accumulate``, one with data passes ``data_passes``, before the
-    read-back; the lit cube map (``lit_cube``) adds ``cube_light`` after the cube map."""
+    read-back; the lit cube map (``lit_cube``) adds ``cube_light`` after the cube map, and one
+    that denoises ``denoise`` after the diffuse light (within ``shade``)."""
     steps = MODE_STEPS[mode]
     if lit_cube and "cube_map_raster" in steps:
         at = steps.index("cube_map_raster") + 1
         steps = (*steps[:at], "cube_light", *steps[at:])
+    if denoise:
+        at = steps.index("shade") + 1
+        steps = (*steps[:at], "denoise", *steps[at:])
     extra = ("accumulate",) * accumulate + ("data_passes",) * data
     return (*steps[:-1], *extra, steps[-1])
 # The passes that depend only on the geometry, the settings and the eye, and what they leave:
@@ -157,6 +165,7 @@ class Renderer:
         self.gbuffer = GBufferPass(self.ctx, self.drawer)
         self.occlusion = ScreenSpaceOcclusion(self.ctx)
         self.deferred_shade = DeferredShadePass(self.ctx)
+        self.denoiser: DenoisePass | None = None  # made on the first frame that denoises
         # The running mean of a view's samples (render(accumulate=True)), and the data
         # passes a final render asks for (FrameOutputs).
         self.accumulate = AccumulatePass(self.ctx)
@@ -178,10 +187,12 @@ class Renderer:
         self.statistics = StatisticsRing(self.ctx)  # where frames' GPU counters are copied
 
     # -- the passes ----------------------------------------------------------------------------
-    def passes(self, settings: RenderSettings, accumulate: bool = False, data: bool = False) -> list[FramePass]:
+    def passes(self, settings: RenderSettings, accumulate: bool = False, data: bool = False,
+               denoise: bool = False) -> list[FramePass]:
         """This renderer's passes for ``settings``, in the order a frame runs them;
         ``accumulate`` adds the running mean of the view's samples after the colour, ``data``
-        the Depth and Normal passes."""
+        the Depth and Normal passes, ``denoise`` the filter of the ambient estimate before
+        the shading reads it."""
         mode = settings.mode
         traced = mode != "RASTER"
         if traced:
@@ -198,7 +209,12 @@ class Renderer:
             plan.append(self.culler)
         if "lbvh_build" in steps:
             plan.append(self.lbvh)
-        plan += [ambient, self.deferred_shade]
+        plan.append(ambient)
+        if denoise:
+            if self.denoiser is None:
+                self.denoiser = DenoisePass(self.ctx)
+            plan.append(self.denoiser)
+        plan.append(self.deferred_shade)
         if traced:
             plan.append(self.tracer)
         if accumulate:
@@ -217,10 +233,12 @@ class Renderer:
             self.diffuse_light = DiffuseLightPass(self.tracer)
             self.emitters = EmitterTablePass(self.ctx)
 
-    def _checked_passes(self, settings: RenderSettings, accumulate: bool, data: bool) -> list[FramePass]:
-        """``passes(settings, accumulate, data)``, their order checked once per configuration."""
-        plan = self.passes(settings, accumulate, data)
-        key = (settings.mode, settings.traces_diffuse, settings.lit_cube, accumulate, data)
+    def _checked_passes(self, settings: RenderSettings, accumulate: bool, data: bool,
+                        denoise: bool) -> list[FramePass]:
+        """``passes(settings, accumulate, data, denoise)``, their order checked once per
+        configuration."""
+        plan = self.passes(settings, accumulate, data, denoise)
+        key = (settings.mode, settings.traces_diffuse, settings.lit_cube, accumulate, data, denoise)
         if key not in self._checked:
             check_order(plan, settings, final_reads=READBACK_READS + (("film",) if accumulate else ()))
             self._checked.add(key)
@@ -248,6 +266,7 @@ class Renderer:
         accumulate: bool = False,
         read_image: bool = True,
         readback: ImageReadback | None = None,
+        denoise: bool = False,
     ) -> FrameResult:
         """Render one frame. Raises RenderCancelled when ``cancel()`` returns True between
         passes; the GPU state stays valid for the next frame. ``outputs`` asks for
@@ -276,17 +295,23 @@ class Renderer:
         ``FrameResult.passes`` (timing reports, benchmarks); each bracket drains the GPU, so
         a frame without it waits only for its image. ``statistics``: copy the passes' GPU
         counters for ``FrameResult.counts`` (read when first asked for); without, the counts
-        hold only what the host knows."""
+        hold only what the host knows.
+
+        ``denoise``: filter the ambient estimate (passes/denoise/) before the shading reads
+        it; the caller decides from the settings (``denoise_viewport``, ``denoise_render``).
+        The filter keeps its history from one denoised frame to the next of this renderer."""
         settings = settings or RenderSettings()
         outputs = outputs or FrameOutputs()
-        steps = frame_steps(settings.mode, accumulate, outputs.wants_data, settings.lit_cube)
+        steps = frame_steps(settings.mode, accumulate, outputs.wants_data, settings.lit_cube, denoise)
         traced = settings.mode != "RASTER"
         data = outputs.wants_data
-        plan = self._checked_passes(settings, accumulate, data)
+        plan = self._checked_passes(settings, accumulate, data, denoise)
+        if not denoise and self.denoiser is not None:
+            self.denoiser.forget()  # its history would miss this frame
         timer = PassTimer(self.ctx, enabled=timing)
         start = time.perf_counter()
         frame = FrameContext(self.ctx, scene_data=scene, camera=camera, settings=settings,
-                             view=RasterView.from_camera(camera), outputs=outputs, sample=sample)
+                             view=RasterView.from_camera(camera), outputs=outputs, sample=sample, denoise=denoise)
         world_key = (id(scene), settings, frame.center)
         may_keep = reuse_world and traced and self._same_world(world_key)
         self._world_key = None  # set again once this frame's world is complete
@@ -370,6 +395,9 @@ class Renderer:
         """Free this renderer's GL objects (the shared context stays)."""
         self.accumulate.release()
         self.data_passes.release()
+        if self.denoiser is not None:
+            self.denoiser.release()
+            self.denoiser = None
         for owner in (self.cube_map, self.cube_light, self.culler, self.tracer, self.diffuse_light, self.emitters):
             if owner is not None:
                 owner.release()

@@ -81,10 +81,11 @@ def check_order(passes: Sequence[FramePass], settings, inputs: Sequence[str] = F
 class FrameContext:
     """One frame: its inputs, its counts and the resources its passes write (module
     docstring). ``keep_world``: this frame sees the last frame's geometry from the same eye,
-    so the cube map, the near-cube cull and the BVH of the last frame stand."""
+    so the cube map, the near-cube cull and the BVH of the last frame stand. ``denoise``: the
+    frame's ambient estimate is filtered (passes/denoise/) before the shading reads it."""
 
     def __init__(self, ctx, *, scene_data, camera, settings, view, outputs, sample: int = 0,
-                 keep_world: bool = False) -> None:
+                 keep_world: bool = False, denoise: bool = False) -> None:
         self.ctx = ctx
         self.camera = camera
         # The eye: the centre of the near cube and of the cube map (paper §3.2).
@@ -94,6 +95,7 @@ class FrameContext:
         self.outputs = outputs
         self.sample = int(sample)
         self.keep_world = bool(keep_world)
+        self.denoise = bool(denoise)
         self.counts: dict[str, int] = {}
         self.statistics = FrameStatistics()
         self._resources: dict[str, object] = {"scene_data": scene_data, "camera": camera, "settings": settings,

@@ -115,6 +115,10 @@ FIELD_DOCS = {
     "lit_cube": "Shade the cube map's surfaces once per frame (lamps, World and light bounced between "
     "them, built up over frames) and let reflections read that light, blurred to their roughness, "
     "instead of shading every hit again",
+    "denoise_viewport": "Viewport: filter the noise of the World's and the bounced light, in space and "
+    "over the frames, following the surfaces as the camera moves (reflections and textures stay sharp)",
+    "denoise_render": "Final renders: filter the noise of the World's and the bounced light over the "
+    "image and the samples (reflections and textures stay sharp)",
 }
 
 FIELD_LIMITS = {
@@ -172,6 +176,8 @@ class RenderSettings:
     diffuse_bounces: int = 1
     diffuse_rays: int = 1
     lit_cube: bool = False
+    denoise_viewport: bool = True
+    denoise_render: bool = True
 
     @property
     def trace_mode(self) -> str:

@@ -33,22 +33,26 @@ class DeferredShadePass:
         targets = frame.read("gbuffer")
         self.shade(frame.read("scene_buffers"), frame.view, targets, frame.read("lighting"),
                    traced_specular=frame.settings.mode != "RASTER", transparent=frame.outputs.transparent,
-                   sample=frame.sample)
+                   sample=frame.sample, ambient=frame.read("ambient"), ambient_filtered=frame.denoise)
         frame.write("color", targets.color)
 
     def shade(self, gpu: GPUScene, view: RasterView, targets: GBufferTargets, resources: FrameResources, *,
-            traced_specular: bool = False, transparent: bool = False, sample: int = 0) -> None:
+            traced_specular: bool = False, transparent: bool = False, sample: int = 0, ambient=None,
+            ambient_filtered: bool = False) -> None:
         """Shade ``targets`` into ``targets.color``, lit by ``resources``.
         ``traced_specular`` leaves the lobes the tracer follows out (every traced mode);
         ``transparent`` makes the background (0, 0, 0, 0) instead of the sky (film.py).
         ``sample`` is this sample's index among the samples of one view. The World's light
-        is read from ``targets.ambient`` (screen_ao.py or the tracer's sky rays, run first)."""
+        is read from ``ambient`` (the frame's ``ambient`` resource: screen_ao.py's or the
+        tracer's sky rays' estimate, run first; ``targets.ambient`` when None), smoothed over
+        3x3 pixels unless ``ambient_filtered`` (the denoiser, passes/denoise/, filtered it)."""
         prog = self.program
         bind(prog, gpu.bindings(), resources.bindings(),
              textures={"u_depth": targets.depth, "u_normal_material": targets.normal_material,
                        "u_albedo": targets.albedo, "u_emission_scale": targets.emission_scale,
-                       "u_ambient": targets.ambient, "u_surface": targets.surface},
+                       "u_ambient": targets.ambient if ambient is None else ambient, "u_surface": targets.surface},
              images={"u_output": Image(targets.color, read=False, write=True)},
              uniforms={**view.uniforms(), "u_traced_specular": int(traced_specular),
-                       "u_transparent_background": int(transparent), "u_sample": int(sample)})
+                       "u_transparent_background": int(transparent), "u_sample": int(sample),
+                       "u_ambient_filtered": int(ambient_filtered)})
         prog.run(math.ceil(view.width / 8), math.ceil(view.height / 8), 1)

@@ -1,0 +1,99 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// One level of the denoiser's edge-avoiding a-trous wavelet filter (Dammertz et al. 2010;
+// Schied et al. 2017, §4.3): a 5x5 B3-spline kernel (1/16, 1/4, 3/8, 1/4, 1/16 per axis) whose
+// taps lie u_step pixels apart; the host runs it with steps 1, 2, 4, ... so that a few
+// levels reach far at 25 taps each.
+//
+// Each tap's weight is the kernel's times three edge-stopping terms:
+//   - plane: a tap off this pixel's tangent plane (another object, or one behind a
+//     silhouette) by more than u_plane_sigma of the distance to the camera weighs little;
+//   - normal: max(0, n.n_q)^128 (creases, curved surfaces);
+//   - guides: |guide - guide_q| against u_sigma_guide standard deviations of this pixel's
+//     variance (3x3-blurred), for each guide: where the estimate is clean the filter
+//     keeps its detail (a shadow's edge), where it is noisy it averages.
+// The estimate is irradiance, before the albedo multiplies it (deferred_shade.comp.glsl), so
+// a texture's edges are not in what is blurred and come back sharp in the shading; mirrors
+// and glass are not in it at all (the tracer adds them to the colour).
+// The variance is filtered with the squared weights, as the variance of a weighted mean.
+//
+// Bindings: u_color_in (RGBA32F), u_variance_in (RG32F), u_surface (RGBA32F) read; images u_color_out (RGBA32F), u_variance_out (RG32F)
+//   written.
+// Workgroup 8x8.
+#include "denoise.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+uniform sampler2D u_color_in;
+uniform sampler2D u_variance_in;
+uniform sampler2D u_surface;
+uniform vec3 u_camera_position;
+uniform int u_orthographic;
+uniform ivec2 u_size;
+uniform int u_step;
+uniform float u_plane_sigma;
+uniform float u_sigma_guide;
+
+layout(rgba32f) writeonly uniform image2D u_color_out;
+layout(rg32f) writeonly uniform image2D u_variance_out;
+
+const float B3[3] = float[3](3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
+
+// The variance blurred over 3x3 pixels (a Gaussian's 1-2-1 weights): one pixel's estimate
+// is itself noisy, and stopping edges on it would keep noise as if it were detail.
+vec2 blurred_variance(ivec2 pixel) {
+    vec2 sum = vec2(0.0);
+    float weight = 0.0;
+    for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+            ivec2 q = pixel + ivec2(dx, dy);
+            if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, u_size))) continue;
+            float w = (dx == 0 ? 2.0 : 1.0) * (dy == 0 ? 2.0 : 1.0);
+            sum += w * texelFetch(u_variance_in, q, 0).rg;
+            weight += w;
+        }
+    }
+    return sum / weight;
+}
+
+void main() {
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(pixel, u_size))) return;
+    vec4 center = texelFetch(u_color_in, pixel, 0);
+    vec2 center_variance = texelFetch(u_variance_in, pixel, 0).rg;
+    vec4 surface = texelFetch(u_surface, pixel, 0);
+    if (denoise_is_background(surface)) {
+        imageStore(u_color_out, pixel, center);
+        imageStore(u_variance_out, pixel, vec4(center_variance, 0.0, 0.0));
+        return;
+    }
+    vec3 p = surface.xyz;
+    vec3 n = denoise_surface_normal(surface);
+    float scale = u_orthographic != 0 ? 1.0 : distance(p, u_camera_position);
+    vec2 guide = denoise_guides(center);
+    vec2 guide_scale = u_sigma_guide * sqrt(blurred_variance(pixel)) + 1e-4;
+
+    vec4 sum = center * (B3[0] * B3[0]);
+    vec2 sum_variance = center_variance * (B3[0] * B3[0]) * (B3[0] * B3[0]);
+    float weight = B3[0] * B3[0];
+    // No branch per tap: a tap off the image or on the background weighs 0 (a CPU driver
+    // runs a branch's both sides for a vector of pixels anyway, and the loop unrolls).
+    for (int dy = -2; dy <= 2; ++dy) {
+        for (int dx = -2; dx <= 2; ++dx) {
+            ivec2 want = pixel + ivec2(dx, dy) * u_step;
+            ivec2 q = clamp(want, ivec2(0), u_size - 1);
+            vec4 surface_q = texelFetch(u_surface, q, 0);
+            vec4 color_q = texelFetch(u_color_in, q, 0);
+            vec2 guide_stop = abs(guide - denoise_guides(color_q)) / guide_scale;
+            float keep = (want == q && !denoise_is_background(surface_q) && (dx != 0 || dy != 0)) ? 1.0 : 0.0;
+            float w = keep * B3[abs(dx)] * B3[abs(dy)]
+                      * denoise_normal_weight(dot(n, denoise_surface_normal(surface_q)))
+                      * exp(-denoise_plane_offset(p, n, surface_q.xyz, scale) / u_plane_sigma
+                            - guide_stop.x - guide_stop.y);
+            sum += w * color_q;
+            sum_variance += w * w * texelFetch(u_variance_in, q, 0).rg;
+            weight += w;
+        }
+    }
+    imageStore(u_color_out, pixel, sum / weight);
+    imageStore(u_variance_out, pixel, vec4(sum_variance / (weight * weight), 0.0, 0.0));
+}

@@ -1,0 +1,117 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// The denoiser's temporal step (Schied et al. 2017, "Spatiotemporal Variance-Guided
+// Filtering", §4.1): each pixel of this frame's ambient estimate (rgb diffuse irradiance,
+// a sky visibility) is blended with what the same surface point held last frame.
+//
+// The point is found through the camera's motion only: this pixel's world position (its
+// depth through this frame's inverse view-projection) projected by last frame's
+// view-projection gives a place between four of last frame's texels. Each of the four is
+// kept (with its bilinear weight) only where it showed the same surface: the same material,
+// a normal within u_normal_cos, and a point on this pixel's tangent plane within
+// u_plane_tolerance of the distance to the camera. A moved object therefore loses its
+// history where it uncovers what lay behind it (the depth jumps there), while a camera that
+// moves keeps the history of everything it still sees. With no tap kept the pixel starts
+// over (history length 1); else its history length n grows by one and it takes
+// alpha = max(1 / n, u_alpha_color) of this frame (the mean of the frames so far, then an
+// exponential average), its moments alpha = max(1 / n, u_alpha_moments).
+//
+// Also writes this frame's surface texels (world point and normal, include/denoise.glsl),
+// which the later steps read in one fetch per tap, and the next frame's reprojection too.
+//
+// Bindings: u_ambient (RGBA32F, this frame's estimate), u_depth (DEPTH32F), u_normal_material
+//   (RGBA32F), u_prev_color (RGBA32F), u_prev_moments (RGBA32F: guide means and means of
+//   squares), u_prev_surface (RGBA32F), u_prev_length (RG32F: history length, surface id)
+//   read; images u_integrated (RGBA32F), u_moments (RGBA32F), u_surface (RGBA32F), u_length
+//   (RG32F) written.
+// Workgroup 8x8: square tiles keep the four taps of neighbouring pixels together.
+#include "denoise.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+uniform sampler2D u_ambient;
+uniform sampler2D u_depth;
+uniform sampler2D u_normal_material;
+uniform sampler2D u_prev_color;
+uniform sampler2D u_prev_moments;
+uniform sampler2D u_prev_surface;
+uniform sampler2D u_prev_length;
+uniform mat4 u_inv_view_proj;
+uniform mat4 u_prev_view_proj;
+uniform vec3 u_camera_position;
+uniform int u_orthographic;
+uniform ivec2 u_size;
+uniform int u_history_valid;  // 0: no last frame of this size to blend with
+uniform float u_alpha_color;
+uniform float u_alpha_moments;
+uniform float u_plane_tolerance;
+uniform float u_normal_cos;
+uniform float u_max_length;
+
+layout(rgba32f) writeonly uniform image2D u_integrated;
+layout(rgba32f) writeonly uniform image2D u_moments;
+layout(rgba32f) writeonly uniform image2D u_surface;
+layout(rg32f) writeonly uniform image2D u_length;
+
+void main() {
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(pixel, u_size))) return;
+    vec4 nm = texelFetch(u_normal_material, pixel, 0);
+    float depth = texelFetch(u_depth, pixel, 0).r;
+    vec4 current = texelFetch(u_ambient, pixel, 0);
+    vec2 g = denoise_guides(current);
+    vec4 moments = vec4(g.x, g.x * g.x, g.y, g.y * g.y);
+    int id = denoise_surface_id(nm.w);
+    if (id == 0) {  // background: nothing to filter
+        imageStore(u_integrated, pixel, current);
+        imageStore(u_moments, pixel, moments);
+        imageStore(u_length, pixel, vec4(0.0));
+        imageStore(u_surface, pixel, vec4(0.0, 0.0, 0.0, uintBitsToFloat(DENOISE_BACKGROUND)));
+        return;
+    }
+
+    vec3 p = denoise_unproject(u_inv_view_proj, pixel, u_size, depth);
+    vec3 n = nm.xyz;
+    imageStore(u_surface, pixel, denoise_pack_surface(p, n));
+    float scale = u_orthographic != 0 ? 1.0 : distance(p, u_camera_position);
+    vec4 prev_color = vec4(0.0);
+    vec4 prev_moments = vec4(0.0);
+    float prev_length = 0.0;
+    float kept = 0.0;
+    vec4 clip = u_prev_view_proj * vec4(p, 1.0);
+    if (u_history_valid != 0 && clip.w > 0.0) {
+        // Last frame's texel coordinates of p (texel centres at integers).
+        vec2 at = (clip.xy / clip.w * 0.5 + 0.5) * vec2(u_size) - 0.5;
+        vec2 base = floor(at);
+        vec2 f = at - base;
+        // No branch per tap: a tap off the image or of another surface weighs 0.
+        for (int i = 0; i < 4; ++i) {
+            ivec2 offset = ivec2(i & 1, i >> 1);
+            ivec2 want = ivec2(base) + offset;
+            ivec2 q = clamp(want, ivec2(0), u_size - 1);
+            vec2 prev_length_id = texelFetch(u_prev_length, q, 0).rg;
+            vec4 prev_surface = texelFetch(u_prev_surface, q, 0);
+            bool same = want == q && int(prev_length_id.y + 0.5) == id
+                        && dot(denoise_surface_normal(prev_surface), n) >= u_normal_cos
+                        && denoise_plane_offset(p, n, prev_surface.xyz, scale) <= u_plane_tolerance;
+            float w = same ? (offset.x == 1 ? f.x : 1.0 - f.x) * (offset.y == 1 ? f.y : 1.0 - f.y) : 0.0;
+            prev_color += w * texelFetch(u_prev_color, q, 0);
+            prev_moments += w * texelFetch(u_prev_moments, q, 0);
+            prev_length += w * prev_length_id.x;
+            kept += w;
+        }
+    }
+    vec4 integrated = current;
+    float length_now = 1.0;
+    if (kept > 1e-3) {
+        prev_color /= kept;
+        prev_moments /= kept;
+        length_now = min(floor(prev_length / kept + 0.5) + 1.0, u_max_length);
+        float alpha = max(1.0 / length_now, u_alpha_color);
+        float alpha_moments = max(1.0 / length_now, u_alpha_moments);
+        integrated = mix(prev_color, current, alpha);
+        moments = mix(prev_moments, moments, alpha_moments);
+    }
+    imageStore(u_integrated, pixel, integrated);
+    imageStore(u_moments, pixel, moments);
+    imageStore(u_length, pixel, vec4(length_now, float(id), 0.0, 0.0));
+}

@@ -1,0 +1,149 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The ``denoise`` pass: a real-time spatio-temporal filter of the frame's ambient estimate,
+after Schied et al. 2017 (Spatiotemporal Variance-Guided Filtering, SVGF), the family of
+EEVEE Next's and most real-time path tracers' denoisers.
+
+The ambient estimate (the G-buffer's ``ambient`` target: rgb diffuse irradiance, a the sky's
+visibility) comes from a few rays or screen-space points per pixel and is noisy; the
+deferred shading multiplies it by the albedo. Three compute steps filter it, every one on
+the GPU (gpu_shaders/denoise/):
+
+1. ``reproject``: each pixel finds where its surface point was in last frame's image through
+   the camera's motion (there are no motion vectors: a moving object keeps no history where
+   it moved, and loses it where it uncovers what lay behind) and blends with it; a pixel
+   whose point was not seen (another depth, normal or material there) starts over. A still
+   or moving camera thus gathers frames for every surface it keeps seeing, where the film
+   (passes/film/) starts over at any change.
+2. ``variance``: how noisy each pixel is, from the temporal moments, or from its
+   neighbours' where its history is short.
+3. ``atrous`` (``ITERATIONS`` levels): an edge-avoiding wavelet filter guided by depth,
+   normal and that variance. Blurring irradiance rather than colour keeps textures sharp
+   (the albedo multiplies after), and reflections and refractions, which the tracer adds to
+   the colour, are never touched.
+
+What the next frame reprojects is the temporal blend, not a filtered level as in SVGF (whose
+history, filtered again every frame, keeps blurring a still view); instead the variance that
+guides the filter is the variance of that blend's mean, which shrinks as the history grows,
+so a view that stays still converges to the unfiltered mean while a moving one is filtered
+hard where its history is short. The pass writes the filtered estimate as the frame's
+``ambient`` (a texture of its own; the G-buffer's stays as it came),
+which the deferred shading then takes as it is, without its own 3x3 smoothing.
+"""
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+from ...gpu import shader_loader
+from ...gpu.bindings import Image, bind
+from ...scene.raster_view import RasterView
+from ...scene.settings import RenderSettings
+from ..frame_context import FrameContext, PassIO
+from .history import DenoiseHistory
+
+WORKGROUP = 8
+# The wavelet filter's levels: steps 1, 2, 4, 8 reach 16 pixels either side.
+ITERATIONS = 4
+# The temporal blend's floor (SVGF: 0.05-0.2): the share of each new frame once the history
+# is long. Lower is smoother and lags more behind a changing light.
+ALPHA_COLOR = 0.1
+ALPHA_MOMENTS = 0.2
+# A history longer than this counts as this long (alpha is at its floor long before).
+MAX_LENGTH = 64.0
+# Below this history length the variance is estimated from the neighbours (SVGF: 4).
+MIN_LENGTH = 4.0
+# Reprojection: last frame's point must lie within this share of the camera distance of
+# this pixel's tangent plane, with a normal within arccos(NORMAL_COS) (about 25 degrees).
+PLANE_TOLERANCE = 0.02
+NORMAL_COS = 0.9
+# The wavelet filter's edge stops: plane offset (share of the camera distance) and standard
+# deviations of the guides (SVGF's sigma_l); the normal's power is SVGF's 128
+# (include/denoise.glsl).
+PLANE_SIGMA = 0.01
+SIGMA_GUIDE = 4.0
+
+
+class DenoisePass:
+    """Filters the frame's ``ambient`` (module docstring); keeps its history across frames."""
+
+    name = "denoise"
+
+    def __init__(self, ctx) -> None:
+        self.ctx = ctx
+        self.reproject = shader_loader.compute(ctx, "denoise/reproject.comp.glsl")
+        self.variance = shader_loader.compute(ctx, "denoise/variance.comp.glsl")
+        self.atrous = shader_loader.compute(ctx, "denoise/atrous.comp.glsl")
+        self.history = DenoiseHistory(ctx)
+        # What the ambient estimate meant last frame: a history of another kind of estimate
+        # (screen-space occlusion's visibility, rays' irradiance) is not blended with.
+        self._estimate: tuple | None = None
+
+    def io(self, settings: RenderSettings) -> PassIO:
+        return PassIO(reads=("gbuffer", "ambient", "lighting"), writes=("ambient",))
+
+    def run(self, frame: FrameContext) -> None:
+        if not frame.read("lighting").occludes:
+            # No pass estimated the ambient: the shading takes the whole sky, nothing to filter.
+            self.forget()
+            return
+        settings = frame.settings
+        estimate = (settings.traces_diffuse, settings.diffuse_bounces, settings.diffuse_rays, settings.ao_distance)
+        if estimate != self._estimate:
+            self.forget()
+            self._estimate = estimate
+        targets = frame.read("gbuffer")
+        frame.write("ambient", self.filter(frame.read("ambient"), targets.depth, targets.normal_material, frame.view))
+
+    def filter(self, ambient, depth, normal_material, view: RasterView):
+        """The filtered ``ambient`` of the G-buffer (``depth``, ``normal_material``) of
+        ``view``: a texture of this pass, valid until its next frame."""
+        history = self.history
+        history.ensure((view.width, view.height))
+        work, variance = history.pair("work"), history.pair("variance")
+        groups = (math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
+        camera = view.uniforms()
+        bind(self.reproject,
+             textures={"u_depth": depth, "u_normal_material": normal_material, "u_ambient": ambient,
+                       **{f"u_prev_{name}": history.previous(name) for name in ("color", "moments", "surface", "length")}},
+             images={"u_integrated": Image(history.current("color"), read=False, write=True),
+                     **{f"u_{name}": Image(history.current(name), read=False, write=True)
+                        for name in ("moments", "surface", "length")}},
+             uniforms={**camera, **history.previous_uniforms(), "u_alpha_color": ALPHA_COLOR,
+                       "u_alpha_moments": ALPHA_MOMENTS, "u_plane_tolerance": PLANE_TOLERANCE,
+                       "u_normal_cos": NORMAL_COS, "u_max_length": MAX_LENGTH})
+        self._run(self.reproject, groups)
+        surface = {"u_surface": history.current("surface")}
+        bind(self.variance, textures={**surface, "u_moments": history.current("moments"),
+                                      "u_length": history.current("length")},
+             images={"u_variance": Image(variance[0], read=False, write=True)},
+             uniforms={**camera, "u_min_length": MIN_LENGTH, "u_plane_sigma": PLANE_SIGMA,
+                       "u_alpha_color": ALPHA_COLOR})
+        self._run(self.variance, groups)
+        source, source_variance = history.current("color"), variance[0]
+        for level in range(ITERATIONS):
+            target = work[level % 2]
+            target_variance = variance[(level + 1) % 2]
+            bind(self.atrous, textures={**surface, "u_color_in": source, "u_variance_in": source_variance},
+                 images={"u_color_out": Image(target, read=False, write=True),
+                         "u_variance_out": Image(target_variance, read=False, write=True)},
+                 uniforms={**camera, "u_step": 1 << level, "u_plane_sigma": PLANE_SIGMA,
+                           "u_sigma_guide": SIGMA_GUIDE})
+            self._run(self.atrous, groups)
+            source, source_variance = target, target_variance
+        history.advance(np.asarray(view.view_proj, np.float64))
+        return source
+
+    def forget(self) -> None:
+        """Start every pixel over at the next frame (a frame this pass did not see, a final
+        render's first sample)."""
+        self.history.forget()
+
+    def _run(self, program, groups: tuple[int, int, int]) -> None:
+        program.run(*groups)
+        # The next step samples what this one stored as images.
+        self.ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT)
+
+    def release(self) -> None:
+        self.history.release()

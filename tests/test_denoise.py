@@ -1,0 +1,259 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The denoiser of the frame's ambient estimate (hybrid_engine/passes/denoise/,
+gpu_shaders/denoise/): its history follows surfaces through the camera's motion and is
+dropped where a moved object uncovers what lay behind it; its filter removes the noise of
+the irradiance but keeps a texture's edges (the albedo multiplies after) and never touches
+a mirror (the tracer's reflections are not in the estimate).
+
+Most tests feed the denoiser a known estimate: a probe kernel (tests/shaders/
+ambient_probe.comp.glsl) stands in for the ambient occlusion and writes an irradiance that
+belongs to each surface point, with or without deterministic noise of mean 1, so the
+noise-free image is known exactly. The last tests run the real estimate (rays through the
+BVH) end to end.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
+from hybrid_engine.frame.antialias import render_antialiased
+from hybrid_engine.frame.film import FrameOutputs
+from hybrid_engine.frame.renderer import READBACK_READS, Renderer, frame_steps
+from hybrid_engine.gpu import shader_loader
+from hybrid_engine.gpu.bindings import Image, bind
+from hybrid_engine.passes.frame_context import FrameContext, PassIO, check_order
+from hybrid_engine.scene.camera import look_at
+from scenes_analytic import box, quad
+
+PROBE = Path(__file__).resolve().parent / "shaders" / "ambient_probe.comp.glsl"
+RASTER = RenderSettings(mode="RASTER", shadow_resolution=256)
+
+
+class ProbeAmbient:
+    """The frame's ambient estimate, replaced by the probe kernel's known irradiance:
+    ``pattern`` 0 a smooth function of the world position, 1 the constant ``level``; each
+    pixel times 1 + ``noise`` * xi, xi uniform in [-1, 1] per pixel and sample."""
+
+    name = "shade"
+
+    def __init__(self, ctx, pattern: int = 0, level: float = 0.6, noise: float = 0.0) -> None:
+        self.program = shader_loader.compute(ctx, PROBE)
+        self.pattern, self.level, self.noise = pattern, level, noise
+
+    def io(self, settings) -> PassIO:
+        return PassIO(reads=("gbuffer",), writes=("ambient",))
+
+    def run(self, frame: FrameContext) -> None:
+        targets = frame.read("gbuffer")
+        view = frame.view
+        bind(self.program, textures={"u_depth": targets.depth, "u_normal_material": targets.normal_material},
+             images={"u_ambient": Image(targets.ambient, read=False, write=True)},
+             uniforms={"u_inv_view_proj": view.uniforms()["u_inv_view_proj"], "u_size": (view.width, view.height),
+                       "u_pattern": self.pattern, "u_level": self.level, "u_noise": self.noise,
+                       "u_sample": frame.sample})
+        self.program.run(math.ceil(view.width / 8), math.ceil(view.height / 8), 1)
+        frame.write("ambient", targets.ambient)
+
+
+@pytest.fixture(scope="module")
+def renderer(gl):
+    r = Renderer(gl)
+    yield r
+    r.release()
+
+
+@pytest.fixture
+def probe(renderer, monkeypatch):
+    """Install a probe estimate in place of the screen-space occlusion: ``probe(**kw)``."""
+    def install(**kw) -> ProbeAmbient:
+        stand_in = ProbeAmbient(renderer.ctx, **kw)
+        monkeypatch.setattr(renderer, "occlusion", stand_in)
+        return stand_in
+    yield install
+    if renderer.denoiser is not None:
+        renderer.denoiser.forget()
+
+
+def grey(rows=None, textures=None) -> MaterialTable:
+    return MaterialTable.from_rows(rows or [dict(base_color=(0.8, 0.8, 0.8))], textures=textures)
+
+
+def history_length(renderer) -> np.ndarray:
+    """Each pixel's history length after the last frame, (H, W), row 0 at the bottom."""
+    return renderer.denoiser.history.read("length")[..., 0]
+
+
+# -- the frame -------------------------------------------------------------------------------
+@pytest.mark.parametrize("settings", [RASTER, RenderSettings(mode="HYBRID", world_light="SCREEN"), RenderSettings(mode="HYBRID")],
+                         ids=["raster", "hybrid", "rays"])
+def test_a_denoised_frame_filters_the_estimate_between_its_pass_and_the_shading(renderer, settings):
+    passes = renderer.passes(settings, accumulate=True, denoise=True)
+    check_order(passes, settings, final_reads=READBACK_READS + ("film",))
+    names = [type(p).__name__ for p in passes]
+    at = names.index("DenoisePass")
+    assert names[at - 1] in ("ScreenSpaceOcclusion", "DiffuseLightPass") and names[at + 1] == "DeferredShadePass"
+    assert list(dict.fromkeys(p.name for p in passes)) + ["readback"] == list(
+        frame_steps(settings.mode, accumulate=True, denoise=True))
+    assert "DenoisePass" not in [type(p).__name__ for p in renderer.passes(settings, accumulate=True)]
+
+
+# -- temporal: reprojection through the camera's motion ------------------------------------------
+def test_the_history_follows_the_surface_while_the_camera_translates(renderer, probe):
+    """A floor whose irradiance is a smooth function of the world position, with noise:
+    while the camera slides sideways (a few pixels per frame) every pixel it keeps seeing
+    gathers one frame more each frame, and what it gathers is its own point's irradiance
+    (the error against the noise-free image falls instead of smearing the pattern)."""
+    floor = SceneData(Geometry.from_objects([(quad((0, 0, 0), (20, 0, 0), (0, 20, 0)), None, 0)]), grey(),
+                      Lights.empty(), Sky(color=(1.0, 1.0, 1.0)))
+    w, h, frames, step = 96, 64, 10, 0.1
+
+    def camera(k: int) -> Camera:
+        eye = np.array([k * step, -5.0, 4.0])
+        return Camera(matrix_world=look_at(eye, eye + (0.0, 5.0, -4.0)), width=w, height=h)
+
+    probe(pattern=0, noise=0.0)
+    clean = [renderer.render(floor, camera(k), RASTER).image[..., :3] for k in range(frames)]
+    probe(pattern=0, noise=0.6)
+    errors = []
+    for k in range(frames):
+        image = renderer.render(floor, camera(k), RASTER, sample=k, denoise=True).image[..., :3]
+        errors.append(float(np.abs(image - clean[k])[:, : w * 3 // 4].mean() / clean[k].mean()))
+    assert errors[-1] < 0.7 * errors[0], errors
+    lengths = history_length(renderer)
+    # The camera moves right: what enters on the right is new; the rest was seen all along.
+    kept = lengths[:, : w * 3 // 4]
+    assert (kept >= frames).mean() > 0.95, np.percentile(kept, [1, 5, 50])
+    assert (lengths[:, -2:] <= 2).all()  # the entering edge starts over
+
+
+def test_an_object_that_moved_drops_the_history_where_it_uncovers_the_floor(renderer, probe):
+    """Looking straight down at a box standing on a floor, both one material with their top
+    faces parallel: only the depth tells them apart. The box slides; the floor it uncovers
+    starts over (history 1), the floor it never covered keeps its frames."""
+    def scene(x: float) -> SceneData:
+        objects = [(quad((0, 0, 0), (20, 0, 0), (0, 20, 0)), None, 0), (box((x - 0.6, -0.6, 0), (x + 0.6, 0.6, 0.8)), None, 0)]
+        return SceneData(Geometry.from_objects(objects), grey(), Lights.empty(), Sky(color=(1.0, 1.0, 1.0)))
+
+    camera = Camera(matrix_world=look_at((0, 0, 6.0), (0, 0, 0), up=(0, 1, 0)), width=64, height=64)
+    probe(pattern=1, noise=0.3)
+    depth = FrameOutputs(depth=True)
+    still = scene(-0.5)
+    for k in range(4):
+        before = renderer.render(still, camera, RASTER, sample=k, outputs=depth, denoise=True)
+    after = renderer.render(scene(0.5), camera, RASTER, sample=4, outputs=depth, denoise=True)
+    lengths = history_length(renderer)
+    floor_depth = float(np.max(after.data_passes["depth"]))
+    on_floor = lambda d: d > floor_depth - 0.1  # noqa: E731
+    uncovered = ~on_floor(before.data_passes["depth"]) & on_floor(after.data_passes["depth"])
+    never_covered = on_floor(before.data_passes["depth"]) & on_floor(after.data_passes["depth"])
+    assert uncovered.sum() > 50
+    assert (lengths[uncovered] == 1).all(), np.unique(lengths[uncovered])
+    assert (lengths[never_covered] == 5).mean() > 0.98
+
+
+# -- spatial: the filter ---------------------------------------------------------------------
+def checker(cells: int, texels: int) -> np.ndarray:
+    """``cells`` x ``cells`` squares of ``texels`` texels each, albedo 0.9 and 0.2."""
+    i, j = np.indices((cells * texels, cells * texels)) // texels
+    tex = np.ones((cells * texels, cells * texels, 4), np.float32)
+    tex[..., :3] = np.where((i + j) % 2 == 1, 0.9, 0.2)[..., None]
+    return tex
+
+
+def test_the_filter_removes_the_irradiances_noise_and_keeps_a_textures_edges(renderer, probe):
+    """A checker-textured floor seen from above, under a constant irradiance with noise: one
+    denoised frame has a small fraction of the noisy frame's variance, and the checker's
+    edges keep the contrast of the noise-free image, because what is filtered is the
+    irradiance, before the albedo multiplies it."""
+    size, cells = 96, 6
+    tris = quad((0, 0, 0), (3, 0, 0), (0, 3, 0))
+    uvs = ((tris[..., :2] + 3.0) / 6.0).astype(np.float32)  # the quad spans uv 0..1
+    geo = Geometry.from_objects([(tris, None, 0)])
+    geo = Geometry(geo.triangles, geo.normals, geo.material_ids, geo.object_ranges, geo.object_bounds,
+                   geo.object_names, uvs=uvs)
+    scene = SceneData(geo, grey([dict(base_color=(1.0, 1.0, 1.0), base_color_texture=0)], [checker(cells, size // cells)]),
+                      Lights.empty(), Sky(color=(1.0, 1.0, 1.0)))
+    camera = Camera(matrix_world=look_at((0, 0, 5.0), (0, 0, 0), up=(0, 1, 0)), width=size, height=size,
+                    projection="ORTHO", ortho_scale=6.0)
+    probe(pattern=1, noise=0.0)
+    clean = renderer.render(scene, camera, RASTER).image[..., 0]
+    probe(pattern=1, noise=0.8)
+    noisy = renderer.render(scene, camera, RASTER, sample=3).image[..., 0]
+    denoised = renderer.render(scene, camera, RASTER, sample=3, denoise=True).image[..., 0]
+
+    cell = size // cells  # 16 pixels (and texels) per checker square
+    inner = np.zeros((size, size), bool)
+    for a in range(cells):
+        for b in range(cells):
+            inner[a * cell + 3:(a + 1) * cell - 3, b * cell + 3:(b + 1) * cell - 3] = True
+    # The contrast across every vertical edge between squares: the pixels on its two sides.
+    left = np.arange(cell - 1, size - 1, cell)
+    contrast = lambda image: np.abs(image[:, left] - image[:, left + 1]).mean()  # noqa: E731
+    assert contrast(denoised) == pytest.approx(contrast(clean), rel=0.03), (contrast(denoised), contrast(clean))
+    residual = lambda image: np.var((image / clean)[inner])  # noqa: E731
+    assert residual(denoised) < residual(noisy) / 20, (residual(denoised), residual(noisy))
+
+
+# -- end to end ------------------------------------------------------------------------------
+def corner_scene(mirror: bool = False) -> SceneData:
+    """A floor against a wall with a box on it, lit by a white World only (so the
+    sky's visibility the rays find is the noisy part); ``mirror`` makes the wall a mirror
+    (and leaves the box out, whose front faces as the wall does)."""
+    objects = [(quad((0, 0, 0), (10, 0, 0), (0, 10, 0)), None, 0), (quad((0, 2, 2), (10, 0, 0), (0, 0, 2)), None, 1)]
+    if not mirror:
+        objects.append((box((-1.6, -0.2, 0), (-0.6, 0.8, 1.0)), None, 0))
+    rows = [dict(base_color=(0.8, 0.8, 0.8)),
+            dict(base_color=(0.9, 0.9, 0.9), reflectivity=1.0, roughness=0.0) if mirror
+            else dict(base_color=(0.7, 0.5, 0.4))]
+    return SceneData(Geometry.from_objects(objects), MaterialTable.from_rows(rows), Lights.empty(),
+                     Sky(color=(1.0, 1.0, 1.0)))
+
+
+CORNER_CAMERA = Camera(matrix_world=look_at((0.5, -4.0, 1.6), (0.0, 1.0, 0.6)), width=80, height=60)
+RAYS = RenderSettings(mode="FULL_BVH", shadow_resolution=256, world_light="RAYS")
+
+
+def test_denoised_frames_of_traced_world_light_are_near_the_converged_image(renderer):
+    """The World's light gathered by one ray per pixel: one denoised frame is much closer to
+    the mean of 32 undenoised frames than one undenoised frame is, and a few more frames of
+    a still camera (the denoiser's history, not the film) closer still."""
+    scene = corner_scene()
+    converged = np.mean([renderer.render(scene, CORNER_CAMERA, RAYS, sample=k).image[..., :3] for k in range(32)],
+                        axis=0)
+    plain = renderer.render(scene, CORNER_CAMERA, RAYS, sample=40).image[..., :3]
+    denoised = [renderer.render(scene, CORNER_CAMERA, RAYS, sample=40 + k, denoise=True).image[..., :3]
+                for k in range(6)]
+    error = lambda image: float(np.sqrt(np.mean((image - converged) ** 2)))  # noqa: E731
+    assert error(denoised[0]) < 0.5 * error(plain), (error(denoised[0]), error(plain))
+    assert error(denoised[-1]) < 0.9 * error(denoised[0]), (error(denoised[-1]), error(denoised[0]))
+
+
+def test_a_mirror_is_never_blurred(renderer):
+    """The wall is a perfect mirror: its pixels are the tracer's reflection, which is not in
+    the ambient estimate, so they are the same bit for bit with and without the denoiser,
+    while the floor's diffuse light is filtered."""
+    scene = corner_scene(mirror=True)
+    plain = renderer.render(scene, CORNER_CAMERA, RAYS, sample=5).image
+    denoised = renderer.render(scene, CORNER_CAMERA, RAYS, sample=5, denoise=True).image
+    depth = renderer.render(scene, CORNER_CAMERA, RAYS, sample=5, outputs=FrameOutputs(normal=True))
+    normals = depth.data_passes["normal"]
+    mirror = np.abs(normals[..., 1]) > 0.99  # the wall faces -y; floor and box tops face +z
+    floor = normals[..., 2] > 0.99
+    assert mirror.sum() > 200 and floor.sum() > 200
+    np.testing.assert_array_equal(denoised[mirror], plain[mirror])
+    assert np.abs(denoised[floor] - plain[floor]).max() > 0.05  # the floor's light was filtered
+
+
+def test_a_denoised_final_render_does_not_depend_on_what_the_renderer_drew_before(renderer):
+    """A final render's samples start the denoiser's history over: the same render twice,
+    with another view between, gives the same image."""
+    scene = corner_scene()
+    first = render_antialiased(renderer, scene, CORNER_CAMERA, RAYS, 3, denoise=True).image
+    renderer.render(scene, Camera(matrix_world=look_at((2.0, -3.0, 2.0), (0, 1, 0.5)), width=80, height=60), RAYS,
+                    denoise=True)
+    again = render_antialiased(renderer, scene, CORNER_CAMERA, RAYS, 3, denoise=True).image
+    np.testing.assert_array_equal(first, again)

@@ -214,9 +214,11 @@ def renderer(gl):
 
 
 def settings(mode: str, near_size: float, cube_resolution: int = 64) -> RenderSettings:
+    # The screen-space World light: these tests compare where reflections go, which one
+    # sample of traced diffuse light would cover with its noise.
     return RenderSettings(mode=mode, near_size=near_size, max_depth=4,
                           cube_resolution=cube_resolution, shadow_resolution=512,
-                          cube_far=CHESS_CUBE_FAR)
+                          cube_far=CHESS_CUBE_FAR, world_light="SCREEN")
 
 
 def test_tiny_chess_renders_in_hybrid_without_nan(renderer, tiny):

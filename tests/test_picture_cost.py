@@ -72,3 +72,16 @@ def test_quick_run_reports_both_variants_and_the_ratio(tmp_path):
     assert report["ratio_median"] == round(report["on"]["median_ms"] / report["off"]["median_ms"], 4)
     # The switches took: without the World's light the frame is darker.
     assert report["off"]["mean_radiance"] < report["on"]["mean_radiance"]
+
+
+def test_quick_light_run_compares_the_traced_light_with_the_screen_space_one(tmp_path):
+    out = tmp_path / "light.json"
+    proc = subprocess.run([sys.executable, "-m", "benchmarks.picture_cost", "--quick", "--rounds", "1",
+                           "--frames", "1", "--light", "--json", str(out)],
+                          cwd=REPO_ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    report = json.loads(out.read_text())
+    assert report["comparison"] == "light" and report["bar"] == 1.35
+    # The traced light runs its gather and the denoiser; the screen-space variant neither.
+    assert "denoise" in report["on"]["passes"] and "denoise" not in report["off"]["passes"]
+    assert report["off_settings"] == {"world_light": "SCREEN"}

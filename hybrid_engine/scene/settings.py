@@ -173,7 +173,7 @@ class RenderSettings:
     near_max: float = 20.0
     diagnostic_bounce: int = 1
     world_light: str = "RAYS"
-    diffuse_bounces: int = 3
+    diffuse_bounces: int = 2
     diffuse_rays: int = 1
     lit_cube: bool = False
     denoise_viewport: bool = True

@@ -229,3 +229,25 @@ def test_an_emissive_panel_lights_the_floor_and_falls_off_as_lamberts_closed_for
         assert ring.sum() > 10
         expected = FLOOR_ALBEDO / np.pi * panel_irradiance(points[ring]).mean()
         assert image[ring].mean() == pytest.approx(expected, rel=0.1), (lo, hi)
+
+
+def test_mirrors_and_glass_render_alike_whatever_the_diffuse_light(renderer):
+    # The paper's traced paths (mirror and glass) are not the diffuse light's: a scene of
+    # mirrors and glass alone, under a sky, is the same image with traced diffuse light at 0
+    # bounces, at 2, and with the screen-space estimate.
+    from scenes_analytic import uv_sphere
+
+    mirror, mirror_normals = uv_sphere((-0.6, 0.0, 0.0), 0.5, 24, 12)
+    glass, glass_normals = uv_sphere((0.6, 0.0, 0.0), 0.5, 24, 12)
+    rows = [dict(base_color=(0.95, 0.9, 0.8), reflectivity=1.0, roughness=0.0),
+            dict(base_color=(1.0, 1.0, 1.0), transmission=1.0, ior=1.5, roughness=0.0)]
+    scene = SceneData(Geometry.from_objects([(mirror, mirror_normals, 0), (glass, glass_normals, 1)]),
+                      MaterialTable.from_rows(rows), Lights.from_rows([]), Sky(color=(0.4, 0.6, 1.0)))
+    camera = Camera(matrix_world=look_at((0.0, -3.0, 0.6), (0.0, 0.0, 0.0)), width=W, height=H)
+    images = [renderer.render(scene, camera, RenderSettings(mode="HYBRID", near_size=2.0, **kw)).image
+              for kw in (dict(diffuse_bounces=0), dict(diffuse_bounces=2), dict(world_light="SCREEN"))]
+    sky = renderer.render(SceneData(Geometry.from_objects([]), MaterialTable.from_rows(rows), Lights.from_rows([]),
+                                    Sky(color=(0.4, 0.6, 1.0))), camera, RenderSettings(mode="HYBRID")).image
+    assert (np.abs(images[0] - sky).max(axis=-1) > 0.05).mean() > 0.1  # the spheres fill part of the view
+    assert np.abs(images[0] - images[1]).max() == 0.0
+    assert np.abs(images[0] - images[2]).max() < 1e-6

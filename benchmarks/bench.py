@@ -385,6 +385,14 @@ def flip_error(reference_linear: np.ndarray, test_linear: np.ndarray,
     return np.asarray(error_map), float(mean)
 
 
+def write_json(report: dict, path: str | None) -> None:
+    """Write a benchmark's report as indented JSON to ``path`` (nothing without one)."""
+    if path:
+        with open(path, "w", encoding="utf-8") as handle:
+            json.dump(report, handle, indent=2)
+            handle.write("\n")
+
+
 def flip_mean(reference_linear: np.ndarray, test_linear: np.ndarray) -> float:
     """Mean LDR FLIP of :func:`flip_error`."""
     return flip_error(reference_linear, test_linear)[1]
@@ -745,10 +753,7 @@ def main(argv: list[str] | None = None) -> int:
         command = "python -m benchmarks.bench " + " ".join(sys.argv[1:] if argv is None else argv)
         with open(args.device_report, "w", encoding="utf-8") as handle:
             handle.write(device_report.device_report(report, command.strip()))
-    if args.json:
-        with open(args.json, "w", encoding="utf-8") as handle:
-            json.dump(report, handle, indent=2)
-            handle.write("\n")
+    write_json(report, args.json)
     return 0
 
 

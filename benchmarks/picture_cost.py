@@ -22,7 +22,6 @@ light within AO Distance without the denoiser, the default before it (bar: 1.35)
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import sys
 from contextlib import nullcontext
@@ -131,9 +130,7 @@ def main(argv: list[str] | None = None) -> dict:
     args = parser.parse_args(argv)
     report = measure(args.quick, args.rounds, args.frames, args.light)
     print(format_report(report))
-    if args.json:
-        with open(args.json, "w", encoding="utf-8") as handle:
-            json.dump(report, handle, indent=2)
+    bench.write_json(report, args.json)
     return report
 
 

@@ -92,6 +92,40 @@ def test_a_lamp_lit_rooms_shadowed_half_is_lit_by_bounces(renderer):
     assert means[2] > 1.05 * means[1], means
 
 
+SHADOWED_LAMP = dict(kind="POINT", position=(-2.0, 0.0, -2.0), color=(400.0, 400.0, 400.0), radius=0.1)
+SHADOWED_CAMERA = dict(eye=(2.0, -2.0, 0.5), target=(2.0, 0.0, -ROOM_HALF))
+
+
+def denoised_frames(renderer, scene, camera, settings, frames: int) -> list[float]:
+    """The mean luminance of consecutive denoised frames of one view (a still viewport)."""
+    return [float(luminance(renderer.render(scene, camera, settings, sample=i, denoise=True).image).mean())
+            for i in range(frames)]
+
+
+def test_bounces_build_up_over_frames_through_last_frames_light(renderer):
+    # A path that ends on a surface the last frame saw takes that surface's light (the
+    # denoiser's history): every frame adds the bounces its paths trace to those the last
+    # one held, so the shadowed half brightens over frames and settles; an undenoised frame
+    # (no history) stays at the first frame's light.
+    scene = closed_room(SHADOWED_LAMP, partition=True)
+    camera = Camera(matrix_world=look_at(SHADOWED_CAMERA["eye"], SHADOWED_CAMERA["target"]), width=W, height=H)
+    settings = room_settings("FULL_BVH", diffuse_bounces=1)
+    frames = denoised_frames(renderer, scene, camera, settings, 12)
+    assert frames[6] > 1.15 * frames[0], frames
+    assert abs(frames[11] - frames[9]) < 0.03 * frames[11], frames  # settled: the albedo damps it
+
+
+def test_a_lamp_switched_off_leaves_its_fed_back_light_dying_away(renderer):
+    camera = Camera(matrix_world=look_at(SHADOWED_CAMERA["eye"], SHADOWED_CAMERA["target"]), width=W, height=H)
+    settings = room_settings("FULL_BVH", diffuse_bounces=1)
+    # Nothing feeds the fed-back light once the lamp is off: it dies away frame by frame (at
+    # the pace of the denoiser's temporal blend, which carries the last frames' light too).
+    lit = denoised_frames(renderer, closed_room(SHADOWED_LAMP, partition=True), camera, settings, 8)
+    dark = denoised_frames(renderer, closed_room(None, partition=True), camera, settings, 10)
+    assert all(b < a for a, b in zip(dark, dark[1:])), dark
+    assert dark[-1] < 0.5 * lit[-1], (lit, dark)
+
+
 # -- a grey wall beside a grey floor under a white World ---------------------------------------
 ALBEDO = 0.6
 WALL_BAND = (0.3, 1.3)  # the wall's heights the comparison averages over

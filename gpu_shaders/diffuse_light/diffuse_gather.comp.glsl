@@ -31,6 +31,37 @@
 #include "trace_ray.glsl"
 // Compiled only with EMITTER_LIGHT (some triangles emit).
 #include "emitter_light.glsl"
+#include "denoise.glsl"
+
+#ifdef DIFFUSE_FEEDBACK
+// Last frame's diffuse light where the camera saw it (DenoisePass.feedback): the temporal
+// blend of the irradiance, the surface point and normal of each texel, that frame's
+// view-projection and size.
+uniform sampler2D u_feedback_color;
+uniform sampler2D u_feedback_surface;
+uniform mat4 u_feedback_view_proj;
+uniform ivec2 u_feedback_size;
+
+// The diffuse light (lamps and last frame's irradiance) leaving the surface a path ends on,
+// if last frame's camera saw that very point; else nothing (as without feedback). Each frame
+// adds the bounces its paths trace to those the last frame held: bounces build up over
+// frames, and die away as they do in a room (by the albedo, below 1), so a light switched off
+// leaves nothing after a few frames.
+vec3 feedback_light(Hit h, Material hm, vec3 albedo, vec3 d, SpecularSplit hs) {
+    vec4 clip = u_feedback_view_proj * vec4(h.position, 1.0);
+    if (!(clip.w > 0.0)) return vec3(0.0);
+    vec2 ndc = clip.xy / clip.w;
+    if (any(greaterThanEqual(abs(ndc), vec2(1.0)))) return vec3(0.0);
+    ivec2 q = clamp(ivec2((ndc * 0.5 + 0.5) * vec2(u_feedback_size)), ivec2(0), u_feedback_size - 1);
+    vec4 surface = texelFetch(u_feedback_surface, q, 0);
+    float scale = u_orthographic != 0 ? 1.0 : distance(h.position, u_camera_position);
+    if (denoise_is_background(surface) || abs(dot(denoise_surface_normal(surface), hs.n_facing)) < 0.9
+        || denoise_plane_offset(h.position, hs.n_facing, surface.xyz, scale) > 0.02) return vec3(0.0);
+    vec3 irradiance = texelFetch(u_feedback_color, q, 0).rgb;
+    return hs.diffuse_weight * albedo / PI * irradiance
+           + lamp_light_response(hm, albedo, vec3(0.0), h.position, d, hs, 1.0);
+}
+#endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f) writeonly uniform image2D u_ambient;
@@ -103,6 +134,12 @@ vec3 diffuse_path(vec3 p, vec3 n, vec3 g, int path, out float sky) {
             crossings += 1;
             continue;
         }
+#ifdef DIFFUSE_FEEDBACK
+        if (!bounces_left && hs.diffuse_weight > 0.0 && through <= 0.0) {
+            radiance += throughput * feedback_light(h, hm, h_albedo, d, hs);
+            break;
+        }
+#endif
         if (!bounces_left || !(hs.diffuse_weight > 0.0)) break;
         throughput *= hs.diffuse_weight * h_albedo;
         if (!(max(max(throughput.r, throughput.g), throughput.b) > 0.0)) break;

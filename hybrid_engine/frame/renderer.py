@@ -230,8 +230,12 @@ class Renderer:
             self.culler = NearCubeCuller(self.ctx)
             self.lbvh = LBVHBuildPass(LBVHBuilder(self.ctx))
             self.tracer = HybridTracer(self.ctx)
-            self.diffuse_light = DiffuseLightPass(self.tracer)
+            self.diffuse_light = DiffuseLightPass(self.tracer, feedback=self._diffuse_feedback)
             self.emitters = EmitterTablePass(self.ctx)
+
+    def _diffuse_feedback(self):
+        """The denoiser's last frame, for the diffuse gather (None before one)."""
+        return self.denoiser.feedback() if self.denoiser is not None else None
 
     def _checked_passes(self, settings: RenderSettings, accumulate: bool, data: bool,
                         denoise: bool) -> list[FramePass]:

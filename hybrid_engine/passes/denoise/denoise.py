@@ -37,6 +37,7 @@ import moderngl
 import numpy as np
 
 from ...gpu import shader_loader
+from ...gpu.bindings import Bindings
 from ...gpu.bindings import Image, bind
 from ...scene.raster_view import RasterView
 from ...scene.settings import RenderSettings
@@ -134,6 +135,18 @@ class DenoisePass:
             source, source_variance = target, target_variance
         history.advance(np.asarray(view.view_proj, np.float64))
         return source
+
+    def feedback(self) -> Bindings | None:
+        """Last frame's diffuse light where the camera saw it (the temporal blend of the
+        irradiance and the surface points it belongs to, and that frame's view-projection),
+        for the diffuse gather's path ends (``DIFFUSE_FEEDBACK``); None without a history."""
+        history = self.history
+        if not history.valid:
+            return None
+        return Bindings(textures={"u_feedback_color": history.previous("color"),
+                                  "u_feedback_surface": history.previous("surface")},
+                        uniforms={"u_feedback_view_proj": history.previous_uniforms()["u_prev_view_proj"],
+                                  "u_feedback_size": tuple(int(v) for v in history.size)})
 
     def forget(self) -> None:
         """Start every pixel over at the next frame (a frame this pass did not see, a final

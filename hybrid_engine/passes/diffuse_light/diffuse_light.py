@@ -24,11 +24,12 @@ from __future__ import annotations
 
 import math
 from functools import partial
+from typing import Callable
 
 import numpy as np
 
 from ...gpu import gl_context, shader_loader
-from ...gpu.bindings import Image, bind
+from ...gpu.bindings import Bindings, Image, bind
 from ...gpu.dispatch import storage_barrier
 from ...scene.settings import FIELD_LIMITS, RenderSettings
 from ..frame_context import FrameContext, PassIO
@@ -55,8 +56,12 @@ class DiffuseLightPass:
 
     name = "shade"
 
-    def __init__(self, tracer: HybridTracer) -> None:
+    def __init__(self, tracer: HybridTracer, feedback: Callable[[], Bindings | None] | None = None) -> None:
         self.tracer = tracer
+        # Last frame's diffuse light where the camera saw it (the denoiser's history,
+        # DenoisePass.feedback), or None: paths that end on such a surface take its light
+        # instead of none, so bounces beyond the last traced one build up over frames.
+        self.feedback = feedback
         self.ctx = tracer.ctx
         self._counters = self.ctx.buffer(reserve=COUNTER_WORDS * 4)
         self._zero_counters = bytes(self._counters.size)
@@ -74,7 +79,11 @@ class DiffuseLightPass:
         # a scene without them runs the kernel without the emitters' code.
         emitters = frame.read("emitters")
         emitter_parts = (emitters.bindings(),) if emitters.count else ()
-        defines = {**inputs.defines, "EMITTER_LIGHT": 1} if emitters.count else inputs.defines
+        defines = {**inputs.defines, "EMITTER_LIGHT": 1} if emitters.count else dict(inputs.defines)
+        history = self.feedback() if self.feedback is not None and settings.diffuse_bounces > 0 else None
+        if history is not None:
+            defines["DIFFUSE_FEEDBACK"] = 1
+            emitter_parts = (*emitter_parts, history)
         prog = shader_loader.compute(self.ctx, SHADER, defines)
         self._counters.write(self._zero_counters)
         bounces = int(settings.diffuse_bounces)

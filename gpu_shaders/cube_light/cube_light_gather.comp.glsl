@@ -29,6 +29,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 
 #include "cube_march.glsl"
+#include "scene_bounds.glsl"
 #include "cube_radiance.glsl"
 #include "cube_light_texels.glsl"
 #include "random.glsl"
@@ -40,34 +41,12 @@ uniform int u_history;
 uniform float u_blend;
 uniform int u_frame;
 uniform int u_gather_res;
-uniform int u_scene_bounded;
-uniform vec3 u_scene_lo;
-uniform vec3 u_scene_hi;
 
 // Radiance fp16 can hold: samples are clamped to it, so no sum turns infinite.
 const float CUBE_LIGHT_MAX = 60000.0;
 // How far (relative) the previous map's distance at a point may differ from the point's own
 // for its light to count as the same surface's.
 const float SAME_SURFACE = 0.1;
-
-vec2 box_interval(vec3 o, vec3 d, vec3 lo, vec3 hi) {
-    vec3 safe = mix(d, vec3(1e-30), lessThan(abs(d), vec3(1e-30)));
-    vec3 t0 = (lo - o) / safe;
-    vec3 t1 = (hi - o) / safe;
-    vec3 tn = min(t0, t1);
-    vec3 tf = max(t0, t1);
-    return vec2(max(max(tn.x, tn.y), tn.z), min(min(tf.x, tf.y), tf.z));
-}
-
-// Where the ray leaves the bounds of all geometry (as trace_ray.glsl scene_exit).
-float scene_exit(vec3 o, vec3 d) {
-    if (u_scene_bounded == 0) return CUBE_NO_LIMIT;
-    float grow = 1.0 + cube_max_hit_overshoot();
-    vec3 lo = u_scene_lo - u_cube_center;
-    vec3 hi = u_scene_hi - u_cube_center;
-    vec2 span = box_interval(o, d, u_cube_center + min(lo, lo * grow), u_cube_center + max(hi, hi * grow));
-    return span.y < max(span.x, 0.0) ? -1.0 : span.y;
-}
 
 // The previous frame's stored light at world point p on layer `row`, or -1 where that map
 // held another surface there (or none).

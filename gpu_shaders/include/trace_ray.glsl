@@ -38,6 +38,7 @@ layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 #if !defined(TRACE_SHADING_ONLY) || defined(LIT_CUBE)
 #include "cube_march.glsl"
 #endif
+#include "scene_bounds.glsl"
 
 #ifndef TRACE_SHADING_ONLY
 // Shading normals of triangle i, corners 0..2: floats 9 i .. 9 i + 8 of the scene's normal
@@ -136,9 +137,6 @@ uniform int u_max_depth;     // 0..MAX_DEPTH_LIMIT
 uniform vec3 u_near_center;  // the near cube (camera position)
 uniform float u_near_half;   // its half-size (near_size): decides where a ray starts
 uniform float u_bvh_half;    // half-size of the culled region (near_size + overlap)
-uniform int u_scene_bounded; // 1: u_scene_lo/hi bound all geometry (padded); 0: empty scene
-uniform vec3 u_scene_lo;
-uniform vec3 u_scene_hi;
 
 #define MODE_HYBRID 0
 #define MODE_FULL_BVH 1
@@ -183,17 +181,6 @@ vec3 unproject_primary(vec2 ndc_xy, float ndc_z) {
 
 bool inside_near_cube(vec3 p) {
     return all(lessThanEqual(abs(p - u_near_center), vec3(u_near_half)));
-}
-
-// [enter, exit] of the ray with the box [lo, hi]; enter > exit: no overlap.
-vec2 box_interval(vec3 o, vec3 d, vec3 lo, vec3 hi) {
-    vec3 safe = mix(d, vec3(1e-30), lessThan(abs(d), vec3(1e-30)));
-    vec3 inv = 1.0 / safe;
-    vec3 t0 = (lo - o) * inv;
-    vec3 t1 = (hi - o) * inv;
-    vec3 tn = min(t0, t1);
-    vec3 tf = max(t0, t1);
-    return vec2(max(max(tn.x, tn.y), tn.z), min(min(tf.x, tf.y), tf.z));
 }
 
 // [enter, exit] of the ray with the BVH region (the culled cube).
@@ -276,21 +263,6 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary, float blur) {
         }
     }
     return h;
-}
-
-// Where the ray leaves the bounds of all geometry (-1: it misses them; CUBE_NO_LIMIT: no
-// bounds). Past them neither the BVH nor the cube map holds anything to hit, so the march
-// stops there instead of walking the faces on to their far planes. The march takes a hit a
-// little behind its surface (the depth bias), so the bounds grow away from the map's centre
-// by that much (cube_max_hit_overshoot); a ray behind a thick object past them meets a
-// stretch of it, not the object itself.
-float scene_exit(vec3 o, vec3 d) {
-    if (u_scene_bounded == 0) return CUBE_NO_LIMIT;
-    float grow = 1.0 + cube_max_hit_overshoot();
-    vec3 lo = u_scene_lo - u_cube_center;
-    vec3 hi = u_scene_hi - u_cube_center;
-    vec2 span = box_interval(o, d, u_cube_center + min(lo, lo * grow), u_cube_center + max(hi, hi * grow));
-    return span.y < max(span.x, 0.0) ? -1.0 : span.y;
 }
 
 // Follow one ray through the BVH and the cube map until it hits something or the sky, or

@@ -1,0 +1,41 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The flat shader graph: links only point backwards, and its topology key tells a value edit
+from a change of shape."""
+from __future__ import annotations
+
+import pytest
+
+from hybrid_engine.scene.shader_graph import Link, ShaderGraph, ShaderGraphError
+
+
+def _graph(value: float, operation: str = "ADD") -> ShaderGraph:
+    graph = ShaderGraph()
+    coords = graph.add("TEX_COORD")
+    math = graph.add("MATH", settings={"operation": operation}, Value=Link(coords, "UV"), Value_001=value)
+    shader = graph.add("EMISSION", Color=Link(math, "Value"), Strength=1.0)
+    graph.surface = Link(shader, "Emission")
+    return graph
+
+
+def test_a_link_to_a_later_node_is_rejected():
+    graph = ShaderGraph()
+    graph.add("MATH", Value=Link(1, "Value"))
+    graph.add("VALUE")
+    with pytest.raises(ShaderGraphError, match="not an earlier node"):
+        graph.validate()
+    _graph(0.5).validate()
+
+
+def test_a_surface_link_to_a_missing_node_is_rejected():
+    graph = _graph(0.5)
+    graph.surface = Link(7, "BSDF")
+    with pytest.raises(ShaderGraphError, match="missing node 7"):
+        graph.validate()
+
+
+def test_topology_key_ignores_constants_and_sees_settings_and_links():
+    assert _graph(0.5).topology_key() == _graph(2.0).topology_key()
+    assert _graph(0.5).topology_key() != _graph(0.5, "MULTIPLY").topology_key()
+    relinked = _graph(0.5)
+    relinked.nodes[1].inputs["Value_001"] = Link(0, "Object")
+    assert relinked.topology_key() != _graph(0.5).topology_key()

@@ -39,3 +39,19 @@ def test_topology_key_ignores_constants_and_sees_settings_and_links():
     relinked = _graph(0.5)
     relinked.nodes[1].inputs["Value_001"] = Link(0, "Object")
     assert relinked.topology_key() != _graph(0.5).topology_key()
+
+
+def test_material_table_holds_one_graph_or_none_per_material():
+    import numpy as np
+
+    from hybrid_engine.scene.arrays import SceneDataError
+    from hybrid_engine.scene.data import MaterialTable
+
+    rows = dict(base_color=np.full((2, 3), 0.5), emission=np.zeros((2, 3)), reflectivity=[0, 0],
+                transmission=[0, 0], ior=[1.5, 1.5], thickness=[0.5, 0.5])
+    table = MaterialTable(**rows, node_graphs=[_graph(0.5), None])
+    assert isinstance(table.node_graphs[0], ShaderGraph) and table.node_graphs[1] is None
+    with pytest.raises(SceneDataError, match="2 entries, expected|1 entries, expected 2"):
+        MaterialTable(**rows, node_graphs=[None])
+    with pytest.raises(SceneDataError, match="not a ShaderGraph"):
+        MaterialTable(**rows, node_graphs=[None, "graph"])

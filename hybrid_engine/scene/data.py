@@ -15,6 +15,7 @@ import numpy as np
 
 from .arrays import SceneDataError, as_array
 from .geometry import Geometry
+from .shader_graph import ShaderGraph
 
 # Light kinds (std430 int in the light buffer)
 LIGHT_POINT, LIGHT_SUN, LIGHT_SPOT, LIGHT_AREA = 0, 1, 2, 3
@@ -78,6 +79,9 @@ class MaterialTable:
     metallic_texture: np.ndarray | None = None  # (M,) int32 image giving the metallic, -1 none
     roughness_channel: np.ndarray | None = None  # (M,) int32 TEXTURE_CHANNELS index; None: all 3
     metallic_channel: np.ndarray | None = None  # (M,) int32 TEXTURE_CHANNELS index; None: all 3
+    # Per material, its shader node graph (shader_graph.py) where the fixed rows above cannot
+    # hold what the artist built, else None; None for the whole table: no graphs at all.
+    node_graphs: list[ShaderGraph | None] | None = None
 
     def __post_init__(self) -> None:
         self.base_color = as_array(self.base_color, np.float32, (3,), "base_color")
@@ -120,6 +124,14 @@ class MaterialTable:
                     f"are {len(self.textures)} textures (valid: -1 for none, 0..{len(self.textures) - 1})"
                 )
             setattr(self, name, index)
+        if self.node_graphs is not None:
+            self.node_graphs = list(self.node_graphs)
+            if len(self.node_graphs) != m:
+                raise SceneDataError(f"material node_graphs has {len(self.node_graphs)} entries, expected {m}")
+            for k, graph in enumerate(self.node_graphs):
+                if graph is not None and not isinstance(graph, ShaderGraph):
+                    raise SceneDataError(f"material {k} ({self.names[k]!r}) node graph is a "
+                                         f"{type(graph).__name__}, not a ShaderGraph")
 
     @property
     def has_textures(self) -> bool:

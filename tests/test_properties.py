@@ -136,7 +136,7 @@ def test_standard_panels_that_apply_are_enabled_and_eevee_specific_ones_are_not(
     for name in ("MATERIAL_PT_preview", "DATA_PT_preview", "TEXTURE_PT_preview"):  # would stay blank
         assert "HYBRID_RT" not in getattr(bpy.types, name).COMPAT_ENGINES, name
     assert not addon.blender_adapter.engine.HybridRTRenderEngine.bl_use_preview
-    for name in ("RENDER_PT_eevee_sampling", "DATA_PT_camera_dof", "VIEWLAYER_PT_layer_passes",
+    for name in ("RENDER_PT_eevee_sampling", "DATA_PT_camera_dof", "RENDER_PT_stereoscopy", "VIEWLAYER_PT_layer_passes",
                  "DATA_PT_lightprobe_bake", "EEVEE_MATERIAL_PT_settings", "DATA_PT_EEVEE_light",
                  "DATA_PT_EEVEE_light_shadow", "DATA_PT_EEVEE_light_distance"):
         assert "HYBRID_RT" not in getattr(bpy.types, name).COMPAT_ENGINES, name
@@ -190,7 +190,8 @@ class RecordingLayout:
 def RENDER_PANELS(panels) -> tuple:
     return (panels.RENDER_PT_hybrid_rt_sampling, panels.RENDER_PT_hybrid_rt_light_paths,
             panels.RENDER_PT_hybrid_rt_hybrid, panels.RENDER_PT_hybrid_rt_shadows,
-            panels.RENDER_PT_hybrid_rt_film, panels.RENDER_PT_hybrid_rt_diagnostics)
+            panels.RENDER_PT_hybrid_rt_film, panels.RENDER_PT_hybrid_rt_performance,
+            panels.RENDER_PT_hybrid_rt_diagnostics)
 
 
 def _draw(panel, drawn: list, **context) -> float:
@@ -223,7 +224,7 @@ def test_the_render_panels_draw_every_setting_once_the_report_and_the_overlay_qu
     settings = [f.name for f in fields(RenderSettings)]
     assert sorted(name for name in drawn if name in settings) == sorted(settings)
     assert {"hybrid_rt.timing_report", "show_near_cube", "film_transparent", "filter_size",
-            "mode=PROVENANCE", "frame_budget_fps"} <= set(drawn)
+            "mode=PROVENANCE", "frame_budget_fps", "use_persistent_data"} <= set(drawn)
     assert addon.ui.panels.RENDER_PT_hybrid_rt_shadows.bl_parent_id == "RENDER_PT_hybrid_rt_hybrid"
 
 

@@ -128,11 +128,16 @@ def test_frame_range_limits_are_inclusive():
     assert len(validate_frame_range(1, timing_report.MAX_FRAMES)) == timing_report.MAX_FRAMES
 
 
-def test_output_prefix_creates_missing_folders_and_drops_a_report_suffix(tmp_path):
-    base = prepare_output_prefix(tmp_path / "new" / "deeper" / "run.json")
-    assert base == tmp_path / "new" / "deeper" / "run"
-    assert base.parent.is_dir()
+def test_output_prefix_drops_a_report_suffix_and_leaves_nothing_behind(tmp_path):
+    base = prepare_output_prefix(tmp_path / "run.json")
+    assert base == tmp_path / "run"
     assert list(base.parent.iterdir()) == []  # the write probe leaves nothing behind
+
+
+def test_output_prefix_in_a_missing_folder_is_refused_and_creates_nothing(tmp_path):
+    with pytest.raises(OutputPathError, match="does not exist: create it first"):
+        prepare_output_prefix(tmp_path / "missing" / "deeper" / "run")
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("case", ["parent_is_a_file", "prefix_is_a_directory", "json_is_a_directory", "empty"])
@@ -228,7 +233,7 @@ def test_report_files_carry_whatever_passes_and_counts_the_frames_have(tmp_path)
     the documented order; warm-up renders are not recorded."""
     renderer = CountingRenderer()
     writer = RecordingChartWriter()
-    report, paths = run_timing_report(tmp_path / "out" / "r", 3, 6, renderer, requested_mode="HYBRID",
+    report, paths = run_timing_report(tmp_path / "r", 3, 6, renderer, requested_mode="HYBRID",
                                       settings={"mode": "HYBRID"}, target_fps=30.0, scene={"name": "Test"},
                                       warmup_frames=2, chart_writer=writer)
     assert renderer.calls == [3, 3, 3, 4, 5, 6]
@@ -258,7 +263,7 @@ def test_report_files_carry_whatever_passes_and_counts_the_frames_have(tmp_path)
     assert all(row[8:13] == [""] * 5 for row in rows[1:])  # nor traced rays: no rays' story
 
     ((png, chart),) = writer.charts
-    assert png == paths["png"] == tmp_path / "out" / "r.png"
+    assert png == paths["png"] == tmp_path / "r.png"
     assert chart.pixels.shape == (520, 1000, 3)
     # Every pass's colour appears in the chart, and its name in the labels.
     for color in timing_report.pass_colors(data["pass_order"]):
@@ -434,7 +439,7 @@ def test_operator_rejects_an_unwritable_path_before_rendering(addon, extraction_
     build_animated_scene(bpy)
     (tmp_path / "file").write_text("x")
     path = str(tmp_path / "file" / "report") if case == "under_a_file" else "//timing/report"
-    with pytest.raises(RuntimeError, match="cannot create|not saved"):
+    with pytest.raises(RuntimeError, match="not a folder|not saved"):
         bpy.ops.hybrid_rt.timing_report(filepath=path, frame_start=1, frame_end=2)
     assert extraction_log == []
 
@@ -626,12 +631,12 @@ def test_script_writes_a_report_of_a_saved_blend(addon, tmp_path):
     blend_bytes = blend.read_bytes()
     completed = subprocess.run(
         [sys.executable, str(REPO_ROOT / "scripts" / "timing_report.py"), "--blend", str(blend),
-         "--prefix", str(tmp_path / "out" / "report"), "--start", "2", "--end", "4"],
+         "--prefix", str(tmp_path / "report"), "--start", "2", "--end", "4"],
         capture_output=True, text=True, timeout=300,
     )
     assert completed.returncode == 0, completed.stdout + completed.stderr
     assert "3 frames" in completed.stdout
-    data = json.loads((tmp_path / "out" / "report.json").read_text())
+    data = json.loads((tmp_path / "report.json").read_text())
     assert [f["frame"] for f in data["frames"]] == [2, 3, 4]
     assert blend.read_bytes() == blend_bytes  # the .blend is never saved
 

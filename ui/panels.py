@@ -47,6 +47,8 @@ _PANELS_SKIPPED_PREFIXES = (
     "OBJECT_PT_shadow_terminator",
     "VIEW3D_PT_shading_render_pass",
     "SCENE_PT_eevee",
+    # Stereoscopy: the engine renders one view per camera; multi-view output would repeat it.
+    "RENDER_PT_stereoscopy",
 )
 
 
@@ -193,6 +195,20 @@ class RENDER_PT_hybrid_rt_film(HybridRTPanel, bpy.types.Panel):
         layout.column().prop(context.scene.hybrid_rt, "viewport_scale", text="Viewport Scale")
 
 
+class RENDER_PT_hybrid_rt_performance(HybridRTPanel, bpy.types.Panel):
+    """Performance: Persistent Data, which keeps the extracted scene and the GPU's copy of it
+    between final renders (blender_adapter/engine.py), so an animation pays the extraction
+    once and then only for what changed. Blender draws it in Cycles' own panel only."""
+
+    bl_label = "Performance"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context) -> None:
+        layout = _split(self.layout)
+        layout.column().prop(context.scene.render, "use_persistent_data", text="Persistent Data")
+
+
 class RENDER_PT_hybrid_rt_diagnostics(HybridRTPanel, bpy.types.Panel):
     """Where rays and time go: the provenance view, the near cube drawn in the viewport and
     the timing report of the frame range."""
@@ -274,6 +290,7 @@ _CLASSES = (
     RENDER_PT_hybrid_rt_hybrid,
     RENDER_PT_hybrid_rt_shadows,
     RENDER_PT_hybrid_rt_film,
+    RENDER_PT_hybrid_rt_performance,
     RENDER_PT_hybrid_rt_diagnostics,
     VIEWLAYER_PT_hybrid_rt_passes,
     MATERIAL_PT_hybrid_rt,

@@ -154,8 +154,10 @@ def prepare_output_prefix(prefix: str | os.PathLike, *, suffixes: Sequence[str] 
     """Check that ``PREFIX<suffix>.json/.csv/.png`` can be written; return the absolute prefix.
 
     A prefix that ends in .json, .csv or .png loses that ending (``out/report.json`` means
-    the prefix ``out/report``). A missing directory is created. Raises OutputPathError when
-    the prefix is empty or names a directory, when the directory cannot be created or written
+    the prefix ``out/report``). The folder must exist: a mistyped path would otherwise create
+    folders wherever it points (a report to ``/nonexistent_dir/x`` would make a folder at the
+    filesystem's root). Raises OutputPathError when the prefix is empty or names a directory,
+    when the folder does not exist, is not a folder or cannot be written
     (checked by creating and deleting a probe file, which also works for the superuser, for
     whom permission bits say nothing), or when a report file's name is taken by a directory.
     """
@@ -171,10 +173,11 @@ def prepare_output_prefix(prefix: str | os.PathLike, *, suffixes: Sequence[str] 
     if base.is_dir():
         raise OutputPathError(f"output path {str(base)!r} is a directory; add a file name prefix")
     directory = base.parent
-    try:
-        directory.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OutputPathError(f"cannot create the report directory {str(directory)!r}: {exc.strerror or exc}") from exc
+    if not directory.exists():
+        raise OutputPathError(f"the report folder {str(directory)!r} does not exist: create it first, "
+                              "or choose a prefix in an existing folder")
+    if not directory.is_dir():
+        raise OutputPathError(f"cannot write a report into {str(directory)!r}: it is a file, not a folder")
     try:
         with tempfile.NamedTemporaryFile(dir=directory, prefix=".hybrid_rt_probe_"):
             pass

@@ -106,7 +106,8 @@ def test_render_reports_stats_and_keeps_the_frame_result(addon, tmp_path, monkey
 
 def test_a_missing_image_reaches_the_artists_report_with_its_name(addon, tmp_path, capfd):
     """Blender's report (Info editor, status bar; in background mode a "Warning:" line)
-    hears of a texture whose file is missing, named, on F12 and in the viewport."""
+    hears of a texture whose file is missing, named, on F12 and in the viewport, and the
+    texture renders magenta, as in Blender's engines."""
     import bpy
 
     scene = build_plane_scene(bpy, "SUN", 1.0, size=8)
@@ -123,8 +124,11 @@ def test_a_missing_image_reaches_the_artists_report_with_its_name(addon, tmp_pat
     plane.data.materials.clear()
     plane.data.materials.append(material)
     capfd.readouterr()
-    render_exr(bpy, scene, tmp_path / "frame.exr")
+    pixels = render_exr(bpy, scene, tmp_path / "frame.exr")
     assert "Warning: Hybrid RT: image 'lost texture' has no pixels" in capfd.readouterr().out
+    # Magenta, as Blender renders it; the green is the Principled BSDF's white specular coat.
+    red, green, blue = pixels[2:-2, 2:-2, :3].mean(axis=(0, 1))
+    assert red > 0.1 and green < 0.2 * red and abs(blue - red) < 0.05 * red, (red, green, blue)
 
     reported = []
 

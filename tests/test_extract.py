@@ -650,7 +650,7 @@ def test_non_color_byte_images_are_not_decoded(fresh_images):
     np.testing.assert_allclose(scene.textures[0][..., :3], np.round(0.4 * 255) / 255, atol=1e-6)
 
 
-def test_an_image_without_pixels_warns_and_uses_the_sockets_own_colour(fresh_images, caplog):
+def test_an_image_without_pixels_warns_and_renders_magenta_as_in_blender(fresh_images, caplog):
     clear_scene()
     image = bpy.data.images.new("missing", 4, 4)
     image.source = "FILE"
@@ -659,8 +659,9 @@ def test_an_image_without_pixels_warns_and_uses_the_sockets_own_colour(fresh_ima
     with caplog.at_level("WARNING"):
         scene = extract(fresh_images)
     k = scene.materials.names.index("broken")
-    assert scene.textures == [] and scene.materials.base_color_texture[k] == -1
-    np.testing.assert_allclose(scene.materials.base_color[k], (1.0, 0.0, 0.0))  # the socket's red
+    texture = scene.textures[scene.materials.base_color_texture[k]]
+    np.testing.assert_array_equal(texture.reshape(-1, 4), [[1.0, 0.0, 1.0, 1.0]])
+    np.testing.assert_allclose(scene.materials.base_color[k], (1.0, 1.0, 1.0))  # Blender ignores the socket
     assert any("missing" in r.getMessage() and "no pixels" in r.getMessage() for r in caplog.records)
 
 

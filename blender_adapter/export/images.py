@@ -60,14 +60,26 @@ def _byte_image_to_working_space(image, rgb: np.ndarray) -> np.ndarray:
         return rgb
 
 
-def image_pixels(image) -> np.ndarray | None:
+def _missing_pixels() -> np.ndarray:
+    """One opaque magenta texel: what Blender's engines render for an image they cannot read,
+    so that a missing texture is seen in the picture, not only in the console."""
+    pixels = np.array([[[1.0, 0.0, 1.0, 1.0]]], np.float32)
+    pixels.flags.writeable = False
+    return pixels
+
+
+MISSING_PIXELS = _missing_pixels()
+
+
+def image_pixels(image) -> np.ndarray:
     """An image as (H, W, 4) float32 linear RGBA, row 0 at the bottom (read-only, shared by
-    every caller), or None when it has no pixels (missing file, empty image). Read once per
-    image content (``_image_key``) with one ``foreach_get``."""
+    every caller); ``MISSING_PIXELS`` (magenta, as Blender renders it) when it has no pixels
+    (missing file, empty image) or is of a kind the engine does not read, with a message
+    naming it. Read once per image content (``_image_key``) with one ``foreach_get``."""
     if image.source not in ("FILE", "GENERATED"):
-        tell("image %r: %s images are not supported; the "
-                   "socket's colour is used", image.name_full, image.source)
-        return None
+        tell("image %r: %s images are not supported; it "
+                   "renders magenta", image.name_full, image.source)
+        return MISSING_PIXELS
     key = _image_key(image)
     cached = _image_cache.get(key)
     if cached is not None:
@@ -76,9 +88,9 @@ def image_pixels(image) -> np.ndarray | None:
     width, height = (int(v) for v in image.size)
     channels = int(image.channels)
     if width < 1 or height < 1 or channels < 1:
-        tell("image %r has no pixels (missing file %r?); the "
-                   "socket's colour is used", image.name_full, image.filepath)
-        return None
+        tell("image %r has no pixels (missing file %r?); it "
+                   "renders magenta, as in Blender", image.name_full, image.filepath)
+        return MISSING_PIXELS
     flat = np.empty(width * height * channels, np.float32)
     image.pixels.foreach_get(flat)
     pixels = flat.reshape(height, width, channels)
@@ -97,8 +109,9 @@ def image_pixels(image) -> np.ndarray | None:
     return out
 
 
-def environment_pixels(image) -> np.ndarray | None:
-    """(H, W, 3) linear float32 pixels of an environment image (row 0 = bottom), or None.
+def environment_pixels(image) -> np.ndarray:
+    """(H, W, 3) linear float32 pixels of an environment image (row 0 = bottom); magenta
+    when it cannot be read, as Blender renders it.
     Read by ``image_pixels`` (one read per image content, the textures' colour-space rule)
     and kept as the same array while the image stays the same, so that the GPU side (sky
     irradiance, mipmapped environment: sky_light.py) is not rebuilt by a render that only
@@ -108,8 +121,6 @@ def environment_pixels(image) -> np.ndarray | None:
     if cached is not None:
         return cached
     pixels = image_pixels(image)
-    if pixels is None:
-        return None
     rgb = np.ascontiguousarray(pixels[..., :3])
     rgb.flags.writeable = False
     _environment_cache.clear()  # one World at a time is rendered

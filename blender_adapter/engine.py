@@ -205,10 +205,14 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
         except RenderCancelled:
             pass
         except Exception as exc:  # noqa: BLE001 - nothing may escape a Blender callback
-            traceback.print_exc()
+            if not messages.is_artist_error(exc):
+                traceback.print_exc()
             message = f"Hybrid RT: {exc}"
             self.report({"ERROR"}, message)
-            self.error_set(message)
+            if not bpy.app.background:
+                # The render window's header; in background mode Blender would print the
+                # message a second time, after the report's own line.
+                self.error_set(message)
 
     def _render(self, depsgraph) -> None:
         def progress(step: str, fraction: float) -> None:

@@ -195,7 +195,7 @@ class ViewportSession:
             message = f"{ERROR_PREFIX}: {exc}"
         else:
             message = f"{ERROR_PREFIX}: {type(exc).__name__}: {exc}"
-        self._tell(message, exc, unexpected=not isinstance(exc, GLUnavailableError))
+        self._tell(message, exc, unexpected=not messages.is_artist_error(exc))
         return ViewportFrame(None, rect, message, error=message)
 
     def _tell(self, message: str, exc: Exception, *, unexpected: bool) -> None:
@@ -283,7 +283,8 @@ def callback_failed(engine, where: str, exc: Exception) -> None:
     try:
         engine.update_stats("", message)
         if _callback_latch.first_time(message):
-            traceback.print_exception(exc)
+            if not messages.is_artist_error(exc):
+                traceback.print_exception(exc)
             engine.report({"ERROR"}, message)
     except Exception:  # noqa: BLE001 - reporting itself must not raise into Blender
         log.exception("could not report a viewport error")

@@ -25,7 +25,7 @@ from dataclasses import asdict, replace
 
 import bpy
 
-from ..blender_adapter import chart_images, engine, properties, scene_cache
+from ..blender_adapter import chart_images, engine, messages, properties, scene_cache
 from ..blender_adapter.export.camera import render_resolution
 from ..hybrid_engine.reports import timing_report
 from ..hybrid_engine.frame.near_budget import NearCubeSizer
@@ -146,7 +146,8 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
             if self.compare_full_bvh:
                 written += self._compare(prefix, frames, settings, report, compare)
         except Exception as exc:  # noqa: BLE001 - any failure is reported, the scene restored
-            traceback.print_exc()
+            if not messages.is_artist_error(exc):
+                traceback.print_exc()
             failed = compare if compare.frame is not None else main
             where = f" at frame {failed.frame}" if failed.frame is not None else ""
             self.report({"ERROR"}, f"Timing report failed{where}: {exc}")
@@ -242,7 +243,8 @@ class HYBRID_RT_OT_timing_report(bpy.types.Operator):
         try:
             more = self._job.step()
         except Exception as exc:  # noqa: BLE001 - reported, the scene restored
-            traceback.print_exc()
+            if not messages.is_artist_error(exc):
+                traceback.print_exc()
             self.report({"ERROR"}, f"Timing report failed at frame {self._renderer.frame}: {exc}")
             return self._end(context, cancelled=True)
         done = len(self._reports) * len(self._frames) + len(self._job.records)

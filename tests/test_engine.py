@@ -104,7 +104,7 @@ def test_render_reports_stats_and_keeps_the_frame_result(addon, tmp_path, monkey
     assert frame.counts["triangles_total"] == 2
 
 
-def test_a_missing_image_reaches_the_artists_report_with_its_name(addon, tmp_path, capfd):
+def test_a_missing_image_reaches_the_artists_report_with_its_name(addon, tmp_path, capfd, caplog):
     """Blender's report (Info editor, status bar; in background mode a "Warning:" line)
     hears of a texture whose file is missing, named, on F12 and in the viewport, and the
     texture renders magenta, as in Blender's engines."""
@@ -124,8 +124,14 @@ def test_a_missing_image_reaches_the_artists_report_with_its_name(addon, tmp_pat
     plane.data.materials.clear()
     plane.data.materials.append(material)
     capfd.readouterr()
-    pixels = render_exr(bpy, scene, tmp_path / "frame.exr")
-    assert "Warning: Hybrid RT: image 'lost texture' has no pixels" in capfd.readouterr().out
+    with caplog.at_level("DEBUG"):
+        pixels = render_exr(bpy, scene, tmp_path / "frame.exr")
+    printed = capfd.readouterr()
+    assert printed.out.count("Warning: Hybrid RT: image 'lost texture' has no pixels") == 1, printed
+    # One console line per problem per render: Blender prints the report, so the log keeps
+    # its copy below the warning level that Python prints to the console.
+    logged = [r for r in caplog.records if "'lost texture' has no pixels" in r.getMessage()]
+    assert logged and all(r.levelname == "DEBUG" for r in logged), logged
     # Magenta, as Blender renders it; the green is the Principled BSDF's white specular coat.
     red, green, blue = pixels[2:-2, 2:-2, :3].mean(axis=(0, 1))
     assert red > 0.1 and green < 0.2 * red and abs(blue - red) < 0.05 * red, (red, green, blue)
@@ -667,3 +673,36 @@ def test_the_compositors_denoise_node_cleans_a_one_sample_render_with_our_denois
     assert rmse(noisy, denoised) > 0.01, "the Denoise node changed the render"
     assert rmse(denoised, reference) < 0.7 * rmse(noisy, reference), "denoised is nearer the converged render"
     assert local_variance(denoised) < 0.8 * local_variance(noisy)
+
+
+def test_a_clear_error_is_printed_once_and_without_a_traceback(addon, tmp_path, capfd):
+    """A camera the engine cannot render stops F12 with its message, printed once; a
+    traceback is for bugs, not for what the artist can change."""
+    import bpy
+
+    scene = build_plane_scene(bpy, "SUN", 1.0, size=8)
+    scene.render.engine = "HYBRID_RT"
+    scene.camera.data.type = "PANO"
+    capfd.readouterr()
+    with pytest.raises(RuntimeError, match="PANO"):
+        render_exr(bpy, scene, tmp_path / "frame.exr")
+    printed = capfd.readouterr()
+    both = printed.out + printed.err
+    assert "Traceback" not in both, both
+    assert both.count("renders perspective and orthographic cameras only") == 1, both
+
+
+def test_an_unexpected_error_keeps_its_traceback(addon, tmp_path, capfd, monkeypatch):
+    import bpy
+
+    def broken(*_args, **_kwargs):
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr(addon.blender_adapter.engine, "render_depsgraph", broken)
+    scene = build_plane_scene(bpy, "SUN", 1.0, size=8)
+    scene.render.engine = "HYBRID_RT"
+    capfd.readouterr()
+    with pytest.raises(RuntimeError, match="a bug"):
+        render_exr(bpy, scene, tmp_path / "frame.exr")
+    printed = capfd.readouterr()
+    assert "Traceback" in printed.out + printed.err

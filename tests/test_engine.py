@@ -7,6 +7,8 @@ with the same radiance from both engines.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -706,3 +708,35 @@ def test_an_unexpected_error_keeps_its_traceback(addon, tmp_path, capfd, monkeyp
         render_exr(bpy, scene, tmp_path / "frame.exr")
     printed = capfd.readouterr()
     assert "Traceback" in printed.out + printed.err
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf])
+def test_a_non_finite_vertex_changes_nothing_but_its_own_triangles(addon, tmp_path, bad):
+    """A mesh whose second triangle has a NaN or infinite corner renders bit for bit as the
+    same mesh without that triangle: no scene bounds, sun shadow fit, shadow atlas slot, near
+    cube or BVH is computed from the bad vertex (HYBRID runs every one of them)."""
+    import bpy
+
+    scene = build_plane_scene(bpy, "SUN", 3.0, size=24)
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.mode = "HYBRID"
+    sun = next(obj for obj in scene.objects if obj.type == "LIGHT")
+    sun.rotation_euler = (0.5, 0.3, 0.0)
+    scene.camera.data.ortho_scale = 6.0
+
+    def render_with(bad_triangle: bool) -> np.ndarray:
+        for obj in [obj for obj in scene.objects if obj.name.startswith("card")]:
+            bpy.data.objects.remove(obj)
+        mesh = bpy.data.meshes.new("card")
+        faces = [(0, 1, 2), (1, 2, 3)] if bad_triangle else [(0, 1, 2)]
+        mesh.from_pydata([(0, 0, 0.5), (1, 0, 0.5), (0, 1, 1.0), (0.2, 0.2, 0.7)], [], faces)
+        if bad_triangle:
+            mesh.vertices[3].co = (bad, 0.0, 0.0)
+        card = bpy.data.objects.new("card", mesh)
+        scene.collection.objects.link(card)
+        return render_exr(bpy, scene, tmp_path / f"card_{bad_triangle}.exr")
+
+    clean = render_with(False)
+    broken = render_with(True)
+    assert clean[..., :3].std() > 0.01  # the card's shadow and the plane: a picture, not a blank
+    np.testing.assert_array_equal(broken, clean)

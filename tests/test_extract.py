@@ -360,6 +360,18 @@ def test_non_finite_vertices_drop_their_triangles_and_leave_user_data_unchanged(
     assert len(obj.data.polygons) == 4
 
 
+def test_a_vertex_set_to_infinity_drops_its_triangles_and_stays_out_of_the_bounds(addon):
+    """Blender stores a coordinate set to infinity as float32's largest value, which numpy
+    calls finite: it must still count as non-finite, or its box overflows every fit."""
+    clear_scene()
+    obj = mesh_object("stretched", [(0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)], [(0, 1, 2), (1, 3, 2)])
+    obj.data.vertices[3].co = (math.inf, 0.0, 0.0)
+    assert obj.data.vertices[3].co.x == np.finfo(np.float32).max  # Blender's clamp
+    geometry = extract(addon).geometry
+    assert_same_triangles(geometry.triangles, np.array([[(0, 0, 0), (1, 0, 0), (0, 1, 0)]], np.float32))
+    np.testing.assert_array_equal(geometry.object_bounds[0], [[0, 0, 0], [1, 1, 0]])
+
+
 def test_zero_area_triangles_are_kept_with_unit_normals(addon):
     clear_scene()
     mesh_object("flat", [(0, 0, 0), (1, 0, 0), (2, 0, 0), (0, 1, 0)], [(0, 1, 2), (0, 1, 3)])

@@ -117,3 +117,12 @@ def test_object_ranges_that_leave_triangles_out_are_refused(rng):
     geo.object_ranges = np.array([[0, 500], [600, 400]], np.int32)
     with pytest.raises(SceneDataError, match="cover its triangles in order"):
         geo.as_instances()
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, np.finfo(np.float32).max])
+def test_object_bounds_leave_out_a_non_finite_or_float_max_corner(bad):
+    """Blender stores an infinite coordinate as float32's largest value: the bounds every
+    shadow fit and cull reads must leave it out like a NaN."""
+    good = [[0, 0, 0], [1, 0, 0], [0, 1, 2]]
+    geometry = Geometry.from_objects([([good, [[0, 0, 0], [bad, 0, 0], [0, 1, 0]]], None, 0)])
+    np.testing.assert_array_equal(geometry.object_bounds[0], [[0, 0, 0], [1, 1, 2]])

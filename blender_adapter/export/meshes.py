@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...hybrid_engine.scene.meshes import ObjectMesh
+from ...hybrid_engine.scene.meshes import ObjectMesh, usable_vertices
 from ...hybrid_engine.scene.solids import closed_outward_indexed
 from . import tell
 
@@ -236,16 +236,18 @@ def object_mesh(name: str, data: MeshData, previous: ObjectMesh | None = None) -
     ``previous`` mesh read from the same topology (``reread_deformed``) gives a deformed
     version of it, so the GPU re-sends positions and normals only.
 
-    Documented fallback: triangles with a NaN/inf corner cannot be rasterized or put in a
+    Documented fallback: triangles with a NaN/inf corner (or one beyond ``VERTEX_LIMIT``,
+    which is how Blender stores an infinite coordinate) cannot be rasterized or put in a
     BVH; they are dropped (with a warning) and the rest of the object renders. None when
     no triangle is left."""
-    finite = bool(np.isfinite(data.positions).all())
+    usable = usable_vertices(data.positions)
+    finite = bool(usable.all())
     if previous is not None and finite and previous.triangle_count == data.triangle_count:
         return previous.deformed(data.positions, data.normals)
     corner_vertices, corner_normals, slots, uvs = data.tri_vertices, data.tri_normal_index, data.slots, data.uvs
     if not finite:
         n = data.triangle_count
-        keep = np.isfinite(data.positions).all(axis=1)[corner_vertices].reshape(n, 3).all(axis=1)
+        keep = usable[corner_vertices].reshape(n, 3).all(axis=1)
         tell("%s: %d triangle(s) with non-finite vertices skipped", name, int(n - keep.sum()))
         if not keep.any():
             return None

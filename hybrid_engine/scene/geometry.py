@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .arrays import SceneDataError, as_array
-from .meshes import MIRROR_CORNERS, Instances, ObjectMesh, normal_matrices
+from .meshes import MIRROR_CORNERS, Instances, ObjectMesh, normal_matrices, usable_vertices
 
 @dataclass(frozen=True)
 class GeometryEdit:
@@ -176,9 +176,10 @@ def flat_normals(triangles: np.ndarray) -> np.ndarray:
 
 
 def finite_bounds(triangles: np.ndarray) -> np.ndarray:
-    """AABB over the finite vertices; an object with none gets an inverted (empty) box."""
+    """AABB over the finite vertices (``usable_vertices``); an object with none gets an
+    inverted (empty) box."""
     pts = np.asarray(triangles, np.float32).reshape(-1, 3)
-    pts = pts[np.isfinite(pts).all(axis=1)]
+    pts = pts[usable_vertices(pts)]
     if len(pts) == 0:
         return np.array([[np.inf] * 3, [-np.inf] * 3], np.float32)
     return np.stack([pts.min(axis=0), pts.max(axis=0)]).astype(np.float32)

@@ -23,6 +23,19 @@ import numpy as np
 
 from .arrays import SceneDataError, as_array
 
+# A vertex coordinate at or beyond this magnitude counts as non-finite. Blender stores an
+# infinite coordinate as float32's largest value (its properties clamp to it): finite to
+# numpy, it overflows the first product it meets (a bounds fit, a shadow map's texel size, an
+# instance transform) and one bad vertex would bend every sun shadow. The limit also keeps
+# every product and sum of the instance transform far from float32's range.
+VERTEX_LIMIT = 1e18
+
+
+def usable_vertices(points: np.ndarray) -> np.ndarray:
+    """Bool per vertex of ``points`` (n, 3): finite and within ``VERTEX_LIMIT``."""
+    with np.errstate(invalid="ignore"):
+        return (np.abs(points) < VERTEX_LIMIT).all(axis=1)
+
 _mesh_ids = itertools.count(1)
 
 
@@ -85,15 +98,16 @@ class ObjectMesh:
         """Bounds and finiteness over all vertices, a column at a time (numpy reduces a
         strided column far faster than axis 0 of a three-wide array): a vertex no triangle
         uses can only make the box larger, which culling allows. Only a mesh with a
-        non-finite vertex pays for finding the vertices its triangles use."""
+        non-finite vertex (``usable_vertices``) pays for finding the vertices its triangles use."""
         points = self.positions
         lo = np.array([points[:, k].min() for k in range(3)]) if len(points) else np.full(3, np.inf)
         hi = np.array([points[:, k].max() for k in range(3)]) if len(points) else np.full(3, -np.inf)
-        self.finite = bool(np.isfinite(lo).all() and np.isfinite(hi).all())
+        with np.errstate(invalid="ignore"):
+            self.finite = bool((np.abs(lo) < VERTEX_LIMIT).all() and (np.abs(hi) < VERTEX_LIMIT).all())
         if not self.finite:
             used = np.zeros(len(points), bool)
             used[self.corner_vertices] = True
-            finite_used = used & np.isfinite(points).all(axis=1)
+            finite_used = used & usable_vertices(points)
             self.finite = bool((finite_used == used).all())
             points = points[finite_used]
             lo = points.min(axis=0) if len(points) else np.full(3, np.inf)

@@ -33,7 +33,7 @@ import numpy as np
 
 from ...gpu.dispatch import GrowBuffer
 from ...scene.geometry import InstancedGeometry
-from ...scene.meshes import MIRROR_CORNERS, ObjectMesh
+from ...scene.meshes import MIRROR_CORNERS, VERTEX_LIMIT, ObjectMesh
 
 # Interleaved object-space vertex: (GLSL input, moderngl format, bytes), in buffer order.
 VERTEX_ATTRIBUTES = (("in_object_pos", "3f", 12), ("in_object_normal", "3f", 12), ("in_uv", "2f", 8))
@@ -42,7 +42,7 @@ assert VERTEX_DTYPE.itemsize == sum(size for *_, size in VERTEX_ATTRIBUTES)
 
 # Coordinates and matrix entries below this keep every product and sum of the transform far
 # from float32's range (3.4e38), so that no vertex of a finite mesh becomes non-finite there.
-MAGNITUDE_LIMIT = 1e18
+MAGNITUDE_LIMIT = VERTEX_LIMIT
 
 
 def _sanitised_uvs(mesh: ObjectMesh) -> np.ndarray:

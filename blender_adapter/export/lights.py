@@ -11,14 +11,27 @@ LIGHT_TYPES = frozenset({"POINT", "SUN", "SPOT", "AREA"})
 
 
 def _light_size(light) -> float:
-    """Light.size of scene_data: point/spot radius, sun angular diameter, area half-size."""
+    """Light.size of scene_data: point/spot radius, sun angular diameter (area lamps:
+    ``_area_shape``)."""
     if light.type == "SUN":
         return float(getattr(light, "angle", 0.0))
-    if light.type == "AREA":
-        width = float(light.size)
-        height = float(light.size_y) if light.shape in ("RECTANGLE", "ELLIPSE") else width
-        return 0.5 * max(width, height)
     return float(getattr(light, "shadow_soft_size", 0.0))
+
+
+def _area_shape(light, matrix: np.ndarray) -> dict:
+    """An area lamp's shape in world space: half-sizes along its x and y axes (Size, and
+    Size Y for a rectangle or ellipse, scaled with the object as Blender scales the lamp),
+    its unit x axis and whether it is a disk or ellipse."""
+    width = float(light.size)
+    height = float(light.size_y) if light.shape in ("RECTANGLE", "ELLIPSE") else width
+    x_axis, y_axis = matrix[:3, 0].astype(np.float64), matrix[:3, 1].astype(np.float64)
+    x_scale, y_scale = float(np.linalg.norm(x_axis)), float(np.linalg.norm(y_axis))
+    return dict(
+        radius=0.5 * width * x_scale,
+        area_size_y=0.5 * height * y_scale,
+        area_axis=x_axis / x_scale if x_scale > 0 else np.array([1.0, 0.0, 0.0]),
+        area_elliptic=light.shape in ("DISK", "ELLIPSE"),
+    )
 
 
 def _unnormalized_area(light) -> float:
@@ -51,7 +64,7 @@ def light_row(name: str, light, matrix: np.ndarray) -> dict:
     forward = -matrix[:3, 2]
     length = float(np.linalg.norm(forward))
     direction = forward / length if length > 0 else np.array([0.0, 0.0, -1.0])
-    return dict(
+    row = dict(
         kind=light.type,
         position=matrix[:3, 3],
         direction=direction,
@@ -62,3 +75,6 @@ def light_row(name: str, light, matrix: np.ndarray) -> dict:
         cast_shadow=bool(getattr(light, "use_shadow", True)),
         name=name,
     )
+    if light.type == "AREA":
+        row.update(_area_shape(light, matrix))
+    return row

@@ -127,6 +127,67 @@ ShadowProbe shadow_probe(int index, Light light, vec3 p, vec3 n, vec3 to_light) 
     return probe;
 }
 
+// An area lamp's shape (scene_layout.glsl): its x and y axes (unit, perpendicular to its
+// direction), half-sizes along them, and whether it is a disk or ellipse. The x axis is
+// stored as an angle in the same basis hybrid_engine/scene/data.py's area_basis builds
+// from the direction (Duff et al. 2017).
+struct AreaShape {
+    vec3 u;
+    vec3 v;
+    vec2 half_size;
+    bool elliptic;
+};
+
+AreaShape area_shape(Light light) {
+    vec3 n = light.direction.xyz;
+    float sign_z = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (sign_z + n.z);
+    float b = n.x * n.y * a;
+    vec3 t1 = vec3(1.0 + sign_z * n.x * n.x * a, sign_z * b, -sign_z * n.x);
+    vec3 t2 = vec3(b, sign_z + n.y * n.y * a, -n.y);
+    AreaShape shape;
+    shape.u = cos(light.color.w) * t1 + sin(light.color.w) * t2;
+    shape.v = cross(n, shape.u);
+    shape.half_size = max(vec2(light.position.w, light.direction.w), vec2(0.0));
+    shape.elliptic = light.info.w != 0;
+    return shape;
+}
+
+// Shadow-map texels per metre moved along world direction w at p, in slot's map: the
+// derivative of its projection (perspective divide included).
+vec2 shadow_texels_per_metre(ShadowSlot slot, vec3 p, vec3 w) {
+    vec4 h = slot.view_proj * vec4(p, 1.0);
+    vec4 dh = slot.view_proj * vec4(w, 0.0);
+    return (dh.xy * h.w - h.xy * dh.w) / max(h.w * h.w, 1e-30) * (0.5 * float(slot.rect.z));
+}
+
+// An area lamp's axis w of half-size `half_extent` (metres at p) in texels of slot's map.
+vec2 area_axis_texels(ShadowSlot slot, vec3 p, vec3 w, float half_extent) {
+    return shadow_texels_per_metre(slot, p, w) * half_extent;
+}
+
+// Both axes shrunk alike so that the longer spans at most a quarter of the slot (and at
+// least SHADOW_MAX_FILTER_TEXELS): a large lamp near its blocker casts a penumbra wider than
+// a sun's filter ever needs, and there is no coarser map to move to; the sparse taps are
+// rotated by every sample, so the accumulated image smooths them. Past that, the footprint
+// keeps the lamp's proportions.
+void fit_filter(inout vec2 axis_u, inout vec2 axis_v, ShadowSlot slot) {
+    float limit = max(SHADOW_MAX_FILTER_TEXELS, 0.25 * float(slot.rect.z));
+    float widest = max(length(axis_u), length(axis_v));
+    float fit = widest > limit ? limit / widest : 1.0;
+    axis_u *= fit;
+    axis_v *= fit;
+}
+
+// Filter tap i of n over an area lamp's shape, as a point of [-1, 1]^2 (a rectangle: a 2D
+// Hammersley set shifted by this sample's offset, so samples tile the square) or of the unit
+// disc (an ellipse: the rotated spiral).
+vec2 area_tap(int i, int n, bool elliptic, mat2 rot, vec2 shift) {
+    if (elliptic) return rot * DISC16[i * (16 / n)];
+    vec2 h = vec2((float(i) + 0.5) / float(n), float(bitfieldReverse(uint(i))) * 2.3283064e-10);
+    return fract(h + shift) * 2.0 - 1.0;
+}
+
 // 1 when lit, 0 when a shadow map says an occluder lies between p and the light; in between
 // in the penumbra of a lamp of size Light.position.w (with `soft`; hard otherwise). A sun's
 // penumbra may be wider than the finest cascade's filter reaches: the blocker search and
@@ -139,7 +200,10 @@ float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light, bool soft) {
     int finest = sun ? sun_shadow_slot(first, last, p) : first + (light.info.z == 6 ? cube_face(p - light.position.xyz) : 0);
     ShadowProbe probe = shadow_probe(finest, light, p, n, to_light);
     if (!probe.inside) return 1.0;
-    float lamp = light.position.w;
+    bool area = light.info.x == LIGHT_AREA;
+    AreaShape shape;
+    if (area) shape = area_shape(light);
+    float lamp = area ? max(shape.half_size.x, shape.half_size.y) : light.position.w;
     if (!(lamp > 0.0) || !soft) {
         return probe.receiver <= shadow_depth_at(shadow_slots[finest], probe.texel_f) + 1e-5 ? 1.0 : 0.0;
     }
@@ -156,17 +220,35 @@ float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light, bool soft) {
     }
     ShadowSlot slot = shadow_slots[search_at.index];
     float search = clamp(widest / search_at.texel_world, 1.0, SHADOW_MAX_FILTER_TEXELS);
+    // An area lamp searches (and filters, below) over its own shape: its two axes as the map
+    // shows them at p, for a blocker half-way to the lamp.
+    vec2 axis_u = vec2(0.0), axis_v = vec2(0.0), shift = vec2(0.0);
+    if (area) {
+        shift = random2(uvec4(floatBitsToUint(p.yz), uint(u_sample), 11u));
+        axis_u = area_axis_texels(slot, p, shape.u, shape.half_size.x);
+        axis_v = area_axis_texels(slot, p, shape.v, shape.half_size.y);
+        fit_filter(axis_u, axis_v, slot);
+    }
+    // A small blocker under a long lamp covers little of the search footprint: a search
+    // that misses it would call the point lit, so area lamps search with every tap.
+    int search_taps = area ? 16 : SHADOW_SEARCH_TAPS;
     float blockers = 0.0, blocker_depth = 0.0;
-    for (int i = 0; i < SHADOW_SEARCH_TAPS; ++i) {
-        vec2 tap = DISC16[i * (16 / SHADOW_SEARCH_TAPS)] * search;
-        float d = shadow_linear_depth(slot, shadow_depth_at(slot, search_at.texel_f + rot * tap));
+    for (int i = 0; i < search_taps; ++i) {
+        vec2 tap;
+        if (area) {
+            vec2 unit = area_tap(i, search_taps, shape.elliptic, rot, shift);
+            tap = axis_u * unit.x + axis_v * unit.y;
+        } else {
+            tap = rot * DISC16[i * (16 / SHADOW_SEARCH_TAPS)] * search;
+        }
+        float d = shadow_linear_depth(slot, shadow_depth_at(slot, search_at.texel_f + tap));
         if (d < search_at.d_receiver - search_at.texel_world - length(tap) * search_at.slope) {
             blockers += 1.0;
             blocker_depth += d;
         }
     }
     if (blockers == 0.0) return 1.0;
-    if (blockers == float(SHADOW_SEARCH_TAPS)) return 0.0;  // every tap blocked: the umbra
+    if (blockers == float(search_taps)) return 0.0;  // every tap blocked: the umbra
     // World width of the penumbra: the sun's angular diameter times the receiver-to-blocker
     // distance, or the lamp's diameter scaled by that distance over the blocker's from it.
     float d_gap = search_at.d_receiver - blocker_depth / blockers;
@@ -179,10 +261,23 @@ float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light, bool soft) {
     }
     slot = shadow_slots[filter_at.index];
     float radius = clamp(0.5 * penumbra_world / filter_at.texel_world, 0.5, SHADOW_MAX_FILTER_TEXELS);
+    // An area lamp's penumbra has its shape: the taps span its two axes, each scaled by
+    // the receiver's gap to the blocker over the blocker's distance from the lamp.
+    if (area) {
+        float scale = d_gap / max(search_at.d_receiver - d_gap, 1e-6);
+        axis_u = area_axis_texels(slot, p, shape.u, shape.half_size.x * scale);
+        axis_v = area_axis_texels(slot, p, shape.v, shape.half_size.y * scale);
+        fit_filter(axis_u, axis_v, slot);
+    }
     float lit = 0.0;
     for (int i = 0; i < SHADOW_FILTER_TAPS; ++i) {
         vec2 tap = DISC16[i * (16 / SHADOW_FILTER_TAPS)] * radius;
-        float d = shadow_linear_depth(slot, shadow_depth_at(slot, filter_at.texel_f + rot * tap));
+        if (area) {
+            vec2 unit = area_tap(i, SHADOW_FILTER_TAPS, shape.elliptic, rot, shift);
+            tap = axis_u * unit.x + axis_v * unit.y;
+        }
+        if (!area) tap = rot * tap;
+        float d = shadow_linear_depth(slot, shadow_depth_at(slot, filter_at.texel_f + tap));
         lit += d >= filter_at.d_receiver - filter_at.texel_world - length(tap) * filter_at.slope ? 1.0 : 0.0;
     }
     return lit / float(SHADOW_FILTER_TAPS);
@@ -221,6 +316,25 @@ vec3 lamp_nearest_direction(vec3 r, vec3 delta, float radius) {
     vec3 to_ray = dot(delta, r) * r - delta;
     float off = length(to_ray);
     return normalize(delta + (off > 0.0 ? to_ray * min(radius / off, 1.0) : vec3(0.0)));
+}
+
+// The point of an area lamp (centre `delta` from p, emitting along `n_l`) nearest the
+// mirror direction r, as a unit direction from p: where r meets the lamp's plane, clamped
+// to its rectangle or ellipse; a ray that never meets the plane takes the edge point
+// towards which it leans. A mirror thus shows the lamp's own shape, as in Cycles.
+vec3 area_nearest_direction(vec3 r, vec3 delta, vec3 n_l, AreaShape shape) {
+    float denom = dot(r, n_l);
+    float t = denom < -1e-6 ? dot(delta, n_l) / denom : -1.0;
+    vec3 q = t > 0.0 ? t * r - delta : (r - denom * n_l) * 1e6 * max(shape.half_size.x, shape.half_size.y);
+    vec2 xy = vec2(dot(q, shape.u), dot(q, shape.v));
+    if (shape.elliptic) {
+        vec2 unit = xy / max(shape.half_size, vec2(1e-12));
+        float len = length(unit);
+        xy = len > 1.0 ? xy / len : xy;
+    } else {
+        xy = clamp(xy, -shape.half_size, shape.half_size);
+    }
+    return normalize(delta + xy.x * shape.u + xy.y * shape.v);
 }
 
 vec3 sun_nearest_direction(vec3 r, vec3 to_light, float angle) {
@@ -262,6 +376,15 @@ DirectLight direct_lighting(vec3 p, vec3 n, vec3 v, vec3 f0, float f90, float ro
             to_light = -light.direction.xyz;
             spread = 0.5 * tan(0.5 * light.position.w);
             to_highlight = glossy ? sun_nearest_direction(mirror, to_light, light.position.w) : to_light;
+        } else if (kind == LIGHT_AREA) {
+            vec3 delta = light.position.xyz - p;
+            dist2 = max(dot(delta, delta), 1e-12);
+            to_light = delta * inversesqrt(dist2);
+            AreaShape shape = area_shape(light);
+            // The lobe widens by the radius of the disc of the lamp's area.
+            float area = 4.0 * shape.half_size.x * shape.half_size.y * (shape.elliptic ? 0.25 * PI : 1.0);
+            spread = 0.5 * sqrt(area / PI) * inversesqrt(dist2);
+            to_highlight = glossy ? area_nearest_direction(mirror, delta, light.direction.xyz, shape) : to_light;
         } else {
             vec3 delta = light.position.xyz - p;
             dist2 = max(dot(delta, delta), 1e-12);

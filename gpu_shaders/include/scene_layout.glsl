@@ -25,12 +25,16 @@ struct Material {
 };
 
 // struct Light                                              // total: 64 bytes
-//   vec4 position;   xyz = world position, w = size: point/spot radius, area half-size, sun
-//                    angular diameter (radians); softens shadows and widens highlights
-//   vec4 direction;  xyz = unit direction the light points to, w = cos(spot half angle)
-//   vec4 color;      rgb = colour * power (W, or W/m^2 for sun), w = spot blend
+//   vec4 position;   xyz = world position, w = size: point/spot radius, area half-size along
+//                    its x axis, sun angular diameter (radians); softens shadows and widens
+//                    highlights
+//   vec4 direction;  xyz = unit direction the light points to, w = cos(spot half angle);
+//                    area: w = half-size along its y axis
+//   vec4 color;      rgb = colour * power (W, or W/m^2 for sun), w = spot blend; area: w =
+//                    the angle of its x axis in area_basis(direction) (lighting.glsl)
 //   ivec4 info;      x = kind (0 point, 1 sun, 2 spot, 3 area), y = first shadow slot
-//                    (-1 = no shadow), z = shadow slot count, w unused
+//                    (-1 = no shadow), z = shadow slot count, w = 1 for an elliptic area
+//                    lamp (disk, ellipse), 0 for a rectangle or square
 struct Light {
     vec4 position;
     vec4 direction;

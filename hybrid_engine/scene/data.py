@@ -247,6 +247,23 @@ def _texture(array, index: int) -> np.ndarray:
     return np.ascontiguousarray(arr, np.float32)
 
 
+def area_basis(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors completing each unit normal of ``normals`` (L, 3) to an orthonormal
+    basis, continuous except where the normal's z crosses 0 (Duff et al. 2017, "Building an
+    Orthonormal Basis, Revisited"). An area lamp's x axis is stored as its angle in this
+    basis, and gpu_shaders/include/lighting.glsl builds the same basis from the same normal,
+    so the lamp row needs one float for its orientation."""
+    n = np.asarray(normals, np.float64).reshape(-1, 3)
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    n = np.where(length > 0, n / np.where(length > 0, length, 1.0), [0.0, 0.0, -1.0])
+    sign = np.where(n[:, 2] >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sign + n[:, 2])
+    b = n[:, 0] * n[:, 1] * a
+    t1 = np.stack([1.0 + sign * n[:, 0] ** 2 * a, sign * b, -sign * n[:, 0]], axis=1)
+    t2 = np.stack([b, sign + n[:, 1] ** 2 * a, -n[:, 1]], axis=1)
+    return t1.astype(np.float32), t2.astype(np.float32)
+
+
 @dataclass
 class Lights:
     """Punctual lights in Blender's units.
@@ -257,8 +274,15 @@ class Lights:
     the half-size of an area lamp, the angular diameter of a sun in radians; it softens the
     shadows and widens the highlights (gpu_shaders/include/lighting.glsl). ``spot_size`` is
     the full cone angle in radians and
-    ``spot_blend`` Blender's blend factor. Area lights are approximated as spot-like emitters
-    with a cosine falloff over the hemisphere (documented approximation).
+    ``spot_blend`` Blender's blend factor.
+
+    Area lamps: ``radius`` is the half-size along the lamp's own x axis ``area_axis`` (unit,
+    perpendicular to ``direction``), ``area_size_y`` the half-size along its y axis, and
+    ``area_elliptic`` says whether the shape is a disk or an ellipse rather than a square or
+    a rectangle (Blender's Shape). Their highlights and soft shadows take that shape; the
+    light they shed is a cosine falloff over the hemisphere from the centre (documented
+    approximation). Absent, an area lamp is a square of half-size ``radius`` whose x axis is
+    ``area_basis(direction)[0]``.
     """
 
     kind: np.ndarray  # (L,) int32, LIGHT_*
@@ -270,6 +294,9 @@ class Lights:
     spot_blend: np.ndarray  # (L,) float32
     cast_shadow: np.ndarray  # (L,) bool
     names: list[str] = field(default_factory=list)
+    area_axis: np.ndarray | None = None  # (L, 3) float32 unit x axis of area lamps
+    area_size_y: np.ndarray | None = None  # (L,) float32 half-size along the y axis
+    area_elliptic: np.ndarray | None = None  # (L,) bool: disk or ellipse
 
     def __post_init__(self) -> None:
         self.kind = as_array(self.kind, np.int32, (), "kind")
@@ -281,7 +308,15 @@ class Lights:
         self.spot_size = as_array(self.spot_size, np.float32, (), "spot_size")
         self.spot_blend = as_array(self.spot_blend, np.float32, (), "spot_blend")
         self.cast_shadow = as_array(self.cast_shadow, bool, (), "cast_shadow")
-        for name in ("position", "direction", "color", "radius", "spot_size", "spot_blend", "cast_shadow"):
+        if self.area_axis is None:
+            self.area_axis = area_basis(self.direction)[0]
+        self.area_axis = as_array(self.area_axis, np.float32, (3,), "area_axis")
+        self.area_size_y = as_array(self.radius if self.area_size_y is None else self.area_size_y,
+                                    np.float32, (), "area_size_y")
+        self.area_elliptic = as_array(np.zeros(n, bool) if self.area_elliptic is None else self.area_elliptic,
+                                      bool, (), "area_elliptic")
+        for name in ("position", "direction", "color", "radius", "spot_size", "spot_blend", "cast_shadow",
+                     "area_axis", "area_size_y", "area_elliptic"):
             if len(getattr(self, name)) != n:
                 raise SceneDataError(f"light {name} has {len(getattr(self, name))} rows, expected {n}")
         if ((self.kind < 0) | (self.kind > LIGHT_AREA)).any():
@@ -299,9 +334,13 @@ class Lights:
     @classmethod
     def from_rows(cls, rows: list[dict]) -> "Lights":
         """Build from dicts: kind ('POINT'|'SUN'|'SPOT'|'AREA' or int), position, direction,
-        color (already times power), radius, spot_size, spot_blend, cast_shadow, name."""
+        color (already times power), radius, spot_size, spot_blend, cast_shadow, name, and for
+        area lamps area_axis, area_size_y and area_elliptic (defaults: a square)."""
         def kind_of(value):
             return LIGHT_KINDS[value] if isinstance(value, str) else int(value)
+
+        directions = np.array([r.get("direction", (0, 0, -1)) for r in rows], np.float32).reshape(-1, 3)
+        default_axes = area_basis(directions)[0]
 
         return cls(
             kind=np.array([kind_of(r.get("kind", "POINT")) for r in rows], np.int32),
@@ -313,6 +352,10 @@ class Lights:
             spot_blend=np.array([r.get("spot_blend", 0.15) for r in rows], np.float32),
             cast_shadow=np.array([r.get("cast_shadow", True) for r in rows], bool),
             names=[str(r.get("name", f"light_{i}")) for i, r in enumerate(rows)],
+            area_axis=np.array([r.get("area_axis", default_axes[i]) for i, r in enumerate(rows)],
+                               np.float32).reshape(-1, 3),
+            area_size_y=np.array([r.get("area_size_y", r.get("radius", 0.0)) for r in rows], np.float32),
+            area_elliptic=np.array([r.get("area_elliptic", False) for r in rows], bool),
         )
 
 

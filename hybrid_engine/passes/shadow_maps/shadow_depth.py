@@ -45,7 +45,7 @@ def shadow_key(lights: Lights) -> bytes:
     whether they cast shadows (not their colour or power)."""
     return b"".join(np.ascontiguousarray(a).tobytes() for a in (
         lights.kind, lights.position, lights.direction, lights.radius, lights.spot_size, lights.spot_blend,
-        lights.cast_shadow))
+        lights.cast_shadow, lights.area_axis, lights.area_size_y, lights.area_elliptic))
 
 
 @dataclass

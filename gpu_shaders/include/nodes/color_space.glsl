@@ -48,7 +48,10 @@ vec3 node_rgb_to_hsl(vec3 rgb) {
     float l = min(1.0, (cmax + cmin) * 0.5);
     if (cmax == cmin) return vec3(0.0, 0.0, l);
     float d = cmax - cmin;
-    float s = l > 0.5 ? d / (2.0 - cmax - cmin) : d / (cmax + cmin);
+    // Out-of-range colours can zero the denominator (cmax + cmin == 0 or 2): saturation 0
+    // there, the finite value Cycles' film shows for its infinity.
+    float denominator = l > 0.5 ? 2.0 - cmax - cmin : cmax + cmin;
+    float s = denominator != 0.0 ? d / denominator : 0.0;
     float h;
     if (cmax == rgb.r) h = (rgb.g - rgb.b) / d + (rgb.g < rgb.b ? 6.0 : 0.0);
     else if (cmax == rgb.g) h = (rgb.b - rgb.r) / d + 2.0;

@@ -94,10 +94,13 @@ class Grid:
 class Case:
     """One node configuration: ``build(grid)`` adds it in Cycles and returns the socket shown;
     ``glsl`` is the probe's statements (``uv`` is the pixel's (u, v)) ending in a return of
-    a vec4 whose rgb is compared."""
+    a vec4 whose rgb is compared, or a function giving them once Cycles has rendered (for
+    tables baked from the Blender objects that ``build`` made). Such a function receives
+    ``add_rows(values) -> first index``, which stores (n, <= 4) floats where the probe reads
+    them as ``points[first index + k]``, as a table in a GPU buffer."""
     name: str
     build: Callable[[Grid], object]
-    glsl: str
+    glsl: str | Callable[[Callable[[np.ndarray], int]], str]
 
 
 def render_cases(ctx, out_dir, cases: list[Case], includes: list[str]) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -107,14 +110,26 @@ def render_cases(ctx, out_dir, cases: list[Case], includes: list[str]) -> list[t
         def build(nodes, links, vector, case=case):
             return case.build(Grid(nodes, links, vector))
         images.append(cycles_emission_plane(build, out_dir, SIZE, EXTENT))
-    points = plane_points(SIZE, EXTENT)
+    pixels = len(cases) * SIZE * SIZE
+    extra: list[np.ndarray] = []
+
+    def add_rows(values: np.ndarray) -> int:
+        rows = np.zeros((len(values), 4), np.float32)
+        rows[:, : np.asarray(values).shape[1]] = values
+        first = pixels + sum(len(e) for e in extra)
+        extra.append(rows)
+        return first
+
+    sources = [case.glsl(add_rows) if callable(case.glsl) else case.glsl for case in cases]
     stacked = np.zeros((len(cases), SIZE, SIZE, 4), np.float32)
-    stacked[..., :3] = points
+    stacked[..., :3] = plane_points(SIZE, EXTENT)
     stacked[..., 3] = np.arange(len(cases), dtype=np.float32)[:, None, None]
-    branches = "\n".join(f"    if (case_index == {k}) {{\n{case.glsl}\n    }}" for k, case in enumerate(cases))
+    # The table rows run through the probe too; their results are dropped.
+    rows = np.concatenate([stacked.reshape(-1, 4), *extra])
+    branches = "\n".join(f"    if (case_index == {k}) {{\n{source}\n    }}" for k, source in enumerate(sources))
     body = (f"    vec2 uv = floor(p.xy + {glsl_float(EXTENT)});\n"
             f"    int case_index = int(p.w);\n{branches}\n    return vec4(0.0);")
-    ours = glsl_probe(ctx, includes, body, stacked)[..., :3]
+    ours = glsl_probe(ctx, includes, body, rows)[:pixels, :3].reshape(len(cases), SIZE, SIZE, 3)
     return [(cycles, ours[k]) for k, cycles in enumerate(images)]
 
 

@@ -9,7 +9,8 @@
 //   x in table units ([0, 1] spans the table). Inside, the value is
 //   node_table_mix(table[i0], table[i1], weight) with i1 = i0 + 1 (or i0 when the lookup does
 //   not interpolate); outside [0, 1] the end sample is held, or, with extrapolate, the line
-//   through the two end samples is continued (weight then lies outside [0, 1]).
+//   through the two end samples is continued (weight is then negative: i1 is the inner
+//   neighbour of the end sample i0).
 // node_color_ramp_coords(interpolation, fac, out i0, out i1, out weight)
 //   "Fac" 0.5 -> after the fetch, "Color" = rgb and "Alpha" = a of
 //   node_table_mix(table[i0], table[i1], weight).
@@ -33,7 +34,7 @@ void node_table_coords(float x, int size, bool interpolate, bool extrapolate, ou
     if (extrapolate && x > 1.0) {
         i0 = size - 1;
         i1 = size - 2;
-        weight = (x - 1.0) * last;
+        weight = (1.0 - x) * last;  // away from the last sample, past it
         return;
     }
     float f = clamp(x, 0.0, 1.0) * last;  // a NaN lands on sample 0 below

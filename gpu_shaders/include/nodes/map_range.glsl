@@ -40,7 +40,7 @@ float node_map_range_factor(int interpolation, float value, float from_min, floa
         bool reversed = from_min > from_max;
         float lo = reversed ? from_max : from_min;
         float hi = reversed ? from_min : from_max;
-        float s = interpolation == 2 ? node_smoothstep(lo, hi, value) : node_smootherstep(lo, hi, value);
+        float s = node_smootherstep(lo, hi, value);
         return reversed ? 1.0 - s : s;
     }
     float factor = from_max != from_min ? (value - from_min) / (from_max - from_min) : 0.0;

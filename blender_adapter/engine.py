@@ -24,7 +24,7 @@ from ..hybrid_engine.frame.near_budget import NearCubeSizer
 from ..hybrid_engine.reports.diagnostic_legend import draw_legend
 from ..hybrid_engine.scene.data import SceneData
 from ..hybrid_engine.scene.settings import RenderSettings
-from . import messages, properties, viewport
+from . import features, messages, properties, viewport
 from .export.camera import camera_from_scene
 from .gl_host import gl_block
 from .scene_cache import Changes, SceneCache, SyncReport, TrackedScene, extract_scene
@@ -163,6 +163,7 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
             scene_data = final_scene_data(depsgraph)
         else:
             scene_data = extract_scene(depsgraph)
+        features.tell_used_features(scene, depsgraph, final=True)
     messages.report_all(report, gathered)
     if final:
         camera = final_camera(scene, depsgraph)

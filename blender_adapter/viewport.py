@@ -47,7 +47,7 @@ from ..hybrid_engine.reports.diagnostic_legend import draw_legend
 from ..hybrid_engine.scene.settings import RenderSettings
 from ..hybrid_engine.frame.viewport import RegionInput, accumulation_key, plan_frame
 from ..hybrid_engine.frame.viewport_status import FrameClock, MessageLatch, StatsRefresh, stats_line
-from . import messages, properties
+from . import features, messages, properties
 from .export.camera import camera_from_scene
 from .gl_host import gl_block
 from .scene_cache import Changes, SceneCache, SyncReport
@@ -87,6 +87,7 @@ class ViewportSession:
         self._counts: dict = {}
         self._last_mode = ""
         self.latch = MessageLatch()
+        self.features_told: set[str] = set()  # feature messages of the last update
         self.last_sync: SyncReport | None = None
         self.frames = 0
         self._last: ViewportFrame | None = None
@@ -267,10 +268,15 @@ def view_update(engine, context, depsgraph) -> None:
     first = not getattr(engine, "_hybrid_rt_synced", False)
     with messages.collecting() as gathered:
         session.update(depsgraph, full=first)
+        with messages.collecting() as feature_messages:
+            # Settings alone on every update; the walk over objects on the first sync only.
+            features.tell_used_features(depsgraph.scene, depsgraph, final=first)
     engine._hybrid_rt_synced = True
     # Reported when found: a sync re-reads only what changed, so a missing image is told
-    # when its material is read, not on every redraw.
-    messages.report_all(engine.report, gathered)
+    # when its material is read, not on every redraw; a feature in use is told when it
+    # comes into use, not on every update while it stays on.
+    told, session.features_told = session.features_told, set(feature_messages)
+    messages.report_all(engine.report, [m for m in gathered if m not in feature_messages or m not in told])
 
 
 _callback_latch = MessageLatch()

@@ -1,0 +1,212 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Every Blender render feature, and what Hybrid RT does with it: the one list behind the
+README's feature table and behind the message the artist gets when a scene uses a feature
+the engine does not render.
+
+A feature Blender offers and the engine drops without a word is a wrong picture the artist
+cannot explain. Each entry says how the engine treats the feature (supported, approximated
+and how, or unsupported); an entry with a ``message`` also knows how to find the feature in
+a scene (``used``), and ``tell_used_features`` names it to the artist once per render through
+``messages.tell``. tests/test_features.py holds the README's table to this list, so the
+documentation and the messages cannot drift apart.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+from . import messages
+
+SUPPORTED, APPROXIMATED, UNSUPPORTED = "supported", "approximated", "unsupported"
+
+# Object types the engine turns into triangles (through Blender's own conversion to a mesh).
+MESH_LIKE_TYPES = frozenset({"MESH", "CURVE", "SURFACE", "META", "FONT"})
+# Object types the engine does not draw, by the name Blender's UI gives them.
+UNRENDERED_TYPES = {"CURVES": "Hair Curves", "VOLUME": "Volume", "POINTCLOUD": "Point Cloud",
+                    "GREASEPENCIL": "Grease Pencil"}
+NAMES_SHOWN = 3  # objects named in one message; the rest are counted
+
+
+@dataclass(frozen=True)
+class Feature:
+    """One Blender feature: its name as Blender's interface shows it, how the engine treats
+    it, and (for what it does not render fully) the message the artist gets and how to tell
+    a scene uses it: ``used(scene, depsgraph, final)`` returns the names of what uses it
+    (objects, lamps, the camera), empty when nothing does. ``final``: an F12 render or a
+    timing report, which may afford a walk over every object; the viewport asks only for
+    what settings alone reveal."""
+
+    name: str
+    status: str
+    treatment: str
+    message: str | None = None
+    used: Callable[[object, object, bool], list[str]] | None = None
+
+
+def _named(names: list[str]) -> str:
+    shown = ", ".join(repr(n) for n in names[:NAMES_SHOWN])
+    return shown + (f" and {len(names) - NAMES_SHOWN} more" if len(names) > NAMES_SHOWN else "")
+
+
+def _camera_dof(scene, _depsgraph, _final) -> list[str]:
+    camera = scene.camera
+    if camera is None or camera.type != "CAMERA" or not camera.data.dof.use_dof:
+        return []
+    return [camera.name]
+
+
+def _setting(owner: str, flag: str, label: str, *, final_only: bool = False):
+    def used(scene, _depsgraph, final) -> list[str]:
+        if final_only and not final:
+            return []
+        return [label] if getattr(getattr(scene, owner), flag, False) else []
+    return used
+
+
+def _freestyle(scene, depsgraph, _final) -> list[str]:
+    if not scene.render.use_freestyle:
+        return []
+    return [depsgraph.view_layer.name] if depsgraph.view_layer.use_freestyle else []
+
+
+def _objects(depsgraph) -> Iterator:
+    """Each evaluated object once (not each instance of it: a walk over the instances of a
+    scattered forest would cost more than the answer is worth)."""
+    yield from depsgraph.objects
+
+
+def _object_types(kind: str):
+    def used(_scene, depsgraph, final) -> list[str]:
+        if not final:
+            return []
+        return sorted({obj.name for obj in _objects(depsgraph) if obj.type == kind})
+    return used
+
+
+def _object_flag(flag: str, value: bool):
+    def used(_scene, depsgraph, final) -> list[str]:
+        if not final:
+            return []
+        return sorted({obj.name for obj in _objects(depsgraph)
+                       if obj.type in MESH_LIKE_TYPES and getattr(obj, flag, not value) == value})
+    return used
+
+
+def _light_linking(scene, depsgraph, final) -> list[str]:
+    if not final:
+        return []
+    names = set()
+    for obj in _objects(depsgraph):
+        linking = getattr(obj, "light_linking", None)
+        if linking is not None and (linking.receiver_collection is not None or linking.blocker_collection is not None):
+            names.add(obj.name)
+    return sorted(names)
+
+
+def _world_volume(scene, _depsgraph, _final) -> list[str]:
+    world = scene.world
+    tree = getattr(world, "node_tree", None) if world is not None else None
+    if tree is None:
+        return []
+    output = tree.get_output_node("ALL")
+    socket = output.inputs.get("Volume") if output is not None else None
+    return [world.name] if socket is not None and socket.is_linked else []
+
+
+FEATURES: tuple[Feature, ...] = (
+    # Camera and film
+    Feature("Perspective and Orthographic cameras", SUPPORTED,
+            "Focal length, sensor fit, shift, clipping, the render region."),
+    Feature("Panoramic cameras", UNSUPPORTED,
+            "The render stops with an error naming the camera."),
+    Feature("Depth of Field", UNSUPPORTED, "Everything is in focus.",
+            "Depth of Field (camera {names}) is not rendered yet: the image is all in focus", _camera_dof),
+    Feature("Motion Blur", UNSUPPORTED, "Final renders show every object at the frame's time.",
+            "Motion Blur is not rendered yet: moving objects are sharp",
+            _setting("render", "use_motion_blur", "Motion Blur", final_only=True)),
+    Feature("Stereoscopy", UNSUPPORTED, "One view is rendered; the panel is hidden.",
+            "Stereoscopy is not rendered: every view gets the same image",
+            _setting("render", "use_multiview", "Stereoscopy")),
+    Feature("Freestyle", UNSUPPORTED, "No strokes are drawn.",
+            "Freestyle is not rendered: no strokes are drawn (view layer {names})", _freestyle),
+    Feature("Film: Pixel Filter, Transparent", SUPPORTED,
+            "The filter width spreads the accumulated samples; a transparent film keeps alpha."),
+    Feature("Color Management", SUPPORTED, "View transform, look, exposure and gamma, as Blender applies them."),
+    # Geometry
+    Feature("Meshes, curves, surfaces, metaballs and text", SUPPORTED,
+            "As Blender evaluates them (modifiers, geometry nodes), turned into triangles."),
+    Feature("Instances", SUPPORTED,
+            "Collection, geometry-nodes and particle instances share one mesh on the GPU."),
+    Feature("Hair Curves", UNSUPPORTED, "Not drawn.",
+            "Hair Curves objects {names} are not rendered", _object_types("CURVES")),
+    Feature("Volume objects", UNSUPPORTED, "Not drawn.",
+            "Volume objects {names} are not rendered", _object_types("VOLUME")),
+    Feature("Point Clouds", UNSUPPORTED, "Not drawn.",
+            "Point Cloud objects {names} are not rendered", _object_types("POINTCLOUD")),
+    Feature("Grease Pencil", UNSUPPORTED, "Not drawn.",
+            "Grease Pencil objects {names} are not rendered", _object_types("GREASEPENCIL")),
+    Feature("Non-finite vertices", APPROXIMATED,
+            "Triangles with a NaN or infinite corner are skipped, with a message; the rest of "
+            "the object renders."),
+    # Objects
+    Feature("Ray Visibility", UNSUPPORTED, "Every object is seen by every ray.",
+            "Ray Visibility: objects {names} are hidden from camera rays in Blender, but every "
+            "ray sees them here", _object_flag("visible_camera", False)),
+    Feature("Holdout", UNSUPPORTED, "Holdout objects render as ordinary objects.",
+            "Holdout objects {names} render as ordinary objects", _object_flag("is_holdout", True)),
+    Feature("Shadow Catcher", UNSUPPORTED, "Shadow catchers render as ordinary objects.",
+            "Shadow Catcher objects {names} render as ordinary objects", _object_flag("is_shadow_catcher", True)),
+    # Light
+    Feature("Lamps: Point, Sun, Spot, Area", SUPPORTED,
+            "Power, exposure, temperature, Normalize, size and shape, spot cone and blend, "
+            "shadows (shadow maps with soft penumbrae)."),
+    Feature("Light Linking", UNSUPPORTED, "Every lamp lights and shadows every object.",
+            "Light Linking on {names} is not rendered yet: every lamp lights and shadows everything",
+            _light_linking),
+    Feature("Emissive materials", SUPPORTED, "Emissive triangles light the scene (sampled by power)."),
+    Feature("World: colour and equirectangular image", SUPPORTED,
+            "Sky light traced through the scene; other projections use the background colour, "
+            "with a message."),
+    Feature("World Volume", UNSUPPORTED, "No fog or atmosphere.",
+            "World {names}: the Volume shader is not rendered", _world_volume),
+    # Materials
+    Feature("Principled BSDF and its images", SUPPORTED,
+            "Base colour, metallic, roughness, IOR, transmission, specular level, emission and "
+            "normal maps; a per-material Thickness for the cube map."),
+    Feature("Missing images", APPROXIMATED, "Magenta, as Blender's engines render them, with a message."),
+    # Output
+    Feature("Passes: Combined, Depth, Normal, Denoising Data", SUPPORTED,
+            "Under Cycles' names, for the compositor (its Denoise node included)."),
+    Feature("Persistent Data", SUPPORTED, "The extracted scene and its GPU copy stay between renders."),
+)
+
+
+def used_features(scene, depsgraph, final: bool) -> list[tuple[Feature, list[str]]]:
+    """Each feature with a message that the scene uses, with the names of what uses it."""
+    found = []
+    for feature in FEATURES:
+        if feature.used is None:
+            continue
+        names = feature.used(scene, depsgraph, final)
+        if names:
+            found.append((feature, names))
+    return found
+
+
+def tell_used_features(scene, depsgraph, final: bool) -> None:
+    """Name to the artist (``messages.tell``) every feature the scene uses that the engine
+    does not render fully."""
+    for feature, names in used_features(scene, depsgraph, final):
+        messages.tell(feature.message.format(names=_named(names)))
+
+
+def feature_table() -> str:
+    """The README's feature table (tests/test_features.py keeps the README equal to it)."""
+    lines = ["| Blender feature | Hybrid RT | What happens |", "| --- | --- | --- |"]
+    for feature in FEATURES:
+        treatment = feature.treatment
+        if feature.message is not None:
+            example = feature.message.format(names="'…'")
+            treatment += f" Message: *{example}*."
+        lines.append(f"| {feature.name} | {feature.status} | {treatment} |")
+    return "\n".join(lines)

@@ -102,7 +102,7 @@ vec3 diffuse_path(vec3 p, vec3 n, vec3 g, int path, out float sky) {
             if (vertex == 1) sky = throughput.g;
             break;
         }
-        Material hm = material_at_lod(materials[h.material], h.uv, h.lod);
+        Material hm = hit_material(h, d, vertex);
         vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
         SpecularSplit hs = specular_split_geometric(hm, h_albedo, d, h.normal, h.geometric);
         bool bounces_left = vertex <= u_diffuse_bounces;

@@ -38,9 +38,25 @@
 // INSTANCED defined (gbuffer.vert.glsl's indexed draws of object-space meshes): the triangle's
 // material is read here, at its world row (the instance's first row, v_first_row, plus
 // gl_PrimitiveID, the triangle's index in its draw), since its vertices are shared.
+// NODE_PROGRAMS defined (GPUScene.defines: some material has a node graph): a material with a
+// program (Material.textures2.w >= 0) runs it here (include/node_program.glsl) in the
+// primary view: albedo = the closure's base colour, location 2's rgb = the closure's
+// emission itself (not a scale: the shading reads it through node_gbuffer_material),
+// location 3 (RGBA16F then) = roughness, metallic, transmission, coat, and the normal the
+// closure's. The faces' variant stores the triangle's world row in location 1's w (its bits:
+// intBitsToFloat), so that a ray's hit in the map can run the program with the object's inputs.
+// Uniforms then: u_camera_position, u_camera_forward, u_orthographic (Geometry Incoming).
 #include "scene_layout.glsl"
 #include "textures.glsl"
 #include "octahedral.glsl"
+#ifdef NODE_PROGRAMS
+#include "node_program.glsl"
+#ifndef CUBE_FACE
+uniform vec3 u_camera_position;
+uniform vec3 u_camera_forward;
+uniform int u_orthographic;
+#endif
+#endif
 
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 #ifdef INSTANCED
@@ -54,6 +70,9 @@ in vec2 v_uv;
 flat in int v_first_row;
 #else
 flat in int v_material;
+#endif
+#if defined(NODE_PROGRAMS) && !defined(INSTANCED)
+flat in int v_row;
 #endif
 
 layout(location = 0) out vec4 out_normal_material;
@@ -106,9 +125,46 @@ void main() {
     float uv_area = abs(duv_dx.x * duv_dy.y - duv_dx.y * duv_dy.x);
     float world_area = sqrt(geometric_len2);
     float density = world_area > 0.0 && !isinf(world_area) ? sqrt(uv_area / world_area) : 0.0;
-    out_albedo = vec4(v_uv, isnan(density) || isinf(density) ? 0.0 : density, 0.0);
+#ifdef NODE_PROGRAMS
+    float row_bits = intBitsToFloat(v_row);
+#else
+    float row_bits = 0.0;
+#endif
+    out_albedo = vec4(v_uv, isnan(density) || isinf(density) ? 0.0 : density, row_bits);
     out_emission_scale = vec4(g_oct, 0.0, 0.0);
 #else
+#ifdef NODE_PROGRAMS
+    if (material_has_program(m)) {
+        ShadingPoint sp;
+        sp.position = v_world;
+        sp.incoming = u_orthographic != 0 ? -normalize(u_camera_forward) : normalize(u_camera_position - v_world);
+        sp.backfacing = !gl_FrontFacing;
+        sp.normal = sp.backfacing ? -n : n;
+        sp.geometric = dot(g, sp.incoming) < 0.0 ? -g : g;
+        sp.uv = v_uv;
+        sp.duv_dx = duv_dx;
+        sp.duv_dy = duv_dy;
+        sp.lod = -1.0;
+        // The UVs' directions on the surface (the cotangent frame of the normal map above).
+        vec3 dp2_perp = cross(dp_dy, n);
+        vec3 dp1_perp = cross(n, dp_dx);
+        sp.dp_du = dp2_perp * duv_dx.x + dp1_perp * duv_dy.x;
+        sp.dp_dv = dp2_perp * duv_dx.y + dp1_perp * duv_dy.y;
+        sp.ray_depth = 0;
+#ifdef INSTANCED
+        sp.row = v_first_row + gl_PrimitiveID;
+#else
+        sp.row = v_row;
+#endif
+        sp.material = material;
+        NodeClosure c = node_program_run(m.textures2.w, sp);
+        out_normal_material = vec4(c.normal, out_normal_material.w);
+        out_albedo = vec4(c.base_color, g_oct.x);
+        out_emission_scale = vec4(c.emission, g_oct.y);
+        out_surface = vec4(c.roughness, c.metallic, min(c.transmission, 1.0 - c.metallic), c.specular);
+        return;
+    }
+#endif
     out_albedo = vec4(material_albedo_grad(m, v_uv, duv_dx, duv_dy), g_oct.x);
     out_emission_scale = vec4(material_emission_scale_grad(m, v_uv, duv_dx, duv_dy), g_oct.y);
     out_surface = vec4(material_surface_grad(m, v_uv, duv_dx, duv_dy), 0.0, 0.0);

@@ -25,6 +25,8 @@
 // triangles, so it cannot carry a triangle's material: it passes the instance's first world
 // row, and the fragment stage reads the material of row + gl_PrimitiveID (the draw draws
 // the mesh's triangles in order). No CUBE_FACE or FACE_VIEWPORTS variant of it.
+// NODE_PROGRAMS defined (some material has a node graph): the triangle's world row goes to
+// the fragment stage as v_row (include/node_program.glsl finds the instance by it).
 #if defined(INSTANCED) && (defined(CUBE_FACE) || defined(FACE_VIEWPORTS))
 #error "INSTANCED draws the primary view only"
 #endif
@@ -68,6 +70,9 @@ flat out int v_first_row;
 #else
 flat out int v_material;
 #endif
+#if defined(NODE_PROGRAMS) && !defined(INSTANCED)
+flat out int v_row;  // the triangle's world row: node programs find its instance by it
+#endif
 
 void main() {
 #ifdef INSTANCED
@@ -79,6 +84,9 @@ void main() {
     vec3 world = in_pos;
     v_normal = in_normal;
     v_material = triangle_materials[gl_VertexID / 3];
+#ifdef NODE_PROGRAMS
+    v_row = gl_VertexID / 3;
+#endif
 #endif
     v_world = world;
     v_uv = in_uv;

@@ -15,7 +15,11 @@
 //                          w = its strength in thousandths
 //   ivec4 textures2;       x = roughness image, y = metallic image: layer * 4 + channel
 //                          (0..2 red, green, blue, 3 luminance), -1 = none (the factor above
-//                          holds); zw unused (-1)
+//                          holds); z unused (-1); w = the first word of the material's node
+//                          program (include/node_program.glsl), -1 = no node graph. A material
+//                          with a program has the host's estimate of its closure in the slots
+//                          above (transmission, emission, IOR; scene/node_program.py
+//                          row_estimate) for what reads the row only.
 struct Material {
     vec4 base_color_refl;
     vec4 emission_trans;

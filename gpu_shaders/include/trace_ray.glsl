@@ -92,6 +92,11 @@ vec3 interpolated_normal(int tri, vec2 bary) {
 #endif  // TRACE_SHADING_ONLY
 
 #include "textures.glsl"
+// NODE_PROGRAMS (GPUScene.defines): materials with node programs are evaluated at every hit
+// (hit_material), with the hit's triangle row for the inputs that read its object.
+#ifdef NODE_PROGRAMS
+#include "node_program.glsl"
+#endif
 #ifndef TRACE_SHADING_ONLY
 // struct TriangleUV (GPUScene.uv_rows; scene_upload/instance_transform.comp.glsl)   // total: 32 bytes
 //   vec4 uv01;       xy = UV of corner 0, zw = UV of corner 1
@@ -163,6 +168,9 @@ struct Hit {
     int material;
     vec2 uv;         // texture coordinate (BVH hits: interpolated; cube hits: the texel's)
     float lod;       // mip level of the ray cone's footprint (textured hits)
+#ifdef NODE_PROGRAMS
+    int row;         // world row of the surface's triangle (a cube hit: the face texel's), -1 none
+#endif
 };
 
 struct PendingRay {
@@ -242,6 +250,10 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary, float blur) {
     h.uv = vec2(0.0);
     h.lod = 0.0;
     ivec4 tex = materials[h.material].textures;
+#ifdef NODE_PROGRAMS
+    h.row = tri;
+    if (material_has_program(materials[h.material])) tex.x = 0;  // a program may read the UV
+#endif
     if (max(max(tex.x, tex.y), tex.z) >= 0 || material_has_surface_maps(materials[h.material])) {
         // Texture coordinate by the hit's barycentrics.
         TriangleUV tuv = tri_uvs[tri];
@@ -278,6 +290,9 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
     h.material = 0;
     h.uv = vec2(0.0);
     h.lod = 0.0;
+#ifdef NODE_PROGRAMS
+    h.row = -1;
+#endif
     bool reached_cube = false;
     bool reentered = false;
     uint nodes_before = bvh_nodes_visited;
@@ -324,6 +339,11 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
                 h.geometric = gbuffer_geometric(g_oct.x, g_oct.y, h.normal);
                 h.material = cm.material;
                 ivec4 tex = materials[h.material].textures;
+#ifdef NODE_PROGRAMS
+                // The face texel's triangle row (gbuffer.frag.glsl, CUBE_FACE): its bits in w.
+                h.row = floatBitsToInt(texelFetch(u_cube_surface, cm.texel, 0).w);
+                if (material_has_program(materials[h.material])) tex.x = 0;  // a program may read the UV
+#endif
                 if (max(max(tex.x, tex.y), tex.z) >= 0 || material_has_surface_maps(materials[h.material])) {
                     // The face keeps the texel's UV and UV density (gbuffer.frag.glsl,
                     // CUBE_FACE): textured like a BVH hit, with the same ray cone.
@@ -427,6 +447,9 @@ vec2 lobe_random(int depth) {
 // The material of a primary pixel, with the roughness and metallic its images give there.
 Material primary_material(int index, ivec2 pixel) {
     Material m = materials[index];
+#ifdef NODE_PROGRAMS
+    if (material_has_program(m)) return node_gbuffer_material(m, texelFetch(u_surface, pixel, 0));
+#endif
     if (!material_has_surface_maps(m)) return m;
     vec2 surface = texelFetch(u_surface, pixel, 0).rg;
     return material_with_surface(m, surface.x, surface.y);
@@ -447,6 +470,37 @@ vec3 cosine_direction(vec3 n, vec3 g, vec2 xi) {
 #include "lit_cube.glsl"
 #endif
 
+// The material at the hit h of a ray along d at bounce `depth`, with its images sampled at
+// the ray cone's level; a material with a node program runs it (include/node_program.glsl),
+// which may bend h.normal.
+Material hit_material(inout Hit h, vec3 d, int depth) {
+#ifdef NODE_PROGRAMS
+    Material m = materials[h.material];
+    if (material_has_program(m)) {
+        ShadingPoint sp;
+        sp.position = h.position;
+        sp.incoming = -d;
+        // BVH hits know the triangle's winding; cube hits only the stored shading normal.
+        sp.backfacing = dot(d, h.kind == HIT_BVH ? h.geometric : h.normal) > 0.0;
+        sp.normal = sp.backfacing ? -h.normal : h.normal;
+        sp.geometric = dot(h.geometric, d) > 0.0 ? -h.geometric : h.geometric;
+        sp.uv = h.uv;
+        sp.duv_dx = vec2(0.0);
+        sp.duv_dy = vec2(0.0);
+        sp.lod = max(h.lod, 0.0);
+        sp.dp_du = vec3(0.0);  // no tangent frame at hits: a tangent-space Normal Map is flat there
+        sp.dp_dv = vec3(0.0);
+        sp.ray_depth = max(depth, 1);
+        sp.row = h.row;
+        sp.material = h.material;
+        NodeClosure c = node_program_run(m.textures2.w, sp);
+        h.normal = c.normal;
+        return node_closure_material(m, c);
+    }
+#endif
+    return material_at_lod(materials[h.material], h.uv, h.lod);
+}
+
 // What an occlusion ray finds (its weight is the World's light it may let in): 1 for the
 // sky, the transmission of the surface it met.
 float occlusion_seen(Hit h) {
@@ -463,7 +517,7 @@ vec3 gather_light(Hit h, vec3 d) {
 #ifdef LIT_CUBE
     if (h.kind == HIT_CUBE) return cube_stored_radiance(h, 0.0);  // the lit cube map's light
 #endif
-    Material hm = material_at_lod(materials[h.material], h.uv, h.lod);
+    Material hm = hit_material(h, d, 1);
     vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
     SpecularSplit hs = specular_split_geometric(hm, h_albedo, d, h.normal, h.geometric);
     return lamp_light_response(hm, h_albedo, material_emission_lod(hm, h.uv, h.lod), h.position, d, hs, 1.0)
@@ -488,7 +542,7 @@ vec3 occlusion_result(Hit h, vec3 d) {
 // and refraction are traced from that position (no refractive surface is stored in the
 // faces, paper Figure 8: refraction finds none there).
 void shade_hit(PendingRay ray, Hit h, inout vec3 traced) {
-    Material hm = material_at_lod(materials[h.material], h.uv, h.lod);
+    Material hm = hit_material(h, ray.dir, ray.depth);
     vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
     vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
     SpecularSplit hs = specular_split_sampled(hm, h_albedo, ray.dir, h.normal, h.geometric,

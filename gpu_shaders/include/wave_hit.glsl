@@ -10,7 +10,12 @@
 #ifndef HYBRID_WAVE_HIT_GLSL
 #define HYBRID_WAVE_HIT_GLSL
 
+// With NODE_PROGRAMS a word more: 10 the triangle row (node programs read the hit's object).
+#ifdef NODE_PROGRAMS
+#define HIT_WORDS 11u
+#else
 #define HIT_WORDS 10u
+#endif
 
 #ifdef WAVE_HIT_WRITE
 layout(std430) writeonly buffer Hits { uint hits[]; };
@@ -25,6 +30,9 @@ void store_hit(uint i, Hit h) {
     hits[at + 7u] = floatBitsToUint(h.uv.x);
     hits[at + 8u] = floatBitsToUint(h.uv.y);
     hits[at + 9u] = floatBitsToUint(h.lod);
+#ifdef NODE_PROGRAMS
+    hits[at + 10u] = uint(h.row);
+#endif
 }
 #else
 layout(std430) readonly buffer Hits { uint hits[]; };
@@ -40,12 +48,18 @@ Hit load_hit(uint i) {
     h.geometric = h.normal;
     h.uv = vec2(0.0);
     h.lod = 0.0;
+#ifdef NODE_PROGRAMS
+    h.row = -1;
+#endif
     if (h.kind == HIT_SKY) return h;
     h.position = ray_words_vec3(i);
     h.normal = QUEUE_VEC3(hits, at + 1u);
     h.geometric = QUEUE_VEC3(hits, at + 4u);
     h.uv = uintBitsToFloat(uvec2(hits[at + 7u], hits[at + 8u]));
     h.lod = uintBitsToFloat(hits[at + 9u]);
+#ifdef NODE_PROGRAMS
+    h.row = int(hits[at + 10u]);
+#endif
     return h;
 }
 #endif

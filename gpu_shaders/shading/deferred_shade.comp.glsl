@@ -27,6 +27,10 @@
 #include "shading.glsl"
 #include "textures.glsl"
 #include "octahedral.glsl"
+// NODE_PROGRAMS defined: a material with a node program reads its closure from the G-buffer.
+#ifdef NODE_PROGRAMS
+#include "node_material.glsl"
+#endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -102,6 +106,9 @@ void main() {
         vec2 surface = texelFetch(u_surface, pixel, 0).rg;
         m = material_with_surface(m, surface.x, surface.y);
     }
+#ifdef NODE_PROGRAMS
+    if (material_has_program(m)) m = node_gbuffer_material(m, texelFetch(u_surface, pixel, 0));
+#endif
     vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
     vec4 emission_g = texelFetch(u_emission_scale, pixel, 0);
     vec3 albedo = albedo_g.rgb;

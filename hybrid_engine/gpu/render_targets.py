@@ -66,10 +66,13 @@ class GBufferTargets(RenderTargets):
     ``emission_scale`` holds the colour of the material's emission texture (1 without
     one); the shading multiplies the material's emission by it."""
 
-    def __init__(self, ctx, width: int, height: int) -> None:
+    def __init__(self, ctx, width: int, height: int, surface_channels: int = 2) -> None:
+        # Four surface channels where node programs run (roughness, metallic, transmission,
+        # coat: include/node_program.glsl node_gbuffer_material).
+        self.surface_channels = surface_channels
         super().__init__(ctx, width, height,
                          colour={"normal_material": (4, "f4"), "albedo": (4, "f2"), "emission_scale": (4, "f2"),
-                                 "surface": (2, "f2")},
+                                 "surface": (surface_channels, "f2")},
                          extra={"color": (4, "f4"), "ambient": (4, "f4")})
 
     def read_color(self) -> np.ndarray:

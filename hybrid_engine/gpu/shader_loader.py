@@ -155,6 +155,9 @@ def translate_error(message: str, sources: Mapping[str, ShaderSource]) -> str:
 
 
 _cache: dict[tuple, object] = {}
+# Programs compiled so far (cache misses): an edit that must not compile is proved by this
+# count standing still (tests/test_node_program_render.py).
+compiles = 0
 # Defines every program compiled inside compiled_with() gets; empty in the product.
 _variant_defines: dict[str, object] = {}
 
@@ -182,6 +185,8 @@ def _compile(ctx, stages: Mapping[str, str], defines: Mapping[str, object] | Non
     cached = _cache.get(key)
     if cached is not None:
         return cached
+    global compiles
+    compiles += 1
     sources = {stage: assemble(name, defines) for stage, name in stages.items()}
     try:
         if "compute_shader" in sources:

@@ -209,7 +209,8 @@ class MaterialTable:
         # The Normal Map strength in thousandths (an int slot: the float ones are all used).
         strength = np.nan_to_num(np.clip(self.normal_strength, 0.0, 100.0))
         out["textures"][:, 3] = np.where(self.normal_texture >= 0, np.round(strength * 1000.0), -1)
-        # Roughness and metallic images: layer * 4 + the channel read (TEXTURE_CHANNELS).
+        # Roughness and metallic images: layer * 4 + the channel read (TEXTURE_CHANNELS); w is
+        # the node program's first word, which the upload fills in (scene_upload/node_programs.py).
         out["textures2"][:] = -1
         for column, (layer, channel) in enumerate(((self.roughness_texture, self.roughness_channel),
                                                    (self.metallic_texture, self.metallic_channel))):

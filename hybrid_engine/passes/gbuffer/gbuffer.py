@@ -46,11 +46,14 @@ class GBufferPass:
         self._cube_faces_program = None  # compiled on first use (the faces kernel's "gpu" variant)
         self._instanced_program = None  # compiled on first use (the vertices kernel's "gpu" variant)
         self.primary: GBufferTargets | None = None
+        self._camera: dict = {}  # the primary view's camera uniforms (node programs read them)
 
-    def primary_targets(self, width: int, height: int) -> GBufferTargets:
-        """The primary camera's G-buffer, reallocated only when the image size changes."""
-        if self.primary is None or self.primary.size != (width, height):
-            old, self.primary = self.primary, GBufferTargets(self.ctx, width, height)
+    def primary_targets(self, width: int, height: int, surface_channels: int = 2) -> GBufferTargets:
+        """The primary camera's G-buffer, reallocated only when the image size (or the
+        surface target's channels: four where node programs run) changes."""
+        if (self.primary is None or self.primary.size != (width, height)
+                or self.primary.surface_channels != surface_channels):
+            old, self.primary = self.primary, GBufferTargets(self.ctx, width, height, surface_channels)
             if old is not None:
                 old.release()
         return self.primary
@@ -60,6 +63,8 @@ class GBufferPass:
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE)  # Blender shades both sides of a face
         bind(prog, gpu.bindings(), storage={"InstanceTable": gpu.instance_transform.instance_table})
+        if gpu.defines:  # node programs: Geometry Incoming and the like need the camera
+            set_uniforms(prog, self._camera)
 
     def io(self, settings: RenderSettings) -> PassIO:
         return PassIO(reads=("scene", "world_triangles"), writes=("gbuffer",))
@@ -72,11 +77,12 @@ class GBufferPass:
     def render_primary(self, gpu: GPUScene, scene: SceneData, view: RasterView) -> tuple[GBufferTargets, int]:
         """Clear the primary G-buffer and rasterize ``view`` into it (§3.1), its draws culled
         per triangle (view_cull/draw.py). Returns the targets and the triangles submitted."""
-        targets = self.primary_targets(view.width, view.height)
+        targets = self.primary_targets(view.width, view.height, 4 if gpu.defines else 2)
+        self._camera = view.uniforms()
         targets.clear()
         if self.drawer.draws_instanced():
             return targets, self._render_primary_instanced(gpu, scene, view, targets)
-        prog = self.program
+        prog = self._scene_program(gpu, self.program, {})
         vao = self.drawer.vertex_array(prog, gpu)
         submitted = self.drawer.draw_views("primary", prog, vao, gpu, scene, targets.fbo,
                                            [(view.view_proj, (0, 0, view.width, view.height))],
@@ -91,7 +97,8 @@ class GBufferPass:
             self._instanced_program = shader_loader.program(
                 self.ctx, vertex="gbuffer/gbuffer.vert.glsl", fragment="gbuffer/gbuffer.frag.glsl",
                 defines={"INSTANCED": 1})
-        return self.drawer.draw_instanced("primary", self._instanced_program, self.program, gpu, scene, targets.fbo,
+        return self.drawer.draw_instanced("primary", self._scene_program(gpu, self._instanced_program, {"INSTANCED": 1}),
+                                          self._scene_program(gpu, self.program, {}), gpu, scene, targets.fbo,
                                           [(view.view_proj, (0, 0, view.width, view.height))],
                                           lambda prog: self._bind(gpu, prog))
 
@@ -109,7 +116,7 @@ class GBufferPass:
         ``culled_back`` (view_cull.CulledDraws, the faces culled at once by cube_map.py)
         draw each face's GPU-culled list; None draws its object list (the culler's
         fallback). Returns the triangles submitted after per-object frustum culling."""
-        prog = self.cube_program
+        prog = self._scene_program(gpu, self.cube_program, {"CUBE_FACE": 1})
         vao = self.drawer.vertex_array(prog, gpu)
         targets.fbo.use()
         self._bind(gpu, prog)
@@ -140,6 +147,15 @@ class GBufferPass:
                         submitted += row_culled.draw(prog, gpu, i)
         return submitted
 
+    def _scene_program(self, gpu: GPUScene, plain, defines: dict):
+        """``plain`` (the program compiled with ``defines``) or, where the scene's materials
+        have node programs, the same shaders with the interpreter (GPUScene.defines; compiled
+        once, then cached by the loader)."""
+        if not gpu.defines:
+            return plain
+        return shader_loader.program(self.ctx, vertex="gbuffer/gbuffer.vert.glsl",
+                                     fragment="gbuffer/gbuffer.frag.glsl", defines={**defines, **gpu.defines})
+
     def cube_faces_program(self, gpu: GPUScene):
         """The cube-face program that draws all six faces in one multi-draw (the ``faces``
         kernel's "gpu" variant, draw.py SceneDrawer.draw_faces), bound like the per-face one."""
@@ -147,8 +163,9 @@ class GBufferPass:
             self._cube_faces_program = shader_loader.program(
                 self.ctx, vertex="gbuffer/gbuffer.vert.glsl", fragment="gbuffer/gbuffer.frag.glsl",
                 defines={"CUBE_FACE": 1, "FACE_VIEWPORTS": MAX_VIEWS})
-        self._bind(gpu, self._cube_faces_program)
-        return self._cube_faces_program
+        prog = self._scene_program(gpu, self._cube_faces_program, {"CUBE_FACE": 1, "FACE_VIEWPORTS": MAX_VIEWS})
+        self._bind(gpu, prog)
+        return prog
 
     def release(self) -> None:
         if self.primary is not None:

@@ -28,6 +28,7 @@ from ...scene.changes import GeometryDelta
 from ...scene.data import MATERIAL_DTYPE, SceneData
 from ...scene.geometry import InstancedGeometry
 from .instance_transform import OUTPUT_ROW_BYTES, InstanceTransformer
+from .node_programs import NodePrograms
 from .raster_meshes import RasterMeshes
 from .textures import GPUTextures
 
@@ -61,6 +62,15 @@ class GPUScene:
         self.sequence = 0  # counts uploads: a GeometryDelta's sequence
         self.geometry: InstancedGeometry | None = None  # what the last upload placed
         self.textures = GPUTextures(ctx)  # re-uploaded only when the scene's images change
+        self.node_programs = NodePrograms(ctx)  # the materials' node graphs, as program words
+
+    @property
+    def defines(self) -> dict:
+        """What every shader that shades a material needs defined for this scene:
+        ``NODE_PROGRAMS`` when some material has a node graph (the interpreter,
+        include/node_program.glsl), nothing otherwise, so scenes without graphs run the
+        shaders as they were."""
+        return {"NODE_PROGRAMS": 1} if self.node_programs.active else {}
 
     def vertex_content(self, program) -> list[tuple]:
         """moderngl vertex-array content of ``program``: one binding per attribute it reads
@@ -71,8 +81,9 @@ class GPUScene:
     def bindings(self) -> Bindings:
         """The materials, the per-triangle material ids and the textures, by the names every
         pass that reads a material declares (scene_layout.glsl, textures.glsl)."""
+        programs = self.node_programs.bindings() if self.node_programs.active else {}
         return Bindings(storage={"MaterialBuffer": self.materials.buffer,
-                                 "TriangleMaterials": self.triangle_materials.buffer},
+                                 "TriangleMaterials": self.triangle_materials.buffer, **programs},
                         textures={"u_textures": self.textures.array})
 
     def upload(self, scene: SceneData) -> tuple[SceneData, GeometryDelta]:
@@ -96,7 +107,9 @@ class GPUScene:
         delta = self._delta(geometry, stats.changed, whole=stats.store_rebuilt or self.geometry is None)
         self.geometry = geometry
         self.triangle_count = n
-        self.materials.upload(bytes_of(scene.materials.packed()))
+        rows = scene.materials.packed()
+        self.node_programs.update(scene.materials, rows, geometry)
+        self.materials.upload(bytes_of(rows))
         self.textures.upload(scene.materials.textures)
         self.host_ms = (time.perf_counter() - start) * 1e3
         return (scene if geometry is scene.geometry else SceneData(geometry=geometry, materials=scene.materials,
@@ -131,3 +144,4 @@ class GPUScene:
         self.instance_transform.release()
         self.raster_meshes.release()
         self.textures.release()
+        self.node_programs.release()

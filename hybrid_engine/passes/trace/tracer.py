@@ -201,7 +201,8 @@ class HybridTracer:
                    **(cube.defines if cube is not None else {}),
                    **({"DIFFUSE_GATHER": 1} if settings.traces_diffuse else {}),
                    **(lit.defines if lit is not None else {}),
-                   **({"DIAGNOSTIC": 1} if diagnostic else {})}
+                   **({"DIAGNOSTIC": 1} if diagnostic else {}),
+                   **gpu.defines}
         self._counters.write(self._zero_counters)
 
         bvh = built.storage() if built is not None else dict.fromkeys(BVH_BLOCKS, self._dummy_ssbo)

@@ -63,7 +63,7 @@ from .diagnostic_views import is_diagnostic
 WAVE_LOCAL = 64  # the queue kernels' workgroup (wave_queue.glsl WAVE_LOCAL)
 RAY_WORDS = 10  # a queued ray, 32-bit words (wave_queue.glsl RAY_WORDS)
 OCCLUSION_WORDS = 9  # a queued occlusion ray (no blur)
-HIT_WORDS = 10  # a hit (wave_hit.glsl HIT_WORDS)
+HIT_WORDS = 10  # a hit (wave_hit.glsl HIT_WORDS; one more, the triangle row, with NODE_PROGRAMS)
 RAY_BYTES, OCCLUSION_BYTES, HIT_BYTES = 4 * RAY_WORDS, 4 * OCCLUSION_WORDS, 4 * HIT_WORDS
 ACCUM_BYTES = 16  # a pixel's traced light and whether it takes it (wave_primary.comp.glsl)
 MIN_CAPACITY = WAVE_LOCAL  # the fewest slots a queue is made with
@@ -121,6 +121,7 @@ class WaveTracer:
         self.ray_capacity = 0  # slots of each ray queue (and of the hits)
         self.occlusion_capacity = 0  # slots of the occlusion queue
         self.pixels = 0
+        self._hit_bytes = HIT_BYTES  # a hit record: one word more with node programs
         self.overflows = 0  # frames noted (note_overflow) whose waves wanted more than the queues held
         self._request: tuple[int, int] | None = None  # (rays, occlusions) for _request_pixels
         self._request_pixels = 0
@@ -151,12 +152,14 @@ class WaveTracer:
         self._request_pixels = pixels
         return self._request
 
-    def _ensure(self, pixels: int) -> None:
+    def _ensure(self, pixels: int, hit_bytes: int = HIT_BYTES) -> None:
         rays, occlusions = self._capacities(pixels)
-        if (rays, occlusions, pixels) == (self.ray_capacity, self.occlusion_capacity, self.pixels):
+        if (rays, occlusions, pixels, hit_bytes) == (self.ray_capacity, self.occlusion_capacity, self.pixels,
+                                                     self._hit_bytes):
             return
         self._release_queues()
-        sizes = {"rays0": rays * RAY_BYTES, "rays1": rays * RAY_BYTES, "hits": rays * HIT_BYTES,
+        self._hit_bytes = hit_bytes
+        sizes = {"rays0": rays * RAY_BYTES, "rays1": rays * RAY_BYTES, "hits": rays * hit_bytes,
                  "occlusions": occlusions * OCCLUSION_BYTES, "accum": pixels * ACCUM_BYTES,
                  "block_sums": math.ceil(max(pixels, rays) / WAVE_LOCAL) * 8}
         self._buffers = {name: self.ctx.buffer(reserve=size) for name, size in sizes.items()}
@@ -175,7 +178,7 @@ class WaveTracer:
         ctx = self.ctx
         width, height = inputs.size
         pixels = width * height
-        self._ensure(pixels)
+        self._ensure(pixels, HIT_BYTES + (4 if "NODE_PROGRAMS" in inputs.defines else 0))
         waves = wave_count(settings.max_depth)
         slots = self._state_slots(waves)
         overflow_slot = slots - 1

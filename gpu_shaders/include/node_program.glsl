@@ -1,0 +1,420 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// The node-program interpreter: a material's shader node graph, compiled into words by
+// hybrid_engine/scene/node_program.py (encoding: hybrid_engine/scene/node_codes.py), run at
+// one shading point. One shader for every graph: an edit of the graph is an upload of words,
+// never a compile (docs/ARCHITECTURE.md "Shader node programs"). Compiled into a shader only
+// with NODE_PROGRAMS defined, which the host defines when some material has a graph
+// (GPUScene.defines); a material's program starts at word Material.textures2.w (-1: none).
+//
+// Storage blocks: NodeProgram (the words of every material), NodeObjects (per instance of the
+// instance table: world-to-object map, texture space, location, colour, random; written by
+// hybrid_engine/passes/scene_upload/node_programs.py). Sampler: u_textures (textures.glsl).
+//
+// The closure. A shader socket carries four registers of weighted sums (Cycles' SVM instead
+// keeps a list of closures, each with its own BSDF): rgb = weight x base colour and a = the
+// surface weight w; metallic, roughness, transmission, IOR times w; emission (summed) and
+// the Transparent weight t; normal and specular coat times w. Mix Shader mixes the sums by
+// its factor, Add Shader adds them. At the Material Output the parameters are the w-weighted
+// means (one BSDF whose lobes are the means of the mixed ones'), the base colour is the sum
+// over the alpha (so that an Emission mixed with a Diffuse darkens the diffuse as Cycles'
+// closure weights do), alpha = 1 - t, emission the sum. What this cannot show: two lobes
+// of different colours or roughnesses at once (a mix of a red diffuse and a blue glossy is
+// one lobe pair of the mean colour), which the engine's shading model (shading.glsl: one
+// base colour, one roughness) could not hold either.
+#ifndef HYBRID_NODE_PROGRAM_GLSL
+#define HYBRID_NODE_PROGRAM_GLSL
+#include "scene_layout.glsl"
+#include "textures.glsl"
+#include "include/nodes/tex_white_noise.glsl"
+#include "node_material.glsl"
+
+// Opcodes, operand kinds, implicit values: hybrid_engine/scene/node_codes.py.
+#define NODE_OP_OUTPUT 1u
+#define NODE_OP_VALUE 2u
+#define NODE_OP_TEX_COORD 3u
+#define NODE_OP_UVMAP 4u
+#define NODE_OP_GEOMETRY 5u
+#define NODE_OP_OBJECT_INFO 6u
+#define NODE_OP_FRESNEL 7u
+#define NODE_OP_LAYER_WEIGHT 8u
+#define NODE_OP_LIGHT_PATH 9u
+#define NODE_OP_SEPARATE_XYZ 10u
+#define NODE_OP_COMBINE_XYZ 11u
+#define NODE_OP_TEX_WHITE_NOISE 12u
+#define NODE_OP_TEX_IMAGE 13u
+#define NODE_OP_NORMAL_MAP 14u
+#define NODE_OP_BSDF_PRINCIPLED 32u
+#define NODE_OP_BSDF_DIFFUSE 33u
+#define NODE_OP_BSDF_GLOSSY 34u
+#define NODE_OP_BSDF_GLASS 35u
+#define NODE_OP_BSDF_REFRACTION 36u
+#define NODE_OP_BSDF_TRANSPARENT 37u
+#define NODE_OP_EMISSION 38u
+#define NODE_OP_MIX_SHADER 39u
+#define NODE_OP_ADD_SHADER 40u
+#define NODE_CONSTANT 0x80000000u
+#define NODE_IMPLICIT 0x40000000u
+#define NODE_IMPLICIT_NORMAL 0u
+#define NODE_IMPLICIT_UV 1u
+#define NODE_IMPLICIT_GENERATED 2u
+#define NODE_REGISTERS 32
+#define NODE_MAX_OPERANDS 16
+#define NODE_MAX_OUTPUTS 8
+#define NODE_MAX_INSTRUCTIONS 256
+
+layout(std430) readonly buffer NodeProgram { uint node_words[]; };
+
+// struct NodeObject (node_programs.py NODE_OBJECT_DTYPE)      // total: 128 bytes
+//   vec4 to_object[3];   rows of the world-to-object affine map
+//   vec4 location;       xyz = the object's origin in world space, w = Object Info Random
+//   vec4 color;          Object Info Color (Blender's object colour; white without one)
+//   vec4 space_min;      xyz = the mesh's object-space bounds' minimum (Generated's origin)
+//   vec4 space_size;     xyz = their extent (Generated divides by it; 0 where flat)
+//   ivec4 rows;          x = first world row (triangle), y = triangles
+struct NodeObject {
+    vec4 to_object[3];
+    vec4 location;
+    vec4 color;
+    vec4 space_min;
+    vec4 space_size;
+    ivec4 rows;
+};
+// Row 0 is a header (rows.x = the instance count); instance k is row k + 1.
+layout(std430) readonly buffer NodeObjects { NodeObject node_objects[]; };
+
+// What the input nodes read at a shading point; the caller fills every field.
+struct ShadingPoint {
+    vec3 position;    // world space
+    vec3 normal;      // unit shading normal facing the incoming ray (Cycles' N: flipped on backfaces)
+    vec3 geometric;   // unit true normal, facing alike
+    vec3 incoming;    // unit vector from the point towards where the ray came from (Geometry Incoming)
+    vec2 uv;          // the active UV map
+    vec2 duv_dx;      // UV derivatives per pixel (fragment stage; Image Texture's filter)
+    vec2 duv_dy;
+    float lod;        // < 0: sample with the derivatives; else the ray cone's mip level (compute)
+    vec3 dp_du;       // the surface's direction of increasing u and v (Normal Map's tangent
+    vec3 dp_dv;       //   frame); zero where the UVs are degenerate
+    bool backfacing;
+    int ray_depth;    // 0: the camera ray (Light Path Is Camera Ray, Ray Depth)
+    int row;          // world row (triangle) of the surface: finds its instance; -1 unknown
+    int material;
+};
+
+// The closure the program returns (the surface as the engine's shading model holds it).
+struct NodeClosure {
+    vec3 base_color;
+    float metallic;
+    float roughness;
+    float transmission;
+    float ior;
+    float specular;      // reflectance of the diffuse layer's coat at normal incidence
+    vec3 emission;       // colour x strength
+    float alpha;
+    vec3 normal;         // unit shading normal as modelled (not flipped)
+};
+
+vec4 node_reg[NODE_REGISTERS];
+vec4 node_in[NODE_MAX_OPERANDS];
+vec4 node_out[NODE_MAX_OUTPUTS];
+
+// The NodeObjects row of the instance whose world rows hold `row` (-1 when unknown):
+// instances lie in row order.
+int node_object_of(int row) {
+    int count = node_objects[0].rows.x;
+    if (row < 0 || count <= 0) return -1;
+    int lo = 1, hi = count;
+    while (lo < hi) {
+        int mid = (lo + hi + 1) >> 1;
+        if (node_objects[mid].rows.x <= row) lo = mid; else hi = mid - 1;
+    }
+    return lo;
+}
+
+vec3 node_to_object(int k, vec3 p, float w) {
+    if (k < 0) return p;
+    vec4 q = vec4(p, w);
+    return vec3(dot(node_objects[k].to_object[0], q), dot(node_objects[k].to_object[1], q),
+                dot(node_objects[k].to_object[2], q));
+}
+
+vec3 node_generated(ShadingPoint sp) {
+    int k = node_object_of(sp.row);
+    if (k < 0) return sp.position;
+    vec3 size = node_objects[k].space_size.xyz;
+    vec3 p = node_to_object(k, sp.position, 1.0) - node_objects[k].space_min.xyz;
+    return vec3(size.x > 0.0 ? p.x / size.x : 0.5, size.y > 0.0 ? p.y / size.y : 0.5,
+                size.z > 0.0 ? p.z / size.z : 0.5);
+}
+
+vec4 node_convert(vec4 v, uint code) {
+    if (code == 1u) return vec4(v.xxx, 1.0);
+    if (code == 2u) return vec4(dot(v.rgb, vec3(0.2126, 0.7152, 0.0722)));
+    if (code == 3u) return vec4((v.x + v.y + v.z) * (1.0 / 3.0));
+    return v;
+}
+
+// One operand at word pc (advanced past it).
+vec4 node_operand(inout uint pc, ShadingPoint sp) {
+    uint w = node_words[pc++];
+    if ((w & NODE_CONSTANT) != 0u) {
+        uint n = w & 7u;
+        vec4 v = vec4(0.0, 0.0, 0.0, 1.0);
+        for (uint i = 0u; i < n && i < 4u; ++i) v[i] = uintBitsToFloat(node_words[pc++]);
+        return v;
+    }
+    uint convert = (w >> 16) & 3u;
+    if ((w & NODE_IMPLICIT) != 0u) {
+        uint code = w & 0xffu;
+        vec4 v = code == NODE_IMPLICIT_NORMAL ? vec4(sp.normal, 0.0)
+               : code == NODE_IMPLICIT_UV ? vec4(sp.uv, 0.0, 0.0) : vec4(node_generated(sp), 0.0);
+        return node_convert(v, convert);
+    }
+    return node_convert(node_reg[min(w & 0xffffu, uint(NODE_REGISTERS - 1))], convert);
+}
+
+// Cycles' Fresnel of a dielectric of relative index eta at cos(theta) = cosi.
+float node_fresnel_dielectric(float cosi, float eta) {
+    float c = abs(cosi);
+    float g = eta * eta - 1.0 + c * c;
+    if (g <= 0.0) return 1.0;
+    g = sqrt(g);
+    float a = (g - c) / (g + c);
+    float b = (c * (g + c) - 1.0) / (c * (g - c) + 1.0);
+    return 0.5 * a * a * (1.0 + b * b);
+}
+
+vec3 node_unit(vec3 v, vec3 fallback) {
+    float l = dot(v, v);
+    return l > 1e-20 && !isinf(l) && !isnan(l) ? v * inversesqrt(l) : fallback;
+}
+
+// One BSDF's closure into node_out[0..3] (weights: module header).
+void node_bsdf(float w, vec3 base, float metallic, float roughness, float transmission, float ior,
+               float specular, vec3 n, vec3 emission, float transparent) {
+    node_out[0] = vec4(w * max(base, vec3(0.0)), w);
+    node_out[1] = w * vec4(clamp(metallic, 0.0, 1.0), clamp(roughness, 0.0, 1.0),
+                           clamp(transmission, 0.0, 1.0), max(ior, 1.0));
+    node_out[2] = vec4(max(emission, vec3(0.0)), transparent);
+    node_out[3] = w * vec4(n, clamp(specular, 0.0, 1.0));
+}
+
+vec4 node_image(int layer, vec2 uv, ShadingPoint sp) {
+    if (layer < 0) return vec4(1.0, 0.0, 1.0, 1.0);  // Blender's colour of a missing image
+    vec3 at = vec3(uv, float(layer));
+    return sp.lod < 0.0 ? textureGrad(u_textures, at, sp.duv_dx, sp.duv_dy) : textureLod(u_textures, at, sp.lod);
+}
+
+// Blender's Normal Map node in tangent space (textures.glsl apply_normal_map, with the
+// strength an input); world and object space read the colour as a normal in that space.
+vec3 node_normal_map(ShadingPoint sp, int space, float strength, vec3 color) {
+    vec3 n = sp.normal;
+    vec3 c = color * 2.0 - 1.0;
+    vec3 mapped;
+    if (space == 0) {
+        vec3 t = sp.dp_du - n * dot(n, sp.dp_du);
+        vec3 b = sp.dp_dv - n * dot(n, sp.dp_dv);
+        float lt = dot(t, t), lb = dot(b, b);
+        if (!(lt > 1e-30) || !(lb > 1e-30)) return n;
+        mapped = normalize(t * inversesqrt(lt) * c.x + b * inversesqrt(lb) * c.y + n * max(c.z, 1e-3));
+    } else if (space == 1 || space == 3) {
+        int k = node_object_of(sp.row);
+        // Object to world for normals: the transpose of the world-to-object map.
+        mapped = k < 0 ? c : vec3(dot(vec3(node_objects[k].to_object[0].x, node_objects[k].to_object[1].x,
+                                                node_objects[k].to_object[2].x), c),
+                                  dot(vec3(node_objects[k].to_object[0].y, node_objects[k].to_object[1].y,
+                                           node_objects[k].to_object[2].y), c),
+                                  dot(vec3(node_objects[k].to_object[0].z, node_objects[k].to_object[1].z,
+                                           node_objects[k].to_object[2].z), c));
+        mapped = node_unit(mapped, n);
+    } else {
+        mapped = node_unit(c, n);
+    }
+    return node_unit(mix(n, mapped, max(strength, 0.0)), n);
+}
+
+// Run the program at word `offset` at the shading point; returns the material's closure.
+NodeClosure node_program_run(int offset, ShadingPoint sp) {
+    for (int r = 0; r < NODE_REGISTERS; ++r) node_reg[r] = vec4(0.0);
+    uint pc = uint(max(offset, 0));
+    vec4 result[4] = vec4[4](vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0));
+    for (int step = 0; step < NODE_MAX_INSTRUCTIONS; ++step) {
+        uint header = node_words[pc];
+        uint op = header & 0xffu;
+        uint n_out = (header >> 8) & 0xffu;
+        uint n_set = (header >> 16) & 0xffu;
+        uint n_in = header >> 24;
+        uint out_at = pc + 1u;
+        uint set_at = out_at + n_out;
+        pc = set_at + n_set;
+        for (uint i = 0u; i < n_in; ++i) {
+            vec4 v = node_operand(pc, sp);
+            if (i < uint(NODE_MAX_OPERANDS)) node_in[i] = v;
+        }
+        if (op == NODE_OP_OUTPUT || op == 0u) {
+            if (op == NODE_OP_OUTPUT) result = vec4[4](node_in[0], node_in[1], node_in[2], node_in[3]);
+            break;
+        }
+        for (int o = 0; o < NODE_MAX_OUTPUTS; ++o) node_out[o] = vec4(0.0);
+        switch (op) {
+        case NODE_OP_VALUE:
+            node_out[0] = node_in[0];
+            break;
+        case NODE_OP_TEX_COORD: {
+            int k = node_object_of(sp.row);
+            node_out[0] = vec4(node_generated(sp), 0.0);
+            node_out[1] = vec4(node_unit(node_to_object(k, sp.normal, 0.0), sp.normal), 0.0);  // object space
+            node_out[2] = vec4(sp.uv, 0.0, 0.0);
+            node_out[3] = vec4(node_to_object(k, sp.position, 1.0), 0.0);
+            // Camera and Window need the view the point is seen from: not kept (0).
+            node_out[6] = vec4(reflect(-sp.incoming, sp.normal), 0.0);
+            break;
+        }
+        case NODE_OP_UVMAP:
+            node_out[0] = vec4(sp.uv, 0.0, 0.0);
+            break;
+        case NODE_OP_GEOMETRY:
+            node_out[0] = vec4(sp.position, 0.0);
+            node_out[1] = vec4(sp.normal, 0.0);
+            node_out[2] = vec4(node_unit(sp.dp_du, vec3(0.0)), 0.0);
+            node_out[3] = vec4(sp.geometric, 0.0);
+            node_out[4] = vec4(sp.incoming, 0.0);
+            node_out[6] = vec4(sp.backfacing ? 1.0 : 0.0);
+            break;
+        case NODE_OP_OBJECT_INFO: {
+            int k = node_object_of(sp.row);
+            node_out[0] = k < 0 ? vec4(0.0) : vec4(node_objects[k].location.xyz, 0.0);
+            node_out[1] = k < 0 ? vec4(1.0) : node_objects[k].color;
+            node_out[2] = vec4(k < 0 ? 1.0 : node_objects[k].color.a);
+            node_out[3] = vec4(0.0);
+            node_out[4] = vec4(float(sp.material));
+            node_out[5] = vec4(k < 0 ? 0.0 : node_objects[k].location.w);
+            break;
+        }
+        case NODE_OP_FRESNEL: {
+            float eta = max(node_in[0].x, 1e-5);
+            eta = sp.backfacing ? 1.0 / eta : eta;
+            node_out[0] = vec4(node_fresnel_dielectric(dot(sp.incoming, node_in[1].xyz), eta));
+            break;
+        }
+        case NODE_OP_LAYER_WEIGHT: {
+            float blend = node_in[0].x;
+            float eta = max(1.0 - blend, 1e-5);
+            eta = sp.backfacing ? eta : 1.0 / eta;
+            node_out[0] = vec4(node_fresnel_dielectric(dot(sp.incoming, node_in[1].xyz), eta));
+            float f = abs(dot(sp.incoming, node_in[1].xyz));
+            if (blend != 0.5) {
+                blend = clamp(blend, 0.0, 1.0 - 1e-5);
+                blend = blend < 0.5 ? 2.0 * blend : 0.5 / (1.0 - blend);
+                f = pow(f, blend);
+            }
+            node_out[1] = vec4(1.0 - f);
+            break;
+        }
+        case NODE_OP_LIGHT_PATH:
+            node_out[0] = vec4(sp.ray_depth == 0 ? 1.0 : 0.0);
+            node_out[1] = vec4(0.0);  // shadow rays test coverage, never run programs
+            node_out[2] = vec4(float(sp.ray_depth));
+            break;
+        case NODE_OP_SEPARATE_XYZ:
+            node_out[0] = node_in[0].xxxx;
+            node_out[1] = node_in[0].yyyy;
+            node_out[2] = node_in[0].zzzz;
+            break;
+        case NODE_OP_COMBINE_XYZ:
+            node_out[0] = vec4(node_in[0].x, node_in[1].x, node_in[2].x, 0.0);
+            break;
+        case NODE_OP_TEX_WHITE_NOISE: {
+            float value;
+            vec3 color;
+            node_tex_white_noise(int(node_words[set_at]), node_in[0].xyz, node_in[1].x, value, color);
+            node_out[0] = vec4(value);
+            node_out[1] = vec4(color, 1.0);
+            break;
+        }
+        case NODE_OP_TEX_IMAGE: {
+            vec4 texel = node_image(int(node_words[set_at]), node_in[0].xy, sp);
+            node_out[0] = texel;
+            node_out[1] = vec4(texel.a);
+            break;
+        }
+        case NODE_OP_NORMAL_MAP:
+            node_out[0] = vec4(node_normal_map(sp, int(node_words[set_at]), node_in[0].x, node_in[1].rgb), 0.0);
+            break;
+        case NODE_OP_BSDF_PRINCIPLED: {
+            // Base Color, Metallic, Roughness, IOR, Alpha, Normal, Specular IOR Level,
+            // Transmission Weight, Emission Color, Emission Strength (materials.py's folding).
+            float metallic = clamp(node_in[1].x, 0.0, 1.0);
+            float ior = max(node_in[3].x, 1.0);
+            float alpha = clamp(node_in[4].x, 0.0, 1.0);
+            float f0 = (ior - 1.0) / (ior + 1.0);
+            float coat = clamp(f0 * f0 * 2.0 * clamp(node_in[6].x, 0.0, 1.0), 0.0, 1.0);
+            node_bsdf(alpha, node_in[0].rgb, metallic, node_in[2].x, clamp(node_in[7].x, 0.0, 1.0) * (1.0 - metallic),
+                      ior, coat, node_in[5].xyz, alpha * node_in[8].rgb * max(node_in[9].x, 0.0), 1.0 - alpha);
+            break;
+        }
+        case NODE_OP_BSDF_DIFFUSE:
+            node_bsdf(1.0, node_in[0].rgb, 0.0, 1.0, 0.0, 1.5, 0.0, node_in[2].xyz, vec3(0.0), 0.0);
+            break;
+        case NODE_OP_BSDF_GLOSSY:
+            node_bsdf(1.0, node_in[0].rgb, 1.0, node_in[1].x, 0.0, 1.5, 0.0, node_in[2].xyz, vec3(0.0), 0.0);
+            break;
+        case NODE_OP_BSDF_GLASS:
+        case NODE_OP_BSDF_REFRACTION:
+            node_bsdf(1.0, node_in[0].rgb, 0.0, node_in[1].x, 1.0, node_in[2].x, 0.0, node_in[3].xyz, vec3(0.0), 0.0);
+            break;
+        case NODE_OP_BSDF_TRANSPARENT:
+            node_bsdf(0.0, vec3(0.0), 0.0, 0.0, 0.0, 1.0, 0.0, vec3(0.0), vec3(0.0), 1.0);
+            break;
+        case NODE_OP_EMISSION:
+            node_bsdf(0.0, vec3(0.0), 0.0, 0.0, 0.0, 1.0, 0.0, vec3(0.0), node_in[0].rgb * node_in[1].x, 0.0);
+            break;
+        case NODE_OP_MIX_SHADER: {
+            float fac = clamp(node_in[0].x, 0.0, 1.0);
+            for (int k = 0; k < 4; ++k) node_out[k] = mix(node_in[1 + k], node_in[5 + k], fac);
+            break;
+        }
+        case NODE_OP_ADD_SHADER:
+            for (int k = 0; k < 4; ++k) node_out[k] = node_in[k] + node_in[4 + k];
+            break;
+        default:
+            break;
+        }
+        for (uint o = 0u; o < n_out && o < uint(NODE_MAX_OUTPUTS); ++o) {
+            uint r = node_words[out_at + o];
+            if (r < uint(NODE_REGISTERS)) node_reg[r] = node_out[o];
+        }
+    }
+    NodeClosure c;
+    float w = result[0].a;
+    float inv_w = w > 1e-8 ? 1.0 / w : 0.0;
+    c.alpha = clamp(1.0 - result[2].a, 0.0, 1.0);
+    c.base_color = c.alpha > 1e-8 ? max(result[0].rgb / c.alpha, vec3(0.0)) : vec3(0.0);
+    c.metallic = w > 1e-8 ? clamp(result[1].x * inv_w, 0.0, 1.0) : 0.0;
+    c.roughness = w > 1e-8 ? clamp(result[1].y * inv_w, 0.0, 1.0) : 1.0;
+    c.transmission = w > 1e-8 ? clamp(result[1].z * inv_w, 0.0, 1.0) : 0.0;
+    c.ior = w > 1e-8 ? max(result[1].w * inv_w, 1.0) : 1.5;
+    c.specular = w > 1e-8 ? clamp(result[3].w * inv_w, 0.0, 1.0) : 0.0;
+    c.emission = max(result[2].rgb, vec3(0.0));
+    vec3 n = node_unit(result[3].xyz, sp.normal);
+    c.normal = sp.backfacing ? -n : n;  // back to the orientation as modelled
+    if (any(isnan(c.base_color)) || any(isinf(c.base_color))) c.base_color = vec3(0.0);
+    if (any(isnan(c.emission)) || any(isinf(c.emission))) c.emission = vec3(0.0);
+    return c;
+}
+
+// The material row with the closure's parameters in its slots, its images switched off: what
+// every shading function (shading.glsl, textures.glsl) reads. The metal layer sits on the
+// glass one as in materials.py.
+Material node_closure_material(Material m, NodeClosure c) {
+    m.base_color_refl = vec4(c.base_color, c.metallic);
+    m.emission_trans = vec4(c.emission, min(c.transmission, 1.0 - c.metallic));
+    m.params.x = c.ior;
+    m.params.z = c.roughness;
+    m.params.w = c.specular;
+    m.textures = ivec4(-1, -1, -1, 0);
+    m.textures2.xy = ivec2(-1);
+    return m;
+}
+
+
+#endif

@@ -1,0 +1,143 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The materials' node programs on the GPU: the words of every graph (scene/node_program.py)
+in one storage buffer, and per instance what the programs' input nodes read of their object
+(gpu_shaders/include/node_program.glsl, blocks ``NodeProgram`` and ``NodeObjects``).
+
+The program words are compiled on the host at every upload (a graph of tens of nodes is
+tens of microseconds) and sent only when they differ from what the GPU holds: a value
+edit is an upload of words, never a shader compile. A scene without graphs has neither
+buffer bound nor the interpreter compiled (``GPUScene.defines``).
+
+Per instance (``NODE_OBJECT_DTYPE``): the world-to-object map (Texture Coordinate Object,
+Generated, Normal Map in object space), the origin (Object Info Location), Object Info
+Random (a hash of the instance's index: stable from frame to frame, different between
+instances; Blender's own hashes the object's name, which the instance table does not
+carry), the object colour (white: the table carries none) and the texture space of
+Generated (the mesh's object-space bounds, Blender's automatic texture space).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ...gpu.dispatch import GrowBuffer
+from ...scene.data import MaterialTable
+from ...scene.geometry import InstancedGeometry
+from ...scene.node_program import ProgramTable, compile_table, row_estimate
+
+NODE_OBJECT_DTYPE = np.dtype([("to_object", np.float32, (3, 4)), ("location", np.float32, 4),
+                              ("color", np.float32, 4), ("space_min", np.float32, 4),
+                              ("space_size", np.float32, 4), ("rows", np.int32, 4)])
+assert NODE_OBJECT_DTYPE.itemsize == 128
+
+
+def instance_random(count: int) -> np.ndarray:
+    """Object Info Random of instances 0..count-1: a 32-bit integer hash of the index
+    (lowbias32) to [0, 1)."""
+    x = np.arange(count, dtype=np.uint64) + np.uint64(0x9E3779B9)
+    mask = np.uint64(0xFFFFFFFF)
+    x = (x ^ (x >> np.uint64(16))) * np.uint64(0x7FEB352D) & mask
+    x = (x ^ (x >> np.uint64(15))) * np.uint64(0x846CA68B) & mask
+    x = x ^ (x >> np.uint64(16))
+    return (x.astype(np.float64) / 4294967296.0).astype(np.float32)
+
+
+def _affine_inverse(matrices: np.ndarray) -> np.ndarray:
+    """World-to-object rows (K, 3, 4) of object-to-world matrices (K, 4, 4), by the adjugate
+    (no LAPACK); a singular matrix maps everything to its origin."""
+    m = matrices.astype(np.float64)
+    a, t = m[:, :3, :3], m[:, :3, 3]
+    c0, c1, c2 = a[:, :, 0], a[:, :, 1], a[:, :, 2]
+    rows = np.stack([np.cross(c1, c2), np.cross(c2, c0), np.cross(c0, c1)], axis=1)
+    det = np.einsum("ij,ij->i", c0, rows[:, 0])
+    safe = np.where(np.abs(det) > 1e-30, det, np.inf)
+    inv = rows / safe[:, None, None]
+    out = np.zeros((len(m), 3, 4))
+    out[:, :, :3] = inv
+    out[:, :, 3] = -np.einsum("kij,kj->ki", inv, t)
+    return out.astype(np.float32)
+
+
+class NodePrograms:
+    """The program words and the per-instance table, uploaded when they change."""
+
+    def __init__(self, ctx) -> None:
+        self.words = GrowBuffer(ctx, "node program words")
+        self.objects = GrowBuffer(ctx, "node program objects")
+        self.table: ProgramTable | None = None
+        self._sent_words: bytes | None = None
+        self._sent_objects: bytes | None = None
+        self._bounds: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        self.word_uploads = 0  # times the words were sent (tests: an unchanged scene sends none)
+
+    @property
+    def active(self) -> bool:
+        return self.table is not None and not self.table.empty
+
+    def update(self, materials: MaterialTable, rows: np.ndarray, geometry: InstancedGeometry) -> None:
+        """Compile the table's graphs, put each program's offset (and the host's estimate of
+        its closure, node_program.row_estimate) into the packed material ``rows``, and send
+        what changed."""
+        graphs = materials.node_graphs
+        if not graphs or all(g is None for g in graphs):
+            self.table = None
+            return
+        self.table = compile_table(graphs, len(materials), materials.names)
+        rows["textures2"][:, 3] = self.table.offsets
+        for m, graph in enumerate(graphs):
+            if graph is None:
+                continue
+            estimate = row_estimate(graph)
+            rows["emission"][m, :3] = estimate["emission"]
+            rows["emission"][m, 3] = estimate["transmission"]
+            rows["params"][m, 0] = estimate["ior"]
+            rows["base_color"][m, 3] = 0.0
+            rows["textures"][m] = (-1, -1, -1, 0)
+            rows["textures2"][m, :3] = -1
+        words = self.table.words.tobytes() or bytes(4)
+        if words != self._sent_words:
+            self.words.upload(words)
+            self._sent_words = words
+            self.word_uploads += 1
+        objects = self._objects(geometry).tobytes()
+        if objects != self._sent_objects:
+            self.objects.upload(objects)
+            self._sent_objects = objects
+
+    def _mesh_bounds(self, mesh) -> tuple[np.ndarray, np.ndarray]:
+        key = (mesh.mesh_id, mesh.version, id(mesh.positions))
+        found = self._bounds.get(key)
+        if found is None:
+            p = mesh.positions[np.isfinite(mesh.positions).all(axis=1)]
+            found = (p.min(axis=0), p.max(axis=0) - p.min(axis=0)) if len(p) else (np.zeros(3), np.zeros(3))
+            if len(self._bounds) > 4096:
+                self._bounds.clear()
+            self._bounds[key] = found
+        return found
+
+    def _objects(self, geometry: InstancedGeometry) -> np.ndarray:
+        """The NodeObjects block: a header row (x = the instance count) and one row per instance."""
+        instances = geometry.instances
+        k = len(instances)
+        out = np.zeros(k + 1, NODE_OBJECT_DTYPE)
+        out["rows"][0, 0] = k
+        if k == 0:
+            return out
+        body = out[1:]
+        body["to_object"] = _affine_inverse(instances.matrices)
+        body["location"][:, :3] = instances.matrices[:, :3, 3]
+        body["location"][:, 3] = instance_random(k)
+        body["color"] = 1.0
+        bounds = [self._mesh_bounds(mesh) for mesh in instances.meshes]
+        mins = np.array([b[0] for b in bounds], np.float32).reshape(-1, 3)
+        sizes = np.array([b[1] for b in bounds], np.float32).reshape(-1, 3)
+        body["space_min"][:, :3] = mins[instances.mesh]
+        body["space_size"][:, :3] = sizes[instances.mesh]
+        body["rows"][:, :2] = geometry.object_ranges
+        return out
+
+    def bindings(self) -> dict:
+        return {"NodeProgram": self.words.buffer, "NodeObjects": self.objects.buffer}
+
+    def release(self) -> None:
+        self.words.release()
+        self.objects.release()

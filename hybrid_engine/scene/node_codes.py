@@ -1,0 +1,76 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The node program's vocabulary: opcodes, operand encodings and the int codes of Blender's
+enum settings, shared by the compiler (node_program.py) and the interpreter
+(gpu_shaders/include/node_program.glsl, whose ``#define``s must equal these numbers;
+tests/test_node_program.py holds them together).
+
+One instruction per node, in Cycles' SVM shape (words of 32 bits):
+
+    header   opcode | outputs << 8 | settings << 16 | inputs << 24
+    outputs  one register index per output value (a shader output: four), NO_REGISTER
+             where nothing reads it
+    settings one word per setting (an enum's code, an image layer, an int)
+    inputs   one operand per input value (a shader input: four operands), each a register
+             (REGISTER | conversion << 16), an inline constant (CONSTANT | n, then n float
+             bit patterns) or a value of the shading point (IMPLICIT | code), which is how
+             an unlinked Normal or Vector socket takes the surface's normal or coordinates
+             as Blender's do.
+
+Every value is a vec4 register; a shader (closure) value is four registers (node_program.glsl
+``NodeClosure``). Enum codes of the node families written as pure GLSL
+(``gpu_shaders/include/nodes/``) live here too, one dict per family.
+"""
+from __future__ import annotations
+
+# Opcodes (node_program.glsl NODE_OP_*). 0 is never emitted: a zeroed word stops the program.
+OP_OUTPUT = 1          # Material Output: the closure in, the program ends
+OP_VALUE = 2           # Value and RGB: a constant through a register
+OP_TEX_COORD = 3
+OP_UVMAP = 4
+OP_GEOMETRY = 5
+OP_OBJECT_INFO = 6
+OP_FRESNEL = 7
+OP_LAYER_WEIGHT = 8
+OP_LIGHT_PATH = 9
+OP_SEPARATE_XYZ = 10
+OP_COMBINE_XYZ = 11
+OP_TEX_WHITE_NOISE = 12
+OP_TEX_IMAGE = 13
+OP_NORMAL_MAP = 14
+OP_BSDF_PRINCIPLED = 32
+OP_BSDF_DIFFUSE = 33
+OP_BSDF_GLOSSY = 34
+OP_BSDF_GLASS = 35
+OP_BSDF_REFRACTION = 36
+OP_BSDF_TRANSPARENT = 37
+OP_EMISSION = 38
+OP_MIX_SHADER = 39
+OP_ADD_SHADER = 40
+
+OPCODES = {name: value for name, value in globals().items() if name.startswith("OP_")}
+
+# Operand words.
+REGISTER = 0x00000000     # low 16 bits: the register; bits 16-17: the conversion
+CONSTANT = 0x80000000     # low 3 bits: the float words that follow (1 to 4)
+IMPLICIT = 0x40000000     # low 8 bits: IMPLICIT_* (bits 16-17: the conversion)
+NO_REGISTER = 0xFFFFFFFF  # an output nobody reads
+
+# How a linked value changes type on its way into a socket (Blender's implicit conversions).
+CONVERT_NONE = 0
+CONVERT_SPLAT = 1      # float to vector or colour: (f, f, f), alpha 1
+CONVERT_GRAY = 2       # colour to float: Rec.709 luminance (Blender's rgb_to_grayscale)
+CONVERT_AVERAGE = 3    # vector to float: the mean of the components
+
+# Values of the shading point an unlinked socket stands for (Blender's hidden defaults).
+IMPLICIT_NORMAL = 0     # a Normal socket: the shading normal
+IMPLICIT_UV = 1         # Image Texture's Vector: the active UV map
+IMPLICIT_GENERATED = 2  # a procedural texture's Vector: Generated coordinates
+
+# The interpreter's register file (vec4 each); a graph that needs more fails to compile.
+REGISTERS = 32
+
+# White Noise Texture's ``noise_dimensions`` (include/nodes/tex_white_noise.glsl).
+WHITE_NOISE_DIMENSIONS = {"1D": 1, "2D": 2, "3D": 3, "4D": 4}
+# Normal Map's ``space``: only tangent space is evaluated; the rest are listed for the
+# compiler's message.
+NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3, "BLENDER_WORLD": 4}

@@ -1,0 +1,362 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Shader graphs compiled into node programs: the words one interpreter shader runs
+(gpu_shaders/include/node_program.glsl), in the shape of Cycles' SVM.
+
+Why a program and not generated GLSL: a generated shader per material would run faster per
+hit, but every edit of the artist's graph would be a shader compile (seconds on a CPU driver,
+and the viewport stalls for it). A program is data: a value edit changes the constant words,
+a new link or enum changes other words, and either is an upload of a few hundred bytes; the
+one interpreter is compiled once per scene shape (docs/ARCHITECTURE.md "Shader node
+programs").
+
+The words (node_codes.py): one instruction per node, its inputs read from registers, inline
+constants or the shading point, its outputs written to registers. Registers are reused once
+the last reader of a value has run (a linear scan over the nodes in evaluation order), so a
+deep graph fits the interpreter's small fixed register file; a graph that does not fit fails
+here with its material's name. Only the nodes the Material Output reaches are compiled.
+
+A shader socket carries a closure (four registers): the weighted sums of the surface's
+parameters, so that Mix Shader and Add Shader mix closures by mixing their parameters
+(node_program.glsl documents the approximation against Cycles' true mix of closures).
+"""
+from __future__ import annotations
+
+import math
+import struct
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+
+from . import node_codes as nc
+from .shader_graph import Constant, Link, ShaderGraph
+
+VALUE, VECTOR, RGBA, SHADER = "VALUE", "VECTOR", "RGBA", "SHADER"
+CLOSURE_REGISTERS = 4  # a shader value: node_program.glsl NodeClosure
+
+
+class NodeProgramError(ValueError):
+    """A graph the interpreter cannot run (more live values than its registers)."""
+
+
+@dataclass(frozen=True)
+class NodeSpec:
+    """How one Blender node kind compiles: its opcode, its inputs in operand order
+    (identifier, type, Blender's default: a constant or an ``IMPLICIT_*`` code as ``("implicit",
+    code)``), its outputs in register order, and its settings (property name, encoder to an
+    int word). Adding a node is one spec here and one case in node_program.glsl."""
+
+    opcode: int
+    inputs: tuple[tuple[str, str, object], ...] = ()
+    outputs: tuple[tuple[str, str], ...] = ()
+    settings: tuple[tuple[str, Callable[[object], int]], ...] = ()
+
+
+def _enum(codes: dict[str, int], default: str) -> Callable[[object], int]:
+    def encode(value: object) -> int:
+        return codes.get(str(value if value is not None else default), codes[default])
+    return encode
+
+
+def _int(default: int) -> Callable[[object], int]:
+    def encode(value: object) -> int:
+        try:
+            return int(value) if value is not None else default
+        except (TypeError, ValueError):
+            return default
+    return encode
+
+
+_N = ("implicit", nc.IMPLICIT_NORMAL)
+_UV = ("implicit", nc.IMPLICIT_UV)
+_GENERATED = ("implicit", nc.IMPLICIT_GENERATED)
+_GREY = (0.8, 0.8, 0.8, 1.0)
+_WHITE = (1.0, 1.0, 1.0, 1.0)
+_SHADER_IN = ((SHADER, None),)
+_BSDF_OUT = (("BSDF", SHADER),)
+
+# Blender's sockets (identifiers, defaults) as Blender 5.0 declares them.
+NODE_SPECS: dict[str, NodeSpec] = {
+    "VALUE": NodeSpec(nc.OP_VALUE, (("__value__", RGBA, 0.5),), (("Value", VALUE),)),
+    "RGB": NodeSpec(nc.OP_VALUE, (("__value__", RGBA, (0.5, 0.5, 0.5, 1.0)),), (("Color", RGBA),)),
+    "TEX_COORD": NodeSpec(nc.OP_TEX_COORD, (), (("Generated", VECTOR), ("Normal", VECTOR), ("UV", VECTOR),
+                                                ("Object", VECTOR), ("Camera", VECTOR), ("Window", VECTOR),
+                                                ("Reflection", VECTOR))),
+    "UVMAP": NodeSpec(nc.OP_UVMAP, (), (("UV", VECTOR),)),
+    "NEW_GEOMETRY": NodeSpec(nc.OP_GEOMETRY, (), (("Position", VECTOR), ("Normal", VECTOR), ("Tangent", VECTOR),
+                                                  ("True Normal", VECTOR), ("Incoming", VECTOR),
+                                                  ("Parametric", VECTOR), ("Backfacing", VALUE))),
+    "OBJECT_INFO": NodeSpec(nc.OP_OBJECT_INFO, (), (("Location", VECTOR), ("Color", RGBA), ("Alpha", VALUE),
+                                                    ("Object Index", VALUE), ("Material Index", VALUE),
+                                                    ("Random", VALUE))),
+    "FRESNEL": NodeSpec(nc.OP_FRESNEL, (("IOR", VALUE, 1.5), ("Normal", VECTOR, _N)), (("Fac", VALUE),)),
+    "LAYER_WEIGHT": NodeSpec(nc.OP_LAYER_WEIGHT, (("Blend", VALUE, 0.5), ("Normal", VECTOR, _N)),
+                             (("Fresnel", VALUE), ("Facing", VALUE))),
+    "LIGHT_PATH": NodeSpec(nc.OP_LIGHT_PATH, (), (("Is Camera Ray", VALUE), ("Is Shadow Ray", VALUE),
+                                                  ("Ray Depth", VALUE), ("Is Reflection Ray", VALUE),
+                                                  ("Is Transmission Ray", VALUE))),
+    "SEPXYZ": NodeSpec(nc.OP_SEPARATE_XYZ, (("Vector", VECTOR, (0.0, 0.0, 0.0)),),
+                       (("X", VALUE), ("Y", VALUE), ("Z", VALUE))),
+    "COMBXYZ": NodeSpec(nc.OP_COMBINE_XYZ, (("X", VALUE, 0.0), ("Y", VALUE, 0.0), ("Z", VALUE, 0.0)),
+                        (("Vector", VECTOR),)),
+    "TEX_WHITE_NOISE": NodeSpec(nc.OP_TEX_WHITE_NOISE, (("Vector", VECTOR, _GENERATED), ("W", VALUE, 0.0)),
+                                (("Value", VALUE), ("Color", RGBA)),
+                                (("noise_dimensions", _enum(nc.WHITE_NOISE_DIMENSIONS, "3D")),)),
+    "TEX_IMAGE": NodeSpec(nc.OP_TEX_IMAGE, (("Vector", VECTOR, _UV),), (("Color", RGBA), ("Alpha", VALUE)),
+                          (("texture", _int(-1)),)),
+    "NORMAL_MAP": NodeSpec(nc.OP_NORMAL_MAP, (("Strength", VALUE, 1.0), ("Color", RGBA, (0.5, 0.5, 1.0, 1.0))),
+                           (("Normal", VECTOR),), (("space", _enum(nc.NORMAL_MAP_SPACES, "TANGENT")),)),
+    "BSDF_PRINCIPLED": NodeSpec(nc.OP_BSDF_PRINCIPLED, (
+        ("Base Color", RGBA, _GREY), ("Metallic", VALUE, 0.0), ("Roughness", VALUE, 0.5), ("IOR", VALUE, 1.5),
+        ("Alpha", VALUE, 1.0), ("Normal", VECTOR, _N), ("Specular IOR Level", VALUE, 0.5),
+        ("Transmission Weight", VALUE, 0.0), ("Emission Color", RGBA, _WHITE), ("Emission Strength", VALUE, 0.0),
+    ), _BSDF_OUT),
+    "BSDF_DIFFUSE": NodeSpec(nc.OP_BSDF_DIFFUSE, (("Color", RGBA, _GREY), ("Roughness", VALUE, 0.0),
+                                                  ("Normal", VECTOR, _N)), _BSDF_OUT),
+    "BSDF_GLOSSY": NodeSpec(nc.OP_BSDF_GLOSSY, (("Color", RGBA, _GREY), ("Roughness", VALUE, 0.5),
+                                                ("Normal", VECTOR, _N)), _BSDF_OUT),
+    "BSDF_GLASS": NodeSpec(nc.OP_BSDF_GLASS, (("Color", RGBA, _WHITE), ("Roughness", VALUE, 0.0),
+                                              ("IOR", VALUE, 1.5), ("Normal", VECTOR, _N)), _BSDF_OUT),
+    "BSDF_REFRACTION": NodeSpec(nc.OP_BSDF_REFRACTION, (("Color", RGBA, _WHITE), ("Roughness", VALUE, 0.0),
+                                                        ("IOR", VALUE, 1.45), ("Normal", VECTOR, _N)), _BSDF_OUT),
+    "BSDF_TRANSPARENT": NodeSpec(nc.OP_BSDF_TRANSPARENT, (("Color", RGBA, _WHITE),), _BSDF_OUT),
+    "EMISSION": NodeSpec(nc.OP_EMISSION, (("Color", RGBA, _WHITE), ("Strength", VALUE, 1.0)),
+                         (("Emission", SHADER),)),
+    "MIX_SHADER": NodeSpec(nc.OP_MIX_SHADER, (("Fac", VALUE, 0.5), ("Shader", SHADER, None),
+                                              ("Shader_001", SHADER, None)), (("Shader", SHADER),)),
+    "ADD_SHADER": NodeSpec(nc.OP_ADD_SHADER, (("Shader", SHADER, None), ("Shader_001", SHADER, None)),
+                           (("Shader", SHADER),)),
+}
+# Other names Blender has used for the same nodes.
+NODE_SPECS["GEOMETRY"] = NODE_SPECS["NEW_GEOMETRY"]
+NODE_SPECS["SEPARATE_XYZ"] = NODE_SPECS["SEPXYZ"]
+NODE_SPECS["COMBINE_XYZ"] = NODE_SPECS["COMBXYZ"]
+NODE_SPECS["BSDF_ANISOTROPIC"] = NODE_SPECS["BSDF_GLOSSY"]
+
+_OUTPUT_SPEC = NodeSpec(nc.OP_OUTPUT, (("Surface", SHADER, None),))
+
+
+def _float_word(value: float) -> int:
+    value = float(value)
+    return struct.unpack("<I", struct.pack("<f", value if math.isfinite(value) else 0.0))[0]
+
+
+def _constant_words(value: Constant | None, kind: str) -> list[int]:
+    """An inline constant operand of socket type ``kind`` (Blender's conversion applied when
+    the value is of another shape)."""
+    if kind == SHADER:
+        return [nc.CONSTANT | 4, *([_float_word(0.0)] * 4)]  # no closure: nothing, weight 0
+    values = tuple(value) if isinstance(value, (tuple, list)) else (float(value if value is not None else 0.0),)
+    if kind == VALUE:
+        if len(values) == 4:  # a colour: its luminance
+            values = (0.2126 * values[0] + 0.7152 * values[1] + 0.0722 * values[2],)
+        elif len(values) == 3:  # a vector: its mean
+            values = (sum(values) / 3.0,)
+        values = values[:1]
+    elif len(values) == 1:
+        values = values * 3
+    values = values[:4]
+    return [nc.CONSTANT | len(values), *(_float_word(v) for v in values)]
+
+
+def _conversion(produced: str, wanted: str) -> int:
+    if produced == wanted or {produced, wanted} == {VECTOR, RGBA}:
+        return nc.CONVERT_NONE
+    if produced == VALUE:
+        return nc.CONVERT_SPLAT
+    return nc.CONVERT_GRAY if produced == RGBA else nc.CONVERT_AVERAGE
+
+
+@dataclass
+class NodeProgram:
+    """One material's program: its words, the registers it needs at most, and the nodes it
+    left out (kinds the interpreter lacks: each reads as its consumers' defaults)."""
+
+    words: np.ndarray  # uint32
+    registers: int
+    unsupported: list[str] = field(default_factory=list)
+
+
+def _reachable(graph: ShaderGraph) -> list[int]:
+    """The nodes the surface depends on, in evaluation order."""
+    needed: set[int] = set()
+    stack = [graph.surface.node] if graph.surface is not None else []
+    while stack:
+        index = stack.pop()
+        if index in needed:
+            continue
+        needed.add(index)
+        stack.extend(v.node for v in graph.nodes[index].inputs.values() if isinstance(v, Link))
+    return sorted(needed)
+
+
+def compile_graph(graph: ShaderGraph, name: str = "material", registers: int = nc.REGISTERS) -> NodeProgram:
+    """The program of ``graph`` (a material's; ``name`` for messages). Raises
+    NodeProgramError when its live values exceed ``registers`` at some node."""
+    graph.validate()
+    order = [i for i in _reachable(graph) if graph.nodes[i].kind in NODE_SPECS]
+    unsupported = sorted({graph.nodes[i].kind for i in _reachable(graph)} - set(NODE_SPECS))
+    compiled = set(order)
+
+    def producer(value: object, wanted: str) -> tuple[Link, str] | None:
+        """The link and the type it carries when ``value`` links a compiled output that
+        can feed a socket of type ``wanted``."""
+        if not isinstance(value, Link) or value.node not in compiled:
+            return None
+        outputs = dict(NODE_SPECS[graph.nodes[value.node].kind].outputs)
+        produced = outputs.get(value.output)
+        if produced is None or (produced == SHADER) != (wanted == SHADER):
+            return None  # a missing socket, or a shader into a value socket: Blender's invalid link
+        return value, produced
+
+    steps = [(i, NODE_SPECS[graph.nodes[i].kind], graph.nodes[i]) for i in order]
+    surface = {"Surface": graph.surface} if graph.surface is not None else {}
+    steps.append((-1, _OUTPUT_SPEC, type("Out", (), {"inputs": surface, "settings": {}})()))
+    last_read: dict[tuple[int, str], int] = {}
+    for step, (_, spec, node) in enumerate(steps):
+        for ident, kind, _default in spec.inputs:
+            found = producer(node.inputs.get(ident), kind)
+            if found is not None:
+                last_read[(found[0].node, found[0].output)] = step
+
+    free = list(range(registers))
+    live: dict[tuple[int, str], list[int]] = {}
+    peak = 0
+    words: list[int] = []
+    for step, (index, spec, node) in enumerate(steps):
+        operands: list[int] = []
+        for ident, kind, default in spec.inputs:
+            value = node.inputs.get(ident)
+            found = producer(value, kind)
+            width = CLOSURE_REGISTERS if kind == SHADER else 1
+            if found is not None:
+                convert = _conversion(found[1], kind)
+                operands += [nc.REGISTER | (convert << 16) | r for r in live[(found[0].node, found[0].output)]]
+            elif isinstance(default, tuple) and default and default[0] == "implicit" and not (
+                    value is not None and not isinstance(value, Link)):
+                operands.append(nc.IMPLICIT | default[1])
+            else:
+                constant = value if value is not None and not isinstance(value, Link) else default
+                if ident == "__value__":  # Value and RGB keep their number as a setting of Blender's
+                    constant = node.settings.get("value", constant)
+                for _ in range(width):
+                    operands += _constant_words(constant, kind)
+        # Registers whose last reader is this node are free for its outputs (the interpreter
+        # reads every input before it writes an output).
+        for key in [k for k, last in last_read.items() if last == step and k in live]:
+            free.extend(live.pop(key))
+        free.sort()
+        outputs: list[int] = []
+        for ident, kind in spec.outputs:
+            width = CLOSURE_REGISTERS if kind == SHADER else 1
+            if (index, ident) not in last_read:
+                outputs += [nc.NO_REGISTER] * width
+                continue
+            if len(free) < width:
+                raise NodeProgramError(
+                    f"{name}: the node graph holds more than {registers} values at once at node "
+                    f"{node.name!r} ({graph.nodes[index].kind}); the interpreter has {registers} registers "
+                    f"(a shader value takes {CLOSURE_REGISTERS}): simplify the graph")
+            taken, free = free[:width], free[width:]
+            live[(index, ident)] = taken
+            outputs += taken
+        peak = max(peak, registers - len(free))
+        settings = [spec_encode(node.settings.get(prop)) & 0xFFFFFFFF for prop, spec_encode in spec.settings]
+        count = sum(CLOSURE_REGISTERS if kind == SHADER else 1 for _, kind, _ in spec.inputs)
+        header = spec.opcode | (len(outputs) << 8) | (len(settings) << 16) | (count << 24)
+        words += [header, *outputs, *settings, *operands]
+    return NodeProgram(np.array(words, np.uint32), peak, unsupported)
+
+
+@dataclass
+class ProgramTable:
+    """Every material's program in one word array: ``offsets[m]`` is where material m's
+    program starts (``Material.textures2.w``), -1 for a material without a graph."""
+
+    words: np.ndarray  # uint32
+    offsets: np.ndarray  # int32 per material
+    programs: list[NodeProgram | None]
+
+    @property
+    def empty(self) -> bool:
+        return not (self.offsets >= 0).any()
+
+
+def compile_table(graphs: Sequence[ShaderGraph | None] | None, count: int,
+                  names: Sequence[str] | None = None) -> ProgramTable:
+    """Pack the programs of ``graphs`` (one entry or None per material of ``count``)."""
+    offsets = np.full(count, -1, np.int32)
+    programs: list[NodeProgram | None] = [None] * count
+    chunks: list[np.ndarray] = []
+    at = 0
+    for m, graph in enumerate(graphs or ()):
+        if graph is None:
+            continue
+        program = compile_graph(graph, names[m] if names else f"material {m}")
+        programs[m] = program
+        offsets[m] = at
+        chunks.append(program.words)
+        at += len(program.words)
+    words = np.concatenate(chunks).astype(np.uint32) if chunks else np.zeros(0, np.uint32)
+    return ProgramTable(words, offsets, programs)
+
+
+def _constant_input(graph: ShaderGraph, node_index: int, ident: str, default: object) -> object:
+    """An input's value when it is a constant or a Value/RGB node, else None."""
+    value = graph.nodes[node_index].inputs.get(ident, default)
+    if isinstance(value, Link):
+        source = graph.nodes[value.node]
+        return source.settings.get("value", source.inputs.get("__value__")) if source.kind in ("VALUE", "RGB") else None
+    return value
+
+
+def row_estimate(graph: ShaderGraph) -> dict:
+    """The closure as far as the host can tell without a shading point, for what reads a
+    material's fixed row and not its program: the cube faces leaving refractive surfaces out
+    (transmission), the emitter table's power (emission) and the cube march's thickness
+    rule. Shader nodes with constant inputs fold exactly; an unknown factor counts as 0.5,
+    an unknown colour as Blender's default. Returns transmission, emission (rgb) and ior."""
+    def fold(link: Link | None) -> tuple[float, np.ndarray, float, float]:
+        if link is None or link.node >= len(graph.nodes):
+            return 0.0, np.zeros(3), 1.5, 0.0
+        node = graph.nodes[link.node]
+        spec = NODE_SPECS.get(node.kind)
+        if spec is None:
+            return 0.0, np.zeros(3), 1.5, 0.0
+
+        def const(ident: str, fallback):
+            value = _constant_input(graph, link.node, ident, dict((i, d) for i, _, d in spec.inputs).get(ident))
+            return fallback if value is None or isinstance(value, tuple) and value[:1] == ("implicit",) else value
+
+        def rgb(value) -> np.ndarray:
+            v = np.asarray(value, np.float64).reshape(-1)
+            return np.resize(v, 3)[:3] if len(v) else np.zeros(3)
+
+        if node.kind in ("MIX_SHADER", "ADD_SHADER"):
+            a = node.inputs.get("Shader")
+            b = node.inputs.get("Shader_001")
+            fa = fold(a if isinstance(a, Link) else None)
+            fb = fold(b if isinstance(b, Link) else None)
+            fac = 1.0 if node.kind == "ADD_SHADER" else min(max(float(np.mean(rgb(const("Fac", 0.5)))), 0.0), 1.0)
+            wa, wb = (1.0, 1.0) if node.kind == "ADD_SHADER" else (1.0 - fac, fac)
+            weight = wa * fa[3] + wb * fb[3]
+            trans = (wa * fa[3] * fa[0] + wb * fb[3] * fb[0]) / weight if weight > 0 else 0.0
+            ior = (wa * fa[3] * fa[2] + wb * fb[3] * fb[2]) / weight if weight > 0 else 1.5
+            return trans, wa * fa[1] + wb * fb[1], ior, min(weight, 1.0)
+        if node.kind == "EMISSION":
+            return 0.0, rgb(const("Color", _WHITE)) * float(np.mean(rgb(const("Strength", 1.0)))), 1.5, 0.0
+        if node.kind == "BSDF_PRINCIPLED":
+            metallic = float(np.mean(rgb(const("Metallic", 0.0))))
+            trans = float(np.mean(rgb(const("Transmission Weight", 0.0)))) * (1.0 - metallic)
+            emission = rgb(const("Emission Color", _WHITE)) * float(np.mean(rgb(const("Emission Strength", 0.0))))
+            return trans, emission, float(np.mean(rgb(const("IOR", 1.5)))), 1.0
+        if node.kind in ("BSDF_GLASS", "BSDF_REFRACTION"):
+            return 1.0, np.zeros(3), float(np.mean(rgb(const("IOR", 1.5)))), 1.0
+        if node.kind == "BSDF_TRANSPARENT":
+            return 0.0, np.zeros(3), 1.5, 0.0
+        return 0.0, np.zeros(3), 1.5, 1.0
+
+    trans, emission, ior, _weight = fold(graph.surface)
+    emission = np.where(np.isfinite(emission), np.maximum(emission, 0.0), 0.0)
+    return {"transmission": float(min(max(trans, 0.0), 1.0)), "emission": tuple(float(e) for e in emission),
+            "ior": float(max(ior if math.isfinite(ior) else 1.5, 1.0))}

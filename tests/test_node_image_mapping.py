@@ -100,6 +100,14 @@ def _ours(ctx, projection: str, extension: str, interpolation: str, blend: float
                 return vec4(vec2(texel), inside ? 1.0 : 0.0, 0.0);""", located)
             texel = got[..., :2].astype(int)
             value = pixels[texel[..., 1], texel[..., 0]] * got[..., 2:3]
+        elif interpolation in ("Cubic", "Smart"):
+            columns, rows, column_weights, row_weights = (glsl_probe(ctx, INCLUDE, uv + f"""
+                ivec4 xs, ys; vec4 wx, wy;
+                node_tex_image_cubic({ext}, uv, {size}, xs, ys, wx, wy);
+                return vec4({name});""", located) for name in ("xs", "ys", "wx", "wy"))
+            columns, rows = columns.astype(int), rows.astype(int)
+            value = sum(column_weights[..., i:i + 1] * row_weights[..., j:j + 1]
+                        * pixels[rows[..., j], columns[..., i]] for i in range(4) for j in range(4))
         else:
             corners = glsl_probe(ctx, INCLUDE, uv + f"""
                 ivec2 lo, hi;
@@ -141,6 +149,13 @@ def test_closest_texels_match_cycles_for_every_extension_at_three_scales(addon, 
 def test_linear_taps_and_weights_match_cycles_for_every_extension(addon, ctx, tmp_path, projection):
     for extension in IMAGE_EXTENSION_CODES:
         _compare(ctx, tmp_path, projection, extension, "Linear", 1.5)
+
+
+@pytest.mark.parametrize("interpolation", ["Cubic", "Smart"])
+def test_cubic_taps_and_weights_match_cycles_for_every_extension(addon, ctx, tmp_path, interpolation):
+    for extension in IMAGE_EXTENSION_CODES:
+        for projection in ("FLAT", "SPHERE"):
+            _compare(ctx, tmp_path, projection, extension, interpolation, 1.5)
 
 
 def test_box_blend_extremes_match_cycles(addon, ctx, tmp_path):

@@ -9,7 +9,7 @@
 //   projection (Blender default FLAT):    0 FLAT, 1 BOX, 2 SPHERE, 3 TUBE
 //   extension (Blender default REPEAT):   0 REPEAT, 1 EXTEND, 2 CLIP, 3 MIRROR
 //   interpolation (Blender default Linear): 0 Linear, 1 Closest, 2 Cubic, 3 Smart
-//     (Cubic and Smart are not mapped here; a caller may read them as Linear)
+//     (Cycles renders Smart as Cubic)
 //   projection_blend (Box only): a plain float, Blender default 0.0
 // Inputs (socket identifier: Blender default):
 //   Vector: the active UV map when unlinked (the caller supplies it)
@@ -31,6 +31,10 @@
 //   lo and hi, already wrapped by the extension, and the weights of the taps
 //   (lo.x, lo.y), (hi.x, lo.y), (lo.x, hi.y), (hi.x, hi.y). Under CLIP a tap outside the image
 //   has weight 0, so the image fades to transparent black over its border half-texel.
+// node_tex_image_cubic(extension, uv, size, out xs, out ys, out wx, out wy)
+//   Cubic (and Smart): the 4x4 texels around uv as columns xs and rows ys (wrapped), read
+//   with the separable weights wx[i] * wy[j] of the uniform cubic B-spline, as Cycles
+//   filters; under CLIP a column or row outside the image has weight 0.
 #ifndef HYBRID_NODES_TEX_IMAGE_MAPPING_GLSL
 #define HYBRID_NODES_TEX_IMAGE_MAPPING_GLSL
 
@@ -144,6 +148,33 @@ vec4 node_tex_image_linear(int extension, vec2 uv, ivec2 size, out ivec2 lo, out
     lo = node_tex_image_wrap2(extension, i, size);
     hi = node_tex_image_wrap2(extension, i + 1, size);
     return weights;
+}
+
+// Uniform cubic B-spline weights of the four taps around a point t in [0, 1) past the second:
+// (1-t)^3/6, (3t^3 - 6t^2 + 4)/6, (-3t^3 + 3t^2 + 3t + 1)/6, t^3/6. They sum to 1 and do not
+// pass through the texel values: the filter smooths as well as interpolates.
+vec4 node_tex_image_bspline(float t) {
+    float s = 1.0 - t, t2 = t * t, t3 = t2 * t;
+    return vec4(s * s * s, 3.0 * t3 - 6.0 * t2 + 4.0, -3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0, t3) * (1.0 / 6.0);
+}
+
+void node_tex_image_cubic(int extension, vec2 uv, ivec2 size, out ivec4 xs, out ivec4 ys,
+                          out vec4 wx, out vec4 wy) {
+    vec2 f = uv * vec2(size) - 0.5;
+    vec2 base = floor(f);
+    vec2 t = f - base;
+    ivec4 cx = ivec4(base.x) + ivec4(-1, 0, 1, 2);
+    ivec4 cy = ivec4(base.y) + ivec4(-1, 0, 1, 2);
+    wx = node_tex_image_bspline(t.x);
+    wy = node_tex_image_bspline(t.y);
+    if (extension == 2) {
+        wx *= vec4(greaterThanEqual(cx, ivec4(0))) * vec4(lessThan(cx, ivec4(size.x)));
+        wy *= vec4(greaterThanEqual(cy, ivec4(0))) * vec4(lessThan(cy, ivec4(size.y)));
+    }
+    for (int k = 0; k < 4; ++k) {
+        xs[k] = node_tex_image_wrap(extension, cx[k], size.x);
+        ys[k] = node_tex_image_wrap(extension, cy[k], size.y);
+    }
 }
 
 #endif

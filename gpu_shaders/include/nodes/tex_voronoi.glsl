@@ -169,18 +169,13 @@ VoronoiOctave voronoi_smooth_f1(int dimensions, int metric, float exponent, floa
 }
 
 // Distance to the nearest cell border (Quilez, "voronoi edges"): find the nearest point, then
-// the distance to each bisector plane between it and another point, over the 3^n cells. 1D
-// measures from the middle cell's point to the midpoints with its two neighbours, as Blender.
+// the distance to each bisector plane between it and another point, over the 3^n cells. In 1D
+// this is the distance to the nearer midpoint between the middle cell's point and its two
+// neighbours, which is how Blender states its 1D case.
 float voronoi_distance_to_edge(int dimensions, float randomness, vec4 coord) {
     vec4 cell_f = floor(coord);
     vec4 local = coord - cell_f;
     ivec4 cell = ivec4(cell_f);
-    if (dimensions == 1) {
-        float mid = voronoi_cell_point(1, cell).x * randomness;
-        float left = -1.0 + voronoi_cell_point(1, cell - ivec4(1, 0, 0, 0)).x * randomness;
-        float right = 1.0 + voronoi_cell_point(1, cell + ivec4(1, 0, 0, 0)).x * randomness;
-        return min(abs((mid + left) / 2.0 - local.x), abs((mid + right) / 2.0 - local.x));
-    }
     ivec4 r = voronoi_reach(dimensions, 1);
     vec4 to_closest = vec4(0.0);
     float nearest = VORONOI_FLT_MAX;
@@ -254,7 +249,8 @@ VoronoiOctave voronoi_octave(int dimensions, int feature, int metric, float expo
 // The octave sum of F1, F2 and Smooth F1 (Blender 4's fractal Voronoi): distances and colours
 // add with falling amplitude as in fBM; the position is blended towards each finer octave's
 // point by the octave's amplitude. A fractional Detail blends the last octave in by its
-// fraction. Detail 0 or Roughness 0 (or Lacunarity 0) is the single first octave.
+// fraction. Detail 0 or Roughness 0 is the single first octave (Lacunarity 0 is not: Cycles
+// then adds octaves of the cell at the origin, and so does this).
 VoronoiOctave voronoi_fractal(int dimensions, int feature, int metric, float exponent,
                               float randomness, float smoothness, float detail,
                               float roughness, float lacunarity, float max_distance,
@@ -262,7 +258,7 @@ VoronoiOctave voronoi_fractal(int dimensions, int feature, int metric, float exp
     float amplitude = 1.0, max_amplitude = 0.0, scale = 1.0;
     VoronoiOctave sum;
     sum.distance = 0.0; sum.color = vec3(0.0); sum.position = vec4(0.0);
-    bool single = detail == 0.0 || roughness == 0.0 || lacunarity == 0.0;
+    bool single = detail == 0.0 || roughness == 0.0;
     float last = ceil(detail);
     for (int i = 0; float(i) <= last; ++i) {
         VoronoiOctave octave = voronoi_octave(dimensions, feature, metric, exponent, randomness,
@@ -304,7 +300,7 @@ float voronoi_fractal_distance_to_edge(int dimensions, float randomness, float d
                                        float roughness, float lacunarity, float max_distance,
                                        bool normalize_, vec4 coord) {
     float amplitude = 1.0, max_amplitude = max_distance, scale = 1.0, distance_ = 8.0;
-    bool single = detail == 0.0 || roughness == 0.0 || lacunarity == 0.0;
+    bool single = detail == 0.0 || roughness == 0.0;
     float last = ceil(detail);
     for (int i = 0; float(i) <= last; ++i) {
         float octave = voronoi_distance_to_edge(dimensions, randomness, coord * scale);

@@ -92,4 +92,37 @@ vec3 hash_vec4_to_vec3(vec4 k) {
     return vec3(hash_vec4_to_float(k), hash_vec4_to_float(k.zxwy), hash_vec4_to_float(k.wzyx));
 }
 
+// Integer lattice cells (Voronoi's feature points and cell colours): Jarzynski and Olano's
+// PCG hashes ("Hash Functions for GPU Rendering", JCGT 9(3), 2020) in 2, 3 and 4 words, as
+// Blender runs them: on signed integers (so the shift by 16 is arithmetic and the products
+// wrap), with the sign bit cleared at the end. Blender scales the 31-bit results by
+// 1 / float(0x7FFFFFFF), which rounds to 2^-31, so a component lies in [0, 1].
+ivec2 hash_pcg2d_i(ivec2 v) {
+    v = v * 1664525 + 1013904223;
+    v.x += v.y * 1664525; v.y += v.x * 1664525;
+    v ^= v >> 16;
+    v.x += v.y * 1664525; v.y += v.x * 1664525;
+    return v & 0x7FFFFFFF;
+}
+ivec3 hash_pcg3d_i(ivec3 v) {
+    v = v * 1664525 + 1013904223;
+    v.x += v.y * v.z; v.y += v.z * v.x; v.z += v.x * v.y;
+    v ^= v >> 16;
+    v.x += v.y * v.z; v.y += v.z * v.x; v.z += v.x * v.y;
+    return v & 0x7FFFFFFF;
+}
+ivec4 hash_pcg4d_i(ivec4 v) {
+    v = v * 1664525 + 1013904223;
+    v.x += v.y * v.w; v.y += v.z * v.x; v.z += v.x * v.y; v.w += v.y * v.z;
+    v ^= v >> 16;
+    v.x += v.y * v.w; v.y += v.z * v.x; v.z += v.x * v.y; v.w += v.y * v.z;
+    return v & 0x7FFFFFFF;
+}
+const float HASH_PCG_TO_UNIT = 1.0 / 2147483648.0;
+vec2 hash_ivec2_to_vec2(ivec2 k) { return vec2(hash_pcg2d_i(k)) * HASH_PCG_TO_UNIT; }
+vec3 hash_ivec3_to_vec3(ivec3 k) { return vec3(hash_pcg3d_i(k)) * HASH_PCG_TO_UNIT; }
+vec4 hash_ivec4_to_vec4(ivec4 k) { return vec4(hash_pcg4d_i(k)) * HASH_PCG_TO_UNIT; }
+// A 2D cell's colour is the 3D hash of (x, y, 0), as in Blender.
+vec3 hash_ivec2_to_vec3(ivec2 k) { return hash_ivec3_to_vec3(ivec3(k, 0)); }
+
 #endif

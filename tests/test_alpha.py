@@ -305,3 +305,79 @@ def test_a_leaf_cards_holes_match_cycles_in_a_mirror(addon, tmp_path):
     ours, cycles = _both(bpy, scene, tmp_path, "HYBRID", 4)
     assert 0.2 < (cycles > 0.5).mean() < 0.6
     assert _coverage_mismatch(ours, cycles, 0.5) <= 0.02
+
+
+# -- reading Blender's alpha (blender_adapter/export/alpha.py) --------------------------------
+def _principled_material(bpy, name: str = "leaf"):
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    return material, material.node_tree.nodes, material.node_tree.links
+
+
+def _disc_texture(bpy, nodes):
+    image = bpy.data.images.new("disc", 8, 8, alpha=True, float_buffer=True)
+    image.pixels.foreach_set(disc_image(8).ravel())
+    texture = nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    return texture
+
+
+def test_the_reader_takes_an_images_alpha_and_a_gltf_mask_clip(addon):
+    import bpy
+
+    read = addon.blender_adapter.export.materials.material_params
+    material, nodes, links = _principled_material(bpy)
+    bsdf = nodes["Principled BSDF"]
+    texture = _disc_texture(bpy, nodes)
+    links.new(texture.outputs["Alpha"], bsdf.inputs["Alpha"])
+    row = read(material)
+    assert row["alpha"] == 1.0 and row["alpha_channel"] == 3 and row["alpha_clip"] == 0.0
+    np.testing.assert_array_equal(row["alpha_texture"][..., 3], disc_image(8)[..., 3])
+    # glTF MASK as Blender's importer builds it: 1 - (alpha < cutoff).
+    less, subtract = nodes.new("ShaderNodeMath"), nodes.new("ShaderNodeMath")
+    less.operation, subtract.operation = "LESS_THAN", "SUBTRACT"
+    less.inputs[1].default_value = 0.4
+    subtract.inputs[0].default_value = 1.0
+    links.new(texture.outputs["Alpha"], less.inputs[0])
+    links.new(less.outputs[0], subtract.inputs[1])
+    links.new(subtract.outputs[0], bsdf.inputs["Alpha"])
+    row = read(material)
+    assert row["alpha_channel"] == 3 and row["alpha_clip"] == pytest.approx(0.4)
+
+
+def test_the_reader_takes_a_transparent_mix_and_reads_the_other_shader(addon):
+    import bpy
+
+    read = addon.blender_adapter.export.materials.material_params
+    material, nodes, links = _principled_material(bpy)
+    bsdf = nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.2, 0.4, 0.6, 1.0)
+    transparent, mix = nodes.new("ShaderNodeBsdfTransparent"), nodes.new("ShaderNodeMixShader")
+    links.new(transparent.outputs[0], mix.inputs[1])
+    links.new(bsdf.outputs[0], mix.inputs[2])
+    links.new(mix.outputs[0], nodes["Material Output"].inputs["Surface"])
+    mix.inputs[0].default_value = 0.3
+    row = read(material)
+    assert row["alpha"] == pytest.approx(0.3)
+    np.testing.assert_allclose(row["base_color"], (0.2, 0.4, 0.6), rtol=1e-6)
+    links.new(_disc_texture(bpy, nodes).outputs["Alpha"], mix.inputs[0])  # the cut-out setup
+    row = read(material)
+    assert row["alpha"] == 1.0 and row["alpha_channel"] == 3
+
+
+def test_a_blended_material_is_told_once_that_it_renders_dithered(addon):
+    import bpy
+
+    messages = addon.blender_adapter.messages
+    read = addon.blender_adapter.export.materials.material_params
+    material, _, _ = _principled_material(bpy, "glass pane")
+    with messages.collecting() as told:
+        read(material)
+    assert not any("Blended" in m for m in told)
+    material.surface_render_method = "BLENDED"
+    with messages.collecting() as told:
+        read(material)
+        read(material)
+    assert [m for m in told if "Blended" in m] == [
+        "glass pane: Render Method Blended is rendered dithered: stochastic coverage that the samples "
+        "average into the blend (as Cycles renders it), not EEVEE's sorted blending"]

@@ -28,6 +28,9 @@
 #include "octahedral.glsl"
 #include "float_order.glsl"
 #ifndef TRACE_SHADING_ONLY
+#ifdef ALPHA_TEST
+#define BVH_ALPHA_TEST  // the traversal's any-hit alpha test: bvh_alpha_kept below
+#endif
 #include "bvh_traverse.glsl"
 #endif  // TRACE_SHADING_ONLY
 

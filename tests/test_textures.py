@@ -100,9 +100,10 @@ def scene_of(quads, rows, textures, lights=(), sky=(0.0, 0.0, 0.0)) -> SceneData
 
 
 # -- scene data ------------------------------------------------------------------------------
-def test_material_struct_is_64_bytes_with_texture_indices_last():
-    assert MATERIAL_DTYPE.itemsize == 80
+def test_material_struct_is_96_bytes_with_texture_indices_after_the_factors():
+    assert MATERIAL_DTYPE.itemsize == 96
     assert MATERIAL_DTYPE.fields["textures"][1] == 48
+    assert MATERIAL_DTYPE.fields["params2"][1] == 80
 
 
 def test_out_of_range_texture_indices_are_rejected_with_the_material_named():

@@ -8,6 +8,7 @@ import numpy as np
 from ...hybrid_engine.scene.materials import DEFAULT_THICKNESS, principled_to_params
 from ...hybrid_engine.scene.data import MaterialTable
 from . import tell
+from .alpha import split_transparent, surface_coverage
 from .images import image_pixels
 
 def socket_value(node, name: str, default):
@@ -210,7 +211,7 @@ def material_inputs(material, textures: dict | None = None) -> dict:
     linked inputs read as their own socket value.
     """
     thickness = getattr(getattr(material, "hybrid_rt", None), "thickness", DEFAULT_THICKNESS)
-    node = surface_node(getattr(material, "node_tree", None))
+    node, _ = split_transparent(surface_node(getattr(material, "node_tree", None)), material.name)
     kind = node.type if node is not None else None
 
     def color(name: str, default, slot: str):
@@ -266,6 +267,7 @@ def material_params(material, textures: bool = True) -> dict:
     images: dict | None = {} if textures else None
     row = principled_to_params(**material_inputs(material, images))
     row.update(images or {})
+    row.update(surface_coverage(material, surface_node(getattr(material, "node_tree", None)), textures))
     row["name"] = material.name
     return row
 

@@ -46,9 +46,17 @@
 // closure's. The faces' variant stores the triangle's world row in location 1's w (its bits:
 // intBitsToFloat), so that a ray's hit in the map can run the program with the object's inputs.
 // Uniforms then: u_camera_position, u_camera_forward, u_orthographic (Geometry Incoming).
+// ALPHA_TEST defined (only for scenes with alpha, MaterialTable.has_alpha; both variants):
+// a fragment of a material with alpha is discarded with the probability it is not there
+// (alpha.glsl), drawn per pixel, sample (u_alpha_sample) and depth. Opaque scenes compile
+// no discard and keep the early depth test.
 #include "scene_layout.glsl"
 #include "textures.glsl"
 #include "octahedral.glsl"
+#ifdef ALPHA_TEST
+#include "alpha.glsl"
+uniform int u_alpha_sample;
+#endif
 #ifdef NODE_PROGRAMS
 #include "node_program.glsl"
 #ifndef CUBE_FACE
@@ -96,6 +104,12 @@ void main() {
     float geometric_len2 = dot(geometric, geometric);
     vec2 duv_dx = dFdx(v_uv);
     vec2 duv_dy = dFdy(v_uv);
+#ifdef ALPHA_TEST
+    if (material_has_alpha(m) && !alpha_kept(material_alpha_grad(m, v_uv, duv_dx, duv_dy),
+            uvec4(uvec2(gl_FragCoord.xy), uint(u_alpha_sample), floatBitsToUint(gl_FragCoord.z)))) {
+        discard;
+    }
+#endif
     vec3 n = v_normal;
     float len2 = dot(n, n);
     if (!(len2 > 1e-20) || any(isinf(n)) || any(isnan(n))) {

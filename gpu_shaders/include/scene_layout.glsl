@@ -3,7 +3,7 @@
 // hybrid_engine/scene/data.py (MATERIAL_DTYPE) or hybrid_engine/passes/scene_upload/scene_buffers.py (LIGHT_DTYPE,
 // SHADOW_SLOT_DTYPE); the byte sizes are asserted on the Python side.
 
-// struct Material                                           // total: 80 bytes
+// struct Material                                           // total: 96 bytes
 //   vec4 base_color_refl;  rgb = linear base colour, a = reflectivity (metal lobe weight)
 //   vec4 emission_trans;   rgb = emitted radiance,   a = transmission (glass lobe weight)
 //   vec4 params;           x = IOR, y = thickness (paper §3.4), z = roughness (GGX),
@@ -15,17 +15,23 @@
 //                          w = its strength in thousandths
 //   ivec4 textures2;       x = roughness image, y = metallic image: layer * 4 + channel
 //                          (0..2 red, green, blue, 3 luminance), -1 = none (the factor above
-//                          holds); z unused (-1); w = the first word of the material's node
-//                          program (include/node_program.glsl), -1 = no node graph. A material
-//                          with a program has the host's estimate of its closure in the slots
-//                          above (transmission, emission, IOR; scene/node_program.py
-//                          row_estimate) for what reads the row only.
+//                          holds); z = alpha image: layer * 4 + channel (0..2 red, green,
+//                          blue, 3 alpha; data.py ALPHA_CHANNELS), -1 = none; w = the first
+//                          word of the material's node program (include/node_program.glsl),
+//                          -1 = no node graph. A material with a program has the host's
+//                          estimate of its closure in the slots above (transmission,
+//                          emission, IOR; scene/node_program.py row_estimate) for what reads
+//                          the row only.
+//   vec4 params2;          x = alpha, the surface's coverage in [0, 1] (times the alpha
+//                          image's value; alpha.glsl), y = cutoff the image's value is
+//                          clipped at (0: none); zw reserved (0)
 struct Material {
     vec4 base_color_refl;
     vec4 emission_trans;
     vec4 params;
     ivec4 textures;
     ivec4 textures2;
+    vec4 params2;
 };
 
 // struct Light                                              // total: 64 bytes

@@ -28,6 +28,9 @@
 #include "octahedral.glsl"
 #include "float_order.glsl"
 #ifndef TRACE_SHADING_ONLY
+#ifdef ALPHA_TEST
+#define BVH_ALPHA_TEST  // the traversal's any-hit alpha test: bvh_alpha_kept below
+#endif
 #include "bvh_traverse.glsl"
 #endif  // TRACE_SHADING_ONLY
 
@@ -107,6 +110,21 @@ struct TriangleUV {
     vec4 uv2_scale;
 };
 layout(std430) readonly buffer TriangleUVBuffer { TriangleUV tri_uvs[]; };
+
+#ifdef ALPHA_TEST
+#include "alpha.glsl"
+// The traversal's any-hit test (bvh_traverse.glsl): the triangle's coverage at the hit,
+// its alpha image read at the finest level, against a number drawn from the ray (origin and
+// direction change with every sample's jitter and lobe choice) and the triangle.
+bool bvh_alpha_kept(int tri, vec2 bary, BVHRay ray) {
+    Material m = materials[tri_materials[tri]];
+    if (!material_has_alpha(m)) return true;
+    TriangleUV tuv = tri_uvs[tri];
+    vec2 uv = (1.0 - bary.x - bary.y) * tuv.uv01.xy + bary.x * tuv.uv01.zw + bary.y * tuv.uv2_scale.xy;
+    uvec3 o = floatBitsToUint(ray.origin) ^ (floatBitsToUint(ray.inv_dir) * 0x9e3779b9u);
+    return alpha_kept(material_alpha_lod(m, uv, 0.0), uvec4(o, uint(tri)));
+}
+#endif
 #endif  // TRACE_SHADING_ONLY
 uniform float u_pixel_width;   // a pixel's footprint at the camera (orthographic), metres
 uniform float u_pixel_spread;  // its growth per metre of distance (perspective), radians

@@ -9,6 +9,8 @@
 // world space by the instance at gl_BaseInstanceARB with the instance transform's own
 // arithmetic (instance_space.glsl; gbuffer/gbuffer.vert.glsl says why): the same depths
 // as drawing the world-space rows, bit for bit. Not combined with FACE_VIEWPORTS.
+// ALPHA_TEST defined: the fragment stage's alpha test also gets the UV and the triangle's
+// material (its row; for INSTANCED the instance's first row, as gbuffer.vert.glsl).
 #if defined(INSTANCED) && defined(FACE_VIEWPORTS)
 #error "INSTANCED draws one slot per draw"
 #endif
@@ -29,12 +31,30 @@ layout(std430) readonly buffer InstanceTable { Instance instances[]; };
 #else
 in vec3 in_pos;
 #endif
+#ifdef ALPHA_TEST
+in vec2 in_uv;
+out vec2 v_uv;
+#ifdef INSTANCED
+flat out int v_first_row;
+#else
+layout(std430) readonly buffer TriangleMaterials { int triangle_materials[]; };
+flat out int v_material;
+#endif
+#endif
 
 void main() {
 #ifdef INSTANCED
     vec3 world = instance_point(instances[gl_BaseInstanceARB], in_object_pos);
 #else
     vec3 world = in_pos;
+#endif
+#ifdef ALPHA_TEST
+    v_uv = in_uv;
+#ifdef INSTANCED
+    v_first_row = instances[gl_BaseInstanceARB].info.x;
+#else
+    v_material = triangle_materials[gl_VertexID / 3];
+#endif
 #endif
 #ifdef FACE_VIEWPORTS
     gl_Position = u_face_view_proj[gl_DrawIDARB] * vec4(world, 1.0);

@@ -49,7 +49,16 @@ class MaterialTable:
     ``n * 0.5 + 0.5`` in the frame of the UVs' directions, OpenGL's +Y), blended with the
     shading normal by ``normal_strength``; its image is stored as is (Non-Color).
     Texture coordinates are the triangles' ``Geometry.uvs`` (zero when absent), wrapped
-    by repetition; the alpha channel is not used.
+    by repetition.
+
+    Alpha (Blender's coverage: the Principled BSDF's Alpha, a Transparent BSDF mixed in):
+    ``alpha[i]`` is the fraction of the surface that is there, times the value of
+    ``alpha_texture[i]``'s channel ``alpha_channel[i]`` (``ALPHA_CHANNELS``: an image's
+    alpha, or one colour channel of a mask) where it has one, that value first clipped to 0
+    or 1 at ``alpha_clip[i]`` where that is above 0 (glTF's MASK mode). Every pass that sees a
+    surface keeps a fragment or a hit with that probability, per pixel and sample
+    (gpu_shaders/include/alpha.glsl), so accumulated samples converge to the fractional
+    coverage Cycles renders; a table without alpha compiles none of it (``has_alpha``).
 
     Each texture is (H, W, 4) (or (H, W, 3), given alpha 1) float32 *linear* RGBA, row 0
     at the bottom (v = 0), the order of Blender's ``Image.pixels`` and of OpenGL; 8-bit
@@ -79,6 +88,10 @@ class MaterialTable:
     metallic_texture: np.ndarray | None = None  # (M,) int32 image giving the metallic, -1 none
     roughness_channel: np.ndarray | None = None  # (M,) int32 TEXTURE_CHANNELS index; None: all 3
     metallic_channel: np.ndarray | None = None  # (M,) int32 TEXTURE_CHANNELS index; None: all 3
+    alpha: np.ndarray | None = None  # (M,) float32 coverage in [0, 1]; None: all 1 (opaque)
+    alpha_texture: np.ndarray | None = None  # (M,) int32 image giving the coverage, -1 none
+    alpha_channel: np.ndarray | None = None  # (M,) int32 ALPHA_CHANNELS index; None: all 3 (alpha)
+    alpha_clip: np.ndarray | None = None  # (M,) float32 cutoff of the alpha image's value, 0: none
     # Per material, its shader node graph (shader_graph.py) where the fixed rows above cannot
     # hold what the artist built, else None; None for the whole table: no graphs at all.
     node_graphs: list[ShaderGraph | None] | None = None
@@ -103,15 +116,22 @@ class MaterialTable:
         self.normal_strength = as_array(self.normal_strength, np.float32, (), "normal_strength")
         if len(self.normal_strength) != m:
             raise SceneDataError(f"material normal_strength has {len(self.normal_strength)} rows, expected {m}")
-        for name in ("roughness_channel", "metallic_channel"):
+        self.alpha = np.ones(m, np.float32) if self.alpha is None else as_array(self.alpha, np.float32, (), "alpha")
+        self.alpha_clip = (np.zeros(m, np.float32) if self.alpha_clip is None
+                           else as_array(self.alpha_clip, np.float32, (), "alpha_clip"))
+        for name in ("alpha", "alpha_clip"):
+            if len(getattr(self, name)) != m:
+                raise SceneDataError(f"material {name} has {len(getattr(self, name))} rows, expected {m}")
+        for name, names, fallback in (("roughness_channel", TEXTURE_CHANNELS, LUMINANCE_CHANNEL),
+                                      ("metallic_channel", TEXTURE_CHANNELS, LUMINANCE_CHANNEL),
+                                      ("alpha_channel", ALPHA_CHANNELS, ALPHA_CHANNEL)):
             value = getattr(self, name)
-            channel = np.full(m, LUMINANCE_CHANNEL, np.int32) if value is None else as_array(value, np.int32, (), name)
-            if len(channel) != m or ((channel < 0) | (channel >= len(TEXTURE_CHANNELS))).any():
-                raise SceneDataError(f"material {name} must hold {m} values in 0..{len(TEXTURE_CHANNELS) - 1} "
-                                     f"({', '.join(TEXTURE_CHANNELS)})")
+            channel = np.full(m, fallback, np.int32) if value is None else as_array(value, np.int32, (), name)
+            if len(channel) != m or ((channel < 0) | (channel >= len(names))).any():
+                raise SceneDataError(f"material {name} must hold {m} values in 0..{len(names) - 1} "
+                                     f"({', '.join(names)})")
             setattr(self, name, channel)
-        for name in ("base_color_texture", "emission_texture", "normal_texture", "roughness_texture",
-                     "metallic_texture"):
+        for name in TEXTURE_SLOTS:
             value = getattr(self, name)
             index = np.full(m, -1, np.int32) if value is None else as_array(value, np.int32, (), name)
             if len(index) != m:
@@ -138,6 +158,12 @@ class MaterialTable:
         """True when some material samples a texture."""
         return bool(any((getattr(self, name) >= 0).any() for name in TEXTURE_SLOTS))
 
+    @property
+    def has_alpha(self) -> bool:
+        """True when some surface is not wholly there (alpha below 1, or an alpha image):
+        only then do the passes compile their alpha tests (``ALPHA_TEST``)."""
+        return bool((np.nan_to_num(self.alpha, nan=1.0) < 1.0).any() or (self.alpha_texture >= 0).any())
+
     def __len__(self) -> int:
         return int(len(self.base_color))
 
@@ -151,7 +177,8 @@ class MaterialTable:
         """Build from dicts with keys base_color, emission, reflectivity, transmission, ior,
         thickness, roughness, specular, name, base_color_texture, emission_texture,
         normal_texture, normal_strength, roughness_texture, roughness_channel,
-        metallic_texture, metallic_channel (all optional).
+        metallic_texture, metallic_channel, alpha, alpha_texture, alpha_channel, alpha_clip
+        (all optional).
 
         A texture key holds an index into ``textures``, None (no texture) or the image
         array itself; arrays are appended to the texture list once per array object, so
@@ -189,6 +216,10 @@ class MaterialTable:
             metallic_texture=np.array([texture_index(v) for v in get("metallic_texture", None)], np.int32),
             roughness_channel=np.array(get("roughness_channel", LUMINANCE_CHANNEL), np.int32),
             metallic_channel=np.array(get("metallic_channel", LUMINANCE_CHANNEL), np.int32),
+            alpha=np.array(get("alpha", 1.0), np.float32),
+            alpha_texture=np.array([texture_index(v) for v in get("alpha_texture", None)], np.int32),
+            alpha_channel=np.array(get("alpha_channel", ALPHA_CHANNEL), np.int32),
+            alpha_clip=np.array(get("alpha_clip", 0.0), np.float32),
             textures=texture_list,
         )
 
@@ -215,22 +246,32 @@ class MaterialTable:
         for column, (layer, channel) in enumerate(((self.roughness_texture, self.roughness_channel),
                                                    (self.metallic_texture, self.metallic_channel))):
             out["textures2"][:, column] = np.where(layer >= 0, layer * 4 + channel, -1)
+        # Coverage: the factor, and its image as layer * 4 + ALPHA_CHANNELS index.
+        out["params2"][:, 0] = np.clip(np.nan_to_num(self.alpha, nan=1.0), 0.0, 1.0)
+        out["params2"][:, 1] = np.where(self.alpha_texture >= 0, np.nan_to_num(self.alpha_clip), 0.0)
+        out["textures2"][:, 2] = np.where(self.alpha_texture >= 0, self.alpha_texture * 4 + self.alpha_channel, -1)
         return out
 
 
-# struct Material { vec4 base_color_refl; vec4 emission_trans; vec4 params; ivec4 textures; ivec4 textures2; }
+# struct Material { vec4 base_color_refl; vec4 emission_trans; vec4 params; ivec4 textures; ivec4 textures2;
+#                  vec4 params2; }
 MATERIAL_DTYPE = np.dtype(
     [("base_color", np.float32, 4), ("emission", np.float32, 4), ("params", np.float32, 4),
-     ("textures", np.int32, 4), ("textures2", np.int32, 4)]
+     ("textures", np.int32, 4), ("textures2", np.int32, 4), ("params2", np.float32, 4)]
 )
-assert MATERIAL_DTYPE.itemsize == 80  # total: 80 bytes
+assert MATERIAL_DTYPE.itemsize == 96  # total: 96 bytes
 # The material's image slots (MaterialTable attributes holding texture indices).
 TEXTURE_SLOTS = ("base_color_texture", "emission_texture", "normal_texture", "roughness_texture",
-                 "metallic_texture")
+                 "metallic_texture", "alpha_texture")
 # What a roughness or metallic image gives: one channel, or the luminance (Blender's colour
 # to value conversion, Rec.709 weights) of its colour.
 TEXTURE_CHANNELS = ("red", "green", "blue", "luminance")
 LUMINANCE_CHANNEL = 3
+# What an alpha image gives (textures2.z's low two bits): its alpha channel (an Image
+# Texture's Alpha output), or one colour channel of a mask (a Separate Color output, or a
+# Color output, read as red: exact for the grey masks such links carry).
+ALPHA_CHANNELS = ("red", "green", "blue", "alpha")
+ALPHA_CHANNEL = 3
 
 
 def _texture(array, index: int) -> np.ndarray:

@@ -38,15 +38,23 @@ class GBufferPass:
         self.ctx = ctx
         self.drawer = drawer if drawer is not None else SceneDrawer(ctx)
         self._owns_drawer = drawer is None
-        self.program = shader_loader.program(
-            ctx, vertex="gbuffer/gbuffer.vert.glsl", fragment="gbuffer/gbuffer.frag.glsl")
-        self.cube_program = shader_loader.program(
-            ctx, vertex="gbuffer/gbuffer.vert.glsl", fragment="gbuffer/gbuffer.frag.glsl",
-            defines={"CUBE_FACE": 1})
-        self._cube_faces_program = None  # compiled on first use (the faces kernel's "gpu" variant)
-        self._instanced_program = None  # compiled on first use (the vertices kernel's "gpu" variant)
+        self.program = self.variant(None, False)
+        self.cube_program = self.variant(None, False, CUBE_FACE=1)
         self.primary: GBufferTargets | None = None
         self._camera: dict = {}  # the primary view's camera uniforms (node programs read them)
+
+    def variant(self, gpu: GPUScene | None, alpha: bool, **defines):
+        """The G-buffer program with ``defines``; with the alpha test (``ALPHA_TEST``,
+        gbuffer.frag.glsl) where ``alpha``: only scenes with alpha draw with a fragment stage
+        that may discard, which costs the early depth test; and with the node-program
+        interpreter where the scene's materials have programs (``gpu.defines``). Compiled on
+        first use, then cached by the loader."""
+        if alpha:
+            defines["ALPHA_TEST"] = 1
+        if gpu is not None:
+            defines.update(gpu.defines)
+        return shader_loader.program(self.ctx, vertex="gbuffer/gbuffer.vert.glsl",
+                                     fragment="gbuffer/gbuffer.frag.glsl", defines=defines or None)
 
     def primary_targets(self, width: int, height: int, surface_channels: int = 2) -> GBufferTargets:
         """The primary camera's G-buffer, reallocated only when the image size (or the
@@ -58,11 +66,12 @@ class GBufferPass:
                 old.release()
         return self.primary
 
-    def _bind(self, gpu: GPUScene, prog) -> None:
+    def _bind(self, gpu: GPUScene, prog, sample: int = 0) -> None:
         ctx = self.ctx
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE)  # Blender shades both sides of a face
         bind(prog, gpu.bindings(), storage={"InstanceTable": gpu.instance_transform.instance_table})
+        set_uniforms(prog, {"u_alpha_sample": int(sample)})  # skipped without ALPHA_TEST
         if gpu.defines:  # node programs: Geometry Incoming and the like need the camera
             set_uniforms(prog, self._camera)
 
@@ -70,37 +79,30 @@ class GBufferPass:
         return PassIO(reads=("scene", "world_triangles"), writes=("gbuffer",))
 
     def run(self, frame: FrameContext) -> None:
-        targets, submitted = self.render_primary(frame.read("world_triangles"), frame.read("scene"), frame.view)
+        targets, submitted = self.render_primary(frame.read("world_triangles"), frame.read("scene"), frame.view,
+                                                 frame.sample)
         frame.counts["triangles_primary_submitted"] = int(submitted)
         frame.write("gbuffer", targets)
 
-    def render_primary(self, gpu: GPUScene, scene: SceneData, view: RasterView) -> tuple[GBufferTargets, int]:
+    def render_primary(self, gpu: GPUScene, scene: SceneData, view: RasterView,
+                       sample: int = 0) -> tuple[GBufferTargets, int]:
         """Clear the primary G-buffer and rasterize ``view`` into it (§3.1), its draws culled
-        per triangle (view_cull/draw.py). Returns the targets and the triangles submitted."""
+        per triangle (view_cull/draw.py). ``sample``: the view's sample index, which draws
+        the alpha test's numbers afresh. Returns the targets and the triangles submitted."""
         targets = self.primary_targets(view.width, view.height, 4 if gpu.defines else 2)
         self._camera = view.uniforms()
         targets.clear()
+        alpha = scene.materials.has_alpha
+        prog = self.variant(gpu, alpha)
         if self.drawer.draws_instanced():
-            return targets, self._render_primary_instanced(gpu, scene, view, targets)
-        prog = self._scene_program(gpu, self.program, {})
+            return targets, self.drawer.draw_instanced(
+                "primary", self.variant(gpu, alpha, INSTANCED=1), prog, gpu, scene, targets.fbo,
+                [(view.view_proj, (0, 0, view.width, view.height))], lambda p: self._bind(gpu, p, sample))
         vao = self.drawer.vertex_array(prog, gpu)
         submitted = self.drawer.draw_views("primary", prog, vao, gpu, scene, targets.fbo,
                                            [(view.view_proj, (0, 0, view.width, view.height))],
-                                           lambda: self._bind(gpu, prog))
+                                           lambda: self._bind(gpu, prog, sample))
         return targets, submitted
-
-    def _render_primary_instanced(self, gpu: GPUScene, scene: SceneData, view: RasterView,
-                                  targets: GBufferTargets) -> int:
-        """The primary view drawn instanced and indexed (module doc); returns the triangles
-        submitted (the drawer's ``instanced["primary"]``: what was drawn, vertices shaded)."""
-        if self._instanced_program is None:
-            self._instanced_program = shader_loader.program(
-                self.ctx, vertex="gbuffer/gbuffer.vert.glsl", fragment="gbuffer/gbuffer.frag.glsl",
-                defines={"INSTANCED": 1})
-        return self.drawer.draw_instanced("primary", self._scene_program(gpu, self._instanced_program, {"INSTANCED": 1}),
-                                          self._scene_program(gpu, self.program, {}), gpu, scene, targets.fbo,
-                                          [(view.view_proj, (0, 0, view.width, view.height))],
-                                          lambda prog: self._bind(gpu, prog))
 
     @property
     def last_instanced(self):
@@ -116,7 +118,8 @@ class GBufferPass:
         ``culled_back`` (view_cull.CulledDraws, the faces culled at once by cube_map.py)
         draw each face's GPU-culled list; None draws its object list (the culler's
         fallback). Returns the triangles submitted after per-object frustum culling."""
-        prog = self._scene_program(gpu, self.cube_program, {"CUBE_FACE": 1})
+        alpha = scene.materials.has_alpha
+        prog = self.variant(gpu, alpha, CUBE_FACE=1)
         vao = self.drawer.vertex_array(prog, gpu)
         targets.fbo.use()
         self._bind(gpu, prog)
@@ -129,7 +132,7 @@ class GBufferPass:
         for row, row_culled, back_faces in rows:
             rects = [(i * view.width, row * view.height, view.width, view.height) for i, view in enumerate(views)]
             if one_draw and row_culled is not None:
-                drawn = self.drawer.draw_faces(self.cube_faces_program(gpu), gpu, targets.fbo, row_culled,
+                drawn = self.drawer.draw_faces(self.cube_faces_program(gpu, alpha), gpu, targets.fbo, row_culled,
                                                [(view.view_proj, rect) for view, rect in zip(views, rects)],
                                                "front" if back_faces else None)
                 if drawn is not None:
@@ -147,23 +150,10 @@ class GBufferPass:
                         submitted += row_culled.draw(prog, gpu, i)
         return submitted
 
-    def _scene_program(self, gpu: GPUScene, plain, defines: dict):
-        """``plain`` (the program compiled with ``defines``) or, where the scene's materials
-        have node programs, the same shaders with the interpreter (GPUScene.defines; compiled
-        once, then cached by the loader)."""
-        if not gpu.defines:
-            return plain
-        return shader_loader.program(self.ctx, vertex="gbuffer/gbuffer.vert.glsl",
-                                     fragment="gbuffer/gbuffer.frag.glsl", defines={**defines, **gpu.defines})
-
-    def cube_faces_program(self, gpu: GPUScene):
+    def cube_faces_program(self, gpu: GPUScene, alpha: bool = False):
         """The cube-face program that draws all six faces in one multi-draw (the ``faces``
         kernel's "gpu" variant, draw.py SceneDrawer.draw_faces), bound like the per-face one."""
-        if self._cube_faces_program is None:
-            self._cube_faces_program = shader_loader.program(
-                self.ctx, vertex="gbuffer/gbuffer.vert.glsl", fragment="gbuffer/gbuffer.frag.glsl",
-                defines={"CUBE_FACE": 1, "FACE_VIEWPORTS": MAX_VIEWS})
-        prog = self._scene_program(gpu, self._cube_faces_program, {"CUBE_FACE": 1, "FACE_VIEWPORTS": MAX_VIEWS})
+        prog = self.variant(gpu, alpha, CUBE_FACE=1, FACE_VIEWPORTS=MAX_VIEWS)
         self._bind(gpu, prog)
         return prog
 

@@ -48,6 +48,17 @@ def shadow_key(lights: Lights) -> bytes:
         lights.cast_shadow, lights.area_axis, lights.area_size_y, lights.area_elliptic))
 
 
+def alpha_key(materials) -> bytes:
+    """What of the materials the shadow maps depend on: their coverage (alpha.glsl), and
+    which images give it (the arrays are immutable, MaterialTable: their identity names
+    their content). Empty for a table without alpha."""
+    if not materials.has_alpha:
+        return b""
+    images = [id(materials.textures[i]) if i >= 0 else -1 for i in materials.alpha_texture]
+    return b"".join(np.ascontiguousarray(a).tobytes() for a in (
+        materials.alpha, materials.alpha_channel, materials.alpha_clip, np.asarray(images, np.int64)))
+
+
 @dataclass
 class ShadowLayout:
     """Every shadow slot's view, each light's (first, count) slots, and which slots are sun
@@ -172,10 +183,7 @@ class ShadowDepthPass:
         self.ctx = ctx
         self.drawer = drawer
         self.atlas = ShadowAtlas(ctx)  # every lamp's slots, in a static and a dynamic layer
-        self.program = shader_loader.program(
-            ctx, vertex="shadow_maps/shadow_depth.vert.glsl", fragment="shadow_maps/shadow_depth.frag.glsl")
-        self._faces_program = None  # compiled on first use (the faces kernel's "gpu" variant)
-        self._instanced_program = None  # compiled on first use (the vertices kernel's "gpu" variant)
+        self.program = self.variant(False)
         self.cache = ShadowCache()  # the slots fitted to the scene
         self.cascade_cache = ShadowCache()  # the sun cascades, fitted to the view
         # The last frame's cascade matrices, None for the other slots (_moved_cascades).
@@ -205,7 +213,7 @@ class ShadowDepthPass:
         resolution = int(settings.shadow_resolution)
         layout = frame_shadow_views(scene, camera, int(settings.shadow_cascades), resolution)
         views, cascade = layout.views, layout.cascade
-        key = (shadow_key(scene.lights), resolution, len(views), cascade.tobytes(),
+        key = (shadow_key(scene.lights), alpha_key(scene.materials), resolution, len(views), cascade.tobytes(),
                b"".join(np.asarray(v.view_proj, np.float64).tobytes() for v, c in zip(views, cascade) if not c))
         ranges = scene.geometry.object_ranges
         draws = [LayerDraws.planned("shadow", self.cache.plan(ranges, delta, key), ~cascade, np.zeros_like(cascade))]
@@ -264,11 +272,16 @@ class ShadowDepthPass:
         chosen = np.flatnonzero(slots)
         if not len(chosen) or (include is not None and not include.any()):
             return 0
-        prog = self.program
+        alpha = scene.materials.has_alpha
+        prog = self.variant(alpha)
+        faces_prog = self.faces_program(alpha)
 
         def bind() -> None:
             ctx.enable(ctx.DEPTH_TEST)
             ctx.disable(ctx.CULL_FACE)
+            if alpha:  # the alpha test reads the materials, the triangles' ids and the images
+                for program in (prog, faces_prog) if faces_prog is not None else (prog,):
+                    bind_storage(program, gpu.bindings())
 
         draws = [(views[i].view_proj, atlas.rect(int(i))) for i in chosen]
         if self.drawer.draws_instanced():
@@ -276,31 +289,32 @@ class ShadowDepthPass:
 
             def bind_program(program) -> None:
                 bind()
-                bind_storage(program, storage={"InstanceTable": table})
+                bind_storage(program, *((gpu.bindings(),) if alpha else ()), storage={"InstanceTable": table})
 
-            return self.drawer.draw_instanced(layer, self.instanced_program(), prog, gpu, scene,
+            return self.drawer.draw_instanced(layer, self.instanced_program(alpha), prog, gpu, scene,
                                               atlas.layer_framebuffer(dynamic), draws, bind_program, include)
         return self.drawer.draw_views(layer, prog, self.drawer.vertex_array(prog, gpu), gpu, scene,
                                       atlas.layer_framebuffer(dynamic), draws, bind, include,
-                                      faces_prog=self.faces_program())
+                                      faces_prog=faces_prog)
 
-    def instanced_program(self):
+    def variant(self, alpha: bool, **defines):
+        """The depth program with ``defines``, and with the alpha test (``ALPHA_TEST``,
+        shadow_depth.frag.glsl) where ``alpha``: only scenes with alpha draw their shadows
+        with a fragment stage that may discard. Compiled on first use, cached."""
+        if alpha:
+            defines["ALPHA_TEST"] = 1
+        return shader_loader.program(self.ctx, vertex="shadow_maps/shadow_depth.vert.glsl",
+                                     fragment="shadow_maps/shadow_depth.frag.glsl", defines=defines or None)
+
+    def instanced_program(self, alpha: bool = False):
         """The depth program of the instanced, indexed draws (the ``vertices`` kernel's "gpu"
-        variant, view_cull/instanced_draw.py), compiled on first use."""
-        if self._instanced_program is None:
-            self._instanced_program = shader_loader.program(
-                self.ctx, vertex="shadow_maps/shadow_depth.vert.glsl",
-                fragment="shadow_maps/shadow_depth.frag.glsl", defines={"INSTANCED": 1})
-        return self._instanced_program
+        variant, view_cull/instanced_draw.py)."""
+        return self.variant(alpha, INSTANCED=1)
 
-    def faces_program(self):
+    def faces_program(self, alpha: bool = False):
         """The depth program that draws up to view_cull.MAX_VIEWS slots (a point lamp's six
         faces) in one multi-draw (draw.py SceneDrawer.draw_faces); None where the ``faces``
         kernel's "cpu" variant draws them one by one."""
         if not self.drawer.faces_in_one_draw():
             return None
-        if self._faces_program is None:
-            self._faces_program = shader_loader.program(
-                self.ctx, vertex="shadow_maps/shadow_depth.vert.glsl",
-                fragment="shadow_maps/shadow_depth.frag.glsl", defines={"FACE_VIEWPORTS": MAX_VIEWS})
-        return self._faces_program
+        return self.variant(alpha, FACE_VIEWPORTS=MAX_VIEWS)

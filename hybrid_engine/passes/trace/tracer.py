@@ -202,7 +202,10 @@ class HybridTracer:
                    **({"DIFFUSE_GATHER": 1} if settings.traces_diffuse else {}),
                    **(lit.defines if lit is not None else {}),
                    **({"DIAGNOSTIC": 1} if diagnostic else {}),
-                   **gpu.defines}
+                   **gpu.defines,
+                   # The traversal's any-hit alpha test (trace_ray.glsl), only where some
+                   # surface is not wholly there: opaque scenes trace as without it.
+                   **({"ALPHA_TEST": 1} if scene.materials.has_alpha else {})}
         self._counters.write(self._zero_counters)
 
         bvh = built.storage() if built is not None else dict.fromkeys(BVH_BLOCKS, self._dummy_ssbo)

@@ -41,18 +41,23 @@ RAMP_TABLE_SIZE = 256
 # RNA property types read as settings; pointers (images, ramps, curves, objects) are read by
 # hand below, collections never.
 _SETTING_TYPES = frozenset({"ENUM", "BOOLEAN", "INT", "FLOAT", "STRING"})
-# Properties of every node (name, location, mute, ...): not the node's own settings.
-_base_properties: frozenset[str] | None = None
+# Per node class (``bl_idname``), its own settings' RNA (name, type, enum flag, array length):
+# walking ``bl_rna.properties`` costs more than reading the values, so once per class.
+_own_properties: dict[str, tuple[tuple[str, str, bool, int], ...]] = {}
 # Rec.709 luminance: Blender's colour-to-float conversion in the default colour management.
 _LUMINANCE = (0.2126, 0.7152, 0.0722)
 
 
-def _node_base_properties() -> frozenset[str]:
-    global _base_properties
-    if _base_properties is None:
+def _node_properties(node) -> tuple[tuple[str, str, bool, int], ...]:
+    """The node's own settings' RNA, less what every node has (name, location, mute, ...)."""
+    found = _own_properties.get(node.bl_idname)
+    if found is None:
         import bpy
-        _base_properties = frozenset(p.identifier for p in bpy.types.ShaderNode.bl_rna.properties)
-    return _base_properties
+        base = {p.identifier for p in bpy.types.ShaderNode.bl_rna.properties}
+        found = tuple((p.identifier, p.type, p.type == "ENUM" and bool(p.is_enum_flag), int(getattr(p, "array_length", 0)))
+                      for p in node.bl_rna.properties if p.identifier not in base and p.type in _SETTING_TYPES)
+        _own_properties[node.bl_idname] = found
+    return found
 
 
 @dataclass
@@ -200,13 +205,8 @@ class _Reader:
 
     def settings(self, node) -> dict[str, Setting]:
         """The node's own properties by Python name, and what its pointers hold."""
-        base = _node_base_properties()
-        settings: dict[str, Setting] = {}
-        for prop in node.bl_rna.properties:
-            name = prop.identifier
-            if name in base or prop.type not in _SETTING_TYPES:
-                continue
-            settings[name] = _setting(prop, getattr(node, name))
+        settings: dict[str, Setting] = {name: _setting(kind, flag, length, getattr(node, name))
+                                        for name, kind, flag, length in _node_properties(node)}
         image = getattr(node, "image", None) if node.type in ("TEX_IMAGE", "TEX_ENVIRONMENT") else None
         if node.type in ("TEX_IMAGE", "TEX_ENVIRONMENT"):
             settings["texture"] = self.texture(image)
@@ -296,29 +296,45 @@ def _convert(value: Input | None, socket_type: str) -> Input | None:
     return value
 
 
-def _setting(prop, value) -> Setting:
+def _setting(kind: str, enum_flag: bool, array_length: int, value) -> Setting:
     """One RNA property value as plain data (enum flags and arrays as tuples)."""
-    if prop.type == "ENUM":
-        return tuple(sorted(value)) if prop.is_enum_flag else str(value)
-    if getattr(prop, "array_length", 0):
-        kind = {"BOOLEAN": bool, "INT": int}.get(prop.type, float)
-        return tuple(kind(v) for v in value)
-    return {"BOOLEAN": bool, "INT": int, "FLOAT": float, "STRING": str}[prop.type](value)
+    if kind == "ENUM":
+        return tuple(sorted(value)) if enum_flag else str(value)
+    if array_length:
+        convert = {"BOOLEAN": bool, "INT": int}.get(kind, float)
+        return tuple(convert(v) for v in value)
+    return {"BOOLEAN": bool, "INT": int, "FLOAT": float, "STRING": str}[kind](value)
+
+
+# Baked tables by what they are baked from: a viewport sync reads every changed material
+# again, and a table is hundreds of ``evaluate`` calls. Cleared beyond _TABLES_KEPT.
+_tables: dict[tuple, tuple] = {}
+_TABLES_KEPT = 512
+
+
+def _baked(key: tuple, bake) -> tuple:
+    table = _tables.get(key)
+    if table is None:
+        if len(_tables) >= _TABLES_KEPT:
+            _tables.clear()
+        table = _tables[key] = bake()
+    return table
 
 
 def _ramp_settings(ramp) -> dict[str, Setting]:
     """A Color Ramp: its stops and modes, and Cycles' table (RAMP_TABLE_SIZE + 1 RGBA entries
     of ``ColorRamp.evaluate`` at i / RAMP_TABLE_SIZE; a constant ramp is looked up without
     interpolating between entries)."""
-    table = tuple(tuple(float(c) for c in ramp.evaluate(float(np.float32(i) / np.float32(RAMP_TABLE_SIZE))))
-                  for i in range(RAMP_TABLE_SIZE + 1))
-    return {
-        "color_ramp": table,
+    settings: dict[str, Setting] = {
         "color_ramp_elements": tuple((float(e.position), tuple(float(c) for c in e.color)) for e in ramp.elements),
         "color_ramp_interpolation": str(ramp.interpolation),
         "color_ramp_color_mode": str(ramp.color_mode),
         "color_ramp_hue_interpolation": str(ramp.hue_interpolation),
     }
+    positions = (np.arange(RAMP_TABLE_SIZE + 1, dtype=np.float32) / np.float32(RAMP_TABLE_SIZE)).tolist()
+    settings["color_ramp"] = _baked(("ramp",) + tuple(settings.values()), lambda: tuple(
+        tuple(float(c) for c in ramp.evaluate(t)) for t in positions))
+    return settings
 
 
 # Curves per curve node that Cycles bakes (RGB Curves: R, G, B and the combined C curve).
@@ -333,22 +349,25 @@ def _curve_settings(mapping, kind: str) -> dict[str, Setting]:
     when the mapping's extend is EXTRAPOLATED."""
     count = _CURVE_COUNTS[kind]
     curves = list(mapping.curves)[:count]
-    mapping.initialize()  # builds the evaluation tables of a mapping never drawn
     min_x = np.float32(min(c.points[0].location[0] for c in curves))
     max_x = np.float32(max(c.points[-1].location[0] for c in curves))
-    positions = [float(min_x + np.float32(i) / np.float32(RAMP_TABLE_SIZE) * (max_x - min_x))
-                 for i in range(RAMP_TABLE_SIZE + 1)]
+    steps = np.arange(RAMP_TABLE_SIZE + 1, dtype=np.float32) / np.float32(RAMP_TABLE_SIZE)
+    positions = (min_x + steps * (max_x - min_x)).tolist()  # in float32, as Cycles computes them
     evaluate = mapping.evaluate
-    if kind == "CURVE_RGB":
-        combined = curves[3]
-        table: tuple = tuple(
-            tuple(float(evaluate(c, evaluate(combined, t))) for c in curves[:3]) for t in positions)
-    elif kind == "CURVE_VEC":
-        table = tuple(tuple(float(evaluate(c, t)) for c in curves) for t in positions)
-    else:
-        table = tuple(float(evaluate(curves[0], t)) for t in positions)
+
+    def bake() -> tuple:
+        mapping.initialize()  # builds the evaluation tables of a mapping never drawn
+        if kind == "CURVE_RGB":
+            combined = curves[3]
+            return tuple(tuple(float(evaluate(c, evaluate(combined, t))) for c in curves[:3]) for t in positions)
+        if kind == "CURVE_VEC":
+            return tuple(tuple(float(evaluate(c, t)) for c in curves) for t in positions)
+        return tuple(float(evaluate(curves[0], t)) for t in positions)
+
+    key = (kind, mapping.extend, mapping.use_clip, mapping.clip_min_x, mapping.clip_max_x, mapping.clip_min_y,
+           mapping.clip_max_y, tuple(tuple((tuple(p.location), p.handle_type) for p in c.points) for c in curves))
     return {
-        "curve_table": table,
+        "curve_table": _baked(key, bake),
         "curve_min_x": float(min_x),
         "curve_max_x": float(max_x),
         "curve_extrapolate": mapping.extend == "EXTRAPOLATED",

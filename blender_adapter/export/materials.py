@@ -7,9 +7,12 @@ import numpy as np
 
 from ...hybrid_engine.scene.materials import DEFAULT_THICKNESS, principled_to_params
 from ...hybrid_engine.scene.data import MaterialTable
+from ...hybrid_engine.scene.node_program import NODE_SPECS
 from . import tell
 from .alpha import split_transparent, surface_coverage
+from .graph_rows import rows_hold, stand_in_inputs, table_with_graphs
 from .images import image_pixels
+from .node_graph import read_node_graph
 
 def socket_value(node, name: str, default):
     """Default value of an input socket (links are not followed; colour sockets linked to an
@@ -140,6 +143,11 @@ def _value_image(node, name: str, textures: dict | None, slot: str, owner: str) 
     if textures is None or node is None:
         return
     source, from_socket = _linked_node(node.inputs.get(name))
+    factor = _gltf_factor(source)
+    if factor is not None and factor[0] in (0.0, 1.0):  # 0: the value is 0 (``_value``); 1: the image
+        if factor[0] == 0.0:
+            return
+        source, from_socket = _linked_node(factor[1])
     if source is None:
         return
     channel = 3
@@ -160,6 +168,25 @@ def _value_image(node, name: str, textures: dict | None, slot: str, owner: str) 
     if pixels is not None:
         textures[slot] = pixels
         textures[slot.replace("_texture", "_channel")] = channel
+
+
+def _gltf_factor(source):
+    """(factor, the other input) of a Multiply Math node with one constant input, as glTF
+    imports a metallic or roughness factor over an image; None for anything else."""
+    if source is None or source.type != "MATH" or source.mute or source.operation != "MULTIPLY" or source.use_clamp:
+        return None
+    first, second = source.inputs[0], source.inputs[1]
+    for constant, other in ((first, second), (second, first)):
+        if not constant.is_linked and other.is_linked:
+            return float(constant.default_value), other
+    return None
+
+
+def _value(node, name: str, default: float) -> float:
+    """A value input's own value, or 0 when a glTF factor of 0 multiplies what feeds it."""
+    socket = node.inputs.get(name) if node is not None else None
+    factor = _gltf_factor(_linked_node(socket)[0]) if socket is not None else None
+    return 0.0 if factor is not None and factor[0] == 0.0 else socket_value(node, name, default)
 
 
 def _value_images(node, textures: dict | None, owner: str) -> None:
@@ -228,8 +255,8 @@ def material_inputs(material, textures: dict | None = None) -> dict:
         _value_images(node, textures, material.name)
         return dict(
             base_color=color("Base Color", (0.8, 0.8, 0.8), "base_color_texture"),
-            metallic=socket_value(node, "Metallic", 0.0),
-            roughness=socket_value(node, "Roughness", 0.5),
+            metallic=_value(node, "Metallic", 0.0),
+            roughness=_value(node, "Roughness", 0.5),
             transmission=socket_value(node, "Transmission Weight", 0.0),
             ior=socket_value(node, "IOR", 1.5),
             specular_level=socket_value(node, "Specular IOR Level", 0.5),
@@ -264,11 +291,34 @@ def material_params(material, textures: bool = True) -> dict:
     material panel, so the panel shows exactly what is rendered). With ``textures`` the
     row also holds the pixels of its base-colour and emission images (``MaterialTable.
     from_rows`` turns them into texture indices, one texture per image)."""
-    images: dict | None = {} if textures else None
-    row = principled_to_params(**material_inputs(material, images))
-    row.update(images or {})
+    row = _graph_row(material, textures)
+    if row is None:
+        images: dict | None = {} if textures else None
+        row = principled_to_params(**material_inputs(material, images))
+        row.update(images or {})
     row.update(surface_coverage(material, surface_node(getattr(material, "node_tree", None)), textures))
     row["name"] = material.name
+    return row
+
+
+def _graph_row(material, textures: bool) -> dict | None:
+    """The row of a material whose node graph the rows cannot hold (graph_rows.py), with its
+    graph (``node_graph``) and the pixels its Image Textures index (``node_graph_textures``);
+    None when the rows hold it (read by ``material_inputs``, the fast path)."""
+    read = read_node_graph(material, images=textures)
+    if read is None or read.graph.surface is None:
+        return None
+    if not read.structural and rows_hold(read.graph):
+        return None
+    # Kinds the reader knows but the compiler does not evaluate yet: named, never dropped
+    # silently (their outputs take their default values in the program).
+    for kind in sorted({node.kind for node in read.graph.nodes} - set(NODE_SPECS)):
+        names = [node.name for node in read.graph.nodes if node.kind == kind]
+        tell("%s: node %r (%s) is not evaluated yet; its outputs take their default values",
+             material.name, names[0], kind)
+    thickness = getattr(getattr(material, "hybrid_rt", None), "thickness", DEFAULT_THICKNESS)
+    row = principled_to_params(**stand_in_inputs(read.graph), thickness=thickness)
+    row.update(node_graph=read.graph, node_graph_textures=read.images)
     return row
 
 
@@ -290,7 +340,7 @@ class MaterialTableBuilder:
         return self._index[key]
 
     def table(self) -> MaterialTable:
-        return MaterialTable.from_rows(self.rows)
+        return table_with_graphs(self.rows)
 
 
 def slot_lookup(obj, mesh, materials: MaterialTableBuilder) -> np.ndarray:

@@ -92,7 +92,9 @@ class NodePrograms:
             rows["params"][m, 0] = estimate["ior"]
             rows["base_color"][m, 3] = 0.0
             rows["textures"][m] = (-1, -1, -1, 0)
-            rows["textures2"][m, :3] = -1
+            # The program gives roughness and metallic; the alpha image (z) and alpha stay
+            # the row's: every alpha test (G-buffer, shadow maps, BVH) reads the row.
+            rows["textures2"][m, :2] = -1
         words = self.table.words.tobytes() or bytes(4)
         if words != self._sent_words:
             self.words.upload(words)

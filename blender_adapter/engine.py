@@ -21,6 +21,7 @@ from ..hybrid_engine.scene.camera import Camera
 from ..hybrid_engine.frame.film import FrameOutputs
 from ..hybrid_engine.frame.renderer import FrameResult, RenderCancelled, Renderer
 from ..hybrid_engine.frame.near_budget import NearCubeSizer
+from ..hybrid_engine.gpu import gl_context
 from ..hybrid_engine.reports.diagnostic_legend import draw_legend
 from ..hybrid_engine.scene.data import SceneData
 from ..hybrid_engine.scene.settings import RenderSettings
@@ -241,6 +242,10 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
         self.update_stats(
             "", f"Hybrid RT | {result.mode} | {result.total_ms:.1f} ms | {triangles:,} triangles"
         )
+        # Once per process: a farm task's log says which device rendered (a software one plainly).
+        device = gl_context.device_report_once()
+        if device is not None:
+            self.report({"INFO"}, f"Hybrid RT: {device}")
 
     def update_render_passes(self, scene=None, renderlayer=None) -> None:
         """The passes this engine writes for a view layer (the compositor's Render Layers

@@ -51,7 +51,7 @@ REQUIRED_ENTRIES = (
     "wheels/",
 )
 FORBIDDEN_PREFIXES = (
-    "tests/", ".ci/", ".venv/", ".git/", "docs/", "scripts/", "out/", "dist/", "Makefile",
+    "tests/", ".ci/", ".venv/", ".git/", "docs/", "scripts/", "farm/", "out/", "dist/", "Makefile",
 )
 FORBIDDEN_PARTS = ("__pycache__",)
 

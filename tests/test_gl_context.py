@@ -219,3 +219,147 @@ def test_off_linux_a_gl_block_enters_and_leaves_through_glcontext(monkeypatch, g
     with gl_context.activated(release_after=True) as ctx:
         assert ctx is gl
     assert calls == ["enter", "exit"]
+
+
+# ---------------------------------------------------------------------------------------------
+# The render device: Preferences choose it, HYBRID_RT_DEVICE overrides them per process.
+
+def two_devices():
+    from hybrid_engine.gpu.egl_devices import EGLDevice
+
+    return [EGLDevice(0, "NVIDIA RTX A6000 (/dev/dri/card1, nvidia, PCI 0000:01:00.0)", "/dev/dri/card1"),
+            EGLDevice(1, "NVIDIA RTX A6000 (/dev/dri/card2, nvidia, PCI 0000:41:00.0)", "/dev/dri/card2")]
+
+
+@pytest.fixture
+def device_state(monkeypatch):
+    """No override from the environment and no preference, restored afterwards."""
+    from hybrid_engine.gpu import gl_context
+
+    monkeypatch.delenv(gl_context.DEVICE_ENV, raising=False)
+    saved = gl_context._state.device_preference
+    gl_context.set_device_preference(None)
+    yield gl_context
+    gl_context.set_device_preference(saved)
+
+
+def test_a_device_is_chosen_by_index_or_by_a_part_of_its_name(device_state):
+    devices = two_devices()
+    assert device_state.choose_device("1", devices) is devices[1]
+    assert device_state.choose_device("card2", devices) is devices[1]
+    assert device_state.choose_device("pci 0000:01", devices) is devices[0]
+    assert device_state.choose_device(None, devices) is None
+    assert device_state.choose_device("auto", devices) is None
+
+
+def test_a_bad_device_choice_fails_with_a_message_listing_the_devices(device_state):
+    devices = two_devices()
+    for choice in ("2", "radeon", "RTX"):  # out of range, no match, ambiguous
+        with pytest.raises(device_state.GLUnavailableError) as caught:
+            device_state.choose_device(choice, devices, "HYBRID_RT_DEVICE=" + choice)
+        message = str(caught.value)
+        assert devices[0].label in message and devices[1].label in message, message
+        assert f"HYBRID_RT_DEVICE={choice}" in message
+
+
+def test_the_environment_overrides_the_preference(device_state, monkeypatch):
+    device_state.set_device_preference("1")
+    assert device_state.device_choice()[0] == "1"
+    monkeypatch.setenv(device_state.DEVICE_ENV, "card1")
+    choice, asked_by = device_state.device_choice()
+    assert choice == "card1" and asked_by == "HYBRID_RT_DEVICE=card1"
+    device_state.set_device_preference("auto")
+    monkeypatch.delenv(device_state.DEVICE_ENV)
+    assert device_state.device_choice() == (None, "automatic")
+
+
+def test_the_chosen_device_becomes_glcontexts_device_index(device_state, monkeypatch):
+    from hybrid_engine.gpu import egl_devices
+
+    monkeypatch.setattr(egl_devices, "enumerate_devices", two_devices)
+    monkeypatch.setenv(device_state.DEVICE_ENV, "card2")
+    assert device_state._device_kwargs("egl") == {"device_index": 1}
+    monkeypatch.delenv(device_state.DEVICE_ENV)
+    assert device_state._device_kwargs("egl") == {}  # automatic: glcontext's own default
+
+
+def test_a_device_choice_off_egl_is_refused(device_state, monkeypatch):
+    monkeypatch.setenv(device_state.DEVICE_ENV, "1")
+    with pytest.raises(device_state.GLUnavailableError, match="through EGL"):
+        device_state._device_kwargs("wgl")
+
+
+def test_a_context_is_made_on_the_device_chosen_by_index_or_name_and_says_it_is_software():
+    code = """
+        from hybrid_engine.gpu import gl_context, egl_devices
+        ctx = gl_context.get_context()
+        device = gl_context.current_device()
+        print("DEVICE", device.index, device.software)
+        print("DESCRIPTION", gl_context.device_description())
+        print("LIVE", ctx.version_code >= 430)
+        """
+    software = [d for d in __import__("hybrid_engine.gpu.egl_devices").gpu.egl_devices.enumerate_devices()
+                if d.software][0]
+    for choice in (str(software.index), "SOFTWARE RENDERER"):
+        result = run_isolated(code, HYBRID_RT_DEVICE=choice)
+        assert f"DEVICE {software.index} True" in result.stdout, result.stdout + result.stderr
+        assert "LIVE True" in result.stdout
+        assert f"EGL device {software.label}" in result.stdout
+        assert "llvmpipe" in result.stdout and "a software renderer: slow" in result.stdout
+
+
+def test_the_device_index_reaches_glcontext():
+    """A second device listed where EGL has one: glcontext is asked for index 1 and refuses, which
+    proves the choice is not dropped on the way (the context would come up on device 0)."""
+    result = run_isolated(
+        """
+        from hybrid_engine.gpu import gl_context, egl_devices
+        from hybrid_engine.gpu.egl_devices import EGLDevice
+        real = egl_devices.enumerate_devices()
+        egl_devices.enumerate_devices = lambda: real + [EGLDevice(len(real), "Second GPU (/dev/dri/card9)")]
+        try:
+            gl_context.get_context()
+            print("CREATED")
+        except gl_context.GLUnavailableError as exc:
+            print("ERROR:", exc)
+        """,
+        HYBRID_RT_DEVICE="Second GPU",
+    )
+    assert "ERROR:" in result.stdout, result.stdout + result.stderr
+    assert "requested device index 1" in result.stdout and "Second GPU" in result.stdout
+
+
+def test_a_bad_device_in_the_environment_fails_the_context_listing_the_devices():
+    result = run_isolated(
+        """
+        from hybrid_engine.gpu import gl_context
+        try:
+            gl_context.get_context()
+        except gl_context.GLUnavailableError as exc:
+            print("ERROR:", exc)
+        """,
+        HYBRID_RT_DEVICE="7",
+    )
+    assert "ERROR: There is no EGL device 7 (HYBRID_RT_DEVICE=7)" in result.stdout, result.stdout + result.stderr
+    assert "0: Mesa software renderer" in result.stdout
+
+
+def test_a_final_render_reports_the_device_once_per_process():
+    result = run_isolated(
+        """
+        from addon_loader import load_addon
+        import bpy
+        bpy.ops.wm.read_factory_settings(use_empty=False)
+        load_addon().register()
+        scene = bpy.context.scene
+        scene.render.engine = "HYBRID_RT"
+        scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 32, 24, 100
+        scene.hybrid_rt.render_samples = 1
+        bpy.ops.render.render()
+        bpy.ops.render.render()
+        """,
+        PYTHONPATH=str(REPO_ROOT / "scripts"),
+    )
+    lines = [line for line in result.stdout.splitlines() if "Hybrid RT: rendering on EGL device" in line]
+    assert len(lines) == 1, result.stdout + result.stderr
+    assert lines[0].startswith("Info: ") and "a software renderer: slow" in lines[0]

@@ -100,7 +100,7 @@ def test_zip_holds_exactly_the_addon_files_and_wheels(package_zip):
     expected = expected_zip_entries(manifest())
     assert sorted(names - expected) == [], "files that must stay out of the package"
     assert sorted(expected - names) == [], "add-on files missing from the package"
-    assert not any(n.startswith(("tests/", ".ci/", ".venv/", "scripts/", "docs/", "benchmarks/")) for n in names)
+    assert not any(n.startswith(("tests/", ".ci/", ".venv/", "scripts/", "docs/", "benchmarks/", "farm/")) for n in names)
 
 
 def test_zip_holds_no_test_or_benchmark_module(package_zip):

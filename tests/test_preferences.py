@@ -49,3 +49,22 @@ def test_an_unknown_kernel_shape_is_refused_and_the_choice_stays_automatic(prefe
 def test_the_preferences_list_each_kernels_shape(addon, variants, gl):
     (line,) = addon.ui.preferences.kernel_lines()
     assert all(f"{kernel} CPU" in line for kernel in variants.KERNELS)
+
+
+def test_render_device_lists_automatic_and_each_egl_device_and_hands_the_choice_to_the_core(
+        addon, preferences, monkeypatch):
+    gl_context = addon.hybrid_engine.gpu.gl_context
+    devices = addon.hybrid_engine.gpu.egl_devices.enumerate_devices()
+    items = [item[:2] for item in addon.ui.preferences.device_items()]
+    assert items == [("AUTO", "Automatic")] + [(str(d.index), d.label) for d in devices]
+    monkeypatch.delenv(gl_context.DEVICE_ENV, raising=False)
+    try:
+        preferences.render_device = str(devices[-1].index)
+        assert gl_context.device_choice()[0] == str(devices[-1].index)
+        monkeypatch.setenv(gl_context.DEVICE_ENV, "0")
+        assert addon.ui.preferences.device_lines(preferences)[0] == "HYBRID_RT_DEVICE=0 overrides this setting in this process"
+        preferences.render_device = "AUTO"
+        monkeypatch.delenv(gl_context.DEVICE_ENV)
+        assert gl_context.device_choice() == (None, "automatic")
+    finally:
+        gl_context.set_device_preference(None)

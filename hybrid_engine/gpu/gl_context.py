@@ -9,10 +9,16 @@ context lives at module level and outlives any engine instance.
 
 OpenGL 4.3 is the floor because the LBVH and the tracer need compute shaders and shader
 storage buffers (both core in 4.3).
+
+The context is made on one EGL device (``egl_devices.py``): the add-on's preferences choose
+it, and ``HYBRID_RT_DEVICE`` (an index or part of a device's name) overrides them, so that
+each process of a multi-GPU farm worker renders on its own GPU. Which device and GL renderer
+rendered is logged once, plainly so when the renderer is a software one (slow).
 """
 from __future__ import annotations
 
 import ctypes
+import logging
 import os
 import sys
 import threading
@@ -21,7 +27,15 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Callable, Iterator
 
+from . import egl_devices
+from .egl_devices import EGLDevice
+
 REQUIRED_GL_VERSION = 430
+DEVICE_ENV = "HYBRID_RT_DEVICE"
+AUTOMATIC = "auto"
+SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast", "lavapipe")
+
+log = logging.getLogger(__name__)
 
 
 class GLUnavailableError(RuntimeError):
@@ -52,6 +66,10 @@ if not hasattr(_state, "lock"):
     _state.handle = None  # our EGLContext, to tell it from a host's context
     _state.limits = None
     _state.parking_fbo = None
+if not hasattr(_state, "device_preference"):
+    _state.device_preference = None  # the add-on preferences' Render Device
+    _state.device = None  # the EGLDevice the context was made on (None: unknown or not EGL)
+    _state.device_reported = False
 if not hasattr(_state, "release_hooks"):
     # Callbacks run before the context is released: what caches GL objects of the context
     # (the shader loader's programs) registers here, so that this module imports none of it.
@@ -82,6 +100,74 @@ def platform_backend(platform: str | None = None) -> str:
                              "set HYBRID_RT_GL_BACKEND to a glcontext backend to try one")
 
 
+def set_device_preference(choice: str | None) -> None:
+    """The Preferences' *Render Device* (an index, part of a name, or None/"auto" for EGL's
+    first device). It applies when the context is created: Blender's next start once one
+    exists, since every renderer's GL objects belong to the current one."""
+    _state.device_preference = choice or None
+
+
+def device_choice() -> tuple[str | None, str]:
+    """The device asked for and who asked: ``HYBRID_RT_DEVICE`` beats the preference, so a
+    farm can start one process per GPU whatever the workers' saved preferences say."""
+    env = os.environ.get(DEVICE_ENV, "").strip()
+    if env:
+        return env, f"{DEVICE_ENV}={env}"
+    preference = _state.device_preference
+    if preference and preference.strip().lower() != AUTOMATIC:
+        return preference.strip(), f"the Render Device preference {preference!r}"
+    return None, "automatic"
+
+
+def device_list_text(devices: list[EGLDevice]) -> str:
+    """The devices as one line for messages: what a person can put in HYBRID_RT_DEVICE."""
+    if not devices:
+        return "EGL lists no devices here (no EGL_EXT_device_enumeration)"
+    return "the EGL devices are " + "; ".join(device.label for device in devices)
+
+
+def choose_device(choice: str | None, devices: list[EGLDevice], asked_by: str = "") -> EGLDevice | None:
+    """The device ``choice`` names: a number is an index, any other text must match exactly one
+    device's name (case-insensitive, e.g. ``renderD129`` or ``RTX``). None is automatic (EGL's
+    first device, as glcontext picks it). Raises GLUnavailableError listing the devices."""
+    if choice is None or choice.strip().lower() in ("", AUTOMATIC):
+        return None
+    text = choice.strip()
+    who = f" ({asked_by})" if asked_by else ""
+    if text.isdigit():
+        index = int(text)
+        if index < len(devices):
+            return devices[index]
+        raise GLUnavailableError(f"There is no EGL device {index}{who}; {device_list_text(devices)}")
+    matches = [device for device in devices if text.lower() in device.name.lower()]
+    if len(matches) == 1:
+        return matches[0]
+    if not matches:
+        raise GLUnavailableError(f"No EGL device is named like {text!r}{who}; "
+                                 f"{device_list_text(devices)}")
+    raise GLUnavailableError(f"{len(matches)} EGL devices are named like {text!r}{who}: give "
+                             f"an index or a longer part of the name; {device_list_text(devices)}")
+
+
+def _device_kwargs(backend: str) -> dict:
+    """glcontext's ``device_index`` for the chosen device; records the device for the log."""
+    choice, asked_by = device_choice()
+    if backend != "egl":
+        _state.device = None
+        if choice is not None:
+            raise GLUnavailableError(f"Hybrid RT chooses render devices through EGL; the '{backend}' backend "
+                                     f"renders on the system's default device ({asked_by})")
+        return {}
+    devices = egl_devices.enumerate_devices()
+    device = choose_device(choice, devices, asked_by)
+    if device is None:  # automatic: glcontext's own default, GLCONTEXT_DEVICE_INDEX or 0
+        index = os.environ.get("GLCONTEXT_DEVICE_INDEX", "0")
+        _state.device = devices[int(index)] if index.isdigit() and int(index) < len(devices) else None
+        return {}
+    _state.device = device
+    return {"device_index": device.index}
+
+
 def _create_context():
     try:
         import moderngl
@@ -92,7 +178,8 @@ def _create_context():
         ) from exc
 
     backend = platform_backend()
-    kwargs = {"standalone": True, "require": REQUIRED_GL_VERSION, "backend": backend}
+    kwargs = {"standalone": True, "require": REQUIRED_GL_VERSION, "backend": backend, **_device_kwargs(backend)}
+    on_device = f" on EGL device {_state.device.label}" if "device_index" in kwargs else ""
     try:
         ctx = moderngl.create_context(**kwargs)
     except Exception as exc:
@@ -100,10 +187,10 @@ def _create_context():
         if "require" in text.lower() or "version" in text.lower():
             raise GLUnavailableError(
                 "Hybrid RT needs OpenGL 4.3 (compute shaders and storage buffers); "
-                f"the {backend or 'default'} context reports: {text}"
+                f"the {backend or 'default'} context{on_device} reports: {text}"
             ) from exc
         raise GLUnavailableError(
-            f"Could not create a standalone OpenGL context with the '{backend}' backend: {text}. "
+            f"Could not create a standalone OpenGL context with the '{backend}' backend{on_device}: {text}. "
             + ("On Linux install the Mesa EGL libraries (apt-get install libegl1 libegl-mesa0 "
                "libgl1-mesa-dri libgbm1) or a GPU driver that provides EGL; "
                if sys.platform.startswith("linux") else "Update the graphics driver; ")
@@ -128,7 +215,16 @@ def get_context():
             _state.context = _create_context()
             _state.limits = None
             _state.handle = _native.egl_current()[3] if _native.egl else None
+            _state.device_reported = False
+            # Once per context, for a configured log; the console line is the final render's
+            # report (device_report_once), so a background render does not print it twice.
+            log.info("Hybrid RT: %s", _describe(_state.context)[1])
         return _state.context
+
+
+def has_context() -> bool:
+    """Whether the process's context exists (asking creates nothing)."""
+    return _state.context is not None
 
 
 def limits() -> GLLimits:
@@ -158,7 +254,41 @@ def renderer_name() -> str:
 def is_software_renderer() -> bool:
     """True on llvmpipe/softpipe, whose timer queries return meaningless values."""
     name = renderer_name().lower()
-    return any(word in name for word in ("llvmpipe", "softpipe", "swrast", "lavapipe"))
+    return any(word in name for word in SOFTWARE_RENDERERS)
+
+
+def current_device() -> EGLDevice | None:
+    """The EGL device the context was made on (None off EGL or where EGL lists none)."""
+    get_context()
+    return _state.device
+
+
+def _describe(ctx) -> tuple[bool, str]:
+    renderer = str(ctx.info.get("GL_RENDERER", "unknown"))
+    software = any(word in renderer.lower() for word in SOFTWARE_RENDERERS)
+    device = _state.device
+    where = (f"EGL device {device.label}" if device is not None
+             else f"the {platform_backend()} backend's default device")
+    text = f"rendering on {where} with the OpenGL renderer {renderer}"
+    if software:
+        text += " - a software renderer: slow, no GPU is used"
+    return software, text
+
+
+def device_description() -> str:
+    """Which device and GL renderer render, in one sentence for logs and reports; a software
+    renderer is named as such, since it is what makes a worker without a GPU driver slow."""
+    return _describe(get_context())[1]
+
+
+def device_report_once() -> str | None:
+    """``device_description()`` the first time it is asked for after the context was made,
+    None afterwards: a final render reports the device once per process, not every frame."""
+    get_context()
+    if _state.device_reported:
+        return None
+    _state.device_reported = True
+    return device_description()
 
 
 def check_error(where: str) -> None:
@@ -300,3 +430,4 @@ def release_context() -> None:
             _state.context = None
             _state.handle = None
             _state.limits = None
+            _state.device = None

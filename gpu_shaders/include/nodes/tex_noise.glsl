@@ -154,110 +154,67 @@ float noise_signed_dim(int dimensions, vec4 p) {
     return noise_signed(p);
 }
 
-// fBm: octaves summed with amplitudes roughness^i; normalized, the sum is divided by the sum
-// of the amplitudes and mapped to [0, 1]. A fractional detail blends the sum with one more
-// octave (each normalized by its own amplitude sum).
-float noise_fbm(int dims, vec4 p, float detail, float roughness, float lacunarity, bool normalize) {
-    float freq = 1.0, amp = 1.0, amp_sum = 0.0, sum = 0.0;
-    int octaves = int(detail);
-    for (int i = 0; i <= octaves; ++i) {
-        sum += noise_signed_dim(dims, freq * p) * amp;
-        amp_sum += amp;
-        amp *= roughness;
-        freq *= lacunarity;
-    }
-    float frac = detail - floor(detail);
-    float low = normalize ? 0.5 * sum / amp_sum + 0.5 : sum;
-    if (frac == 0.0) return low;
-    float sum_hi = sum + noise_signed_dim(dims, freq * p) * amp;
-    float high = normalize ? 0.5 * sum_hi / (amp_sum + amp) + 0.5 : sum_hi;
-    return mix(low, high, frac);
-}
-
-// Multifractal: octaves multiply, (1 + amplitude * noise), so rough areas get rougher.
-float noise_multifractal(int dims, vec4 p, float detail, float roughness, float lacunarity) {
-    float value = 1.0, amp = 1.0;
-    int octaves = int(detail);
-    for (int i = 0; i <= octaves; ++i) {
-        value *= amp * noise_signed_dim(dims, p) + 1.0;
-        amp *= roughness;
-        p *= lacunarity;
-    }
-    float frac = detail - floor(detail);
-    if (frac != 0.0) value *= frac * amp * noise_signed_dim(dims, p) + 1.0;
-    return value;
-}
-
-// Heterogeneous terrain: each octave's contribution is scaled by the value so far, so valleys
-// stay smooth and peaks grow detail; Offset lifts every octave.
-float noise_hetero_terrain(int dims, vec4 p, float detail, float roughness, float lacunarity,
-                           float offset) {
-    float amp = roughness;
-    float value = offset + noise_signed_dim(dims, p);
-    p *= lacunarity;
-    int octaves = int(detail);
-    for (int i = 1; i <= octaves; ++i) {
-        value += (noise_signed_dim(dims, p) + offset) * amp * value;
-        amp *= roughness;
-        p *= lacunarity;
-    }
-    float frac = detail - floor(detail);
-    if (frac != 0.0) value += frac * (noise_signed_dim(dims, p) + offset) * amp * value;
-    return value;
-}
-
-// Hybrid multifractal: additive octaves weighted by the previous octaves' signal times Gain
-// (capped at 1); octaves stop once the weight is negligible.
-float noise_hybrid_multifractal(int dims, vec4 p, float detail, float roughness, float lacunarity,
-                                float offset, float gain) {
-    float amp = 1.0, value = 0.0, weight = 1.0;
-    int octaves = int(detail);
-    for (int i = 0; weight > 0.001 && i <= octaves; ++i) {
-        weight = min(weight, 1.0);
-        float signal = (noise_signed_dim(dims, p) + offset) * amp;
-        amp *= roughness;
-        value += weight * signal;
-        weight *= gain * signal;
-        p *= lacunarity;
-    }
-    float frac = detail - floor(detail);
-    if (frac != 0.0 && weight > 0.001) {
-        weight = min(weight, 1.0);
-        value += frac * weight * (noise_signed_dim(dims, p) + offset) * amp;
-    }
-    return value;
-}
-
-// Ridged multifractal: (Offset - |noise|)^2 makes sharp ridges where the noise crosses zero;
-// each octave is weighted by the previous one's signal times Gain, clamped to [0, 1].
-float noise_ridged_multifractal(int dims, vec4 p, float detail, float roughness, float lacunarity,
-                                float offset, float gain) {
-    float amp = roughness;
-    float signal = offset - abs(noise_signed_dim(dims, p));
-    signal *= signal;
-    float value = signal;
-    int octaves = int(detail);
-    for (int i = 1; i <= octaves; ++i) {
-        p *= lacunarity;
-        float weight = clamp(signal * gain, 0.0, 1.0);
-        signal = offset - abs(noise_signed_dim(dims, p));
-        signal *= signal * weight;
-        value += signal * amp;
-        amp *= roughness;
-    }
-    return value;
-}
-
+// The fractal sums, after Musgrave (Ebert et al., ch. 16), written as one octave loop with
+// a single noise call so that a shader holding every type and dimension stays small. Octave i
+// has amplitude Roughness^i and frequency Lacunarity^i. A fractional Detail adds one partial
+// octave weighted by the fraction (Ridged Multifractal has none, as in Blender).
+//   fBm: sum of amplitude * noise; normalized, divided by the sum of amplitudes and mapped to
+//     [0, 1], and the partial octave blends the two normalized sums.
+//   Multifractal: product of (1 + amplitude * noise): rough areas get rougher.
+//   Heterogeneous terrain: octave 0 is Offset + noise, then each octave adds
+//     (noise + Offset) * amplitude * value: valleys stay smooth, peaks grow detail.
+//   Hybrid multifractal: signal = (noise + Offset) * amplitude, added with a weight that is the
+//     previous signal times Gain (capped at 1); octaves stop once the weight is negligible.
+//   Ridged multifractal: signal = (Offset - |noise|)^2, sharp ridges where the noise crosses
+//     zero; from octave 1 each signal is weighted by the previous one times Gain, in [0, 1].
 float noise_fractal(int type, int dims, vec4 p, float detail, float roughness, float lacunarity,
                     float offset, float gain, bool normalize) {
-    if (type == NOISE_MULTIFRACTAL) return noise_multifractal(dims, p, detail, roughness, lacunarity);
-    if (type == NOISE_HYBRID_MULTIFRACTAL)
-        return noise_hybrid_multifractal(dims, p, detail, roughness, lacunarity, offset, gain);
-    if (type == NOISE_RIDGED_MULTIFRACTAL)
-        return noise_ridged_multifractal(dims, p, detail, roughness, lacunarity, offset, gain);
-    if (type == NOISE_HETERO_TERRAIN)
-        return noise_hetero_terrain(dims, p, detail, roughness, lacunarity, offset);
-    return noise_fbm(dims, p, detail, roughness, lacunarity, normalize);
+    int octaves = int(detail);
+    float frac = type == NOISE_RIDGED_MULTIFRACTAL ? 0.0 : detail - floor(detail);
+    int last = frac != 0.0 ? octaves + 1 : octaves;
+    float value = type == NOISE_MULTIFRACTAL ? 1.0 : 0.0;
+    float amp = 1.0, amp_sum = 0.0, weight = 1.0, signal = 0.0;
+    float fbm_partial = 0.0, partial_amp_sum = 1.0;
+    for (int i = 0; i <= last; ++i) {
+        if (type == NOISE_HYBRID_MULTIFRACTAL && weight <= 0.001) break;
+        float n = noise_signed_dim(dims, p);
+        float part = i > octaves ? frac : 1.0;  // the partial octave's weight
+        if (type == NOISE_FBM) {
+            if (i > octaves) {
+                fbm_partial = value + n * amp;
+                partial_amp_sum = amp_sum + amp;
+            } else {
+                value += n * amp;
+                amp_sum += amp;
+            }
+        } else if (type == NOISE_MULTIFRACTAL) {
+            value *= part * amp * n + 1.0;
+        } else if (type == NOISE_HETERO_TERRAIN) {
+            value = i == 0 ? offset + n : value + part * (n + offset) * amp * value;
+        } else if (type == NOISE_HYBRID_MULTIFRACTAL) {
+            weight = min(weight, 1.0);
+            signal = (n + offset) * amp;
+            value += part * weight * signal;
+            weight *= gain * signal;
+        } else {  // NOISE_RIDGED_MULTIFRACTAL
+            float previous = signal;
+            signal = offset - abs(n);
+            signal *= signal;
+            if (i > 0) {
+                signal *= clamp(previous * gain, 0.0, 1.0);
+                value += signal * amp;
+            } else {
+                value = signal;
+            }
+        }
+        amp *= roughness;
+        p *= lacunarity;
+    }
+    if (type != NOISE_FBM) return value;
+    float low = normalize ? 0.5 * value / amp_sum + 0.5 : value;
+    if (frac == 0.0) return low;
+    float high = normalize ? 0.5 * fbm_partial / partial_amp_sum + 0.5 : fbm_partial;
+    return mix(low, high, frac);
 }
 
 // Blender's fixed random offset number `seed` for a `dims`-dimensional point: each component
@@ -291,13 +248,13 @@ void node_tex_noise(int dimensions, int type, int normalize, vec3 vector, float 
             shift[k] = noise_signed_dim(dims, p + noise_random_offset(dims, float(k))) * distortion;
         p += shift;
     }
-    fac = noise_fractal(type, dims, p, detail, roughness, lacunarity, offset, gain, norm);
-    // Color: the same fractal at two further fixed offsets, seeds dims and dims + 1.
-    color = vec3(fac,
-                 noise_fractal(type, dims, p + noise_random_offset(dims, float(dims)), detail,
-                               roughness, lacunarity, offset, gain, norm),
-                 noise_fractal(type, dims, p + noise_random_offset(dims, float(dims + 1)), detail,
-                               roughness, lacunarity, offset, gain, norm));
+    // Fac, then the Color's green and blue: the same fractal at fixed offsets, seeds dims and
+    // dims + 1. One call site in a loop keeps the shader small.
+    for (int k = 0; k < 3; ++k) {
+        vec4 q = k == 0 ? p : p + noise_random_offset(dims, float(dims + k - 1));
+        color[k] = noise_fractal(type, dims, q, detail, roughness, lacunarity, offset, gain, norm);
+    }
+    fac = color.x;
 }
 
 #endif

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from node_oracle import cycles_emission_plane, glsl_probe, plane_points
-from node_tiles import EXTENT, SIZE, assert_within_bar, tile_errors, tile_glsl, tile_inputs
+from node_tiles import (EXTENT, SIZE, assert_within_bar, math_node, tile_errors, tile_glsl,
+                        tile_inputs)
 
 NOISE_CODES = {
     "noise_dimensions": {"1D": 1, "2D": 2, "3D": 3, "4D": 4},
@@ -115,3 +116,33 @@ def test_single_octave_perlin_noise_equals_cycles_to_float_precision(ctx, tmp_pa
         for index, (mean, p99) in enumerate(tiles):
             assert mean <= 1e-4 and p99 <= 5e-4, (
                 f"{dimensions} {output} tile {index}: mean {mean:.2e}, p99 {p99:.2e}")
+
+
+@pytest.mark.parametrize("w_offset", [123456.0, 2.0e6])
+def test_noise_far_from_the_origin_wraps_as_in_cycles_bit_for_bit(ctx, tmp_path, w_offset):
+    # W snapped to quarters, so both sides see the same floats: far out the noise is the noise
+    # of W modulo 100000 (a hash of the huge cell would differ), and from a million on, where a
+    # float has no fraction left, half a cell further (or every whole W would be zero).
+    def build(nodes, links, object_vector):
+        m = lambda *args: math_node(nodes, links, *args)  # noqa: E731
+        split = nodes.new("ShaderNodeSeparateXYZ")
+        links.new(object_vector, split.inputs[0])
+        x, y = split.outputs["X"], split.outputs["Y"]
+        w = m("ADD", m("DIVIDE", m("FLOOR", m("MULTIPLY_ADD", y, 32.0, m("MULTIPLY", x, 4.0))), 4.0),
+              w_offset)
+        noise = nodes.new("ShaderNodeTexNoise")
+        links.new(w, _socket(noise, "W"))
+        _socket(noise, "Scale").default_value = 1.0
+        _socket(noise, "Detail").default_value = 0.0
+        noise.noise_dimensions = "1D"
+        noise.normalize = False
+        return noise.outputs["Fac"]
+
+    cycles = cycles_emission_plane(build, tmp_path, SIZE, EXTENT)[..., 0]
+    ours = glsl_probe(ctx, ["include/nodes/tex_noise.glsl"], f"""
+        float w = floor(p.y * 32.0 + p.x * 4.0) / 4.0 + {w_offset:.1f};
+        float fac; vec3 color;
+        node_tex_noise(1, 0, 0, vec3(0.0), w, 1.0, 0.0, 0.5, 2.0, 0.0, 1.0, 0.0, fac, color);
+        return vec4(fac);""", plane_points(SIZE, EXTENT))[..., 0]
+    assert np.ptp(cycles) > 1.0
+    np.testing.assert_array_equal(ours, cycles)

@@ -146,3 +146,12 @@ def test_noise_far_from_the_origin_wraps_as_in_cycles_bit_for_bit(ctx, tmp_path,
         return vec4(fac);""", plane_points(SIZE, EXTENT))[..., 0]
     assert np.ptp(cycles) > 1.0
     np.testing.assert_array_equal(ours, cycles)
+
+
+@pytest.mark.parametrize(("values", "details"), [
+    ({"Roughness": 1.0, "Lacunarity": 1.1}, (16.0, 4.0)),  # Detail 16 and 20: both 15 octaves
+    ({"Roughness": -0.5}, (2.0, 0.0)),                      # negative Roughness: 0
+], ids=["detail_above_15", "negative_roughness"])
+def test_noise_inputs_out_of_range_clamp_as_in_cycles(ctx, tmp_path, values, details):
+    errors = noise_errors(ctx, tmp_path, "2D", "FBM", False, values, details=details)
+    assert_within_bar(errors, f"{values} {details}")

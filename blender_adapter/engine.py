@@ -25,7 +25,7 @@ from ..hybrid_engine.gpu import gl_context
 from ..hybrid_engine.reports.diagnostic_legend import draw_legend
 from ..hybrid_engine.scene.data import SceneData
 from ..hybrid_engine.scene.settings import RenderSettings
-from . import features, messages, properties, viewport
+from . import effective_values, features, messages, properties, viewport
 from .export.camera import camera_from_scene
 from .gl_host import gl_block
 from .scene_cache import Changes, SceneCache, SyncReport, TrackedScene, extract_scene
@@ -182,6 +182,7 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
                                     filter_width=float(scene.render.filter_size),
                                     denoise=settings.denoise_render if final else settings.denoise_viewport)
     draw_legend(result.image, result.legend)  # a diagnostic view's legend, kept in the render
+    effective_values.remember(result.effective)  # for the panels (Automatic settings)
     result.passes = {"extract": extract_ms, **result.passes}
     result.total_ms += extract_ms
     if sizer is not None:

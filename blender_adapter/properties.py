@@ -19,7 +19,7 @@ import bpy
 import numpy as np
 
 from ..hybrid_engine.scene.materials import DEFAULT_THICKNESS
-from ..hybrid_engine.scene.settings import (CUBE_MARCH_DOCS, CUBE_MARCH_LABELS, CUBE_MARCHES, FIELD_DOCS, FIELD_LIMITS,
+from ..hybrid_engine.scene.settings import (AUTOMATIC_FIXED, CUBE_MARCH_DOCS, CUBE_MARCH_LABELS, CUBE_MARCHES, FIELD_DOCS, FIELD_LIMITS,
                                       MODE_DOCS, MODE_LABELS, MODES, NEAR_CUBE_MODE_DOCS, NEAR_CUBE_MODE_LABELS,
                                       NEAR_CUBE_MODES, WORLD_LIGHT_DOCS, WORLD_LIGHT_LABELS, WORLD_LIGHTS,
                                       RenderSettings, SettingsError)
@@ -45,7 +45,10 @@ LABELS = {
     "n_min": "Min Samples",
     "n_max": "Max Samples",
     "shadow_resolution": "Resolution",
-    "shadow_bias": "Bias",
+    "shadow_bias": "Fixed Bias",
+    "shadow_bias_texels": "Bias",
+    "shadow_normal_offset": "Normal Offset",
+    "cube_resolution_ratio": "Resolution Ratio",
     "shadow_cascades": "Sun Cascades",
     "viewport_scale": "Resolution Scale",
     "render_samples": "Render Samples",
@@ -74,6 +77,9 @@ SOFT_LIMITS = {
     "n_max": (4, 512),
     "shadow_resolution": (256, 4096),
     "shadow_bias": (0.0, 0.2),
+    "shadow_bias_texels": (0.0, 4.0),
+    "shadow_normal_offset": (0.0, 4.0),
+    "cube_resolution_ratio": (0.1, 1.0),
     "shadow_cascades": (0, 3),
     "viewport_scale": (0.25, 1.0),
     "render_samples": (1, 64),
@@ -104,6 +110,8 @@ def _pushing(edited: str, other: str, *, above: bool, margin: float = 1.0):
 
     def update(settings, _context) -> None:
         value, limit = getattr(settings, edited), getattr(settings, other)
+        if value <= 0 or limit <= 0:
+            return  # 0 is Automatic (near size, far clip): placed apart each frame by the core
         crossed = (value < limit or strict and value == limit) if above else \
             (value > limit or strict and value == limit)
         if crossed:  # the pushed value no longer crosses back, so its own update stops
@@ -156,6 +164,43 @@ def _property_for(name: str, default):
     raise TypeError(f"RenderSettings.{name}: no Blender property for {type(default).__name__}")
 
 
+def _automatic_toggle(name: str):
+    """The Automatic switch of a setting whose 0 means Automatic (``AUTOMATIC_FIXED``): on
+    stores 0 and keeps the fixed value in ``<name>_fixed``, off brings that value back. The
+    setting itself stays the one stored value, so files that set it before it could follow
+    the scene keep their value, and files that never set it follow the scene."""
+    fixed = f"{name}_fixed"
+
+    def get(settings) -> bool:
+        return getattr(settings, name) <= 0
+
+    def set_(settings, automatic: bool) -> None:
+        value = getattr(settings, name)
+        if automatic and value > 0:
+            setattr(settings, fixed, value)
+            setattr(settings, name, type(value)(0))
+        elif not automatic and value <= 0:
+            setattr(settings, name, getattr(settings, fixed))
+
+    label = LABELS.get(name, name)
+    return bpy.props.BoolProperty(
+        name="Automatic", get=get, set=set_,
+        description=f"{label} follows the scene and the output (the value shown is the last frame's); "
+        "off: the value you set")
+
+
+def _fixed_value(name: str):
+    """Where ``_automatic_toggle`` keeps the fixed value while Automatic is on."""
+    default = AUTOMATIC_FIXED[name]
+    lo, hi = FIELD_LIMITS[name]
+    lo = 16 if name == "cube_resolution" else 0.01
+    if isinstance(default, int):
+        return bpy.props.IntProperty(name=LABELS[name], default=default, min=int(lo), max=int(hi),
+                                     options={"HIDDEN"})
+    return bpy.props.FloatProperty(name=LABELS[name], default=default, min=lo, max=hi, subtype="DISTANCE",
+                                   options={"HIDDEN"})
+
+
 def _redraw_3d_views(_settings, context) -> None:
     screen = getattr(context, "screen", None)
     for area in (screen.areas if screen is not None else ()):
@@ -169,6 +214,9 @@ def _scene_annotations() -> dict:
         if f.default is MISSING:
             raise TypeError(f"RenderSettings.{f.name} needs a default to become a Blender property")
         annotations[f.name] = _property_for(f.name, f.default)
+    for name in AUTOMATIC_FIXED:
+        annotations[f"{name}_auto"] = _automatic_toggle(name)
+        annotations[f"{name}_fixed"] = _fixed_value(name)
     # The budget as artists also think of it: a frame rate, stored as the milliseconds only.
     lo, hi = FIELD_LIMITS["frame_budget_ms"]
     soft_lo, soft_hi = SOFT_LIMITS.get("frame_budget_ms", (lo, hi))

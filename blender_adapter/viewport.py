@@ -47,7 +47,7 @@ from ..hybrid_engine.reports.diagnostic_legend import draw_legend
 from ..hybrid_engine.scene.settings import RenderSettings
 from ..hybrid_engine.frame.viewport import RegionInput, accumulation_key, plan_frame
 from ..hybrid_engine.frame.viewport_status import FrameClock, MessageLatch, StatsRefresh, stats_line
-from . import features, messages, properties
+from . import effective_values, features, messages, properties
 from .export.camera import camera_from_scene
 from .gl_host import gl_block
 from .scene_cache import Changes, SceneCache, SyncReport
@@ -136,6 +136,7 @@ class ViewportSession:
                 if self.readback.image is None:  # nothing of this size on the host yet
                     self.readback.collect(wait=True)
             self.schedule.advance()
+            effective_values.remember(getattr(result, "effective", None))  # for the panels (Automatic settings)
             if index == 0:
                 self.sizer.observe(result.total_ms, settings)
             image = self.readback.image

@@ -215,11 +215,18 @@ def test_the_render_panels_draw_every_setting_once_the_report_and_the_overlay_qu
     overlay, each within 5 ms."""
     drawn: list[str] = []
     stored = bpy.context.scene.hybrid_rt
+    automatic = ("near_size", "cube_far", "cube_resolution")
     for near_cube_mode in ("FIXED", "BUDGET"):  # the near cube's fields follow its mode
-        stored.near_cube_mode = near_cube_mode
-        for panel in RENDER_PANELS(addon.ui.panels):
-            assert _draw(panel, drawn) < 5.0, panel.__name__
+        for on in (True, False):  # an Automatic setting shows its value only when fixed
+            stored.near_cube_mode = near_cube_mode
+            for name in automatic:
+                setattr(stored, f"{name}_auto", on)
+            for panel in RENDER_PANELS(addon.ui.panels):
+                assert _draw(panel, drawn) < 5.0, panel.__name__
     stored.near_cube_mode = "FIXED"
+    for name in automatic:
+        setattr(stored, f"{name}_auto", True)
+    assert {f"{name}_auto" for name in automatic} <= set(drawn)
     drawn = list(dict.fromkeys(drawn))
     settings = [f.name for f in fields(RenderSettings)]
     assert sorted(name for name in drawn if name in settings) == sorted(settings)

@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import bpy
 
+from ..blender_adapter import effective_values
 from ..blender_adapter.export.materials import material_params
+from ..hybrid_engine.scene.scale import auto_cube_resolution
 from ..hybrid_engine.scene.settings import DIAGNOSTIC_VIEWS
 from .light_panel import DATA_PT_hybrid_rt_light
 
@@ -92,6 +94,35 @@ def _split(layout):
     return layout
 
 
+def _effective_text(context, name: str) -> str:
+    """What an Automatic setting rendered the last frame with, or, before any frame, what
+    can be told without the geometry (the face resolution of the render's size)."""
+    last = effective_values.last()
+    if name == "cube_resolution":
+        if last is not None:
+            return f"{last.cube_resolution} px"
+        render = context.scene.render
+        scale = render.resolution_percentage / 100.0
+        res = auto_cube_resolution(context.scene.hybrid_rt.cube_resolution_ratio,
+                                   round(render.resolution_x * scale), round(render.resolution_y * scale))
+        return f"{res} px at the render size"
+    if last is None:
+        return "from the scene, at the next frame"
+    return f"{getattr(last, name):.4g} m"
+
+
+def _automatic(layout, context, name: str, label: str) -> None:
+    """A setting that may follow the scene: its Automatic switch, then the value you set
+    or, while Automatic, the value the last frame took."""
+    settings = context.scene.hybrid_rt
+    row = layout.row(heading=label)
+    row.prop(settings, f"{name}_auto", text="")
+    if getattr(settings, name) > 0:
+        row.prop(settings, name, text="")
+    else:
+        row.label(text=_effective_text(context, name))
+
+
 class RENDER_PT_hybrid_rt_sampling(HybridRTPanel, bpy.types.Panel):
     """Samples per pixel, as Cycles' Sampling panel: the viewport's while nothing changes,
     the final render's always."""
@@ -152,10 +183,14 @@ class RENDER_PT_hybrid_rt_hybrid(HybridRTPanel, bpy.types.Panel):
             col.prop(settings, "near_min")
             col.prop(settings, "near_max")
         else:
-            layout.prop(settings, "near_size")
+            _automatic(layout, context, "near_size", "Near Size")
         col = layout.column(heading="Cube Map")
-        col.prop(settings, "cube_resolution")
-        col.prop(settings, "cube_far")
+        _automatic(col, context, "cube_resolution", "Face Resolution")
+        sub = col.column()
+        sub.active = settings.cube_resolution <= 0
+        sub.prop(settings, "cube_resolution_ratio")
+        _automatic(col, context, "cube_far", "Far Clip")
+        col = layout.column()
         col.prop(settings, "cube_back_layer")
         col.prop(settings, "cube_hidden_exit")
         col.prop(settings, "lit_cube")
@@ -178,6 +213,8 @@ class RENDER_PT_hybrid_rt_shadows(HybridRTPanel, bpy.types.Panel):
         col = _split(self.layout).column()
         col.prop(settings, "shadow_resolution")
         col.prop(settings, "shadow_cascades")
+        col.prop(settings, "shadow_bias_texels", text="Bias (texels)")
+        col.prop(settings, "shadow_normal_offset", text="Normal Offset (texels)")
         col.prop(settings, "shadow_bias")
 
 

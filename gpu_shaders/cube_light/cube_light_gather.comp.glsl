@@ -86,7 +86,7 @@ void main() {
     vec3 d = r * cos(2.0 * PI * xi.y) * t + r * sin(2.0 * PI * xi.y) * b + sqrt(max(0.0, 1.0 - xi.x)) * n_facing;
     float c = dot(d, g_facing);
     if (c < 0.01) d = normalize(d + g_facing * (0.01 - c));
-    vec3 o = p + g_facing * (1e-4 + 1e-4 * max(max(abs(p.x), abs(p.y)), abs(p.z)));
+    vec3 o = p + g_facing * (scene_offset_absolute(1e-4) + 1e-4 * max(max(abs(p.x), abs(p.y)), abs(p.z)));
 
     float limit = scene_exit(o, d);
     CubeMarch cm;

@@ -95,7 +95,7 @@ vec3 emitter_irradiance(vec3 p, vec3 n_facing, vec3 g_facing, vec3 xi) {
     vec3 to_point = q - o;
     float reach = length(to_point);
     vec3 shadow_dir = to_point / max(reach, 1e-30);
-    reach = (reach - (RAY_OFFSET_ABSOLUTE + RAY_OFFSET_RELATIVE * max(max(abs(q.x), abs(q.y)), abs(q.z)))) * (1.0 - 1e-4);
+    reach = (reach - (scene_offset_absolute(RAY_OFFSET_ABSOLUTE) + RAY_OFFSET_RELATIVE * max(max(abs(q.x), abs(q.y)), abs(q.z)))) * (1.0 - 1e-4);
     float seen = 1.0;
     if (reach > 0.0) {
         emitter_shadow_rays += 1u;

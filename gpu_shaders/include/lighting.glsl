@@ -27,7 +27,9 @@ layout(std140) uniform ShadowSlotBuffer { ShadowSlot shadow_slots[512]; };
 uniform sampler2D u_shadow_atlas;    // objects at rest (hybrid_engine/passes/shadow_maps/shadow_cache.py)
 uniform sampler2D u_shadow_dynamic;  // moving objects: same slots, the nearer depth wins
 uniform int u_light_count;
-uniform float u_shadow_bias;
+uniform float u_shadow_bias;         // scene units, added to the texel bias (0 by default)
+uniform float u_shadow_bias_texels;  // the bias in shadow-map texels at the receiver
+uniform float u_shadow_normal_offset; // texels times the sine of the angle to the lamp
 uniform int u_sample;                // sample index of this view (random.glsl)
 
 int cube_face(vec3 d) {
@@ -100,9 +102,11 @@ struct ShadowProbe {
     float slope;
 };
 
-// Normal-offset bias: the lookup point moves off the surface by the bias setting plus
-// one and a half shadow texels (their world size grows with distance for perspective
-// slots), which removes acne at any map resolution without detaching contact shadows.
+// Normal-offset bias: the lookup point moves off the surface by the bias, in shadow texels
+// (their world size grows with distance for perspective slots), plus the normal offset,
+// texels times the sine of the surface's angle to the lamp, a quarter of the bias towards
+// the lamp. Texels, not scene units: the offset keeps its proportion to the objects at any
+// scene scale and removes acne at any map resolution without detaching contact shadows.
 ShadowProbe shadow_probe(int index, Light light, vec3 p, vec3 n, vec3 to_light) {
     ShadowProbe probe;
     probe.index = index;
@@ -110,8 +114,8 @@ ShadowProbe shadow_probe(int index, Light light, vec3 p, vec3 n, vec3 to_light) 
     bool perspective = slot.texel.y > 0.5;
     probe.texel_world = slot.texel.x * (perspective ? distance(p, light.position.xyz) : 1.0);
     float sin_angle = sqrt(max(0.0, 1.0 - dot(n, to_light) * dot(n, to_light)));
-    vec3 offset = n * (u_shadow_bias + 1.5 * probe.texel_world * sin_angle + 0.5 * probe.texel_world)
-                + to_light * (0.25 * u_shadow_bias);
+    float bias = u_shadow_bias + u_shadow_bias_texels * probe.texel_world;
+    vec3 offset = n * (bias + u_shadow_normal_offset * probe.texel_world * sin_angle) + to_light * (0.25 * bias);
     vec4 q = slot.view_proj * vec4(p + offset, 1.0);
     vec3 ndc = q.xyz / max(q.w, 1e-30);
     probe.inside = q.w > 0.0 && all(lessThanEqual(abs(ndc.xy), vec2(1.0))) && ndc.z <= 1.0;

@@ -10,6 +10,15 @@ uniform int u_scene_bounded; // 1: u_scene_lo/hi bound all geometry (padded); 0:
 uniform vec3 u_scene_lo;
 uniform vec3 u_scene_hi;
 
+// The part of a spawned ray's offset off its surface that does not grow with the position's
+// magnitude: a share of the scene's size (the diagonal of its padded bounds), so that a scene
+// modelled in millimetres keeps its rays off their surfaces in the same proportion as one in
+// kilometres; `unbounded` where the scene has no finite geometry.
+#define SCENE_OFFSET_SHARE 5e-6
+float scene_offset_absolute(float unbounded) {
+    return u_scene_bounded != 0 ? SCENE_OFFSET_SHARE * distance(u_scene_lo, u_scene_hi) : unbounded;
+}
+
 // [enter, exit] of the ray with the box [lo, hi]; enter > exit: no overlap.
 vec2 box_interval(vec3 o, vec3 d, vec3 lo, vec3 hi) {
     vec3 safe = mix(d, vec3(1e-30), lessThan(abs(d), vec3(1e-30)));

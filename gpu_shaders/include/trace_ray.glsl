@@ -169,8 +169,9 @@ uniform float u_bvh_half;    // half-size of the culled region (near_size + over
 #define STACK_SIZE (MAX_DEPTH_LIMIT + 2)
 // Segments (BVH <-> cube map hand-overs) one ray may take before it is given the sky.
 #define MAX_SEGMENTS 12
-// Spawned rays start this far off the surface (relative to the position's magnitude), so
-// that neither the BVH nor the cube map finds the surface they leave.
+// Spawned rays start this far off the surface (relative to the position's magnitude, plus
+// a share of the scene's size: scene_offset_absolute), so that neither the BVH nor the cube
+// map finds the surface they leave. RAY_OFFSET_ABSOLUTE: the share of a scene without bounds.
 const float RAY_OFFSET_RELATIVE = 1e-4;
 const float RAY_OFFSET_ABSOLUTE = 1e-4;
 
@@ -215,7 +216,7 @@ vec2 bvh_region_interval(vec3 o, vec3 d) {
 }
 
 vec3 offset_origin(vec3 p, vec3 towards) {
-    float scale = RAY_OFFSET_ABSOLUTE + RAY_OFFSET_RELATIVE * max(max(abs(p.x), abs(p.y)), abs(p.z));
+    float scale = scene_offset_absolute(RAY_OFFSET_ABSOLUTE) + RAY_OFFSET_RELATIVE * max(max(abs(p.x), abs(p.y)), abs(p.z));
     return p + towards * scale;
 }
 

@@ -123,7 +123,7 @@ def _render_samples(renderer: Renderer, scene: SceneData, camera: Camera, settin
     counts = {**first.counts, "samples": int(samples)}
     return FrameResult(image=image, passes=passes, counts=counts, timing_source=first.timing_source,
                        total_ms=total_ms, mode=first.mode, data_passes=data,
-                       near_size=first.near_size, diagnostic=first.diagnostic, legend=first.legend)
+                       near_size=first.near_size, effective=first.effective, diagnostic=first.diagnostic, legend=first.legend)
 
 
 def _sample_progress(progress: ProgressCallback | None, index: int, samples: int) -> ProgressCallback | None:

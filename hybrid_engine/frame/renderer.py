@@ -77,6 +77,7 @@ from ..passes.view_cull.draw import SceneDrawer
 from ..scene.camera import Camera
 from ..scene.data import SceneData
 from ..scene.raster_view import RasterView
+from ..scene.scale import EffectiveValues, resolve
 from ..scene.settings import DIAGNOSTIC_VIEWS, RenderSettings
 from .film import FrameOutputs
 from .readback import ImageReadback
@@ -143,6 +144,9 @@ class FrameResult:
     mode: str = "RASTER"
     data_passes: dict[str, np.ndarray] = field(default_factory=dict)
     near_size: float | None = None  # the near cube's half-size the frame used (HYBRID)
+    # The near size, far clip and face resolution the frame used, Automatic ones derived
+    # from the scene and the output (scene/scale.py), for the panels to show.
+    effective: EffectiveValues | None = None
     # A diagnostic view's per-pixel counts (H, W), same rows as ``image``, and the legend of
     # its colours, which whoever shows the image paints (passes/trace/diagnostic_views.py).
     diagnostic: np.ndarray | None = None
@@ -304,7 +308,8 @@ class Renderer:
         ``denoise``: filter the ambient estimate (passes/denoise/) before the shading reads
         it; the caller decides from the settings (``denoise_viewport``, ``denoise_render``).
         The filter keeps its history from one denoised frame to the next of this renderer."""
-        settings = settings or RenderSettings()
+        settings, effective = resolve(settings or RenderSettings(), scene, camera.position, camera.width,
+                                      camera.height)
         outputs = outputs or FrameOutputs()
         steps = frame_steps(settings.mode, accumulate, outputs.wants_data, settings.lit_cube, denoise)
         traced = settings.mode != "RASTER"
@@ -346,6 +351,7 @@ class Renderer:
             gl_context.check_error(f"{settings.mode} frame")
         if progress is not None:
             progress("done", 1.0)
+        result.effective = effective
         result.passes = dict(timer.passes)
         result.timing_source = timer.source
         result.total_ms = (time.perf_counter() - start) * 1e3

@@ -68,12 +68,15 @@ FIELD_DOCS = {
     "mode": "How reflections and refractions are rendered",
     "near_size": "Half the size of the box around the camera whose objects reflections and "
     "refractions meet exactly; beyond it they are looked up in the cube map. Larger is more "
-    "exact and slower",
+    "exact and slower. 0: Automatic, a multiple of the scene's typical object size",
     "max_depth": "How many times a ray may be reflected or refracted; past the last bounce the "
     "surface it meets is lit but reflects nothing more",
     "cube_resolution": "Size of each of the cube map's six faces: sharper distant reflections, "
-    "more memory and time",
-    "cube_far": "How far the cube map reaches; reflections of anything beyond show the World",
+    "more memory and time. 0: Automatic, the output's longer side times the Resolution Ratio",
+    "cube_resolution_ratio": "Automatic face resolution: the cube map's face size as a fraction of "
+    "the output's longer side (a face texel about a pixel's size)",
+    "cube_far": "How far the cube map reaches; reflections of anything beyond show the World. "
+    "0: Automatic, the farthest corner of the scene's bounds seen from the camera",
     "cube_march": "How rays search the cube map for what they meet",
     "near_cube_mode": "Whether the near cube keeps its size or follows a frame-time budget",
     "frame_budget_ms": "The frame time the near cube is sized for, in milliseconds (33.3 for "
@@ -91,8 +94,14 @@ FIELD_DOCS = {
     "n_min": "Sampled search: samples per cube-map face for rays that run along the face",
     "n_max": "Sampled search: samples per cube-map face for rays that cross it head-on",
     "shadow_resolution": "Size of each shadow map: sharper shadows, more memory and time",
-    "shadow_bias": "How far shadows start behind the surfaces that cast them: raise it if "
-    "lit surfaces show dark speckles, lower it if shadows come loose from their objects",
+    "shadow_bias": "A constant distance added to the bias, in scene units (files of earlier "
+    "versions keep their bias here). 0: the bias is in shadow-map texels only, which holds at "
+    "every scale",
+    "shadow_bias_texels": "How far shadows start behind the surfaces that cast them, in texels "
+    "of the shadow map there (so at every scene scale): raise it if lit surfaces show dark "
+    "speckles, lower it if shadows come loose from their objects",
+    "shadow_normal_offset": "How far the shadow lookup moves off a surface turned away from the "
+    "lamp, in shadow-map texels times the sine of its angle to the lamp (normal offset)",
     "shadow_cascades": "Extra shadow maps for sun lamps over the part of the view nearest the "
     "camera, each 4 times finer than the next: sharp sun shadows close by, with one more "
     "shadow render whenever the camera moves. 0: one map over the whole scene",
@@ -122,18 +131,21 @@ FIELD_DOCS = {
 }
 
 FIELD_LIMITS = {
-    "near_size": (0.01, 1.0e5),
+    "near_size": (0.0, 1.0e5),
     "frame_budget_ms": (1.0, 1.0e5),
     "near_min": (0.01, 1.0e5),
     "near_max": (0.01, 1.0e5),
     "max_depth": (0, 16),
     "diagnostic_bounce": (1, 17),
-    "cube_resolution": (16, 4096),
-    "cube_far": (0.1, 1.0e7),
+    "cube_resolution": (0, 4096),
+    "cube_far": (0.0, 1.0e7),
+    "cube_resolution_ratio": (0.05, 4.0),
     "n_min": (1, 1024),
     "n_max": (1, 4096),
     "shadow_resolution": (64, 8192),
-    "shadow_bias": (0.0, 10.0),
+    "shadow_bias": (0.0, 1.0e4),
+    "shadow_bias_texels": (0.0, 64.0),
+    "shadow_normal_offset": (0.0, 64.0),
     "shadow_cascades": (0, 4),
     "viewport_scale": (0.1, 1.0),
     "render_samples": (1, 256),
@@ -144,6 +156,12 @@ FIELD_LIMITS = {
 }
 
 
+# Settings whose 0 means Automatic (scene/scale.py), and the fixed value the interface offers
+# when the artist switches Automatic off (the defaults before they followed the scene).
+AUTOMATIC_FIXED = {"near_size": 5.0, "cube_far": 1000.0, "cube_resolution": 512}
+MIN_CUBE_RESOLUTION = 16
+
+
 class SettingsError(ValueError):
     """A setting is outside its documented range."""
 
@@ -151,17 +169,20 @@ class SettingsError(ValueError):
 @dataclass(frozen=True)
 class RenderSettings:
     mode: str = "HYBRID"
-    near_size: float = 5.0
+    near_size: float = 0.0  # Automatic (scene/scale.py)
     max_depth: int = 4
-    cube_resolution: int = 512
-    cube_far: float = 1000.0
+    cube_resolution: int = 0  # Automatic: cube_resolution_ratio of the output
+    cube_resolution_ratio: float = 0.4
+    cube_far: float = 0.0  # Automatic
     cube_march: str = "HIERARCHICAL"
     cube_back_layer: bool = False
     cube_hidden_exit: bool = True
     n_min: int = 16
     n_max: int = 64
     shadow_resolution: int = 1024
-    shadow_bias: float = 0.005
+    shadow_bias: float = 0.0
+    shadow_bias_texels: float = 1.0
+    shadow_normal_offset: float = 1.5
     shadow_cascades: int = 2
     viewport_scale: float = 1.0
     render_samples: int = 4
@@ -216,10 +237,15 @@ class RenderSettings:
             raise SettingsError(f"n_min ({self.n_min}) must not exceed n_max ({self.n_max})")
         if self.near_min > self.near_max:
             raise SettingsError(f"near_min ({self.near_min}) must not exceed near_max ({self.near_max})")
+        if 0 < self.cube_resolution < MIN_CUBE_RESOLUTION:
+            raise SettingsError(f"cube_resolution must be 0 (Automatic) or at least {MIN_CUBE_RESOLUTION}, "
+                                f"got {self.cube_resolution}")
+        if self.cube_far <= 0.0:
+            return  # Automatic: placed beyond the near cube each frame (scene/scale.py)
         if self.near_cube_mode == "BUDGET" and self.cube_far <= self.near_max:
             raise SettingsError(
                 f"cube_far ({self.cube_far}) must lie beyond the largest near cube (near_max {self.near_max})")
-        if self.cube_far <= self.near_size:
+        if self.cube_far <= self.near_size and self.near_size > 0.0:
             raise SettingsError(
                 f"cube_far ({self.cube_far}) must lie beyond the near cube (near_size {self.near_size})"
             )

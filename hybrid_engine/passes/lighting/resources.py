@@ -36,6 +36,8 @@ class FrameResources:
         self.sky = SkyLight(ctx)
         self.light_count = 0
         self.shadow_bias = 0.0
+        self.shadow_bias_texels = 0.0
+        self.shadow_normal_offset = 0.0
         self.ao_distance = 0.0
         self.diffuse_rays = False  # diffuse light gathered by paths (passes/diffuse_light/)
 
@@ -49,6 +51,8 @@ class FrameResources:
         self.shadows = shadows.atlas
         self.light_count = len(lights)
         self.shadow_bias = float(settings.shadow_bias)
+        self.shadow_bias_texels = float(settings.shadow_bias_texels)
+        self.shadow_normal_offset = float(settings.shadow_normal_offset)
         self.ao_distance = float(settings.ao_distance)
         self.diffuse_rays = settings.traces_diffuse
 
@@ -72,6 +76,8 @@ class FrameResources:
             textures={"u_shadow_atlas": self.shadows.static, "u_shadow_dynamic": self.shadows.dynamic,
                       "u_sky_env": self.sky.texture()},
             uniforms={**self.sky.uniforms(), "u_light_count": self.light_count, "u_shadow_bias": self.shadow_bias,
+                      "u_shadow_bias_texels": self.shadow_bias_texels,
+                      "u_shadow_normal_offset": self.shadow_normal_offset,
                       "u_ao_distance": self.ao_distance, "u_sky_visibility_known": int(self.occludes),
                       "u_ambient_from_rays": int(self.diffuse_rays)})
 

@@ -64,8 +64,8 @@ WORKGROUP = 8  # the kernel's local size in x and y
 NORMAL_BYTES = 36  # three float32 vec3 per triangle: Geometry.normals as uploaded
 
 
-# Padding of the scene bounds the tracer clips rays to (relative to their extent, plus an
-# absolute floor): float rounding of the box slabs must not cut a surface on the boundary.
+# Padding of the scene bounds the tracer clips rays to (relative to their extent, so at any
+# scale): float rounding of the box slabs must not cut a surface on the boundary.
 SCENE_BOUNDS_PADDING = 1e-3
 
 
@@ -74,7 +74,7 @@ def scene_bound_uniforms(bounds: SceneBounds) -> dict:
     which a ray can hit nothing (the sky), or unbounded for a scene with no finite geometry."""
     if bounds.empty:
         return {"u_scene_bounded": 0, "u_scene_lo": (0.0, 0.0, 0.0), "u_scene_hi": (0.0, 0.0, 0.0)}
-    pad = SCENE_BOUNDS_PADDING * (float(np.max(bounds.hi - bounds.lo)) + 1.0)
+    pad = SCENE_BOUNDS_PADDING * (float(np.max(bounds.hi - bounds.lo)) or 1.0)  # relative: any scale
     return {"u_scene_bounded": 1,
             "u_scene_lo": tuple(float(v) for v in bounds.lo - pad),
             "u_scene_hi": tuple(float(v) for v in bounds.hi + pad)}

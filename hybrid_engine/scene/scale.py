@@ -1,0 +1,121 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Settings that follow the scene's scale and the output's size: what an Automatic setting
+(stored as 0 in ``RenderSettings``) is worth for one frame.
+
+A scene is the same picture whether it is modelled in millimetres or kilometres, so none of
+its default lengths may be absolute. Each automatic length is derived from the scene's
+finite bounds (``SceneBounds``: a non-finite vertex cannot move them) and the camera:
+
+* *Far Clip* (the cube map's far plane, paper §3.2) reaches the farthest corner of the
+  scene's bounds seen from the eye, so no object is ever clipped out of the reflections,
+  and no farther, so the map's depth precision is spent on the scene;
+* *Near Size* (the near cube's half-size, paper §3.3) is a multiple of the scene's typical
+  object size, the median diagonal of its objects' bounds: a floor or a sky dome a hundred
+  times larger than the rest does not swell the near cube, which would make the BVH hold
+  most of the scene;
+* the cube map's face resolution is a ratio of the output's longer side: a face texel keeps
+  to the size of a pixel, so a small output does not pay for a large cube map.
+
+Everything here reads the per-object bounds the scene already holds (one median over the
+objects per frame), never the triangles, and nothing from the GPU.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .bounds import SceneBounds
+from .data import SceneData
+from .settings import RenderSettings
+
+# Near Size over the median object diagonal: the Chess benchmark's pieces (median diagonal
+# about 1.4) get the near cube of about 3.5 the benchmark was tuned with (bench.FRAME_NEAR_SIZE).
+NEAR_SIZE_PER_OBJECT = 2.5
+# The far plane lies this much beyond the farthest corner: the cube map stores depths up to
+# it exclusive, and a corner exactly on it would be clipped.
+FAR_MARGIN = 1.02
+# The far plane stays at least this far beyond the near cube's faces (settings validation).
+FAR_OVER_NEAR = 2.0
+# The face resolution a ratio may give: a few texels per face are no cube map, and
+# past this the faces' raster costs more than any output needs.
+CUBE_RESOLUTION_RANGE = (64, 2048)
+CUBE_RESOLUTION_STEP = 16  # faces a multiple of 16 texels: whole workgroups of the hi-z pyramid
+# Lengths used when the scene has no finite geometry (nothing to clip or trace).
+EMPTY_SCENE_SCALE = 1.0
+
+
+@dataclass(frozen=True)
+class EffectiveValues:
+    """The values a frame rendered with: the settings' own where fixed, derived where
+    Automatic (``automatic`` names those)."""
+
+    near_size: float
+    cube_far: float
+    cube_resolution: int
+    automatic: tuple[str, ...] = ()
+
+    def as_dict(self) -> dict[str, float]:
+        return {"near_size": self.near_size, "cube_far": self.cube_far, "cube_resolution": self.cube_resolution}
+
+
+def typical_object_size(scene: SceneData) -> float:
+    """The median diagonal of the scene's objects with finite, non-degenerate bounds
+    (``EMPTY_SCENE_SCALE`` when none has)."""
+    b = np.asarray(scene.geometry.object_bounds, np.float64)
+    if not len(b):
+        return EMPTY_SCENE_SCALE
+    finite = np.isfinite(b).all(axis=(1, 2)) & (b[:, 0] <= b[:, 1]).all(axis=1)
+    diag = np.linalg.norm(b[finite, 1] - b[finite, 0], axis=1)
+    diag = diag[diag > 0.0]
+    return float(np.median(diag)) if len(diag) else EMPTY_SCENE_SCALE
+
+
+def farthest_corner(bounds: SceneBounds, eye: np.ndarray) -> float:
+    """The distance from ``eye`` to the farthest corner of ``bounds`` (0 when empty)."""
+    if bounds.empty:
+        return 0.0
+    far = np.maximum(np.abs(bounds.lo - eye), np.abs(bounds.hi - eye))
+    return float(np.linalg.norm(far))
+
+
+def auto_cube_resolution(ratio: float, width: int, height: int) -> int:
+    """The face resolution ``ratio`` times the output's longer side, rounded to a multiple
+    of ``CUBE_RESOLUTION_STEP`` within ``CUBE_RESOLUTION_RANGE``."""
+    lo, hi = CUBE_RESOLUTION_RANGE
+    res = int(round(ratio * max(int(width), int(height)) / CUBE_RESOLUTION_STEP)) * CUBE_RESOLUTION_STEP
+    return int(min(max(res, lo), hi))
+
+
+def effective_values(settings: RenderSettings, scene: SceneData, eye, width: int, height: int) -> EffectiveValues:
+    """The near size, far clip and face resolution a frame of ``settings`` seen from ``eye``
+    at ``width`` x ``height`` renders with."""
+    automatic = []
+    near = float(settings.near_size)
+    if near <= 0.0:
+        automatic.append("near_size")
+        near = NEAR_SIZE_PER_OBJECT * typical_object_size(scene)
+    far = float(settings.cube_far)
+    if far <= 0.0:
+        automatic.append("cube_far")
+        reach = farthest_corner(SceneBounds.of(scene), np.asarray(eye, np.float64))
+        largest_near = max(near, float(settings.near_max) if settings.near_cube_mode == "BUDGET" else near)
+        far = max(reach * FAR_MARGIN, largest_near * FAR_OVER_NEAR)
+    if "near_size" in automatic and "cube_far" not in automatic:
+        near = min(near, far / FAR_OVER_NEAR)  # a fixed far plane bounds the automatic near cube
+    res = int(settings.cube_resolution)
+    if res <= 0:
+        automatic.append("cube_resolution")
+        res = auto_cube_resolution(settings.cube_resolution_ratio, width, height)
+    return EffectiveValues(near, far, res, tuple(automatic))
+
+
+def resolve(settings: RenderSettings, scene: SceneData, eye, width: int, height: int
+            ) -> tuple[RenderSettings, EffectiveValues]:
+    """``settings`` with every Automatic value replaced by what this frame renders with, and
+    those values. Settings without Automatic values come back unchanged (the same object)."""
+    values = effective_values(settings, scene, eye, width, height)
+    if not values.automatic:
+        return settings, values
+    return replace(settings, near_size=values.near_size, cube_far=values.cube_far,
+                   cube_resolution=values.cube_resolution), values

@@ -1,0 +1,231 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Scale-proof defaults (hybrid_engine/scene/scale.py, the texel shadow bias of
+include/lighting.glsl, the scene-relative ray offset of include/scene_bounds.glsl): one
+scene built at 1 mm, 1 m and 1 km, camera and lamp power scaled with it, is one picture;
+the Automatic far clip follows a scene grown past the old fixed 1000 m; shadows exist at
+1 mm; the face resolution follows the output size unless fixed."""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
+from hybrid_engine.scene.camera import look_at
+from hybrid_engine.scene.scale import NEAR_SIZE_PER_OBJECT, auto_cube_resolution, effective_values, resolve
+from scenes_analytic import box, quad, uv_sphere
+from whitted_reference import flip_mean
+
+SCALES = (1e-3, 1.0, 1e3)
+SIZE = (96, 64)
+# The settings of the test: small maps for speed, everything that follows the scene left
+# Automatic (the defaults). The World's light without occlusion: one traced diffuse path per
+# pixel is noise whose pattern is not the subject here.
+LIGHT = dict(world_light="SCREEN", ao_distance=0.0)
+SETTINGS = RenderSettings(mode="HYBRID", shadow_resolution=512, cube_resolution_ratio=1.0, shadow_cascades=0,
+                          **LIGHT)
+# The fixed values these settings had before they followed the scene.
+EARLIER = RenderSettings(mode="HYBRID", shadow_resolution=512, cube_resolution=96, shadow_cascades=0,
+                         near_size=5.0, cube_far=1000.0, shadow_bias=0.005, shadow_bias_texels=0.5, **LIGHT)
+
+
+def built(scale: float, width: int = SIZE[0], height: int = SIZE[1], box_too: bool = True
+          ) -> tuple[SceneData, Camera]:
+    """A floor, a diffuse box, a mirror ball and a glass ball under a sun and a point lamp
+    (power as the square of ``scale``, so the light reaching the floor is the same), seen by
+    a camera whose position and clipping planes scale too. Lamps without size: hard
+    shadows, no sampled penumbra."""
+    s = float(scale)
+    ball, ball_n = uv_sphere((0.9 * s, 0.3 * s, 0.6 * s), 0.6 * s, 24, 12)
+    glass, glass_n = uv_sphere((-1.0 * s, -0.6 * s, 0.5 * s), 0.5 * s, 24, 12)
+    objects = [(quad((0, 0, 0), (4 * s, 0, 0), (0, 4 * s, 0)), None, 0),
+               *([(box((-0.4 * s, 0.6 * s, 0), (0.2 * s, 1.2 * s, 1.0 * s)), None, 1)] if box_too else []),
+               (ball, ball_n, 2), (glass, glass_n, 3)]
+    materials = MaterialTable.from_rows([
+        dict(base_color=(0.7, 0.7, 0.65)), dict(base_color=(0.8, 0.25, 0.2)),
+        dict(base_color=(0.95, 0.95, 0.95), reflectivity=1.0, roughness=0.0),
+        dict(base_color=(1.0, 1.0, 1.0), transmission=1.0, roughness=0.0, ior=1.45)])
+    lights = Lights.from_rows([dict(kind="SUN", direction=(0.4, 0.5, -1.0), color=(2.0, 2.0, 1.9)),
+                               dict(kind="POINT", position=(1.5 * s, -1.5 * s, 2.5 * s),
+                                    color=(60.0 * s * s,) * 3)])
+    camera = Camera(matrix_world=look_at((0.5 * s, -5.0 * s, 2.5 * s), (0, 0, 0.5 * s)), width=width,
+                    height=height, clip_start=0.05 * s, clip_end=100.0 * s)
+    return SceneData(Geometry.from_objects(objects), materials, lights, Sky(color=(0.25, 0.3, 0.4))), camera
+
+
+def _images(renderer, settings: RenderSettings) -> dict[float, np.ndarray]:
+    out = {}
+    for scale in SCALES:
+        scene, camera = built(scale)
+        out[scale] = renderer.render(scene, camera, settings).image[..., :3].copy()
+    return out
+
+
+def test_one_scene_at_1mm_1m_and_1km_is_one_picture_in_hybrid(renderer):
+    images = _images(renderer, SETTINGS)
+    errors = {scale: flip_mean(images[1.0], images[scale]) for scale in (1e-3, 1e3)}
+    assert all(e <= 0.02 for e in errors.values()), errors
+
+
+def test_the_fixed_defaults_of_earlier_versions_did_not_hold_at_1mm_or_1km(renderer):
+    """What the test above guards against: with the absolute lengths the settings had, the
+    millimetre scene loses its shadows and the kilometre one its distant reflections."""
+    images = _images(renderer, EARLIER)
+    errors = {scale: flip_mean(images[1.0], images[scale]) for scale in (1e-3, 1e3)}
+    assert all(e > 0.02 for e in errors.values()), errors
+
+
+def _box_shadow(renderer, scale: float) -> int:
+    """Pixels the red box darkens without being red: its shadow, against the scene without it."""
+    scene, camera = built(scale)
+    with_box = renderer.render(scene, camera, SETTINGS).image[..., :3]
+    without = renderer.render(built(scale, box_too=False)[0], camera, SETTINGS).image[..., :3]
+    grey = with_box[..., 0] < 1.3 * with_box[..., 1]
+    return int(((with_box.mean(axis=2) < 0.6 * without.mean(axis=2)) & grey).sum())
+
+
+def test_shadows_exist_at_1mm(renderer):
+    """The box's shadow on the floor, at 1 mm as at 1 m."""
+    at_1m = _box_shadow(renderer, 1.0)
+    assert at_1m >= 40
+    assert _box_shadow(renderer, 1e-3) >= 0.9 * at_1m
+
+
+def test_the_far_clip_follows_a_scene_grown_beyond_1000_m():
+    """A tower 3 km away: the Automatic far plane reaches past it; the fixed one stays put."""
+    scene, camera = built(1.0)
+    tower = box((-10.0, 3000.0, 0.0), (10.0, 3020.0, 50.0))
+    grown = SceneData(Geometry.from_objects([(quad((0, 0, 0), (4, 0, 0), (0, 4, 0)), None, 0), (tower, None, 1)]),
+                      scene.materials, scene.lights, scene.sky)
+    eye = camera.position
+    reach = float(np.linalg.norm(np.maximum(np.abs(np.array([-10.0, -4.0, 0.0]) - eye),
+                                            np.abs(np.array([10.0, 3020.0, 50.0]) - eye))))
+    auto = effective_values(RenderSettings(), grown, eye, *SIZE)
+    assert reach < auto.cube_far < 1.1 * reach
+    assert "cube_far" in auto.automatic
+    fixed = effective_values(RenderSettings(cube_far=1000.0), grown, eye, *SIZE)
+    assert fixed.cube_far == 1000.0 and "cube_far" not in fixed.automatic
+
+
+def test_the_far_clip_reflects_a_distant_object_that_the_fixed_far_clip_drops(renderer):
+    """In the picture: a tall red wall 1.5 km behind the camera shows in the mirror ball
+    with the Automatic far clip and not with the fixed 1000 m of earlier versions."""
+    scene, camera = built(1.0)
+    wall = box((-2000.0, -1500.0, -10.0), (2000.0, -1490.0, 1500.0))
+    objects = [(quad((0, 0, 0), (4, 0, 0), (0, 4, 0)), None, 0), (wall, None, 1)]
+    ball, ball_n = uv_sphere((0.0, 0.0, 1.0), 1.0, 32, 16)
+    objects.append((ball, ball_n, 2))
+    far_scene = SceneData(Geometry.from_objects(objects), scene.materials, scene.lights, scene.sky)
+    auto = renderer.render(far_scene, camera, SETTINGS).image[..., :3]
+    fixed = renderer.render(far_scene, camera, replace(SETTINGS, cube_far=1000.0)).image[..., :3]
+    red = lambda img: int(((img[..., 0] > 1.5 * img[..., 2]) & (img[..., 0] > 0.05)).sum())  # noqa: E731
+    assert red(auto) > red(fixed) + 20, (red(auto), red(fixed))
+
+
+def test_the_automatic_near_size_is_a_multiple_of_the_typical_object_size():
+    for scale in SCALES:
+        scene, camera = built(scale)
+        settings, values = resolve(RenderSettings(), scene, camera.position, *SIZE)
+        diagonals = np.linalg.norm(np.diff(scene.geometry.object_bounds, axis=1)[:, 0], axis=1)
+        assert settings.near_size == pytest.approx(NEAR_SIZE_PER_OBJECT * float(np.median(diagonals)), rel=1e-5)
+        assert settings.cube_far > settings.near_size
+        assert resolve(RenderSettings(near_size=2.0), scene, camera.position, *SIZE)[0].near_size == 2.0
+
+
+def test_the_cube_resolution_follows_the_output_size_and_a_fixed_one_wins():
+    scene, camera = built(1.0)
+    ratio = RenderSettings().cube_resolution_ratio
+    sizes = {}
+    for width, height in ((320, 180), (640, 360), (1280, 720)):
+        values = effective_values(RenderSettings(), scene, camera.position, width, height)
+        assert values.cube_resolution == auto_cube_resolution(ratio, width, height)
+        assert abs(values.cube_resolution - ratio * width) <= 8
+        sizes[width] = values.cube_resolution
+        assert effective_values(RenderSettings(cube_resolution=512), scene, camera.position, width,
+                                height).cube_resolution == 512
+    assert sizes[320] < sizes[640] < sizes[1280]
+    assert effective_values(RenderSettings(cube_resolution_ratio=0.2), scene, camera.position, 1280,
+                            720).cube_resolution == 256
+
+
+def test_a_frame_reports_the_values_it_rendered_with(renderer):
+    scene, camera = built(1.0)
+    result = renderer.render(scene, camera, SETTINGS)
+    assert result.effective.cube_resolution == auto_cube_resolution(1.0, *SIZE)
+    assert result.near_size == pytest.approx(result.effective.near_size)
+    assert set(result.effective.automatic) == {"near_size", "cube_far", "cube_resolution"}
+    assert renderer.cube_map.resolution == result.effective.cube_resolution
+
+
+def _blender_scene(bpy, scale: float):
+    """A plane, a cube and a mirror ball under a sun and a point lamp (power as the square of
+    ``scale``), camera scaled with them, built as an artist would in Blender."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    s = float(scale)
+
+    def material(name, color, metallic=0.0, roughness=1.0):
+        mat = bpy.data.materials.new(name)
+        mat.use_nodes = True
+        bsdf = mat.node_tree.nodes["Principled BSDF"]
+        bsdf.inputs["Base Color"].default_value = (*color, 1.0)
+        bsdf.inputs["Metallic"].default_value = metallic
+        bsdf.inputs["Roughness"].default_value = roughness
+        return mat
+
+    bpy.ops.mesh.primitive_plane_add(size=8 * s)
+    bpy.context.object.data.materials.append(material("floor", (0.7, 0.7, 0.65)))
+    bpy.ops.mesh.primitive_cube_add(size=0.8 * s, location=(-0.4 * s, 0.8 * s, 0.4 * s))
+    bpy.context.object.data.materials.append(material("box", (0.8, 0.25, 0.2)))
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.6 * s, location=(0.9 * s, 0.0, 0.6 * s))
+    bpy.context.object.data.materials.append(material("mirror", (0.95, 0.95, 0.95), 1.0, 0.0))
+    for kind, energy, location in (("SUN", 2.0, (0.0, 0.0, 5.0 * s)), ("POINT", 600.0 * s * s, (1.5 * s, -1.5 * s, 2.5 * s))):
+        lamp = bpy.data.lights.new(kind, kind)
+        lamp.energy = energy
+        lamp.shadow_soft_size = 0.0
+        if kind == "SUN":
+            lamp.angle = 0.0
+        obj = bpy.data.objects.new(kind, lamp)
+        obj.location = location
+        obj.rotation_euler = (0.4, 0.3, 0.0)
+        scene.collection.objects.link(obj)
+    cam = bpy.data.cameras.new("cam")
+    cam.clip_start, cam.clip_end = 0.05 * s, 100.0 * s
+    cam_obj = bpy.data.objects.new("cam", cam)
+    cam_obj.matrix_world = look_at_matrix(bpy, (0.5 * s, -5.0 * s, 2.5 * s), (0.0, 0.0, 0.5 * s))
+    scene.collection.objects.link(cam_obj)
+    scene.camera = cam_obj
+    world = bpy.data.worlds.new("world")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.25, 0.3, 0.4, 1.0)
+    scene.world = world
+    scene.render.resolution_x, scene.render.resolution_y = SIZE
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    scene.render.engine = "HYBRID_RT"
+    settings = scene.hybrid_rt
+    settings.mode, settings.world_light, settings.ao_distance = "HYBRID", "SCREEN", 0.0
+    settings.render_samples, settings.shadow_resolution, settings.shadow_cascades = 1, 512, 0
+    return scene
+
+
+def look_at_matrix(bpy, eye, target):
+    from mathutils import Matrix
+
+    return Matrix(look_at(eye, target).tolist())
+
+
+def test_blenders_render_path_gives_one_picture_at_1mm_and_1m(addon, tmp_path):
+    import bpy
+
+    from test_engine import render_exr
+
+    images = {}
+    for scale in (1e-3, 1.0):
+        scene = _blender_scene(bpy, scale)
+        images[scale] = render_exr(bpy, scene, tmp_path / f"scale_{scale:g}.exr")[..., :3]
+        frame = addon.blender_adapter.engine.last_frame
+        assert set(frame.effective.automatic) == {"near_size", "cube_far", "cube_resolution"}
+        assert addon.blender_adapter.effective_values.last() == frame.effective  # what the panel shows
+    assert flip_mean(images[1.0], images[1e-3]) <= 0.02

@@ -479,3 +479,87 @@ def test_every_colour_and_vector_kind_matches_cycles_through_blenders_render_pat
     scores = assert_cases_match_cycles(list(CASES), images)
     worst = max(scores.items(), key=lambda kv: kv[1][1])
     print(f"\n{len(scores)} cases; worst p99 {worst[0]}: {worst[1]}")
+
+
+def _chain(nodes, links, x, gamma: bool = True):
+    """x -> Math (x * 0.4 + 0.5) -> Combine (m, 0.3, m) -> Invert (Fac 0.8) -> Gamma 2.2 (or none)."""
+    m = _affine(nodes, links, x, 0.4, 0.5)
+    invert = nodes.new("ShaderNodeInvert")
+    invert.inputs["Fac"].default_value = 0.8
+    links.new(_combine(nodes, links, m, 0.3, m), invert.inputs["Color"])
+    if not gamma:
+        return invert.outputs["Color"]
+    power = nodes.new("ShaderNodeGamma")
+    power.inputs["Gamma"].default_value = 2.2
+    links.new(invert.outputs["Color"], power.inputs["Color"])
+    return power.outputs["Color"]
+
+
+def _flat(nodes, links, coords):
+    return _chain(nodes, links, _split(nodes, links, coords)[0])
+
+
+def _grouped(nodes, links, coords):
+    """The flat chain inside a node group (a group in a group: the Gamma on its own level)."""
+    import bpy
+    inner = bpy.data.node_groups.new("inner", "ShaderNodeTree")
+    inner.interface.new_socket("X", in_out="INPUT", socket_type="NodeSocketFloat")
+    inner.interface.new_socket("Color", in_out="OUTPUT", socket_type="NodeSocketColor")
+    g_in, g_out = inner.nodes.new("NodeGroupInput"), inner.nodes.new("NodeGroupOutput")
+    inner.links.new(_chain(inner.nodes, inner.links, g_in.outputs[0], gamma=False), g_out.inputs[0])
+    outer = bpy.data.node_groups.new("outer", "ShaderNodeTree")
+    outer.interface.new_socket("X", in_out="INPUT", socket_type="NodeSocketFloat")
+    outer.interface.new_socket("Color", in_out="OUTPUT", socket_type="NodeSocketColor")
+    o_in, o_out = outer.nodes.new("NodeGroupInput"), outer.nodes.new("NodeGroupOutput")
+    nested = outer.nodes.new("ShaderNodeGroup")
+    nested.node_tree = inner
+    outer.links.new(o_in.outputs[0], nested.inputs[0])
+    power = outer.nodes.new("ShaderNodeGamma")
+    power.inputs["Gamma"].default_value = 2.2
+    outer.links.new(nested.outputs[0], power.inputs["Color"])
+    outer.links.new(power.outputs["Color"], o_out.inputs[0])
+    group = nodes.new("ShaderNodeGroup")
+    group.node_tree = outer
+    links.new(_split(nodes, links, coords)[0], group.inputs[0])
+    return group.outputs[0]
+
+
+def _muted(nodes, links, coords):
+    """The chain with its Invert and a Map Range muted: Blender passes their first inputs on."""
+    shown = _chain(nodes, links, _split(nodes, links, coords)[0])
+    invert = next(n for n in nodes if n.bl_idname == "ShaderNodeInvert")
+    invert.mute = True
+    remap = nodes.new("ShaderNodeMapRange")
+    _in(remap, "To Max").default_value = 4.0
+    remap.mute = True
+    gamma = shown.node
+    links.new(remap.outputs["Result"], gamma.inputs["Gamma"])
+    links.new(_split(nodes, links, coords)[1], _in(remap, "Value"))
+    return shown
+
+
+STRUCTURE_CASES: dict[str, Build] = {"flat": _flat, "group": _grouped, "muted": _muted}
+
+
+def test_a_node_group_renders_as_its_nodes_written_out_flat_and_a_muted_node_passes_through(addon, tmp_path):
+    import bpy
+    scene, _ = grid_scene(bpy, STRUCTURE_CASES)
+    images = render_both(bpy, scene, tmp_path)
+    flat, group, muted = cells(images["HYBRID_RT"], 3)
+    np.testing.assert_array_equal(group, flat)
+    assert np.abs(muted - flat).mean() > 0.05  # the muted nodes change the picture, as in Cycles
+    assert_cases_match_cycles(list(STRUCTURE_CASES), images)
+
+
+def test_a_math_constant_edit_renders_the_new_value_without_a_shader_compile(addon, tmp_path):
+    import bpy
+    scene, materials = grid_scene(bpy, {"edit": _flat})
+    shader_loader = addon.hybrid_engine.gpu.shader_loader
+    before = render_both(bpy, scene, tmp_path, ("HYBRID_RT",))["HYBRID_RT"]
+    compiles = shader_loader.compiles
+    math_node = next(n for n in materials["edit"].node_tree.nodes if n.bl_idname == "ShaderNodeMath")
+    math_node.inputs[1].default_value = -0.3
+    images = render_both(bpy, scene, tmp_path)
+    assert shader_loader.compiles == compiles
+    assert np.abs(cells(images["HYBRID_RT"], 1)[0] - cells(before, 1)[0]).mean() > 0.05
+    assert_cases_match_cycles(["edit"], images)

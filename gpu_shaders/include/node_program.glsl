@@ -27,6 +27,19 @@
 #include "textures.glsl"
 #include "include/nodes/tex_white_noise.glsl"
 #include "node_material.glsl"
+// -- colour and vector: each family's node functions only where a graph uses it
+// (node_codes.FAMILY_*, GPUScene.defines).
+#ifdef NODE_FAMILY_COLOUR
+#include "include/nodes/color_mix.glsl"
+#include "include/nodes/color_adjust.glsl"
+#include "include/nodes/curves.glsl"
+#include "include/nodes/separate_combine.glsl"
+#endif
+#ifdef NODE_FAMILY_VECTOR
+#include "include/nodes/vector_math.glsl"
+#include "include/nodes/map_range.glsl"
+#include "include/nodes/mapping.glsl"
+#endif
 
 // Opcodes, operand kinds, implicit values: hybrid_engine/scene/node_codes.py.
 #define NODE_OP_OUTPUT 1u
@@ -52,6 +65,25 @@
 #define NODE_OP_EMISSION 38u
 #define NODE_OP_MIX_SHADER 39u
 #define NODE_OP_ADD_SHADER 40u
+// -- colour and vector (41-79)
+#define NODE_OP_MATH 41u
+#define NODE_OP_VECTOR_MATH 42u
+#define NODE_OP_MIX 43u
+#define NODE_OP_MIX_RGB 44u
+#define NODE_OP_COLOR_RAMP 45u
+#define NODE_OP_CURVE_RGB 46u
+#define NODE_OP_CURVE_VECTOR 47u
+#define NODE_OP_CURVE_FLOAT 48u
+#define NODE_OP_HUE_SAT 49u
+#define NODE_OP_INVERT 50u
+#define NODE_OP_GAMMA 51u
+#define NODE_OP_BRIGHT_CONTRAST 52u
+#define NODE_OP_MAP_RANGE 53u
+#define NODE_OP_CLAMP 54u
+#define NODE_OP_SEPARATE_COLOR 55u
+#define NODE_OP_COMBINE_COLOR 56u
+#define NODE_OP_MAPPING 57u
+#define NODE_OP_VECTOR_ROTATE 58u
 #define NODE_CONSTANT 0x80000000u
 #define NODE_IMPLICIT 0x40000000u
 #define NODE_IMPLICIT_NORMAL 0u
@@ -232,6 +264,26 @@ vec3 node_normal_map(ShadingPoint sp, int space, float strength, vec3 color) {
     return node_unit(mix(n, mapped, max(strength, 0.0)), n);
 }
 
+#ifdef NODE_FAMILY_COLOUR
+// Sample i of an inline table of `columns` floats per sample at word `at` (Color Ramp, curves).
+vec4 node_table_at(uint at, int i, int columns) {
+    uint base = at + uint(i * columns);
+    vec4 v = vec4(0.0, 0.0, 0.0, 1.0);
+    for (int k = 0; k < columns; ++k) v[k] = uintBitsToFloat(node_words[base + uint(k)]);
+    return v;
+}
+
+// A curve table's value at x (nodes/curves.glsl's lookup), column `column` of `columns`.
+float node_curve_value(uint at, int columns, int column, float x, float min_x, float max_x, bool extrapolate) {
+    int i0, i1;
+    float weight;
+    node_curve_coords(x, min_x, max_x, extrapolate, i0, i1, weight);
+    float a = uintBitsToFloat(node_words[at + uint(i0 * columns + column)]);
+    float b = uintBitsToFloat(node_words[at + uint(i1 * columns + column)]);
+    return (1.0 - weight) * a + weight * b;
+}
+#endif
+
 // Run the program at word `offset` at the shading point; returns the material's closure.
 NodeClosure node_program_run(int offset, ShadingPoint sp) {
     for (int r = 0; r < NODE_REGISTERS; ++r) node_reg[r] = vec4(0.0);
@@ -376,6 +428,167 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
         case NODE_OP_ADD_SHADER:
             for (int k = 0; k < 4; ++k) node_out[k] = node_in[k] + node_in[4 + k];
             break;
+        // -- colour and vector
+#ifdef NODE_FAMILY_VECTOR
+        case NODE_OP_MATH: {
+            float value;
+            node_math(int(node_words[set_at]), node_in[0].x, node_in[1].x, node_in[2].x,
+                      node_words[set_at + 1u] != 0u, value);
+            node_out[0] = vec4(value);
+            break;
+        }
+        case NODE_OP_VECTOR_MATH: {
+            vec3 vector;
+            float value;
+            node_vector_math(int(node_words[set_at]), node_in[0].xyz, node_in[1].xyz, node_in[2].xyz, node_in[3].x,
+                             vector, value);
+            node_out[0] = vec4(vector, 0.0);
+            node_out[1] = vec4(value);
+            break;
+        }
+        case NODE_OP_MAP_RANGE: {
+            // data_type, interpolation_type, clamp; the Float sockets, then the FLOAT3 ones.
+            int interpolation = int(node_words[set_at + 1u]);
+            bool use_clamp = node_words[set_at + 2u] != 0u;
+            if (node_words[set_at] == 0u) {
+                float result;
+                node_map_range(interpolation, use_clamp, node_in[0].x, node_in[1].x, node_in[2].x, node_in[3].x,
+                               node_in[4].x, node_in[5].x, result);
+                node_out[0] = vec4(result);
+            } else {
+                vec3 result;
+                node_map_range_vector(interpolation, use_clamp, node_in[6].xyz, node_in[7].xyz, node_in[8].xyz,
+                                      node_in[9].xyz, node_in[10].xyz, node_in[11].xyz, result);
+                node_out[1] = vec4(result, 0.0);
+            }
+            break;
+        }
+        case NODE_OP_CLAMP: {
+            float result;
+            node_clamp(int(node_words[set_at]), node_in[0].x, node_in[1].x, node_in[2].x, result);
+            node_out[0] = vec4(result);
+            break;
+        }
+        case NODE_OP_MAPPING: {
+            vec3 result;
+            node_mapping(int(node_words[set_at]), node_in[0].xyz, node_in[1].xyz, node_in[2].xyz, node_in[3].xyz,
+                         result);
+            node_out[0] = vec4(result, 0.0);
+            break;
+        }
+        case NODE_OP_VECTOR_ROTATE: {
+            vec3 result;
+            node_vector_rotate(int(node_words[set_at]), node_words[set_at + 1u] != 0u, node_in[0].xyz, node_in[1].xyz,
+                               node_in[2].xyz, node_in[3].x, node_in[4].xyz, result);
+            node_out[0] = vec4(result, 0.0);
+            break;
+        }
+#endif
+#ifdef NODE_FAMILY_COLOUR
+        case NODE_OP_MIX: {
+            // data_type, factor_mode, blend_type, clamp_factor, clamp_result; operands:
+            // Factor_Float, Factor_Vector, A_Float, B_Float, A_Vector, B_Vector, A_Color, B_Color.
+            uint data_type = node_words[set_at];
+            bool clamp_factor = node_words[set_at + 3u] != 0u;
+            if (data_type == 0u) {
+                float result;
+                node_mix_float(clamp_factor, node_in[0].x, node_in[2].x, node_in[3].x, result);
+                node_out[0] = vec4(result);
+            } else if (data_type == 1u) {
+                vec3 result;
+                if (node_words[set_at + 1u] != 0u)
+                    node_mix_vector_non_uniform(clamp_factor, node_in[1].xyz, node_in[4].xyz, node_in[5].xyz, result);
+                else
+                    node_mix_vector(clamp_factor, node_in[0].x, node_in[4].xyz, node_in[5].xyz, result);
+                node_out[1] = vec4(result, 0.0);
+            } else {
+                vec3 result;
+                node_mix_color(int(node_words[set_at + 2u]), clamp_factor, node_words[set_at + 4u] != 0u, node_in[0].x,
+                               node_in[6].rgb, node_in[7].rgb, result);
+                node_out[2] = vec4(result, 1.0);
+            }
+            break;
+        }
+        case NODE_OP_MIX_RGB: {
+            vec3 result;
+            node_mix_color(int(node_words[set_at]), true, node_words[set_at + 1u] != 0u, node_in[0].x, node_in[1].rgb,
+                           node_in[2].rgb, result);
+            node_out[0] = vec4(result, 1.0);
+            break;
+        }
+        case NODE_OP_COLOR_RAMP: {
+            // The table (NODE_RAMP_TABLE_SIZE RGBA samples) follows the operands.
+            int i0, i1;
+            float weight;
+            node_color_ramp_coords(int(node_words[set_at]), node_in[0].x, i0, i1, weight);
+            vec4 rgba = node_table_mix(node_table_at(pc, i0, 4), node_table_at(pc, i1, 4), weight);
+            node_out[0] = rgba;
+            node_out[1] = vec4(rgba.a);
+            pc += uint(NODE_RAMP_TABLE_SIZE * 4);
+            break;
+        }
+        case NODE_OP_CURVE_RGB:
+        case NODE_OP_CURVE_VECTOR:
+        case NODE_OP_CURVE_FLOAT: {
+            // Settings: min_x, max_x (float bits), extrapolate; the table follows the operands.
+            float min_x = uintBitsToFloat(node_words[set_at]);
+            float max_x = uintBitsToFloat(node_words[set_at + 1u]);
+            bool extrapolate = node_words[set_at + 2u] != 0u;
+            int columns = op == NODE_OP_CURVE_FLOAT ? 1 : 3;
+            vec3 curved = vec3(0.0);
+            for (int k = 0; k < columns; ++k)
+                curved[k] = node_curve_value(pc, columns, k, node_in[1][k], min_x, max_x, extrapolate);
+            if (op == NODE_OP_CURVE_FLOAT) {
+                float result;
+                node_curve_finish_float(node_in[0].x, node_in[1].x, curved.x, result);
+                node_out[0] = vec4(result);
+            } else {
+                vec3 result;
+                node_curves_finish(node_in[0].x, node_in[1].xyz, curved, result);
+                node_out[0] = vec4(result, op == NODE_OP_CURVE_RGB ? node_in[1].a : 0.0);
+            }
+            pc += uint(NODE_RAMP_TABLE_SIZE * columns);
+            break;
+        }
+        case NODE_OP_HUE_SAT: {
+            vec3 result;
+            node_hue_saturation_value(node_in[0].x, node_in[1].x, node_in[2].x, node_in[3].x, node_in[4].rgb, result);
+            node_out[0] = vec4(result, node_in[4].a);
+            break;
+        }
+        case NODE_OP_INVERT: {
+            vec3 result;
+            node_invert(node_in[0].x, node_in[1].rgb, result);
+            node_out[0] = vec4(result, node_in[1].a);
+            break;
+        }
+        case NODE_OP_GAMMA: {
+            vec3 result;
+            node_gamma(node_in[0].rgb, node_in[1].x, result);
+            node_out[0] = vec4(result, node_in[0].a);
+            break;
+        }
+        case NODE_OP_BRIGHT_CONTRAST: {
+            vec3 result;
+            node_bright_contrast(node_in[0].rgb, node_in[1].x, node_in[2].x, result);
+            node_out[0] = vec4(result, node_in[0].a);
+            break;
+        }
+        case NODE_OP_SEPARATE_COLOR: {
+            float a, b, c;
+            node_separate_color(int(node_words[set_at]), node_in[0].rgb, a, b, c);
+            node_out[0] = vec4(a);
+            node_out[1] = vec4(b);
+            node_out[2] = vec4(c);
+            break;
+        }
+        case NODE_OP_COMBINE_COLOR: {
+            vec3 color;
+            node_combine_color(int(node_words[set_at]), node_in[0].x, node_in[1].x, node_in[2].x, color);
+            node_out[0] = vec4(color, 1.0);
+            break;
+        }
+#endif
         default:
             break;
         }

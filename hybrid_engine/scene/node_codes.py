@@ -46,6 +46,25 @@ OP_BSDF_TRANSPARENT = 37
 OP_EMISSION = 38
 OP_MIX_SHADER = 39
 OP_ADD_SHADER = 40
+# -- colour and vector (opcodes 41-79)
+OP_MATH = 41
+OP_VECTOR_MATH = 42
+OP_MIX = 43            # the Mix node: Float, Vector (uniform or not) and Color
+OP_MIX_RGB = 44        # the legacy MixRGB node
+OP_COLOR_RAMP = 45     # its table inline after the operands (RAMP_TABLE_WORDS)
+OP_CURVE_RGB = 46      # tables inline after the operands (CURVE_TABLE_WORDS)
+OP_CURVE_VECTOR = 47
+OP_CURVE_FLOAT = 48
+OP_HUE_SAT = 49
+OP_INVERT = 50
+OP_GAMMA = 51
+OP_BRIGHT_CONTRAST = 52
+OP_MAP_RANGE = 53
+OP_CLAMP = 54
+OP_SEPARATE_COLOR = 55
+OP_COMBINE_COLOR = 56
+OP_MAPPING = 57
+OP_VECTOR_ROTATE = 58
 
 OPCODES = {name: value for name, value in globals().items() if name.startswith("OP_")}
 
@@ -74,3 +93,36 @@ WHITE_NOISE_DIMENSIONS = {"1D": 1, "2D": 2, "3D": 3, "4D": 4}
 # Normal Map's ``space``: only tangent space is evaluated; the rest are listed for the
 # compiler's message.
 NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3, "BLENDER_WORLD": 4}
+
+# -- colour and vector: the int codes of their enums (the headers of gpu_shaders/include/nodes/).
+# Color Ramps and curves travel as Cycles' tables of TABLE_SIZE samples, inline in the program
+# after the node's operands (one float word per channel and sample).
+TABLE_SIZE = 257
+RAMP_TABLE_WORDS = TABLE_SIZE * 4        # RGBA per sample
+CURVE_TABLE_WORDS = {"CURVE_RGB": TABLE_SIZE * 3, "CURVE_VEC": TABLE_SIZE * 3, "CURVE_FLOAT": TABLE_SIZE}
+MATH_OPERATIONS = {name: code for code, name in enumerate((
+    "ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "POWER", "LOGARITHM", "SQRT", "INVERSE_SQRT",
+    "ABSOLUTE", "EXPONENT", "MINIMUM", "MAXIMUM", "LESS_THAN", "GREATER_THAN", "SIGN", "COMPARE", "SMOOTH_MIN",
+    "SMOOTH_MAX", "ROUND", "FLOOR", "CEIL", "TRUNC", "FRACT", "MODULO", "FLOORED_MODULO", "WRAP", "SNAP",
+    "PINGPONG", "SINE", "COSINE", "TANGENT", "ARCSINE", "ARCCOSINE", "ARCTANGENT", "ARCTAN2", "SINH", "COSH",
+    "TANH", "RADIANS", "DEGREES"))}
+VECTOR_MATH_OPERATIONS = {name: code for code, name in enumerate((
+    "ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "CROSS_PRODUCT", "PROJECT", "REFLECT", "REFRACT",
+    "FACEFORWARD", "DOT_PRODUCT", "DISTANCE", "LENGTH", "SCALE", "NORMALIZE", "ABSOLUTE", "POWER", "SIGN",
+    "MINIMUM", "MAXIMUM", "FLOOR", "CEIL", "FRACTION", "MODULO", "WRAP", "SNAP", "SINE", "COSINE", "TANGENT"))}
+MIX_BLENDS = {name: code for code, name in enumerate((
+    "MIX", "DARKEN", "MULTIPLY", "BURN", "LIGHTEN", "SCREEN", "DODGE", "ADD", "OVERLAY", "SOFT_LIGHT",
+    "LINEAR_LIGHT", "DIFFERENCE", "EXCLUSION", "SUBTRACT", "DIVIDE", "HUE", "SATURATION", "COLOR", "VALUE"))}
+MIX_DATA_TYPES = {"FLOAT": 0, "VECTOR": 1, "RGBA": 2, "ROTATION": 3}
+MIX_FACTOR_MODES = {"UNIFORM": 0, "NON_UNIFORM": 1}
+RAMP_INTERPOLATIONS = {"EASE": 0, "CARDINAL": 1, "LINEAR": 2, "B_SPLINE": 3, "CONSTANT": 4}
+MAP_RANGE_DATA_TYPES = {"FLOAT": 0, "FLOAT_VECTOR": 1}
+MAP_RANGE_INTERPOLATIONS = {"LINEAR": 0, "STEPPED": 1, "SMOOTHSTEP": 2, "SMOOTHERSTEP": 3}
+CLAMP_TYPES = {"MINMAX": 0, "RANGE": 1}
+COLOR_MODES = {"RGB": 0, "HSV": 1, "HSL": 2}
+MAPPING_TYPES = {"POINT": 0, "TEXTURE": 1, "VECTOR": 2, "NORMAL": 3}
+ROTATION_TYPES = {"AXIS_ANGLE": 0, "X_AXIS": 1, "Y_AXIS": 2, "Z_AXIS": 3, "EULER_XYZ": 4}
+# The defines that compile each family's cases into the interpreter (GPUScene.defines turns
+# one on only when some graph of the scene uses it: a scene pays for what it uses).
+FAMILY_COLOUR = "NODE_FAMILY_COLOUR"
+FAMILY_VECTOR = "NODE_FAMILY_VECTOR"

@@ -44,12 +44,18 @@ class NodeSpec:
     """How one Blender node kind compiles: its opcode, its inputs in operand order
     (identifier, type, Blender's default: a constant or an ``IMPLICIT_*`` code as ``("implicit",
     code)``), its outputs in register order, and its settings (property name, encoder to an
-    int word). Adding a node is one spec here and one case in node_program.glsl."""
+    int word). Adding a node is one spec here and one case in node_program.glsl.
+
+    ``family``: the define that compiles the node's case into the interpreter ("" for the
+    always-present core). ``table``: words that follow the operands (a Color Ramp's or a
+    curve's baked samples), made from the node's settings; the case reads them in place."""
 
     opcode: int
     inputs: tuple[tuple[str, str, object], ...] = ()
     outputs: tuple[tuple[str, str], ...] = ()
     settings: tuple[tuple[str, Callable[[object], int]], ...] = ()
+    family: str = ""
+    table: Callable[[dict], list[int]] | None = None
 
 
 def _enum(codes: dict[str, int], default: str) -> Callable[[object], int]:
@@ -67,6 +73,41 @@ def _int(default: int) -> Callable[[object], int]:
     return encode
 
 
+def _float_bits(default: float) -> Callable[[object], int]:
+    def encode(value: object) -> int:
+        try:
+            return _float_word(float(value) if value is not None else default)
+        except (TypeError, ValueError):
+            return _float_word(default)
+    return encode
+
+
+def _ramp_table(settings: dict) -> list[int]:
+    """Cycles' Color Ramp table (the reader's ``color_ramp``: TABLE_SIZE RGBA samples at
+    i / (TABLE_SIZE - 1)); without one, Blender's default ramp (black to white, linear)."""
+    table = settings.get("color_ramp")
+    if table is None or len(table) != nc.TABLE_SIZE:
+        t = np.arange(nc.TABLE_SIZE, dtype=np.float32) / np.float32(nc.TABLE_SIZE - 1)
+        table = np.stack([t, t, t, np.ones_like(t)], -1)
+    return np.asarray(table, np.float32).reshape(-1)[:nc.RAMP_TABLE_WORDS].view(np.uint32).tolist()
+
+
+def _curve_table(kind: str) -> Callable[[dict], list[int]]:
+    """A curve node's table (the reader's ``curve_table``: TABLE_SIZE samples over
+    [curve_min_x, curve_max_x], a column per channel or axis); without one, the identity."""
+    columns = nc.CURVE_TABLE_WORDS[kind] // nc.TABLE_SIZE
+
+    def table(settings: dict) -> list[int]:
+        values = settings.get("curve_table")
+        if values is None or len(values) != nc.TABLE_SIZE:
+            lo, hi = float(settings.get("curve_min_x", 0.0)), float(settings.get("curve_max_x", 1.0))
+            t = lo + np.arange(nc.TABLE_SIZE, dtype=np.float32) / np.float32(nc.TABLE_SIZE - 1) * (hi - lo)
+            values = np.repeat(t[:, None], columns, 1)
+        flat = np.asarray(values, np.float32).reshape(nc.TABLE_SIZE, -1)[:, :columns]
+        return np.ascontiguousarray(flat).reshape(-1).view(np.uint32).tolist()
+    return table
+
+
 _N = ("implicit", nc.IMPLICIT_NORMAL)
 _UV = ("implicit", nc.IMPLICIT_UV)
 _GENERATED = ("implicit", nc.IMPLICIT_GENERATED)
@@ -77,8 +118,9 @@ _BSDF_OUT = (("BSDF", SHADER),)
 
 # Blender's sockets (identifiers, defaults) as Blender 5.0 declares them.
 NODE_SPECS: dict[str, NodeSpec] = {
-    "VALUE": NodeSpec(nc.OP_VALUE, (("__value__", RGBA, 0.5),), (("Value", VALUE),)),
-    "RGB": NodeSpec(nc.OP_VALUE, (("__value__", RGBA, (0.5, 0.5, 0.5, 1.0)),), (("Color", RGBA),)),
+    # Value and RGB: the reader keeps their number as an input named as their output.
+    "VALUE": NodeSpec(nc.OP_VALUE, (("Value", VALUE, 0.5),), (("Value", VALUE),)),
+    "RGB": NodeSpec(nc.OP_VALUE, (("Color", RGBA, (0.5, 0.5, 0.5, 1.0)),), (("Color", RGBA),)),
     "TEX_COORD": NodeSpec(nc.OP_TEX_COORD, (), (("Generated", VECTOR), ("Normal", VECTOR), ("UV", VECTOR),
                                                 ("Object", VECTOR), ("Camera", VECTOR), ("Window", VECTOR),
                                                 ("Reflection", VECTOR))),
@@ -126,6 +168,70 @@ NODE_SPECS: dict[str, NodeSpec] = {
                                               ("Shader_001", SHADER, None)), (("Shader", SHADER),)),
     "ADD_SHADER": NodeSpec(nc.OP_ADD_SHADER, (("Shader", SHADER, None), ("Shader_001", SHADER, None)),
                            (("Shader", SHADER),)),
+    # -- colour and vector (opcodes 41-79)
+    **{kind: NodeSpec(opcode, inputs, outputs, settings, nc.FAMILY_COLOUR if colour else nc.FAMILY_VECTOR, table)
+       for kind, (opcode, inputs, outputs, settings, colour, table) in {
+        "MATH": (nc.OP_MATH, (("Value", VALUE, 0.5), ("Value_001", VALUE, 0.5), ("Value_002", VALUE, 0.5)),
+                 (("Value", VALUE),), (("operation", _enum(nc.MATH_OPERATIONS, "ADD")), ("use_clamp", _int(0))),
+                 False, None),
+        "VECT_MATH": (nc.OP_VECTOR_MATH, (("Vector", VECTOR, (0.0, 0.0, 0.0)), ("Vector_001", VECTOR, (0.0, 0.0, 0.0)),
+                                          ("Vector_002", VECTOR, (0.0, 0.0, 0.0)), ("Scale", VALUE, 1.0)),
+                      (("Vector", VECTOR), ("Value", VALUE)),
+                      (("operation", _enum(nc.VECTOR_MATH_OPERATIONS, "ADD")),), False, None),
+        "MIX": (nc.OP_MIX, (("Factor_Float", VALUE, 0.5), ("Factor_Vector", VECTOR, (0.5, 0.5, 0.5)),
+                            ("A_Float", VALUE, 0.0), ("B_Float", VALUE, 0.0), ("A_Vector", VECTOR, (0.0, 0.0, 0.0)),
+                            ("B_Vector", VECTOR, (0.0, 0.0, 0.0)), ("A_Color", RGBA, (0.5, 0.5, 0.5, 1.0)),
+                            ("B_Color", RGBA, (0.5, 0.5, 0.5, 1.0))),
+                (("Result_Float", VALUE), ("Result_Vector", VECTOR), ("Result_Color", RGBA)),
+                (("data_type", _enum(nc.MIX_DATA_TYPES, "FLOAT")), ("factor_mode", _enum(nc.MIX_FACTOR_MODES, "UNIFORM")),
+                 ("blend_type", _enum(nc.MIX_BLENDS, "MIX")), ("clamp_factor", _int(1)), ("clamp_result", _int(0))),
+                True, None),
+        "MIX_RGB": (nc.OP_MIX_RGB, (("Fac", VALUE, 0.5), ("Color1", RGBA, (0.5, 0.5, 0.5, 1.0)),
+                                    ("Color2", RGBA, (0.5, 0.5, 0.5, 1.0))), (("Color", RGBA),),
+                    (("blend_type", _enum(nc.MIX_BLENDS, "MIX")), ("use_clamp", _int(0))), True, None),
+        "VALTORGB": (nc.OP_COLOR_RAMP, (("Fac", VALUE, 0.5),), (("Color", RGBA), ("Alpha", VALUE)),
+                     (("color_ramp_interpolation", _enum(nc.RAMP_INTERPOLATIONS, "LINEAR")),), True, _ramp_table),
+        **{kind: (opcode, ((fac, VALUE, 1.0), (ident, kind_type, default)), ((out, kind_type),),
+                  (("curve_min_x", _float_bits(0.0)), ("curve_max_x", _float_bits(1.0)),
+                   ("curve_extrapolate", _int(0))), True, _curve_table(kind))
+           for kind, opcode, fac, ident, kind_type, default, out in (
+               ("CURVE_RGB", nc.OP_CURVE_RGB, "Fac", "Color", RGBA, (1.0, 1.0, 1.0, 1.0), "Color"),
+               ("CURVE_VEC", nc.OP_CURVE_VECTOR, "Fac", "Vector", VECTOR, (0.0, 0.0, 0.0), "Vector"),
+               ("CURVE_FLOAT", nc.OP_CURVE_FLOAT, "Factor", "Value", VALUE, 1.0, "Value"))},
+        "HUE_SAT": (nc.OP_HUE_SAT, (("Hue", VALUE, 0.5), ("Saturation", VALUE, 1.0), ("Value", VALUE, 1.0),
+                                    ("Fac", VALUE, 1.0), ("Color", RGBA, _GREY)), (("Color", RGBA),), (), True, None),
+        "INVERT": (nc.OP_INVERT, (("Fac", VALUE, 1.0), ("Color", RGBA, (0.0, 0.0, 0.0, 1.0))), (("Color", RGBA),), (),
+                   True, None),
+        "GAMMA": (nc.OP_GAMMA, (("Color", RGBA, _WHITE), ("Gamma", VALUE, 1.0)), (("Color", RGBA),), (), True, None),
+        "BRIGHTCONTRAST": (nc.OP_BRIGHT_CONTRAST, (("Color", RGBA, _WHITE), ("Bright", VALUE, 0.0),
+                                                   ("Contrast", VALUE, 0.0)), (("Color", RGBA),), (), True, None),
+        "MAP_RANGE": (nc.OP_MAP_RANGE, (("Value", VALUE, 1.0), ("From Min", VALUE, 0.0), ("From Max", VALUE, 1.0),
+                                        ("To Min", VALUE, 0.0), ("To Max", VALUE, 1.0), ("Steps", VALUE, 4.0),
+                                        ("Vector", VECTOR, (0.0, 0.0, 0.0)), ("From_Min_FLOAT3", VECTOR, (0.0, 0.0, 0.0)),
+                                        ("From_Max_FLOAT3", VECTOR, (1.0, 1.0, 1.0)),
+                                        ("To_Min_FLOAT3", VECTOR, (0.0, 0.0, 0.0)),
+                                        ("To_Max_FLOAT3", VECTOR, (1.0, 1.0, 1.0)),
+                                        ("Steps_FLOAT3", VECTOR, (4.0, 4.0, 4.0))),
+                      (("Result", VALUE), ("Vector", VECTOR)),
+                      (("data_type", _enum(nc.MAP_RANGE_DATA_TYPES, "FLOAT")),
+                       ("interpolation_type", _enum(nc.MAP_RANGE_INTERPOLATIONS, "LINEAR")), ("clamp", _int(1))),
+                      False, None),
+        "CLAMP": (nc.OP_CLAMP, (("Value", VALUE, 1.0), ("Min", VALUE, 0.0), ("Max", VALUE, 1.0)),
+                  (("Result", VALUE),), (("clamp_type", _enum(nc.CLAMP_TYPES, "MINMAX")),), False, None),
+        "SEPARATE_COLOR": (nc.OP_SEPARATE_COLOR, (("Color", RGBA, _GREY),),
+                           (("Red", VALUE), ("Green", VALUE), ("Blue", VALUE)),
+                           (("mode", _enum(nc.COLOR_MODES, "RGB")),), True, None),
+        "COMBINE_COLOR": (nc.OP_COMBINE_COLOR, (("Red", VALUE, 0.0), ("Green", VALUE, 0.0), ("Blue", VALUE, 0.0)),
+                          (("Color", RGBA),), (("mode", _enum(nc.COLOR_MODES, "RGB")),), True, None),
+        "MAPPING": (nc.OP_MAPPING, (("Vector", VECTOR, (0.0, 0.0, 0.0)), ("Location", VECTOR, (0.0, 0.0, 0.0)),
+                                    ("Rotation", VECTOR, (0.0, 0.0, 0.0)), ("Scale", VECTOR, (1.0, 1.0, 1.0))),
+                    (("Vector", VECTOR),), (("vector_type", _enum(nc.MAPPING_TYPES, "POINT")),), False, None),
+        "VECTOR_ROTATE": (nc.OP_VECTOR_ROTATE, (("Vector", VECTOR, (0.0, 0.0, 0.0)), ("Center", VECTOR, (0.0, 0.0, 0.0)),
+                                                ("Axis", VECTOR, (0.0, 0.0, 1.0)), ("Angle", VALUE, 0.0),
+                                                ("Rotation", VECTOR, (0.0, 0.0, 0.0))),
+                          (("Vector", VECTOR),), (("rotation_type", _enum(nc.ROTATION_TYPES, "AXIS_ANGLE")),
+                                                  ("invert", _int(0))), False, None),
+    }.items()},
 }
 # Other names Blender has used for the same nodes.
 NODE_SPECS["GEOMETRY"] = NODE_SPECS["NEW_GEOMETRY"]
@@ -175,6 +281,7 @@ class NodeProgram:
     words: np.ndarray  # uint32
     registers: int
     unsupported: list[str] = field(default_factory=list)
+    families: set[str] = field(default_factory=set)  # the defines its nodes' cases need
 
 
 def _reachable(graph: ShaderGraph) -> list[int]:
@@ -237,7 +344,7 @@ def compile_graph(graph: ShaderGraph, name: str = "material", registers: int = n
                 operands.append(nc.IMPLICIT | default[1])
             else:
                 constant = value if value is not None and not isinstance(value, Link) else default
-                if ident == "__value__":  # Value and RGB keep their number as a setting of Blender's
+                if spec.opcode == nc.OP_VALUE and value is None:  # a hand-built graph's setting
                     constant = node.settings.get("value", constant)
                 for _ in range(width):
                     operands += _constant_words(constant, kind)
@@ -265,7 +372,10 @@ def compile_graph(graph: ShaderGraph, name: str = "material", registers: int = n
         count = sum(CLOSURE_REGISTERS if kind == SHADER else 1 for _, kind, _ in spec.inputs)
         header = spec.opcode | (len(outputs) << 8) | (len(settings) << 16) | (count << 24)
         words += [header, *outputs, *settings, *operands]
-    return NodeProgram(np.array(words, np.uint32), peak, unsupported)
+        if spec.table is not None:
+            words += spec.table(node.settings)
+    families = {NODE_SPECS[graph.nodes[i].kind].family for i in order} - {""}
+    return NodeProgram(np.array(words, np.uint32), peak, unsupported, families)
 
 
 @dataclass
@@ -280,6 +390,11 @@ class ProgramTable:
     @property
     def empty(self) -> bool:
         return not (self.offsets >= 0).any()
+
+    @property
+    def families(self) -> set[str]:
+        """The interpreter's family defines that some program needs (NodeSpec.family)."""
+        return set().union(*(p.families for p in self.programs if p is not None))
 
 
 def compile_table(graphs: Sequence[ShaderGraph | None] | None, count: int,
@@ -306,7 +421,9 @@ def _constant_input(graph: ShaderGraph, node_index: int, ident: str, default: ob
     value = graph.nodes[node_index].inputs.get(ident, default)
     if isinstance(value, Link):
         source = graph.nodes[value.node]
-        return source.settings.get("value", source.inputs.get("__value__")) if source.kind in ("VALUE", "RGB") else None
+        if source.kind not in ("VALUE", "RGB"):
+            return None
+        return source.inputs.get("Value" if source.kind == "VALUE" else "Color", source.settings.get("value"))
     return value
 
 

@@ -69,8 +69,11 @@ class GPUScene:
         """What every shader that shades a material needs defined for this scene:
         ``NODE_PROGRAMS`` when some material has a node graph (the interpreter,
         include/node_program.glsl), nothing otherwise, so scenes without graphs run the
-        shaders as they were."""
-        return {"NODE_PROGRAMS": 1} if self.node_programs.active else {}
+        shaders as they were. With it, the family defines its programs' nodes need
+        (node_codes.FAMILY_*): each family's cases compile in only where a graph uses it."""
+        if not self.node_programs.active:
+            return {}
+        return {"NODE_PROGRAMS": 1, **{family: 1 for family in sorted(self.node_programs.table.families)}}
 
     def vertex_content(self, program) -> list[tuple]:
         """moderngl vertex-array content of ``program``: one binding per attribute it reads

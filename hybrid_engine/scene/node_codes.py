@@ -46,6 +46,10 @@ OP_BSDF_TRANSPARENT = 37
 OP_EMISSION = 38
 OP_MIX_SHADER = 39
 OP_ADD_SHADER = 40
+# -- world (opcodes 120-139): the World's Background graph, baked per direction (world_bake.py)
+OP_BACKGROUND = 120
+OP_TEX_ENVIRONMENT = 121
+OP_TEX_SKY = 122
 
 OPCODES = {name: value for name, value in globals().items() if name.startswith("OP_")}
 
@@ -74,3 +78,10 @@ WHITE_NOISE_DIMENSIONS = {"1D": 1, "2D": 2, "3D": 3, "4D": 4}
 # Normal Map's ``space``: only tangent space is evaluated; the rest are listed for the
 # compiler's message.
 NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3, "BLENDER_WORLD": 4}
+
+# Environment Texture's ``projection`` (node_program.glsl node_environment_uv).
+ENVIRONMENT_PROJECTIONS = {"EQUIRECTANGULAR": 0, "MIRROR_BALL": 1}
+# Sky Texture's ``sky_type`` (Blender 5.0): the models include/nodes/tex_sky.glsl evaluates are
+# SKY_MODELS_EVALUATED; the others read as black and are named to the artist.
+SKY_TYPES = {"SINGLE_SCATTERING": 0, "MULTIPLE_SCATTERING": 1, "PREETHAM": 2, "HOSEK_WILKIE": 3}
+SKY_MODELS_EVALUATED = frozenset({"PREETHAM"})

@@ -39,6 +39,7 @@ class SkyLight:
         self.sh_buffer = ctx.buffer(reserve=9 * 16)
         self._program = shader_loader.compute(ctx, "lighting/sky_irradiance.comp.glsl")
         self.world_bake: WorldBake | None = None  # made with the first World graph
+        self._baked = False  # the environment is world_bake's texture
         self._key: tuple | None = None
         self._env_key: tuple | None = None
         self._uniforms: dict = {}
@@ -55,6 +56,7 @@ class SkyLight:
                 return
             self._upload_environment(None)
             self._env_key = None
+            self._baked = True
             tex = self.world_bake.texture
             sky = Sky(color=(1.0, 1.0, 1.0), strength=1.0)
         else:
@@ -63,6 +65,7 @@ class SkyLight:
             key = (env_key, tuple(sky.color), float(sky.strength))
             if key == self._key:
                 return
+            self._baked = False
             if env_key != self._env_key:
                 self._upload_environment(env)
                 self._env_key = env_key
@@ -104,7 +107,7 @@ class SkyLight:
     def texture(self):
         """The environment (an image's or the World graph's bake), or a 1x1 placeholder for a
         constant colour (always bindable)."""
-        if self._key is not None and self._key[0] == "graph" and self.world_bake is not None:
+        if self._baked and self.world_bake is not None:
             return self.world_bake.texture
         return self.environment if self.environment is not None else self._dummy
 

@@ -15,8 +15,10 @@ differs. A frame whose World did not change costs a compile of a small graph, ne
 dispatch; a value edit costs one dispatch and no shader compile (the interpreter reads the
 words). ``bakes`` counts the dispatches.
 
-Resolution: BAKE_WIDTH x BAKE_WIDTH / 2 texels. An equirectangular image read directly keeps
-its own resolution (sky_light.py), so the bake matters for what a graph computes, whose
+Resolution: BAKE_WIDTH x BAKE_WIDTH / 2 texels, chosen by measurement on the CPU driver, where
+a bake's time grows with the texels (a value edit waits for one bake): four times the
+texels cost about five times as long. An equirectangular image read directly keeps its own
+resolution (sky_light.py), so the bake's size matters only for what a graph computes, whose
 detail is a sky gradient or an image seen through it.
 """
 from __future__ import annotations
@@ -33,7 +35,7 @@ from ...scene.shader_graph import ShaderGraph
 from ..scene_upload.textures import pack_layers
 
 # Width of the baked environment (height: half of it); see docs/ARCHITECTURE.md "World".
-BAKE_WIDTH = 1024
+BAKE_WIDTH = 512
 _GROUP = 8  # world_bake.comp.glsl local size (8 x 8)
 
 

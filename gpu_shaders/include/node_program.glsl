@@ -40,6 +40,14 @@
 #include "include/nodes/map_range.glsl"
 #include "include/nodes/mapping.glsl"
 #endif
+#ifdef NODE_WORLD
+// The World's graph, run per direction by lighting/world_bake.comp.glsl: its Environment
+// Textures' images as layers of one array (largest size), and the Sky Texture's models.
+#include "include/nodes/tex_sky.glsl"
+#include "include/nodes/tex_environment.glsl"
+uniform sampler2DArray u_world_images;
+uniform float u_world_lod;  // the images' mip level whose texels match the bake's
+#endif
 
 // Opcodes, operand kinds, implicit values: hybrid_engine/scene/node_codes.py.
 #define NODE_OP_OUTPUT 1u
@@ -84,6 +92,10 @@
 #define NODE_OP_COMBINE_COLOR 56u
 #define NODE_OP_MAPPING 57u
 #define NODE_OP_VECTOR_ROTATE 58u
+// -- world (hybrid_engine/passes/lighting/world_bake.py)
+#define NODE_OP_BACKGROUND 120u
+#define NODE_OP_TEX_ENVIRONMENT 121u
+#define NODE_OP_TEX_SKY 122u
 #define NODE_CONSTANT 0x80000000u
 #define NODE_IMPLICIT 0x40000000u
 #define NODE_IMPLICIT_NORMAL 0u
@@ -586,6 +598,24 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
             vec3 color;
             node_combine_color(int(node_words[set_at]), node_in[0].x, node_in[1].x, node_in[2].x, color);
             node_out[0] = vec4(color, 1.0);
+#endif
+        // -- world
+        case NODE_OP_BACKGROUND:  // radiance colour x strength: an emission seen from every direction
+            node_bsdf(0.0, vec3(0.0), 0.0, 0.0, 0.0, 1.0, 0.0, vec3(0.0), node_in[0].rgb * node_in[1].x, 0.0);
+            break;
+#ifdef NODE_WORLD
+        case NODE_OP_TEX_ENVIRONMENT: {
+            int layer = int(node_words[set_at]);
+            vec2 uv = node_environment_uv(node_in[0].xyz, int(node_words[set_at + 1u]));
+            node_out[0] = layer < 0 ? vec4(1.0, 0.0, 1.0, 1.0)  // Blender's colour of a missing image
+                                    : vec4(textureLod(u_world_images, vec3(uv, float(layer)), u_world_lod).rgb, 1.0);
+            break;
+        }
+        case NODE_OP_TEX_SKY: {
+            vec3 sun = vec3(uintBitsToFloat(node_words[set_at + 1u]), uintBitsToFloat(node_words[set_at + 2u]),
+                            uintBitsToFloat(node_words[set_at + 3u]));
+            node_out[0] = vec4(node_tex_sky(int(node_words[set_at]), node_in[0].xyz, sun,
+                                            uintBitsToFloat(node_words[set_at + 4u])), 1.0);
             break;
         }
 #endif

@@ -405,11 +405,16 @@ class Lights:
 class Sky:
     """The World background: a constant colour, or an equirectangular environment image
     (Blender's convention: u = 0.5 - atan2(dir.y, dir.x) / 2π, v = 0.5 + atan2(dir.z, hypot(x, y)) / π),
-    scaled by ``strength``."""
+    scaled by ``strength``; or the World's node graph (``graph``, its Background shader at the
+    surface), which the GPU bakes into the environment per direction whenever the graph's
+    values change (passes/lighting/world_bake.py) and which then replaces the other three.
+    ``images`` holds the pixels its Environment Textures' ``texture`` settings index."""
 
     color: tuple[float, float, float] = (0.05, 0.05, 0.05)
     strength: float = 1.0
     environment: np.ndarray | None = None  # (H, W, 3) float32 linear, row 0 = bottom (v = 0)
+    graph: ShaderGraph | None = None
+    images: list[np.ndarray] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         c = np.asarray(self.color, np.float32).reshape(-1)
@@ -426,6 +431,12 @@ class Sky:
             # (sky_light.py) that the environment did not change.
             self.environment = env if np.isfinite(env).all() else np.nan_to_num(env, nan=0.0, posinf=0.0,
                                                                                  neginf=0.0)
+        if self.graph is not None:
+            self.graph.validate()
+        self.images = list(self.images)
+        for k, image in enumerate(self.images):
+            if image.ndim != 3 or image.shape[2] not in (3, 4) or image.shape[0] < 1 or image.shape[1] < 1:
+                raise SceneDataError(f"world image {k} must be (H, W, 3|4), got {image.shape}")
 
 
 @dataclass

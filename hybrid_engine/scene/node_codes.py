@@ -65,6 +65,10 @@ OP_SEPARATE_COLOR = 55
 OP_COMBINE_COLOR = 56
 OP_MAPPING = 57
 OP_VECTOR_ROTATE = 58
+# -- world (opcodes 120-139): the World's Background graph, baked per direction (world_bake.py)
+OP_BACKGROUND = 120
+OP_TEX_ENVIRONMENT = 121
+OP_TEX_SKY = 122
 
 OPCODES = {name: value for name, value in globals().items() if name.startswith("OP_")}
 
@@ -126,3 +130,9 @@ ROTATION_TYPES = {"AXIS_ANGLE": 0, "X_AXIS": 1, "Y_AXIS": 2, "Z_AXIS": 3, "EULER
 # one on only when some graph of the scene uses it: a scene pays for what it uses).
 FAMILY_COLOUR = "NODE_FAMILY_COLOUR"
 FAMILY_VECTOR = "NODE_FAMILY_VECTOR"
+# Environment Texture's ``projection`` (node_program.glsl node_environment_uv).
+ENVIRONMENT_PROJECTIONS = {"EQUIRECTANGULAR": 0, "MIRROR_BALL": 1}
+# Sky Texture's ``sky_type`` (Blender 5.0): the models include/nodes/tex_sky.glsl evaluates are
+# SKY_MODELS_EVALUATED; the others read as black and are named to the artist.
+SKY_TYPES = {"SINGLE_SCATTERING": 0, "MULTIPLE_SCATTERING": 1, "PREETHAM": 2, "HOSEK_WILKIE": 3}
+SKY_MODELS_EVALUATED = frozenset({"PREETHAM"})

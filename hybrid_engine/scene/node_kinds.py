@@ -27,4 +27,7 @@ SHADER_KINDS = frozenset({
     "MIX_SHADER", "ADD_SHADER", "BSDF_PRINCIPLED", "BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_GLASS",
     "BSDF_REFRACTION", "BSDF_TRANSPARENT", "EMISSION",
 })
-SUPPORTED_KINDS = INPUT_KINDS | TEXTURE_KINDS | COLOUR_VECTOR_KINDS | SHADER_KINDS
+# The World's own nodes: its Background graph is baked into the environment per direction
+# (hybrid_engine/passes/lighting/world_bake.py); in a material they evaluate as in a World.
+WORLD_KINDS = frozenset({"BACKGROUND", "TEX_ENVIRONMENT", "TEX_SKY"})
+SUPPORTED_KINDS = WORLD_KINDS | INPUT_KINDS | TEXTURE_KINDS | COLOUR_VECTOR_KINDS | SHADER_KINDS

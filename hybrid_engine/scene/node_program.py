@@ -74,6 +74,7 @@ def _int(default: int) -> Callable[[object], int]:
 
 
 def _float_bits(default: float) -> Callable[[object], int]:
+def _float(default: float) -> Callable[[object], int]:
     def encode(value: object) -> int:
         try:
             return _float_word(float(value) if value is not None else default)
@@ -106,6 +107,14 @@ def _curve_table(kind: str) -> Callable[[dict], list[int]]:
         flat = np.asarray(values, np.float32).reshape(nc.TABLE_SIZE, -1)[:, :columns]
         return np.ascontiguousarray(flat).reshape(-1).view(np.uint32).tolist()
     return table
+def _component(index: int, default: tuple[float, ...]) -> Callable[[object], int]:
+    """One component of a vector setting as a float word (a vector takes one word each)."""
+    def encode(value: object) -> int:
+        try:
+            return _float_word(float(tuple(value)[index]))  # type: ignore[arg-type]
+        except (TypeError, ValueError, IndexError):
+            return _float_word(default[index])
+    return encode
 
 
 _N = ("implicit", nc.IMPLICIT_NORMAL)
@@ -232,6 +241,18 @@ NODE_SPECS: dict[str, NodeSpec] = {
                           (("Vector", VECTOR),), (("rotation_type", _enum(nc.ROTATION_TYPES, "AXIS_ANGLE")),
                                                   ("invert", _int(0))), False, None),
     }.items()},
+    # -- world (the World's Background graph: hybrid_engine/passes/lighting/world_bake.py)
+    "BACKGROUND": NodeSpec(nc.OP_BACKGROUND, (("Color", RGBA, (0.05, 0.05, 0.05, 1.0)), ("Strength", VALUE, 1.0)),
+                           (("Background", SHADER),)),
+    "TEX_ENVIRONMENT": NodeSpec(nc.OP_TEX_ENVIRONMENT, (("Vector", VECTOR, _GENERATED),), (("Color", RGBA),),
+                                (("texture", _int(-1)),
+                                 ("projection", _enum(nc.ENVIRONMENT_PROJECTIONS, "EQUIRECTANGULAR")))),
+    "TEX_SKY": NodeSpec(nc.OP_TEX_SKY, (("Vector", VECTOR, _GENERATED),), (("Color", RGBA),),
+                        (("sky_type", _enum(nc.SKY_TYPES, "MULTIPLE_SCATTERING")),
+                         ("sun_direction", _component(0, (0.0, 0.0, 1.0))),
+                         ("sun_direction", _component(1, (0.0, 0.0, 1.0))),
+                         ("sun_direction", _component(2, (0.0, 0.0, 1.0))),
+                         ("turbidity", _float(2.2)), ("ground_albedo", _float(0.3)))),
 }
 # Other names Blender has used for the same nodes.
 NODE_SPECS["GEOMETRY"] = NODE_SPECS["NEW_GEOMETRY"]

@@ -9,7 +9,9 @@ nine spherical harmonics and convolved with the clamped cosine (Ramamoorthi and 
 nine coefficients hold it within a few percent, and cheap enough to evaluate at every hit.
 
 Both are recomputed on the GPU only when the World changes (a different environment
-image, colour or strength); a frame with the same World binds what is there.
+image, colour or strength, or new values in its node graph); a frame with the same World
+binds what is there. A World with a node graph is baked into an environment first
+(world_bake.py), which then stands where an image would, at strength 1.
 """
 from __future__ import annotations
 
@@ -21,6 +23,7 @@ from ...gpu import shader_loader
 from ...gpu.bindings import bind
 from ...gpu.dispatch import storage_barrier
 from ...scene.data import Sky
+from .world_bake import WorldBake
 
 # Width of the latitude-longitude grid the projection integrates over (sky_irradiance.comp.glsl).
 SKY_GRID_WIDTH = 128
@@ -35,6 +38,8 @@ class SkyLight:
         self._dummy = ctx.texture((1, 1), 3, dtype="f4")
         self.sh_buffer = ctx.buffer(reserve=9 * 16)
         self._program = shader_loader.compute(ctx, "lighting/sky_irradiance.comp.glsl")
+        self.world_bake: WorldBake | None = None  # made with the first World graph
+        self._baked = False  # the environment is world_bake's texture
         self._key: tuple | None = None
         self._env_key: tuple | None = None
         self._uniforms: dict = {}
@@ -42,15 +47,29 @@ class SkyLight:
 
     def update(self, sky: Sky) -> None:
         """Make the textures and coefficients match ``sky``; nothing when it is unchanged."""
-        env = sky.environment
-        env_key = None if env is None else (id(env), env.shape)
-        key = (env_key, tuple(sky.color), float(sky.strength))
-        if key == self._key:
-            return
-        if env_key != self._env_key:
-            self._upload_environment(env)
-            self._env_key = env_key
-        tex = self.environment
+        if sky.graph is not None:
+            if self.world_bake is None:
+                self.world_bake = WorldBake(self.ctx)
+            self.world_bake.update(sky.graph, sky.images)
+            key = ("graph", self.world_bake.bakes)
+            if key == self._key:
+                return
+            self._upload_environment(None)
+            self._env_key = None
+            self._baked = True
+            tex = self.world_bake.texture
+            sky = Sky(color=(1.0, 1.0, 1.0), strength=1.0)
+        else:
+            env = sky.environment
+            env_key = None if env is None else (id(env), env.shape)
+            key = (env_key, tuple(sky.color), float(sky.strength))
+            if key == self._key:
+                return
+            self._baked = False
+            if env_key != self._env_key:
+                self._upload_environment(env)
+                self._env_key = env_key
+            tex = self.environment
         width = tex.size[0] if tex is not None else 1
         levels = 1 + int(math.floor(math.log2(max(tex.size)))) if tex is not None else 1
         self._uniforms = {
@@ -86,7 +105,10 @@ class SkyLight:
         storage_barrier(self.ctx)
 
     def texture(self):
-        """The environment, or a 1x1 placeholder for a constant colour (always bindable)."""
+        """The environment (an image's or the World graph's bake), or a 1x1 placeholder for a
+        constant colour (always bindable)."""
+        if self._baked and self.world_bake is not None:
+            return self.world_bake.texture
         return self.environment if self.environment is not None else self._dummy
 
     def uniforms(self) -> dict:
@@ -98,6 +120,9 @@ class SkyLight:
         return np.frombuffer(self.sh_buffer.read(), np.float32).reshape(9, 4)[:, :3].copy()
 
     def release(self) -> None:
+        if self.world_bake is not None:
+            self.world_bake.release()
+            self.world_bake = None
         for obj in (self.environment, self._dummy, self.sh_buffer):
             if obj is not None:
                 obj.release()

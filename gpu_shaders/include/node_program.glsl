@@ -598,6 +598,8 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
             vec3 color;
             node_combine_color(int(node_words[set_at]), node_in[0].x, node_in[1].x, node_in[2].x, color);
             node_out[0] = vec4(color, 1.0);
+            break;
+        }
 #endif
         // -- world
         case NODE_OP_BACKGROUND:  // radiance colour x strength: an emission seen from every direction

@@ -74,7 +74,6 @@ def _int(default: int) -> Callable[[object], int]:
 
 
 def _float_bits(default: float) -> Callable[[object], int]:
-def _float(default: float) -> Callable[[object], int]:
     def encode(value: object) -> int:
         try:
             return _float_word(float(value) if value is not None else default)
@@ -252,7 +251,7 @@ NODE_SPECS: dict[str, NodeSpec] = {
                          ("sun_direction", _component(0, (0.0, 0.0, 1.0))),
                          ("sun_direction", _component(1, (0.0, 0.0, 1.0))),
                          ("sun_direction", _component(2, (0.0, 0.0, 1.0))),
-                         ("turbidity", _float(2.2)), ("ground_albedo", _float(0.3)))),
+                         ("turbidity", _float_bits(2.2)), ("ground_albedo", _float_bits(0.3)))),
 }
 # Other names Blender has used for the same nodes.
 NODE_SPECS["GEOMETRY"] = NODE_SPECS["NEW_GEOMETRY"]

@@ -55,3 +55,17 @@ def test_material_table_holds_one_graph_or_none_per_material():
         MaterialTable(**rows, node_graphs=[None])
     with pytest.raises(SceneDataError, match="not a ShaderGraph"):
         MaterialTable(**rows, node_graphs=[None, "graph"])
+
+
+def test_the_addons_graphs_are_the_top_level_compilers_graphs(addon):
+    """Scripts and benchmarks import the core as ``hybrid_engine`` beside the add-on's copy:
+    a graph the add-on's reader builds must compile with either."""
+    from hybrid_engine.scene import node_program, shader_graph
+
+    theirs = addon.hybrid_engine.scene.shader_graph
+    assert theirs.Link is shader_graph.Link and theirs.ShaderGraph is shader_graph.ShaderGraph
+    graph = theirs.ShaderGraph()
+    coords = graph.add("TEX_COORD")
+    shader = graph.add("EMISSION", Color=theirs.Link(coords, "UV"), Strength=1.0)
+    graph.surface = theirs.Link(shader, "Emission")
+    assert len(node_program.compile_graph(graph).words) > 0

@@ -24,6 +24,8 @@ of the program's constants and never a shader compile.
 """
 from __future__ import annotations
 
+import sys
+import types
 from dataclasses import dataclass, field
 from typing import Union
 
@@ -103,3 +105,17 @@ class ShaderGraph:
                    tuple(sorted((k, input_key(v)) for k, v in node.inputs.items())))
                   for node in self.nodes),
             self.surface, self.displacement)
+
+
+# The package can be imported under two names in one process (Blender's add-on,
+# ``bl_ext.*.hybrid_rt``, and the top-level ``hybrid_engine`` of scripts and benchmarks). A
+# graph the add-on's reader builds must be one the other name's compiler recognises
+# (``isinstance(value, Link)``), so these classes are one per process: the first import's.
+_SHARED_KEY = "_hybrid_rt_shader_graph_classes"
+_shared = sys.modules.setdefault(_SHARED_KEY, types.ModuleType(_SHARED_KEY))
+if hasattr(_shared, "Link"):
+    globals().update(Link=_shared.Link, GraphNode=_shared.GraphNode, ShaderGraph=_shared.ShaderGraph,
+                     ShaderGraphError=_shared.ShaderGraphError, Input=Union[_shared.Link, Constant])
+else:
+    _shared.Link, _shared.GraphNode, _shared.ShaderGraph, _shared.ShaderGraphError = (
+        Link, GraphNode, ShaderGraph, ShaderGraphError)

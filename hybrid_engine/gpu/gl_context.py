@@ -379,9 +379,9 @@ def activated(release_after: bool = False) -> Iterator[object]:
     One thread at a time: a process-wide lock is held for the whole block, so a preview on
     Blender's job thread, an F12 render on its render thread and the viewport on the main
     thread never run GL at the same time. The context is taken over by the thread that
-    enters (``eglMakeCurrent`` on that thread) and handed back on exit, and the block leaves
-    the GL state it found (``_GLState``: bound framebuffers, program, viewport, capabilities),
-    so no thread inherits another's bindings.
+    enters (``eglMakeCurrent`` on that thread) and handed back on exit, and a block that hands
+    it back leaves the GL state it found (``_GLState``: bound framebuffers, program, viewport,
+    capabilities), so no thread inherits another's bindings.
 
     Inside Blender's viewport callbacks Blender's own context is current; our context is made
     current for the block and Blender's (EGL or GLX) is restored afterwards, so Blender's own
@@ -433,10 +433,10 @@ def _outer_block(release_after: bool) -> Iterator[object]:
     try:
         yield ctx
     finally:
-        if state is not None:
-            state.restore(ctx)
         keep = (not (foreign_egl or foreign_glx or release_after or _state.waiting)
                 and threading.current_thread() is threading.main_thread())
+        if state is not None and not keep:  # a thread that keeps the context keeps its state
+            state.restore(ctx)
         if foreign_egl:
             _native.egl.eglMakeCurrent(*saved_egl)
         elif foreign_glx:

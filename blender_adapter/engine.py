@@ -25,7 +25,7 @@ from ..hybrid_engine.gpu import gl_context
 from ..hybrid_engine.reports.diagnostic_legend import draw_legend
 from ..hybrid_engine.scene.data import SceneData
 from ..hybrid_engine.scene.settings import RenderSettings
-from . import effective_values, features, messages, properties, viewport
+from . import effective_values, features, messages, preview, properties, viewport
 from .export.camera import camera_from_scene
 from .gl_host import gl_block
 from .scene_cache import Changes, SceneCache, SyncReport, TrackedScene, extract_scene
@@ -195,7 +195,7 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
 
     bl_idname = "HYBRID_RT"
     bl_label = "Hybrid RT"
-    bl_use_preview = False
+    bl_use_preview = True  # Material, World and Light previews (blender_adapter/preview.py)
     bl_use_shading_nodes_custom = False  # materials are edited with Blender's own nodes
     bl_use_eevee_viewport = True  # Material Preview uses EEVEE
     # The viewport renders in its own EGL context and uploads the image through ``gpu``;
@@ -218,6 +218,10 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
                 self.error_set(message)
 
     def _render(self, depsgraph) -> None:
+        if self.is_preview:
+            preview.write_result(self, preview.render_preview(depsgraph, cancel=self.test_break))
+            return
+
         def progress(step: str, fraction: float) -> None:
             self.update_progress(fraction)
             self.update_stats("", f"Hybrid RT | {step}")
@@ -278,4 +282,5 @@ def register() -> None:
 def unregister() -> None:
     viewport.unregister()
     release_renderer()
+    preview.release()
     bpy.utils.unregister_class(HybridRTRenderEngine)

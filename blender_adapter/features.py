@@ -178,6 +178,9 @@ FEATURES: tuple[Feature, ...] = (
     Feature("Passes: Combined, Depth, Normal, Denoising Data", SUPPORTED,
             "Under Cycles' names, for the compositor (its Denoise node included)."),
     Feature("Persistent Data", SUPPORTED, "The extracted scene and its GPU copy stay between renders."),
+    Feature("Material, World and Light previews", SUPPORTED,
+            "Rendered on Blender's preview scene with one sample and a small cube map; the "
+            "material preview shows the thickness."),
 )
 
 

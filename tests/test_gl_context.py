@@ -158,6 +158,62 @@ def test_activated_can_hand_the_context_back_for_use_on_another_thread():
     assert "MAIN [1.0, 1.0]" in result.stdout, result.stdout + result.stderr
 
 
+def test_a_thread_takes_the_context_over_from_the_main_thread_and_leaves_its_gl_state_behind():
+    """A preview on Blender's job thread while the main thread keeps the context between its
+    blocks: the job thread waits until the main thread hands the context over, its block runs
+    alone (no block of the main thread overlaps it), and the main thread finds its bound
+    framebuffer, program, viewport and capabilities as it left them."""
+    result = run_isolated(
+        """
+        import threading, time, numpy as np
+        from hybrid_engine.gpu import gl_context
+        ctx = gl_context.get_context()
+        gl = gl_context._gl_functions()
+        main_fbo = ctx.simple_framebuffer((8, 8))
+        program = ctx.program(vertex_shader="#version 430\\nvoid main() { gl_Position = vec4(0.0); }",
+                              fragment_shader="#version 430\\nout vec4 c; void main() { c = vec4(1.0); }")
+        def state():
+            return (gl.integers(0x8CA6)[0], gl.integers(0x8B8D)[0], tuple(gl.integers(0x0BA2, 4)),
+                    bool(gl.is_enabled(0x0BE2)), bool(gl.is_enabled(0x0B44)), ctx.fbo is main_fbo)
+        with gl_context.activated():
+            main_fbo.use(); ctx.viewport = (1, 2, 3, 4); ctx.enable(ctx.BLEND); ctx.disable(ctx.CULL_FACE)
+            gl.use_program(program.glo)
+            before = state()
+        spans, out = [], {}
+        def worker():
+            with gl_context.activated() as c:
+                start = time.perf_counter()
+                other = c.simple_framebuffer((16, 16)); other.use(); c.viewport = (0, 0, 16, 16)
+                c.disable(c.BLEND); c.enable(c.CULL_FACE); gl.use_program(0)
+                other.clear(0.5, 0.25, 0.0, 1.0)
+                out["pixel"] = np.frombuffer(other.read(components=4), np.uint8)[:4].tolist()
+                time.sleep(0.2)
+                spans.append(("worker", start, time.perf_counter()))
+        thread = threading.Thread(target=worker); thread.start()
+        time.sleep(0.2)
+        print("WORKER_WAITED", "pixel" not in out)
+        for _ in range(20):  # the main thread's own blocks, as viewport frames
+            with gl_context.activated():
+                start = time.perf_counter(); after = state(); time.sleep(0.02)
+                spans.append(("main", start, time.perf_counter()))
+                if after != before:
+                    print("MAIN_STATE_CHANGED", before, after)
+        thread.join()
+        worker_span = [s for s in spans if s[0] == "worker"][0]
+        overlaps = [s for s in spans if s[0] == "main" and s[1] < worker_span[2] and worker_span[1] < s[2]]
+        print("PIXEL", out.get("pixel"))
+        print("OVERLAPS", len(overlaps))
+        with gl_context.activated():
+            print("STATE_KEPT", state() == before)
+        """
+    )
+    assert "WORKER_WAITED True" in result.stdout, result.stdout + result.stderr
+    assert "PIXEL [128, 64, 0, 255]" in result.stdout, result.stdout + result.stderr
+    assert "OVERLAPS 0" in result.stdout
+    assert "MAIN_STATE_CHANGED" not in result.stdout, result.stdout
+    assert "STATE_KEPT True" in result.stdout, result.stdout
+
+
 def test_the_addon_and_the_core_imported_under_two_names_share_one_context(gl):
     """Blender imports the add-on as bl_ext.*.hybrid_rt while scripts import hybrid_engine:
     still one context per process."""

@@ -133,9 +133,9 @@ def test_standard_panels_that_apply_are_enabled_and_eevee_specific_ones_are_not(
                  "EEVEE_MATERIAL_PT_surface", "EEVEE_WORLD_PT_surface",
                  "DATA_PT_camera", "DATA_PT_lens"):
         assert "HYBRID_RT" in getattr(bpy.types, name).COMPAT_ENGINES, name
-    for name in ("MATERIAL_PT_preview", "DATA_PT_preview", "TEXTURE_PT_preview"):  # would stay blank
-        assert "HYBRID_RT" not in getattr(bpy.types, name).COMPAT_ENGINES, name
-    assert not addon.blender_adapter.engine.HybridRTRenderEngine.bl_use_preview
+    for name in ("MATERIAL_PT_preview", "DATA_PT_preview", "TEXTURE_PT_preview"):  # the engine renders previews
+        assert "HYBRID_RT" in getattr(bpy.types, name).COMPAT_ENGINES, name
+    assert addon.blender_adapter.engine.HybridRTRenderEngine.bl_use_preview
     for name in ("RENDER_PT_eevee_sampling", "DATA_PT_camera_dof", "RENDER_PT_stereoscopy", "VIEWLAYER_PT_layer_passes",
                  "DATA_PT_lightprobe_bake", "EEVEE_MATERIAL_PT_settings", "DATA_PT_EEVEE_light",
                  "DATA_PT_EEVEE_light_shadow", "DATA_PT_EEVEE_light_distance"):
@@ -343,3 +343,23 @@ def test_the_frame_budget_reads_and_sets_as_a_frame_rate(addon):
     stored.frame_budget_fps = 1.0e6  # past the fastest budget: clamped to its limit
     assert stored.frame_budget_ms == pytest.approx(FIELD_LIMITS["frame_budget_ms"][0])
     stored.frame_budget_ms = RenderSettings().frame_budget_ms
+
+
+def test_the_material_preview_panel_shows_the_thickness_for_this_engine_only(addon):
+    """The paper's per-material thickness is drawn under the material's preview, which renders
+    it; another engine's preview panel stays as Blender draws it."""
+    panels = addon.ui.panels
+    material = bpy.data.materials.new("m")
+    assert panels.draw_preview_thickness in bpy.types.MATERIAL_PT_preview._dyn_ui_initialize()
+    drawn: list = []
+    _draw(type("Preview", (), {"draw": panels.draw_preview_thickness}), drawn, material=material)
+    assert drawn == ["thickness"]
+    drawn.clear()
+    _draw(type("Preview", (), {"draw": panels.draw_preview_thickness}), drawn, material=material,
+          engine="BLENDER_EEVEE")
+    assert drawn == []
+    addon.unregister()
+    try:
+        assert panels.draw_preview_thickness not in bpy.types.MATERIAL_PT_preview._dyn_ui_initialize()
+    finally:
+        addon.register()

@@ -31,13 +31,6 @@ _EEVEE_PANELS_KEPT = frozenset({
 # the lamp controls this engine renders, and only those), and Blender's render-pass panels, which list
 # passes this engine does not write (its own Passes panel below lists those it does).
 _PANELS_SKIPPED_PREFIXES = (
-    # Preview panels: the engine renders no material or light previews (bl_use_preview is
-    # off: a preview render needs Blender's preview jobs, which background runs cannot
-    # exercise), so their panels would stay blank.
-    "DATA_PT_preview",
-    "MATERIAL_PT_preview",
-    "TEXTURE_PT_preview",
-    "WORLD_PT_preview",
     "DATA_PT_camera_dof",
     "DATA_PT_lightprobe",
     "DATA_PT_context_lightprobe",
@@ -321,6 +314,35 @@ class MATERIAL_PT_hybrid_rt(HybridRTPanel, bpy.types.Panel):
         grid.label(text=f"{params['ior']:.3f}")
 
 
+class WORLD_PT_hybrid_rt_preview(HybridRTPanel, bpy.types.Panel):
+    """The World's preview (blender_adapter/preview.py renders it): Blender's own World
+    preview panel is Cycles', and EEVEE has none this engine could share."""
+
+    bl_label = "Preview"
+    bl_context = "world"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context) -> bool:
+        return context.engine == ENGINE_ID and context.world is not None
+
+    def draw(self, context) -> None:
+        self.layout.template_preview(context.world)
+
+
+def draw_preview_thickness(panel, context) -> None:
+    """Below the material preview, the paper's per-material thickness (how far behind its
+    surface a cube-map ray march finds the material, §3.4), which the preview renders: the
+    artist sees the value and its effect together."""
+    material = getattr(context, "material", None)
+    if context.engine != ENGINE_ID or material is None:
+        return
+    layout = panel.layout
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    layout.prop(material.hybrid_rt, "thickness")
+
+
 _CLASSES = (
     RENDER_PT_hybrid_rt_sampling,
     RENDER_PT_hybrid_rt_light_paths,
@@ -331,6 +353,7 @@ _CLASSES = (
     RENDER_PT_hybrid_rt_diagnostics,
     VIEWLAYER_PT_hybrid_rt_passes,
     MATERIAL_PT_hybrid_rt,
+    WORLD_PT_hybrid_rt_preview,
     DATA_PT_hybrid_rt_light,
 )
 
@@ -342,9 +365,11 @@ def register() -> None:
         if ENGINE_ID not in panel.COMPAT_ENGINES:
             panel.COMPAT_ENGINES.add(ENGINE_ID)
             _patched_panels.append(panel)
+    bpy.types.MATERIAL_PT_preview.append(draw_preview_thickness)
 
 
 def unregister() -> None:
+    bpy.types.MATERIAL_PT_preview.remove(draw_preview_thickness)
     while _patched_panels:
         _patched_panels.pop().COMPAT_ENGINES.discard(ENGINE_ID)
     for cls in reversed(_CLASSES):

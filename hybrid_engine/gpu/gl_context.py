@@ -70,6 +70,16 @@ if not hasattr(_state, "device_preference"):
     _state.device_preference = None  # the add-on preferences' Render Device
     _state.device = None  # the EGLDevice the context was made on (None: unknown or not EGL)
     _state.device_reported = False
+if not hasattr(_state, "gl_lock"):
+    # One thread at a time runs GL (``activated``): the lock is held for a whole block, and
+    # ``holder`` is the thread our context is current on between blocks (None: no thread),
+    # which must hand it over before another thread can make it current (EGL refuses a
+    # context current on another thread).
+    _state.gl_lock = threading.RLock()
+    _state.handed_over = threading.Condition(_state.gl_lock)
+    _state.holder = None
+    _state.waiting = 0
+    _state.local = threading.local()  # per thread: how deep in nested blocks it is
 if not hasattr(_state, "release_hooks"):
     # Callbacks run before the context is released: what caches GL objects of the context
     # (the shader loader's programs) registers here, so that this module imports none of it.
@@ -215,6 +225,7 @@ def get_context():
             _state.context = _create_context()
             _state.limits = None
             _state.handle = _native.egl_current()[3] if _native.egl else None
+            _state.holder = threading.get_ident()  # creating it made it current here
             _state.device_reported = False
             # Once per context, for a configured log; the console line is the final render's
             # report (device_report_once), so a background render does not print it twice.
@@ -355,47 +366,211 @@ class _NativeGL:
 _native = _NativeGL(linux=sys.platform.startswith("linux"))
 
 
+# How long a thread waits for another to hand the context over before its block fails: a
+# thread that keeps the context current between blocks (a background session's main thread)
+# hands it over at its next block, or at ``hand_back()``.
+HANDOVER_TIMEOUT_S = 120.0
+
+
 @contextmanager
 def activated(release_after: bool = False) -> Iterator[object]:
     """Make the shared context current for a block of GL work inside a host application.
 
+    One thread at a time: a process-wide lock is held for the whole block, so a preview on
+    Blender's job thread, an F12 render on its render thread and the viewport on the main
+    thread never run GL at the same time. The context is taken over by the thread that
+    enters (``eglMakeCurrent`` on that thread) and handed back on exit, and a block that hands
+    it back leaves the GL state it found (``_GLState``: bound framebuffers, program, viewport,
+    capabilities), so no thread inherits another's bindings.
+
     Inside Blender's viewport callbacks Blender's own context is current; our context is made
     current for the block and Blender's (EGL or GLX) is restored afterwards, so Blender's own
-    drawing is untouched. Where nothing else was current our context stays current, unless
-    ``release_after``: an EGL context can be current on one thread only, so inside an
-    interactive Blender (viewport on the main thread, F12 renders on a render thread) every
-    block hands the context back; background runs keep it current.
+    drawing is untouched. Where nothing else was current our context stays current on the
+    main thread, unless ``release_after`` (interactive Blender, where every thread may render)
+    or another thread is waiting for it; a thread other than the main one always hands it back
+    (it may end, or idle in a pool, holding it). Nested blocks on one thread share the outer one.
     """
-    if not (_native.egl or _native.glx) and not sys.platform.startswith("linux"):
-        # Windows: glcontext's WGL context saves the host's current context when it is made
-        # current and restores it on exit.
-        ctx = get_context()
-        with ctx:
-            yield ctx
-        return
+    with _state.gl_lock:
+        local = _state.local
+        depth = getattr(local, "depth", 0)
+        local.depth = depth + 1
+        try:
+            if depth:
+                yield get_context()
+                return
+            if not (_native.egl or _native.glx) and not sys.platform.startswith("linux"):
+                # Windows: glcontext's WGL context saves the host's current context when it is
+                # made current and restores it on exit.
+                ctx = get_context()
+                with ctx:
+                    yield ctx
+                return
+            with _outer_block(release_after) as ctx:
+                yield ctx
+        finally:
+            local.depth = depth
+
+
+@contextmanager
+def _outer_block(release_after: bool) -> Iterator[object]:
+    """The outermost block of a thread, on Linux (the lock is held)."""
     # Record the host's context first: creating ours on first use makes ours current.
     saved_egl = _native.egl_current() if _native.egl else None
     saved_glx = _native.glx_current() if _native.glx else None
     ctx = get_context()
+    me = threading.get_ident()
+    _wait_for_handover(me)
     foreign_egl = saved_egl is not None and saved_egl[3] not in (None, _state.handle)
     foreign_glx = saved_glx is not None and saved_glx[3] is not None
     already_ours = saved_egl is not None and saved_egl[3] == _state.handle
-    if not (foreign_egl or foreign_glx or already_ours):
-        if saved_egl is None:  # no EGL library to ask: trust that ours is current
-            yield ctx
-            return
+    if not (foreign_egl or foreign_glx or already_ours) and saved_egl is None:
+        yield ctx  # no EGL library to ask: trust that ours is current
+        return
     if not already_ours:
         ctx.__enter__()  # glcontext makes ours current
+    _state.holder = me
+    state = _GLState.save(ctx)
     try:
         yield ctx
     finally:
+        keep = (not (foreign_egl or foreign_glx or release_after or _state.waiting)
+                and threading.current_thread() is threading.main_thread())
+        if state is not None and not keep:  # a thread that keeps the context keeps its state
+            state.restore(ctx)
         if foreign_egl:
             _native.egl.eglMakeCurrent(*saved_egl)
         elif foreign_glx:
             _native.glx.glXMakeContextCurrent(*saved_glx)
-        elif release_after and _native.egl:
-            display = _native.egl_current()[0]
-            _native.egl.eglMakeCurrent(display, None, None, None)
+        elif not keep and _native.egl:
+            _release_current()
+        if not keep:
+            _state.holder = None
+            _state.handed_over.notify_all()
+
+
+def _release_current() -> None:
+    """Make no context current on this thread (ours becomes free for another thread)."""
+    display = _native.egl_current()[0]
+    _native.egl.eglMakeCurrent(display, None, None, None)
+
+
+def _wait_for_handover(me: int) -> None:
+    """Wait (the lock released meanwhile) until no other thread holds the context current."""
+    if _state.holder in (None, me):
+        return
+    _state.waiting += 1
+    try:
+        if not _state.handed_over.wait_for(lambda: _state.holder in (None, me), HANDOVER_TIMEOUT_S):
+            raise GLUnavailableError(
+                f"Hybrid RT's OpenGL context is held by another thread, which did not hand it "
+                f"over within {HANDOVER_TIMEOUT_S:.0f} s (a script's main thread hands it over "
+                "at its next render or at hybrid_engine.gpu.gl_context.hand_back())")
+    finally:
+        _state.waiting -= 1
+
+
+def hand_back() -> bool:
+    """Hand the context over if this thread holds it current between blocks (a background
+    session's main thread keeps it so): a thread waiting to render (a preview job) can take
+    it. The next block on this thread takes it back. True if it was held here."""
+    with _state.gl_lock:
+        if _state.holder != threading.get_ident() or getattr(_state.local, "depth", 0):
+            return False
+        if _native.egl:
+            _release_current()
+        _state.holder = None
+        _state.handed_over.notify_all()
+        return True
+
+
+class _GLFunctions:
+    """The few GL entry points ``_GLState`` needs, through ``eglGetProcAddress`` (moderngl
+    exposes no getters for bindings and capabilities)."""
+
+    def __init__(self, egl) -> None:
+        get = egl.eglGetProcAddress
+        get.restype, get.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
+        uint, ubyte, integer = ctypes.c_uint, ctypes.c_ubyte, ctypes.c_int
+
+        def function(name: str, restype, *argtypes):
+            address = get(name.encode())
+            if not address:
+                raise OSError(f"no {name}")
+            return ctypes.CFUNCTYPE(restype, *argtypes)(address)
+
+        self.get_integerv = function("glGetIntegerv", None, uint, ctypes.POINTER(integer))
+        self.is_enabled = function("glIsEnabled", ubyte, uint)
+        self.enable = function("glEnable", None, uint)
+        self.disable = function("glDisable", None, uint)
+        self.bind_framebuffer = function("glBindFramebuffer", None, uint, uint)
+        self.is_framebuffer = function("glIsFramebuffer", ubyte, uint)
+        self.use_program = function("glUseProgram", None, uint)
+        self.is_program = function("glIsProgram", ubyte, uint)
+        self.viewport = function("glViewport", None, integer, integer, integer, integer)
+
+    def integers(self, name: int, count: int = 1) -> list[int]:
+        values = (ctypes.c_int * count)()
+        self.get_integerv(name, values)
+        return list(values)
+
+
+class _GLState:
+    """The context's state a block may change and another thread's work may rely on: draw and
+    read framebuffers (and moderngl's record of the bound one), program, viewport and the
+    capabilities the passes switch. Saved when a block starts, restored when it ends; a
+    framebuffer or program the block deleted is not bound again (the parking framebuffer
+    and no program stand in)."""
+
+    DRAW_FRAMEBUFFER, READ_FRAMEBUFFER = 0x8CA9, 0x8CA8
+    DRAW_FRAMEBUFFER_BINDING, READ_FRAMEBUFFER_BINDING = 0x8CA6, 0x8CAA
+    CURRENT_PROGRAM, VIEWPORT = 0x8B8D, 0x0BA2
+    # DEPTH_TEST, CULL_FACE, BLEND, SCISSOR_TEST, RASTERIZER_DISCARD, PROGRAM_POINT_SIZE
+    CAPABILITIES = (0x0B71, 0x0B44, 0x0BE2, 0x0C11, 0x8C89, 0x8642)
+
+    def __init__(self, gl: _GLFunctions, fbo, mglo_fbo) -> None:
+        self.gl = gl
+        self.fbo, self.mglo_fbo = fbo, mglo_fbo
+        self.draw = gl.integers(self.DRAW_FRAMEBUFFER_BINDING)[0]
+        self.read = gl.integers(self.READ_FRAMEBUFFER_BINDING)[0]
+        self.program = gl.integers(self.CURRENT_PROGRAM)[0]
+        self.viewport = gl.integers(self.VIEWPORT, 4)
+        self.enabled = {cap: bool(gl.is_enabled(cap)) for cap in self.CAPABILITIES}
+
+    @classmethod
+    def save(cls, ctx) -> "_GLState | None":
+        gl = _gl_functions()
+        if gl is None:
+            return None
+        return cls(gl, getattr(ctx, "fbo", None), getattr(ctx.mglo, "fbo", None))
+
+    def restore(self, ctx) -> None:
+        gl = self.gl
+        for target, name in ((self.DRAW_FRAMEBUFFER, self.draw), (self.READ_FRAMEBUFFER, self.read)):
+            if name == 0 or gl.is_framebuffer(name):
+                gl.bind_framebuffer(target, name)
+            else:
+                park_framebuffer()
+        gl.use_program(self.program if self.program == 0 or gl.is_program(self.program) else 0)
+        gl.viewport(*self.viewport)
+        for cap, on in self.enabled.items():
+            (gl.enable if on else gl.disable)(cap)
+        if self.fbo is not None and not _released(self.fbo):
+            ctx.fbo = self.fbo
+            ctx.mglo.fbo = self.mglo_fbo
+
+
+def _released(gl_object) -> bool:
+    return type(getattr(gl_object, "mglo", None)).__name__ == "InvalidObject"
+
+
+def _gl_functions() -> _GLFunctions | None:
+    """The GL entry points (looked up once per process; None without EGL)."""
+    if not hasattr(_state, "gl_functions"):
+        try:
+            _state.gl_functions = _GLFunctions(_native.egl) if _native.egl else None
+        except (OSError, AttributeError):
+            _state.gl_functions = None
+    return _state.gl_functions
 
 
 def park_framebuffer() -> None:
@@ -431,3 +606,4 @@ def release_context() -> None:
             _state.handle = None
             _state.limits = None
             _state.device = None
+            _state.holder = None

@@ -113,3 +113,111 @@ def test_a_sample_that_does_not_follow_the_last_is_refused(renderer):
     with pytest.raises(AccumulationError):
         renderer.render(box_scene(), CAMERA, settings, outputs=FrameOutputs(cryptomatte=request),
                         accumulate=True, sample=3)
+
+
+# -- Blender's side: the compositor's Cryptomatte node and Cycles' manifest ------------------------
+
+def build_ball_scene(bpy):
+    """A ball parented to a plane (its asset is the plane), a sun and a camera, with every
+    Cryptomatte kind asked for at the default 6 levels."""
+    import math
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=10)
+    plane = bpy.context.object
+    plane.data.materials.append(bpy.data.materials.new("Ground"))
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0, location=(0, 0, 1))
+    ball = bpy.context.object
+    ball.name = "Ball"
+    ball.parent = plane
+    ball.data.materials.append(bpy.data.materials.new("Red"))
+    bpy.ops.object.light_add(type="SUN")
+    camera = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+    camera.location, camera.rotation_euler = (0, -6, 3), (math.radians(70), 0, 0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.render.resolution_x, scene.render.resolution_y = 48, 32
+    scene.render.resolution_percentage = 100
+    layer = scene.view_layers[0]
+    layer.use_pass_cryptomatte_object = layer.use_pass_cryptomatte_material = True
+    layer.use_pass_cryptomatte_asset = True
+    settings = scene.render.image_settings
+    settings.media_type = "MULTI_LAYER_IMAGE"
+    settings.file_format = "OPEN_EXR_MULTILAYER"
+    settings.exr_codec = "NONE"
+    settings.color_depth = "32"
+    return scene
+
+
+def matte_in_compositor(bpy, scene, layer_name: str, names: str) -> None:
+    """Render Layers' image -> Cryptomatte (the render's ``layer_name`` layer, ``names``
+    picked) -> its Matte as the composite."""
+    tree = bpy.data.node_groups.new("Matte", "CompositorNodeTree")
+    scene.compositing_node_group = tree
+    crypto, output = tree.nodes.new("CompositorNodeCryptomatteV2"), tree.nodes.new("NodeGroupOutput")
+    layers = tree.nodes.new("CompositorNodeRLayers")
+    crypto.source, crypto.scene, crypto.layer_name = "RENDER", scene, layer_name
+    crypto.matte_id = names
+    tree.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
+    tree.links.new(layers.outputs["Image"], crypto.inputs["Image"])
+    tree.links.new(crypto.outputs["Matte"], output.inputs["Image"])
+
+
+def render_with_metadata(bpy, scene, path) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    """Render and save a multilayer EXR; its channels and its Cryptomatte metadata."""
+    from image_io import _oiio, read_exr_channels
+
+    scene.render.filepath = str(path)
+    bpy.ops.render.render(write_still=True)
+    source = _oiio().ImageInput.open(str(path))
+    try:
+        fields = {a.name: a.value for a in source.spec().extra_attribs if a.name.startswith("cryptomatte/")}
+    finally:
+        source.close()
+    return read_exr_channels(path), fields
+
+
+@pytest.mark.parametrize("layer_name, picked", [("ViewLayer.CryptoObject", "Ball"),
+                                                ("ViewLayer.CryptoMaterial", "Red")])
+def test_the_compositors_cryptomatte_node_extracts_an_antialiased_matte(addon, tmp_path, layer_name, picked):
+    import bpy
+
+    scene = build_ball_scene(bpy)
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.render_samples = 16
+    matte_in_compositor(bpy, scene, layer_name, picked)
+    channels, _ = render_with_metadata(bpy, scene, tmp_path / "ours.exr")
+    matte = channels["Composite.Combined.R"]
+    interior, edge = matte > 0.99, (matte > 0.02) & (matte < 0.98)
+    assert interior.sum() > 100 and edge.sum() > 20, (interior.sum(), edge.sum())
+    np.testing.assert_allclose(matte[interior], 1.0, atol=1e-3)
+    assert (matte[0] == 0).all(), "the bottom row sees only the plane"
+
+
+def test_our_manifest_and_passes_are_named_as_cycles_writes_them(addon, tmp_path):
+    import bpy
+
+    scene = build_ball_scene(bpy)
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.device = 4, "CPU"
+    cycles_channels, cycles = render_with_metadata(bpy, scene, tmp_path / "cycles.exr")
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.render_samples = 4
+    ours_channels, ours = render_with_metadata(bpy, scene, tmp_path / "ours.exr")
+    assert {name for name in cycles_channels if ".Crypto" in name} == \
+        {name for name in ours_channels if ".Crypto" in name}
+    assert {key for key in cycles if not key.endswith("manifest")} == {key for key in ours if not key.endswith("manifest")}
+    for key, value in cycles.items():
+        if key.endswith("/manifest"):
+            mine, theirs = json.loads(ours[key]), json.loads(value)
+            if cycles[key.replace("manifest", "name")].endswith("CryptoMaterial"):
+                # Cycles lists its own built-in shaders too; every name we list is Cycles'.
+                theirs = {name: h for name, h in theirs.items() if name in mine}
+            assert mine == theirs, key
+        else:
+            assert ours[key] == value, key
+    # The ball's id where Cycles sees it most.
+    ball = np.float32(name_id("Ball"))
+    assert ((ours_channels["ViewLayer.CryptoObject00.r"] == ball)
+            == (cycles_channels["ViewLayer.CryptoObject00.r"] == ball)).mean() > 0.95

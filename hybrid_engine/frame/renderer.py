@@ -144,6 +144,7 @@ class FrameResult:
     total_ms: float = 0.0
     mode: str = "RASTER"
     data_passes: dict[str, np.ndarray] = field(default_factory=dict)
+    metadata: dict[str, str] = field(default_factory=dict)  # the image's (Cryptomatte's manifest)
     near_size: float | None = None  # the near cube's half-size the frame used (HYBRID)
     # A diagnostic view's per-pixel counts (H, W), same rows as ``image``, and the legend of
     # its colours, which whoever shows the image paints (passes/trace/diagnostic_views.py).

@@ -23,6 +23,8 @@ from ..hybrid_engine.frame.renderer import FrameResult, RenderCancelled, Rendere
 from ..hybrid_engine.frame.near_budget import NearCubeSizer
 from ..hybrid_engine.gpu import gl_context
 from ..hybrid_engine.reports.diagnostic_legend import draw_legend
+from ..hybrid_engine.scene import cryptomatte
+from ..hybrid_engine.scene.cryptomatte import CryptomatteRequest
 from ..hybrid_engine.scene.data import SceneData
 from ..hybrid_engine.scene.settings import RenderSettings
 from . import effective_values, features, messages, preview, properties, viewport
@@ -102,14 +104,58 @@ def pass_wanted(view_layer, flag: str) -> bool:
     return bool(getattr(attrgetter(owner)(view_layer) if owner else view_layer, name))
 
 
-def frame_outputs(scene, view_layer) -> FrameOutputs:
+# The view layer's Cryptomatte switches, by the kind they ask for (scene/cryptomatte.py KINDS).
+CRYPTOMATTE_FLAGS = {"object": "use_pass_cryptomatte_object", "material": "use_pass_cryptomatte_material",
+                     "asset": "use_pass_cryptomatte_asset"}
+
+
+def cryptomatte_kinds(view_layer) -> tuple[str, ...]:
+    """The Cryptomatte kinds ``view_layer`` asks for, in Blender's order."""
+    return tuple(kind for kind, flag in CRYPTOMATTE_FLAGS.items() if getattr(view_layer, flag))
+
+
+def asset_name(name: str) -> str:
+    """The asset of a geometry object (``object`` or an instance's ``parent/object``): the
+    topmost parent of the object, or of the instancer, as Cycles names it."""
+    owner = bpy.data.objects.get(name.split("/", 1)[0])
+    if owner is None:
+        return cryptomatte.object_name(name)
+    while owner.parent is not None:
+        owner = owner.parent
+    return owner.name
+
+
+def frame_outputs(scene, view_layer, scene_data: SceneData | None = None) -> FrameOutputs:
     """What the final render delivers besides the colour: the Film panel's transparency, the
-    view layer's Z and Normal passes and our Denoising Data (film.py gives their
-    conventions)."""
+    view layer's Z and Normal passes, our Denoising Data (film.py gives their conventions)
+    and the Cryptomatte passes at the view layer's Levels (``scene_data``'s objects give the
+    assets)."""
+    kinds = cryptomatte_kinds(view_layer)
+    request = None
+    if kinds:
+        assets = ()
+        if "asset" in kinds and scene_data is not None:
+            assets = tuple(asset_name(name) for name in scene_data.geometry.object_names)
+        request = CryptomatteRequest(kinds, int(view_layer.pass_cryptomatte_depth), assets)
     return FrameOutputs(transparent=bool(scene.render.film_transparent),
                         depth=pass_wanted(view_layer, DATA_PASSES["depth"][0]),
                         normal=pass_wanted(view_layer, DATA_PASSES["normal"][0]),
-                        denoising=pass_wanted(view_layer, DATA_PASSES["denoising_albedo"][0]))
+                        denoising=pass_wanted(view_layer, DATA_PASSES["denoising_albedo"][0]),
+                        cryptomatte=request)
+
+
+def cryptomatte_metadata(view_layer, scene_data: SceneData) -> dict[str, str]:
+    """The render result's Cryptomatte metadata (``cryptomatte/<key>/name``, ``hash``,
+    ``conversion``, ``manifest``) for the kinds ``view_layer`` asks for, as Blender writes it
+    into the EXR: lamps are objects and assets in Cycles' manifest too, so they are listed."""
+    objects = [cryptomatte.object_name(n) for n in scene_data.geometry.object_names]
+    lamps = list(scene_data.lights.names)
+    names = {"object": objects + lamps, "material": list(scene_data.materials.names),
+             "asset": [asset_name(n) for n in scene_data.geometry.object_names] + lamps}
+    fields: dict[str, str] = {}
+    for kind in cryptomatte_kinds(view_layer):
+        fields.update(cryptomatte.metadata(view_layer.name, kind, names[kind]))
+    return fields
 
 
 def final_camera(scene, depsgraph) -> Camera:
@@ -168,7 +214,7 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
     messages.report_all(report, gathered)
     if final:
         camera = final_camera(scene, depsgraph)
-        outputs = frame_outputs(scene, depsgraph.view_layer)
+        outputs = frame_outputs(scene, depsgraph.view_layer, scene_data)
         samples = settings.render_samples
     else:
         camera, outputs, samples = camera_from_scene(scene, depsgraph), FrameOutputs(), 1
@@ -181,6 +227,8 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
                                     timing=timing, cancel=cancel, progress=progress,
                                     filter_width=float(scene.render.filter_size),
                                     denoise=settings.denoise_render if final else settings.denoise_viewport)
+    if final and outputs.cryptomatte is not None:
+        result.metadata = cryptomatte_metadata(depsgraph.view_layer, scene_data)
     draw_legend(result.image, result.legend)  # a diagnostic view's legend, kept in the render
     effective_values.remember(result.effective)  # for the panels (Automatic settings)
     result.passes = {"extract": extract_ms, **result.passes}
@@ -240,9 +288,16 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
             passes["Combined"].rect.foreach_set(np.ascontiguousarray(result.image, np.float32).ravel())
             # update_render_passes registered every pass the view layer asked for.
             for name, data in result.data_passes.items():
-                passes[DATA_PASSES[name][1]].rect.foreach_set(np.ascontiguousarray(data, np.float32).ravel())
+                name = DATA_PASSES[name][1] if name in DATA_PASSES else name  # Cryptomatte's: Blender's own
+                passes[name].rect.foreach_set(np.ascontiguousarray(data, np.float32).ravel())
         finally:
             self.end_result(render_result)
+        if result.metadata:
+            # The Cryptomatte manifest, in the image's metadata as Cycles writes it: on the
+            # engine's whole result (a layer's result from begin_result keeps no metadata).
+            whole = self.get_result()
+            for field, value in result.metadata.items():
+                whole.stamp_data_add_field(field, value)
         triangles = result.counts.get("triangles_total", 0)
         self.update_stats(
             "", f"Hybrid RT | {result.mode} | {result.total_ms:.1f} ms | {triangles:,} triangles"
@@ -259,6 +314,9 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
         for flag, name, channels, chan_id, kind in DATA_PASSES.values():
             if pass_wanted(renderlayer, flag):
                 self.register_pass(scene, renderlayer, name, channels, chan_id, kind)
+        for kind in cryptomatte_kinds(renderlayer):
+            for name in cryptomatte.pass_names(kind, int(renderlayer.pass_cryptomatte_depth)):
+                self.register_pass(scene, renderlayer, name, 4, "rgba", "COLOR")  # as Cycles
 
     # -- viewport (blender_adapter/viewport.py does the work) --------------------------------
     def view_update(self, context, depsgraph) -> None:

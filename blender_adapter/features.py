@@ -175,8 +175,8 @@ FEATURES: tuple[Feature, ...] = (
             "normal maps; a per-material Thickness for the cube map."),
     Feature("Missing images", APPROXIMATED, "Magenta, as Blender's engines render them, with a message."),
     # Output
-    Feature("Passes: Combined, Depth, Normal, Denoising Data", SUPPORTED,
-            "Under Cycles' names, for the compositor (its Denoise node included)."),
+    Feature("Passes: Combined, Depth, Normal, Denoising Data, Cryptomatte", SUPPORTED,
+            "Under Cycles' names, for the compositor (its Denoise and Cryptomatte nodes included)."),
     Feature("Persistent Data", SUPPORTED, "The extracted scene and its GPU copy stay between renders."),
     Feature("Material, World and Light previews", SUPPORTED,
             "Rendered on Blender's preview scene with one sample and a small cube map; the "

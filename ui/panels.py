@@ -281,6 +281,12 @@ class VIEWLAYER_PT_hybrid_rt_passes(HybridRTPanel, bpy.types.Panel):
         col.prop(view_layer, "use_pass_normal")
         # Cycles' switch of the same name: the Denoise node's Albedo and Normal guides.
         col.prop(view_layer.hybrid_rt, "denoising_store_passes")
+        # Cryptomatte as Cycles' panel shows it (blender_adapter/engine.py CRYPTOMATTE_FLAGS).
+        col = layout.column(heading="Cryptomatte", align=True)
+        col.prop(view_layer, "use_pass_cryptomatte_object", text="Object")
+        col.prop(view_layer, "use_pass_cryptomatte_material", text="Material")
+        col.prop(view_layer, "use_pass_cryptomatte_asset", text="Asset")
+        layout.prop(view_layer, "pass_cryptomatte_depth", text="Levels")
 
 
 class MATERIAL_PT_hybrid_rt(HybridRTPanel, bpy.types.Panel):

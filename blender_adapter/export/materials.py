@@ -323,10 +323,12 @@ def _graph_row(material, textures: bool) -> dict | None:
 
 
 class MaterialTableBuilder:
-    """Global material table; index 0 is the fallback for empty or missing slots."""
+    """Global material table; index 0 is the fallback for empty or missing slots, named as
+    Cycles names its shader for them, so a Cryptomatte Material pass gives such faces the id
+    Cycles gives them."""
 
     def __init__(self) -> None:
-        self.rows = [dict(name="fallback")]
+        self.rows = [dict(name="default_surface")]
         self._index: dict[int, int] = {}
 
     def index_of(self, material) -> int:

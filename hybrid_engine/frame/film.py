@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 from ..passes.film.data_passes import BACKGROUND_DEPTH as DATA_PASS_BACKGROUND_DEPTH
 from ..passes.film.data_passes import DENOISING, DEPTH_NORMAL
+from ..scene.cryptomatte import CryptomatteRequest
 
 # Cycles' Depth of a pixel that hit nothing (kernel film: "no hit" leaves the 1e10 it
 # starts the pass with); compositing setups test for it.
@@ -53,12 +54,16 @@ class FrameOutputs:
     ``denoising``: fill ``["denoising_albedo"]`` and ``["denoising_normal"]`` ((H, W, 3)
     float32), the means over the view's samples: every sample of the view must ask for them,
     and the frame that reads its image reads them.
+    ``cryptomatte``: fill ``data_passes`` under Blender's names (``CryptoObject00``, ...:
+    (H, W, 4) float32) with the kinds and levels it asks for, counted over every sample of
+    the view (passes/film/cryptomatte.py) and read by the frame that reads its image.
     """
 
     transparent: bool = False
     depth: bool = False
     normal: bool = False
     denoising: bool = False
+    cryptomatte: CryptomatteRequest | None = None
 
     @property
     def wants_data(self) -> bool:

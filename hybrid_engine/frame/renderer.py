@@ -54,6 +54,7 @@ from ..gpu import gl_context
 from ..gpu.statistics import LazyCounts, StatisticsRing
 from ..gpu.timing import PassTimer
 from ..passes.film.accumulate import AccumulatePass
+from ..passes.film.cryptomatte import CryptomattePass
 from ..passes.film.data_passes import DataPassesPass, read_data_passes
 from ..passes.cube_light.cube_light import CubeLightPass
 from ..passes.cube_map.cube_map import CubeMapPass
@@ -102,11 +103,12 @@ MODE_STEPS.update({view: MODE_STEPS["HYBRID"] for view in DIAGNOSTIC_VIEWS})
 
 
 def frame_steps(mode: str, accumulate: bool = False, data: bool = False, lit_cube: bool = False,
-                denoise: bool = False) -> tuple[str, ...]:
+                denoise: bool = False, cryptomatte: bool = False) -> tuple[str, ...]:
     """The steps of a frame of ``mode`` (RenderSettings admits no other); one that
     accumulates adds ``accumulate``, one with data passes ``data_passes``, before the
     read-back; the lit cube map (``lit_cube``) adds ``cube_light`` after the cube map, and one
-    that denoises ``denoise`` after the diffuse light (within ``shade``)."""
+    that denoises ``denoise`` after the diffuse light (within ``shade``), one with Cryptomatte
+    passes ``cryptomatte`` after the data passes."""
     steps = MODE_STEPS[mode]
     if lit_cube and "cube_map_raster" in steps:
         at = steps.index("cube_map_raster") + 1
@@ -114,7 +116,7 @@ def frame_steps(mode: str, accumulate: bool = False, data: bool = False, lit_cub
     if denoise:
         at = steps.index("shade") + 1
         steps = (*steps[:at], "denoise", *steps[at:])
-    extra = ("accumulate",) * accumulate + ("data_passes",) * data
+    extra = ("accumulate",) * accumulate + ("data_passes",) * data + ("cryptomatte",) * cryptomatte
     return (*steps[:-1], *extra, steps[-1])
 # The passes that depend only on the geometry, the settings and the eye, and what they leave:
 # another sample of one view keeps them (render(reuse_world=True)).
@@ -143,6 +145,7 @@ class FrameResult:
     total_ms: float = 0.0
     mode: str = "RASTER"
     data_passes: dict[str, np.ndarray] = field(default_factory=dict)
+    metadata: dict[str, str] = field(default_factory=dict)  # the image's (Cryptomatte's manifest)
     near_size: float | None = None  # the near cube's half-size the frame used (HYBRID)
     # The near size, far clip and face resolution the frame used, Automatic ones derived
     # from the scene and the output (scene/scale.py), for the panels to show.
@@ -174,6 +177,7 @@ class Renderer:
         # passes a final render asks for (FrameOutputs).
         self.accumulate = AccumulatePass(self.ctx)
         self.data_passes = DataPassesPass(self.ctx)
+        self.cryptomatte: CryptomattePass | None = None  # made on the first frame that asks
         # The traced modes' passes, made on the first frame that needs them (their kernels
         # take a while to compile).
         self.cube_map: CubeMapPass | None = None
@@ -192,11 +196,11 @@ class Renderer:
 
     # -- the passes ----------------------------------------------------------------------------
     def passes(self, settings: RenderSettings, accumulate: bool = False, data: bool = False,
-               denoise: bool = False) -> list[FramePass]:
+               denoise: bool = False, cryptomatte: bool = False) -> list[FramePass]:
         """This renderer's passes for ``settings``, in the order a frame runs them;
         ``accumulate`` adds the running mean of the view's samples after the colour, ``data``
         the Depth and Normal passes, ``denoise`` the filter of the ambient estimate before
-        the shading reads it."""
+        the shading reads it, ``cryptomatte`` the Cryptomatte coverage."""
         mode = settings.mode
         traced = mode != "RASTER"
         if traced:
@@ -225,6 +229,10 @@ class Renderer:
             plan.append(self.accumulate)
         if data:
             plan.append(self.data_passes)
+        if cryptomatte:
+            if self.cryptomatte is None:
+                self.cryptomatte = CryptomattePass(self.ctx)
+            plan.append(self.cryptomatte)
         return plan
 
     def _ensure_traced(self) -> None:
@@ -242,11 +250,11 @@ class Renderer:
         return self.denoiser.feedback() if self.denoiser is not None else None
 
     def _checked_passes(self, settings: RenderSettings, accumulate: bool, data: bool,
-                        denoise: bool) -> list[FramePass]:
-        """``passes(settings, accumulate, data, denoise)``, their order checked once per
-        configuration."""
-        plan = self.passes(settings, accumulate, data, denoise)
-        key = (settings.mode, settings.traces_diffuse, settings.lit_cube, accumulate, data, denoise)
+                        denoise: bool, cryptomatte: bool = False) -> list[FramePass]:
+        """``passes(settings, accumulate, data, denoise, cryptomatte)``, their order checked
+        once per configuration."""
+        plan = self.passes(settings, accumulate, data, denoise, cryptomatte)
+        key = (settings.mode, settings.traces_diffuse, settings.lit_cube, accumulate, data, denoise, cryptomatte)
         if key not in self._checked:
             check_order(plan, settings, final_reads=READBACK_READS + (("film",) if accumulate else ()))
             self._checked.add(key)
@@ -311,10 +319,11 @@ class Renderer:
         settings, effective = resolve(settings or RenderSettings(), scene, camera.position, camera.width,
                                       camera.height)
         outputs = outputs or FrameOutputs()
-        steps = frame_steps(settings.mode, accumulate, outputs.wants_data, settings.lit_cube, denoise)
+        crypto = outputs.cryptomatte is not None
+        steps = frame_steps(settings.mode, accumulate, outputs.wants_data, settings.lit_cube, denoise, crypto)
         traced = settings.mode != "RASTER"
         data = outputs.wants_data
-        plan = self._checked_passes(settings, accumulate, data, denoise)
+        plan = self._checked_passes(settings, accumulate, data, denoise, crypto)
         if not denoise and self.denoiser is not None:
             self.denoiser.forget()  # its history would miss this frame
         timer = PassTimer(self.ctx, enabled=timing)
@@ -375,6 +384,8 @@ class Renderer:
             texture.read_into(image)
         names = frame.outputs.data_names(reads_image=read_image or readback is not None)
         data = read_data_passes(frame.resource("data_passes"), names) if names else {}
+        if frame.has("cryptomatte") and (read_image or readback is not None):
+            data.update(frame.resource("cryptomatte").read())
         counts = dict(frame.counts)
         diagnostic = self.tracer.read_diagnostic(frame.view) if is_diagnostic(settings) else None
         scene = frame.resource("scene")
@@ -405,6 +416,9 @@ class Renderer:
         """Free this renderer's GL objects (the shared context stays)."""
         self.accumulate.release()
         self.data_passes.release()
+        if self.cryptomatte is not None:
+            self.cryptomatte.release()
+            self.cryptomatte = None
         if self.denoiser is not None:
             self.denoiser.release()
             self.denoiser = None

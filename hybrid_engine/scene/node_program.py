@@ -58,6 +58,22 @@ def _enum(codes: dict[str, int], default: str) -> Callable[[object], int]:
     return encode
 
 
+def _float(default: float) -> Callable[[object], int]:
+    """A float setting (Brick's offset, Image's box blend) as its bits."""
+    def encode(value: object) -> int:
+        try:
+            return _float_word(float(value) if value is not None else default)
+        except (TypeError, ValueError):
+            return _float_word(default)
+    return encode
+
+
+def _flag(default: bool) -> Callable[[object], int]:
+    def encode(value: object) -> int:
+        return int(bool(default if value is None else value))
+    return encode
+
+
 def _int(default: int) -> Callable[[object], int]:
     def encode(value: object) -> int:
         try:
@@ -127,6 +143,48 @@ NODE_SPECS: dict[str, NodeSpec] = {
     "ADD_SHADER": NodeSpec(nc.OP_ADD_SHADER, (("Shader", SHADER, None), ("Shader_001", SHADER, None)),
                            (("Shader", SHADER),)),
 }
+# -- textures (round 2): Blender 5.0's sockets; an unlinked Vector is Generated (Image: UV).
+_TEX_OUT = (("Color", RGBA), ("Fac", VALUE))
+NODE_SPECS.update({
+    "TEX_NOISE": NodeSpec(nc.OP_TEX_NOISE, (
+        ("Vector", VECTOR, _GENERATED), ("W", VALUE, 0.0), ("Scale", VALUE, 5.0), ("Detail", VALUE, 2.0),
+        ("Roughness", VALUE, 0.5), ("Lacunarity", VALUE, 2.0), ("Offset", VALUE, 0.0), ("Gain", VALUE, 1.0),
+        ("Distortion", VALUE, 0.0)), (("Fac", VALUE), ("Color", RGBA)),
+        (("noise_dimensions", _enum(nc.NOISE_DIMENSIONS, "3D")), ("noise_type", _enum(nc.NOISE_TYPES, "FBM")),
+         ("normalize", _flag(True)))),
+    "TEX_WAVE": NodeSpec(nc.OP_TEX_WAVE, (
+        ("Vector", VECTOR, _GENERATED), ("Scale", VALUE, 5.0), ("Distortion", VALUE, 0.0), ("Detail", VALUE, 2.0),
+        ("Detail Scale", VALUE, 1.0), ("Detail Roughness", VALUE, 0.5), ("Phase Offset", VALUE, 0.0)), _TEX_OUT,
+        (("wave_type", _enum(nc.WAVE_TYPES, "BANDS")), ("bands_direction", _enum(nc.WAVE_BANDS_DIRECTIONS, "X")),
+         ("rings_direction", _enum(nc.WAVE_RINGS_DIRECTIONS, "X")), ("wave_profile", _enum(nc.WAVE_PROFILES, "SIN")))),
+    "TEX_VORONOI": NodeSpec(nc.OP_TEX_VORONOI, (
+        ("Vector", VECTOR, _GENERATED), ("W", VALUE, 0.0), ("Scale", VALUE, 5.0), ("Detail", VALUE, 0.0),
+        ("Roughness", VALUE, 0.5), ("Lacunarity", VALUE, 2.0), ("Smoothness", VALUE, 1.0), ("Exponent", VALUE, 0.5),
+        ("Randomness", VALUE, 1.0)),
+        (("Distance", VALUE), ("Color", RGBA), ("Position", VECTOR), ("W", VALUE), ("Radius", VALUE)),
+        (("voronoi_dimensions", _enum(nc.VORONOI_DIMENSIONS, "3D")), ("feature", _enum(nc.VORONOI_FEATURES, "F1")),
+         ("distance", _enum(nc.VORONOI_METRICS, "EUCLIDEAN")), ("normalize", _flag(False)))),
+    "TEX_CHECKER": NodeSpec(nc.OP_TEX_CHECKER, (
+        ("Vector", VECTOR, _GENERATED), ("Color1", RGBA, _GREY), ("Color2", RGBA, (0.2, 0.2, 0.2, 1.0)),
+        ("Scale", VALUE, 5.0)), _TEX_OUT),
+    "TEX_BRICK": NodeSpec(nc.OP_TEX_BRICK, (
+        ("Vector", VECTOR, _GENERATED), ("Color1", RGBA, _GREY), ("Color2", RGBA, (0.2, 0.2, 0.2, 1.0)),
+        ("Mortar", RGBA, (0.0, 0.0, 0.0, 1.0)), ("Scale", VALUE, 5.0), ("Mortar Size", VALUE, 0.02),
+        ("Mortar Smooth", VALUE, 0.1), ("Bias", VALUE, 0.0), ("Brick Width", VALUE, 0.5), ("Row Height", VALUE, 0.25)),
+        _TEX_OUT, (("offset", _float(0.5)), ("offset_frequency", _int(2)), ("squash", _float(1.0)),
+                   ("squash_frequency", _int(2)))),
+    "TEX_GRADIENT": NodeSpec(nc.OP_TEX_GRADIENT, (("Vector", VECTOR, _GENERATED),), _TEX_OUT,
+                             (("gradient_type", _enum(nc.GRADIENT_TYPES, "LINEAR")),)),
+    "TEX_MAGIC": NodeSpec(nc.OP_TEX_MAGIC, (("Vector", VECTOR, _GENERATED), ("Scale", VALUE, 5.0),
+                                            ("Distortion", VALUE, 1.0)), _TEX_OUT,
+                          (("turbulence_depth", _int(2)),)),
+    # The Image Texture's mapping settings follow the layer (include/nodes/tex_image_mapping.glsl).
+    "TEX_IMAGE": NodeSpec(nc.OP_TEX_IMAGE, (("Vector", VECTOR, _UV),), (("Color", RGBA), ("Alpha", VALUE)),
+                          (("texture", _int(-1)), ("projection", _enum(nc.IMAGE_PROJECTIONS, "FLAT")),
+                           ("extension", _enum(nc.IMAGE_EXTENSIONS, "REPEAT")),
+                           ("interpolation", _enum(nc.IMAGE_INTERPOLATIONS, "Linear")),
+                           ("projection_blend", _float(0.0)))),
+})
 # Other names Blender has used for the same nodes.
 NODE_SPECS["GEOMETRY"] = NODE_SPECS["NEW_GEOMETRY"]
 NODE_SPECS["SEPARATE_XYZ"] = NODE_SPECS["SEPXYZ"]
@@ -175,6 +233,7 @@ class NodeProgram:
     words: np.ndarray  # uint32
     registers: int
     unsupported: list[str] = field(default_factory=list)
+    kinds: frozenset[str] = frozenset()  # the kinds compiled (which interpreter families it needs)
 
 
 def _reachable(graph: ShaderGraph) -> list[int]:
@@ -265,7 +324,8 @@ def compile_graph(graph: ShaderGraph, name: str = "material", registers: int = n
         count = sum(CLOSURE_REGISTERS if kind == SHADER else 1 for _, kind, _ in spec.inputs)
         header = spec.opcode | (len(outputs) << 8) | (len(settings) << 16) | (count << 24)
         words += [header, *outputs, *settings, *operands]
-    return NodeProgram(np.array(words, np.uint32), peak, unsupported)
+    return NodeProgram(np.array(words, np.uint32), peak, unsupported,
+                       frozenset(graph.nodes[i].kind for i in order))
 
 
 @dataclass
@@ -280,6 +340,13 @@ class ProgramTable:
     @property
     def empty(self) -> bool:
         return not (self.offsets >= 0).any()
+
+    @property
+    def families(self) -> frozenset[str]:
+        """The interpreter's family defines (node_codes.TEXTURE_FAMILIES) its programs need:
+        a family's cases compile only where some program uses it."""
+        return frozenset(nc.TEXTURE_FAMILIES[k] for p in self.programs if p is not None
+                         for k in p.kinds if k in nc.TEXTURE_FAMILIES)
 
 
 def compile_table(graphs: Sequence[ShaderGraph | None] | None, count: int,

@@ -68,9 +68,13 @@ class GPUScene:
     def defines(self) -> dict:
         """What every shader that shades a material needs defined for this scene:
         ``NODE_PROGRAMS`` when some material has a node graph (the interpreter,
-        include/node_program.glsl), nothing otherwise, so scenes without graphs run the
+        include/node_program.glsl) and the texture families its programs use (NODE_FAMILY_*),
+        nothing otherwise, so scenes without graphs run the
         shaders as they were."""
-        return {"NODE_PROGRAMS": 1} if self.node_programs.active else {}
+        if not self.node_programs.active:
+            return {}
+        # A texture family's interpreter cases only where some program uses the family.
+        return {"NODE_PROGRAMS": 1, **{name: 1 for name in sorted(self.node_programs.table.families)}}
 
     def vertex_content(self, program) -> list[tuple]:
         """moderngl vertex-array content of ``program``: one binding per attribute it reads

@@ -62,12 +62,14 @@ def rows_hold(graph: ShaderGraph) -> bool:
 
 
 def _image_colour(graph: ShaderGraph, link: Link) -> bool:
-    """An Image Texture's Color, sampled as the rows sample it: repeated, flat, on the
-    render UV map."""
+    """An Image Texture's Color, sampled as the rows sample it: repeated, flat, filtered
+    linearly (Closest and Cubic take the node program's fetches), on the render UV map."""
     node = graph.nodes[link.node]
     if node.kind != "TEX_IMAGE" or link.output != "Color":
         return False
     if node.settings.get("extension") != "REPEAT" or node.settings.get("projection") != "FLAT":
+        return False
+    if node.settings.get("interpolation", "Linear") != "Linear":
         return False
     vector = node.inputs.get("Vector")
     if not isinstance(vector, Link):

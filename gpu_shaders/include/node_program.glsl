@@ -26,6 +26,24 @@
 #include "scene_layout.glsl"
 #include "textures.glsl"
 #include "include/nodes/tex_white_noise.glsl"
+// -- textures: each family's node functions only where a program of the scene uses it
+// (node_codes.TEXTURE_FAMILIES, GPUScene.defines), so the interpreter stays small elsewhere.
+#ifdef NODE_FAMILY_NOISE
+#include "include/nodes/tex_noise.glsl"
+#include "include/nodes/tex_wave.glsl"
+#endif
+#ifdef NODE_FAMILY_VORONOI
+#include "include/nodes/tex_voronoi.glsl"
+#endif
+#ifdef NODE_FAMILY_PATTERN
+#include "include/nodes/tex_checker.glsl"
+#include "include/nodes/tex_brick.glsl"
+#include "include/nodes/tex_gradient.glsl"
+#include "include/nodes/tex_magic.glsl"
+#endif
+#ifdef NODE_FAMILY_IMAGE
+#include "include/nodes/tex_image_mapping.glsl"
+#endif
 #include "node_material.glsl"
 // -- colour and vector: each family's node functions only where a graph uses it
 // (node_codes.FAMILY_*, GPUScene.defines).
@@ -96,6 +114,14 @@ uniform float u_world_lod;  // the images' mip level whose texels match the bake
 #define NODE_OP_BACKGROUND 120u
 #define NODE_OP_TEX_ENVIRONMENT 121u
 #define NODE_OP_TEX_SKY 122u
+// -- textures
+#define NODE_OP_TEX_NOISE 80u
+#define NODE_OP_TEX_WAVE 81u
+#define NODE_OP_TEX_VORONOI 82u
+#define NODE_OP_TEX_CHECKER 83u
+#define NODE_OP_TEX_BRICK 84u
+#define NODE_OP_TEX_GRADIENT 85u
+#define NODE_OP_TEX_MAGIC 86u
 #define NODE_CONSTANT 0x80000000u
 #define NODE_IMPLICIT 0x40000000u
 #define NODE_IMPLICIT_NORMAL 0u
@@ -248,6 +274,75 @@ vec4 node_image(int layer, vec2 uv, ShadingPoint sp) {
     return sp.lod < 0.0 ? textureGrad(u_textures, at, sp.duv_dx, sp.duv_dy) : textureLod(u_textures, at, sp.lod);
 }
 
+#ifdef NODE_FAMILY_IMAGE
+// -- textures: the Image Texture's extension and interpolation on the layer's texels
+// (include/nodes/tex_image_mapping.glsl does the arithmetic, this the fetches). Linear with
+// Repeat is the array's own trilinear filter (node_image); every other pair reads texels by
+// hand, because the array's sampler only repeats. Closest reads the full-size image, as
+// Cycles does (no mip level: a nearest texel of a smaller level would be another texel);
+// Linear and Cubic read the mip level of the point's footprint (the UV's derivatives or the
+// ray cone's level; a Vector other than the UV is given the UV's footprint), where Cycles
+// reads the full-size image and leaves the minified image aliased.
+vec4 node_image_texel(int layer, ivec2 texel, int level) {
+    return texelFetch(u_textures, ivec3(texel, layer), level);
+}
+
+vec4 node_image_mapped(int layer, int extension, int interpolation, vec2 uv, ShadingPoint sp) {
+    if (layer < 0) return vec4(1.0, 0.0, 1.0, 1.0);
+    if (interpolation == 0 && extension == 0) return node_image(layer, uv, sp);
+    int level = 0;
+    if (interpolation != 1) {
+        vec2 full = vec2(textureSize(u_textures, 0).xy);
+        float lod = sp.lod;
+        if (lod < 0.0) {
+            vec2 dx = sp.duv_dx * full, dy = sp.duv_dy * full;
+            float rho = max(dot(dx, dx), dot(dy, dy));
+            lod = rho > 1.0 ? 0.5 * log2(rho) : 0.0;
+        }
+        level = clamp(int(floor(lod + 0.5)), 0, textureQueryLevels(u_textures) - 1);
+    }
+    ivec2 size = textureSize(u_textures, level).xy;
+    if (interpolation == 1) {
+        ivec2 texel;
+        vec2 centre;
+        return node_tex_image_closest(extension, uv, size, texel, centre) ? node_image_texel(layer, texel, 0)
+                                                                           : vec4(0.0);
+    }
+    if (interpolation == 0) {
+        ivec2 lo, hi;
+        vec4 w = node_tex_image_linear(extension, uv, size, lo, hi);
+        return w.x * node_image_texel(layer, lo, level) + w.y * node_image_texel(layer, ivec2(hi.x, lo.y), level)
+             + w.z * node_image_texel(layer, ivec2(lo.x, hi.y), level) + w.w * node_image_texel(layer, hi, level);
+    }
+    ivec4 xs, ys;
+    vec4 wx, wy;
+    node_tex_image_cubic(extension, uv, size, xs, ys, wx, wy);
+    vec4 sum = vec4(0.0);
+    for (int j = 0; j < 4; ++j) {
+        if (wy[j] == 0.0) continue;
+        vec4 row = vec4(0.0);
+        for (int i = 0; i < 4; ++i) row += wx[i] * node_image_texel(layer, ivec2(xs[i], ys[j]), level);
+        sum += wy[j] * row;
+    }
+    return sum;
+}
+
+// The Image Texture node: the projection of the Vector (Box weighs its sides by the
+// object-space normal), then each side's lookup.
+vec4 node_tex_image(int layer, int projection, int extension, int interpolation, float blend, vec3 vector,
+                    ShadingPoint sp) {
+    int k = node_object_of(sp.row);
+    vec3 n = node_unit(node_to_object(k, sp.normal, 0.0), sp.normal);
+    vec2 uv0, uv1, uv2;
+    vec3 weights;
+    node_tex_image_project(projection, vector, n, blend, uv0, uv1, uv2, weights);
+    vec4 c = node_image_mapped(layer, extension, interpolation, uv0, sp) * weights.x;
+    if (weights.y > 0.0) c += node_image_mapped(layer, extension, interpolation, uv1, sp) * weights.y;
+    if (weights.z > 0.0) c += node_image_mapped(layer, extension, interpolation, uv2, sp) * weights.z;
+    return c;
+}
+#endif
+
 // Blender's Normal Map node in tangent space (textures.glsl apply_normal_map, with the
 // strength an input); world and object space read the colour as a normal in that space.
 vec3 node_normal_map(ShadingPoint sp, int space, float strength, vec3 color) {
@@ -396,7 +491,14 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
             break;
         }
         case NODE_OP_TEX_IMAGE: {
+#ifdef NODE_FAMILY_IMAGE
+            // Settings: layer, projection, extension, interpolation, box blend (float bits).
+            vec4 texel = node_tex_image(int(node_words[set_at]), int(node_words[set_at + 1u]),
+                                        int(node_words[set_at + 2u]), int(node_words[set_at + 3u]),
+                                        uintBitsToFloat(node_words[set_at + 4u]), node_in[0].xyz, sp);
+#else
             vec4 texel = node_image(int(node_words[set_at]), node_in[0].xy, sp);
+#endif
             node_out[0] = texel;
             node_out[1] = vec4(texel.a);
             break;
@@ -618,6 +720,83 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
                             uintBitsToFloat(node_words[set_at + 3u]));
             node_out[0] = vec4(node_tex_sky(int(node_words[set_at]), node_in[0].xyz, sun,
                                             uintBitsToFloat(node_words[set_at + 4u])), 1.0);
+            break;
+        }
+#endif
+        // -- textures (inputs in NODE_SPECS order; enums as node_codes.py codes)
+#ifdef NODE_FAMILY_NOISE
+        case NODE_OP_TEX_NOISE: {
+            float fac;
+            vec3 color;
+            node_tex_noise(int(node_words[set_at]), int(node_words[set_at + 1u]), int(node_words[set_at + 2u]),
+                           node_in[0].xyz, node_in[1].x, node_in[2].x, node_in[3].x, node_in[4].x, node_in[5].x,
+                           node_in[6].x, node_in[7].x, node_in[8].x, fac, color);
+            node_out[0] = vec4(fac);
+            node_out[1] = vec4(color, 1.0);
+            break;
+        }
+        case NODE_OP_TEX_WAVE: {
+            float fac;
+            vec3 color;
+            node_tex_wave(int(node_words[set_at]), int(node_words[set_at + 1u]), int(node_words[set_at + 2u]),
+                          int(node_words[set_at + 3u]), node_in[0].xyz, node_in[1].x, node_in[2].x, node_in[3].x,
+                          node_in[4].x, node_in[5].x, node_in[6].x, color, fac);
+            node_out[0] = vec4(color, 1.0);
+            node_out[1] = vec4(fac);
+            break;
+        }
+#endif
+#ifdef NODE_FAMILY_VORONOI
+        case NODE_OP_TEX_VORONOI: {
+            float distance, w, radius;
+            vec3 color, position;
+            node_tex_voronoi(int(node_words[set_at]), int(node_words[set_at + 1u]), int(node_words[set_at + 2u]),
+                             int(node_words[set_at + 3u]), node_in[0].xyz, node_in[1].x, node_in[2].x, node_in[3].x,
+                             node_in[4].x, node_in[5].x, node_in[6].x, node_in[7].x, node_in[8].x,
+                             distance, color, position, w, radius);
+            node_out[0] = vec4(distance);
+            node_out[1] = vec4(color, 1.0);
+            node_out[2] = vec4(position, 0.0);
+            node_out[3] = vec4(w);
+            node_out[4] = vec4(radius);
+            break;
+        }
+#endif
+#ifdef NODE_FAMILY_PATTERN
+        case NODE_OP_TEX_CHECKER: {
+            float fac;
+            vec3 color;
+            node_tex_checker(node_in[0].xyz, node_in[1].rgb, node_in[2].rgb, node_in[3].x, color, fac);
+            node_out[0] = vec4(color, 1.0);
+            node_out[1] = vec4(fac);
+            break;
+        }
+        case NODE_OP_TEX_BRICK: {
+            // Settings: offset (float bits), offset frequency, squash (float bits), squash frequency.
+            float fac;
+            vec3 color;
+            node_tex_brick(node_in[0].xyz, node_in[1].rgb, node_in[2].rgb, node_in[3].rgb, node_in[4].x, node_in[5].x,
+                           node_in[6].x, node_in[7].x, node_in[8].x, node_in[9].x,
+                           uintBitsToFloat(node_words[set_at]), int(node_words[set_at + 1u]),
+                           uintBitsToFloat(node_words[set_at + 2u]), int(node_words[set_at + 3u]), color, fac);
+            node_out[0] = vec4(color, 1.0);
+            node_out[1] = vec4(fac);
+            break;
+        }
+        case NODE_OP_TEX_GRADIENT: {
+            float fac;
+            vec3 color;
+            node_tex_gradient(int(node_words[set_at]), node_in[0].xyz, color, fac);
+            node_out[0] = vec4(color, 1.0);
+            node_out[1] = vec4(fac);
+            break;
+        }
+        case NODE_OP_TEX_MAGIC: {
+            float fac;
+            vec3 color;
+            node_tex_magic(int(node_words[set_at]), node_in[0].xyz, node_in[1].x, node_in[2].x, color, fac);
+            node_out[0] = vec4(color, 1.0);
+            node_out[1] = vec4(fac);
             break;
         }
 #endif

@@ -136,3 +136,44 @@ ENVIRONMENT_PROJECTIONS = {"EQUIRECTANGULAR": 0, "MIRROR_BALL": 1}
 # SKY_MODELS_EVALUATED; the others read as black and are named to the artist.
 SKY_TYPES = {"SINGLE_SCATTERING": 0, "MULTIPLE_SCATTERING": 1, "PREETHAM": 2, "HOSEK_WILKIE": 3}
 SKY_MODELS_EVALUATED = frozenset({"PREETHAM"})
+# -- textures (round 2: procedurals and the Image Texture's mapping) ---------------------------
+OP_TEX_NOISE = 80
+OP_TEX_WAVE = 81
+OP_TEX_VORONOI = 82
+OP_TEX_CHECKER = 83
+OP_TEX_BRICK = 84
+OP_TEX_GRADIENT = 85
+OP_TEX_MAGIC = 86
+OPCODES.update({name: value for name, value in globals().items() if name.startswith("OP_TEX_")})
+
+# Noise Texture (include/nodes/tex_noise.glsl).
+NOISE_DIMENSIONS = {"1D": 1, "2D": 2, "3D": 3, "4D": 4}
+NOISE_TYPES = {"FBM": 0, "MULTIFRACTAL": 1, "HYBRID_MULTIFRACTAL": 2, "RIDGED_MULTIFRACTAL": 3, "HETERO_TERRAIN": 4}
+# Wave Texture (include/nodes/tex_wave.glsl).
+WAVE_TYPES = {"BANDS": 0, "RINGS": 1}
+WAVE_BANDS_DIRECTIONS = {"X": 0, "Y": 1, "Z": 2, "DIAGONAL": 3}
+WAVE_RINGS_DIRECTIONS = {"X": 0, "Y": 1, "Z": 2, "SPHERICAL": 3}
+WAVE_PROFILES = {"SIN": 0, "SAW": 1, "TRI": 2}
+# Voronoi Texture (include/nodes/tex_voronoi.glsl).
+VORONOI_DIMENSIONS = {"1D": 1, "2D": 2, "3D": 3, "4D": 4}
+VORONOI_FEATURES = {"F1": 0, "F2": 1, "SMOOTH_F1": 2, "DISTANCE_TO_EDGE": 3, "N_SPHERE_RADIUS": 4}
+VORONOI_METRICS = {"EUCLIDEAN": 0, "MANHATTAN": 1, "CHEBYCHEV": 2, "MINKOWSKI": 3}
+# Gradient Texture (include/nodes/tex_gradient.glsl).
+GRADIENT_TYPES = {"LINEAR": 0, "QUADRATIC": 1, "EASING": 2, "DIAGONAL": 3, "SPHERICAL": 4,
+                  "QUADRATIC_SPHERE": 5, "RADIAL": 6}
+# Image Texture's mapping (include/nodes/tex_image_mapping.glsl); Smart renders as Cubic, as
+# in Cycles.
+IMAGE_PROJECTIONS = {"FLAT": 0, "BOX": 1, "SPHERE": 2, "TUBE": 3}
+IMAGE_EXTENSIONS = {"REPEAT": 0, "EXTEND": 1, "CLIP": 2, "MIRROR": 3}
+IMAGE_INTERPOLATIONS = {"Linear": 0, "Closest": 1, "Cubic": 2, "Smart": 2}
+
+# The interpreter's texture families: each one's cases and includes are compiled only under
+# its define, which the scene sets when one of its programs uses a kind of the family
+# (GPUScene.defines), so a graph without procedurals keeps the interpreter small.
+TEXTURE_FAMILIES = {
+    "TEX_NOISE": "NODE_FAMILY_NOISE", "TEX_WAVE": "NODE_FAMILY_NOISE",
+    "TEX_VORONOI": "NODE_FAMILY_VORONOI",
+    "TEX_CHECKER": "NODE_FAMILY_PATTERN", "TEX_BRICK": "NODE_FAMILY_PATTERN",
+    "TEX_GRADIENT": "NODE_FAMILY_PATTERN", "TEX_MAGIC": "NODE_FAMILY_PATTERN",
+    "TEX_IMAGE": "NODE_FAMILY_IMAGE",
+}

@@ -64,6 +64,22 @@ def _enum(codes: dict[str, int], default: str) -> Callable[[object], int]:
     return encode
 
 
+def _float(default: float) -> Callable[[object], int]:
+    """A float setting (Brick's offset, Image's box blend) as its bits."""
+    def encode(value: object) -> int:
+        try:
+            return _float_word(float(value) if value is not None else default)
+        except (TypeError, ValueError):
+            return _float_word(default)
+    return encode
+
+
+def _flag(default: bool) -> Callable[[object], int]:
+    def encode(value: object) -> int:
+        return int(bool(default if value is None else value))
+    return encode
+
+
 def _int(default: int) -> Callable[[object], int]:
     def encode(value: object) -> int:
         try:
@@ -253,6 +269,48 @@ NODE_SPECS: dict[str, NodeSpec] = {
                          ("sun_direction", _component(2, (0.0, 0.0, 1.0))),
                          ("turbidity", _float_bits(2.2)), ("ground_albedo", _float_bits(0.3)))),
 }
+# -- textures (round 2): Blender 5.0's sockets; an unlinked Vector is Generated (Image: UV).
+_TEX_OUT = (("Color", RGBA), ("Fac", VALUE))
+NODE_SPECS.update({
+    "TEX_NOISE": NodeSpec(nc.OP_TEX_NOISE, (
+        ("Vector", VECTOR, _GENERATED), ("W", VALUE, 0.0), ("Scale", VALUE, 5.0), ("Detail", VALUE, 2.0),
+        ("Roughness", VALUE, 0.5), ("Lacunarity", VALUE, 2.0), ("Offset", VALUE, 0.0), ("Gain", VALUE, 1.0),
+        ("Distortion", VALUE, 0.0)), (("Fac", VALUE), ("Color", RGBA)),
+        (("noise_dimensions", _enum(nc.NOISE_DIMENSIONS, "3D")), ("noise_type", _enum(nc.NOISE_TYPES, "FBM")),
+         ("normalize", _flag(True)))),
+    "TEX_WAVE": NodeSpec(nc.OP_TEX_WAVE, (
+        ("Vector", VECTOR, _GENERATED), ("Scale", VALUE, 5.0), ("Distortion", VALUE, 0.0), ("Detail", VALUE, 2.0),
+        ("Detail Scale", VALUE, 1.0), ("Detail Roughness", VALUE, 0.5), ("Phase Offset", VALUE, 0.0)), _TEX_OUT,
+        (("wave_type", _enum(nc.WAVE_TYPES, "BANDS")), ("bands_direction", _enum(nc.WAVE_BANDS_DIRECTIONS, "X")),
+         ("rings_direction", _enum(nc.WAVE_RINGS_DIRECTIONS, "X")), ("wave_profile", _enum(nc.WAVE_PROFILES, "SIN")))),
+    "TEX_VORONOI": NodeSpec(nc.OP_TEX_VORONOI, (
+        ("Vector", VECTOR, _GENERATED), ("W", VALUE, 0.0), ("Scale", VALUE, 5.0), ("Detail", VALUE, 0.0),
+        ("Roughness", VALUE, 0.5), ("Lacunarity", VALUE, 2.0), ("Smoothness", VALUE, 1.0), ("Exponent", VALUE, 0.5),
+        ("Randomness", VALUE, 1.0)),
+        (("Distance", VALUE), ("Color", RGBA), ("Position", VECTOR), ("W", VALUE), ("Radius", VALUE)),
+        (("voronoi_dimensions", _enum(nc.VORONOI_DIMENSIONS, "3D")), ("feature", _enum(nc.VORONOI_FEATURES, "F1")),
+         ("distance", _enum(nc.VORONOI_METRICS, "EUCLIDEAN")), ("normalize", _flag(False)))),
+    "TEX_CHECKER": NodeSpec(nc.OP_TEX_CHECKER, (
+        ("Vector", VECTOR, _GENERATED), ("Color1", RGBA, _GREY), ("Color2", RGBA, (0.2, 0.2, 0.2, 1.0)),
+        ("Scale", VALUE, 5.0)), _TEX_OUT),
+    "TEX_BRICK": NodeSpec(nc.OP_TEX_BRICK, (
+        ("Vector", VECTOR, _GENERATED), ("Color1", RGBA, _GREY), ("Color2", RGBA, (0.2, 0.2, 0.2, 1.0)),
+        ("Mortar", RGBA, (0.0, 0.0, 0.0, 1.0)), ("Scale", VALUE, 5.0), ("Mortar Size", VALUE, 0.02),
+        ("Mortar Smooth", VALUE, 0.1), ("Bias", VALUE, 0.0), ("Brick Width", VALUE, 0.5), ("Row Height", VALUE, 0.25)),
+        _TEX_OUT, (("offset", _float(0.5)), ("offset_frequency", _int(2)), ("squash", _float(1.0)),
+                   ("squash_frequency", _int(2)))),
+    "TEX_GRADIENT": NodeSpec(nc.OP_TEX_GRADIENT, (("Vector", VECTOR, _GENERATED),), _TEX_OUT,
+                             (("gradient_type", _enum(nc.GRADIENT_TYPES, "LINEAR")),)),
+    "TEX_MAGIC": NodeSpec(nc.OP_TEX_MAGIC, (("Vector", VECTOR, _GENERATED), ("Scale", VALUE, 5.0),
+                                            ("Distortion", VALUE, 1.0)), _TEX_OUT,
+                          (("turbulence_depth", _int(2)),)),
+    # The Image Texture's mapping settings follow the layer (include/nodes/tex_image_mapping.glsl).
+    "TEX_IMAGE": NodeSpec(nc.OP_TEX_IMAGE, (("Vector", VECTOR, _UV),), (("Color", RGBA), ("Alpha", VALUE)),
+                          (("texture", _int(-1)), ("projection", _enum(nc.IMAGE_PROJECTIONS, "FLAT")),
+                           ("extension", _enum(nc.IMAGE_EXTENSIONS, "REPEAT")),
+                           ("interpolation", _enum(nc.IMAGE_INTERPOLATIONS, "Linear")),
+                           ("projection_blend", _float(0.0)))),
+})
 # Other names Blender has used for the same nodes.
 NODE_SPECS["GEOMETRY"] = NODE_SPECS["NEW_GEOMETRY"]
 NODE_SPECS["SEPARATE_XYZ"] = NODE_SPECS["SEPXYZ"]
@@ -302,6 +360,7 @@ class NodeProgram:
     registers: int
     unsupported: list[str] = field(default_factory=list)
     families: set[str] = field(default_factory=set)  # the defines its nodes' cases need
+    kinds: frozenset[str] = frozenset()  # the kinds compiled
 
 
 def _reachable(graph: ShaderGraph) -> list[int]:
@@ -394,8 +453,10 @@ def compile_graph(graph: ShaderGraph, name: str = "material", registers: int = n
         words += [header, *outputs, *settings, *operands]
         if spec.table is not None:
             words += spec.table(node.settings)
-    families = {NODE_SPECS[graph.nodes[i].kind].family for i in order} - {""}
-    return NodeProgram(np.array(words, np.uint32), peak, unsupported, families)
+    kinds = frozenset(graph.nodes[i].kind for i in order)
+    families = ({NODE_SPECS[kind].family for kind in kinds} - {""}) | {
+        nc.TEXTURE_FAMILIES[kind] for kind in kinds if kind in nc.TEXTURE_FAMILIES}
+    return NodeProgram(np.array(words, np.uint32), peak, unsupported, families, kinds)
 
 
 @dataclass
@@ -413,7 +474,8 @@ class ProgramTable:
 
     @property
     def families(self) -> set[str]:
-        """The interpreter's family defines that some program needs (NodeSpec.family)."""
+        """The interpreter's family defines that some program needs (NodeSpec.family and
+        node_codes.TEXTURE_FAMILIES): a family's cases compile only where a program uses it."""
         return set().union(*(p.families for p in self.programs if p is not None))
 
 

@@ -164,15 +164,29 @@ FEATURES: tuple[Feature, ...] = (
             "Light Linking on {names} is not rendered yet: every lamp lights and shadows everything",
             _light_linking),
     Feature("Emissive materials", SUPPORTED, "Emissive triangles light the scene (sampled by power)."),
-    Feature("World: colour and equirectangular image", SUPPORTED,
-            "Sky light traced through the scene; other projections use the background colour, "
-            "with a message."),
+    Feature("World node graphs", SUPPORTED,
+            "Background, Environment Texture (equirectangular, mirror ball), the Sky Texture's "
+            "Preetham model, and the colour, vector and texture nodes, baked on the GPU into the "
+            "sky that rays, irradiance and rough reflections read; other sky models render black "
+            "and are named."),
     Feature("World Volume", UNSUPPORTED, "No fog or atmosphere.",
             "World {names}: the Volume shader is not rendered", _world_volume),
     # Materials
-    Feature("Principled BSDF and its images", SUPPORTED,
-            "Base colour, metallic, roughness, IOR, transmission, specular level, emission and "
-            "normal maps; a per-material Thickness for the cube map."),
+    Feature("Shader node graphs", SUPPORTED,
+            "Evaluated per shading point on the GPU (G-buffer, cube-map and BVH hits) by one "
+            "interpreter: Principled, Diffuse, Glossy, Glass, Refraction, Transparent, Emission, "
+            "Mix and Add Shader; Image, Noise, Voronoi, Wave, Checker, Brick, Gradient, Magic and "
+            "White Noise textures; Math, Vector Math, Mix, Color Ramp, curves, colour "
+            "adjustments, Map Range, Clamp, Mapping, Vector Rotate, Separate and Combine; input "
+            "nodes; groups, reroutes and muted nodes as Blender evaluates them. A value edit is "
+            "an upload, never a shader compile. Mix Shader mixes the closures' parameters."),
+    Feature("Bump, Color Attribute and Attribute nodes", APPROXIMATED,
+            "Not evaluated yet: their outputs take their default values, and the artist is told "
+            "which node, once per render."),
+    Feature("Alpha: Principled Alpha, alpha images, Transparent BSDF", SUPPORTED,
+            "Stochastic coverage in the G-buffer, cube map, shadow maps and BVH traversal, "
+            "converging to Cycles' over the samples; Blended renders the same way, with a message."),
+    Feature("Per-material Thickness", SUPPORTED, "The paper's cube-map thickness, in the Material panel."),
     Feature("Missing images", APPROXIMATED, "Magenta, as Blender's engines render them, with a message."),
     # Output
     Feature("Passes: Combined, Depth, Normal, Denoising Data, Cryptomatte", SUPPORTED,

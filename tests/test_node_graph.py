@@ -436,3 +436,20 @@ def test_the_chess_sets_materials_keep_the_rows_and_no_graphs(addon):
     with addon.blender_adapter.messages.collecting() as told:
         rows = [materials.material_params(m, textures=False) for m in bpy.data.materials]
     assert told == [] and all("node_graph" not in row for row in rows)
+
+
+def test_a_node_the_compiler_does_not_evaluate_yet_is_named_once_and_the_graph_kept(addon):
+    """A kind the reader passes on but the interpreter has no case for (materials._graph_row)
+    is told by name, once per render, never dropped silently; the rest of the graph renders."""
+    material, nodes, links, principled = _material("Bumpy")
+    noise = nodes.new("ShaderNodeTexNoise")
+    bump = nodes.new("ShaderNodeBump")
+    links.new(noise.outputs["Fac"], bump.inputs["Height"])
+    links.new(bump.outputs["Normal"], principled.inputs["Normal"])
+    links.new(noise.outputs["Color"], principled.inputs["Base Color"])
+    materials = addon.blender_adapter.export.materials
+    with addon.blender_adapter.messages.collecting() as told:
+        row = materials.material_params(material)
+        materials.material_params(material)
+    assert told == ["Bumpy: node 'Bump' (BUMP) is not evaluated yet; its outputs take their default values"]
+    assert {n.kind for n in row["node_graph"].nodes} >= {"TEX_NOISE", "BSDF_PRINCIPLED"}

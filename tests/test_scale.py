@@ -88,7 +88,7 @@ def _box_shadow(renderer, scale: float) -> int:
 def test_shadows_exist_at_1mm(renderer):
     """The box's shadow on the floor, at 1 mm as at 1 m."""
     at_1m = _box_shadow(renderer, 1.0)
-    assert at_1m >= 40
+    assert at_1m >= 30  # a shadow, not a few stray pixels
     assert _box_shadow(renderer, 1e-3) >= 0.9 * at_1m
 
 
@@ -137,14 +137,16 @@ def test_the_cube_resolution_follows_the_output_size_and_a_fixed_one_wins():
     scene, camera = built(1.0)
     ratio = RenderSettings().cube_resolution_ratio
     sizes = {}
-    for width, height in ((320, 180), (640, 360), (1280, 720)):
+    for width, height in ((640, 360), (1280, 720), (1920, 1080)):
         values = effective_values(RenderSettings(), scene, camera.position, width, height)
         assert values.cube_resolution == auto_cube_resolution(ratio, width, height)
         assert abs(values.cube_resolution - ratio * width) <= 8
         sizes[width] = values.cube_resolution
         assert effective_values(RenderSettings(cube_resolution=512), scene, camera.position, width,
                                 height).cube_resolution == 512
-    assert sizes[320] < sizes[640] < sizes[1280]
+    assert sizes[640] < sizes[1280] < sizes[1920]
+    # A small output keeps the floor's faces: fewer texels let diffuse rays slip past walls.
+    assert effective_values(RenderSettings(), scene, camera.position, 320, 180).cube_resolution == 256
     assert effective_values(RenderSettings(cube_resolution_ratio=0.2), scene, camera.position, 1280,
                             720).cube_resolution == 256
 

@@ -37,9 +37,10 @@ NEAR_SIZE_PER_OBJECT = 2.5
 FAR_MARGIN = 1.02
 # The far plane stays at least this far beyond the near cube's faces (settings validation).
 FAR_OVER_NEAR = 2.0
-# The face resolution a ratio may give: a few texels per face are no cube map, and
-# past this the faces' raster costs more than any output needs.
-CUBE_RESOLUTION_RANGE = (64, 2048)
+# The face resolution a ratio may give: below the floor, diffuse rays that march the map slip
+# between its texels and bring the sky into closed rooms (a face of 256 costs little at any
+# output size), and past the ceiling the faces' raster costs more than any output needs.
+CUBE_RESOLUTION_RANGE = (256, 2048)
 CUBE_RESOLUTION_STEP = 16  # faces a multiple of 16 texels: whole workgroups of the hi-z pyramid
 # Lengths used when the scene has no finite geometry (nothing to clip or trace).
 EMPTY_SCENE_SCALE = 1.0

@@ -160,6 +160,7 @@ class _Entry:
     matrix: np.ndarray  # (4, 4) float64 object to world
     slot_ids: np.ndarray
     mesh: ObjectMesh | None  # None when the instance has no triangles
+    random_id: int = 0  # Blender's, for Object Info Random (``_random_id``)
     # The original object of a plain mesh object (not an instance, not converted) and its
     # mesh's original pointer: what a sync that follows moves reads it again through.
     original: object = None
@@ -308,6 +309,7 @@ class SceneCache:
             changed |= self._visit(key, _instance_name(instance, obj), obj, obj.data,
                                    np.array(instance.matrix_world, np.float64), full, changes, owner,
                                    mesh_reads, report, refreshed)
+            self._entries[key].random_id = _random_id(instance, obj)
             if not instance.is_instance:
                 entry = self._entries[key]
                 entry.original, entry.mesh_original = obj.original, obj.data.original.as_pointer()
@@ -321,6 +323,7 @@ class SceneCache:
                 seen.append(key)  # unchanged: no conversion needed
                 changed |= self._visit(key, name, evaluated, None, matrix, False, changes, 0, mesh_reads,
                                        report, refreshed)
+                self._entries[key].random_id = _lookup3_pair(_name_hash(original.name), 0)
                 continue
             try:
                 mesh = evaluated.to_mesh()
@@ -332,6 +335,7 @@ class SceneCache:
                     seen.append(key)
                     changed |= self._visit(key, name, evaluated, mesh, matrix, True, changes, 0, {},
                                            report, refreshed)
+                    self._entries[key].random_id = _lookup3_pair(_name_hash(original.name), 0)
             finally:
                 evaluated.to_mesh_clear()
 
@@ -458,7 +462,8 @@ class SceneCache:
         entries = [self._entries[k] for k in keys]
         instances = Instances(meshes=mesh_list, mesh=np.array([meshes[e.mesh.mesh_id] for e in entries], np.int32),
                               matrices=np.array([e.matrix for e in entries], np.float32).reshape(-1, 4, 4),
-                              slot_materials=[e.slot_ids for e in entries])
+                              slot_materials=[e.slot_ids for e in entries],
+                              random_ids=np.array([e.random_id for e in entries], np.uint32))
         self._rows = {k: i for i, k in enumerate(keys)}
         self._mesh_index = meshes
         self._generation += 1
@@ -559,6 +564,44 @@ def extract_scene(depsgraph) -> SceneData:
     cache = SceneCache()
     cache.sync(depsgraph, Changes(), full=True)
     return cache.scene_data
+
+
+def _name_hash(name: str) -> int:
+    """Cycles' hash of a string: each byte added to 37 times the running value, modulo 2^32."""
+    value = 0
+    for byte in name.encode("utf-8"):
+        value = (value * 37 + byte) & 0xFFFFFFFF
+    return value
+
+
+def _random_id(instance, obj) -> int:
+    """An instance's random id as Cycles takes it for Object Info Random: the depsgraph's for
+    an instance (geometry nodes, collections, particles), and for an object itself Blender's
+    hash of its name (lookup3 of the name's hash and 0), so an object keeps its Random from
+    frame to frame and from render to render."""
+    if instance.is_instance:
+        return int(instance.random_id) & 0xFFFFFFFF
+    return int(_lookup3_pair(_name_hash(obj.name), 0))
+
+
+def _lookup3_pair(x: int, y: int) -> int:
+    """Bob Jenkins' lookup3 of two words (gpu_shaders/include/nodes/hash.glsl hash_uint2)."""
+    mask = 0xFFFFFFFF
+
+    def rot(v: int, k: int) -> int:
+        return ((v << k) | (v >> (32 - k))) & mask
+
+    a = b = c = (0xDEADBEEF + (2 << 2) + 13) & mask
+    b = (b + y) & mask
+    a = (a + x) & mask
+    c ^= b; c = (c - rot(b, 14)) & mask  # noqa: E702 - lookup3's final mix, step by step
+    a ^= c; a = (a - rot(c, 11)) & mask  # noqa: E702
+    b ^= a; b = (b - rot(a, 25)) & mask  # noqa: E702
+    c ^= b; c = (c - rot(b, 16)) & mask  # noqa: E702
+    a ^= c; a = (a - rot(c, 4)) & mask  # noqa: E702
+    b ^= a; b = (b - rot(a, 14)) & mask  # noqa: E702
+    c ^= b; c = (c - rot(b, 24)) & mask  # noqa: E702
+    return c
 
 
 def _instance_name(instance, obj) -> str:

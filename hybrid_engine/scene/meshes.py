@@ -153,6 +153,9 @@ class Instances:
     mesh: np.ndarray  # (K,) int32
     matrices: np.ndarray  # (K, 4, 4) float32
     slot_materials: list[np.ndarray]  # K arrays of int32
+    # Blender's random id of each instance (Object Info Random is it over 2^32 - 1, as in
+    # Cycles); None: a hash of the instance's index stands in (scenes built without Blender).
+    random_ids: np.ndarray | None = None  # (K,) uint32
 
     def __post_init__(self) -> None:
         self.mesh = as_array(self.mesh, np.int32, (), "instance meshes")
@@ -164,6 +167,10 @@ class Instances:
         if k and (self.mesh.min() < 0 or self.mesh.max() >= len(self.meshes)):
             raise SceneDataError("an instance names a mesh that is not in the list")
         self.slot_materials = [np.asarray(s, np.int32).reshape(-1) for s in self.slot_materials]
+        if self.random_ids is not None:
+            self.random_ids = np.asarray(self.random_ids, np.uint32).reshape(-1)
+            if len(self.random_ids) != k:
+                raise SceneDataError(f"{k} instances need {k} random ids, got {len(self.random_ids)}")
 
     def __len__(self) -> int:
         return int(len(self.mesh))

@@ -127,7 +127,8 @@ class NodePrograms:
         body = out[1:]
         body["to_object"] = _affine_inverse(instances.matrices)
         body["location"][:, :3] = instances.matrices[:, :3, 3]
-        body["location"][:, 3] = instance_random(k)
+        body["location"][:, 3] = (instance_random(k) if instances.random_ids is None
+                                  else (instances.random_ids.astype(np.float64) / 4294967295.0).astype(np.float32))
         body["color"] = 1.0
         bounds = [self._mesh_bounds(mesh) for mesh in instances.meshes]
         mins = np.array([b[0] for b in bounds], np.float32).reshape(-1, 3)

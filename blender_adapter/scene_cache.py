@@ -160,11 +160,11 @@ class _Entry:
     matrix: np.ndarray  # (4, 4) float64 object to world
     slot_ids: np.ndarray
     mesh: ObjectMesh | None  # None when the instance has no triangles
-    random_id: int = 0  # Blender's, for Object Info Random (``_random_id``)
     # The original object of a plain mesh object (not an instance, not converted) and its
     # mesh's original pointer: what a sync that follows moves reads it again through.
     original: object = None
     mesh_original: int = 0
+    random_id: int = 0  # Blender's, for Object Info Random (``_random_id``)
 
 
 class _PersistentMaterials(export_materials.MaterialTableBuilder):

@@ -165,6 +165,7 @@ class _Entry:
     original: object = None
     mesh_original: int = 0
     random_id: int = 0  # Blender's, for Object Info Random (``_random_id``)
+    color: tuple = (1.0, 1.0, 1.0, 1.0)  # the object's colour, for Object Info Color
 
 
 class _PersistentMaterials(export_materials.MaterialTableBuilder):
@@ -310,6 +311,7 @@ class SceneCache:
                                    np.array(instance.matrix_world, np.float64), full, changes, owner,
                                    mesh_reads, report, refreshed)
             self._entries[key].random_id = _random_id(instance, obj)
+            self._entries[key].color = tuple(obj.color)
             if not instance.is_instance:
                 entry = self._entries[key]
                 entry.original, entry.mesh_original = obj.original, obj.data.original.as_pointer()
@@ -463,7 +465,8 @@ class SceneCache:
         instances = Instances(meshes=mesh_list, mesh=np.array([meshes[e.mesh.mesh_id] for e in entries], np.int32),
                               matrices=np.array([e.matrix for e in entries], np.float32).reshape(-1, 4, 4),
                               slot_materials=[e.slot_ids for e in entries],
-                              random_ids=np.array([e.random_id for e in entries], np.uint32))
+                              random_ids=np.array([e.random_id for e in entries], np.uint32),
+                              colors=np.array([e.color for e in entries], np.float32).reshape(-1, 4))
         self._rows = {k: i for i, k in enumerate(keys)}
         self._mesh_index = meshes
         self._generation += 1
@@ -495,6 +498,8 @@ class SceneCache:
         for row, entry in updates:
             instances.meshes[instances.mesh[row]] = entry.mesh  # a deformed version, or itself
             instances.matrices[row] = entry.matrix
+            if instances.colors is not None:
+                instances.colors[row] = entry.color
             if not np.array_equal(instances.slot_materials[row], entry.slot_ids):
                 instances.set_slots(row, entry.slot_ids)
         rows = sorted(r for r, _ in updates)

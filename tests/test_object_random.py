@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Object Info Random as Cycles gives it (blender_adapter/scene_cache.py ``_random_id``): an
-object's from its name, an instance's from the depsgraph, through the instance table to the
-node program, so scattered copies vary as in Cycles and keep their value across renders."""
+"""Object Info Random and Color as Cycles gives them (blender_adapter/scene_cache.py
+``_random_id``, the object's colour): an object's Random from its name, an instance's from the
+depsgraph, through the instance table to the node program, so scattered copies vary as in
+Cycles and keep their value across renders."""
 from __future__ import annotations
 
 import numpy as np
@@ -75,3 +76,23 @@ def test_object_info_random_equals_cycles_for_objects_and_instances(addon, tmp_p
     assert len(set(np.round(cycles, 4))) == 3  # three different values in the oracle
     np.testing.assert_allclose(ours, cycles, rtol=5e-3)  # the same numbers; the film differs by 0.25 %
     np.testing.assert_array_equal(again, ours)  # stable from render to render
+
+
+def test_object_info_color_is_each_objects_colour_as_in_cycles(addon, tmp_path):
+    import bpy
+
+    scene = _random_scene(bpy)
+    tree = bpy.data.materials["random"].node_tree
+    info, emission = tree.nodes["Object Info"], tree.nodes["Emission"]
+    tree.links.new(info.outputs["Color"], emission.inputs["Color"])
+    bpy.data.objects["Plain"].color = (0.9, 0.2, 0.1, 1.0)
+    bpy.data.objects["Copy"].color = (0.1, 0.3, 0.8, 1.0)
+    bpy.data.objects["First"].color = (0.2, 0.9, 0.3, 1.0)  # its instances show it, as in Cycles
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.device = 1, "CPU"
+    cycles = render_exr(bpy, scene, tmp_path / "cycles.exr")[10, [10, 30, 50], :3]
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.mode = "RASTER"
+    ours = render_exr(bpy, scene, tmp_path / "ours.exr")[10, [10, 30, 50], :3]
+    np.testing.assert_allclose(cycles[0], (0.9, 0.2, 0.1), rtol=1e-2)  # the oracle shows the colours
+    np.testing.assert_allclose(ours, cycles, rtol=1e-2, atol=1e-3)

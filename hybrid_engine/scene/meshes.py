@@ -156,6 +156,9 @@ class Instances:
     # Blender's random id of each instance (Object Info Random is it over 2^32 - 1, as in
     # Cycles); None: a hash of the instance's index stands in (scenes built without Blender).
     random_ids: np.ndarray | None = None  # (K,) uint32
+    # Each instance's object colour (Object Info Color: the object's viewport display colour,
+    # RGBA); None: white.
+    colors: np.ndarray | None = None  # (K, 4) float32
 
     def __post_init__(self) -> None:
         self.mesh = as_array(self.mesh, np.int32, (), "instance meshes")
@@ -171,6 +174,10 @@ class Instances:
             self.random_ids = np.asarray(self.random_ids, np.uint32).reshape(-1)
             if len(self.random_ids) != k:
                 raise SceneDataError(f"{k} instances need {k} random ids, got {len(self.random_ids)}")
+        if self.colors is not None:
+            self.colors = as_array(self.colors, np.float32, (4,), "instance colours")
+            if len(self.colors) != k:
+                raise SceneDataError(f"{k} instances need {k} colours, got {len(self.colors)}")
 
     def __len__(self) -> int:
         return int(len(self.mesh))

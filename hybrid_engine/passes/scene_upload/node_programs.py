@@ -129,7 +129,7 @@ class NodePrograms:
         body["location"][:, :3] = instances.matrices[:, :3, 3]
         body["location"][:, 3] = (instance_random(k) if instances.random_ids is None
                                   else (instances.random_ids.astype(np.float64) / 4294967295.0).astype(np.float32))
-        body["color"] = 1.0
+        body["color"] = 1.0 if instances.colors is None else instances.colors
         bounds = [self._mesh_bounds(mesh) for mesh in instances.meshes]
         mins = np.array([b[0] for b in bounds], np.float32).reshape(-1, 3)
         sizes = np.array([b[1] for b in bounds], np.float32).reshape(-1, 3)

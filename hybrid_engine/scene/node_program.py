@@ -89,15 +89,6 @@ def _int(default: int) -> Callable[[object], int]:
     return encode
 
 
-def _float_bits(default: float) -> Callable[[object], int]:
-    def encode(value: object) -> int:
-        try:
-            return _float_word(float(value) if value is not None else default)
-        except (TypeError, ValueError):
-            return _float_word(default)
-    return encode
-
-
 def _ramp_table(settings: dict) -> list[int]:
     """Cycles' Color Ramp table (the reader's ``color_ramp``: TABLE_SIZE RGBA samples at
     i / (TABLE_SIZE - 1)); without one, Blender's default ramp (black to white, linear)."""
@@ -216,7 +207,7 @@ NODE_SPECS: dict[str, NodeSpec] = {
         "VALTORGB": (nc.OP_COLOR_RAMP, (("Fac", VALUE, 0.5),), (("Color", RGBA), ("Alpha", VALUE)),
                      (("color_ramp_interpolation", _enum(nc.RAMP_INTERPOLATIONS, "LINEAR")),), True, _ramp_table),
         **{kind: (opcode, ((fac, VALUE, 1.0), (ident, kind_type, default)), ((out, kind_type),),
-                  (("curve_min_x", _float_bits(0.0)), ("curve_max_x", _float_bits(1.0)),
+                  (("curve_min_x", _float(0.0)), ("curve_max_x", _float(1.0)),
                    ("curve_extrapolate", _int(0))), True, _curve_table(kind))
            for kind, opcode, fac, ident, kind_type, default, out in (
                ("CURVE_RGB", nc.OP_CURVE_RGB, "Fac", "Color", RGBA, (1.0, 1.0, 1.0, 1.0), "Color"),
@@ -267,7 +258,7 @@ NODE_SPECS: dict[str, NodeSpec] = {
                          ("sun_direction", _component(0, (0.0, 0.0, 1.0))),
                          ("sun_direction", _component(1, (0.0, 0.0, 1.0))),
                          ("sun_direction", _component(2, (0.0, 0.0, 1.0))),
-                         ("turbidity", _float_bits(2.2)), ("ground_albedo", _float_bits(0.3)))),
+                         ("turbidity", _float(2.2)), ("ground_albedo", _float(0.3)))),
 }
 # -- textures (round 2): Blender 5.0's sockets; an unlinked Vector is Generated (Image: UV).
 _TEX_OUT = (("Color", RGBA), ("Fac", VALUE))

@@ -198,10 +198,6 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
     scene = depsgraph.scene
     if settings is None:
         settings = properties.settings_from_scene(scene)
-    if sizer is not None:
-        settings = sizer.settings_for_frame(settings)
-    elif final:
-        settings = viewport.budgeted_settings(scene, settings)
     start = time.perf_counter()
     with messages.collecting() as gathered:
         if source is not None:
@@ -212,6 +208,11 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
             scene_data = extract_scene(depsgraph)
         features.tell_used_features(scene, depsgraph, final=True)
     messages.report_all(report, gathered)
+    # After the scene is read: Frame Budget's Automatic limits follow its scale.
+    if sizer is not None:
+        settings = sizer.settings_for_frame(settings, scene_data)
+    elif final:
+        settings = viewport.budgeted_settings(scene, settings, scene_data)
     if final:
         camera = final_camera(scene, depsgraph)
         outputs = frame_outputs(scene, depsgraph.view_layer, scene_data)

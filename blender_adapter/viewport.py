@@ -45,6 +45,7 @@ from ..hybrid_engine.gpu.gl_context import GLUnavailableError
 from ..hybrid_engine.frame.near_budget import NearCubeSizer
 from ..hybrid_engine.reports.diagnostic_legend import draw_legend
 from ..hybrid_engine.scene.settings import RenderSettings
+from ..hybrid_engine.scene.scale import auto_near_size, near_limits
 from ..hybrid_engine.frame.viewport import RegionInput, accumulation_key, plan_frame
 from ..hybrid_engine.frame.viewport_status import FrameClock, MessageLatch, StatsRefresh, stats_line
 from . import effective_values, features, messages, properties
@@ -119,7 +120,7 @@ class ViewportSession:
         try:
             plan = plan_frame(region, settings.viewport_scale)
             rect = plan.rect
-            settings = self.sizer.settings_for_frame(settings)
+            settings = self.sizer.settings_for_frame(settings, self.cache.scene_data)
             if plan.view is None:
                 return ViewportFrame(None, rect, f"{ERROR_PREFIX} | render border outside the view")
             key = (accumulation_key(plan.view, settings, self.scene_version, transparent), filter_width)
@@ -237,16 +238,19 @@ def session_for(depsgraph) -> ViewportSession:
     return session
 
 
-def budgeted_settings(scene, settings: RenderSettings) -> RenderSettings:
+def budgeted_settings(scene, settings: RenderSettings, scene_data=None) -> RenderSettings:
     """A final render's settings: with *Frame Budget*, the near size this scene's viewport
-    settled on, else the fixed size held within the budget's limits."""
+    settled on, else the near size (Automatic: from ``scene_data``, the core's scene) held
+    within the budget's limits."""
     if settings.near_cube_mode != "BUDGET":
         return settings
+    near_min, near_max = near_limits(settings, scene_data)
     pointer = scene.original.as_pointer()
     sizes = [session.sizer.size for key, session in _sessions.items()
              if key[0] == pointer and session.sizer.size is not None]
-    size = sizes[0] if sizes else min(max(settings.near_size, settings.near_min), settings.near_max)
-    return replace(settings, near_size=size)
+    start = settings.near_size if settings.near_size > 0.0 else auto_near_size(scene_data)
+    size = sizes[0] if sizes else min(max(start, near_min), near_max)
+    return replace(settings, near_size=size, near_min=near_min, near_max=near_max)
 
 
 def release_all() -> None:

@@ -15,7 +15,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from ..blender_adapter import properties, viewport
+from ..blender_adapter import effective_values, properties, viewport
 from ..hybrid_engine.frame.overlay import near_cube_edges
 
 OVERLAY_COLOR = (1.0, 0.55, 0.1, 0.9)
@@ -47,7 +47,13 @@ def overlay_edges(scene, region_data=None) -> np.ndarray | None:
     if center is None:
         return None
     settings = viewport.budgeted_settings(scene, properties.settings_from_scene(scene))
-    return near_cube_edges(center, float(settings.near_size))
+    size = float(settings.near_size)
+    if size <= 0.0:  # Automatic: the size the last frame took (the overlay reads no geometry)
+        last = effective_values.last()
+        if last is None:
+            return None
+        size = last.near_size
+    return near_cube_edges(center, size)
 
 
 def _draw() -> None:

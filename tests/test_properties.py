@@ -215,7 +215,7 @@ def test_the_render_panels_draw_every_setting_once_the_report_and_the_overlay_qu
     overlay, each within 5 ms."""
     drawn: list[str] = []
     stored = bpy.context.scene.hybrid_rt
-    automatic = ("near_size", "cube_far", "cube_resolution")
+    automatic = ("near_size", "cube_far", "cube_resolution", "near_min", "near_max")
     for near_cube_mode in ("FIXED", "BUDGET"):  # the near cube's fields follow its mode
         for on in (True, False):  # an Automatic setting shows its value only when fixed
             stored.near_cube_mode = near_cube_mode

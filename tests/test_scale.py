@@ -13,7 +13,8 @@ import pytest
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
 from hybrid_engine.scene.camera import look_at
-from hybrid_engine.scene.scale import NEAR_SIZE_PER_OBJECT, auto_cube_resolution, effective_values, resolve
+from hybrid_engine.frame.near_budget import NearCubeSizer
+from hybrid_engine.scene.scale import NEAR_SIZE_PER_OBJECT, auto_cube_resolution, effective_values, near_limits, resolve
 from scenes_analytic import box, quad, uv_sphere
 from whitted_reference import flip_mean
 
@@ -133,6 +134,30 @@ def test_the_automatic_near_size_is_a_multiple_of_the_typical_object_size():
         assert resolve(RenderSettings(near_size=2.0), scene, camera.position, *SIZE)[0].near_size == 2.0
 
 
+def test_frame_budget_limits_follow_the_scene_scale_and_fixed_ones_win():
+    budget = RenderSettings(near_cube_mode="BUDGET")
+    limits = {}
+    for scale in SCALES:
+        scene, camera = built(scale)
+        lo, hi = near_limits(budget, scene)
+        near = resolve(RenderSettings(), scene, camera.position, *SIZE)[0].near_size
+        assert lo < near < hi
+        limits[scale] = (lo / scale, hi / scale)
+        # The sizer searches within them, starting from the Automatic near size.
+        sized = NearCubeSizer().settings_for_frame(budget, scene)
+        assert (sized.near_min, sized.near_max) == (lo, hi)
+        assert sized.near_size == pytest.approx(near)
+        # The far clip lies beyond the largest cube the budget may grow.
+        assert resolve(sized, scene, camera.position, *SIZE)[0].cube_far > hi
+    assert limits[1e-3] == pytest.approx(limits[1.0], rel=1e-4)
+    assert limits[1e3] == pytest.approx(limits[1.0], rel=1e-4)
+    scene, _camera = built(1e3)
+    assert near_limits(replace(budget, near_min=0.5, near_max=20.0), scene) == (0.5, 20.0)
+    # A fixed minimum above the Automatic maximum lifts it rather than inverting the range.
+    lo, hi = near_limits(replace(budget, near_min=1e5), built(1e-3)[0])
+    assert lo == hi == 1e5
+
+
 def test_the_cube_resolution_follows_the_output_size_and_a_fixed_one_wins():
     scene, camera = built(1.0)
     ratio = RenderSettings().cube_resolution_ratio
@@ -156,7 +181,7 @@ def test_a_frame_reports_the_values_it_rendered_with(renderer):
     result = renderer.render(scene, camera, SETTINGS)
     assert result.effective.cube_resolution == auto_cube_resolution(1.0, *SIZE)
     assert result.near_size == pytest.approx(result.effective.near_size)
-    assert set(result.effective.automatic) == {"near_size", "cube_far", "cube_resolution"}
+    assert set(result.effective.automatic) == {"near_size", "cube_far", "cube_resolution", "near_min", "near_max"}
     assert renderer.cube_map.resolution == result.effective.cube_resolution
 
 
@@ -228,6 +253,6 @@ def test_blenders_render_path_gives_one_picture_at_1mm_and_1m(addon, tmp_path):
         scene = _blender_scene(bpy, scale)
         images[scale] = render_exr(bpy, scene, tmp_path / f"scale_{scale:g}.exr")[..., :3]
         frame = addon.blender_adapter.engine.last_frame
-        assert set(frame.effective.automatic) == {"near_size", "cube_far", "cube_resolution"}
+        assert set(frame.effective.automatic) == {"near_size", "cube_far", "cube_resolution", "near_min", "near_max"}
         assert addon.blender_adapter.effective_values.last() == frame.effective  # what the panel shows
     assert flip_mean(images[1.0], images[1e-3]) <= 0.02

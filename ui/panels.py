@@ -173,8 +173,8 @@ class RENDER_PT_hybrid_rt_hybrid(HybridRTPanel, bpy.types.Panel):
             col = layout.column(align=True)
             col.prop(settings, "frame_budget_ms")
             col.prop(settings, "frame_budget_fps")
-            col.prop(settings, "near_min")
-            col.prop(settings, "near_max")
+            _automatic(col, context, "near_min", "Min Size")
+            _automatic(col, context, "near_max", "Max Size")
         else:
             _automatic(layout, context, "near_size", "Near Size")
         col = layout.column(heading="Cube Map")

@@ -32,6 +32,8 @@ import math
 import statistics
 from dataclasses import dataclass, field, replace
 
+from ..scene.scale import auto_near_size, near_limits
+
 # Bounds of the measured elasticity d ln(frame) / d ln(size): a secant that says the frame
 # barely depends on the size would ask for huge steps.
 MIN_ELASTICITY = 0.2
@@ -147,17 +149,22 @@ class NearCubeSizer:
         self.controller: NearCubeBudget | None = None
         self._key: tuple | None = None
 
-    def settings_for_frame(self, settings):
-        """``settings`` with the near size this frame renders at."""
+    def settings_for_frame(self, settings, scene=None):
+        """``settings`` with the near size this frame renders at; ``scene`` (its SceneData)
+        gives Automatic limits their size (scene/scale.py)."""
         if settings.near_cube_mode != "BUDGET":
             self.controller, self._key = None, None
             return settings
-        key = (settings.frame_budget_ms, settings.near_min, settings.near_max)
+        near_min, near_max = near_limits(settings, scene)
+        key = (settings.frame_budget_ms, near_min, near_max)
         if self.controller is None or key != self._key:
-            start = self.controller.size if self.controller is not None else settings.near_size
-            self.controller = NearCubeBudget(settings.frame_budget_ms, settings.near_min, settings.near_max, start)
+            if self.controller is not None:
+                start = self.controller.size
+            else:
+                start = settings.near_size if settings.near_size > 0.0 else auto_near_size(scene)
+            self.controller = NearCubeBudget(settings.frame_budget_ms, near_min, near_max, start)
             self._key = key
-        return replace(settings, near_size=self.controller.size)
+        return replace(settings, near_size=self.controller.size, near_min=near_min, near_max=near_max)
 
     def observe(self, frame_ms: float, settings_used) -> None:
         """The time of a frame rendered with ``settings_used`` (from settings_for_frame)."""

@@ -13,6 +13,8 @@ finite bounds (``SceneBounds``: a non-finite vertex cannot move them) and the ca
   object size, the median diagonal of its objects' bounds: a floor or a sky dome a hundred
   times larger than the rest does not swell the near cube, which would make the BVH hold
   most of the scene;
+* *Frame Budget*'s limits on the near size are a fraction and a multiple of that Automatic
+  near size, so the budget controller searches the sizes that matter at the scene's scale;
 * the cube map's face resolution is a ratio of the output's longer side: a face texel keeps
   to the size of a pixel, so a small output does not pay for a large cube map.
 
@@ -32,6 +34,10 @@ from .settings import RenderSettings
 # Near Size over the median object diagonal: the Chess benchmark's pieces (median diagonal
 # about 1.4) get the near cube of about 3.5 the benchmark was tuned with (bench.FRAME_NEAR_SIZE).
 NEAR_SIZE_PER_OBJECT = 2.5
+# Frame Budget's Automatic limits over the Automatic near size: the Chess benchmark's
+# (about 3.5) gets the limits of about 0.5 and 20 the controller was tuned with.
+NEAR_MIN_PER_NEAR = 0.15
+NEAR_MAX_PER_NEAR = 6.0
 # The far plane lies this much beyond the farthest corner: the cube map stores depths up to
 # it exclusive, and a corner exactly on it would be clipped.
 FAR_MARGIN = 1.02
@@ -54,10 +60,13 @@ class EffectiveValues:
     near_size: float
     cube_far: float
     cube_resolution: int
+    near_min: float = 0.0
+    near_max: float = 0.0
     automatic: tuple[str, ...] = ()
 
     def as_dict(self) -> dict[str, float]:
-        return {"near_size": self.near_size, "cube_far": self.cube_far, "cube_resolution": self.cube_resolution}
+        return {"near_size": self.near_size, "cube_far": self.cube_far, "cube_resolution": self.cube_resolution,
+                "near_min": self.near_min, "near_max": self.near_max}
 
 
 def typical_object_size(scene: SceneData) -> float:
@@ -80,6 +89,22 @@ def farthest_corner(bounds: SceneBounds, eye: np.ndarray) -> float:
     return float(np.linalg.norm(far))
 
 
+def auto_near_size(scene: SceneData | None) -> float:
+    """The Automatic near size: ``NEAR_SIZE_PER_OBJECT`` times the typical object size
+    (``EMPTY_SCENE_SCALE``'s when no scene is at hand)."""
+    return NEAR_SIZE_PER_OBJECT * (typical_object_size(scene) if scene is not None else EMPTY_SCENE_SCALE)
+
+
+def near_limits(settings: RenderSettings, scene: SceneData | None) -> tuple[float, float]:
+    """Frame Budget's smallest and largest near size: the artist's where set, else a fraction
+    and a multiple of the Automatic near size. The largest is never below the smallest (a
+    fixed minimum above an Automatic maximum lifts it)."""
+    auto = auto_near_size(scene) if settings.near_min <= 0.0 or settings.near_max <= 0.0 else 0.0
+    lo = float(settings.near_min) if settings.near_min > 0.0 else NEAR_MIN_PER_NEAR * auto
+    hi = float(settings.near_max) if settings.near_max > 0.0 else NEAR_MAX_PER_NEAR * auto
+    return lo, max(lo, hi)
+
+
 def auto_cube_resolution(ratio: float, width: int, height: int) -> int:
     """The face resolution ``ratio`` times the output's longer side, rounded to a multiple
     of ``CUBE_RESOLUTION_STEP`` within ``CUBE_RESOLUTION_RANGE``."""
@@ -91,24 +116,29 @@ def auto_cube_resolution(ratio: float, width: int, height: int) -> int:
 def effective_values(settings: RenderSettings, scene: SceneData, eye, width: int, height: int) -> EffectiveValues:
     """The near size, far clip and face resolution a frame of ``settings`` seen from ``eye``
     at ``width`` x ``height`` renders with."""
-    automatic = []
+    automatic = [name for name in ("near_min", "near_max") if getattr(settings, name) <= 0.0]
+    near_min, near_max = near_limits(settings, scene)
     near = float(settings.near_size)
     if near <= 0.0:
         automatic.append("near_size")
-        near = NEAR_SIZE_PER_OBJECT * typical_object_size(scene)
+        near = auto_near_size(scene)
     far = float(settings.cube_far)
     if far <= 0.0:
         automatic.append("cube_far")
         reach = farthest_corner(SceneBounds.of(scene), np.asarray(eye, np.float64))
-        largest_near = max(near, float(settings.near_max) if settings.near_cube_mode == "BUDGET" else near)
+        largest_near = max(near, near_max if settings.near_cube_mode == "BUDGET" else near)
         far = max(reach * FAR_MARGIN, largest_near * FAR_OVER_NEAR)
-    if "near_size" in automatic and "cube_far" not in automatic:
-        near = min(near, far / FAR_OVER_NEAR)  # a fixed far plane bounds the automatic near cube
+    if "cube_far" not in automatic:  # a fixed far plane bounds the automatic near cubes
+        if "near_size" in automatic:
+            near = min(near, far / FAR_OVER_NEAR)
+        if "near_max" in automatic:
+            near_max = min(near_max, far / FAR_OVER_NEAR)
+            near_min = min(near_min, near_max) if "near_min" in automatic else near_min
     res = int(settings.cube_resolution)
     if res <= 0:
         automatic.append("cube_resolution")
         res = auto_cube_resolution(settings.cube_resolution_ratio, width, height)
-    return EffectiveValues(near, far, res, tuple(automatic))
+    return EffectiveValues(near, far, res, near_min, near_max, tuple(automatic))
 
 
 def resolve(settings: RenderSettings, scene: SceneData, eye, width: int, height: int
@@ -119,4 +149,5 @@ def resolve(settings: RenderSettings, scene: SceneData, eye, width: int, height:
     if not values.automatic:
         return settings, values
     return replace(settings, near_size=values.near_size, cube_far=values.cube_far,
-                   cube_resolution=values.cube_resolution), values
+                   cube_resolution=values.cube_resolution, near_min=values.near_min,
+                   near_max=values.near_max), values

@@ -81,8 +81,10 @@ FIELD_DOCS = {
     "near_cube_mode": "Whether the near cube keeps its size or follows a frame-time budget",
     "frame_budget_ms": "The frame time the near cube is sized for, in milliseconds (33.3 for "
     "30 frames per second)",
-    "near_min": "Frame Budget: the smallest size the near cube may shrink to",
-    "near_max": "Frame Budget: the largest size the near cube may grow to",
+    "near_min": "Frame Budget: the smallest size the near cube may shrink to (0: Automatic, a "
+                "fraction of the scene's typical object size)",
+    "near_max": "Frame Budget: the largest size the near cube may grow to (0: Automatic, a "
+                "multiple of the scene's typical object size)",
     "cube_back_layer": "Also store the far side of closed objects in the cube map (a second layer "
     "of back faces): a ray that passes behind a surface meets its hidden side instead of a "
     "surface stretched by the material's thickness",
@@ -133,8 +135,8 @@ FIELD_DOCS = {
 FIELD_LIMITS = {
     "near_size": (0.0, 1.0e5),
     "frame_budget_ms": (1.0, 1.0e5),
-    "near_min": (0.01, 1.0e5),
-    "near_max": (0.01, 1.0e5),
+    "near_min": (0.0, 1.0e5),
+    "near_max": (0.0, 1.0e5),
     "max_depth": (0, 16),
     "diagnostic_bounce": (1, 17),
     "cube_resolution": (0, 4096),
@@ -158,7 +160,7 @@ FIELD_LIMITS = {
 
 # Settings whose 0 means Automatic (scene/scale.py), and the fixed value the interface offers
 # when the artist switches Automatic off (the defaults before they followed the scene).
-AUTOMATIC_FIXED = {"near_size": 5.0, "cube_far": 1000.0, "cube_resolution": 512}
+AUTOMATIC_FIXED = {"near_size": 5.0, "cube_far": 1000.0, "cube_resolution": 512, "near_min": 0.5, "near_max": 20.0}
 MIN_CUBE_RESOLUTION = 16
 
 
@@ -190,8 +192,8 @@ class RenderSettings:
     viewport_samples: int = 16
     near_cube_mode: str = "FIXED"
     frame_budget_ms: float = 33.3
-    near_min: float = 0.5
-    near_max: float = 20.0
+    near_min: float = 0.0  # Automatic (scene/scale.py)
+    near_max: float = 0.0  # Automatic
     diagnostic_bounce: int = 1
     world_light: str = "RAYS"
     diffuse_bounces: int = 2
@@ -235,14 +237,14 @@ class RenderSettings:
                 raise SettingsError(f"{f.name} must lie in [{lo}, {hi}], got {value}")
         if self.n_min > self.n_max:
             raise SettingsError(f"n_min ({self.n_min}) must not exceed n_max ({self.n_max})")
-        if self.near_min > self.near_max:
+        if 0.0 < self.near_max < self.near_min:
             raise SettingsError(f"near_min ({self.near_min}) must not exceed near_max ({self.near_max})")
         if 0 < self.cube_resolution < MIN_CUBE_RESOLUTION:
             raise SettingsError(f"cube_resolution must be 0 (Automatic) or at least {MIN_CUBE_RESOLUTION}, "
                                 f"got {self.cube_resolution}")
         if self.cube_far <= 0.0:
             return  # Automatic: placed beyond the near cube each frame (scene/scale.py)
-        if self.near_cube_mode == "BUDGET" and self.cube_far <= self.near_max:
+        if self.near_cube_mode == "BUDGET" and self.cube_far <= self.near_max:  # 0 (Automatic) passes
             raise SettingsError(
                 f"cube_far ({self.cube_far}) must lie beyond the largest near cube (near_max {self.near_max})")
         if self.cube_far <= self.near_size and self.near_size > 0.0:

@@ -196,7 +196,7 @@ class RenderSettings:
     near_max: float = 0.0  # Automatic
     diagnostic_bounce: int = 1
     world_light: str = "RAYS"
-    diffuse_bounces: int = 2
+    diffuse_bounces: int = 4
     diffuse_rays: int = 1
     lit_cube: bool = False
     denoise_viewport: bool = True

@@ -45,8 +45,9 @@ def extract_sky(world) -> Sky:
              world.name, names[0], kind)
     for n in read.graph.nodes:
         if n.kind == "TEX_SKY" and str(n.settings.get("sky_type")) not in SKY_MODELS_EVALUATED:
-            tell("World %s: Sky Texture %r: the %s sky model is not evaluated yet (renders black); "
-                 "Preetham is", world.name, n.name, str(n.settings.get("sky_type")).replace("_", " ").title())
+            tell("World %s: Sky Texture %r: the %s sky model is not evaluated (renders black); "
+                 "Multiple Scattering, Single Scattering and Preetham are", world.name, n.name,
+                 str(n.settings.get("sky_type")).replace("_", " ").title())
     return Sky(color=(0.0, 0.0, 0.0), strength=1.0, graph=read.graph, images=read.images)
 
 

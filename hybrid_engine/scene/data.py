@@ -16,6 +16,7 @@ import numpy as np
 from .arrays import SceneDataError, as_array
 from .geometry import Geometry
 from .shader_graph import ShaderGraph
+from .sky_sun import sun_rows
 
 # Light kinds (std430 int in the light buffer)
 LIGHT_POINT, LIGHT_SUN, LIGHT_SPOT, LIGHT_AREA = 0, 1, 2, 3
@@ -369,6 +370,14 @@ class Lights:
     def __len__(self) -> int:
         return int(len(self.kind))
 
+    def extended(self, rows: list[dict]) -> "Lights":
+        """These lights followed by ``rows`` (``from_rows``' dicts)."""
+        more = Lights.from_rows(rows)
+        arrays = {name: np.concatenate([getattr(self, name), getattr(more, name)])
+                  for name in ("kind", "position", "direction", "color", "radius", "spot_size", "spot_blend",
+                               "cast_shadow", "area_axis", "area_size_y", "area_elliptic")}
+        return Lights(names=list(self.names) + list(more.names), **arrays)
+
     @classmethod
     def empty(cls) -> "Lights":
         return cls.from_rows([])
@@ -458,3 +467,7 @@ class SceneData:
         if len(self.materials) == 0:
             raise SceneDataError("the material table needs at least one material (index 0 is the fallback)")
         self.geometry.clamp_material_ids(len(self.materials))
+        # A Sky Texture's sun disc lights the scene as a sun lamp (sky_sun.py).
+        sun = sun_rows(self.sky.graph)
+        if sun:
+            self.lights = self.lights.extended(sun)

@@ -168,3 +168,26 @@ def test_a_hosek_wilkie_sky_is_named_once_to_the_artist(addon):
     with messages.collecting() as told:
         extract_sky(bpy.context.scene.world)
     assert not [m for m in told if "sky model" in m], told
+
+
+def test_a_sun_disc_that_cannot_be_a_lamp_is_named_to_the_artist(addon):
+    """A Sky Texture through a Mix node: its disc's light is not the World's unchanged."""
+    import bpy
+
+    messages = addon.blender_adapter.messages
+    extract_sky = addon.blender_adapter.export.world.extract_sky
+    _scene, tree = _world_scene(bpy, "SKY", 8)
+    _sky_texture_world(tree, "MULTIPLE_SCATTERING", 45.0)
+    with messages.collecting() as told:
+        extract_sky(bpy.context.scene.world)
+    assert not [m for m in told if "sun disc" in m], told
+    mix = tree.nodes.new("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    socket_a = next(s for s in mix.inputs if s.identifier == "A_Color")
+    result = next(s for s in mix.outputs if s.identifier == "Result_Color")
+    tree.links.new(tree.nodes["Sky Texture"].outputs["Color"], socket_a)
+    tree.links.new(result, tree.nodes["Background"].inputs["Color"])
+    with messages.collecting() as told:
+        sky = extract_sky(bpy.context.scene.world)
+    assert [m for m in told if "sun disc" in m and "Sky Texture" in m], told
+    assert not sun_rows(sky.graph)

@@ -25,11 +25,17 @@
 
 #define NODE_SKY_PREETHAM_SCALE 0.06
 
+vec3 node_sky_xyz_to_rgb(vec3 xyz);
+
+#ifdef NODE_SKY_SCATTERING
+// Compiled in only for a World with a scattering Sky Texture (world_bake.py defines it):
+// their spectral loops would cost every other World's bake registers and compile time.
 #include "include/nodes/sky_atmosphere.glsl"
 
 // The Multiple Scattering models' transmittance tables, one block of SKY_LUT_H rows per node
 // (lighting/sky_transmittance.comp.glsl; world_bake.py binds it).
 uniform sampler2D u_sky_transmittance;
+#endif
 
 vec3 node_sky_xyz_to_rgb(vec3 xyz) {
     return max(vec3(dot(vec3(3.2404542, -1.5371385, -0.4985314), xyz),
@@ -37,7 +43,9 @@ vec3 node_sky_xyz_to_rgb(vec3 xyz) {
                     dot(vec3(0.0556434, -0.2040259, 1.0572252), xyz)), vec3(0.0));
 }
 
+#ifdef NODE_SKY_SCATTERING
 #include "include/nodes/sky_single.glsl"
+#endif
 
 // Where the sun stands (elevation, rotation as the node gives them; see the header).
 vec3 node_sky_sun(float elevation, float rotation) {
@@ -85,26 +93,23 @@ vec3 node_sky_preetham(vec3 dir, vec3 sun, float turbidity) {
     return node_sky_xyz_to_rgb(xyz);
 }
 
-// Transmittance from the table block at row ``row``, bilinear between exact corners.
+#ifdef NODE_SKY_SCATTERING
+// Transmittance from the table block at row ``row``, bilinear between exact corners: texel
+// x of the block holds cos = 2 x / (W - 1) - 1, so the filtered read at texel centre
+// coordinates is the model's own interpolation, clamped to the block's edges.
 vec4 node_sky_ms_table(int row, float cos_zenith, float altitude) {
-    float x = float(SKY_LUT_W - 1) * clamp(cos_zenith * 0.5 + 0.5, 0.0, 1.0);
-    float y = float(SKY_LUT_H - 1) * clamp(altitude, 0.0, 1.0);
-    ivec2 a = ivec2(x, y);
-    ivec2 b = min(a + 1, ivec2(SKY_LUT_W - 1, SKY_LUT_H - 1));
-    vec2 f = vec2(x, y) - vec2(a);
-    vec4 bottom = mix(texelFetch(u_sky_transmittance, ivec2(a.x, row + a.y), 0),
-                      texelFetch(u_sky_transmittance, ivec2(b.x, row + a.y), 0), f.x);
-    vec4 top = mix(texelFetch(u_sky_transmittance, ivec2(a.x, row + b.y), 0),
-                   texelFetch(u_sky_transmittance, ivec2(b.x, row + b.y), 0), f.x);
-    return mix(bottom, top, f.y);
+    vec2 texel = vec2(float(SKY_LUT_W - 1) * clamp(cos_zenith * 0.5 + 0.5, 0.0, 1.0),
+                      float(row) + float(SKY_LUT_H - 1) * clamp(altitude, 0.0, 1.0));
+    return textureLod(u_sky_transmittance, (texel + 0.5) / vec2(textureSize(u_sky_transmittance, 0)), 0.0);
 }
 
 // Light that reaches a point at zenith cosine ``cos_sun`` of the sun by more than one
 // scattering: the ground's reflection (albedo 0.3, lit through the atmosphere, seen over
 // the solid angle the planet fills) and the model's fit of the atmosphere's own.
-vec4 node_sky_ms_secondary(int row, float cos_sun, float altitude, float radius) {
+// ``ground_up``: the transmittance straight up from the ground (the same at every step).
+vec4 node_sky_ms_secondary(int row, float cos_sun, float altitude, float radius, vec4 ground_up) {
     float planet = 6.2831853 * (1.0 - sqrt(max(1.0 - (SKY_EARTH_KM / radius) * (SKY_EARTH_KM / radius), 0.0)));
-    vec4 up_to_sample = node_sky_ms_table(row, 1.0, 0.0) / node_sky_ms_table(row, 1.0, altitude);
+    vec4 up_to_sample = ground_up / node_sky_ms_table(row, 1.0, altitude);
     vec4 ground = (0.25 / 3.14159265) * planet * (0.3 / 3.14159265) * node_sky_ms_table(row, cos_sun, 0.0)
                   * up_to_sample * cos_sun;
     vec4 atmosphere = 0.02 * vec4(0.217, 0.347, 0.594, 1.0) / (1.0 + 5.0 * exp(-17.92 * cos_sun));
@@ -125,6 +130,7 @@ vec3 node_sky_multiple_scattering(vec3 dir, vec3 sun, float altitude_m, vec3 den
     float aerosol_phase = 0.25 / 3.14159265 * (1.0 - 0.64) / (hg * sqrt(hg));
     vec4 radiance = vec4(0.0);
     vec4 throughput = vec4(1.0);
+    vec4 ground_up = node_sky_ms_table(row, 1.0, 0.0);
     for (int i = 0; i < 64; i++) {
         vec3 x = origin + dir * ((float(i) + 0.5) * dt);
         float radius = length(x);
@@ -133,7 +139,7 @@ vec3 node_sky_multiple_scattering(vec3 dir, vec3 sun, float altitude_m, vec3 den
         vec4 extinction, molecular, aerosol;
         sky_ms_coefficients(h, density, extinction, molecular, aerosol);
         vec4 to_sun = node_sky_ms_table(row, cos_sun, h / SKY_SHELL_KM);
-        vec4 secondary = node_sky_ms_secondary(row, cos_sun, h / SKY_SHELL_KM, radius);
+        vec4 secondary = node_sky_ms_secondary(row, cos_sun, h / SKY_SHELL_KM, radius, ground_up);
         vec4 source = SKY_SUN_IRRADIANCE * (molecular * (molecular_phase * to_sun + secondary)
                                             + aerosol * (aerosol_phase * to_sun + secondary));
         vec4 step_t = exp(-dt * extinction);
@@ -142,16 +148,21 @@ vec3 node_sky_multiple_scattering(vec3 dir, vec3 sun, float altitude_m, vec3 den
     }
     return node_sky_xyz_to_rgb(SKY_SPECTRAL_TO_XYZ * radiance);
 }
+#endif
 
 // ``legacy_sun`` and ``turbidity`` drive Preetham; ``sun_at`` (elevation, rotation, altitude
 // in metres), ``density`` (air, aerosol, ozone) and the table ``row`` the scattering models.
 vec3 node_tex_sky(int model, vec3 dir, vec3 legacy_sun, float turbidity, vec3 sun_at, vec3 density, int row) {
     if (model == 2) return node_sky_preetham(dir, legacy_sun, turbidity);
+#ifdef NODE_SKY_SCATTERING
     if (model != 0 && model != 1) return vec3(0.0);
     vec3 d = dot(dir, dir) > 0.0 ? normalize(dir) : vec3(0.0, 0.0, 1.0);
     vec3 sun = node_sky_sun(sun_at.x, sun_at.y);
     if (model == 1) return node_sky_multiple_scattering(d, sun, sun_at.z, density, row);
     return node_sky_single_scattering(d, sun, sun_at.z, density);
+#else
+    return vec3(0.0);
+#endif
 }
 
 #endif

@@ -29,6 +29,11 @@ def _densities(settings: dict) -> tuple[float, float, float]:
     return tuple(float(settings.get(name, 1.0)) for name in ("air_density", "aerosol_density", "ozone_density"))
 
 
+def _scattering(node) -> bool:
+    return node.kind == "TEX_SKY" and str(node.settings.get("sky_type", "MULTIPLE_SCATTERING")) in (
+        "MULTIPLE_SCATTERING", "SINGLE_SCATTERING")
+
+
 def _uses_table(node) -> bool:
     return node.kind == "TEX_SKY" and str(node.settings.get("sky_type", "MULTIPLE_SCATTERING")) == "MULTIPLE_SCATTERING"
 
@@ -40,6 +45,7 @@ class SkyTables:
         self.ctx = ctx
         self.texture = ctx.texture((1, 1), 4, np.ones(4, np.float32).tobytes(), dtype="f4")
         self.made = 0  # tables computed (tests, statistics)
+        self.scattering = False  # the last graph has a scattering model (world_bake.py compiles it in)
         self._key: tuple = ()
 
     @staticmethod
@@ -57,6 +63,7 @@ class SkyTables:
 
     def update(self, graph: ShaderGraph) -> None:
         """Make the tables of ``graph`` (as ``assign`` numbered them) unless they are made."""
+        self.scattering = any(_scattering(node) for node in graph.nodes)
         key = tuple(_densities(node.settings) for node in graph.nodes if _uses_table(node))
         if key == self._key or not key:
             return
@@ -64,6 +71,8 @@ class SkyTables:
         if self.texture.size != (TABLE_WIDTH, height):
             self.texture.release()
             self.texture = self.ctx.texture((TABLE_WIDTH, height), 4, dtype="f4")
+            self.texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)  # tex_sky.glsl reads it filtered
+            self.texture.repeat_x = self.texture.repeat_y = False
         prog = shader_loader.compute(self.ctx, "lighting/sky_transmittance.comp.glsl")
         for block, density in enumerate(key):
             bind(prog, images={"u_target": Image(self.texture, read=False, write=True)},

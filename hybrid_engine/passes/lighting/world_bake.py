@@ -117,8 +117,10 @@ class WorldBake:
         lod = max(0.0, math.log2(images.size[0] / target.size[0])) if self._images is not None else 0.0
         # The node families the World's nodes need (Mix, Math, Mapping...), as the scene's
         # material shaders get theirs: a new family costs one compile.
-        prog = shader_loader.compute(self.ctx, "lighting/world_bake.comp.glsl",
-                                     {family: 1 for family in sorted(program.families)} or None)
+        defines = {family: 1 for family in sorted(program.families)}
+        if self.sky_tables.scattering:
+            defines["NODE_SKY_SCATTERING"] = 1  # tex_sky.glsl: the scattering models' code
+        prog = shader_loader.compute(self.ctx, "lighting/world_bake.comp.glsl", defines or None)
         bind(prog, storage={"NodeProgram": self._program_buffer, "NodeObjects": self._objects},
              images={"u_target": Image(target, read=False, write=True)},
              textures={"u_world_images": images, "u_textures": self._no_textures,

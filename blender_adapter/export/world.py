@@ -48,9 +48,8 @@ def extract_sky(world) -> Sky:
              world.name, names[0], kind)
     for n in read.graph.nodes:
         if n.kind == "TEX_SKY" and str(n.settings.get("sky_type")) not in SKY_MODELS_EVALUATED:
-            tell("World %s: Sky Texture %r: the %s sky model is not evaluated (renders black); "
-                 "Multiple Scattering, Single Scattering and Preetham are", world.name, n.name,
-                 str(n.settings.get("sky_type")).replace("_", " ").title())
+            tell("World %s: Sky Texture %r: the %s sky model is not evaluated (renders black)", world.name,
+                 n.name, str(n.settings.get("sky_type")).replace("_", " ").title())
     discs = [n for n in read.graph.nodes if n.kind == "TEX_SKY" and n.settings.get("sun_disc", True)
              and str(n.settings.get("sky_type")) in ("MULTIPLE_SCATTERING", "SINGLE_SCATTERING")]
     if discs and not sun_rows(read.graph) and any(disc_irradiance(n.settings).any() for n in discs):

@@ -722,9 +722,11 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
                                uintBitsToFloat(node_words[set_at + 8u]));
             vec3 density = vec3(uintBitsToFloat(node_words[set_at + 9u]), uintBitsToFloat(node_words[set_at + 10u]),
                                 uintBitsToFloat(node_words[set_at + 11u]));
+            float hosek[30];
+            for (uint i = 0u; i < 30u; ++i) hosek[i] = uintBitsToFloat(node_words[set_at + 13u + i]);
             node_out[0] = vec4(node_tex_sky(int(node_words[set_at]), node_in[0].xyz, sun,
                                             uintBitsToFloat(node_words[set_at + 4u]), sun_at, density,
-                                            int(node_words[set_at + 12u])), 1.0);
+                                            int(node_words[set_at + 12u]), hosek), 1.0);
             break;
         }
 #endif

@@ -263,7 +263,9 @@ NODE_SPECS: dict[str, NodeSpec] = {
                          ("altitude", _float(100.0)), ("air_density", _float(1.0)),
                          ("aerosol_density", _float(1.0)), ("ozone_density", _float(1.0)),
                          # the first row of its transmittance table (world_bake.py sets it)
-                         ("sky_table_row", _int(0)))),
+                         ("sky_table_row", _int(0)),
+                         # Hosek-Wilkie's parameters for its sun (sky_hosek.py; world_bake.py sets them)
+                         *(("hosek_state", _component(i, (0.0,) * 30)) for i in range(30)))),
 }
 # -- textures (round 2): Blender 5.0's sockets; an unlinked Vector is Generated (Image: UV).
 _TEX_OUT = (("Color", RGBA), ("Fac", VALUE))

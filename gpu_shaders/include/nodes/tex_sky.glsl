@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Sky Texture's models (Blender 5.0 ``sky_type``: 0 SINGLE_SCATTERING, 1 MULTIPLE_SCATTERING,
 // 2 PREETHAM, 3 HOSEK_WILKIE), evaluated per direction where the World is baked
-// (lighting/world_bake.comp.glsl), never per frame. Hosek-Wilkie fits a published dataset of
-// coefficients this add-on does not carry: it reads black (the adapter names it).
+// (lighting/world_bake.comp.glsl), never per frame. Hosek-Wilkie's parameters for the node's
+// sun come with the node's words (hybrid_engine/scene/sky_hosek.py computes them from the
+// published dataset).
 //
 // The two scattering models integrate the light the atmosphere scatters towards the viewer,
 // as Blender does into its 512 x 256 image; here the direction is evaluated at once (the
@@ -150,10 +151,38 @@ vec3 node_sky_multiple_scattering(vec3 dir, vec3 sun, float altitude_m, vec3 den
 }
 #endif
 
+// Hosek-Wilkie (sky_hosek.py): one XYZ channel's F(theta, gamma) from its nine parameters
+// p[at .. at + 8].
+float node_sky_hosek_channel(float p[30], int at, float cos_theta, float gamma, float cos_gamma) {
+    float g = p[at + 8];
+    float mie = (1.0 + cos_gamma * cos_gamma) / pow(1.0 + g * g - 2.0 * g * cos_gamma, 1.5);
+    return (1.0 + p[at] * exp(p[at + 1] / (cos_theta + 0.01)))
+           * (p[at + 2] + p[at + 3] * exp(p[at + 4] * gamma) + p[at + 5] * cos_gamma * cos_gamma + p[at + 6] * mie
+              + p[at + 7] * sqrt(cos_theta));
+}
+
+// ``state``: X's, Y's and Z's parameters, then their L_M. gamma is measured from the sun;
+// theta is clamped just above the horizon, as Cycles does.
+vec3 node_sky_hosek(vec3 dir, vec3 sun, float state[30]) {
+    vec3 s = dot(sun, sun) > 0.0 ? normalize(sun) : vec3(0.0, 0.0, 1.0);
+    vec3 d = dot(dir, dir) > 0.0 ? normalize(dir) : vec3(0.0, 0.0, 1.0);
+    float gamma = acos(clamp(dot(d, s), -1.0, 1.0));
+    float cos_theta = cos(min(acos(clamp(d.z, -1.0, 1.0)), 1.5707963 - 0.001));
+    float cos_gamma = cos(gamma);
+    vec3 xyz = vec3(node_sky_hosek_channel(state, 0, cos_theta, gamma, cos_gamma),
+                    node_sky_hosek_channel(state, 9, cos_theta, gamma, cos_gamma),
+                    node_sky_hosek_channel(state, 18, cos_theta, gamma, cos_gamma))
+               * vec3(state[27], state[28], state[29]);
+    return node_sky_xyz_to_rgb(xyz) * (6.2831853 / 683.0);  // Cycles' scale into radiance
+}
+
 // ``legacy_sun`` and ``turbidity`` drive Preetham; ``sun_at`` (elevation, rotation, altitude
-// in metres), ``density`` (air, aerosol, ozone) and the table ``row`` the scattering models.
-vec3 node_tex_sky(int model, vec3 dir, vec3 legacy_sun, float turbidity, vec3 sun_at, vec3 density, int row) {
+// in metres), ``density`` (air, aerosol, ozone) and the table ``row`` the scattering models;
+// Hosek-Wilkie its ``hosek`` state.
+vec3 node_tex_sky(int model, vec3 dir, vec3 legacy_sun, float turbidity, vec3 sun_at, vec3 density, int row,
+                  float hosek[30]) {
     if (model == 2) return node_sky_preetham(dir, legacy_sun, turbidity);
+    if (model == 3) return node_sky_hosek(dir, legacy_sun, hosek);
 #ifdef NODE_SKY_SCATTERING
     if (model != 0 && model != 1) return vec3(0.0);
     vec3 d = dot(dir, dir) > 0.0 ? normalize(dir) : vec3(0.0, 0.0, 1.0);

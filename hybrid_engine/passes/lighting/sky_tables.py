@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The Multiple Scattering sky's transmittance tables, made on the GPU before a World bake.
+"""What a World's Sky Textures need before the bake: the Multiple Scattering sky's
+transmittance tables, made on the GPU, and the Hosek-Wilkie sky's parameters for its sun.
 
 Blender's Multiple Scattering model (García Liñán's spectral sky) reads, at each of the 64
 steps along a view ray, how much sunlight reaches that point through the atmosphere, and how
@@ -9,6 +10,8 @@ to the top of the atmosphere by zenith angle and altitude (256 x 64, include/nod
 sky_atmosphere.glsl) is made once and read bilinearly. It depends only on the node's three
 densities (Air, Aerosol, Ozone), so each Multiple Scattering node of the World gets its own
 block of rows in one texture (``sky_table_row``), remade only when the densities change.
+A Hosek-Wilkie node gets the model's 30 numbers for its sun, turbidity and albedo
+(``hosek_state``, sky_hosek.py) in its words, as Cycles computes them on the host.
 """
 from __future__ import annotations
 
@@ -19,6 +22,7 @@ import numpy as np
 from ...gpu import shader_loader
 from ...gpu.bindings import Image, bind
 from ...scene.shader_graph import ShaderGraph
+from ...scene.sky_hosek import hosek_state
 
 TABLE_WIDTH = 256  # sky_atmosphere.glsl SKY_LUT_W
 TABLE_ROWS = 64  # SKY_LUT_H: one node's block
@@ -32,6 +36,10 @@ def _densities(settings: dict) -> tuple[float, float, float]:
 def _scattering(node) -> bool:
     return node.kind == "TEX_SKY" and str(node.settings.get("sky_type", "MULTIPLE_SCATTERING")) in (
         "MULTIPLE_SCATTERING", "SINGLE_SCATTERING")
+
+
+def _hosek(node) -> bool:
+    return node.kind == "TEX_SKY" and str(node.settings.get("sky_type")) == "HOSEK_WILKIE"
 
 
 def _uses_table(node) -> bool:
@@ -50,14 +58,20 @@ class SkyTables:
 
     @staticmethod
     def assign(graph: ShaderGraph) -> ShaderGraph:
-        """``graph`` with each Multiple Scattering node's ``sky_table_row`` set (a copy when any is)."""
-        if not any(_uses_table(node) for node in graph.nodes):
+        """``graph`` with each Multiple Scattering node's ``sky_table_row`` and each Hosek-Wilkie
+        node's ``hosek_state`` (sky_hosek.py) set: a copy when any is."""
+        if not any(_uses_table(node) or _hosek(node) for node in graph.nodes):
             return graph
         nodes, block = [], 0
         for node in graph.nodes:
             if _uses_table(node):
                 node = dataclasses.replace(node, settings={**node.settings, "sky_table_row": block * TABLE_ROWS})
                 block += 1
+            elif _hosek(node):
+                state = hosek_state(node.settings.get("sun_direction", (0.0, 0.0, 1.0)),
+                                    float(node.settings.get("turbidity", 2.2)),
+                                    float(node.settings.get("ground_albedo", 0.3)))
+                node = dataclasses.replace(node, settings={**node.settings, "hosek_state": tuple(state)})
             nodes.append(node)
         return dataclasses.replace(graph, nodes=nodes)
 

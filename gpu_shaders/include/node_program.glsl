@@ -722,11 +722,23 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
                                uintBitsToFloat(node_words[set_at + 8u]));
             vec3 density = vec3(uintBitsToFloat(node_words[set_at + 9u]), uintBitsToFloat(node_words[set_at + 10u]),
                                 uintBitsToFloat(node_words[set_at + 11u]));
-            float hosek[30];
-            for (uint i = 0u; i < 30u; ++i) hosek[i] = uintBitsToFloat(node_words[set_at + 13u + i]);
-            node_out[0] = vec4(node_tex_sky(int(node_words[set_at]), node_in[0].xyz, sun,
-                                            uintBitsToFloat(node_words[set_at + 4u]), sun_at, density,
-                                            int(node_words[set_at + 12u]), hosek), 1.0);
+            int model = int(node_words[set_at]);
+#ifdef NODE_SKY_HOSEK
+            if (model == 3) {  // Hosek-Wilkie: parameter k of X, Y, Z at words 13 + k, 22 + k, 31 + k
+                vec3 p[10];
+                for (uint k = 0u; k < 9u; ++k) {
+                    uint at = set_at + 13u + k;
+                    p[k] = vec3(uintBitsToFloat(node_words[at]), uintBitsToFloat(node_words[at + 9u]),
+                                uintBitsToFloat(node_words[at + 18u]));
+                }
+                p[9] = vec3(uintBitsToFloat(node_words[set_at + 40u]), uintBitsToFloat(node_words[set_at + 41u]),
+                            uintBitsToFloat(node_words[set_at + 42u]));  // L_M of X, Y, Z
+                node_out[0] = vec4(node_sky_hosek(node_in[0].xyz, sun, p), 1.0);
+                break;
+            }
+#endif
+            node_out[0] = vec4(node_tex_sky(model, node_in[0].xyz, sun, uintBitsToFloat(node_words[set_at + 4u]),
+                                            sun_at, density, int(node_words[set_at + 12u])), 1.0);
             break;
         }
 #endif

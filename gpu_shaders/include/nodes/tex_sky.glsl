@@ -151,38 +151,30 @@ vec3 node_sky_multiple_scattering(vec3 dir, vec3 sun, float altitude_m, vec3 den
 }
 #endif
 
-// Hosek-Wilkie (sky_hosek.py): one XYZ channel's F(theta, gamma) from its nine parameters
-// p[at .. at + 8].
-float node_sky_hosek_channel(float p[30], int at, float cos_theta, float gamma, float cos_gamma) {
-    float g = p[at + 8];
-    float mie = (1.0 + cos_gamma * cos_gamma) / pow(1.0 + g * g - 2.0 * g * cos_gamma, 1.5);
-    return (1.0 + p[at] * exp(p[at + 1] / (cos_theta + 0.01)))
-           * (p[at + 2] + p[at + 3] * exp(p[at + 4] * gamma) + p[at + 5] * cos_gamma * cos_gamma + p[at + 6] * mie
-              + p[at + 7] * sqrt(cos_theta));
-}
-
-// ``state``: X's, Y's and Z's parameters, then their L_M. gamma is measured from the sun;
-// theta is clamped just above the horizon, as Cycles does.
-vec3 node_sky_hosek(vec3 dir, vec3 sun, float state[30]) {
+#ifdef NODE_SKY_HOSEK
+// Compiled in only for a World with a Hosek-Wilkie node (world_bake.py defines it).
+// Hosek-Wilkie (sky_hosek.py), the three XYZ channels at once: p[0..8] the parameters A..I
+// (the dataset's order: A, B, C, D, E, F, G, I, H) of X, Y and Z, p[9] their L_M. gamma is
+// measured from the sun; theta is clamped just above the horizon, as Cycles does.
+vec3 node_sky_hosek(vec3 dir, vec3 sun, vec3 p[10]) {
     vec3 s = dot(sun, sun) > 0.0 ? normalize(sun) : vec3(0.0, 0.0, 1.0);
     vec3 d = dot(dir, dir) > 0.0 ? normalize(dir) : vec3(0.0, 0.0, 1.0);
     float gamma = acos(clamp(dot(d, s), -1.0, 1.0));
     float cos_theta = cos(min(acos(clamp(d.z, -1.0, 1.0)), 1.5707963 - 0.001));
     float cos_gamma = cos(gamma);
-    vec3 xyz = vec3(node_sky_hosek_channel(state, 0, cos_theta, gamma, cos_gamma),
-                    node_sky_hosek_channel(state, 9, cos_theta, gamma, cos_gamma),
-                    node_sky_hosek_channel(state, 18, cos_theta, gamma, cos_gamma))
-               * vec3(state[27], state[28], state[29]);
+    vec3 mie = (1.0 + cos_gamma * cos_gamma) / pow(1.0 + p[8] * p[8] - 2.0 * p[8] * cos_gamma, vec3(1.5));
+    vec3 xyz = (1.0 + p[0] * exp(p[1] / (cos_theta + 0.01)))
+               * (p[2] + p[3] * exp(p[4] * gamma) + p[5] * cos_gamma * cos_gamma + p[6] * mie + p[7] * sqrt(cos_theta))
+               * p[9];
     return node_sky_xyz_to_rgb(xyz) * (6.2831853 / 683.0);  // Cycles' scale into radiance
 }
+#endif
 
 // ``legacy_sun`` and ``turbidity`` drive Preetham; ``sun_at`` (elevation, rotation, altitude
-// in metres), ``density`` (air, aerosol, ozone) and the table ``row`` the scattering models;
-// Hosek-Wilkie its ``hosek`` state.
-vec3 node_tex_sky(int model, vec3 dir, vec3 legacy_sun, float turbidity, vec3 sun_at, vec3 density, int row,
-                  float hosek[30]) {
+// in metres), ``density`` (air, aerosol, ozone) and the table ``row`` the scattering models.
+// (Hosek-Wilkie is node_sky_hosek, called with its parameters by the interpreter.)
+vec3 node_tex_sky(int model, vec3 dir, vec3 legacy_sun, float turbidity, vec3 sun_at, vec3 density, int row) {
     if (model == 2) return node_sky_preetham(dir, legacy_sun, turbidity);
-    if (model == 3) return node_sky_hosek(dir, legacy_sun, hosek);
 #ifdef NODE_SKY_SCATTERING
     if (model != 0 && model != 1) return vec3(0.0);
     vec3 d = dot(dir, dir) > 0.0 ? normalize(dir) : vec3(0.0, 0.0, 1.0);

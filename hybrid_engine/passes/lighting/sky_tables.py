@@ -53,7 +53,8 @@ class SkyTables:
         self.ctx = ctx
         self.texture = ctx.texture((1, 1), 4, np.ones(4, np.float32).tobytes(), dtype="f4")
         self.made = 0  # tables computed (tests, statistics)
-        self.scattering = False  # the last graph has a scattering model (world_bake.py compiles it in)
+        # The models of the last graph that tex_sky.glsl compiles in on demand (world_bake.py).
+        self.defines: tuple[str, ...] = ()
         self._key: tuple = ()
 
     @staticmethod
@@ -77,7 +78,9 @@ class SkyTables:
 
     def update(self, graph: ShaderGraph) -> None:
         """Make the tables of ``graph`` (as ``assign`` numbered them) unless they are made."""
-        self.scattering = any(_scattering(node) for node in graph.nodes)
+        self.defines = tuple(name for name, used in (
+            ("NODE_SKY_SCATTERING", any(_scattering(node) for node in graph.nodes)),
+            ("NODE_SKY_HOSEK", any(_hosek(node) for node in graph.nodes))) if used)
         key = tuple(_densities(node.settings) for node in graph.nodes if _uses_table(node))
         if key == self._key or not key:
             return

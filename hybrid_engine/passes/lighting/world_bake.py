@@ -118,8 +118,8 @@ class WorldBake:
         # The node families the World's nodes need (Mix, Math, Mapping...), as the scene's
         # material shaders get theirs: a new family costs one compile.
         defines = {family: 1 for family in sorted(program.families)}
-        if self.sky_tables.scattering:
-            defines["NODE_SKY_SCATTERING"] = 1  # tex_sky.glsl: the scattering models' code
+        # tex_sky.glsl: the scattering models' and Hosek-Wilkie's code, only where a World uses it
+        defines.update({name: 1 for name in self.sky_tables.defines})
         prog = shader_loader.compute(self.ctx, "lighting/world_bake.comp.glsl", defines or None)
         bind(prog, storage={"NodeProgram": self._program_buffer, "NodeObjects": self._objects},
              images={"u_target": Image(target, read=False, write=True)},

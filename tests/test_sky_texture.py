@@ -242,3 +242,22 @@ def test_the_hosek_wilkie_state_is_the_dataset_at_its_grid_points():
     np.testing.assert_allclose(state[27:], radiance[:, 1, 2, 5], rtol=1e-12)
     half = hosek_state((0.0, 0.0, 1.0), 3.5, 0.0)
     np.testing.assert_allclose(half[:27], 0.5 * (config[:, 0, 2, 5] + config[:, 0, 3, 5]).reshape(27), rtol=1e-12)
+
+
+@pytest.mark.parametrize("sky_type", ["MULTIPLE_SCATTERING", "SINGLE_SCATTERING", "HOSEK_WILKIE"])
+def test_moving_the_sun_rebakes_the_sky_without_a_shader_compile(ctx, sky_type):
+    """A value edit (the sun's elevation, the air, the turbidity) is one bake and no compile:
+    the model's code is compiled in with the first World that uses it."""
+    from hybrid_engine.gpu import shader_loader
+
+    bake = WorldBake(ctx, width=16)
+    try:
+        bake.update(sky_graph(sky_type, sun_elevation=0.2, sun_direction=(0.0, 0.5, 0.2)))
+        first = np.frombuffer(bake.texture.read(), np.float32).copy()
+        compiled = shader_loader.compiles
+        bake.update(sky_graph(sky_type, sun_elevation=0.9, air_density=2.0, turbidity=5.0,
+                              sun_direction=(0.0, 0.5, 0.9)))
+        assert shader_loader.compiles == compiled and bake.bakes == 2
+        assert not np.allclose(np.frombuffer(bake.texture.read(), np.float32), first, rtol=0.05)
+    finally:
+        bake.release()

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from hybrid_engine.passes.lighting.world_bake import WorldBake
-from hybrid_engine.scene.data import Lights, Sky
+from hybrid_engine.scene.data import Lights, SceneData, Sky
 from hybrid_engine.scene.shader_graph import Link, ShaderGraph
 from hybrid_engine.scene.sky_sun import disc_irradiance, sun_rows
 from test_world_graph import _both, _world_scene, sky_scene
@@ -120,6 +120,13 @@ def test_the_scene_lights_carry_the_sky_sun_lamp():
     assert len(scene.lights) == 1 and scene.lights.names[0] == "Sky Texture (sun disc)"
     assert isinstance(scene.lights, Lights)
     assert len(sky_scene(Sky(color=(1.0, 1.0, 1.0))).lights) == 0
+    # A scene made again from another's lights and sky (scene_buffers.py does) keeps one sun,
+    # and the lamps it was given stay in front.
+    lamp = Lights.from_rows([dict(kind="POINT", position=(0, 0, 2), color=(5, 5, 5), name="lamp")])
+    first = SceneData(scene.geometry, scene.materials, lamp, scene.sky)
+    again = SceneData(first.geometry, first.materials, first.lights, first.sky)
+    assert again.lights.names == ["lamp", "Sky Texture (sun disc)"]
+    assert SceneData(first.geometry, first.materials, first.lights, Sky()).lights.names == ["lamp"]
 
 
 # -- against Cycles, through Blender's render path ------------------------------------------

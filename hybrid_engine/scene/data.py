@@ -340,6 +340,7 @@ class Lights:
     area_axis: np.ndarray | None = None  # (L, 3) float32 unit x axis of area lamps
     area_size_y: np.ndarray | None = None  # (L,) float32 half-size along the y axis
     area_elliptic: np.ndarray | None = None  # (L,) bool: disk or ellipse
+    sky_sun: int = 0  # the last rows are a Sky Texture's sun disc, added by SceneData (sky_sun.py)
 
     def __post_init__(self) -> None:
         self.kind = as_array(self.kind, np.int32, (), "kind")
@@ -370,13 +371,16 @@ class Lights:
     def __len__(self) -> int:
         return int(len(self.kind))
 
-    def extended(self, rows: list[dict]) -> "Lights":
-        """These lights followed by ``rows`` (``from_rows``' dicts)."""
+    def with_sky_sun(self, rows: list[dict]) -> "Lights":
+        """These lights with ``rows`` (``from_rows``' dicts: a Sky Texture's sun disc, sky_sun.py)
+        in place of the sky's rows they had: a scene made again from another's lights and sky
+        keeps one sun, not two."""
+        keep = len(self) - self.sky_sun
         more = Lights.from_rows(rows)
-        arrays = {name: np.concatenate([getattr(self, name), getattr(more, name)])
+        arrays = {name: np.concatenate([getattr(self, name)[:keep], getattr(more, name)])
                   for name in ("kind", "position", "direction", "color", "radius", "spot_size", "spot_blend",
                                "cast_shadow", "area_axis", "area_size_y", "area_elliptic")}
-        return Lights(names=list(self.names) + list(more.names), **arrays)
+        return Lights(names=list(self.names[:keep]) + list(more.names), sky_sun=len(rows), **arrays)
 
     @classmethod
     def empty(cls) -> "Lights":
@@ -469,5 +473,5 @@ class SceneData:
         self.geometry.clamp_material_ids(len(self.materials))
         # A Sky Texture's sun disc lights the scene as a sun lamp (sky_sun.py).
         sun = sun_rows(self.sky.graph)
-        if sun:
-            self.lights = self.lights.extended(sun)
+        if sun or self.lights.sky_sun:
+            self.lights = self.lights.with_sky_sun(sun)

@@ -8,13 +8,16 @@ Color is an equirectangular Environment Texture at its default Vector. Every oth
 (a Sky Texture, an environment through Mapping or Mix, a mirror ball, a linked Strength, a
 Mix Shader of Backgrounds) is read as a graph by the materials' reader (node_graph.py), so
 that groups, reroutes and muted nodes resolve as Blender resolves them; a node it does not
-evaluate is named once, and the rest of the World still renders.
+evaluate is named once, and the rest of the World still renders. A Sky Texture's sun disc
+becomes a sun lamp where its light reaches the World unchanged (hybrid_engine/scene/sky_sun.py);
+elsewhere the artist is told that it gives no light.
 """
 from __future__ import annotations
 
 from ...hybrid_engine.scene.data import Sky
 from ...hybrid_engine.scene.node_codes import SKY_MODELS_EVALUATED
 from ...hybrid_engine.scene.node_program import NODE_SPECS
+from ...hybrid_engine.scene.sky_sun import disc_irradiance, sun_rows
 from . import tell
 from .images import environment_pixels
 from .materials import socket_value, surface_node
@@ -45,8 +48,14 @@ def extract_sky(world) -> Sky:
              world.name, names[0], kind)
     for n in read.graph.nodes:
         if n.kind == "TEX_SKY" and str(n.settings.get("sky_type")) not in SKY_MODELS_EVALUATED:
-            tell("World %s: Sky Texture %r: the %s sky model is not evaluated yet (renders black); "
-                 "Preetham is", world.name, n.name, str(n.settings.get("sky_type")).replace("_", " ").title())
+            tell("World %s: Sky Texture %r: the %s sky model is not evaluated (renders black)", world.name,
+                 n.name, str(n.settings.get("sky_type")).replace("_", " ").title())
+    discs = [n for n in read.graph.nodes if n.kind == "TEX_SKY" and n.settings.get("sun_disc", True)
+             and str(n.settings.get("sky_type")) in ("MULTIPLE_SCATTERING", "SINGLE_SCATTERING")]
+    if discs and not sun_rows(read.graph) and any(disc_irradiance(n.settings).any() for n in discs):
+        tell("World %s: Sky Texture %r: its sun disc lights the scene only when its Color feeds the "
+             "Background's Color directly (Vector unlinked, Strength not linked); here it gives no light",
+             world.name, discs[0].name)
     return Sky(color=(0.0, 0.0, 0.0), strength=1.0, graph=read.graph, images=read.images)
 
 

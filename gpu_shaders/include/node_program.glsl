@@ -715,11 +715,30 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
                                     : vec4(textureLod(u_world_images, vec3(uv, float(layer)), u_world_lod).rgb, 1.0);
             break;
         }
-        case NODE_OP_TEX_SKY: {
+        case NODE_OP_TEX_SKY: {  // settings in NODE_SPECS["TEX_SKY"] order
             vec3 sun = vec3(uintBitsToFloat(node_words[set_at + 1u]), uintBitsToFloat(node_words[set_at + 2u]),
                             uintBitsToFloat(node_words[set_at + 3u]));
-            node_out[0] = vec4(node_tex_sky(int(node_words[set_at]), node_in[0].xyz, sun,
-                                            uintBitsToFloat(node_words[set_at + 4u])), 1.0);
+            vec3 sun_at = vec3(uintBitsToFloat(node_words[set_at + 6u]), uintBitsToFloat(node_words[set_at + 7u]),
+                               uintBitsToFloat(node_words[set_at + 8u]));
+            vec3 density = vec3(uintBitsToFloat(node_words[set_at + 9u]), uintBitsToFloat(node_words[set_at + 10u]),
+                                uintBitsToFloat(node_words[set_at + 11u]));
+            int model = int(node_words[set_at]);
+#ifdef NODE_SKY_HOSEK
+            if (model == 3) {  // Hosek-Wilkie: parameter k of X, Y, Z at words 13 + k, 22 + k, 31 + k
+                vec3 p[10];
+                for (uint k = 0u; k < 9u; ++k) {
+                    uint at = set_at + 13u + k;
+                    p[k] = vec3(uintBitsToFloat(node_words[at]), uintBitsToFloat(node_words[at + 9u]),
+                                uintBitsToFloat(node_words[at + 18u]));
+                }
+                p[9] = vec3(uintBitsToFloat(node_words[set_at + 40u]), uintBitsToFloat(node_words[set_at + 41u]),
+                            uintBitsToFloat(node_words[set_at + 42u]));  // L_M of X, Y, Z
+                node_out[0] = vec4(node_sky_hosek(node_in[0].xyz, sun, p), 1.0);
+                break;
+            }
+#endif
+            node_out[0] = vec4(node_tex_sky(model, node_in[0].xyz, sun, uintBitsToFloat(node_words[set_at + 4u]),
+                                            sun_at, density, int(node_words[set_at + 12u])), 1.0);
             break;
         }
 #endif

@@ -16,6 +16,7 @@ import numpy as np
 from .arrays import SceneDataError, as_array
 from .geometry import Geometry
 from .shader_graph import ShaderGraph
+from .sky_sun import sun_rows
 
 # Light kinds (std430 int in the light buffer)
 LIGHT_POINT, LIGHT_SUN, LIGHT_SPOT, LIGHT_AREA = 0, 1, 2, 3
@@ -339,6 +340,7 @@ class Lights:
     area_axis: np.ndarray | None = None  # (L, 3) float32 unit x axis of area lamps
     area_size_y: np.ndarray | None = None  # (L,) float32 half-size along the y axis
     area_elliptic: np.ndarray | None = None  # (L,) bool: disk or ellipse
+    sky_sun: int = 0  # the last rows are a Sky Texture's sun disc, added by SceneData (sky_sun.py)
 
     def __post_init__(self) -> None:
         self.kind = as_array(self.kind, np.int32, (), "kind")
@@ -368,6 +370,17 @@ class Lights:
 
     def __len__(self) -> int:
         return int(len(self.kind))
+
+    def with_sky_sun(self, rows: list[dict]) -> "Lights":
+        """These lights with ``rows`` (``from_rows``' dicts: a Sky Texture's sun disc, sky_sun.py)
+        in place of the sky's rows they had: a scene made again from another's lights and sky
+        keeps one sun, not two."""
+        keep = len(self) - self.sky_sun
+        more = Lights.from_rows(rows)
+        arrays = {name: np.concatenate([getattr(self, name)[:keep], getattr(more, name)])
+                  for name in ("kind", "position", "direction", "color", "radius", "spot_size", "spot_blend",
+                               "cast_shadow", "area_axis", "area_size_y", "area_elliptic")}
+        return Lights(names=list(self.names[:keep]) + list(more.names), sky_sun=len(rows), **arrays)
 
     @classmethod
     def empty(cls) -> "Lights":
@@ -458,3 +471,7 @@ class SceneData:
         if len(self.materials) == 0:
             raise SceneDataError("the material table needs at least one material (index 0 is the fallback)")
         self.geometry.clamp_material_ids(len(self.materials))
+        # A Sky Texture's sun disc lights the scene as a sun lamp (sky_sun.py).
+        sun = sun_rows(self.sky.graph)
+        if sun or self.lights.sky_sun:
+            self.lights = self.lights.with_sky_sun(sun)

@@ -133,9 +133,9 @@ FAMILY_VECTOR = "NODE_FAMILY_VECTOR"
 # Environment Texture's ``projection`` (node_program.glsl node_environment_uv).
 ENVIRONMENT_PROJECTIONS = {"EQUIRECTANGULAR": 0, "MIRROR_BALL": 1}
 # Sky Texture's ``sky_type`` (Blender 5.0): the models include/nodes/tex_sky.glsl evaluates are
-# SKY_MODELS_EVALUATED; the others read as black and are named to the artist.
+# SKY_MODELS_EVALUATED (all four); one outside it would read as black and be named to the artist.
 SKY_TYPES = {"SINGLE_SCATTERING": 0, "MULTIPLE_SCATTERING": 1, "PREETHAM": 2, "HOSEK_WILKIE": 3}
-SKY_MODELS_EVALUATED = frozenset({"PREETHAM"})
+SKY_MODELS_EVALUATED = frozenset({"PREETHAM", "SINGLE_SCATTERING", "MULTIPLE_SCATTERING", "HOSEK_WILKIE"})
 # -- textures (round 2: procedurals and the Image Texture's mapping) ---------------------------
 OP_TEX_NOISE = 80
 OP_TEX_WAVE = 81

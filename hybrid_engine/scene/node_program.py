@@ -258,7 +258,14 @@ NODE_SPECS: dict[str, NodeSpec] = {
                          ("sun_direction", _component(0, (0.0, 0.0, 1.0))),
                          ("sun_direction", _component(1, (0.0, 0.0, 1.0))),
                          ("sun_direction", _component(2, (0.0, 0.0, 1.0))),
-                         ("turbidity", _float(2.2)), ("ground_albedo", _float(0.3)))),
+                         ("turbidity", _float(2.2)), ("ground_albedo", _float(0.3)),
+                         ("sun_elevation", _float(math.radians(15.0))), ("sun_rotation", _float(0.0)),
+                         ("altitude", _float(100.0)), ("air_density", _float(1.0)),
+                         ("aerosol_density", _float(1.0)), ("ozone_density", _float(1.0)),
+                         # the first row of its transmittance table (world_bake.py sets it)
+                         ("sky_table_row", _int(0)),
+                         # Hosek-Wilkie's parameters for its sun (sky_hosek.py; world_bake.py sets them)
+                         *(("hosek_state", _component(i, (0.0,) * 30)) for i in range(30)))),
 }
 # -- textures (round 2): Blender 5.0's sockets; an unlinked Vector is Generated (Image: UV).
 _TEX_OUT = (("Color", RGBA), ("Fac", VALUE))

@@ -20,6 +20,10 @@ a bake's time grows with the texels (a value edit waits for one bake): four time
 texels cost about five times as long. An equirectangular image read directly keeps its own
 resolution (sky_light.py), so the bake's size matters only for what a graph computes, whose
 detail is a sky gradient or an image seen through it.
+
+Sky Textures: each Multiple Scattering node gets a transmittance table first
+(sky_tables.py: one small dispatch per node, in the same update), which its in-scattering
+reads at every step; the other models need none.
 """
 from __future__ import annotations
 
@@ -33,6 +37,7 @@ from ...gpu.bindings import Image, bind
 from ...scene.node_program import NodeProgram, compile_graph
 from ...scene.shader_graph import ShaderGraph
 from ..scene_upload.textures import pack_layers
+from .sky_tables import SkyTables
 
 # Width of the baked environment (height: half of it); see docs/ARCHITECTURE.md "World".
 BAKE_WIDTH = 512
@@ -55,9 +60,11 @@ class WorldBake:
         self._images = None
         self._image_key: tuple | None = None
         self._key: tuple | None = None
+        self.sky_tables = SkyTables(ctx)
 
     def update(self, graph: ShaderGraph, images: Sequence[np.ndarray] = ()) -> bool:
         """Bake ``graph`` unless the last bake had the same words and images; True when it baked."""
+        graph = self.sky_tables.assign(graph)
         program = compile_graph(graph, "World")
         image_key = tuple((id(image), image.shape) for image in images)
         key = (program.words.tobytes(), image_key, self.width)
@@ -67,6 +74,7 @@ class WorldBake:
         if image_key != self._image_key:
             self._upload_images(images)
             self._image_key = image_key
+        self.sky_tables.update(graph)
         self._bake(program)
         self._key = key
         self.bakes += 1
@@ -109,11 +117,14 @@ class WorldBake:
         lod = max(0.0, math.log2(images.size[0] / target.size[0])) if self._images is not None else 0.0
         # The node families the World's nodes need (Mix, Math, Mapping...), as the scene's
         # material shaders get theirs: a new family costs one compile.
-        prog = shader_loader.compute(self.ctx, "lighting/world_bake.comp.glsl",
-                                     {family: 1 for family in sorted(program.families)} or None)
+        defines = {family: 1 for family in sorted(program.families)}
+        # tex_sky.glsl: the scattering models' and Hosek-Wilkie's code, only where a World uses it
+        defines.update({name: 1 for name in self.sky_tables.defines})
+        prog = shader_loader.compute(self.ctx, "lighting/world_bake.comp.glsl", defines or None)
         bind(prog, storage={"NodeProgram": self._program_buffer, "NodeObjects": self._objects},
              images={"u_target": Image(target, read=False, write=True)},
-             textures={"u_world_images": images, "u_textures": self._no_textures},
+             textures={"u_world_images": images, "u_textures": self._no_textures,
+                       "u_sky_transmittance": self.sky_tables.texture},
              uniforms={"u_world_lod": lod})
         prog.run(-(-target.size[0] // _GROUP), -(-target.size[1] // _GROUP), 1)
         self.ctx.memory_barrier()
@@ -121,6 +132,7 @@ class WorldBake:
         target.filter = (self.ctx.LINEAR_MIPMAP_LINEAR, self.ctx.LINEAR)
 
     def release(self) -> None:
+        self.sky_tables.release()
         for obj in (self.texture, self._program_buffer, self._objects, self._no_textures, self._images):
             if obj is not None:
                 obj.release()

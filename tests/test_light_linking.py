@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
-from hybrid_engine.gpu import shader_loader
+from hybrid_engine.gpu import shader_loader, variants
 from hybrid_engine.scene.camera import look_at
 from hybrid_engine.scene.data import ALL_LINK_SETS
 from hybrid_engine.scene.light_linking import EXCLUDE, INCLUDE, is_linked, resolve
@@ -57,6 +57,15 @@ def test_a_later_entry_of_the_same_object_wins():
 # and a fill lamp lights everything, so that a surface the key lamp skips is not black.
 
 LEFT, RIGHT = (-3.0, 0.0, 0.8), (3.0, 0.0, 0.8)
+
+
+@pytest.fixture(params=["cpu", "gpu"])
+def kernels(request):
+    """Every kernel in one shape (gpu/variants.py): the CPU driver's and the GPU's (the wave
+    tracer, instanced shadow draws, a point lamp's six faces in one multi-draw)."""
+    variants.set_override(f"*={request.param}")
+    yield request.param
+    variants.set_override(None)
 
 
 def two_spheres(*, key: bool = True, light_linked: bool = False, shadow_linked: bool = False,
@@ -132,7 +141,7 @@ def test_the_linked_sphere_keeps_the_linked_lamps_light(renderer):
 
 
 @pytest.mark.parametrize("near_size", [30.0, 1.0], ids=["bvh_hit", "cube_map_hit"])
-def test_a_mirror_shows_the_unlinked_sphere_as_dark_as_with_the_lamp_off(renderer, near_size):
+def test_a_mirror_shows_the_unlinked_sphere_as_dark_as_with_the_lamp_off(renderer, kernels, near_size):
     # The floor is a mirror; the camera sees the right sphere's reflection in it. With a near
     # cube of 30 m the reflected rays hit the sphere in the BVH; with 1 m, in the cube map.
     camera = looking_at((3.0, 0.0, -0.8), eye=(3.0, -6.0, 1.2))
@@ -158,7 +167,7 @@ def test_the_lit_cube_map_leaves_the_unlinked_sphere_dark(renderer):
     assert relative(linked, off, seen) < WITHIN
 
 
-def test_a_shadow_map_holds_only_its_lamps_blockers(renderer):
+def test_a_shadow_map_holds_only_its_lamps_blockers(renderer, kernels):
     camera = looking_at((-3.0, 1.5, 0.0), eye=(-3.0, -4.0, 6.0))
     linked = render(renderer, two_spheres(shadow_linked=True), camera, mode="RASTER")
     unshadowed = render(renderer, two_spheres(key_shadow=False), camera, mode="RASTER")

@@ -302,6 +302,9 @@ class SceneCache:
                 return report
         report.walked = True
         self._linking = export_lights.read_linking(o for o in depsgraph.objects if o.type == "LIGHT")
+        if self._linking is not None and self._linking.overflow:
+            messages.tell("Light Linking: more than 64 different linkings (Blender's limit of light sets); "
+                          "the objects past it are lit and shadowed by every lamp")
         link_key = self._linking.key() if self._linking is not None else None
         self._relink = link_key != self._link_key
         self._link_key = link_key

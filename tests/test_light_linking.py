@@ -52,6 +52,15 @@ def test_a_later_entry_of_the_same_object_wins():
     assert sets.emitter_masks[0] == ALL & ~(1 << sets.object_sets["a"])
 
 
+def test_past_64_sets_the_extra_objects_stay_in_the_default_set():
+    members = {f"c{i}": [(f"o{i}", INCLUDE)] for i in range(70)}
+    sets = resolve(list(members), members)
+    assert sets.overflow
+    assert len(set(sets.object_sets.values())) == 63  # sets 1..63; 0 is the default
+    assert "o69" not in sets.object_sets and sets.object_sets["o0"] == 1
+    assert resolve(["c0"], members).overflow is False
+
+
 # --- Rendering -----------------------------------------------------------------------------
 # Two spheres on a floor; the key lamp is linked to the left sphere only (its receiver set 1)
 # and a fill lamp lights everything, so that a surface the key lamp skips is not black.

@@ -96,6 +96,7 @@ class LampLinking:
     shadow_sets: dict[int, int] = field(default_factory=dict)
     light_masks: dict[int, int] = field(default_factory=dict)
     shadow_masks: dict[int, int] = field(default_factory=dict)
+    overflow: bool = False  # more than 64 sets: some objects stay in the default set
 
     def sets_of(self, pointer: int) -> tuple[int, int]:
         """An object's (receiver set, blocker set); (0, 0) unlinked."""
@@ -144,6 +145,7 @@ def read_linking(lamps) -> LampLinking | None:
                 members[key] = []
                 _members(collection.original, None, members[key])
         resolved = resolve(keys, members)
+        linking.overflow |= resolved.overflow
         sets.update(resolved.object_sets)
         masks.update({p: m for p, m, k in zip(pointers, resolved.emitter_masks, keys) if k is not None})
     return linking

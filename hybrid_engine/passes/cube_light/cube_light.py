@@ -144,7 +144,7 @@ class CubeLightPass:
             if gathered:
                 self._gather(cube, materials, common, center, history or k > 0, blend)
             self._shade(cube, materials, lighting, {**common, "u_gathered": int(gathered)},
-                    frame.read("lighting").defines)
+                        frame.read("lighting").defines)
             self._prev_center = center
         self._downsample()
         frame.write("cube_light", self.lit(rows))

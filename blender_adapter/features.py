@@ -92,11 +92,15 @@ def _object_flag(flag: str, value: bool):
     return used
 
 
-def _light_linking(scene, depsgraph, final) -> list[str]:
+def _emitter_linking(scene, depsgraph, final) -> list[str]:
+    """Objects other than lamps with a receiver or blocker collection (an emissive mesh's
+    linking): lamps' linking is rendered, theirs is not read."""
     if not final:
         return []
     names = set()
     for obj in _objects(depsgraph):
+        if obj.type == "LIGHT":
+            continue
         linking = getattr(obj, "light_linking", None)
         if linking is not None and (linking.receiver_collection is not None or linking.blocker_collection is not None):
             names.add(obj.name)
@@ -160,9 +164,14 @@ FEATURES: tuple[Feature, ...] = (
     Feature("Lamps: Point, Sun, Spot, Area", SUPPORTED,
             "Power, exposure, temperature, Normalize, size and shape, spot cone and blend, "
             "shadows (shadow maps with soft penumbrae)."),
-    Feature("Light Linking", UNSUPPORTED, "Every lamp lights and shadows every object.",
-            "Light Linking on {names} is not rendered yet: every lamp lights and shadows everything",
-            _light_linking),
+    Feature("Light Linking", SUPPORTED,
+            "A lamp's Receiver Collection limits what it lights (the G-buffer, BVH and cube-map "
+            "hits alike) and its Blocker Collection what casts its shadow maps, with Blender's "
+            "Include and Exclude states."),
+    Feature("Light Linking of emissive objects", UNSUPPORTED,
+            "An emissive object lights every object and is shadowed by every object.",
+            "Light Linking of {names} is not rendered: an emissive object's light reaches everything",
+            _emitter_linking),
     Feature("Emissive materials", SUPPORTED, "Emissive triangles light the scene (sampled by power)."),
     Feature("World node graphs", SUPPORTED,
             "Background, Environment Texture (equirectangular, mirror ball), the Sky Texture's "

@@ -181,6 +181,23 @@ class _PersistentMaterials(export_materials.MaterialTableBuilder):
         super().__init__()
         self._originals: dict[int, object] = {}
         self._thickness: dict[int, float] = {}
+        # Light linking: (row, receiver set, blocker set) -> the row's copy for objects of
+        # those sets (hybrid_engine/scene/light_linking.py); none without linking.
+        self._variants: dict[tuple[int, int, int], int] = {}
+
+    def linked(self, slot_ids: np.ndarray, light_set: int, shadow_set: int) -> np.ndarray:
+        """``slot_ids`` for an object of the given linking sets: each row's copy carrying
+        them, made once and refreshed with its row; the rows themselves for sets (0, 0)."""
+        if light_set == 0 and shadow_set == 0:
+            return slot_ids
+        out = np.empty_like(slot_ids)
+        for i, index in enumerate(slot_ids):
+            key = (int(index), light_set, shadow_set)
+            if key not in self._variants:
+                self._variants[key] = len(self.rows)
+                self.rows.append({**self.rows[key[0]], "light_set": light_set, "shadow_set": shadow_set})
+            out[i] = self._variants[key]
+        return out
 
     def index_of(self, material) -> int:
         index = super().index_of(material)
@@ -208,6 +225,10 @@ class _PersistentMaterials(export_materials.MaterialTableBuilder):
                 continue
             self.rows[self._index[key]] = export_materials.material_params(material)
             self._thickness[key] = _thickness(material)
+        rows = {self._index[key] for key in stale}
+        for (index, light_set, shadow_set), row in self._variants.items():
+            if index in rows:
+                self.rows[row] = {**self.rows[index], "light_set": light_set, "shadow_set": shadow_set}
         return len(stale)
 
 
@@ -244,6 +265,9 @@ class SceneCache:
         self._sky: Sky | None = None
         self._world_key: int | None = None
         self._lights = Lights.empty()
+        self._linking: export_lights.LampLinking | None = None  # this sync's light linking
+        self._link_key: tuple | None = None
+        self._relink = False  # the linking changed: every instance's slots are looked up again
         self._scene: SceneData | None = None
         self.synced = False
 
@@ -277,6 +301,13 @@ class SceneCache:
                 report.ms = (time.perf_counter() - start) * 1e3
                 return report
         report.walked = True
+        self._linking = export_lights.read_linking(o for o in depsgraph.objects if o.type == "LIGHT")
+        if self._linking is not None and self._linking.overflow:
+            messages.tell("Light Linking: more than 64 different linkings (Blender's limit of light sets); "
+                          "the objects past it are lit and shadowed by every lamp")
+        link_key = self._linking.key() if self._linking is not None else None
+        self._relink = link_key != self._link_key
+        self._link_key = link_key
 
         mesh_reads: dict[int, object] = {}  # evaluated mesh pointer -> _MeshData (this sync)
         seen: list[tuple] = []
@@ -292,7 +323,10 @@ class SceneCache:
             kind = obj.type
             if kind == "LIGHT" and obj.data.type in export_lights.LIGHT_TYPES:
                 name = _instance_name(instance, obj)
-                light_rows.append(export_lights.light_row(name, obj.data, np.array(instance.matrix_world, np.float64)))
+                row = export_lights.light_row(name, obj.data, np.array(instance.matrix_world, np.float64))
+                if self._linking is not None:
+                    row.update(self._linking.masks_of(obj.original.as_pointer()))
+                light_rows.append(row)
                 continue
             if kind in export_meshes.CONVERTIBLE_TYPES and not instance.is_instance:
                 # Curves, text and metaballs usually evaluate to mesh instances (below);
@@ -366,6 +400,7 @@ class SceneCache:
                                     lights=lights, sky=self._sky)
             changed = True
         self._lights = lights
+        self._relink = False
         self.synced = True
         report.changed = changed
         report.ms = (time.perf_counter() - start) * 1e3
@@ -424,10 +459,12 @@ class SceneCache:
             or mesh.original.as_pointer() in changes.meshes
         )
         touched = (geometry_dirty or entry is None or obj.original.as_pointer() in changes.touched
-                   or owner in changes.touched
+                   or owner in changes.touched or self._relink
                    or (mesh is not None and mesh.original.as_pointer() in changes.touched))
         slot_ids = export_materials.slot_lookup(obj, mesh if mesh is not None else obj.data, self._materials) \
-            if (mesh is not None or entry is None) and touched else entry.slot_ids
+            if (mesh is not None or entry is None or self._relink) and touched else entry.slot_ids
+        if self._linking is not None and slot_ids is not getattr(entry, "slot_ids", None):
+            slot_ids = self._materials.linked(slot_ids, *self._linking.sets_of(obj.original.as_pointer()))
         if geometry_dirty:
             mesh_key = mesh.as_pointer()
             if mesh_key not in mesh_reads:
@@ -618,7 +655,8 @@ def _instance_name(instance, obj) -> str:
 def _same_lights(a: Lights, b: Lights) -> bool:
     if len(a) != len(b):
         return False
-    for name in ("kind", "position", "direction", "color", "radius", "spot_size", "spot_blend", "cast_shadow"):
+    for name in ("kind", "position", "direction", "color", "radius", "spot_size", "spot_blend", "cast_shadow",
+                 "light_mask", "shadow_mask"):
         if not np.array_equal(getattr(a, name, None), getattr(b, name, None)):
             return False
     return True

@@ -46,9 +46,8 @@ def _switch_on(bpy, scene, name: str) -> None:
         plane.is_holdout = True
     elif name == "Shadow Catcher":
         plane.is_shadow_catcher = True
-    elif name == "Light Linking":
-        receivers = bpy.data.collections.new("receivers")
-        next(obj for obj in scene.objects if obj.type == "LIGHT").light_linking.receiver_collection = receivers
+    elif name == "Light Linking of emissive objects":
+        plane.light_linking.receiver_collection = bpy.data.collections.new("receivers")
     elif name == "World Volume":
         tree = scene.world.node_tree
         volume = tree.nodes.new("ShaderNodeVolumePrincipled")
@@ -63,7 +62,7 @@ def _switch_on(bpy, scene, name: str) -> None:
 
 
 MESSAGED = ["Depth of Field", "Motion Blur", "Stereoscopy", "Freestyle", "Ray Visibility", "Holdout",
-            "Shadow Catcher", "Light Linking", "World Volume", "Hair Curves", "Volume objects", "Point Clouds",
+            "Shadow Catcher", "Light Linking of emissive objects", "World Volume", "Hair Curves", "Volume objects", "Point Clouds",
             "Grease Pencil"]
 
 

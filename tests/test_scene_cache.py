@@ -283,3 +283,45 @@ def test_assigning_another_material_to_a_slot_shows_in_the_next_frame(addon, fed
     after = _frame(addon, bpy, session).image
     assert np.abs(after - before).max() > 0.05
     np.testing.assert_array_equal(after, _from_scratch(addon, bpy))
+
+
+def test_editing_a_lamps_light_linking_shows_in_the_next_frame(addon, fed_session):
+    import bpy
+
+    session, reports = fed_session
+    scene, cube = _scene(bpy)
+    sun = next(obj for obj in scene.objects if obj.type == "LIGHT")
+    receivers = bpy.data.collections.new("receivers")
+    receivers.objects.link(cube)
+    bpy.context.evaluated_depsgraph_get()
+    before = _frame(addon, bpy, session).image
+    sun.light_linking.receiver_collection = receivers  # the sun lights the cube alone: only the sun changed
+    bpy.context.evaluated_depsgraph_get()
+    linked = _frame(addon, bpy, session).image
+    assert np.abs(linked - before).max() > 0.05
+    np.testing.assert_array_equal(linked, _from_scratch(addon, bpy))
+    receivers.collection_objects[0].light_linking.link_state = "EXCLUDE"  # all but the cube
+    bpy.context.evaluated_depsgraph_get()
+    excluded = _frame(addon, bpy, session).image
+    assert np.abs(excluded - linked).max() > 0.05
+    np.testing.assert_array_equal(excluded, _from_scratch(addon, bpy))
+
+
+def test_a_linked_objects_material_edit_shows_in_the_next_frame(addon, fed_session):
+    import bpy
+
+    session, reports = fed_session
+    scene, cube = _scene(bpy)
+    grey = bpy.data.materials.new("grey")
+    cube.data.materials.append(grey)
+    receivers = bpy.data.collections.new("receivers")
+    receivers.objects.link(cube)
+    next(obj for obj in scene.objects if obj.type == "LIGHT").light_linking.receiver_collection = receivers
+    bpy.context.evaluated_depsgraph_get()
+    before = _frame(addon, bpy, session).image
+    # The cube wears a copy of its material that carries its light set: an edit reaches it.
+    grey.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (1.0, 0.0, 0.0, 1.0)
+    bpy.context.evaluated_depsgraph_get()
+    after = _frame(addon, bpy, session).image
+    assert np.abs(after - before).max() > 0.05
+    np.testing.assert_array_equal(after, _from_scratch(addon, bpy))

@@ -1,11 +1,16 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Lamps as Blender defines them: position, direction, colour times power (Exposure,
-Temperature, Normalize), size and spot cone, as rows of ``hybrid_engine.scene.data.Lights``."""
+Temperature, Normalize), size and spot cone, as rows of ``hybrid_engine.scene.data.Lights``;
+and their light and shadow linking (receiver and blocker collections, Blender 4.0+)."""
 from __future__ import annotations
+
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ...hybrid_engine.scene.blackbody import blackbody_rgb
+from ...hybrid_engine.scene.data import ALL_LINK_SETS
+from ...hybrid_engine.scene.light_linking import resolve  # its INCLUDE, EXCLUDE: Blender's link_state names
 
 LIGHT_TYPES = frozenset({"POINT", "SUN", "SPOT", "AREA"})
 
@@ -78,3 +83,69 @@ def light_row(name: str, light, matrix: np.ndarray) -> dict:
     if light.type == "AREA":
         row.update(_area_shape(light, matrix))
     return row
+
+
+@dataclass
+class LampLinking:
+    """The light and shadow linking of a depsgraph's lamps, by original pointers: each linked
+    object's receiver and blocker set, each linked lamp's masks (scene/light_linking.py).
+    Lamps only: an emissive object's receiver collection is not read (its light is traced
+    towards every surface)."""
+
+    light_sets: dict[int, int] = field(default_factory=dict)
+    shadow_sets: dict[int, int] = field(default_factory=dict)
+    light_masks: dict[int, int] = field(default_factory=dict)
+    shadow_masks: dict[int, int] = field(default_factory=dict)
+    overflow: bool = False  # more than 64 sets: some objects stay in the default set
+
+    def sets_of(self, pointer: int) -> tuple[int, int]:
+        """An object's (receiver set, blocker set); (0, 0) unlinked."""
+        return self.light_sets.get(pointer, 0), self.shadow_sets.get(pointer, 0)
+
+    def masks_of(self, pointer: int) -> dict:
+        """A lamp's masks as ``light_row`` keys (every set when it is not linked)."""
+        everything = int(ALL_LINK_SETS)
+        return dict(light_mask=self.light_masks.get(pointer, everything),
+                    shadow_mask=self.shadow_masks.get(pointer, everything))
+
+    def key(self) -> tuple:
+        """Equal for equal linking: a sync whose key changed reads every instance again."""
+        return tuple(tuple(sorted(d.items())) for d in (self.light_sets, self.shadow_sets, self.light_masks,
+                                                        self.shadow_masks))
+
+
+def _members(collection, state: str | None, out: list) -> None:
+    """Collection's objects with their effective link state, in Blender's order (the
+    depsgraph's light-linking cache): child collections first, each with the state of its
+    entry in the linking collection (``state`` None: that top level), then the objects."""
+    for entry, child in zip(collection.collection_children, collection.children):
+        _members(child, state or entry.light_linking.link_state, out)
+    for entry, obj in zip(collection.collection_objects, collection.objects):
+        out.append((obj.original.as_pointer(), state or entry.light_linking.link_state))
+
+
+def read_linking(lamps) -> LampLinking | None:
+    """The linking of ``lamps`` (evaluated lamp objects), None when none has a receiver or
+    blocker collection: the common scene pays one attribute read per lamp."""
+    receivers, blockers, pointers = [], [], []
+    for obj in lamps:
+        links = getattr(obj, "light_linking", None)
+        receivers.append(getattr(links, "receiver_collection", None))
+        blockers.append(getattr(links, "blocker_collection", None))
+        pointers.append(obj.original.as_pointer())
+    if not any(receivers) and not any(blockers):
+        return None
+    linking = LampLinking()
+    for collections, sets, masks in ((receivers, linking.light_sets, linking.light_masks),
+                                     (blockers, linking.shadow_sets, linking.shadow_masks)):
+        keys = [c.original.as_pointer() if c is not None else None for c in collections]
+        members: dict[int, list] = {}
+        for key, collection in zip(keys, collections):
+            if collection is not None and key not in members:
+                members[key] = []
+                _members(collection.original, None, members[key])
+        resolved = resolve(keys, members)
+        linking.overflow |= resolved.overflow
+        sets.update(resolved.object_sets)
+        masks.update({p: m for p, m, k in zip(pointers, resolved.emitter_masks, keys) if k is not None})
+    return linking

@@ -103,7 +103,8 @@ void main() {
     cube_texel_normals(atlas, nm, p, n_facing, g_facing);
     SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n_facing, g_facing);
     if (split.diffuse_weight > 0.0) {
-        DirectLight direct = direct_lighting(p, split.n_facing, -view_dir, vec3(0.0), 0.0, 1.0, true);
+        DirectLight direct = direct_lighting(p, split.n_facing, -view_dir, vec3(0.0), 0.0, 1.0, true,
+                                              material_light_set(m));  // light linking
         vec4 gathered = u_gathered != 0 ? gathered_light(face, row, local, p, split.n_facing) : vec4(0.0, 0.0, 0.0, 1.0);
         vec3 irradiance = direct.irradiance + sky_irradiance(split.n_facing) * gathered.a + gathered.rgb;
         light += split.diffuse_weight * albedo / PI * irradiance;

@@ -24,6 +24,24 @@
 layout(std140) uniform LightBuffer { Light lights[1024]; };
 layout(std140) uniform ShadowSlotBuffer { ShadowSlot shadow_slots[512]; };
 
+// LIGHT_LINKING defined (FrameResources.defines: some lamp lights less than every object,
+// hybrid_engine/scene/light_linking.py): light_links[i].xy is lamp i's 64-bit mask of the
+// receiver sets it lights (low word, high word), and a surface's set is its material's
+// (params2.z). Without it no lamp is skipped and the block is not declared.
+#ifdef LIGHT_LINKING
+layout(std140) uniform LightLinkBuffer { uvec4 light_links[1024]; };
+
+bool lamp_lights_set(int i, int receiver_set) {
+    uint word = receiver_set < 32 ? light_links[i].x : light_links[i].y;
+    return ((word >> uint(receiver_set & 31)) & 1u) != 0u;
+}
+#endif
+
+// The receiver set of the objects that wear material m (0: the default set).
+int material_light_set(Material m) {
+    return int(m.params2.z + 0.5);
+}
+
 uniform sampler2D u_shadow_atlas;    // objects at rest (hybrid_engine/passes/shadow_maps/shadow_cache.py)
 uniform sampler2D u_shadow_dynamic;  // moving objects: same slots, the nearer depth wins
 uniform int u_light_count;
@@ -359,7 +377,10 @@ struct DirectLight {
     vec3 glossy;
 };
 
-DirectLight direct_lighting(vec3 p, vec3 n, vec3 v, vec3 f0, float f90, float roughness, bool diffuse) {
+// `receiver_set`: the surface's light-linking set (material_light_set); lamps that do not
+// light it are skipped (LIGHT_LINKING only).
+DirectLight direct_lighting(vec3 p, vec3 n, vec3 v, vec3 f0, float f90, float roughness, bool diffuse,
+                            int receiver_set) {
     DirectLight result;
     result.irradiance = vec3(0.0);
     result.glossy = vec3(0.0);
@@ -371,6 +392,9 @@ DirectLight direct_lighting(vec3 p, vec3 n, vec3 v, vec3 f0, float f90, float ro
     float alpha = roughness * roughness;
     vec3 mirror = reflect(-v, n);
     for (int i = 0; i < u_light_count; ++i) {
+#ifdef LIGHT_LINKING
+        if (!lamp_lights_set(i, receiver_set)) continue;
+#endif
         Light light = lights[i];
         int kind = light.info.x;
         vec3 to_light, to_highlight;
@@ -433,4 +457,9 @@ DirectLight direct_lighting(vec3 p, vec3 n, vec3 v, vec3 f0, float f90, float ro
         }
     }
     return result;
+}
+
+// Every lamp's light, for callers without a linked surface (the default set).
+DirectLight direct_lighting(vec3 p, vec3 n, vec3 v, vec3 f0, float f90, float roughness, bool diffuse) {
+    return direct_lighting(p, n, v, f0, f90, roughness, diffuse, 0);
 }

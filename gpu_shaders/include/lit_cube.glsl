@@ -52,7 +52,7 @@ vec3 cube_hit_light(Material m, Hit h, vec3 view_dir, SpecularSplit split, float
     float cone = 2.0 * blur * blur;
     float highlight_roughness = max(material_roughness(m), blur);
     vec3 glossy = direct_lighting(h.position, split.n_facing, -view_dir, split.lamp_f0, split.lamp_f90,
-                                  highlight_roughness, false).glossy;
+                                  highlight_roughness, false, material_light_set(m)).glossy;  // light linking
     return cube_stored_radiance(h, cone) + glossy;
 }
 

@@ -220,7 +220,7 @@ vec3 lamp_light_response(Material m, vec3 albedo, vec3 emission, vec3 p, vec3 vi
     vec3 n = split.n_facing;
     float highlight_roughness = max(material_roughness(m), highlight_blur);
     DirectLight direct = direct_lighting(p, n, -view_dir, split.lamp_f0, split.lamp_f90, highlight_roughness,
-                                         split.diffuse_weight > 0.0);
+                                         split.diffuse_weight > 0.0, material_light_set(m));  // light linking
     if (split.diffuse_weight > 0.0) {
         color += split.diffuse_weight * albedo / PI * direct.irradiance;
     }

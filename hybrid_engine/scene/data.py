@@ -21,6 +21,10 @@ from .sky_sun import sun_rows
 # Light kinds (std430 int in the light buffer)
 LIGHT_POINT, LIGHT_SUN, LIGHT_SPOT, LIGHT_AREA = 0, 1, 2, 3
 LIGHT_KINDS = {"POINT": LIGHT_POINT, "SUN": LIGHT_SUN, "SPOT": LIGHT_SPOT, "AREA": LIGHT_AREA}
+# Light and shadow linking (light_linking.py): sets 0..63, as Blender's light sets; a lamp's
+# masks hold one bit per set, all of them when the lamp is not linked.
+MAX_LINK_SETS = 64
+ALL_LINK_SETS = np.uint64(0xFFFF_FFFF_FFFF_FFFF)
 
 
 @dataclass
@@ -96,10 +100,21 @@ class MaterialTable:
     # Per material, its shader node graph (shader_graph.py) where the fixed rows above cannot
     # hold what the artist built, else None; None for the whole table: no graphs at all.
     node_graphs: list[ShaderGraph | None] | None = None
+    # Light and shadow linking (scene/light_linking.py): the receiver set and the blocker set
+    # of the objects that wear this row (Cycles' light sets); None: all 0, the default set
+    # every lamp lights and every shadow holds.
+    light_set: np.ndarray | None = None  # (M,) int32 in 0..MAX_LINK_SETS - 1
+    shadow_set: np.ndarray | None = None  # (M,) int32 in 0..MAX_LINK_SETS - 1
 
     def __post_init__(self) -> None:
         self.base_color = as_array(self.base_color, np.float32, (3,), "base_color")
         m = len(self.base_color)
+        for name in ("light_set", "shadow_set"):
+            value = getattr(self, name)
+            sets = np.zeros(m, np.int32) if value is None else as_array(value, np.int32, (), name)
+            if len(sets) != m or ((sets < 0) | (sets >= MAX_LINK_SETS)).any():
+                raise SceneDataError(f"material {name} must hold {m} values in 0..{MAX_LINK_SETS - 1}")
+            setattr(self, name, sets)
         self.emission = as_array(self.emission, np.float32, (3,), "emission")
         for name in ("roughness", "specular"):
             if getattr(self, name) is None:
@@ -222,6 +237,8 @@ class MaterialTable:
             alpha_channel=np.array(get("alpha_channel", ALPHA_CHANNEL), np.int32),
             alpha_clip=np.array(get("alpha_clip", 0.0), np.float32),
             textures=texture_list,
+            light_set=np.array(get("light_set", 0), np.int32),
+            shadow_set=np.array(get("shadow_set", 0), np.int32),
         )
 
     def packed(self) -> np.ndarray:
@@ -251,6 +268,9 @@ class MaterialTable:
         out["params2"][:, 0] = np.clip(np.nan_to_num(self.alpha, nan=1.0), 0.0, 1.0)
         out["params2"][:, 1] = np.where(self.alpha_texture >= 0, np.nan_to_num(self.alpha_clip), 0.0)
         out["textures2"][:, 2] = np.where(self.alpha_texture >= 0, self.alpha_texture * 4 + self.alpha_channel, -1)
+        # The linking sets (exact in a float: at most MAX_LINK_SETS); 0 unless linked.
+        out["params2"][:, 2] = self.light_set
+        out["params2"][:, 3] = self.shadow_set
         return out
 
 
@@ -341,10 +361,19 @@ class Lights:
     area_size_y: np.ndarray | None = None  # (L,) float32 half-size along the y axis
     area_elliptic: np.ndarray | None = None  # (L,) bool: disk or ellipse
     sky_sun: int = 0  # the last rows are a Sky Texture's sun disc, added by SceneData (sky_sun.py)
+    # Light linking: bit s of ``light_mask[i]`` says lamp i lights the objects of receiver
+    # set s (MaterialTable.light_set), of ``shadow_mask[i]`` that the objects of blocker set
+    # s cast its shadow (MaterialTable.shadow_set); None: every set (not linked).
+    light_mask: np.ndarray | None = None  # (L,) uint64
+    shadow_mask: np.ndarray | None = None  # (L,) uint64
 
     def __post_init__(self) -> None:
         self.kind = as_array(self.kind, np.int32, (), "kind")
         n = len(self.kind)
+        for name in ("light_mask", "shadow_mask"):
+            value = getattr(self, name)
+            setattr(self, name, np.full(n, ALL_LINK_SETS, np.uint64) if value is None
+                    else np.asarray(value, np.uint64).reshape(-1))
         self.position = as_array(self.position, np.float32, (3,), "position")
         self.direction = as_array(self.direction, np.float32, (3,), "direction")
         self.color = as_array(self.color, np.float32, (3,), "color")
@@ -360,7 +389,7 @@ class Lights:
         self.area_elliptic = as_array(np.zeros(n, bool) if self.area_elliptic is None else self.area_elliptic,
                                       bool, (), "area_elliptic")
         for name in ("position", "direction", "color", "radius", "spot_size", "spot_blend", "cast_shadow",
-                     "area_axis", "area_size_y", "area_elliptic"):
+                     "area_axis", "area_size_y", "area_elliptic", "light_mask", "shadow_mask"):
             if len(getattr(self, name)) != n:
                 raise SceneDataError(f"light {name} has {len(getattr(self, name))} rows, expected {n}")
         if ((self.kind < 0) | (self.kind > LIGHT_AREA)).any():
@@ -379,7 +408,8 @@ class Lights:
         more = Lights.from_rows(rows)
         arrays = {name: np.concatenate([getattr(self, name)[:keep], getattr(more, name)])
                   for name in ("kind", "position", "direction", "color", "radius", "spot_size", "spot_blend",
-                               "cast_shadow", "area_axis", "area_size_y", "area_elliptic")}
+                               "cast_shadow", "area_axis", "area_size_y", "area_elliptic",
+                               "light_mask", "shadow_mask")}  # the sky's sun lights every set
         return Lights(names=list(self.names[:keep]) + list(more.names), sky_sun=len(rows), **arrays)
 
     @classmethod
@@ -389,8 +419,9 @@ class Lights:
     @classmethod
     def from_rows(cls, rows: list[dict]) -> "Lights":
         """Build from dicts: kind ('POINT'|'SUN'|'SPOT'|'AREA' or int), position, direction,
-        color (already times power), radius, spot_size, spot_blend, cast_shadow, name, and for
-        area lamps area_axis, area_size_y and area_elliptic (defaults: a square)."""
+        color (already times power), radius, spot_size, spot_blend, cast_shadow, name, for
+        area lamps area_axis, area_size_y and area_elliptic (defaults: a square), and the
+        linking masks light_mask and shadow_mask (default: every set)."""
         def kind_of(value):
             return LIGHT_KINDS[value] if isinstance(value, str) else int(value)
 
@@ -411,6 +442,8 @@ class Lights:
                                np.float32).reshape(-1, 3),
             area_size_y=np.array([r.get("area_size_y", r.get("radius", 0.0)) for r in rows], np.float32),
             area_elliptic=np.array([r.get("area_elliptic", False) for r in rows], bool),
+            light_mask=np.array([r.get("light_mask", ALL_LINK_SETS) for r in rows], np.uint64),
+            shadow_mask=np.array([r.get("shadow_mask", ALL_LINK_SETS) for r in rows], np.uint64),
         )
 
 

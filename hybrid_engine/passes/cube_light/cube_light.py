@@ -143,7 +143,8 @@ class CubeLightPass:
             blend = BLEND if history else 1.0 / (k + 1)
             if gathered:
                 self._gather(cube, materials, common, center, history or k > 0, blend)
-            self._shade(cube, materials, lighting, {**common, "u_gathered": int(gathered)})
+            self._shade(cube, materials, lighting, {**common, "u_gathered": int(gathered)},
+                        frame.read("lighting").defines)
             self._prev_center = center
         self._downsample()
         frame.write("cube_light", self.lit(rows))
@@ -161,8 +162,9 @@ class CubeLightPass:
         prog.run(math.ceil(g.width / WORKGROUP), math.ceil(g.height / WORKGROUP), 1)
         self.ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT | moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)
 
-    def _shade(self, cube, materials, lighting, common: dict) -> None:
-        prog = shader_loader.compute(self.ctx, "cube_light/cube_light_shade.comp.glsl", cube.defines or None)
+    def _shade(self, cube, materials, lighting, common: dict, lighting_defines: dict) -> None:
+        defines = {**cube.defines, **lighting_defines}  # light linking
+        prog = shader_loader.compute(self.ctx, "cube_light/cube_light_shade.comp.glsl", defines or None)
         bind(prog, materials, lighting, textures={**cube.textures, "u_gather": self.gather[0]},
              images={"u_radiance": Image(self.radiance[0], read=False, write=True, level=0)},
              uniforms=common)

@@ -10,9 +10,12 @@ include/lighting.glsl, sky.glsl and world_light.glsl declare.
 """
 from __future__ import annotations
 
+import numpy as np
+
 from ...gpu.bindings import Bindings
 from ...gpu.dispatch import GrowBuffer, SceneLimitError, bytes_of
 from ...scene.data import Lights, Sky
+from ...scene.light_linking import is_linked, mask_words
 from ...scene.settings import RenderSettings
 from ..frame_context import FrameContext, PassIO
 from ..shadow_maps.shadow_atlas import ShadowAtlas
@@ -40,14 +43,28 @@ class FrameResources:
         self.shadow_normal_offset = 0.0
         self.ao_distance = 0.0
         self.diffuse_rays = False  # diffuse light gathered by paths (passes/diffuse_light/)
+        # Light linking (scene/light_linking.py): the lamps' receiver masks, made and bound
+        # only for a scene whose lamps are linked, so that others compile nothing new.
+        self.linked = False
+        self._links = None
 
-    def update_lights(self, lights: Lights, shadows: ShadowMaps, settings: RenderSettings) -> None:
+    def update_lights(self, lights: Lights, shadows: ShadowMaps, settings: RenderSettings,
+                      linked: bool = False) -> None:
         """This frame's lights with their shadow slots (laid out in ``shadows.atlas``), and
-        the settings of the lighting (shadow bias, ambient-occlusion reach)."""
+        the settings of the lighting (shadow bias, ambient-occlusion reach). ``linked``: some
+        lamp lights less than every object (light_linking.is_linked)."""
         if len(lights) > MAX_LIGHTS:
             raise SceneLimitError(f"the scene has {len(lights)} lamps; Hybrid RT renders at most {MAX_LIGHTS}: "
                                   "hide some, or light with emissive meshes or the World")
         self.lights.upload(bytes_of(pack_lights(lights, shadows.per_light)))
+        self.linked = linked
+        if linked:
+            if self._links is None:
+                self._links = self.ctx.buffer(reserve=MAX_LIGHTS * 16)  # the whole block, as above
+            rows = np.zeros((MAX_LIGHTS, 4), np.uint32)
+            rows[:len(lights), :2] = mask_words(lights.light_mask)
+            rows[:len(lights), 2:] = mask_words(lights.shadow_mask)
+            self._links.write(rows.tobytes())
         self.shadows = shadows.atlas
         self.light_count = len(lights)
         self.shadow_bias = float(settings.shadow_bias)
@@ -55,6 +72,12 @@ class FrameResources:
         self.shadow_normal_offset = float(settings.shadow_normal_offset)
         self.ao_distance = float(settings.ao_distance)
         self.diffuse_rays = settings.traces_diffuse
+
+    @property
+    def defines(self) -> dict:
+        """What the shaders that light a surface need defined: ``LIGHT_LINKING`` (the lamp
+        loop's set test, include/lighting.glsl) only when the scene's lamps are linked."""
+        return {"LIGHT_LINKING": 1} if self.linked else {}
 
     @property
     def occludes(self) -> bool:
@@ -70,9 +93,10 @@ class FrameResources:
         if self.shadows is None:
             raise RuntimeError("FrameResources.update_lights must run before the lighting is bound")
         self.shadows.ensure_bindable()
+        links = {"LightLinkBuffer": self._links} if self.linked else {}
         return Bindings(
             storage={"LightBuffer": self.lights.buffer, "ShadowSlotBuffer": self.shadows.slot_buffer,
-                     "SkyIrradiance": self.sky.sh_buffer},
+                     "SkyIrradiance": self.sky.sh_buffer, **links},
             textures={"u_shadow_atlas": self.shadows.static, "u_shadow_dynamic": self.shadows.dynamic,
                       "u_sky_env": self.sky.texture()},
             uniforms={**self.sky.uniforms(), "u_light_count": self.light_count, "u_shadow_bias": self.shadow_bias,
@@ -84,6 +108,9 @@ class FrameResources:
     def release(self) -> None:
         self.lights.release()
         self.sky.release()
+        if self._links is not None:
+            self._links.release()
+            self._links = None
 
 
 class LightingPass:
@@ -100,6 +127,7 @@ class LightingPass:
 
     def run(self, frame: FrameContext) -> None:
         scene = frame.read("scene")
-        self.resources.update_lights(scene.lights, frame.read("shadow_maps"), frame.settings)
+        self.resources.update_lights(scene.lights, frame.read("shadow_maps"), frame.settings,
+                                     is_linked(scene.materials, scene.lights))
         self.resources.update_sky(scene.sky)
         frame.write("lighting", self.resources)

@@ -46,8 +46,9 @@ class DeferredShadePass:
         is read from ``ambient`` (the frame's ``ambient`` resource: screen_ao.py's or the
         tracer's sky rays' estimate, run first; ``targets.ambient`` when None), smoothed over
         3x3 pixels unless ``ambient_filtered`` (the denoiser, passes/denoise/, filtered it)."""
-        prog = (shader_loader.compute(self.ctx, "shading/deferred_shade.comp.glsl", gpu.defines)
-                if gpu.defines else self.program)
+        defines = {**gpu.defines, **resources.defines}  # node programs, light linking
+        prog = (shader_loader.compute(self.ctx, "shading/deferred_shade.comp.glsl", defines)
+                if defines else self.program)
         bind(prog, gpu.bindings(), resources.bindings(),
              textures={"u_depth": targets.depth, "u_normal_material": targets.normal_material,
                        "u_albedo": targets.albedo, "u_emission_scale": targets.emission_scale,

@@ -23,7 +23,8 @@ from ..view_cull.draw import SceneDrawer
 from ..view_cull.view_cull import MAX_VIEWS
 from ...scene.camera import (Camera, cube_face_views, look_at, orthographic_matrix, perspective_matrix, view_from_world)
 from ...scene.changes import GeometryDelta
-from ...scene.data import LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN, Lights, SceneData
+from ...scene.data import ALL_LINK_SETS, LIGHT_AREA, LIGHT_POINT, LIGHT_SPOT, LIGHT_SUN, Lights, SceneData
+from ...scene.light_linking import blockers, object_shadow_sets, shadow_linked
 from ...scene.settings import RenderSettings
 from ..frame_context import FrameContext, PassIO
 from ..scene_upload.scene_buffers import GPUScene
@@ -57,6 +58,31 @@ def alpha_key(materials) -> bytes:
     images = [id(materials.textures[i]) if i >= 0 else -1 for i in materials.alpha_texture]
     return b"".join(np.ascontiguousarray(a).tobytes() for a in (
         materials.alpha, materials.alpha_channel, materials.alpha_clip, np.asarray(images, np.int64)))
+
+
+@dataclass
+class ShadowLinks:
+    """Shadow linking of a frame (scene/light_linking.py): each slot's lamp's mask of the
+    blocker sets that cast its shadow, and each object's blocker set."""
+
+    slot_masks: np.ndarray  # (slots,) uint64
+    object_sets: np.ndarray  # (K,) int32
+
+    @classmethod
+    def of(cls, scene: SceneData, per_light: list[tuple[int, int]], slots: int) -> "ShadowLinks | None":
+        """None for a scene whose lamps' shadows hold every object (no work at all then)."""
+        lights = scene.lights
+        if not shadow_linked(lights):
+            return None
+        masks = np.full(slots, ALL_LINK_SETS, np.uint64)
+        for i, (first, count) in enumerate(per_light):
+            if first >= 0:
+                masks[first:first + count] = lights.shadow_mask[i]
+        return cls(masks, object_shadow_sets(scene))
+
+    def key(self) -> bytes:
+        """What of the linking the maps depend on: an edit re-renders them."""
+        return self.slot_masks.tobytes() + self.object_sets.tobytes()
 
 
 @dataclass
@@ -213,8 +239,10 @@ class ShadowDepthPass:
         resolution = int(settings.shadow_resolution)
         layout = frame_shadow_views(scene, camera, int(settings.shadow_cascades), resolution)
         views, cascade = layout.views, layout.cascade
+        links = ShadowLinks.of(scene, layout.per_light, len(views))
         key = (shadow_key(scene.lights), alpha_key(scene.materials), resolution, len(views), cascade.tobytes(),
-               b"".join(np.asarray(v.view_proj, np.float64).tobytes() for v, c in zip(views, cascade) if not c))
+               b"".join(np.asarray(v.view_proj, np.float64).tobytes() for v, c in zip(views, cascade) if not c),
+               links.key() if links is not None else b"")
         ranges = scene.geometry.object_ranges
         draws = [LayerDraws.planned("shadow", self.cache.plan(ranges, delta, key), ~cascade, np.zeros_like(cascade))]
         moved = self._moved_cascades(views, cascade)
@@ -239,8 +267,8 @@ class ShadowDepthPass:
                     for draw in wanted:
                         include = ~draw.static_mask if dynamic else draw.static_mask
                         layer = f"{draw.name}_{'dynamic' if dynamic else 'static'}"
-                        submitted += self.render_slots(layer, gpu, scene, atlas, views, draw.slots(dynamic),
-                                                       dynamic, include)
+                        submitted += self.render_linked(layer, gpu, scene, atlas, views, draw.slots(dynamic),
+                                                        dynamic, include, links)
             except BaseException:
                 self.cache.reset()  # the layers are incomplete
                 self.cascade_cache.reset()
@@ -260,6 +288,25 @@ class ShadowDepthPass:
         if last is None or len(last) != len(matrices):
             return cascade.copy()
         return np.array([m is not None and m != old for m, old in zip(matrices, last)], bool)
+
+    def render_linked(self, layer: str, gpu: GPUScene, scene: SceneData, atlas: ShadowAtlas,
+                      views: list[ShadowView], slots: np.ndarray, dynamic: bool, include: np.ndarray | None,
+                      links: ShadowLinks | None) -> int:
+        """``render_slots``, with shadow linking: the slots of the lamps whose blocker
+        collection leaves objects out draw only their blockers, a group of slots per mask
+        (each with cullers of its own, as each layer has); the others draw every object."""
+        if links is None:
+            return self.render_slots(layer, gpu, scene, atlas, views, slots, dynamic, include)
+        submitted = 0
+        for k, mask in enumerate(np.unique(links.slot_masks[slots])):
+            group = slots & (links.slot_masks == mask)
+            if mask == ALL_LINK_SETS:
+                submitted += self.render_slots(layer, gpu, scene, atlas, views, group, dynamic, include)
+                continue
+            blocking = blockers(links.object_sets, int(mask))
+            submitted += self.render_slots(f"{layer}_linked{k}", gpu, scene, atlas, views, group, dynamic,
+                                           blocking if include is None else include & blocking)
+        return submitted
 
     def render_slots(self, layer: str, gpu: GPUScene, scene: SceneData, atlas: ShadowAtlas,
                      views: list[ShadowView], slots: np.ndarray, dynamic: bool,

@@ -203,6 +203,7 @@ class HybridTracer:
                    **(lit.defines if lit is not None else {}),
                    **({"DIAGNOSTIC": 1} if diagnostic else {}),
                    **gpu.defines,
+                   **resources.defines,  # light linking (scene/light_linking.py)
                    # The traversal's any-hit alpha test (trace_ray.glsl), only where some
                    # surface is not wholly there: opaque scenes trace as without it.
                    **({"ALPHA_TEST": 1} if scene.materials.has_alpha else {})}

@@ -273,3 +273,23 @@ def test_a_light_pass_switch_adds_and_removes_the_render_layers_socket(addon):
         setattr(layer, flag, True)
         assert name in shown(), name
         setattr(layer, flag, False)
+
+
+def test_the_passes_panel_offers_every_light_pass_and_the_worlds_mist(addon):
+    """The View Layer's Passes panel (ui/panels.py) lists the light passes the engine writes,
+    and the World's Mist panel shows for it: the settings the Mist pass follows."""
+    import bpy
+    from test_properties import RecordingLayout
+
+    drawn: list[str] = []
+
+    class FakeContext:
+        scene = bpy.context.scene
+        view_layer = bpy.context.view_layer
+
+    class FakePanel:
+        layout = RecordingLayout(drawn)
+
+    addon.ui.panels.VIEWLAYER_PT_hybrid_rt_passes.draw(FakePanel(), FakeContext)
+    assert set(PASSES) <= set(drawn)
+    assert "HYBRID_RT" in bpy.types.EEVEE_WORLD_PT_mist.COMPAT_ENGINES

@@ -21,7 +21,8 @@
 // Bindings: u_depth (DEPTH32F), u_normal_material (RGBA32F), u_albedo (RGBA16F),
 //   u_emission_scale (RGBA16F: the emission texture's colour, multiplies the emission) read;
 //   uniform blocks LightBuffer, ShadowSlotBuffer and storage blocks MaterialBuffer, SkyIrradiance read; image
-//   u_output (RGBA32F) written.
+//   u_output (RGBA32F) written. Host define LIGHT_PASSES: also image u_light_samples (RGBA32F,
+//   written; uniforms u_light_view, u_mist_start, u_mist_inv_depth, u_mist_falloff).
 // Workgroup 8x8: square tiles keep neighbouring pixels (and their G-buffer rows) together.
 #include "scene_layout.glsl"
 #include "shading.glsl"

@@ -51,7 +51,8 @@
 //   (read/write), TriangleUVBuffer (TriangleUV[N]; read only for materials with image
 //   textures), TriangleMaterials (int[N]), SkyIrradiance (world_light.glsl); all
 //   per-triangle arrays in original triangle order. Image u_color: the primary colour
-//   (RGBA32F, read and written). Textures: u_textures (textures.glsl; BVH hits sample it at the
+//   (RGBA32F, read and written); with LIGHT_PASSES u_light_samples (include/light_passes.glsl,
+//   read and written). Textures: u_textures (textures.glsl; BVH hits sample it at the
 //   interpolated UV, mip level from the ray cone u_pixel_width + u_pixel_spread * distance,
 //   widened by the glossy lobes on the ray's path).
 //   Cube-map hits sample it the same way at the UV their face texel stores.

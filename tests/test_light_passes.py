@@ -93,6 +93,18 @@ def test_the_gpu_shaped_trace_still_recombines_with_light_passes(renderer):
     assert (result.data_passes["Glossy Indirect"] > 0.05).any(axis=-1).sum() > 20
 
 
+def test_environment_holds_the_world_behind_transparent_film_as_in_cycles(renderer):
+    """Transparent film clears the background of Combined, not of the Environment pass: a
+    compositor puts the World back from it (Cycles does the same)."""
+    result = renderer.render(scene(), CAMERA, RenderSettings(mode="RASTER", **SMALL),
+                             outputs=FrameOutputs(light=ALL, transparent=True))
+    background = result.image[..., 3] == 0
+    assert background.sum() > 20
+    np.testing.assert_allclose(result.data_passes["Environment"][background], np.broadcast_to(
+        Sky(color=(0.2, 0.3, 0.5)).color, (int(background.sum()), 3)), rtol=1e-3)
+    assert (result.data_passes["Mist"][background] == 1.0).all()
+
+
 def test_a_frame_without_light_passes_plans_and_binds_none(renderer):
     settings = RenderSettings(mode="HYBRID", **SMALL)
     with_light = renderer.passes(settings, accumulate=True, light=True)

@@ -118,7 +118,8 @@ void main() {
 #ifdef LIGHT_PASSES
         for (int layer = 0; layer < LP_LAYERS; ++layer) light_store(pixel, layer, vec4(0.0));
         light_store(pixel, LP_GLOSSY_COLOR, vec4(0.0, 0.0, 0.0, 1.0));  // Mist: 1 where nothing was hit
-        if (u_transparent_background == 0) light_store(pixel, LP_ENVIRONMENT, sky_radiance(view_dir));
+        // The World as seen, transparent film or not: Cycles' Environment pass holds it either way.
+        light_store(pixel, LP_ENVIRONMENT, sky_radiance(view_dir));
 #endif
         return;
     }

@@ -19,6 +19,8 @@ from ..hybrid_engine.frame import views
 from ..hybrid_engine.frame.antialias import render_antialiased
 from ..hybrid_engine.scene.camera import Camera
 from ..hybrid_engine.frame.film import FrameOutputs
+from ..hybrid_engine.passes.film.light_passes import PASSES as LIGHT_PASSES
+from ..hybrid_engine.passes.film.light_passes import LightPassRequest
 from ..hybrid_engine.frame.renderer import FrameResult, RenderCancelled, Renderer
 from ..hybrid_engine.frame.near_budget import NearCubeSizer
 from ..hybrid_engine.gpu import gl_context
@@ -125,11 +127,24 @@ def asset_name(name: str) -> str:
     return owner.name
 
 
+def light_request(scene, view_layer) -> LightPassRequest | None:
+    """The light passes and Mist ``view_layer`` asks for (ViewLayer's own switches, as Cycles
+    reads them) with the World's mist settings, or None when it asks for none."""
+    flags = tuple(flag for flag in LIGHT_PASSES if getattr(view_layer, flag))
+    if not flags:
+        return None
+    world = scene.world
+    if world is None:  # no World: Cycles' film keeps Blender's default mist
+        return LightPassRequest(flags)
+    mist = world.mist_settings
+    return LightPassRequest(flags, float(mist.start), float(mist.depth), str(mist.falloff))
+
+
 def frame_outputs(scene, view_layer, scene_data: SceneData | None = None) -> FrameOutputs:
     """What the final render delivers besides the colour: the Film panel's transparency, the
-    view layer's Z and Normal passes, our Denoising Data (film.py gives their conventions)
-    and the Cryptomatte passes at the view layer's Levels (``scene_data``'s objects give the
-    assets)."""
+    view layer's Z and Normal passes, our Denoising Data (film.py gives their conventions),
+    the Cryptomatte passes at the view layer's Levels (``scene_data``'s objects give the
+    assets) and Cycles' light passes and Mist (passes/film/light_passes.py)."""
     kinds = cryptomatte_kinds(view_layer)
     request = None
     if kinds:
@@ -141,7 +156,7 @@ def frame_outputs(scene, view_layer, scene_data: SceneData | None = None) -> Fra
                         depth=pass_wanted(view_layer, DATA_PASSES["depth"][0]),
                         normal=pass_wanted(view_layer, DATA_PASSES["normal"][0]),
                         denoising=pass_wanted(view_layer, DATA_PASSES["denoising_albedo"][0]),
-                        cryptomatte=request)
+                        cryptomatte=request, light=light_request(scene, view_layer))
 
 
 def cryptomatte_metadata(view_layer, scene_data: SceneData) -> dict[str, str]:
@@ -289,7 +304,7 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
             passes["Combined"].rect.foreach_set(np.ascontiguousarray(result.image, np.float32).ravel())
             # update_render_passes registered every pass the view layer asked for.
             for name, data in result.data_passes.items():
-                name = DATA_PASSES[name][1] if name in DATA_PASSES else name  # Cryptomatte's: Blender's own
+                name = DATA_PASSES[name][1] if name in DATA_PASSES else name  # the others: Blender's own
                 passes[name].rect.foreach_set(np.ascontiguousarray(data, np.float32).ravel())
         finally:
             self.end_result(render_result)
@@ -318,6 +333,9 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
         for kind in cryptomatte_kinds(renderlayer):
             for name in cryptomatte.pass_names(kind, int(renderlayer.pass_cryptomatte_depth)):
                 self.register_pass(scene, renderlayer, name, 4, "rgba", "COLOR")  # as Cycles
+        for flag, (name, channels, chan_id, kind, *_where) in LIGHT_PASSES.items():
+            if getattr(renderlayer, flag):
+                self.register_pass(scene, renderlayer, name, channels, chan_id, kind)
 
     # -- viewport (blender_adapter/viewport.py does the work) --------------------------------
     def view_update(self, context, depsgraph) -> None:

@@ -107,6 +107,12 @@ def _emitter_linking(scene, depsgraph, final) -> list[str]:
     return sorted(names)
 
 
+def _vector_pass(_scene, depsgraph, final) -> list[str]:
+    """The view layer, when a final render is asked for the Vector pass."""
+    layer = depsgraph.view_layer
+    return [layer.name] if final and getattr(layer, "use_pass_vector", False) else []
+
+
 def _world_volume(scene, _depsgraph, _final) -> list[str]:
     world = scene.world
     tree = getattr(world, "node_tree", None) if world is not None else None
@@ -174,10 +180,10 @@ FEATURES: tuple[Feature, ...] = (
             _emitter_linking),
     Feature("Emissive materials", SUPPORTED, "Emissive triangles light the scene (sampled by power)."),
     Feature("World node graphs", SUPPORTED,
-            "Background, Environment Texture (equirectangular, mirror ball), the Sky Texture's "
-            "Preetham model, and the colour, vector and texture nodes, baked on the GPU into the "
-            "sky that rays, irradiance and rough reflections read; other sky models render black "
-            "and are named."),
+            "Background, Environment Texture (equirectangular, mirror ball), the Sky Texture (all "
+            "four models; the scattering models' sun disc as a sun lamp, not drawn), and the colour, "
+            "vector and texture nodes, baked on the GPU into the sky that rays, irradiance and rough "
+            "reflections read."),
     Feature("World Volume", UNSUPPORTED, "No fog or atmosphere.",
             "World {names}: the Volume shader is not rendered", _world_volume),
     # Materials
@@ -198,8 +204,14 @@ FEATURES: tuple[Feature, ...] = (
     Feature("Per-material Thickness", SUPPORTED, "The paper's cube-map thickness, in the Material panel."),
     Feature("Missing images", APPROXIMATED, "Magenta, as Blender's engines render them, with a message."),
     # Output
-    Feature("Passes: Combined, Depth, Normal, Denoising Data, Cryptomatte", SUPPORTED,
+    Feature("Passes: Combined, Depth, Normal, Mist, Denoising Data, Cryptomatte, the light passes "
+            "(Diffuse / Glossy / Transmission Direct, Indirect, Color; Emission, Environment, AO)", SUPPORTED,
             "Under Cycles' names, for the compositor (its Denoise and Cryptomatte nodes included)."),
+    Feature("Passes: Vector", UNSUPPORTED,
+            "Vector needs the objects' motion, which the engine does not export (Cycles writes no "
+            "Shadow pass, so none is offered).",
+            "the Vector pass of view layer {names} is not written: the engine does not export motion",
+            _vector_pass),
     Feature("Persistent Data", SUPPORTED, "The extracted scene and its GPU copy stay between renders."),
     Feature("Material, World and Light previews", SUPPORTED,
             "Rendered on Blender's preview scene with one sample and a small cube map; the "

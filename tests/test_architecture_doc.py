@@ -67,3 +67,17 @@ def test_the_variants_table_gives_each_changed_declaration(passes_of, label, set
     (frame_pass,) = [p for p in passes_of(settings, True, True, True) if type(p).__name__ == cls]
     io = frame_pass.io(settings)
     assert names(rows[0][2]) == set(io.reads) and names(rows[0][3]) == set(io.writes)
+
+
+@pytest.mark.parametrize("cls", ["LightPassesPass", "DeferredShadePass", "HybridTracer"])
+def test_the_light_passes_rows_give_their_declarations(passes_of, cls):
+    settings = RenderSettings(mode="HYBRID")
+    rows = [r for r in table_rows() if len(r) == 4 and r[0].startswith("Light passes asked for")
+            and r[1] == f"`{cls}`"]
+    assert len(rows) == 1, cls
+    try:
+        (frame_pass,) = [p for p in passes_of(settings, True, light=True) if type(p).__name__ == cls]
+        io = frame_pass.io(settings)
+        assert names(rows[0][2]) == set(io.reads) and names(rows[0][3]) == set(io.writes)
+    finally:
+        passes_of(settings, True)  # the shared passes back to a frame without light passes

@@ -25,6 +25,7 @@ _EEVEE_PANELS_KEPT = frozenset({
     "EEVEE_MATERIAL_PT_context_material",
     "EEVEE_MATERIAL_PT_surface",
     "EEVEE_WORLD_PT_surface",
+    "EEVEE_WORLD_PT_mist",  # the World's mist settings, which the Mist pass follows
 })
 # Panels for features this engine does not have (depth of field, light probes, Freestyle,
 # per-light influence, shadow terminator...), EEVEE's light panels (ui/light_panel.py draws
@@ -265,7 +266,9 @@ class RENDER_PT_hybrid_rt_diagnostics(HybridRTPanel, bpy.types.Panel):
 
 
 class VIEWLAYER_PT_hybrid_rt_passes(HybridRTPanel, bpy.types.Panel):
-    """The data passes this engine writes besides Combined (hybrid_engine/frame/film.py)."""
+    """The passes this engine writes besides Combined (hybrid_engine/frame/film.py,
+    hybrid_engine/passes/film/light_passes.py), laid out as Cycles' Passes panels lay them
+    out, and no other: Blender's own pass panels list passes this engine does not write."""
 
     bl_label = "Passes"
     bl_context = "view_layer"
@@ -279,8 +282,18 @@ class VIEWLAYER_PT_hybrid_rt_passes(HybridRTPanel, bpy.types.Panel):
         col.prop(view_layer, "use_pass_combined")
         col.prop(view_layer, "use_pass_z")
         col.prop(view_layer, "use_pass_normal")
+        col.prop(view_layer, "use_pass_mist")
         # Cycles' switch of the same name: the Denoise node's Albedo and Normal guides.
         col.prop(view_layer.hybrid_rt, "denoising_store_passes")
+        # Cycles' light passes (its Passes > Light panel), each lobe's Direct, Indirect and Color.
+        for lobe in ("diffuse", "glossy", "transmission"):
+            col = layout.column(heading=lobe.title(), align=True)
+            for kind in ("direct", "indirect", "color"):
+                col.prop(view_layer, f"use_pass_{lobe}_{kind}", text=kind.title())
+        col = layout.column(heading="Other", align=True)
+        col.prop(view_layer, "use_pass_emit", text="Emission")
+        col.prop(view_layer, "use_pass_environment")
+        col.prop(view_layer, "use_pass_ambient_occlusion", text="Ambient Occlusion")
         # Cryptomatte as Cycles' panel shows it (blender_adapter/engine.py CRYPTOMATTE_FLAGS).
         col = layout.column(heading="Cryptomatte", align=True)
         col.prop(view_layer, "use_pass_cryptomatte_object", text="Object")

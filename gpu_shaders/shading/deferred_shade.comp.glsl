@@ -21,7 +21,8 @@
 // Bindings: u_depth (DEPTH32F), u_normal_material (RGBA32F), u_albedo (RGBA16F),
 //   u_emission_scale (RGBA16F: the emission texture's colour, multiplies the emission) read;
 //   uniform blocks LightBuffer, ShadowSlotBuffer and storage blocks MaterialBuffer, SkyIrradiance read; image
-//   u_output (RGBA32F) written.
+//   u_output (RGBA32F) written. Host define LIGHT_PASSES: also image u_light_samples (RGBA32F,
+//   written; uniforms u_light_view, u_mist_start, u_mist_inv_depth, u_mist_falloff).
 // Workgroup 8x8: square tiles keep neighbouring pixels (and their G-buffer rows) together.
 #include "scene_layout.glsl"
 #include "shading.glsl"
@@ -53,6 +54,24 @@ uniform int u_orthographic;
 uniform ivec2 u_size;  // size of the view being shaded
 uniform int u_traced_specular;  // 1: specular lobes are traced elsewhere, leave them out
 uniform int u_transparent_background;  // 1: the background is transparent, not the sky
+// LIGHT_PASSES defined (a view layer asks for Cycles' light passes): the shading also writes
+// them, lobe by lobe (include/light_passes.glsl, passes/film/light_passes.py).
+#ifdef LIGHT_PASSES
+#include "light_passes.glsl"
+uniform float u_mist_start;
+uniform float u_mist_inv_depth;
+uniform float u_mist_falloff;  // the exponent: 2 Quadratic, 1 Linear, 0.5 Inverse Quadratic
+
+// Cycles' Mist (kernel/film/data_passes.h): 0 at Start, 1 at Start + Depth along the
+// primary ray (the view axis for an orthographic camera), shaped by the falloff.
+float mist_of(vec3 p) {
+    float d = u_orthographic != 0 ? dot(p - u_camera_position, normalize(u_camera_forward))
+                                  : distance(p, u_camera_position);
+    float mist = clamp((d - u_mist_start) * u_mist_inv_depth, 0.0, 1.0);
+    return u_mist_falloff == 1.0 ? mist : u_mist_falloff == 2.0 ? mist * mist
+           : u_mist_falloff == 0.5 ? sqrt(mist) : pow(mist, u_mist_falloff);
+}
+#endif
 
 vec3 unproject(vec2 ndc_xy, float ndc_z) {
     vec4 world = u_inv_view_proj * vec4(ndc_xy, ndc_z, 1.0);
@@ -96,6 +115,12 @@ void main() {
     if (nm.w == 0.0) {
         imageStore(u_output, pixel, u_transparent_background != 0 ? vec4(0.0)
                                                                    : vec4(sky_radiance(view_dir), 1.0));
+#ifdef LIGHT_PASSES
+        for (int layer = 0; layer < LP_LAYERS; ++layer) light_store(pixel, layer, vec4(0.0));
+        light_store(pixel, LP_GLOSSY_COLOR, vec4(0.0, 0.0, 0.0, 1.0));  // Mist: 1 where nothing was hit
+        // The World as seen, transparent film or not: Cycles' Environment pass holds it either way.
+        light_store(pixel, LP_ENVIRONMENT, sky_radiance(view_dir));
+#endif
         return;
     }
     float depth = texelFetch(u_depth, pixel, 0).r;
@@ -123,12 +148,44 @@ void main() {
                    : u_ambient_filtered != 0 ? texelFetch(u_ambient, pixel, 0) : smoothed_ambient(local, p, split.n_facing);
     float visibility = ambient.a;
     vec3 world = u_ambient_from_rays != 0 ? ambient.rgb : sky_irradiance(split.n_facing) * visibility;
+#ifdef LIGHT_PASSES
+    SurfaceLight parts = shade_surface_parts(m, albedo, emission, p, view_dir, split, world, visibility, 0.0);
+    vec3 color = parts.total;
+    vec3 glossy_indirect = parts.glossy_indirect;
+    vec3 transmission_indirect = vec3(0.0);
+#else
     vec3 color = shade_surface(m, albedo, emission, p, view_dir, split, world, visibility, 0.0);
+#endif
     if (u_traced_specular == 0) {
         float roughness = material_roughness(m);
-        color += split.reflect_weight * sky_radiance_rough(split.reflect_dir, roughness) * visibility;
-        color += split.refract_weight * sky_radiance_rough(split.refract_dir, roughness);
+        vec3 reflected = split.reflect_weight * sky_radiance_rough(split.reflect_dir, roughness) * visibility;
+        vec3 refracted = split.refract_weight * sky_radiance_rough(split.refract_dir, roughness);
+        color += reflected;
+        color += refracted;
+#ifdef LIGHT_PASSES
+        glossy_indirect += reflected;
+        transmission_indirect = refracted;
+#endif
     }
-    if (any(isnan(color)) || any(isinf(color))) color = vec3(0.0);
+    bool finite = !(any(isnan(color)) || any(isinf(color)));
+    if (!finite) color = vec3(0.0);
     imageStore(u_output, pixel, vec4(color, 1.0));
+#ifdef LIGHT_PASSES
+    // A lobe's colour: its weight at this hit (Cycles' Color passes), whether or not it is
+    // traced; the film divides each lobe's light by it.
+    light_store(pixel, LP_DIFFUSE_COLOR, vec4(split.diffuse_weight * albedo, visibility));
+    light_store(pixel, LP_GLOSSY_COLOR, vec4(split.reflect_weight + split.glossy_local, mist_of(p)));
+    light_store(pixel, LP_TRANSMISSION_COLOR, split.refract_weight);
+    if (!finite) {  // a pixel the image zeroes adds no light to the passes either
+        parts = SurfaceLight(vec3(0.0), vec3(0.0), vec3(0.0), vec3(0.0), vec3(0.0), vec3(0.0));
+        glossy_indirect = transmission_indirect = vec3(0.0);
+    }
+    light_store(pixel, LP_DIFFUSE_DIRECT, parts.diffuse_direct);
+    light_store(pixel, LP_DIFFUSE_INDIRECT, parts.diffuse_indirect);
+    light_store(pixel, LP_GLOSSY_DIRECT, parts.glossy_direct);
+    light_store(pixel, LP_GLOSSY_INDIRECT, glossy_indirect);
+    light_store(pixel, LP_TRANSMISSION_INDIRECT, transmission_indirect);
+    light_store(pixel, LP_EMISSION, parts.emission);
+    light_store(pixel, LP_ENVIRONMENT, vec3(0.0));
+#endif
 }

@@ -51,7 +51,8 @@
 //   (read/write), TriangleUVBuffer (TriangleUV[N]; read only for materials with image
 //   textures), TriangleMaterials (int[N]), SkyIrradiance (world_light.glsl); all
 //   per-triangle arrays in original triangle order. Image u_color: the primary colour
-//   (RGBA32F, read and written). Textures: u_textures (textures.glsl; BVH hits sample it at the
+//   (RGBA32F, read and written); with LIGHT_PASSES u_light_samples (include/light_passes.glsl,
+//   read and written). Textures: u_textures (textures.glsl; BVH hits sample it at the
 //   interpolated UV, mip level from the ray cone u_pixel_width + u_pixel_spread * distance,
 //   widened by the glossy lobes on the ray's path).
 //   Cube-map hits sample it the same way at the UV their face texel stores.
@@ -59,6 +60,12 @@
 //   u_cube_normal_material, u_cube_surface, u_cube_geometric, u_cube_hiz; u_shadow_atlas, u_shadow_dynamic; u_sky_env.
 // Workgroup 8x8: neighbouring pixels' rays are coherent for the first bounce.
 #include "trace_ray.glsl"
+// LIGHT_PASSES (a view layer asks for Cycles' light passes; never with DIAGNOSTIC): the
+// light of the primary hit's reflection and refraction also goes to Glossy and Transmission
+// Indirect (include/light_passes.glsl).
+#ifdef LIGHT_PASSES
+#include "light_passes.glsl"
+#endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f) uniform image2D u_color;
@@ -124,6 +131,42 @@ void write_diagnostic(ivec2 pixel, bool traced) {
 }
 #endif
 
+// Trace the rays on the stack, and every ray they spawn, adding their light to `traced`.
+void trace_stack(inout vec3 traced) {
+    while (stack_size > 0) {
+        stack_size -= 1;
+        PendingRay ray = stack[stack_size];
+        Hit h = trace_ray(ray.origin, ray.dir, ray.depth, ray.blur, ray.reach);
+        if (ray.depth < 0) {
+            traced += ray.weight * occlusion_result(h, ray.dir);
+            continue;
+        }
+#ifdef DIAGNOSTIC
+        diag_bounces = max(diag_bounces, uint(ray.depth));
+        if (ray.depth == u_diag_bounce)
+            diag_paths |= h.kind == HIT_BVH ? 1u : h.kind == HIT_CUBE ? 2u : 4u;
+#endif
+        if (h.kind == HIT_SKY) {
+            traced += ray.weight * sky_radiance(ray.dir);
+            continue;
+        }
+        shade_hit(ray, h, traced);
+    }
+}
+
+#ifdef LIGHT_PASSES
+// spawn_primary (trace_ray.glsl) for one lobe: the refracted ray, or the reflected one.
+void spawn_primary_lobe(ivec2 pixel, Material m, vec3 p, vec3 view_dir, vec3 n, bool refraction) {
+    vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
+    vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
+    pixel_key = position_key(p);
+    SpecularSplit split = specular_split_sampled(m, albedo_g.rgb, view_dir, n, g, lobe_random(0));
+    float blur = material_roughness(m);
+    if (refraction) push(offset_origin(p, -split.g_facing), split.refract_dir, vec3(1.0) * split.refract_weight, 1, blur);
+    else push(offset_origin(p, split.g_facing), split.reflect_dir, vec3(1.0) * split.reflect_weight, 1, blur);
+}
+#endif
+
 void main() {
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(pixel, u_size))) return;
@@ -147,32 +190,32 @@ void main() {
     }
 
     vec3 traced = vec3(0.0);
+#ifdef LIGHT_PASSES
+    // The primary hit's two lobes one after the other, the refraction first: the stack pops
+    // it first too, so `traced` sums the same terms in the same order as below, and the
+    // image stays bit for bit what it is without passes.
+    spawn_primary_lobe(pixel, m, p, view_dir, n, true);
+    trace_stack(traced);
+    vec3 through_refraction = traced + past_depth_limit;
+    spawn_primary_lobe(pixel, m, p, view_dir, n, false);
+    trace_stack(traced);
+    vec3 through_reflection = (traced + past_depth_limit) - through_refraction;
+#else
     spawn_primary(pixel, m, p, view_dir, n);
-    while (stack_size > 0) {
-        stack_size -= 1;
-        PendingRay ray = stack[stack_size];
-        Hit h = trace_ray(ray.origin, ray.dir, ray.depth, ray.blur, ray.reach);
-        if (ray.depth < 0) {
-            traced += ray.weight * occlusion_result(h, ray.dir);
-            continue;
-        }
-#ifdef DIAGNOSTIC
-        diag_bounces = max(diag_bounces, uint(ray.depth));
-        if (ray.depth == u_diag_bounce)
-            diag_paths |= h.kind == HIT_BVH ? 1u : h.kind == HIT_CUBE ? 2u : 4u;
+    trace_stack(traced);
 #endif
-        if (h.kind == HIT_SKY) {
-            traced += ray.weight * sky_radiance(ray.dir);
-            continue;
-        }
-        shade_hit(ray, h, traced);
-    }
 #ifdef DIAGNOSTIC
     write_diagnostic(pixel, true);
     return;
 #endif
     vec4 base = imageLoad(u_color, pixel);
     vec3 color = base.rgb + traced + past_depth_limit;
+#ifdef LIGHT_PASSES
+    if (!(any(isnan(color)) || any(isinf(color)))) {  // else the image drops the rays' light: so do the passes
+        light_add(pixel, LP_GLOSSY_INDIRECT, through_reflection);
+        light_add(pixel, LP_TRANSMISSION_INDIRECT, through_refraction);
+    }
+#endif
     if (any(isnan(color)) || any(isinf(color))) color = base.rgb;
     if (any(isnan(color)) || any(isinf(color))) color = vec3(0.0);
     imageStore(u_color, pixel, vec4(color, 1.0));

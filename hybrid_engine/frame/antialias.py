@@ -96,9 +96,9 @@ def _render_samples(renderer: Renderer, scene: SceneData, camera: Camera, settin
         renderer.denoiser.forget()
     # Only the first sample reads the Depth and Normal back; every sample adds to the
     # denoising means, which the last reads with the image.
-    # Cryptomatte counts every sample too, and the last reads it.
+    # Cryptomatte and the light passes count every sample too, and the last reads them.
     later_outputs = FrameOutputs(transparent=outputs.transparent, denoising=outputs.denoising,
-                                 cryptomatte=outputs.cryptomatte)
+                                 cryptomatte=outputs.cryptomatte, light=outputs.light)
     first: FrameResult | None = None
     passes: dict[str, float] = {}
     total_ms = 0.0

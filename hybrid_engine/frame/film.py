@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 from ..passes.film.data_passes import BACKGROUND_DEPTH as DATA_PASS_BACKGROUND_DEPTH
 from ..passes.film.data_passes import DENOISING, DEPTH_NORMAL
+from ..passes.film.light_passes import LightPassRequest
 from ..scene.cryptomatte import CryptomatteRequest
 
 # Cycles' Depth of a pixel that hit nothing (kernel film: "no hit" leaves the 1e10 it
@@ -57,6 +58,9 @@ class FrameOutputs:
     ``cryptomatte``: fill ``data_passes`` under Blender's names (``CryptoObject00``, ...:
     (H, W, 4) float32) with the kinds and levels it asks for, counted over every sample of
     the view (passes/film/cryptomatte.py) and read by the frame that reads its image.
+    ``light``: fill ``data_passes`` under Cycles' names with the light passes and Mist it
+    asks for ((H, W, channels) float32), over every sample of the view
+    (passes/film/light_passes.py), read by the frame that reads its image.
     """
 
     transparent: bool = False
@@ -64,6 +68,7 @@ class FrameOutputs:
     normal: bool = False
     denoising: bool = False
     cryptomatte: CryptomatteRequest | None = None
+    light: LightPassRequest | None = None
 
     @property
     def wants_data(self) -> bool:

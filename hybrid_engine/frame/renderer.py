@@ -56,6 +56,7 @@ from ..gpu.timing import PassTimer
 from ..passes.film.accumulate import AccumulatePass
 from ..passes.film.cryptomatte import CryptomattePass
 from ..passes.film.data_passes import DataPassesPass, read_data_passes
+from ..passes.film.light_passes import LightPassesPass, read_light_passes
 from ..passes.cube_light.cube_light import CubeLightPass
 from ..passes.cube_map.cube_map import CubeMapPass
 from ..passes.emitters.emitter_pass import EmitterTablePass
@@ -103,12 +104,13 @@ MODE_STEPS.update({view: MODE_STEPS["HYBRID"] for view in DIAGNOSTIC_VIEWS})
 
 
 def frame_steps(mode: str, accumulate: bool = False, data: bool = False, lit_cube: bool = False,
-                denoise: bool = False, cryptomatte: bool = False) -> tuple[str, ...]:
+                denoise: bool = False, cryptomatte: bool = False, light: bool = False) -> tuple[str, ...]:
     """The steps of a frame of ``mode`` (RenderSettings admits no other); one that
     accumulates adds ``accumulate``, one with data passes ``data_passes``, before the
     read-back; the lit cube map (``lit_cube``) adds ``cube_light`` after the cube map, and one
     that denoises ``denoise`` after the diffuse light (within ``shade``), one with Cryptomatte
-    passes ``cryptomatte`` after the data passes."""
+    passes ``cryptomatte`` after the data passes; light passes ``light_passes`` after the
+    accumulation."""
     steps = MODE_STEPS[mode]
     if lit_cube and "cube_map_raster" in steps:
         at = steps.index("cube_map_raster") + 1
@@ -116,7 +118,8 @@ def frame_steps(mode: str, accumulate: bool = False, data: bool = False, lit_cub
     if denoise:
         at = steps.index("shade") + 1
         steps = (*steps[:at], "denoise", *steps[at:])
-    extra = ("accumulate",) * accumulate + ("data_passes",) * data + ("cryptomatte",) * cryptomatte
+    extra = (("accumulate",) * accumulate + ("light_passes",) * light + ("data_passes",) * data
+             + ("cryptomatte",) * cryptomatte)
     return (*steps[:-1], *extra, steps[-1])
 # The passes that depend only on the geometry, the settings and the eye, and what they leave:
 # another sample of one view keeps them (render(reuse_world=True)).
@@ -178,6 +181,7 @@ class Renderer:
         self.accumulate = AccumulatePass(self.ctx)
         self.data_passes = DataPassesPass(self.ctx)
         self.cryptomatte: CryptomattePass | None = None  # made on the first frame that asks
+        self.light_passes: LightPassesPass | None = None  # Cycles' light passes, likewise
         # The traced modes' passes, made on the first frame that needs them (their kernels
         # take a while to compile).
         self.cube_map: CubeMapPass | None = None
@@ -196,11 +200,12 @@ class Renderer:
 
     # -- the passes ----------------------------------------------------------------------------
     def passes(self, settings: RenderSettings, accumulate: bool = False, data: bool = False,
-               denoise: bool = False, cryptomatte: bool = False) -> list[FramePass]:
+               denoise: bool = False, cryptomatte: bool = False, light: bool = False) -> list[FramePass]:
         """This renderer's passes for ``settings``, in the order a frame runs them;
         ``accumulate`` adds the running mean of the view's samples after the colour, ``data``
         the Depth and Normal passes, ``denoise`` the filter of the ambient estimate before
-        the shading reads it, ``cryptomatte`` the Cryptomatte coverage."""
+        the shading reads it, ``cryptomatte`` the Cryptomatte coverage, ``light`` Cycles' light
+        passes (written by the shading and the tracer, summed after the accumulation)."""
         mode = settings.mode
         traced = mode != "RASTER"
         if traced:
@@ -222,11 +227,17 @@ class Renderer:
             if self.denoiser is None:
                 self.denoiser = DenoisePass(self.ctx)
             plan.append(self.denoiser)
+        self.deferred_shade.light_passes = light
         plan.append(self.deferred_shade)
         if traced:
+            self.tracer.light_passes = light
             plan.append(self.tracer)
         if accumulate:
             plan.append(self.accumulate)
+        if light:
+            if self.light_passes is None:
+                self.light_passes = LightPassesPass(self.ctx)
+            plan.append(self.light_passes)
         if data:
             plan.append(self.data_passes)
         if cryptomatte:
@@ -250,11 +261,12 @@ class Renderer:
         return self.denoiser.feedback() if self.denoiser is not None else None
 
     def _checked_passes(self, settings: RenderSettings, accumulate: bool, data: bool,
-                        denoise: bool, cryptomatte: bool = False) -> list[FramePass]:
-        """``passes(settings, accumulate, data, denoise, cryptomatte)``, their order checked
-        once per configuration."""
-        plan = self.passes(settings, accumulate, data, denoise, cryptomatte)
-        key = (settings.mode, settings.traces_diffuse, settings.lit_cube, accumulate, data, denoise, cryptomatte)
+                        denoise: bool, cryptomatte: bool = False, light: bool = False) -> list[FramePass]:
+        """``passes(settings, accumulate, data, denoise, cryptomatte, light)``, their order
+        checked once per configuration."""
+        plan = self.passes(settings, accumulate, data, denoise, cryptomatte, light)
+        key = (settings.mode, settings.traces_diffuse, settings.lit_cube, accumulate, data, denoise, cryptomatte,
+               light)
         if key not in self._checked:
             check_order(plan, settings, final_reads=READBACK_READS + (("film",) if accumulate else ()))
             self._checked.add(key)
@@ -320,10 +332,11 @@ class Renderer:
                                       camera.height)
         outputs = outputs or FrameOutputs()
         crypto = outputs.cryptomatte is not None
-        steps = frame_steps(settings.mode, accumulate, outputs.wants_data, settings.lit_cube, denoise, crypto)
+        light = outputs.light is not None
+        steps = frame_steps(settings.mode, accumulate, outputs.wants_data, settings.lit_cube, denoise, crypto, light)
         traced = settings.mode != "RASTER"
         data = outputs.wants_data
-        plan = self._checked_passes(settings, accumulate, data, denoise, crypto)
+        plan = self._checked_passes(settings, accumulate, data, denoise, crypto, light)
         if not denoise and self.denoiser is not None:
             self.denoiser.forget()  # its history would miss this frame
         timer = PassTimer(self.ctx, enabled=timing)
@@ -386,6 +399,8 @@ class Renderer:
         data = read_data_passes(frame.resource("data_passes"), names) if names else {}
         if frame.has("cryptomatte") and (read_image or readback is not None):
             data.update(frame.resource("cryptomatte").read())
+        if frame.has("light_film") and (read_image or readback is not None):
+            data.update(read_light_passes(frame.resource("light_film"), frame.outputs.light))
         counts = dict(frame.counts)
         diagnostic = self.tracer.read_diagnostic(frame.view) if is_diagnostic(settings) else None
         scene = frame.resource("scene")
@@ -419,6 +434,10 @@ class Renderer:
         if self.cryptomatte is not None:
             self.cryptomatte.release()
             self.cryptomatte = None
+        if self.light_passes is not None:
+            self.light_passes.release()
+            self.light_passes = None
+        self.deferred_shade.light_targets.release()
         if self.denoiser is not None:
             self.denoiser.release()
             self.denoiser = None

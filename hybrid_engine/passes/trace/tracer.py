@@ -36,6 +36,7 @@ from ...gpu.dispatch import split_blocks, storage_barrier
 from ...scene.bounds import SceneBounds
 from ...scene.raster_view import RasterView
 from ...scene.settings import FIELD_LIMITS, RenderSettings
+from ..film.light_passes import light_bindings
 from ..frame_context import FrameContext, PassIO
 from ..lbvh.lbvh import BVH_BLOCKS
 from ..near_cube_cull.near_cube import overlap_margin
@@ -131,18 +132,23 @@ class HybridTracer:
         self._dummy_rg = ctx.texture((1, 1), 2, dtype="f4")
         self.diagnostic = None  # the diagnostic views' per-pixel counts (diagnostic_views.py)
         self._waves: WaveTracer | None = None  # the wave pipeline, made when first chosen
+        # Whether the frame's plan asks for Cycles' light passes (the renderer sets it): the
+        # megakernel then also adds the reflections' and refractions' light to their layers
+        # (passes/film/light_passes.py); the waves keep no lobe per ray, so it runs instead.
+        self.light_passes = False
 
     def io(self, settings: RenderSettings) -> PassIO:
+        light = ("light_samples",) if self.light_passes else ()
         return PassIO(reads=("scene", "scene_buffers", "world_triangles", "gbuffer", "lighting", "color",
-                             *traced_resources(settings)),
-                      writes=("color",))
+                             *traced_resources(settings), *light),
+                      writes=("color", *light))
 
     def run(self, frame: FrameContext) -> None:
         """Trace the reflections and refractions of the primary G-buffer, lit by the frame's
         lighting (the same the deferred shading used), adding their radiance to the frame's
         colour (or writing the provenance colours): by the megakernel, or in waves where the
         ``trace`` kernel runs GPU-shaped (wave_trace.py)."""
-        if uses_waves(frame.settings):
+        if uses_waves(frame.settings) and not self.light_passes:
             if self._waves is None:
                 self._waves = WaveTracer(self.ctx)
             self._waves.run(self.inputs(frame), frame.settings)
@@ -150,6 +156,8 @@ class HybridTracer:
             self.dispatch(frame)
         self.deposit_statistics(frame)
         frame.write("color", frame.read("gbuffer").color)
+        if self.light_passes:
+            frame.write("light_samples", frame.read("light_samples"))
 
     def deposit_statistics(self, frame: FrameContext) -> None:
         """The BVH's leaf count and the kernel's counters, into the frame's statistics: copied
@@ -160,16 +168,22 @@ class HybridTracer:
         count = frame.read("bvh").count
         frame.statistics.deposit(count.buffer, 1, _bvh_counts, offset=count.offset)
         frame.statistics.deposit(self._counters, COUNTER_WORDS, partial(_ray_counts, int(frame.settings.max_depth)))
-        if uses_waves(frame.settings) and self._waves is not None:
+        if uses_waves(frame.settings) and not self.light_passes and self._waves is not None:
             self._waves.deposit_statistics(frame.statistics)
 
     def dispatch(self, frame: FrameContext) -> None:
         """Run the megakernel: the reflections and refractions."""
         inputs = self.inputs(frame)
-        prog = (shader_loader.compute(self.ctx, "trace/hybrid_trace.comp.glsl", inputs.defines)
-                if inputs.defines else self.program)
+        defines, images, uniforms = inputs.defines, inputs.images, inputs.uniforms
+        if self.light_passes and frame.settings.trace_mode != "PROVENANCE" and not is_diagnostic(frame.settings):
+            defines = {**defines, "LIGHT_PASSES": 1}
+            light_images, light_uniforms = light_bindings(frame.read("light_samples"))
+            images = {**images, **light_images}
+            uniforms = {**uniforms, **light_uniforms}
+        prog = (shader_loader.compute(self.ctx, "trace/hybrid_trace.comp.glsl", defines)
+                if defines else self.program)
         bind(prog, *inputs.parts, storage=inputs.storage, textures=inputs.textures,
-             images=inputs.images, uniforms=inputs.uniforms)
+             images=images, uniforms=uniforms)
         width, height = inputs.size
         prog.run(math.ceil(width / WORKGROUP), math.ceil(height / WORKGROUP), 1)
         storage_barrier(self.ctx)

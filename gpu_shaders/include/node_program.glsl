@@ -110,6 +110,8 @@ uniform float u_world_lod;  // the images' mip level whose texels match the bake
 #define NODE_OP_COMBINE_COLOR 56u
 #define NODE_OP_MAPPING 57u
 #define NODE_OP_VECTOR_ROTATE 58u
+// -- attributes (70-79)
+#define NODE_OP_ATTRIBUTE 70u
 // -- world (hybrid_engine/passes/lighting/world_bake.py)
 #define NODE_OP_BACKGROUND 120u
 #define NODE_OP_TEX_ENVIRONMENT 121u
@@ -151,6 +153,12 @@ struct NodeObject {
 };
 // Row 0 is a header (rows.x = the instance count); instance k is row k + 1.
 layout(std430) readonly buffer NodeObjects { NodeObject node_objects[]; };
+// -- attributes: Color Attribute and Attribute (the store's blocks and lookup) where a
+// program of the scene reads one (node_codes.FAMILY_ATTRIBUTES).
+#ifdef NODE_ATTRIBUTES
+#include "node_attributes.glsl"
+#endif
+// -- end of attributes
 
 // What the input nodes read at a shading point; the caller fills every field.
 struct ShadingPoint {
@@ -800,6 +808,20 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
             break;
         }
 #endif
+// -- attributes (70-79): settings = source, slot (scene/node_program.py). Outputs as
+// Cycles' svm_node_attr: Color and Vector the RGB, Fac its mean, Alpha the A.
+#ifdef NODE_ATTRIBUTES
+        case NODE_OP_ATTRIBUTE: {
+            vec4 a = node_attribute(int(node_words[set_at]), int(node_words[set_at + 1u]),
+                                    node_object_of(sp.row), sp.row, sp.position);
+            node_out[0] = vec4(a.rgb, 1.0);
+            node_out[1] = vec4(a.rgb, 0.0);
+            node_out[2] = vec4((a.r + a.g + a.b) * (1.0 / 3.0));
+            node_out[3] = vec4(a.a);
+            break;
+        }
+#endif
+// -- end of attributes
         default:
             break;
         }

@@ -330,7 +330,10 @@ class SceneCache:
                                    mesh_reads, report, refreshed)
             entry = self._entries[key]
             entry.random_id = _random_id(instance, obj)
-            entry.color = tuple(obj.color)
+            # An instance shows its instancer's colour, as in Cycles: the depsgraph gives
+            # a collection's instances their instancer's, but a particle system's its
+            # instanced object's own.
+            entry.color = tuple((instance.parent if instance.is_instance and instance.parent else obj).color)
             wanted = self._materials.requests(entry.slot_ids).instance
             if wanted or entry.attributes:
                 values = export_attributes.instance_values(

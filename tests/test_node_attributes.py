@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hybrid_engine.gpu import variants
 from hybrid_engine.scene.data import Lights, MaterialTable, SceneData, Sky
 from hybrid_engine.scene.geometry import InstancedGeometry
 from hybrid_engine.scene.mesh_attributes import AttributeRequests, as_rgba, interpolate
@@ -68,8 +69,19 @@ def object_points(camera, matrix) -> tuple[np.ndarray, np.ndarray]:
 MATRICES = [placed(np.eye(3), (-1.1, 0.0, 0.0)), placed(np.diag([-1.0, 1.0, 1.0]), (1.1, 0.0, 0.0))]
 
 
+@pytest.fixture
+def kernel_variant(request):
+    """Force one shape of a kernel ("vertices=gpu": the instanced indexed draws, whose
+    fragments find their row from gl_PrimitiveID; "trace=gpu": the waves' hit records)."""
+    variants.set_override(request.param)
+    yield request.param
+    variants.set_override(None)
+
+
+@pytest.mark.parametrize("kernel_variant", ["vertices=cpu", "vertices=gpu"], indirect=True)
 @pytest.mark.parametrize("output", ["Color", "Alpha"])
-def test_a_corner_colour_is_interpolated_at_every_pixel_of_plain_and_mirrored_instances(renderer, output):
+def test_a_corner_colour_is_interpolated_at_every_pixel_of_plain_and_mirrored_instances(renderer, output,
+                                                                                        kernel_variant):
     scene = scene_of(coloured_grid(), MATRICES, [emission_of("VERTEX_COLOR", output, {"layer_name": "Col"})])
     camera = top_down_camera(size=64, scale=4.6)
     image = renderer.render(scene, camera, RenderSettings(mode="RASTER")).image
@@ -117,8 +129,10 @@ def mirror_scene(ceiling_z: float):
     return scene, flip
 
 
+@pytest.mark.parametrize("kernel_variant", ["trace=cpu", "trace=gpu"], indirect=True)
 @pytest.mark.parametrize(("ceiling_z", "near_size", "where"), [(4.0, 5.0, "bvh"), (6.0, 1.0, "cube map")])
-def test_a_mirror_shows_the_interpolated_colour_at_bvh_and_cube_map_hits(renderer, ceiling_z, near_size, where):
+def test_a_mirror_shows_the_interpolated_colour_at_bvh_and_cube_map_hits(renderer, ceiling_z, near_size, where,
+                                                                         kernel_variant):
     scene, flip = mirror_scene(ceiling_z)
     camera = top_down_camera(size=48, scale=1.6)
     settings = RenderSettings(mode="HYBRID", near_size=near_size, cube_far=20.0, cube_resolution=256, max_depth=1)
@@ -143,10 +157,10 @@ def test_a_scene_whose_programs_read_no_attribute_compiles_binds_and_sends_none(
     gpu = renderer.gpu_scene
     assert "NODE_ATTRIBUTES" not in gpu.defines
     assert not gpu.node_attributes.active and gpu.node_attributes.bytes_written == 0
-    assert "NodeAttributeValues" not in gpu.bindings().storage
+    assert "NodeAttributes" not in gpu.bindings().storage
     scene.materials.node_graphs = [emission_of("VERTEX_COLOR", "Color", {"layer_name": "Col"})]
     renderer.render(scene, top_down_camera(size=32, scale=4.6), RenderSettings(mode="RASTER"))
-    assert gpu.defines.get("NODE_ATTRIBUTES") == 1 and "NodeAttributeValues" in gpu.bindings().storage
+    assert gpu.defines.get("NODE_ATTRIBUTES") == 1 and "NodeAttributes" in gpu.bindings().storage
 
 
 def test_an_attribute_edit_writes_that_meshs_values_only(renderer):
@@ -161,7 +175,7 @@ def test_an_attribute_edit_writes_that_meshs_values_only(renderer):
     scene.geometry.instances.meshes[0] = repainted
     image = renderer.render(scene, camera, RenderSettings(mode="RASTER")).image
     assert store.meshes_written == 1
-    assert store.bytes_written == repainted.triangle_count * 3 * 16  # the mesh's values, no table
+    assert store.bytes_written == repainted.triangle_count * (3 + 3) * 16  # its corners and values, no table
     _, inside = object_points(camera, MATRICES[0])
     np.testing.assert_allclose(image[inside][:, :3], np.broadcast_to([0.3, 0.6, 0.9], (inside.sum(), 3)), atol=2e-3)
 

@@ -1,66 +1,57 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Color Attribute and Attribute nodes: the value of one requested attribute at a shading
-// point (hybrid_engine/scene/mesh_attributes.py; the store is written by
+// point (hybrid_engine/scene/mesh_attributes.py; the block is written by
 // hybrid_engine/passes/scene_upload/node_attributes.py). Included by node_program.glsl only
 // under NODE_ATTRIBUTES, which the host defines when some program reads an attribute.
 //
-// Storage blocks:
-//   NodeAttributeValues    vec4 per mesh corner and geometry slot: mesh m's triangle t,
-//                          corner c, slot s at first(m) + (3 t + c) * slots + s (object space,
-//                          the mesh's own corner order)
-//   NodeAttributeInstances row 0: x = geometry slots, y = instance slots, z = instances (int
-//                          bits); instance k (NodeObjects row k, from 1) at 1 + (k - 1) * (1 +
-//                          instance slots): x = first(m) or -1, y = mirrored; then its instance
-//                          slots' RGBA
-//   NodeAttributePositions the world rows' corners (float[9 N], scene positions)
-// The point's barycentrics come from its world position and its row's corners, so every
-// caller (G-buffer, cube faces, BVH and cube-map hits) needs only the row and the position
-// it already has (ShadingPoint).
+// Storage block NodeAttributes (vec4s; one block: the waves' kernels are at the driver's
+// limit of blocks per stage):
+//   [0]            x = geometry slots G, y = instance slots I, z = instances, w = the
+//                  instance table's first vec4 (int bits)
+//   mesh blocks    per triangle t of a mesh whose block starts at f: f + t (3 + 3 G) holds
+//                  its corners' object-space positions, then corner c's slot s at
+//                  + 3 + c G + s (the mesh's own corner order)
+//   instance table instance k (NodeObjects row k, from 1) at w + (k - 1)(1 + I): x = its
+//                  mesh's f or -1 (int bits); then its instance slots' RGBA
+// The barycentrics come from the point taken to object space and the triangle's corners
+// there, so a mirroring instance needs nothing of its own and every caller (G-buffer, cube
+// faces, BVH and cube-map hits) needs only the row and position it already has.
 #ifndef HYBRID_NODE_ATTRIBUTES_GLSL
 #define HYBRID_NODE_ATTRIBUTES_GLSL
 
-layout(std430) readonly buffer NodeAttributeValues { vec4 node_attr_values[]; };
-layout(std430) readonly buffer NodeAttributeInstances { vec4 node_attr_instances[]; };
-layout(std430) readonly buffer NodeAttributePositions { float node_attr_positions[]; };
+layout(std430) readonly buffer NodeAttributes { vec4 node_attr[]; };
 
-vec3 node_attr_corner(int row, int c) {
-    int base = row * 9 + c * 3;
-    return vec3(node_attr_positions[base], node_attr_positions[base + 1], node_attr_positions[base + 2]);
-}
-
-// Barycentric weights of world corners 0, 1, 2 at p, projected onto the triangle's plane;
-// (1, 0, 0) for a degenerate triangle.
-vec3 node_attr_barycentrics(int row, vec3 p) {
-    vec3 p0 = node_attr_corner(row, 0);
-    vec3 e1 = node_attr_corner(row, 1) - p0, e2 = node_attr_corner(row, 2) - p0, v = p - p0;
+// Barycentric weights of corners p0, p1, p2 at p, projected onto their plane; (1, 0, 0) for
+// a degenerate triangle.
+vec3 node_attr_barycentrics(vec3 p0, vec3 p1, vec3 p2, vec3 p) {
+    vec3 e1 = p1 - p0, e2 = p2 - p0, v = p - p0;
     float d11 = dot(e1, e1), d12 = dot(e1, e2), d22 = dot(e2, e2);
     float d1 = dot(v, e1), d2 = dot(v, e2);
     float det = d11 * d22 - d12 * d12;
-    if (!(abs(det) > 1e-30 * d11 * d22) || isinf(det)) return vec3(1.0, 0.0, 0.0);
+    if (!(abs(det) > 1e-12 * d11 * d22) || isinf(det)) return vec3(1.0, 0.0, 0.0);
     float b1 = (d22 * d1 - d12 * d2) / det;
     float b2 = (d11 * d2 - d12 * d1) / det;
     return vec3(1.0 - b1 - b2, b1, b2);
 }
 
 // The RGBA of attribute `slot` of `source` (node_codes.ATTRIBUTE_SOURCES: 0 geometry, else
-// instance) at the shading point; (0, 0, 0, 0) where there is none (mesh_attributes.MISSING).
+// instance) at the world point `position` of world row `row` of instance `object_row`;
+// (0, 0, 0, 0) where there is none (mesh_attributes.MISSING).
 vec4 node_attribute(int source, int slot, int object_row, int row, vec3 position) {
-    ivec4 header = floatBitsToInt(node_attr_instances[0]);
+    ivec4 header = floatBitsToInt(node_attr[0]);
     if (slot < 0 || object_row < 1 || object_row > header.z) return vec4(0.0);
-    int entry = 1 + (object_row - 1) * (1 + header.y);
+    int entry = header.w + (object_row - 1) * (1 + header.y);
     if (source != 0) {
-        return slot < header.y ? node_attr_instances[entry + 1 + slot] : vec4(0.0);
+        return slot < header.y ? node_attr[entry + 1 + slot] : vec4(0.0);
     }
-    ivec4 inst = floatBitsToInt(node_attr_instances[entry]);
-    if (inst.x < 0 || slot >= header.x) return vec4(0.0);
+    int first = floatBitsToInt(node_attr[entry].x);
+    if (first < 0 || slot >= header.x) return vec4(0.0);
     int local = row - node_objects[object_row].rows.x;
-    vec3 b = node_attr_barycentrics(row, position);
-    // World corners 1 and 2 are the mesh's 2 and 1 under a mirroring matrix
-    // (scene_upload/instance_transform.comp.glsl).
-    int c1 = inst.y != 0 ? 2 : 1;
-    int base = inst.x + local * 3 * header.x + slot;
-    return b.x * node_attr_values[base] + b.y * node_attr_values[base + c1 * header.x]
-         + b.z * node_attr_values[base + (3 - c1) * header.x];
+    int base = first + local * (3 + 3 * header.x);
+    vec3 b = node_attr_barycentrics(node_attr[base].xyz, node_attr[base + 1].xyz, node_attr[base + 2].xyz,
+                                    node_to_object(object_row, position, 1.0));
+    int at = base + 3 + slot;
+    return b.x * node_attr[at] + b.y * node_attr[at + header.x] + b.z * node_attr[at + 2 * header.x];
 }
 
 #endif

@@ -153,12 +153,6 @@ struct NodeObject {
 };
 // Row 0 is a header (rows.x = the instance count); instance k is row k + 1.
 layout(std430) readonly buffer NodeObjects { NodeObject node_objects[]; };
-// -- attributes: Color Attribute and Attribute (the store's blocks and lookup) where a
-// program of the scene reads one (node_codes.FAMILY_ATTRIBUTES).
-#ifdef NODE_ATTRIBUTES
-#include "node_attributes.glsl"
-#endif
-// -- end of attributes
 
 // What the input nodes read at a shading point; the caller fills every field.
 struct ShadingPoint {
@@ -214,6 +208,13 @@ vec3 node_to_object(int k, vec3 p, float w) {
     return vec3(dot(node_objects[k].to_object[0], q), dot(node_objects[k].to_object[1], q),
                 dot(node_objects[k].to_object[2], q));
 }
+
+// -- attributes: Color Attribute and Attribute (the store's block and lookup) where a
+// program of the scene reads one (node_codes.FAMILY_ATTRIBUTES).
+#ifdef NODE_ATTRIBUTES
+#include "node_attributes.glsl"
+#endif
+// -- end of attributes
 
 vec3 node_generated(ShadingPoint sp) {
     int k = node_object_of(sp.row);

@@ -89,7 +89,7 @@ class GPUScene:
         pass that reads a material declares (scene_layout.glsl, textures.glsl)."""
         programs = self.node_programs.bindings() if self.node_programs.active else {}
         if self.node_programs.active and self.node_attributes.active:
-            programs.update(self.node_attributes.bindings(self.positions.buffer))
+            programs.update(self.node_attributes.bindings())
         return Bindings(storage={"MaterialBuffer": self.materials.buffer,
                                  "TriangleMaterials": self.triangle_materials.buffer, **programs},
                         textures={"u_textures": self.textures.array})

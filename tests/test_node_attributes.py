@@ -199,3 +199,19 @@ def test_attribute_types_become_rgba_as_cycles_reads_them():
     np.testing.assert_array_equal(as_rgba(np.float32(np.float32([[0.1, 0.2, 0.3, 0.4]]))), np.float32([[0.1, 0.2, 0.3, 0.4]]))
     corners = np.float32([[[1, 0, 0, 1], [0, 1, 0, 1], [0, 0, 1, 0]]])
     np.testing.assert_allclose(interpolate(corners, [[0.2, 0.3, 0.5]]), [[0.2, 0.3, 0.5, 0.5]])
+
+
+def test_a_worlds_attribute_node_reads_as_missing_without_a_store(renderer):
+    """A World has no mesh or object: its bake compiles without the store and an Attribute
+    node there gives 0, as Cycles' does (the sky is the Background's Color times 0 plus 0.25)."""
+    from test_world_graph import horizon_camera, sky_scene
+    from hybrid_engine.scene.data import Sky
+
+    graph = ShaderGraph()
+    attribute = graph.add("ATTRIBUTE", settings={"attribute_type": "GEOMETRY", "attribute_name": "Col"})
+    mix = graph.add("MATH", settings={"operation": "ADD"}, Value=Link(attribute, "Fac"), Value_001=0.25)
+    background = graph.add("BACKGROUND", Color=Link(mix, "Value"), Strength=1.0)
+    graph.surface = Link(background, "Background")
+    image = renderer.render(sky_scene(Sky(graph=graph)), horizon_camera(),
+                            RenderSettings(mode="RASTER", near_size=4.0)).image[..., :3]
+    np.testing.assert_allclose(image[-1, 16], (0.25, 0.25, 0.25), rtol=0.01)

@@ -821,6 +821,10 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
             node_out[3] = vec4(a.a);
             break;
         }
+#else
+        case NODE_OP_ATTRIBUTE:  // no store bound (the World's bake): missing, as in Cycles
+            node_out[0] = node_out[1] = node_out[2] = node_out[3] = vec4(0.0);
+            break;
 #endif
 // -- end of attributes
         default:

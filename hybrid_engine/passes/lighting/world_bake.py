@@ -30,6 +30,7 @@ import numpy as np
 
 from ...gpu import shader_loader
 from ...gpu.bindings import Image, bind
+from ...scene.node_codes import FAMILY_ATTRIBUTES
 from ...scene.node_program import NodeProgram, compile_graph
 from ...scene.shader_graph import ShaderGraph
 from ..scene_upload.textures import pack_layers
@@ -109,8 +110,10 @@ class WorldBake:
         lod = max(0.0, math.log2(images.size[0] / target.size[0])) if self._images is not None else 0.0
         # The node families the World's nodes need (Mix, Math, Mapping...), as the scene's
         # material shaders get theirs: a new family costs one compile.
+        # A World has no mesh or object: its Attribute nodes read as missing, with no store.
+        families = sorted(program.families - {FAMILY_ATTRIBUTES})
         prog = shader_loader.compute(self.ctx, "lighting/world_bake.comp.glsl",
-                                     {family: 1 for family in sorted(program.families)} or None)
+                                     {family: 1 for family in families} or None)
         bind(prog, storage={"NodeProgram": self._program_buffer, "NodeObjects": self._objects},
              images={"u_target": Image(target, read=False, write=True)},
              textures={"u_world_images": images, "u_textures": self._no_textures},

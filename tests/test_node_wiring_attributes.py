@@ -236,3 +236,31 @@ def test_a_painted_colour_is_read_again_with_the_mesh_kept_as_a_deformed_version
     np.testing.assert_allclose(after.attributes[""], np.tile([0.2, 0.4, 0.6, 1.0], (3 * after.triangle_count, 1)),
                                atol=1e-6)
     assert not np.allclose(before.attributes[""], after.attributes[""])
+
+
+def test_instancer_and_object_attributes_of_collection_instances_match_cycles(addon, tmp_path):
+    """Three quads: a plain object, and two instances of a collection's quad through empties,
+    one of which has the property: Instancer looks at the empty first, then the object; Object
+    at the object, then its mesh."""
+    import bpy
+    from test_engine import render_exr
+    from test_object_random import _random_scene
+
+    for kind in ("INSTANCER", "OBJECT"):
+        scene = _random_scene(bpy)
+        tree = bpy.data.materials["random"].node_tree
+        node = tree.nodes.new("ShaderNodeAttribute")
+        node.attribute_type, node.attribute_name = kind, "tint"
+        tree.links.new(node.outputs["Color"], tree.nodes["Emission"].inputs["Color"])
+        bpy.data.objects["Plain"]["tint"] = (0.9, 0.2, 0.1)
+        bpy.data.objects["Copy"].data["tint"] = (0.1, 0.3, 0.8)  # on the mesh
+        bpy.data.objects["First"]["tint"] = (0.2, 0.9, 0.3)
+        scene.render.engine = "CYCLES"
+        scene.cycles.samples, scene.cycles.device = 16, "CPU"
+        cycles = render_exr(bpy, scene, tmp_path / "cycles.exr")[8:13, :, :3]
+        scene.render.engine = "HYBRID_RT"
+        scene.hybrid_rt.mode = "RASTER"
+        ours = render_exr(bpy, scene, tmp_path / "ours.exr")[8:13, :, :3]
+        means = lambda image: np.array([image[:, c - 2:c + 3].mean((0, 1)) for c in (10, 30, 50)])  # noqa: E731
+        assert len({tuple(np.round(v, 2)) for v in means(cycles)}) == (3 if kind == "INSTANCER" else 2), kind
+        np.testing.assert_allclose(means(ours), means(cycles), rtol=5e-3, atol=2e-3, err_msg=kind)

@@ -264,3 +264,18 @@ def test_instancer_and_object_attributes_of_collection_instances_match_cycles(ad
         means = lambda image: np.array([image[:, c - 2:c + 3].mean((0, 1)) for c in (10, 30, 50)])  # noqa: E731
         assert len({tuple(np.round(v, 2)) for v in means(cycles)}) == (3 if kind == "INSTANCER" else 2), kind
         np.testing.assert_allclose(means(ours), means(cycles), rtol=5e-3, atol=2e-3, err_msg=kind)
+
+
+def test_a_view_layer_attribute_is_named_to_the_artist(addon):
+    import bpy
+    from test_node_wiring_colour import grid_scene
+
+    def view_layer(nodes, links, coords):
+        node = nodes.new("ShaderNodeAttribute")
+        node.attribute_type, node.attribute_name = "VIEW_LAYER", "tint"
+        return node.outputs["Color"]
+
+    grid_scene(bpy, {"layered": view_layer})
+    with addon.blender_adapter.messages.collecting() as told:
+        addon.blender_adapter.scene_cache.extract_scene(bpy.context.evaluated_depsgraph_get())
+    assert any("View Layer attributes are not evaluated" in t for t in told), told

@@ -170,8 +170,8 @@ def test_an_attribute_edit_writes_that_meshs_values_only(renderer):
     camera = top_down_camera(size=32, scale=4.6)
     renderer.render(scene, camera, RenderSettings(mode="RASTER"))
     store = renderer.gpu_scene.node_attributes
-    repainted = painted.deformed(painted.positions, painted.normals,
-                                 attributes={"Col": np.tile(np.float32([0.3, 0.6, 0.9, 1.0]), (len(painted.slots) * 3, 1))})
+    colour = np.tile(np.float32([0.3, 0.6, 0.9, 1.0]), (len(painted.slots) * 3, 1))
+    repainted = painted.deformed(painted.positions, painted.normals, attributes={"Col": colour})
     scene.geometry.instances.meshes[0] = repainted
     image = renderer.render(scene, camera, RenderSettings(mode="RASTER")).image
     assert store.meshes_written == 1
@@ -196,7 +196,8 @@ def test_attribute_types_become_rgba_as_cycles_reads_them():
     np.testing.assert_array_equal(as_rgba(np.float32([0.5])), [[0.5, 0.5, 0.5, 1.0]])
     np.testing.assert_array_equal(as_rgba(np.float32([[0.1, 0.2]])), np.float32([[0.1, 0.2, 0.0, 1.0]]))
     np.testing.assert_array_equal(as_rgba(np.float32([[0.1, 0.2, 0.3]])), np.float32([[0.1, 0.2, 0.3, 1.0]]))
-    np.testing.assert_array_equal(as_rgba(np.float32(np.float32([[0.1, 0.2, 0.3, 0.4]]))), np.float32([[0.1, 0.2, 0.3, 0.4]]))
+    rgba = np.float32([[0.1, 0.2, 0.3, 0.4]])
+    np.testing.assert_array_equal(as_rgba(rgba), rgba)
     corners = np.float32([[[1, 0, 0, 1], [0, 1, 0, 1], [0, 0, 1, 0]]])
     np.testing.assert_allclose(interpolate(corners, [[0.2, 0.3, 0.5]]), [[0.2, 0.3, 0.5, 0.5]])
 

@@ -23,7 +23,8 @@ def _plane_mesh(bpy, name: str):
     """A plane of QUADS x QUADS quads over [-1, 1]^2."""
     n = QUADS + 1
     verts = [(-1 + 2 * i / QUADS, -1 + 2 * j / QUADS, 0.0) for j in range(n) for i in range(n)]
-    faces = [(j * n + i, j * n + i + 1, (j + 1) * n + i + 1, (j + 1) * n + i) for j in range(QUADS) for i in range(QUADS)]
+    faces = [(j * n + i, j * n + i + 1, (j + 1) * n + i + 1, (j + 1) * n + i)
+             for j in range(QUADS) for i in range(QUADS)]
     mesh = bpy.data.meshes.new(name)
     mesh.from_pydata(verts, [], faces)
     return mesh

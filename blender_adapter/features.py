@@ -195,9 +195,15 @@ FEATURES: tuple[Feature, ...] = (
             "adjustments, Map Range, Clamp, Mapping, Vector Rotate, Separate and Combine; input "
             "nodes; groups, reroutes and muted nodes as Blender evaluates them. A value edit is "
             "an upload, never a shader compile. Mix Shader mixes the closures' parameters."),
-    Feature("Bump, Color Attribute and Attribute nodes", APPROXIMATED,
-            "Not evaluated yet: their outputs take their default values, and the artist is told "
+    Feature("Bump node", APPROXIMATED,
+            "Not evaluated yet: its outputs take their default values, and the artist is told "
             "which node, once per render."),
+    Feature("Color Attribute and Attribute nodes", SUPPORTED,
+            "Vertex colours (point or face corner, byte colours converted to linear as Cycles "
+            "does) and named float, vector and colour attributes on points, corners and faces, "
+            "interpolated wherever a surface is shaded; Object and Instancer attributes from "
+            "custom properties and property paths. Only the attributes some material reads are "
+            "exported."),
     Feature("Alpha: Principled Alpha, alpha images, Transparent BSDF", SUPPORTED,
             "Stochastic coverage in the G-buffer, cube map, shadow maps and BVH traversal, "
             "converging to Cycles' over the samples; Blended renders the same way, with a message."),

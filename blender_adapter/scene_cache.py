@@ -41,7 +41,10 @@ from ..hybrid_engine.scene.geometry import InstancedGeometry
 from ..hybrid_engine.scene.meshes import Instances, ObjectMesh
 from ..hybrid_engine.scene.geometry import GeometryEdit
 from ..hybrid_engine.scene.data import Lights, SceneData, Sky
+from ..hybrid_engine.scene.mesh_attributes import MISSING, AttributeRequests
+from ..hybrid_engine.scene.node_program import graph_requests
 from . import messages
+from .export import attributes as export_attributes
 from .export import lights as export_lights
 from .export import materials as export_materials
 from .export import meshes as export_meshes
@@ -166,6 +169,8 @@ class _Entry:
     mesh_original: int = 0
     random_id: int = 0  # Blender's, for Object Info Random (``_random_id``)
     color: tuple = (1.0, 1.0, 1.0, 1.0)  # the object's colour, for Object Info Color
+    # Its Object and Instancer attributes that its materials' programs read (export/attributes.py).
+    attributes: dict = field(default_factory=dict)
 
 
 class _PersistentMaterials(export_materials.MaterialTableBuilder):
@@ -184,6 +189,7 @@ class _PersistentMaterials(export_materials.MaterialTableBuilder):
         # Light linking: (row, receiver set, blocker set) -> the row's copy for objects of
         # those sets (hybrid_engine/scene/light_linking.py); none without linking.
         self._variants: dict[tuple[int, int, int], int] = {}
+        self._requests: dict[bytes, AttributeRequests] = {}
 
     def linked(self, slot_ids: np.ndarray, light_set: int, shadow_set: int) -> np.ndarray:
         """``slot_ids`` for an object of the given linking sets: each row's copy carrying
@@ -198,6 +204,17 @@ class _PersistentMaterials(export_materials.MaterialTableBuilder):
                 self.rows.append({**self.rows[key[0]], "light_set": light_set, "shadow_set": shadow_set})
             out[i] = self._variants[key]
         return out
+
+    def requests(self, slot_ids: np.ndarray) -> AttributeRequests:
+        """The attributes the programs of the materials ``slot_ids`` read: what a mesh that
+        uses them must carry (scene/mesh_attributes.py). Kept per slot list until a
+        material's row changes."""
+        key = np.asarray(slot_ids, np.int32).tobytes()
+        found = self._requests.get(key)
+        if found is None:
+            graphs = [self.rows[i].get("node_graph") for i in slot_ids if 0 <= i < len(self.rows)]
+            found = self._requests[key] = graph_requests(graphs)
+        return found
 
     def index_of(self, material) -> int:
         index = super().index_of(material)
@@ -225,6 +242,7 @@ class _PersistentMaterials(export_materials.MaterialTableBuilder):
                 continue
             self.rows[self._index[key]] = export_materials.material_params(material)
             self._thickness[key] = _thickness(material)
+            self._requests.clear()
         rows = {self._index[key] for key in stale}
         for (index, light_set, shadow_set), row in self._variants.items():
             if index in rows:
@@ -344,8 +362,21 @@ class SceneCache:
             changed |= self._visit(key, _instance_name(instance, obj), obj, obj.data,
                                    np.array(instance.matrix_world, np.float64), full, changes, owner,
                                    mesh_reads, report, refreshed)
-            self._entries[key].random_id = _random_id(instance, obj)
-            self._entries[key].color = tuple(obj.color)
+            entry = self._entries[key]
+            entry.random_id = _random_id(instance, obj)
+            # An instance shows its instancer's colour, as in Cycles: the depsgraph gives
+            # a collection's instances their instancer's, but a particle system's its
+            # instanced object's own.
+            entry.color = tuple((instance.parent if instance.is_instance and instance.parent else obj).color)
+            wanted = self._materials.requests(entry.slot_ids).instance
+            if wanted or entry.attributes:
+                values = export_attributes.instance_values(
+                    wanted, obj, instance.parent if instance.is_instance else None)
+                if values != entry.attributes:
+                    entry.attributes = values
+                    changed = True
+                    if key not in refreshed:
+                        refreshed.append(key)
             if not instance.is_instance:
                 entry = self._entries[key]
                 entry.original, entry.mesh_original = obj.original, obj.data.original.as_pointer()
@@ -465,18 +496,27 @@ class SceneCache:
             if (mesh is not None or entry is None or self._relink) and touched else entry.slot_ids
         if self._linking is not None and slot_ids is not getattr(entry, "slot_ids", None):
             slot_ids = self._materials.linked(slot_ids, *self._linking.sets_of(obj.original.as_pointer()))
+        # The attributes its materials' programs read (none: nothing read); a new request
+        # (a Color Attribute node added) reads the mesh's attributes again.
+        names = self._materials.requests(slot_ids).geometry
+        if (mesh is not None and entry is not None and entry.data is not None
+                and entry.data.attribute_names != names):
+            geometry_dirty = True
         if geometry_dirty:
-            mesh_key = mesh.as_pointer()
+            mesh_key = (mesh.as_pointer(), names)
             if mesh_key not in mesh_reads:
-                # A deformed mesh keeps its topology: only positions and normals are read
-                # again (never on a full sync, which trusts nothing kept).
-                kept = None if full or entry is None else export_meshes.reread_deformed(mesh, entry.data)
-                data = kept if kept is not None else export_meshes.read_mesh(mesh)
+                # A deformed mesh keeps its topology: only positions and normals (and the
+                # requested attributes) are read again (never on a full sync, which trusts
+                # nothing kept).
+                kept = None if full or entry is None else export_meshes.reread_deformed(mesh, entry.data, names)
+                data = kept if kept is not None else export_meshes.read_mesh(mesh, names)
                 previous = entry.mesh if kept is not None else None
                 mesh_reads[mesh_key] = (data, export_meshes.object_mesh(name, data, previous) if data else None)
             data, object_mesh = mesh_reads[mesh_key]
             self._entries[key] = _Entry(name, data, matrix, slot_ids, object_mesh,
                                         *((entry.original, entry.mesh_original) if entry is not None else ()))
+            if entry is not None:
+                self._entries[key].attributes = entry.attributes
             report.extracted.append(name)
         elif (entry.matrix.tobytes() != matrix.tobytes()
               or (slot_ids is not entry.slot_ids and not np.array_equal(entry.slot_ids, slot_ids))):
@@ -503,7 +543,8 @@ class SceneCache:
                               matrices=np.array([e.matrix for e in entries], np.float32).reshape(-1, 4, 4),
                               slot_materials=[e.slot_ids for e in entries],
                               random_ids=np.array([e.random_id for e in entries], np.uint32),
-                              colors=np.array([e.color for e in entries], np.float32).reshape(-1, 4))
+                              colors=np.array([e.color for e in entries], np.float32).reshape(-1, 4),
+                              attributes=_instance_attributes(entries))
         self._rows = {k: i for i, k in enumerate(keys)}
         self._mesh_index = meshes
         self._generation += 1
@@ -531,6 +572,8 @@ class SceneCache:
             if kept is not entry.mesh and (kept.triangle_count != entry.mesh.triangle_count
                                            or (kept.uvs is None) != (entry.mesh.uvs is None)):
                 return False
+            if set(entry.attributes) - set(instances.attributes or {}):
+                return False  # a key no instance had: the table's attributes are laid out anew
             updates.append((row, entry))
         for row, entry in updates:
             instances.meshes[instances.mesh[row]] = entry.mesh  # a deformed version, or itself
@@ -539,6 +582,8 @@ class SceneCache:
                 instances.colors[row] = entry.color
             if not np.array_equal(instances.slot_materials[row], entry.slot_ids):
                 instances.set_slots(row, entry.slot_ids)
+            for attribute_key, values in (instances.attributes or {}).items():
+                values[row] = entry.attributes.get(attribute_key, MISSING)
         rows = sorted(r for r, _ in updates)
         geometry.refresh(rows)
         self._generation += 1
@@ -594,6 +639,16 @@ class TrackedScene:
         self.last_sync = self.cache.sync(depsgraph, changes, full=key != self._depsgraph)
         self._depsgraph = key
         return self.cache.scene_data
+
+
+def _instance_attributes(entries: list[_Entry]) -> dict | None:
+    """Instances.attributes of the entries: each key any of them carries, MISSING where one
+    does not; None when none carries any (no cost for scenes that read none)."""
+    keys = sorted({key for e in entries for key in e.attributes})
+    if not keys:
+        return None
+    return {key: np.array([e.attributes.get(key, MISSING) for e in entries], np.float32).reshape(-1, 4)
+            for key in keys}
 
 
 def extract_scene(depsgraph) -> SceneData:

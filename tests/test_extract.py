@@ -179,7 +179,7 @@ def test_collection_instances_are_placed_by_the_instancer_and_read_once(addon, m
         bpy.context.scene.collection.objects.link(empty)
     reads = []
     real_read = meshes.read_mesh
-    monkeypatch.setattr(meshes, "read_mesh", lambda mesh: reads.append(mesh.name) or real_read(mesh))
+    monkeypatch.setattr(meshes, "read_mesh", lambda mesh, *rest: reads.append(mesh.name) or real_read(mesh, *rest))
     geometry = extract(addon).geometry
     expected = np.concatenate([triangles_of(TETRA_VERTS, TETRA_FACES, p @ local) for p in placements])
     assert_same_triangles(geometry.triangles, expected)

@@ -93,7 +93,8 @@ def test_deforming_a_mesh_rereads_only_its_positions_and_a_new_topology_rebuilds
     meshes = addon.blender_adapter.export.meshes
     whole_reads = []
     read_mesh = meshes.read_mesh
-    monkeypatch.setattr(meshes, "read_mesh", lambda mesh: whole_reads.append(mesh.name) or read_mesh(mesh))
+    monkeypatch.setattr(meshes, "read_mesh",
+                        lambda mesh, *rest: whole_reads.append(mesh.name) or read_mesh(mesh, *rest))
     session, reports = fed_session
     scene, cube = _scene(bpy)
     _frame(addon, bpy, session)

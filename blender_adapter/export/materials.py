@@ -316,6 +316,12 @@ def _graph_row(material, textures: bool) -> dict | None:
         names = [node.name for node in read.graph.nodes if node.kind == kind]
         tell("%s: node %r (%s) is not evaluated yet; its outputs take their default values",
              material.name, names[0], kind)
+    # An Attribute node of the View Layer type has no per-object value here: it reads as a
+    # missing attribute, and the artist is told.
+    for node in read.graph.nodes:
+        if node.kind == "ATTRIBUTE" and node.settings.get("attribute_type") == "VIEW_LAYER":
+            tell("%s: Attribute node %r: View Layer attributes are not evaluated yet; it reads 0",
+                 material.name, node.name)
     thickness = getattr(getattr(material, "hybrid_rt", None), "thickness", DEFAULT_THICKNESS)
     row = principled_to_params(**stand_in_inputs(read.graph), thickness=thickness)
     row.update(node_graph=read.graph, node_graph_textures=read.images)

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...hybrid_engine.scene.mesh_attributes import DEFAULT_COLOR, as_rgba
 from ...hybrid_engine.scene.meshes import ObjectMesh, usable_vertices
 from ...hybrid_engine.scene.solids import closed_outward_indexed
 from . import tell
@@ -45,6 +46,13 @@ class MeshData:
     # (vertices, corners, faces, triangles, normals domain): what a deformed re-read must
     # find unchanged to keep the topology (``reread_deformed``).
     shape: tuple = ()
+    # The attributes the scene's programs read of this mesh (``read_attributes``), RGBA per
+    # triangle corner, by the name the programs ask for; what a re-read needs to read them
+    # again (each triangle corner's face corner and face) is kept only when there are some.
+    attributes: dict[str, np.ndarray] | None = None
+    attribute_names: tuple[str, ...] = ()
+    corners: np.ndarray | None = None  # (N*3,) int32, only with attribute_names
+    tri_faces: np.ndarray | None = None  # (N,) int32, only with attribute_names
 
     @property
     def triangle_count(self) -> int:
@@ -146,8 +154,53 @@ def _sanitize_normals(normals: np.ndarray) -> np.ndarray:
     return out
 
 
-def read_mesh(mesh) -> MeshData | None:
-    """Local-space triangles of an evaluated mesh, or None when it has no faces."""
+# Blender's attribute data types and the property their values are read through.
+_ATTRIBUTE_READS = {"FLOAT": ("value", 1), "INT": ("value", 1), "BOOLEAN": ("value", 1), "INT8": ("value", 1),
+                    "FLOAT2": ("vector", 2), "INT32_2D": ("value", 2), "FLOAT_VECTOR": ("vector", 3),
+                    "FLOAT_COLOR": ("color", 4), "BYTE_COLOR": ("color", 4), "QUATERNION": ("value", 4)}
+
+
+def _named_attribute(mesh, name: str):
+    """The attribute a program's ``name`` means on ``mesh``: the default (render) colour
+    attribute for ``DEFAULT_COLOR``, as Cycles' Color Attribute node without a layer."""
+    if name == DEFAULT_COLOR:
+        colors = mesh.color_attributes
+        index = colors.render_color_index
+        return colors[index] if 0 <= index < len(colors) else None
+    return mesh.attributes.get(name)
+
+
+def read_attributes(mesh, names: tuple[str, ...], tri_vertices: np.ndarray, corners: np.ndarray,
+                    tri_faces: np.ndarray) -> dict[str, np.ndarray]:
+    """The attributes ``names`` of ``mesh`` as RGBA per triangle corner
+    (hybrid_engine/scene/mesh_attributes.py): a point value through each corner's vertex, a
+    corner value through its face corner, a face value through its triangle's face. Byte
+    colours read through ``color``, which Blender gives converted from sRGB to linear, as
+    Cycles converts them; float colours as stored. A name the mesh lacks, or of a type or
+    domain a program cannot read, is left out (it reads as missing)."""
+    out = {}
+    for name in names:
+        attribute = _named_attribute(mesh, name)
+        read = _ATTRIBUTE_READS.get(getattr(attribute, "data_type", ""))
+        if attribute is None or read is None:
+            continue
+        prop, width = read
+        domain = attribute.domain
+        index = {"POINT": tri_vertices, "CORNER": corners, "FACE": np.repeat(tri_faces, 3)}.get(domain)
+        if index is None:
+            continue
+        count = len(attribute.data)
+        dtype = np.float32 if prop != "value" or attribute.data_type in ("FLOAT", "QUATERNION") else (
+            bool if attribute.data_type == "BOOLEAN" else np.int32)
+        values = _read(attribute.data, prop, count, width, dtype)
+        out[name] = as_rgba(np.take(values.astype(np.float32, copy=False), index, axis=0))
+    return out
+
+
+def read_mesh(mesh, attribute_names: tuple[str, ...] = ()) -> MeshData | None:
+    """Local-space triangles of an evaluated mesh, or None when it has no faces; with the
+    attributes ``attribute_names`` (what the programs of its materials read; none costs
+    nothing)."""
     tri_faces_collection = mesh.loop_triangle_polygons
     n_tris = len(tri_faces_collection)
     if n_tris == 0:
@@ -190,7 +243,13 @@ def read_mesh(mesh) -> MeshData | None:
 
     used = np.zeros(n_verts, bool)
     used[corner_verts] = True  # every corner of a face belongs to one of its triangles
+    attributes = None
+    if attribute_names:
+        attributes = read_attributes(mesh, attribute_names, tri_vertices, corners, tri_faces)
     return MeshData(
+        attributes=attributes, attribute_names=tuple(attribute_names),
+        corners=corners.astype(np.int32, copy=False) if attribute_names else None,
+        tri_faces=tri_faces if attribute_names else None,
         shape=(n_verts, n_corners, n_faces, n_tris, domain),
         positions=positions,
         tri_vertices=tri_vertices.astype(np.int32, copy=False),
@@ -208,12 +267,16 @@ def _mesh_shape(mesh) -> tuple:
             mesh.normals_domain)
 
 
-def reread_deformed(mesh, previous: MeshData | None) -> MeshData | None:
+def reread_deformed(mesh, previous: MeshData | None, attribute_names: tuple[str, ...] = ()) -> MeshData | None:
     """A deformed mesh read again as positions and normals only, the topology (triangles,
     material slots, UVs) kept from ``previous`` when the mesh's counts and normal domain are
-    unchanged: what an armature, a shape key or a Wave modifier changes. None when they
-    differ (a new topology: read it whole with ``read_mesh``)."""
+    unchanged: what an armature, a shape key or a Wave modifier changes, and with its
+    ``attribute_names`` read again (a painted colour arrives as such an update). None when
+    they differ (a new topology: read it whole with ``read_mesh``), or when attributes are
+    asked of a read that kept no corners."""
     if previous is None or not previous.shape or _mesh_shape(mesh) != previous.shape:
+        return None
+    if attribute_names and previous.corners is None:
         return None
     n_verts, n_corners, n_faces, _n_tris, domain = previous.shape
     position_attr = _attribute(mesh, "position", "POINT", "FLOAT_VECTOR")
@@ -225,7 +288,10 @@ def reread_deformed(mesh, previous: MeshData | None) -> MeshData | None:
         normals = _read(mesh.polygon_normals, "vector", n_faces, 3, np.float32)
     else:
         normals = _read(mesh.corner_normals, "vector", n_corners, 3, np.float32)
-    data = dataclasses.replace(previous, positions=positions, normals=_sanitize_normals(normals))
+    attributes = (read_attributes(mesh, attribute_names, previous.tri_vertices, previous.corners, previous.tri_faces)
+                  if attribute_names else None)
+    data = dataclasses.replace(previous, positions=positions, normals=_sanitize_normals(normals),
+                               attributes=attributes, attribute_names=tuple(attribute_names))
     if "closed" in previous.__dict__:  # closedness is topology: keep the cached answer
         data.__dict__["closed"] = previous.__dict__["closed"]
     return data
@@ -243,8 +309,11 @@ def object_mesh(name: str, data: MeshData, previous: ObjectMesh | None = None) -
     usable = usable_vertices(data.positions)
     finite = bool(usable.all())
     if previous is not None and finite and previous.triangle_count == data.triangle_count:
-        return previous.deformed(data.positions, data.normals)
+        return previous.deformed(data.positions, data.normals,
+                                 attributes=data.attributes if data.attributes is not None else (
+                                     {} if previous.attributes else None))
     corner_vertices, corner_normals, slots, uvs = data.tri_vertices, data.tri_normal_index, data.slots, data.uvs
+    attributes = data.attributes
     if not finite:
         n = data.triangle_count
         keep = usable[corner_vertices].reshape(n, 3).all(axis=1)
@@ -254,5 +323,7 @@ def object_mesh(name: str, data: MeshData, previous: ObjectMesh | None = None) -
         corners = np.repeat(keep, 3)
         corner_vertices, corner_normals, slots = corner_vertices[corners], corner_normals[corners], slots[keep]
         uvs = uvs[corners] if uvs is not None else None
+        attributes = {name: values[corners] for name, values in attributes.items()} if attributes else attributes
     return ObjectMesh(positions=data.positions, corner_vertices=corner_vertices, normals=data.normals,
-                      corner_normals=corner_normals, slots=slots, uvs=uvs, closed=finite and data.closed)
+                      corner_normals=corner_normals, slots=slots, uvs=uvs, attributes=attributes,
+                      closed=finite and data.closed)

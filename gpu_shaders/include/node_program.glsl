@@ -110,6 +110,8 @@ uniform float u_world_lod;  // the images' mip level whose texels match the bake
 #define NODE_OP_COMBINE_COLOR 56u
 #define NODE_OP_MAPPING 57u
 #define NODE_OP_VECTOR_ROTATE 58u
+// -- attributes (70-79)
+#define NODE_OP_ATTRIBUTE 70u
 // -- world (hybrid_engine/passes/lighting/world_bake.py)
 #define NODE_OP_BACKGROUND 120u
 #define NODE_OP_TEX_ENVIRONMENT 121u
@@ -206,6 +208,13 @@ vec3 node_to_object(int k, vec3 p, float w) {
     return vec3(dot(node_objects[k].to_object[0], q), dot(node_objects[k].to_object[1], q),
                 dot(node_objects[k].to_object[2], q));
 }
+
+// -- attributes: Color Attribute and Attribute (the store's block and lookup) where a
+// program of the scene reads one (node_codes.FAMILY_ATTRIBUTES).
+#ifdef NODE_ATTRIBUTES
+#include "node_attributes.glsl"
+#endif
+// -- end of attributes
 
 vec3 node_generated(ShadingPoint sp) {
     int k = node_object_of(sp.row);
@@ -819,6 +828,24 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
             break;
         }
 #endif
+// -- attributes (70-79): settings = source, slot (scene/node_program.py). Outputs as
+// Cycles' svm_node_attr: Color and Vector the RGB, Fac its mean, Alpha the A.
+#ifdef NODE_ATTRIBUTES
+        case NODE_OP_ATTRIBUTE: {
+            vec4 a = node_attribute(int(node_words[set_at]), int(node_words[set_at + 1u]),
+                                    node_object_of(sp.row), sp.row, sp.position);
+            node_out[0] = vec4(a.rgb, 1.0);
+            node_out[1] = vec4(a.rgb, 0.0);
+            node_out[2] = vec4((a.r + a.g + a.b) * (1.0 / 3.0));
+            node_out[3] = vec4(a.a);
+            break;
+        }
+#else
+        case NODE_OP_ATTRIBUTE:  // no store bound (the World's bake): missing, as in Cycles
+            node_out[0] = node_out[1] = node_out[2] = node_out[3] = vec4(0.0);
+            break;
+#endif
+// -- end of attributes
         default:
             break;
         }

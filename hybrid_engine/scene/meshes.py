@@ -69,6 +69,9 @@ class ObjectMesh:
     corner_normals: np.ndarray  # (3N,) int32
     slots: np.ndarray  # (N,) int32
     uvs: np.ndarray | None = None  # (3N, 2) float32
+    # The attributes the scene's node programs read (mesh_attributes.py), RGBA per corner,
+    # by name; None or missing names read as mesh_attributes.MISSING.
+    attributes: dict[str, np.ndarray] | None = None  # name -> (3N, 4) float32
     closed: bool = False  # solids.py: closed and wound outwards
     mesh_id: int = field(default_factory=new_mesh_id)
     version: int = 0
@@ -92,6 +95,8 @@ class ObjectMesh:
             self.uvs = as_array(self.uvs, np.float32, (2,), "uvs")
             if len(self.uvs) != 3 * n:
                 raise SceneDataError(f"uvs has {len(self.uvs)} corners, the mesh {3 * n}")
+        if self.attributes is not None:
+            self.attributes = _checked_attributes(self.attributes, n)
         self._measure()
 
     def _measure(self) -> None:
@@ -119,7 +124,8 @@ class ObjectMesh:
         return int(len(self.slots))
 
     def deformed(self, positions: np.ndarray, normals: np.ndarray, slots: np.ndarray | None = None,
-                 uvs: np.ndarray | None = None) -> "ObjectMesh":
+                 uvs: np.ndarray | None = None,
+                 attributes: dict[str, np.ndarray] | None = None) -> "ObjectMesh":
         """The same topology with new vertex positions and normals (an armature, a shape
         key, a Wave modifier), and optionally new per-triangle slots or corner UVs of the
         same counts (a flat geometry's object whose materials or UVs were edited): same
@@ -138,9 +144,22 @@ class ObjectMesh:
             mesh.uvs = as_array(uvs, np.float32, (2,), "uvs")
             if self.uvs is None or len(mesh.uvs) != len(self.uvs):
                 raise SceneDataError("a deformed mesh must keep its UV corners")
+        if attributes is not None:
+            mesh.attributes = _checked_attributes(attributes, len(self.slots))
         mesh.version = self.version + 1
         mesh._measure()
         return mesh
+
+
+def _checked_attributes(attributes: dict[str, np.ndarray], triangles: int) -> dict[str, np.ndarray]:
+    """Each attribute as (3 triangles, 4) float32 RGBA per corner."""
+    out = {}
+    for name, values in attributes.items():
+        values = as_array(values, np.float32, (4,), f"attribute {name!r}")
+        if len(values) != 3 * triangles:
+            raise SceneDataError(f"attribute {name!r} has {len(values)} corners, the mesh {3 * triangles}")
+        out[str(name)] = values
+    return out
 
 
 @dataclass
@@ -159,6 +178,9 @@ class Instances:
     # Each instance's object colour (Object Info Color: the object's viewport display colour,
     # RGBA); None: white.
     colors: np.ndarray | None = None  # (K, 4) float32
+    # Object and Instancer attributes (mesh_attributes.py): each instance's RGBA by
+    # (source, name) key; None or missing keys read as mesh_attributes.MISSING.
+    attributes: dict[tuple[str, str], np.ndarray] | None = None  # key -> (K, 4) float32
 
     def __post_init__(self) -> None:
         self.mesh = as_array(self.mesh, np.int32, (), "instance meshes")
@@ -178,6 +200,11 @@ class Instances:
             self.colors = as_array(self.colors, np.float32, (4,), "instance colours")
             if len(self.colors) != k:
                 raise SceneDataError(f"{k} instances need {k} colours, got {len(self.colors)}")
+        if self.attributes is not None:
+            self.attributes = {key: as_array(v, np.float32, (4,), f"instance attribute {key!r}")
+                               for key, v in self.attributes.items()}
+            if any(len(v) != k for v in self.attributes.values()):
+                raise SceneDataError(f"{k} instances need {k} values of each instance attribute")
 
     def __len__(self) -> int:
         return int(len(self.mesh))

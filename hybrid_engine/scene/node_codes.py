@@ -65,6 +65,9 @@ OP_SEPARATE_COLOR = 55
 OP_COMBINE_COLOR = 56
 OP_MAPPING = 57
 OP_VECTOR_ROTATE = 58
+# -- attributes (opcodes 70-79): Color Attribute and Attribute, read from the scene's attribute
+# store (hybrid_engine/scene/mesh_attributes.py, passes/scene_upload/node_attributes.py)
+OP_ATTRIBUTE = 70      # settings: source (ATTRIBUTE_SOURCES), slot within the source
 # -- world (opcodes 120-139): the World's Background graph, baked per direction (world_bake.py)
 OP_BACKGROUND = 120
 OP_TEX_ENVIRONMENT = 121
@@ -130,6 +133,12 @@ ROTATION_TYPES = {"AXIS_ANGLE": 0, "X_AXIS": 1, "Y_AXIS": 2, "Z_AXIS": 3, "EULER
 # one on only when some graph of the scene uses it: a scene pays for what it uses).
 FAMILY_COLOUR = "NODE_FAMILY_COLOUR"
 FAMILY_VECTOR = "NODE_FAMILY_VECTOR"
+# -- attributes: where an Attribute node's value lives. A GEOMETRY slot is a per-corner value of
+# the mesh (interpolated at the shading point), an OBJECT or INSTANCER slot one value per
+# instance. Compiled only under FAMILY_ATTRIBUTES, which the scene sets when some program
+# reads an attribute (a scene without attribute nodes compiles and binds nothing of it).
+ATTRIBUTE_SOURCES = {"GEOMETRY": 0, "OBJECT": 1, "INSTANCER": 2}
+FAMILY_ATTRIBUTES = "NODE_ATTRIBUTES"
 # Environment Texture's ``projection`` (node_program.glsl node_environment_uv).
 ENVIRONMENT_PROJECTIONS = {"EQUIRECTANGULAR": 0, "MIRROR_BALL": 1}
 # Sky Texture's ``sky_type`` (Blender 5.0): the models include/nodes/tex_sky.glsl evaluates are

@@ -29,6 +29,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from . import node_codes as nc
+from .mesh_attributes import AttributeRequests, node_key, requests_of
 from .shader_graph import Constant, Link, ShaderGraph
 
 VALUE, VECTOR, RGBA, SHADER = "VALUE", "VECTOR", "RGBA", "SHADER"
@@ -309,6 +310,15 @@ NODE_SPECS.update({
                            ("interpolation", _enum(nc.IMAGE_INTERPOLATIONS, "Linear")),
                            ("projection_blend", _float(0.0)))),
 })
+# -- attributes (opcodes 70-79): Color Attribute and Attribute read one slot of the scene's
+# attribute store (mesh_attributes.py). Their settings are the slot the table gives the node's
+# attribute (``compile_table``), not the artist's name: the interpreter reads by slot.
+_ATTRIBUTE_SETTINGS = (("attribute_source", _int(0)), ("attribute_slot", _int(-1)))
+NODE_SPECS["VERTEX_COLOR"] = NodeSpec(nc.OP_ATTRIBUTE, (), (("Color", RGBA), ("Vector", VECTOR), ("Fac", VALUE),
+                                                            ("Alpha", VALUE)), _ATTRIBUTE_SETTINGS,
+                                      nc.FAMILY_ATTRIBUTES)
+NODE_SPECS["ATTRIBUTE"] = NODE_SPECS["VERTEX_COLOR"]
+# -- end of attributes
 # Other names Blender has used for the same nodes.
 NODE_SPECS["GEOMETRY"] = NODE_SPECS["NEW_GEOMETRY"]
 NODE_SPECS["SEPARATE_XYZ"] = NODE_SPECS["SEPXYZ"]
@@ -374,9 +384,13 @@ def _reachable(graph: ShaderGraph) -> list[int]:
     return sorted(needed)
 
 
-def compile_graph(graph: ShaderGraph, name: str = "material", registers: int = nc.REGISTERS) -> NodeProgram:
+def compile_graph(graph: ShaderGraph, name: str = "material", registers: int = nc.REGISTERS,
+                  attributes: AttributeRequests | None = None) -> NodeProgram:
     """The program of ``graph`` (a material's; ``name`` for messages). Raises
-    NodeProgramError when its live values exceed ``registers`` at some node."""
+    NodeProgramError when its live values exceed ``registers`` at some node. ``attributes``:
+    the scene's attribute slots (``graph_requests``; the graph's own when None)."""
+    if attributes is None:
+        attributes = graph_requests([graph])
     graph.validate()
     order = [i for i in _reachable(graph) if graph.nodes[i].kind in NODE_SPECS]
     unsupported = sorted({graph.nodes[i].kind for i in _reachable(graph)} - set(NODE_SPECS))
@@ -445,7 +459,12 @@ def compile_graph(graph: ShaderGraph, name: str = "material", registers: int = n
             live[(index, ident)] = taken
             outputs += taken
         peak = max(peak, registers - len(free))
-        settings = [spec_encode(node.settings.get(prop)) & 0xFFFFFFFF for prop, spec_encode in spec.settings]
+        node_settings = node.settings
+        key = node_key(graph.nodes[index].kind, node_settings) if index >= 0 else None
+        if key is not None:
+            source, slot = attributes.slot(key)
+            node_settings = {**node_settings, "attribute_source": source, "attribute_slot": slot}
+        settings = [spec_encode(node_settings.get(prop)) & 0xFFFFFFFF for prop, spec_encode in spec.settings]
         count = sum(CLOSURE_REGISTERS if kind == SHADER else 1 for _, kind, _ in spec.inputs)
         header = spec.opcode | (len(outputs) << 8) | (len(settings) << 16) | (count << 24)
         words += [header, *outputs, *settings, *operands]
@@ -465,6 +484,7 @@ class ProgramTable:
     words: np.ndarray  # uint32
     offsets: np.ndarray  # int32 per material
     programs: list[NodeProgram | None]
+    attributes: AttributeRequests = AttributeRequests()  # the slots the programs read
 
     @property
     def empty(self) -> bool:
@@ -482,18 +502,26 @@ def compile_table(graphs: Sequence[ShaderGraph | None] | None, count: int,
     """Pack the programs of ``graphs`` (one entry or None per material of ``count``)."""
     offsets = np.full(count, -1, np.int32)
     programs: list[NodeProgram | None] = [None] * count
+    attributes = graph_requests(graphs or ())
     chunks: list[np.ndarray] = []
     at = 0
     for m, graph in enumerate(graphs or ()):
         if graph is None:
             continue
-        program = compile_graph(graph, names[m] if names else f"material {m}")
+        program = compile_graph(graph, names[m] if names else f"material {m}", attributes=attributes)
         programs[m] = program
         offsets[m] = at
         chunks.append(program.words)
         at += len(program.words)
     words = np.concatenate(chunks).astype(np.uint32) if chunks else np.zeros(0, np.uint32)
-    return ProgramTable(words, offsets, programs)
+    return ProgramTable(words, offsets, programs, attributes)
+
+
+def graph_requests(graphs: Sequence[ShaderGraph | None]) -> AttributeRequests:
+    """The attributes the surfaces of ``graphs`` read (only nodes the Material Output
+    reaches): what the meshes and instances must carry for them (mesh_attributes.py)."""
+    return requests_of(node_key(graph.nodes[i].kind, graph.nodes[i].settings)
+                       for graph in graphs if graph is not None for i in _reachable(graph))
 
 
 def _constant_input(graph: ShaderGraph, node_index: int, ident: str, default: object) -> object:

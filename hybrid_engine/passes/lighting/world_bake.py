@@ -34,6 +34,7 @@ import numpy as np
 
 from ...gpu import shader_loader
 from ...gpu.bindings import Image, bind
+from ...scene.node_codes import FAMILY_ATTRIBUTES
 from ...scene.node_program import NodeProgram, compile_graph
 from ...scene.shader_graph import ShaderGraph
 from ..scene_upload.textures import pack_layers
@@ -117,7 +118,8 @@ class WorldBake:
         lod = max(0.0, math.log2(images.size[0] / target.size[0])) if self._images is not None else 0.0
         # The node families the World's nodes need (Mix, Math, Mapping...), as the scene's
         # material shaders get theirs: a new family costs one compile.
-        defines = {family: 1 for family in sorted(program.families)}
+        # A World has no mesh or object: its Attribute nodes read as missing, with no store.
+        defines = {family: 1 for family in sorted(program.families - {FAMILY_ATTRIBUTES})}
         # tex_sky.glsl: the scattering models' and Hosek-Wilkie's code, only where a World uses it
         defines.update({name: 1 for name in self.sky_tables.defines})
         prog = shader_loader.compute(self.ctx, "lighting/world_bake.comp.glsl", defines or None)

@@ -27,7 +27,9 @@ from ...gpu.dispatch import GrowBuffer, bytes_of
 from ...scene.changes import GeometryDelta
 from ...scene.data import MATERIAL_DTYPE, SceneData
 from ...scene.geometry import InstancedGeometry
+from ...scene.mesh_attributes import AttributeRequests
 from .instance_transform import OUTPUT_ROW_BYTES, InstanceTransformer
+from .node_attributes import NodeAttributes
 from .node_programs import NodePrograms
 from .raster_meshes import RasterMeshes
 from .textures import GPUTextures
@@ -63,6 +65,7 @@ class GPUScene:
         self.geometry: InstancedGeometry | None = None  # what the last upload placed
         self.textures = GPUTextures(ctx)  # re-uploaded only when the scene's images change
         self.node_programs = NodePrograms(ctx)  # the materials' node graphs, as program words
+        self.node_attributes = NodeAttributes(ctx)  # the attributes the programs read, if any
 
     @property
     def defines(self) -> dict:
@@ -85,6 +88,8 @@ class GPUScene:
         """The materials, the per-triangle material ids and the textures, by the names every
         pass that reads a material declares (scene_layout.glsl, textures.glsl)."""
         programs = self.node_programs.bindings() if self.node_programs.active else {}
+        if self.node_programs.active and self.node_attributes.active:
+            programs.update(self.node_attributes.bindings())
         return Bindings(storage={"MaterialBuffer": self.materials.buffer,
                                  "TriangleMaterials": self.triangle_materials.buffer, **programs},
                         textures={"u_textures": self.textures.array})
@@ -112,6 +117,8 @@ class GPUScene:
         self.triangle_count = n
         rows = scene.materials.packed()
         self.node_programs.update(scene.materials, rows, geometry)
+        table = self.node_programs.table
+        self.node_attributes.update(table.attributes if table is not None else AttributeRequests(), geometry)
         self.materials.upload(bytes_of(rows))
         self.textures.upload(scene.materials.textures)
         self.host_ms = (time.perf_counter() - start) * 1e3
@@ -148,3 +155,4 @@ class GPUScene:
         self.raster_meshes.release()
         self.textures.release()
         self.node_programs.release()
+        self.node_attributes.release()

@@ -372,6 +372,25 @@ class SceneCache:
         return report
 
 
+    def instance_matrices(self, depsgraph) -> np.ndarray:
+        """The matrices (K, 4, 4) of the kept instance table as ``depsgraph`` has them now: a
+        walk that reads matrices only, nothing of a mesh, for motion blur's sub-frame steps
+        (export/motion.py). An instance the table does not hold is ignored; one that is gone
+        keeps the table's matrix."""
+        if self._geometry is None:
+            return np.zeros((0, 4, 4))
+        matrices = self._geometry.instances.matrices.astype(np.float64)
+        for instance in depsgraph.object_instances:
+            if not instance.show_self:
+                continue
+            obj = instance.object
+            if obj.type != "MESH" and obj.type not in export_meshes.CONVERTIBLE_TYPES:
+                continue
+            row = self._rows.get(_instance_key(instance, obj))
+            if row is not None:
+                matrices[row] = np.array(instance.matrix_world, np.float64)
+        return matrices
+
     def _follow_moves(self, depsgraph, changes: Changes, report: SyncReport) -> bool:
         """Refresh the moved and deformed objects without walking the instances, when every
         one of them is a plain mesh object this cache knows (not a light, not an instancer,

@@ -40,6 +40,7 @@ import numpy as np
 
 from ..hybrid_engine.frame.accumulation import DEFAULT_FILTER_WIDTH, SampleSchedule
 from ..hybrid_engine.frame.antialias import jittered_camera
+from ..hybrid_engine.frame.camera_effects import aperture_uv, lens_camera
 from ..hybrid_engine.frame.film import FrameOutputs
 from ..hybrid_engine.gpu.gl_context import GLUnavailableError
 from ..hybrid_engine.frame.near_budget import NearCubeSizer
@@ -48,7 +49,7 @@ from ..hybrid_engine.scene.settings import RenderSettings
 from ..hybrid_engine.frame.viewport import RegionInput, accumulation_key, plan_frame
 from ..hybrid_engine.frame.viewport_status import FrameClock, MessageLatch, StatsRefresh, stats_line
 from . import effective_values, features, messages, properties
-from .export.camera import camera_from_scene
+from .export.camera import camera_from_scene, thin_lens_from_scene
 from .gl_host import gl_block
 from .scene_cache import Changes, SceneCache, SyncReport
 
@@ -122,13 +123,16 @@ class ViewportSession:
             settings = self.sizer.settings_for_frame(settings)
             if plan.view is None:
                 return ViewportFrame(None, rect, f"{ERROR_PREFIX} | render border outside the view")
-            key = (accumulation_key(plan.view, settings, self.scene_version, transparent), filter_width)
+            key = (accumulation_key(plan.view, settings, self.scene_version, transparent), filter_width,
+                   region.lens)
             self.schedule.filter_width = filter_width
             target = settings.viewport_samples
             if not self.schedule.wants(key, target) and self._last is not None:
                 return self._unchanged(rect)  # nothing changed: no render
             index = self.schedule.count
             view = jittered_camera(plan.view, *self.schedule.offset())
+            if region.lens is not None and region.lens.active:  # each redraw from its aperture point
+                view = lens_camera(view, region.lens, region.lens.aperture_point(*aperture_uv(index)))
             # The header's counts only when it refreshes (or shows another mode).
             counted = self.stats_refresh.due() or settings.mode != self._last_mode
             with gl_block():
@@ -311,6 +315,7 @@ def region_input(context, depsgraph) -> RegionInput:
         window_matrix=np.array(rv3d.window_matrix, np.float64),
         width=int(region.width), height=int(region.height),
         perspective=perspective, camera=camera, border=border,
+        lens=thin_lens_from_scene(scene, depsgraph) if perspective == "CAMERA" else None,
     )
 
 

@@ -1,0 +1,289 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Depth of field and motion blur (hybrid_engine/frame/camera_effects.py), rendered through
+Blender's render path against Cycles in the same process: a thin lens blurs what lies off
+the focus plane as wide as Cycles' does and leaves the focus plane sharp, and a moving
+object streaks as long as Cycles' over the same shutter."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from test_engine import render_exr
+
+from hybrid_engine import RenderSettings
+from hybrid_engine.frame.antialias import jittered_camera, render_antialiased
+from hybrid_engine.frame.camera_effects import CameraEffects, LensView, lens_camera
+from hybrid_engine.scene.camera import Camera, look_at
+from hybrid_engine.scene.motion import MotionSteps, interpolate, shutter_interval, step_times
+from hybrid_engine.scene.thin_lens import ThinLens
+
+WIDTH, HEIGHT = 128, 64
+
+
+# -- the thin lens, without Blender --------------------------------------------------------------
+def test_the_aperture_radius_is_cycles_focal_length_over_twice_the_f_stop_in_metres():
+    assert ThinLens.from_blender(50.0, 2.8, 5.0).radius == pytest.approx(0.05 / 5.6)
+    assert ThinLens.from_blender(50.0, 2.8, 5.0, orthographic=True).radius == pytest.approx(1 / 5.6)
+    assert not ThinLens.from_blender(50.0, 1e9, 5.0).active or ThinLens.from_blender(50.0, 1e9, 5.0).radius < 1e-9
+
+
+@pytest.mark.parametrize("blades", [3, 5, 6])
+def test_a_bladed_aperture_is_the_polygon_cycles_samples(blades):
+    rotation = 0.3
+    lens = ThinLens(radius=2.0, focus_distance=1.0, blades=blades, rotation=rotation)
+    u, v = np.meshgrid((np.arange(64) + 0.5) / 64, (np.arange(64) + 0.5) / 64)
+    points = np.array([lens.aperture_point(a, b) for a, b in zip(u.ravel(), v.ravel())])
+    radius = np.hypot(points[:, 0], points[:, 1])
+    angle = np.arctan2(points[:, 1], points[:, 0])
+    # Corners at rotation + pi/n + 2 pi k/n on the circle of the radius; edges' middles at
+    # rotation + 2 pi k / n, cos(pi/n) of the radius away.
+    to_edge = np.abs((angle - rotation + np.pi / blades) % (2 * np.pi / blades) - np.pi / blades)
+    along = radius * np.cos(to_edge)  # distance along the nearest edge's normal
+    assert along.max() <= 2.0 * np.cos(np.pi / blades) + 1e-9
+    assert along.max() > 0.97 * 2.0 * np.cos(np.pi / blades)
+    assert radius.max() > 0.9 * 2.0  # the corners are reached
+    assert abs(points.mean(axis=0)).max() < 0.05  # uniform: centred
+
+
+def test_a_disc_aperture_squeezed_by_the_ratio_stays_within_its_ellipse():
+    lens = ThinLens(radius=1.0, focus_distance=1.0, ratio=2.0)
+    points = np.array([lens.aperture_point(a, b) for a in np.linspace(0, 0.999, 40) for b in np.linspace(0, 0.999, 40)])
+    assert np.abs(points[:, 0]).max() <= 0.5 + 1e-9 and np.abs(points[:, 1]).max() > 0.95
+
+
+def _camera(width=64, height=32) -> Camera:
+    return Camera(matrix_world=look_at((1.0, -6.0, 2.0), (0.0, 0.0, 0.5)), width=width, height=height,
+                  clip_start=0.1, clip_end=100.0)
+
+
+def _ndc(camera, point):
+    clip = camera.view_projection() @ np.append(point, 1.0)
+    return clip[:2] / clip[3]
+
+
+def test_a_lens_sample_sees_the_focus_plane_where_the_pinhole_does_and_the_rest_moved():
+    camera = jittered_camera(_camera(), 0.25, -0.3)
+    lens = ThinLens(radius=0.2, focus_distance=4.0)
+    sample = lens_camera(camera, lens, (0.15, -0.1))
+    rotation = camera.rotation
+    assert np.allclose(sample.position, camera.position + rotation @ np.array([0.15, -0.1, 0.0]))
+    assert np.allclose(sample.center, camera.position)  # the near cube stays on the lens centre
+    for x, y in [(0.0, 0.0), (0.7, 0.2), (-1.0, -0.4)]:
+        on_plane = camera.position + rotation @ np.array([x, y, -4.0])
+        off_plane = camera.position + rotation @ np.array([x, y, -12.0])
+        assert np.allclose(_ndc(sample, on_plane), _ndc(camera, on_plane), atol=1e-9)
+        assert not np.allclose(_ndc(sample, off_plane), _ndc(camera, off_plane), atol=1e-3)
+
+
+def test_lens_samples_keep_the_cube_map_and_bvh_of_the_lens_centre(gl):
+    from benchmarks.scenes.chess import build_chess
+    from hybrid_engine.frame.renderer import Renderer
+
+    scene, camera = build_chess(0.02, 0, 48, 27)
+    settings = RenderSettings(mode="HYBRID", cube_resolution=64, shadow_resolution=256, near_size=3.5,
+                              max_depth=2)
+    lens = ThinLens(radius=0.05, focus_distance=6.0)
+    renderer = Renderer(gl)
+    try:
+        renderer.render(scene, camera, settings, accumulate=True)
+        kept = renderer.bvh
+        sample = lens_camera(camera, lens, (0.04, 0.02))
+        assert isinstance(sample, LensView)
+        renderer.render(scene, sample, settings, accumulate=True, sample=1, reuse_world=True)
+        assert renderer.bvh is kept
+    finally:
+        renderer.release()
+
+
+# -- motion over the shutter, without Blender ---------------------------------------------------
+def test_the_shutter_opens_at_closes_at_or_straddles_the_frame():
+    assert shutter_interval(0.5, "START") == (0.0, 0.5)
+    assert shutter_interval(0.5, "CENTER") == (-0.25, 0.25)
+    assert shutter_interval(0.5, "END") == (-0.5, 0.0)
+    assert list(step_times(1.0, "CENTER", 3)) == [-0.5, 0.0, 0.5]
+
+
+def test_a_turning_object_sweeps_an_arc_and_keeps_its_scale():
+    def turned(angle, scale=2.0):
+        m = np.eye(4)
+        c, s = math.cos(angle), math.sin(angle)
+        m[:3, :3] = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]) * scale
+        m[:3, 3] = (1.0, 0.0, 0.0)
+        return m
+
+    middle = interpolate(turned(0.0)[None], turned(math.pi / 2)[None], 0.5)[0]
+    np.testing.assert_allclose(middle, turned(math.pi / 4), atol=1e-12)
+
+
+def test_only_moving_instances_get_new_matrices_and_still_ones_keep_theirs_bit_for_bit():
+    from hybrid_engine.scene.data import MaterialTable, SceneData
+    from hybrid_engine.scene.geometry import Geometry, InstancedGeometry
+    from scenes_analytic import box
+
+    flat = Geometry.from_objects([(box((0, 0, 0), (1, 1, 1)), None, 0), (box((3, 0, 0), (4, 1, 1)), None, 0)])
+    geometry = InstancedGeometry.from_world(flat)
+    still = geometry.instances.matrices.astype(np.float64)
+    end = still.copy()
+    end[1, 0, 3] += 2.0
+    motion = MotionSteps(times=[0.0, 1.0], instances=np.stack([still, end]), camera=np.stack([np.eye(4)] * 2))
+    effects = CameraEffects(motion=motion, opening=0.0, closing=1.0)
+    scene = SceneData(geometry=geometry, materials=MaterialTable.default())
+    times = [effects.time(i) for i in range(3)]
+    for index, time in enumerate(times):
+        moved = effects.scene(scene, index).geometry.instances.matrices
+        assert moved[0].tobytes() == geometry.instances.matrices[0].tobytes()
+        assert moved[1, 0, 3] == pytest.approx(still[1, 0, 3] + 2.0 * time, abs=1e-6)
+    assert len(set(np.round(times, 6))) == 3 and all(0.0 <= t <= 1.0 for t in times)
+
+
+def test_a_moving_box_streaks_across_the_samples(gl):
+    from hybrid_engine.frame.renderer import Renderer
+    from hybrid_engine.scene.data import Lights, MaterialTable, SceneData, Sky
+    from hybrid_engine.scene.geometry import Geometry, InstancedGeometry
+    from scenes_analytic import box
+
+    flat = Geometry.from_objects([(box((-0.3, -0.3, -0.3), (0.3, 0.3, 0.3)), None, 0)])
+    geometry = InstancedGeometry.from_world(flat)
+    materials = MaterialTable.from_rows([{"base_color": (1, 1, 1), "emission": (1, 1, 1)}])
+    scene = SceneData(geometry=geometry, materials=materials, lights=Lights.empty(), sky=Sky(color=(0, 0, 0)))
+    camera = Camera(matrix_world=look_at((0.0, -6.0, 0.0), (0.0, 0.0, 0.0)), width=64, height=32)
+    start = geometry.instances.matrices.astype(np.float64)
+    end = start.copy()
+    end[0, 0, 3] = 2.0
+    motion = MotionSteps(times=[-0.5, 0.5], instances=np.stack([start, end]), camera=np.stack([camera.matrix_world] * 2))
+    settings = RenderSettings(mode="RASTER", shadow_resolution=256)
+    renderer = Renderer(gl)
+    try:
+        sharp = render_antialiased(renderer, scene, camera, settings, 8).image
+        blurred = render_antialiased(renderer, scene, camera, settings, 8,
+                                     effects=CameraEffects(motion=motion, opening=-0.5, closing=0.5)).image
+    finally:
+        renderer.release()
+
+    def lit_columns(image):
+        return int((image[..., :3].mean(axis=-1).max(axis=0) > 0.05).sum())
+
+    assert lit_columns(blurred) > lit_columns(sharp) + 10
+
+
+def _emitter(bpy, name: str, strength: float = 4.0):
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    nodes = material.node_tree.nodes
+    nodes.clear()
+    emission = nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = strength
+    output = nodes.new("ShaderNodeOutputMaterial")
+    material.node_tree.links.new(emission.outputs[0], output.inputs["Surface"])
+    return material
+
+
+def _box(bpy, scene, name, center, half, material):
+    """An axis-aligned box of half-sizes ``half`` at ``center``."""
+    cx, cy, cz = center
+    hx, hy, hz = half
+    corners = [(cx + sx * hx, cy + sy * hy, cz + sz * hz) for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+    faces = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(corners, [], faces)
+    mesh.materials.append(material)
+    obj = bpy.data.objects.new(name, mesh)
+    scene.collection.objects.link(obj)
+    return obj
+
+
+def _dark_scene(bpy):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    world = bpy.data.worlds.new("black")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    scene.world = world
+    scene.view_settings.view_transform = "Standard"
+    scene.render.resolution_x, scene.render.resolution_y = WIDTH, HEIGHT
+    scene.render.resolution_percentage = 100
+    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
+    camera.location = (0.0, 0.0, 0.0)
+    camera.rotation_euler = (math.pi / 2, 0.0, 0.0)  # looks along +Y
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    return scene, camera
+
+
+def _render_both(bpy, scene, tmp_path, cycles_samples=64, hybrid_samples=64):
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.device = cycles_samples, "CPU"
+    cycles = render_exr(bpy, scene, tmp_path / "cycles.exr")
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.render_samples = hybrid_samples
+    ours = render_exr(bpy, scene, tmp_path / "ours.exr")
+    return cycles, ours
+
+
+def _column_profile(image, x0, x1):
+    """The mean luminance of each column of the image's middle rows between x0 and x1."""
+    rows = image[HEIGHT // 4: 3 * HEIGHT // 4, x0:x1, :3].mean(axis=-1)
+    return rows.mean(axis=0)
+
+
+def _spread(profile) -> float:
+    """The standard deviation, in pixels, of a profile's weight around its mean."""
+    xs = np.arange(len(profile), dtype=np.float64)
+    w = np.maximum(profile - profile.min(), 0.0)
+    mean = (w * xs).sum() / w.sum()
+    return float(math.sqrt((w * (xs - mean) ** 2).sum() / w.sum()))
+
+
+# -- through Blender's render path, against Cycles ----------------------------------------------
+def test_depth_of_field_blurs_off_the_focus_plane_as_wide_as_cycles_and_keeps_it_sharp(addon, tmp_path):
+    import bpy
+
+    scene, camera = _dark_scene(bpy)
+    glow = _emitter(bpy, "glow")
+    _box(bpy, scene, "in focus", (-1.0, 5.0, 0.0), (0.01, 0.01, 3.0), glow)  # at the focus distance
+    _box(bpy, scene, "far", (6.0, 20.0, 0.0), (0.04, 0.04, 10.0), glow)  # 15 m behind it
+    camera.data.dof.use_dof = True
+    camera.data.dof.focus_distance = 5.0
+    camera.data.dof.aperture_fstop = 0.1  # a 25 cm aperture radius: a blur of several pixels
+    cycles, ours = _render_both(bpy, scene, tmp_path)
+    far_cycles, far_ours = _spread(_column_profile(cycles, 64, 128)), _spread(_column_profile(ours, 64, 128))
+    near_cycles, near_ours = _spread(_column_profile(cycles, 0, 64)), _spread(_column_profile(ours, 0, 64))
+    assert far_cycles > 2.0  # the oracle blurs the far bar
+    assert abs(far_ours - far_cycles) <= 0.15 * far_cycles, (far_ours, far_cycles)
+    assert near_ours <= near_cycles + 0.25, (near_ours, near_cycles)  # the focus plane stays sharp
+
+
+def test_motion_blur_streaks_a_moving_mirror_ball_as_long_as_cycles(addon, tmp_path):
+    import bpy
+
+    scene, _camera = _dark_scene(bpy)
+    _box(bpy, scene, "light", (0.0, -3.0, 0.0), (8.0, 0.1, 8.0), _emitter(bpy, "light", 2.0))  # the ball mirrors it
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.5, location=(0.0, 8.0, 0.0), segments=48, ring_count=24)
+    ball = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    mirror = bpy.data.materials.new("mirror")
+    mirror.use_nodes = True
+    principled = mirror.node_tree.nodes["Principled BSDF"]
+    principled.inputs["Metallic"].default_value = 1.0
+    principled.inputs["Roughness"].default_value = 0.0
+    ball.data.materials.append(mirror)
+    bpy.context.preferences.edit.keyframe_new_interpolation_type = "LINEAR"
+    ball.location.x = -4.0
+    ball.keyframe_insert("location", frame=0)
+    ball.location.x = 4.0
+    ball.keyframe_insert("location", frame=2)
+    scene.frame_set(1)
+    scene.render.use_motion_blur = True
+    scene.render.motion_blur_shutter = 0.5  # x from -1 to 1: a streak three ball widths long
+    cycles, ours = _render_both(bpy, scene, tmp_path, hybrid_samples=32)
+
+    def streak(image) -> int:
+        profile = image[HEIGHT // 2 - 4: HEIGHT // 2 + 4, :, :3].mean(axis=(0, 2))
+        return int((profile > 0.2 * profile.max()).sum())
+
+    ball_width = 0.5 * 2 / (8.0 * 36.0 / 50.0) * WIDTH  # pixels at rest
+    assert streak(cycles) > 2.5 * ball_width  # the oracle streaks
+    assert abs(streak(ours) - streak(cycles)) <= 0.10 * streak(cycles), (streak(ours), streak(cycles))
+    assert ball.location.x == pytest.approx(0.0)  # the frame's own evaluation is back

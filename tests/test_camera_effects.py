@@ -287,3 +287,104 @@ def test_motion_blur_streaks_a_moving_mirror_ball_as_long_as_cycles(addon, tmp_p
     assert streak(cycles) > 2.5 * ball_width  # the oracle streaks
     assert abs(streak(ours) - streak(cycles)) <= 0.10 * streak(cycles), (streak(ours), streak(cycles))
     assert ball.location.x == pytest.approx(0.0)  # the frame's own evaluation is back
+
+
+def _principled(bpy, name, color, metallic=0.0, roughness=0.5, transmission=0.0):
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    bsdf = material.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (*color, 1.0)
+    bsdf.inputs["Metallic"].default_value = metallic
+    bsdf.inputs["Roughness"].default_value = roughness
+    bsdf.inputs["Transmission Weight"].default_value = transmission
+    return material
+
+
+def _focus_plane_scene(bpy):
+    """A glass ball on the focus plane, a mirror ball just behind it, boxes before and beyond,
+    a checkered floor running from the lens into the distance: what depth of field blurs, seen
+    directly, through glass and in a mirror."""
+    import mathutils
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    world = bpy.data.worlds.new("sky")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.4, 0.5, 0.7, 1.0)
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.6
+    scene.world = world
+    scene.view_settings.view_transform = "Standard"
+    scene.render.resolution_x, scene.render.resolution_y, scene.render.resolution_percentage = 128, 72, 100
+
+    def add(operator, material, **kwargs):
+        operator(**kwargs)
+        obj = bpy.context.active_object
+        obj.data.materials.append(material)
+        return obj
+
+    floor = _principled(bpy, "floor", (0.6, 0.6, 0.6))
+    checker = floor.node_tree.nodes.new("ShaderNodeTexChecker")
+    checker.inputs["Scale"].default_value = 40.0
+    checker.inputs["Color1"].default_value = (0.8, 0.8, 0.8, 1.0)
+    checker.inputs["Color2"].default_value = (0.1, 0.1, 0.1, 1.0)
+    floor.node_tree.links.new(checker.outputs["Color"], floor.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    add(bpy.ops.mesh.primitive_plane_add, floor, size=40, location=(0, 8, 0))
+    add(bpy.ops.mesh.primitive_uv_sphere_add, _principled(bpy, "mirror", (0.9, 0.9, 0.9), 1.0, 0.0), radius=0.5,
+        location=(1.5, 6.5, 0.5), segments=48, ring_count=24)
+    bpy.ops.object.shade_smooth()
+    glass = add(bpy.ops.mesh.primitive_uv_sphere_add, _principled(bpy, "glass", (1, 1, 1), 0.0, 0.0, 1.0),
+                radius=0.6, location=(0, 5, 0.6), segments=48, ring_count=24)
+    bpy.ops.object.shade_smooth()
+    add(bpy.ops.mesh.primitive_cube_add, _principled(bpy, "red", (0.8, 0.1, 0.1)), size=0.6, location=(-1.2, 2.5, 0.3))
+    add(bpy.ops.mesh.primitive_cube_add, _principled(bpy, "green", (0.1, 0.8, 0.1)), size=1.2, location=(2.0, 9, 0.6))
+    add(bpy.ops.mesh.primitive_cube_add, _principled(bpy, "blue", (0.1, 0.1, 0.8)), size=0.8, location=(-2.0, 7, 0.4))
+    sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
+    sun.data.energy = 3.0
+    sun.rotation_euler = (0.6, 0.2, 0.5)
+    scene.collection.objects.link(sun)
+    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
+    camera.location = (0.3, -0.5, 1.6)
+    camera.rotation_euler = (mathutils.Vector((0, 5, 0.6)) - camera.location).to_track_quat("-Z", "Y").to_euler()
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    camera.data.dof.use_dof = True
+    camera.data.dof.focus_object = glass  # the focus plane runs through the glass ball
+    camera.data.dof.aperture_fstop = 0.25
+    return scene
+
+
+def test_depth_of_field_through_glass_and_mirrors_is_nearer_cycles_than_eevee_is(addon, tmp_path):
+    """The issue's bar: FLIP to Cycles no larger than EEVEE's on a focus plane through glass
+    and mirrors (without the lens, the sharp image is further from Cycles than EEVEE's)."""
+    import bpy
+    from whitted_reference import flip_mean
+
+    scene = _focus_plane_scene(bpy)
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples, scene.cycles.device = 256, "CPU"
+    cycles = render_exr(bpy, scene, tmp_path / "cycles.exr")
+    scene.render.engine = "BLENDER_EEVEE"
+    scene.eevee.taa_render_samples, scene.eevee.use_raytracing = 32, True
+    eevee = render_exr(bpy, scene, tmp_path / "eevee.exr")
+    assert eevee[..., :3].any(), "EEVEE rendered nothing (no GPU backend?)"
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.render_samples = 64
+    ours = render_exr(bpy, scene, tmp_path / "ours.exr")
+    ours_flip, eevee_flip = flip_mean(cycles, ours), flip_mean(cycles, eevee)
+    assert ours_flip <= eevee_flip, (ours_flip, eevee_flip)
+
+
+def test_a_moving_camera_is_seen_from_its_place_at_each_samples_time_with_its_crop_kept():
+    from hybrid_engine.frame.views import region_camera
+
+    camera = region_camera(_camera(64, 32), (8, 4, 40, 28))  # a render region: a cropped projection
+    start = camera.matrix_world.copy()
+    end = start.copy()
+    end[:3, 3] += (1.0, 0.0, 0.5)
+    motion = MotionSteps(times=[0.0, 1.0], instances=np.zeros((2, 0, 4, 4)), camera=np.stack([start, end]))
+    effects = CameraEffects(motion=motion, opening=0.0, closing=1.0)
+    for index in range(4):
+        time = effects.time(index)
+        seen = effects.camera(camera, index)
+        np.testing.assert_allclose(seen.position, start[:3, 3] + time * np.array([1.0, 0.0, 0.5]), atol=1e-9)
+        np.testing.assert_allclose(seen.projection_matrix(), camera.projection_matrix(), atol=1e-12)

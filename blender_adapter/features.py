@@ -118,7 +118,9 @@ FEATURES: tuple[Feature, ...] = (
     Feature("Motion Blur", APPROXIMATED,
             "Final renders: objects and the camera move over the shutter (Position, Shutter), "
             "interpolated from three sub-frame steps, one time per sample; meshes that deform "
-            "keep the frame's shape (the artist is told which); no shutter curve or rolling shutter."),
+            "keep the frame's shape, and the artist is told (*Motion Blur does not blur deformation "
+            "yet ('…'): the shape is the frame's, only the motion is blurred*); no shutter curve or "
+            "rolling shutter."),
     Feature("Stereoscopy", UNSUPPORTED, "One view is rendered; the panel is hidden.",
             "Stereoscopy is not rendered: every view gets the same image",
             _setting("render", "use_multiview", "Stereoscopy")),

@@ -388,3 +388,36 @@ def test_a_moving_camera_is_seen_from_its_place_at_each_samples_time_with_its_cr
         seen = effects.camera(camera, index)
         np.testing.assert_allclose(seen.position, start[:3, 3] + time * np.array([1.0, 0.0, 0.5]), atol=1e-9)
         np.testing.assert_allclose(seen.projection_matrix(), camera.projection_matrix(), atol=1e-12)
+
+
+def test_a_mesh_that_deforms_during_the_shutter_is_named_once_and_one_that_only_moves_is_not(addon, capfd):
+    import bpy
+
+    bpy.ops.wm.read_factory_settings(use_empty=False)
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = 32, 16
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.mode = "RASTER"
+    scene.hybrid_rt.render_samples = 2
+    scene.render.use_motion_blur = True
+    cube = bpy.data.objects["Cube"]
+    bpy.context.preferences.edit.keyframe_new_interpolation_type = "LINEAR"
+    cube.location.x = -1.0
+    cube.keyframe_insert("location", frame=0)
+    cube.location.x = 1.0
+    cube.keyframe_insert("location", frame=2)
+    scene.frame_set(1)
+    capfd.readouterr()
+    bpy.ops.render.render()
+    assert "deformation" not in capfd.readouterr().out
+    cube.shape_key_add(name="Basis")
+    key = cube.shape_key_add(name="raised")
+    key.data[0].co.z += 1.0
+    key.value = 0.0
+    key.keyframe_insert("value", frame=0)
+    key.value = 1.0
+    key.keyframe_insert("value", frame=2)
+    scene.frame_set(1)
+    bpy.ops.render.render()
+    out = capfd.readouterr().out
+    assert out.count("Motion Blur does not blur deformation yet ('Cube')") == 1, out

@@ -53,8 +53,8 @@ def motion_steps(engine, depsgraph, cache, steps: int = MOTION_STEPS) -> MotionS
     if deformed:
         names = sorted(deformed)
         shown = ", ".join(repr(n) for n in names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
-        messages.tell(f"Motion Blur: {shown} deform during the shutter; their shape is the frame's, "
-                      "only their motion is blurred")
+        messages.tell(f"Motion Blur does not blur deformation yet ({shown}): the shape is the frame's, "
+                      "only the motion is blurred")
     return MotionSteps(times=times, instances=np.stack(instances), camera=np.stack(cameras))
 
 

@@ -421,3 +421,41 @@ def test_a_mesh_that_deforms_during_the_shutter_is_named_once_and_one_that_only_
     bpy.ops.render.render()
     out = capfd.readouterr().out
     assert out.count("Motion Blur does not blur deformation yet ('Cube')") == 1, out
+
+
+def test_the_viewport_in_camera_view_blurs_over_its_redraws_as_the_final_render_does(addon, fed_session, tmp_path):
+    import bpy
+    from dataclasses import replace
+
+    from hybrid_engine.frame.viewport import RegionInput
+
+    session, _reports = fed_session
+    adapter = addon.blender_adapter
+    scene, camera = _dark_scene(bpy)
+    glow = _emitter(bpy, "glow")
+    _box(bpy, scene, "in focus", (-1.0, 5.0, 0.0), (0.01, 0.01, 3.0), glow)
+    _box(bpy, scene, "far", (6.0, 20.0, 0.0), (0.04, 0.04, 10.0), glow)
+    camera.data.dof.use_dof = True
+    camera.data.dof.focus_distance = 5.0
+    camera.data.dof.aperture_fstop = 0.1
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.render_samples = 32
+    scene.hybrid_rt.viewport_samples = 32
+    final = render_exr(bpy, scene, tmp_path / "final.exr")
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    view = adapter.export.camera.camera_from_scene(scene, depsgraph)
+    lens = adapter.export.camera.thin_lens_from_scene(scene, depsgraph)
+    settings = replace(adapter.properties.settings_from_scene(scene), denoise_viewport=False, viewport_scale=1.0)
+
+    def redraws(region):
+        for _ in range(32):
+            frame = session.frame(region, settings)
+        assert frame.converged
+        return np.array(frame.image)
+
+    pinhole = RegionInput(view.view_matrix(), view.projection_matrix(), WIDTH, HEIGHT, perspective="CAMERA")
+    sharp = redraws(pinhole)
+    blurred = redraws(replace(pinhole, lens=lens))
+    final_spread = _spread(_column_profile(final, 64, 128))
+    assert _spread(_column_profile(sharp, 64, 128)) < 1.0
+    assert abs(_spread(_column_profile(blurred, 64, 128)) - final_spread) <= 0.15 * final_spread

@@ -237,10 +237,15 @@ def _spread(profile) -> float:
 
 
 # -- through Blender's render path, against Cycles ----------------------------------------------
-def test_depth_of_field_blurs_off_the_focus_plane_as_wide_as_cycles_and_keeps_it_sharp(addon, tmp_path):
+@pytest.mark.parametrize("sensor_fit,blades", [("AUTO", 0), ("VERTICAL", 5)])
+def test_depth_of_field_blurs_off_the_focus_plane_as_wide_as_cycles_and_keeps_it_sharp(addon, tmp_path, sensor_fit,
+                                                                                        blades):
     import bpy
 
     scene, camera = _dark_scene(bpy)
+    camera.data.sensor_fit = sensor_fit  # the circle of confusion in pixels follows the sensor
+    camera.data.dof.aperture_blades = blades
+    camera.data.dof.aperture_rotation = 0.4
     glow = _emitter(bpy, "glow")
     _box(bpy, scene, "in focus", (-1.0, 5.0, 0.0), (0.01, 0.01, 3.0), glow)  # at the focus distance
     _box(bpy, scene, "far", (6.0, 20.0, 0.0), (0.04, 0.04, 10.0), glow)  # 15 m behind it

@@ -116,11 +116,11 @@ FEATURES: tuple[Feature, ...] = (
             "A thin lens as Cycles': focus object or distance, F-stop, blades, rotation and ratio, "
             "one aperture point per sample, in final renders and in the viewport's camera view."),
     Feature("Motion Blur", APPROXIMATED,
-            "Final renders: objects and the camera move over the shutter (Position, Shutter), "
-            "interpolated from three sub-frame steps, one time per sample; meshes that deform "
-            "keep the frame's shape, and the artist is told (*Motion Blur does not blur deformation "
-            "yet ('…'): the shape is the frame's, only the motion is blurred*); no shutter curve or "
-            "rolling shutter."),
+            "Final renders: objects, the camera and deforming meshes move over the shutter "
+            "(Position, Shutter), interpolated from three sub-frame steps, one time per sample; a "
+            "mesh whose topology changes keeps the frame's shape, and the artist is told (*Motion "
+            "Blur does not blur a change of topology yet ('…'): the shape is the frame's, only the "
+            "motion is blurred*); no shutter curve or rolling shutter."),
     Feature("Stereoscopy", UNSUPPORTED, "One view is rendered; the panel is hidden.",
             "Stereoscopy is not rendered: every view gets the same image",
             _setting("render", "use_multiview", "Stereoscopy")),

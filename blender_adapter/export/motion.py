@@ -6,8 +6,10 @@ Cycles evaluates an object at ``2^(motion_steps-1)*2+1`` = 3 times by default (t
 opening, middle and closing) and interpolates between them (``MotionSteps``,
 hybrid_engine/scene/motion.py); so does Hybrid RT. A step costs one evaluation of the
 depsgraph (``RenderEngine.frame_set``) and a walk over the instances that reads matrices
-only (``SceneCache.instance_matrices``); the frame's own evaluation is restored afterwards.
-Meshes that deform within the shutter keep the frame's shape: the artist is told which.
+only (``SceneCache.instance_matrices``), and for the meshes that evaluation deformed, their
+positions and normals (``SceneCache.deformed_arrays``: same topology, as a deformed frame of
+an animation is read); the frame's own evaluation is restored afterwards. A mesh whose
+topology changes within the shutter keeps the frame's shape: the artist is told which.
 """
 from __future__ import annotations
 
@@ -38,8 +40,8 @@ def motion_steps(engine, depsgraph, cache, steps: int = MOTION_STEPS) -> MotionS
         return None
     frame, subframe = int(scene.frame_current), float(scene.frame_subframe)
     times = step_times(float(render.motion_blur_shutter), render.motion_blur_position, steps)
-    instances, cameras = [], []
-    deformed: set[str] = set()
+    instances, cameras, shapes = [], [], []
+    unread: set[str] = set()
     try:
         for offset in times:
             moment = frame + subframe + float(offset)
@@ -47,15 +49,34 @@ def motion_steps(engine, depsgraph, cache, steps: int = MOTION_STEPS) -> MotionS
             engine.frame_set(int(whole), moment - whole)
             instances.append(cache.instance_matrices(depsgraph))
             cameras.append(_camera_matrix(scene, depsgraph))
-            deformed |= _deformed_meshes(depsgraph)
+            arrays, names = cache.deformed_arrays(depsgraph)
+            shapes.append(arrays)
+            unread.update(names)
     finally:
         engine.frame_set(frame, subframe)
-    if deformed:
-        names = sorted(deformed)
+    if unread:
+        names = sorted(unread)
         shown = ", ".join(repr(n) for n in names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
-        messages.tell(f"Motion Blur does not blur deformation yet ({shown}): the shape is the frame's, "
-                      "only the motion is blurred")
-    return MotionSteps(times=times, instances=np.stack(instances), camera=np.stack(cameras))
+        messages.tell(f"Motion Blur does not blur a change of topology yet ({shown}): the shape is the "
+                      "frame's, only the motion is blurred")
+    return MotionSteps(times=times, instances=np.stack(instances), camera=np.stack(cameras),
+                       deformations=_deformations(shapes, cache))
+
+
+def _deformations(shapes: list[dict], cache) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """Per deforming mesh, its positions and normals at every step: a step whose evaluation
+    did not change the mesh keeps the step before's shape (the frame's for the first)."""
+    meshes = cache.scene_data.geometry.instances.meshes
+    out = {}
+    for index in sorted(set().union(*shapes)) if shapes else []:
+        current = (meshes[index].positions, meshes[index].normals)
+        positions, normals = [], []
+        for arrays in shapes:
+            current = arrays.get(index, current)
+            positions.append(current[0])
+            normals.append(current[1])
+        out[index] = (np.stack(positions), np.stack(normals))
+    return out
 
 
 def _camera_matrix(scene, depsgraph) -> np.ndarray:
@@ -63,13 +84,3 @@ def _camera_matrix(scene, depsgraph) -> np.ndarray:
     if camera is None:
         return np.eye(4)
     return np.array(camera.evaluated_get(depsgraph).matrix_world, np.float64)
-
-
-def _deformed_meshes(depsgraph) -> set[str]:
-    """Mesh objects whose evaluated geometry the last sub-frame evaluation changed."""
-    names = set()
-    for update in depsgraph.updates:
-        datablock = update.id
-        if update.is_updated_geometry and getattr(datablock, "type", None) == "MESH" and hasattr(datablock, "data"):
-            names.add(datablock.name)
-    return names

@@ -33,10 +33,12 @@ accepts between a reflection's origin and the cube's centre. For a 50 mm lens at
 **Motion blur.** A sample at time ``t`` takes the instance table's matrices and the
 camera's at ``t`` (``MotionSteps``): a new instance table whose rows differ only for what
 moves, so the upload re-sends those rows and transforms their instances (the meshes stay on
-the GPU), and the cube map and BVH of that time are built for it.
+the GPU), and the cube map and BVH of that time are built for it. A mesh that deforms gets
+its positions and normals of ``t`` (same topology), which the upload re-sends in place.
 """
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -52,6 +54,10 @@ from .views import ViewportView
 # Roberts' R2 sequence (the plastic number's powers): a progressive 2D set that stays even
 # for any count of samples and does not follow the Halton points of the pixel offsets.
 _R2 = (0.7548776662466927, 0.5698402909980532)
+# Versions of a sample's deformed meshes: negative and never repeated, so that the upload
+# (which re-sends a mesh whose version differs from the one it holds) sends each sample's
+# shape and, after the render, the scene's own version again.
+_SAMPLE_VERSIONS = itertools.count(-1, -1)
 
 
 def aperture_uv(index: int) -> tuple[float, float]:
@@ -135,13 +141,24 @@ class CameraEffects:
         time (the same meshes, slots and ids), or ``scene`` itself when nothing moves."""
         motion = self.motion
         geometry = scene.geometry
-        if motion is None or not motion.moving.any() or not isinstance(geometry, InstancedGeometry):
+        if (motion is None or not (motion.moving.any() or motion.deformations)
+                or not isinstance(geometry, InstancedGeometry)):
             return scene
         instances = geometry.instances
         if len(instances) != motion.instances.shape[1]:
             return scene  # the table changed since the steps were taken: show the frame's time
-        moved = Instances(meshes=list(instances.meshes), mesh=instances.mesh,
-                          matrices=motion.instance_matrices(self.time(index), instances.matrices),
+        time = self.time(index)
+        meshes = list(instances.meshes)
+        for mesh_index in motion.deformations:
+            base = meshes[mesh_index] if mesh_index < len(meshes) else None
+            positions, normals = motion.mesh_arrays(mesh_index, time)
+            if base is None or base.positions.shape != positions.shape or base.normals.shape != normals.shape:
+                continue
+            shaped = base.deformed(positions, normals)
+            shaped.version = next(_SAMPLE_VERSIONS)
+            meshes[mesh_index] = shaped
+        moved = Instances(meshes=meshes, mesh=instances.mesh,
+                          matrices=motion.instance_matrices(time, instances.matrices),
                           slot_materials=instances.slot_materials, random_ids=instances.random_ids,
                           colors=instances.colors)
         return SceneData(geometry=InstancedGeometry(moved, geometry.object_names), materials=scene.materials,

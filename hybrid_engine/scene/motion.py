@@ -11,11 +11,11 @@ the same: translation and scale linearly, rotation by quaternion slerp, within t
 of two steps that holds the time. Each accumulated sample of a final render is taken at its
 own time in the shutter (``shutter_time``), so the samples' mean is the image integrated
 over the shutter; only the matrices change from one sample to the next (the meshes stay on
-the GPU).
+the GPU), and the positions and normals of a mesh that deforms (its topology stays).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -58,11 +58,14 @@ def shutter_time(index: int, opening: float, closing: float) -> float:
 @dataclass(frozen=True)
 class MotionSteps:
     """The matrices of the instance table (``instances``: (steps, K, 4, 4)) and of the camera
-    (``camera``: (steps, 4, 4)) at the sub-frame offsets ``times`` (increasing)."""
+    (``camera``: (steps, 4, 4)) at the sub-frame offsets ``times`` (increasing), and the
+    vertex positions and normals of the meshes that deform (``deformations``: the index of a
+    mesh in the instance table's list -> (positions (steps, V, 3), normals (steps, N, 3)))."""
 
     times: np.ndarray
     instances: np.ndarray
     camera: np.ndarray
+    deformations: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         times = np.asarray(self.times, np.float64).reshape(-1)
@@ -76,6 +79,9 @@ class MotionSteps:
             raise MotionError(f"{len(times)} steps need (steps, 4, 4) camera matrices, got {camera.shape}")
         if not (np.isfinite(instances).all() and np.isfinite(camera).all()):
             raise MotionError("motion matrices must be finite")
+        for index, (positions, normals) in self.deformations.items():
+            if positions.shape[0] != len(times) or normals.shape[0] != len(times):
+                raise MotionError(f"mesh {index} deforms over {positions.shape[0]} steps, not {len(times)}")
         object.__setattr__(self, "times", times)
         object.__setattr__(self, "instances", instances)
         object.__setattr__(self, "camera", camera)
@@ -90,7 +96,24 @@ class MotionSteps:
 
     @property
     def anything_moves(self) -> bool:
-        return bool(self.moving.any()) or self.camera_moves
+        return bool(self.moving.any()) or self.camera_moves or bool(self.deformations)
+
+    def mesh_arrays(self, index: int, time: float) -> tuple[np.ndarray, np.ndarray]:
+        """Mesh ``index``'s vertex positions and normals at ``time``: linear between the
+        steps that hold it (Cycles interpolates deformation motion steps linearly too), the
+        normals renormalised."""
+        positions, normals = self.deformations[index]
+        times = self.times
+        if len(times) == 1 or time <= times[0]:
+            return positions[0], normals[0]
+        if time >= times[-1]:
+            return positions[-1], normals[-1]
+        i = int(np.searchsorted(times, time, side="right")) - 1
+        f = (time - times[i]) / (times[i + 1] - times[i])
+        p = (1 - f) * positions[i] + f * positions[i + 1]
+        n = (1 - f) * normals[i] + f * normals[i + 1]
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        return p.astype(np.float32), (n / np.where(length > 0, length, 1.0)).astype(np.float32)
 
     def instance_matrices(self, time: float, still: np.ndarray) -> np.ndarray:
         """The instance table's matrices at ``time`` (float32, (K, 4, 4)): ``still`` (the

@@ -139,6 +139,9 @@ class ViewportSession:
                 result = self._render(view, settings, FrameOutputs(transparent=transparent), index, counted)
                 if self.readback.image is None:  # nothing of this size on the host yet
                     self.readback.collect(wait=True)
+                # The GPU's counts are read while our context is current: outside this block
+                # another one may be (Blender's, after an EEVEE render), and the read would fail.
+                counts = dict(result.counts) if counted else result.counts.host
             self.schedule.advance()
             effective_values.remember(getattr(result, "effective", None))  # for the panels (Automatic settings)
             if index == 0:
@@ -157,7 +160,7 @@ class ViewportSession:
         if settings.near_cube_mode == "BUDGET":
             samples += f" | near {settings.near_size:.2f}"
         # The host's counts every frame (they cost nothing); the GPU's when the line refreshes.
-        self._counts = {**self._counts, **(dict(result.counts) if counted else result.counts.host)}
+        self._counts = {**self._counts, **counts}
         self._last_mode = result.mode
         stats = stats_line(result.mode, frame_ms, fps, self._counts, size, samples=samples)
         self._last = ViewportFrame(image, rect, stats, mode=result.mode, counts=dict(self._counts),

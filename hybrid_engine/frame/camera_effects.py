@@ -172,9 +172,3 @@ class CameraEffects:
         norms[norms == 0] = 1.0
         m[:3, :3] /= norms
         return m
-
-
-def lens_center_error(lens: ThinLens, near_size: float) -> float:
-    """The bound of the module docstring: the angle (radians) by which the kept cube map's
-    view of what lies beyond the near cube can differ from the sample eye's."""
-    return float(np.arctan2(lens.radius * max(1.0, 1.0 / max(lens.ratio, 1e-9)), max(near_size, 1e-12)))

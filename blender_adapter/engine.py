@@ -17,6 +17,7 @@ import numpy as np
 
 from ..hybrid_engine.frame import views
 from ..hybrid_engine.frame.antialias import render_antialiased
+from ..hybrid_engine.frame.camera_effects import CameraEffects
 from ..hybrid_engine.scene.camera import Camera
 from ..hybrid_engine.frame.film import FrameOutputs
 from ..hybrid_engine.passes.film.light_passes import PASSES as LIGHT_PASSES
@@ -30,7 +31,8 @@ from ..hybrid_engine.scene.cryptomatte import CryptomatteRequest
 from ..hybrid_engine.scene.data import SceneData
 from ..hybrid_engine.scene.settings import RenderSettings
 from . import effective_values, features, messages, preview, properties, viewport
-from .export.camera import camera_from_scene
+from .export.camera import camera_from_scene, thin_lens_from_scene
+from .export.motion import motion_steps, shutter
 from .gl_host import gl_block
 from .scene_cache import Changes, SceneCache, SyncReport, TrackedScene, extract_scene
 
@@ -45,6 +47,7 @@ time_final_renders = False
 # Data is on (``final_scene_data``).
 _final_scenes: dict[str, tuple[int, SceneCache]] = {}
 last_final_sync: SyncReport | None = None  # what the most recent F12 re-read
+_final_cache: SceneCache | None = None  # the cache behind the most recent F12's scene (motion blur reads it)
 
 
 def shared_renderer() -> Renderer:
@@ -61,7 +64,7 @@ def final_scene_data(depsgraph) -> SceneData:
     ``updates`` say what changed since the last: the cache kept for it re-reads only that,
     so a second F12 or the next frame of an animation render re-reads nothing that stood
     still. Without it each render reads the scene afresh and nothing is kept."""
-    global last_final_sync
+    global last_final_sync, _final_cache
     layer = depsgraph.view_layer.name
     if not depsgraph.scene.render.use_persistent_data:
         _final_scenes.clear()
@@ -74,12 +77,14 @@ def final_scene_data(depsgraph) -> SceneData:
         changes = Changes() if full else Changes.from_updates(depsgraph.updates)
         _final_scenes[layer] = (key, cache)
     last_final_sync = cache.sync(depsgraph, changes, full=full)
+    _final_cache = cache
     return cache.scene_data
 
 
 def release_renderer() -> None:
-    global _renderer
+    global _renderer, _final_cache
     _final_scenes.clear()
+    _final_cache = None
     if _renderer is not None:
         try:
             with gl_block():
@@ -186,9 +191,24 @@ def final_camera(scene, depsgraph) -> Camera:
     return views.region_camera(camera, rect)
 
 
+def final_effects(engine, depsgraph) -> CameraEffects | None:
+    """A final render's Depth of Field and Motion Blur (None: neither). Motion needs the
+    ``engine`` to evaluate sub-frames, and F12's scene cache to read the matrices of."""
+    scene = depsgraph.scene
+    lens = thin_lens_from_scene(scene, depsgraph)
+    motion = None
+    if engine is not None and _final_cache is not None and scene.render.use_motion_blur:
+        motion = motion_steps(engine, depsgraph, _final_cache)
+    if lens is None and motion is None:
+        return None
+    opening, closing = shutter(scene) if motion is not None else (0.0, 0.0)
+    return CameraEffects(lens=lens, motion=motion, opening=opening, closing=closing)
+
+
 def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, final=False,
                      source: TrackedScene | None = None, sizer: NearCubeSizer | None = None,
-                     settings: RenderSettings | None = None, timing: bool | None = None) -> FrameResult:
+                     settings: RenderSettings | None = None, timing: bool | None = None,
+                     engine=None) -> FrameResult:
     """Export the evaluated scene and render one frame with the scene's settings, or with
     ``settings`` when given: a caller that renders with other settings than the artist's
     (the timing report's FULL_BVH comparison) passes them here instead of writing them
@@ -209,6 +229,10 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
     ``timing``: time each pass (``FrameResult.passes``; the timing report asks), at the cost
     of a ``ctx.finish()`` around every pass. Default: only F12 with ``time_final_renders``.
     ``total_ms`` is measured either way (the frame ends by reading its image back).
+
+    A final render takes the camera's Depth of Field (thin lens) and, given the ``engine``
+    that evaluates sub-frames, the Motion Blur over the shutter (export/motion.py), both
+    sampled across the render's samples (hybrid_engine/frame/camera_effects.py).
     """
     scene = depsgraph.scene
     if settings is None:
@@ -222,6 +246,7 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
         else:
             scene_data = extract_scene(depsgraph)
         features.tell_used_features(scene, depsgraph, final=True)
+        effects = final_effects(engine, depsgraph) if final else None
     messages.report_all(report, gathered)
     # After the scene is read: Frame Budget's Automatic limits follow its scale.
     if sizer is not None:
@@ -242,7 +267,8 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
         result = render_antialiased(renderer, scene_data, camera, settings, samples, outputs=outputs,
                                     timing=timing, cancel=cancel, progress=progress,
                                     filter_width=float(scene.render.filter_size),
-                                    denoise=settings.denoise_render if final else settings.denoise_viewport)
+                                    denoise=settings.denoise_render if final else settings.denoise_viewport,
+                                    effects=effects)
     if final and outputs.cryptomatte is not None:
         result.metadata = cryptomatte_metadata(depsgraph.view_layer, scene_data)
     draw_legend(result.image, result.legend)  # a diagnostic view's legend, kept in the render
@@ -292,7 +318,7 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
 
         global last_frame
         result = render_depsgraph(depsgraph, cancel=self.test_break, progress=progress, report=self.report,
-                                  final=True)
+                                  final=True, engine=self)
         last_frame = result
         height, width = result.image.shape[:2]
         # The result's origin is the render region's corner: Blender places the region in the

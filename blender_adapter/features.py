@@ -48,13 +48,6 @@ def _named(names: list[str]) -> str:
     return shown + (f" and {len(names) - NAMES_SHOWN} more" if len(names) > NAMES_SHOWN else "")
 
 
-def _camera_dof(scene, _depsgraph, _final) -> list[str]:
-    camera = scene.camera
-    if camera is None or camera.type != "CAMERA" or not camera.data.dof.use_dof:
-        return []
-    return [camera.name]
-
-
 def _setting(owner: str, flag: str, label: str, *, final_only: bool = False):
     def used(scene, _depsgraph, final) -> list[str]:
         if final_only and not final:
@@ -129,11 +122,15 @@ FEATURES: tuple[Feature, ...] = (
             "Focal length, sensor fit, shift, clipping, the render region."),
     Feature("Panoramic cameras", UNSUPPORTED,
             "The render stops with an error naming the camera."),
-    Feature("Depth of Field", UNSUPPORTED, "Everything is in focus.",
-            "Depth of Field (camera {names}) is not rendered yet: the image is all in focus", _camera_dof),
-    Feature("Motion Blur", UNSUPPORTED, "Final renders show every object at the frame's time.",
-            "Motion Blur is not rendered yet: moving objects are sharp",
-            _setting("render", "use_motion_blur", "Motion Blur", final_only=True)),
+    Feature("Depth of Field", SUPPORTED,
+            "A thin lens as Cycles': focus object or distance, F-stop, blades, rotation and ratio, "
+            "one aperture point per sample, in final renders and in the viewport's camera view."),
+    Feature("Motion Blur", APPROXIMATED,
+            "Final renders: objects, the camera and deforming meshes move over the shutter "
+            "(Position, Shutter), interpolated from three sub-frame steps, one time per sample; a "
+            "mesh whose topology changes keeps the frame's shape, and the artist is told (*Motion "
+            "Blur does not blur a change of topology yet ('…'): the shape is the frame's, only the "
+            "motion is blurred*); no shutter curve or rolling shutter."),
     Feature("Stereoscopy", UNSUPPORTED, "One view is rendered; the panel is hidden.",
             "Stereoscopy is not rendered: every view gets the same image",
             _setting("render", "use_multiview", "Stereoscopy")),

@@ -438,6 +438,56 @@ class SceneCache:
         return report
 
 
+    def instance_matrices(self, depsgraph) -> np.ndarray:
+        """The matrices (K, 4, 4) of the kept instance table as ``depsgraph`` has them now: a
+        walk that reads matrices only, nothing of a mesh, for motion blur's sub-frame steps
+        (export/motion.py). An instance the table does not hold is ignored; one that is gone
+        keeps the table's matrix."""
+        if self._geometry is None:
+            return np.zeros((0, 4, 4))
+        matrices = self._geometry.instances.matrices.astype(np.float64)
+        for instance in depsgraph.object_instances:
+            if not instance.show_self:
+                continue
+            obj = instance.object
+            if obj.type != "MESH" and obj.type not in export_meshes.CONVERTIBLE_TYPES:
+                continue
+            row = self._rows.get(_instance_key(instance, obj))
+            if row is not None:
+                matrices[row] = np.array(instance.matrix_world, np.float64)
+        return matrices
+
+    def deformed_arrays(self, depsgraph) -> tuple[dict[int, tuple[np.ndarray, np.ndarray]], list[str]]:
+        """The vertex positions and normals, as ``depsgraph`` has them now, of the kept meshes
+        whose geometry its last evaluation changed (motion blur's sub-frame steps,
+        export/motion.py), by their index in the instance table's mesh list; and the names of
+        those that cannot be read so (a new topology, an instancer's mesh, non-finite
+        vertices)."""
+        arrays: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        unread: list[str] = []
+        if self._geometry is None:
+            return arrays, unread
+        instances = self._geometry.instances
+        for update in depsgraph.updates:
+            obj = update.id
+            # An object (a mesh datablock has no ``data``) whose evaluated geometry changed.
+            if not update.is_updated_geometry or getattr(obj, "type", None) != "MESH" or not hasattr(obj, "data"):
+                continue
+            key = ("object", obj.original.as_pointer())
+            obj = obj.original.evaluated_get(depsgraph)
+            entry, row = self._entries.get(key), self._rows.get(key)
+            if entry is None or row is None or entry.mesh is None:
+                continue
+            index = int(instances.mesh[row])
+            data = export_meshes.reread_deformed(obj.data, entry.data)
+            base = instances.meshes[index]
+            if (data is None or not np.isfinite(data.positions).all() or data.positions.shape != base.positions.shape
+                    or data.normals.shape != base.normals.shape):
+                unread.append(entry.name)
+                continue
+            arrays[index] = (np.array(data.positions, np.float32), np.array(data.normals, np.float32))
+        return arrays, unread
+
     def _follow_moves(self, depsgraph, changes: Changes, report: SyncReport) -> bool:
         """Refresh the moved and deformed objects without walking the instances, when every
         one of them is a plain mesh object this cache knows (not a light, not an instancer,

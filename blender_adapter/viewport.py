@@ -40,6 +40,7 @@ import numpy as np
 
 from ..hybrid_engine.frame.accumulation import DEFAULT_FILTER_WIDTH, SampleSchedule
 from ..hybrid_engine.frame.antialias import jittered_camera
+from ..hybrid_engine.frame.camera_effects import aperture_uv, lens_camera
 from ..hybrid_engine.frame.film import FrameOutputs
 from ..hybrid_engine.gpu.gl_context import GLUnavailableError
 from ..hybrid_engine.frame.near_budget import NearCubeSizer
@@ -49,7 +50,7 @@ from ..hybrid_engine.scene.scale import auto_near_size, near_limits
 from ..hybrid_engine.frame.viewport import RegionInput, accumulation_key, plan_frame
 from ..hybrid_engine.frame.viewport_status import FrameClock, MessageLatch, StatsRefresh, stats_line
 from . import effective_values, features, messages, properties
-from .export.camera import camera_from_scene
+from .export.camera import camera_from_scene, thin_lens_from_scene
 from .gl_host import gl_block
 from .scene_cache import Changes, SceneCache, SyncReport
 
@@ -123,19 +124,25 @@ class ViewportSession:
             settings = self.sizer.settings_for_frame(settings, self.cache.scene_data)
             if plan.view is None:
                 return ViewportFrame(None, rect, f"{ERROR_PREFIX} | render border outside the view")
-            key = (accumulation_key(plan.view, settings, self.scene_version, transparent), filter_width)
+            key = (accumulation_key(plan.view, settings, self.scene_version, transparent), filter_width,
+                   region.lens)
             self.schedule.filter_width = filter_width
             target = settings.viewport_samples
             if not self.schedule.wants(key, target) and self._last is not None:
                 return self._unchanged(rect)  # nothing changed: no render
             index = self.schedule.count
             view = jittered_camera(plan.view, *self.schedule.offset())
+            if region.lens is not None and region.lens.active:  # each redraw from its aperture point
+                view = lens_camera(view, region.lens, region.lens.aperture_point(*aperture_uv(index)))
             # The header's counts only when it refreshes (or shows another mode).
             counted = self.stats_refresh.due() or settings.mode != self._last_mode
             with gl_block():
                 result = self._render(view, settings, FrameOutputs(transparent=transparent), index, counted)
                 if self.readback.image is None:  # nothing of this size on the host yet
                     self.readback.collect(wait=True)
+                # The GPU's counts are read while our context is current: outside this block
+                # another one may be (Blender's, after an EEVEE render), and the read would fail.
+                counts = dict(result.counts) if counted else result.counts.host
             self.schedule.advance()
             effective_values.remember(getattr(result, "effective", None))  # for the panels (Automatic settings)
             if index == 0:
@@ -154,7 +161,7 @@ class ViewportSession:
         if settings.near_cube_mode == "BUDGET":
             samples += f" | near {settings.near_size:.2f}"
         # The host's counts every frame (they cost nothing); the GPU's when the line refreshes.
-        self._counts = {**self._counts, **(dict(result.counts) if counted else result.counts.host)}
+        self._counts = {**self._counts, **counts}
         self._last_mode = result.mode
         stats = stats_line(result.mode, frame_ms, fps, self._counts, size, samples=samples)
         self._last = ViewportFrame(image, rect, stats, mode=result.mode, counts=dict(self._counts),
@@ -315,6 +322,7 @@ def region_input(context, depsgraph) -> RegionInput:
         window_matrix=np.array(rv3d.window_matrix, np.float64),
         width=int(region.width), height=int(region.height),
         perspective=perspective, camera=camera, border=border,
+        lens=thin_lens_from_scene(scene, depsgraph) if perspective == "CAMERA" else None,
     )
 
 

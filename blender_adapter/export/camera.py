@@ -1,10 +1,12 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The camera: the scene camera's optics, resolution and matrices for a frame."""
+"""The camera: the scene camera's optics, resolution and matrices for a frame, and its
+thin lens (Depth of Field)."""
 from __future__ import annotations
 
 import numpy as np
 
 from ...hybrid_engine.scene.camera import Camera, CameraError
+from ...hybrid_engine.scene.thin_lens import ThinLens
 
 # Lens Blender uses when the scene camera is not a camera object (BKE_camera_params_from_object).
 NON_CAMERA_LENS = 35.0
@@ -65,3 +67,38 @@ def camera_from_scene(scene, depsgraph=None) -> Camera:
         ortho_scale=float(data.ortho_scale),
         **common,
     )
+
+
+def focus_distance(camera_object, dof) -> float:
+    """The distance the camera is focused at, as Cycles resolves it
+    (``blender_camera_focal_distance``): with a focus object (and bone), that point's
+    distance along the camera's view axis; otherwise the panel's Distance."""
+    target = dof.focus_object
+    if target is None:
+        return float(dof.focus_distance)
+    point = np.array(target.matrix_world, np.float64)[:3, 3]
+    bone_name = getattr(dof, "focus_subtarget", "")
+    if bone_name and target.pose is not None and bone_name in target.pose.bones:
+        bone_matrix = np.array(target.matrix_world, np.float64) @ np.array(target.pose.bones[bone_name].matrix,
+                                                                           np.float64)
+        point = bone_matrix[:3, 3]
+    matrix = _matrix(camera_object)
+    view_axis = matrix[:3, 2] / max(float(np.linalg.norm(matrix[:3, 2])), 1e-30)
+    return abs(float(view_axis @ (matrix[:3, 3] - point)))
+
+
+def thin_lens_from_scene(scene, depsgraph=None) -> ThinLens | None:
+    """The scene camera's Depth of Field as a thin lens (scene/thin_lens.py, Cycles' aperture),
+    or None when its Depth of Field is off (or the camera is no camera object)."""
+    camera_object = scene.camera
+    if camera_object is None or camera_object.type != "CAMERA":
+        return None
+    if depsgraph is not None:
+        camera_object = camera_object.evaluated_get(depsgraph)
+    data = camera_object.data
+    dof = data.dof
+    if not dof.use_dof or data.type not in ("PERSP", "ORTHO"):
+        return None
+    return ThinLens.from_blender(float(data.lens), float(dof.aperture_fstop), focus_distance(camera_object, dof),
+                                 blades=int(dof.aperture_blades), rotation=float(dof.aperture_rotation),
+                                 ratio=float(dof.aperture_ratio), orthographic=data.type == "ORTHO")

@@ -26,6 +26,7 @@ from ..scene.camera import Camera
 from ..scene.data import SceneData
 from ..scene.settings import RenderSettings
 from .accumulation import DEFAULT_FILTER_WIDTH, SampleSchedule, sample_offset
+from .camera_effects import CameraEffects
 from .film import FrameOutputs
 from ..passes.trace.wave_trace import wave_count
 from .views import cropped_camera
@@ -52,7 +53,8 @@ def render_antialiased(renderer: Renderer, scene: SceneData, camera: Camera, set
                        samples: int, *, outputs: FrameOutputs | None = None, timing: bool = False,
                        cancel: CancelCallback | None = None,
                        progress: ProgressCallback | None = None,
-                       filter_width: float = DEFAULT_FILTER_WIDTH, denoise: bool = False) -> FrameResult:
+                       filter_width: float = DEFAULT_FILTER_WIDTH, denoise: bool = False,
+                       effects: CameraEffects | None = None) -> FrameResult:
     """The frame averaged over ``samples`` sub-pixel positions (``sample_offsets``).
 
     The result's ``passes`` sum each pass over the samples (the kept cube map and BVH are
@@ -67,6 +69,9 @@ mean of all, read with the last sample's image). Each sample draws its own
     ``denoise``: each sample's ambient estimate is filtered (passes/denoise/) over the image
     and over the samples so far; the filter's history starts with the first sample, so a
     render does not depend on what the renderer drew before.
+
+    ``effects``: depth of field and motion blur (camera_effects.py): each sample is also
+    seen from its own aperture point and at its own time in the shutter.
     """
     if samples < 1:
         raise ValueError(f"a frame needs at least one sample, got {samples}")
@@ -77,7 +82,7 @@ mean of all, read with the last sample's image). Each sample draws its own
     for _ in range(wave_count(settings.max_depth) + 1):
         overflows = _queue_overflows(renderer)
         result = _render_samples(renderer, scene, camera, settings, samples, outputs, timing, cancel, progress,
-                                 filter_width, denoise)
+                                 filter_width, denoise, effects)
         if _queue_overflows(renderer) == overflows:
             break
     return result
@@ -90,7 +95,8 @@ def _queue_overflows(renderer: Renderer) -> int:
 
 def _render_samples(renderer: Renderer, scene: SceneData, camera: Camera, settings: RenderSettings,
                     samples: int, outputs: FrameOutputs | None, timing: bool, cancel: CancelCallback | None,
-                    progress: ProgressCallback | None, filter_width: float, denoise: bool) -> FrameResult:
+                    progress: ProgressCallback | None, filter_width: float, denoise: bool,
+                    effects: CameraEffects | None = None) -> FrameResult:
     outputs = outputs or FrameOutputs()
     if denoise and renderer.denoiser is not None:
         renderer.denoiser.forget()
@@ -109,9 +115,14 @@ def _render_samples(renderer: Renderer, scene: SceneData, camera: Camera, settin
         index = schedule.count
         dx, dy = schedule.offset()
         last = index == samples - 1
+        if effects is not None and effects.active:
+            sample_scene = effects.scene(scene, index)
+            sample_camera = effects.camera(camera, index, lambda c: jittered_camera(c, float(dx), float(dy)))
+        else:
+            sample_scene, sample_camera = scene, jittered_camera(camera, float(dx), float(dy))
         # The mean is kept on the GPU (accumulate=True) and read back after the last sample.
         result = renderer.render(
-            scene, jittered_camera(camera, float(dx), float(dy)), settings, timing=timing,
+            sample_scene, sample_camera, settings, timing=timing,
             cancel=cancel, progress=_sample_progress(progress, index, samples),
             outputs=outputs if index == 0 else later_outputs, reuse_world=index > 0, sample=index,
             accumulate=True, read_image=last, denoise=denoise)

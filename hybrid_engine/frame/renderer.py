@@ -328,7 +328,7 @@ class Renderer:
         ``denoise``: filter the ambient estimate (passes/denoise/) before the shading reads
         it; the caller decides from the settings (``denoise_viewport``, ``denoise_render``).
         The filter keeps its history from one denoised frame to the next of this renderer."""
-        settings, effective = resolve(settings or RenderSettings(), scene, camera.position, camera.width,
+        settings, effective = resolve(settings or RenderSettings(), scene, camera.center, camera.width,
                                       camera.height)
         outputs = outputs or FrameOutputs()
         crypto = outputs.cryptomatte is not None

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scene.camera import Camera
+from ..scene.thin_lens import ThinLens
 from .views import ViewportView, border_rect, camera_frame_rect
 
 def accumulation_key(view: Camera, settings, scene_version: int, transparent: bool) -> tuple:
@@ -36,7 +37,9 @@ class RegionInput:
     ``perspective`` is ``RegionView3D.view_perspective`` ('PERSP', 'ORTHO' or 'CAMERA');
     in camera view, ``camera`` is the scene camera at the render resolution (for its frame
     inside the region) and ``border`` the render border ((min_x, min_y), (max_x, max_y)) as
-    fractions of that frame, or None when the render border is off.
+    fractions of that frame, or None when the render border is off. ``lens``: in camera view,
+    the camera's Depth of Field when it is on (EEVEE's viewport shows it there too), sampled
+    over the accumulated redraws; None elsewhere.
     """
 
     view_matrix: np.ndarray
@@ -46,6 +49,7 @@ class RegionInput:
     perspective: str = "PERSP"
     camera: Camera | None = None
     border: tuple[tuple[float, float], tuple[float, float]] | None = None
+    lens: ThinLens | None = None
 
 
 @dataclass(frozen=True)

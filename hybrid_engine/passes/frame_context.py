@@ -88,8 +88,8 @@ class FrameContext:
                  keep_world: bool = False, denoise: bool = False) -> None:
         self.ctx = ctx
         self.camera = camera
-        # The eye: the centre of the near cube and of the cube map (paper §3.2).
-        self.center = np.asarray(camera.position, np.float64)
+        # The lens centre: the centre of the near cube and of the cube map (paper §3.2).
+        self.center = np.asarray(camera.center, np.float64)
         self.settings = settings
         self.view = view
         self.outputs = outputs

@@ -77,6 +77,13 @@ class Camera:
     def forward(self) -> np.ndarray:
         return -self.rotation[:, 2]
 
+    @property
+    def center(self) -> np.ndarray:
+        """The centre of the lens: where the near cube and the cube map are centred (paper
+        §3.2). The eye itself, except for a sample of a thin lens (frame/camera_effects.py),
+        whose eye lies on the aperture around it."""
+        return self.position
+
     def view_matrix(self) -> np.ndarray:
         """World → camera space (inverse of the scale-free world matrix)."""
         r = self.rotation

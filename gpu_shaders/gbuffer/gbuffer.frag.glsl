@@ -159,6 +159,8 @@ void main() {
         sp.duv_dx = duv_dx;
         sp.duv_dy = duv_dy;
         sp.lod = -1.0;
+        sp.dp_dx = dp_dx;  // the pixel's footprint (the Bump's differentials)
+        sp.dp_dy = dp_dy;
         // The UVs' directions on the surface (the cotangent frame of the normal map above).
         vec3 dp2_perp = cross(dp_dy, n);
         vec3 dp1_perp = cross(n, dp_dx);

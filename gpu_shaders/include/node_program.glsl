@@ -170,10 +170,12 @@ struct ShadingPoint {
     vec3 geometric;   // unit true normal, facing alike
     vec3 incoming;    // unit vector from the point towards where the ray came from (Geometry Incoming)
     vec2 uv;          // the active UV map
-    vec2 duv_dx;      // UV derivatives per pixel (fragment stage; Image Texture's filter;
-    vec2 duv_dy;      //   at ray hits the footprint's, for the Bump's shifted points only)
-    vec3 dp_dx;       // the position's differentials over the pixel's footprint on the surface
-    vec3 dp_dy;       //   (Cycles' dP: the Bump's offsets and its tangent plane); zero: none
+    vec2 duv_dx;      // UV derivatives per pixel (fragment stage; Image Texture's filter)
+    vec2 duv_dy;
+    vec3 dp_dx;       // the footprint's two axes on the surface (Cycles' dP: the Bump's
+    vec3 dp_dy;       //   offsets and tangent plane; node_footprint_axes); zero: none
+    vec2 uv_dx;       // the UV's change along dp_dx and dp_dy (the Bump's shifted UVs)
+    vec2 uv_dy;
     float lod;        // < 0: sample with the derivatives; else the ray cone's mip level (compute)
     vec3 dp_du;       // the surface's direction of increasing u and v (Normal Map's tangent
     vec3 dp_dv;       //   frame); zero where the UVs are degenerate
@@ -357,10 +359,14 @@ vec4 node_tex_image(int layer, int projection, int extension, int interpolation,
 #endif
 
 // Blender's Normal Map node in tangent space (textures.glsl apply_normal_map, with the
-// strength an input); world and object space read the colour as a normal in that space.
+// strength an input); world and object space read the colour as a normal in that space, the
+// Blender Object and Blender World spaces with Y and Z negated (Blender's old baking
+// convention, as Cycles reads them), and outside tangent space a back face's normal is the
+// map's turned over, as Cycles turns it (the interpreter's normals face the ray).
 vec3 node_normal_map(ShadingPoint sp, int space, float strength, vec3 color) {
     vec3 n = sp.normal;
     vec3 c = color * 2.0 - 1.0;
+    if (space == 3 || space == 4) c.yz = -c.yz;
     vec3 mapped;
     if (space == 0) {
         vec3 t = sp.dp_du - n * dot(n, sp.dp_du);
@@ -381,6 +387,7 @@ vec3 node_normal_map(ShadingPoint sp, int space, float strength, vec3 color) {
     } else {
         mapped = node_unit(c, n);
     }
+    if (space != 0 && sp.backfacing) mapped = -mapped;
     return node_unit(mix(n, mapped, max(strength, 0.0)), n);
 }
 
@@ -392,12 +399,24 @@ ShadingPoint node_bump_offset(ShadingPoint base, int axis, float width) {
     ShadingPoint sp = base;
     if (axis == 1) {
         sp.position += width * base.dp_dx;
-        sp.uv += width * base.duv_dx;
+        sp.uv += width * base.uv_dx;
     } else if (axis == 2) {
         sp.position += width * base.dp_dy;
-        sp.uv += width * base.duv_dy;
+        sp.uv += width * base.uv_dy;
     }
     return sp;
+}
+
+// The footprint of a ray as Cycles' dP holds it (one width, differential_make_compact) and
+// unfolds it for the Bump (differential_from_compact): two axes of that length in the plane of
+// the true normal ng, the first along (1, 1, 1) x ng (make_orthonormals), so a stepped height
+// bevels its edges where Cycles' do.
+void node_footprint_axes(vec3 ng, float width, out vec3 dp_dx, out vec3 dp_dy) {
+    vec3 a = ng.x != ng.y || ng.x != ng.z ? vec3(ng.z - ng.y, ng.x - ng.z, ng.y - ng.x)
+                                          : vec3(ng.z - ng.y, ng.x + ng.z, -ng.y - ng.x);
+    a = node_unit(a, vec3(1.0, 0.0, 0.0));
+    dp_dx = a * width;
+    dp_dy = cross(ng, a) * width;
 }
 
 // The change of the UV along a surface step dp, given the surface's directions of increasing

@@ -535,18 +535,15 @@ Material hit_material(inout Hit h, vec3 d, int depth) {
         sp.normal = sp.backfacing ? -h.normal : h.normal;
         sp.geometric = dot(h.geometric, d) > 0.0 ? -h.geometric : h.geometric;
         sp.uv = h.uv;
+        sp.duv_dx = vec2(0.0);
+        sp.duv_dy = vec2(0.0);
         sp.lod = max(h.lod, 0.0);
         sp.dp_du = h.dp_du;
         sp.dp_dv = h.dp_dv;
-        // The footprint as Cycles gives a ray's dP away from the camera: a disc of the ray
-        // cone's width in the plane of the surface, along two axes of its own (Cycles'
-        // differential_from_compact around the true normal), with the UVs' changes along them.
-        vec3 ax, ay;
-        basis_around(h.geometric, ax, ay);
-        sp.dp_dx = ax * h.footprint;
-        sp.dp_dy = ay * h.footprint;
-        sp.duv_dx = node_uv_change(sp.dp_dx, h.dp_du, h.dp_dv);
-        sp.duv_dy = node_uv_change(sp.dp_dy, h.dp_du, h.dp_dv);
+        // The ray cone's width as the ray's dP, unfolded in the surface's plane as Cycles does.
+        node_footprint_axes(sp.geometric, h.footprint, sp.dp_dx, sp.dp_dy);
+        sp.uv_dx = node_uv_change(sp.dp_dx, h.dp_du, h.dp_dv);
+        sp.uv_dy = node_uv_change(sp.dp_dy, h.dp_du, h.dp_dv);
         sp.ray_depth = max(depth, 1);
         sp.row = h.row;
         sp.material = h.material;

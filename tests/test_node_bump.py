@@ -93,10 +93,14 @@ def test_a_bumped_plane_lit_by_a_sun_matches_cycles(sunlit, case):
     assert mean <= MEAN_BAR and p99 <= P99_BAR, f"{case}: mean {mean:.4f}, p99 {p99:.4f} against Cycles"
 
 
-def test_a_bump_seen_in_a_hybrid_mirror_matches_its_primary_view(addon, tmp_path):
+@pytest.mark.parametrize("tracer", ["cpu", "gpu"])
+def test_a_bump_seen_in_a_hybrid_mirror_matches_its_primary_view(addon, tmp_path, monkeypatch, tracer):
     """The mirror's rays shade the tile at BVH hits, with the ray cone's footprint for dP:
-    the bent normal (shown as a colour) is the primary view's."""
+    the bent normal (shown as a colour) is the primary view's, with either tracer (the wave
+    tracer's hits carry the footprint through their records)."""
     import bpy
+
+    monkeypatch.setenv("HYBRID_RT_KERNELS", f"trace={tracer}")
 
     scene, camera = mirror_scene(bpy, lambda n, l: bump_chain(n, l, ("noise",)))
     primary, mirrored = primary_and_mirrored(bpy, scene, camera, tmp_path)

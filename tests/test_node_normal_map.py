@@ -46,9 +46,13 @@ def test_a_normal_map_matches_cycles_in_every_space_from_either_side(both_sides,
     assert mean <= MEAN_BAR and p99 <= P99_BAR, f"{space} {side}: mean {mean:.4f}, p99 {p99:.4f} against Cycles"
 
 
+@pytest.mark.parametrize("tracer", ["cpu", "gpu"])
 @pytest.mark.parametrize("space", SPACES)
-def test_a_normal_map_seen_in_a_hybrid_mirror_matches_its_primary_view(addon, tmp_path, space):
+def test_a_normal_map_seen_in_a_hybrid_mirror_matches_its_primary_view(addon, tmp_path, monkeypatch, space, tracer):
+    """Either tracer: the wave tracer's hit records carry the tangent frame."""
     import bpy
+
+    monkeypatch.setenv("HYBRID_RT_KERNELS", f"trace={tracer}")
 
     scene, camera = mirror_scene(bpy, lambda n, l: normal_map(n, l, space), uv_turn=UV_TURN)
     primary, mirrored = primary_and_mirrored(bpy, scene, camera, tmp_path)

@@ -107,3 +107,20 @@ def test_a_bump_seen_in_a_hybrid_mirror_matches_its_primary_view(addon, tmp_path
     assert inner(primary)[..., :2].std() > 0.02  # the bump bends the normal
     mean, p99 = difference(inner(mirrored), inner(primary))
     assert mean <= MEAN_BAR and p99 <= P99_BAR, (mean, p99)
+
+
+def test_a_bump_is_evaluated_and_not_reported_to_the_artist(addon):
+    """The reader's list of nodes not evaluated yet (materials._graph_row) no longer names it."""
+    import bpy
+
+    material = bpy.data.materials.new("Bumpy")
+    material.use_nodes = True
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    bump = nodes.new("ShaderNodeBump")
+    links.new(nodes.new("ShaderNodeTexNoise").outputs["Fac"], bump.inputs["Height"])
+    links.new(bump.outputs["Normal"], nodes["Principled BSDF"].inputs["Normal"])
+    materials = addon.blender_adapter.export.materials
+    with addon.blender_adapter.messages.collecting() as told:
+        row = materials.material_params(material)
+    assert told == []
+    assert "BUMP" in {n.kind for n in row["node_graph"].nodes}

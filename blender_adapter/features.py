@@ -193,8 +193,9 @@ FEATURES: tuple[Feature, ...] = (
             "nodes; groups, reroutes and muted nodes as Blender evaluates them. A value edit is "
             "an upload, never a shader compile. Mix Shader mixes the closures' parameters."),
     Feature("Bump node", APPROXIMATED,
-            "Not evaluated yet: its outputs take their default values, and the artist is told "
-            "which node, once per render."),
+            "Evaluated as Cycles does (the Height at the shading point and one Filter Width along "
+            "the footprint's two axes), in the G-buffer and at BVH hits; at cube-map hits a Bump "
+            "whose Height reads the UV stays flat."),
     Feature("Color Attribute and Attribute nodes", SUPPORTED,
             "Vertex colours (point or face corner, byte colours converted to linear as Cycles "
             "does) and named float, vector and colour attributes on points, corners and faces, "

@@ -164,6 +164,17 @@ void main() {
         vec3 dp1_perp = cross(n, dp_dx);
         sp.dp_du = dp2_perp * duv_dx.x + dp1_perp * duv_dy.x;
         sp.dp_dv = dp2_perp * duv_dx.y + dp1_perp * duv_dy.y;
+        // The pixel's footprint as Cycles' camera ray holds it (its width across the ray,
+        // the mean over the pixel's two sides), unfolded in the surface's plane as Cycles
+        // does for the Bump; the UV's change along each axis from the UV's gradients (the
+        // cotangent frame above over its determinant).
+        vec3 across_x = dp_dx - sp.incoming * dot(sp.incoming, dp_dx);
+        vec3 across_y = dp_dy - sp.incoming * dot(sp.incoming, dp_dy);
+        node_footprint_axes(sp.geometric, 0.5 * (length(across_x) + length(across_y)), sp.dp_dx, sp.dp_dy);
+        float frame_det = dot(dp_dx, dp2_perp);
+        float inv_det = abs(frame_det) > 1e-30 ? 1.0 / frame_det : 0.0;
+        sp.uv_dx = vec2(dot(sp.dp_du, sp.dp_dx), dot(sp.dp_dv, sp.dp_dx)) * inv_det;
+        sp.uv_dy = vec2(dot(sp.dp_du, sp.dp_dy), dot(sp.dp_dv, sp.dp_dy)) * inv_det;
         sp.ray_depth = 0;
 #ifdef INSTANCED
         sp.row = v_first_row + gl_PrimitiveID;

@@ -110,6 +110,9 @@ uniform float u_world_lod;  // the images' mip level whose texels match the bake
 #define NODE_OP_COMBINE_COLOR 56u
 #define NODE_OP_MAPPING 57u
 #define NODE_OP_VECTOR_ROTATE 58u
+// -- shading normals and bump (60-69)
+#define NODE_OP_BUMP_OFFSET 60u
+#define NODE_OP_BUMP 61u
 // -- attributes (70-79)
 #define NODE_OP_ATTRIBUTE 70u
 // -- world (hybrid_engine/passes/lighting/world_bake.py)
@@ -154,6 +157,14 @@ struct NodeObject {
 // Row 0 is a header (rows.x = the instance count); instance k is row k + 1.
 layout(std430) readonly buffer NodeObjects { NodeObject node_objects[]; };
 
+// The render camera, for Texture Coordinate's Camera and Window (the frame's primary view,
+// RasterView.uniforms): world to camera space as Cycles has it (+Z in front of the camera,
+// where Blender's camera object looks down its -Z), and world to clip space (Window is its
+// perspective divide mapped to 0..1). At a ray hit Cycles gives the hit's own camera-space
+// and window position, and so does the interpreter.
+uniform mat4 u_node_world_to_camera;
+uniform mat4 u_node_world_to_clip;
+
 // What the input nodes read at a shading point; the caller fills every field.
 struct ShadingPoint {
     vec3 position;    // world space
@@ -163,6 +174,10 @@ struct ShadingPoint {
     vec2 uv;          // the active UV map
     vec2 duv_dx;      // UV derivatives per pixel (fragment stage; Image Texture's filter)
     vec2 duv_dy;
+    vec3 dp_dx;       // the footprint's two axes on the surface (Cycles' dP: the Bump's
+    vec3 dp_dy;       //   offsets and tangent plane; node_footprint_axes); zero: none
+    vec2 uv_dx;       // the UV's change along dp_dx and dp_dy (the Bump's shifted UVs)
+    vec2 uv_dy;
     float lod;        // < 0: sample with the derivatives; else the ray cone's mip level (compute)
     vec3 dp_du;       // the surface's direction of increasing u and v (Normal Map's tangent
     vec3 dp_dv;       //   frame); zero where the UVs are degenerate
@@ -353,10 +368,14 @@ vec4 node_tex_image(int layer, int projection, int extension, int interpolation,
 #endif
 
 // Blender's Normal Map node in tangent space (textures.glsl apply_normal_map, with the
-// strength an input); world and object space read the colour as a normal in that space.
+// strength an input); world and object space read the colour as a normal in that space, the
+// Blender Object and Blender World spaces with Y and Z negated (Blender's old baking
+// convention, as Cycles reads them), and outside tangent space a back face's normal is the
+// map's turned over, as Cycles turns it (the interpreter's normals face the ray).
 vec3 node_normal_map(ShadingPoint sp, int space, float strength, vec3 color) {
     vec3 n = sp.normal;
     vec3 c = color * 2.0 - 1.0;
+    if (space == 3 || space == 4) c.yz = -c.yz;
     vec3 mapped;
     if (space == 0) {
         vec3 t = sp.dp_du - n * dot(n, sp.dp_du);
@@ -377,7 +396,65 @@ vec3 node_normal_map(ShadingPoint sp, int space, float strength, vec3 color) {
     } else {
         mapped = node_unit(c, n);
     }
+    if (space != 0 && sp.backfacing) mapped = -mapped;
     return node_unit(mix(n, mapped, max(strength, 0.0)), n);
+}
+
+// -- shading normals and bump
+// The shading point one filter width along a differential (Cycles' bump evaluation: the
+// position and the texture coordinates move, the normal stays): axis 1 along dP/dx, 2 along
+// dP/dy, 0 the point itself. Filter Width is in pixels, the differentials span one.
+ShadingPoint node_bump_offset(ShadingPoint base, int axis, float width) {
+    ShadingPoint sp = base;
+    if (axis == 1) {
+        sp.position += width * base.dp_dx;
+        sp.uv += width * base.uv_dx;
+    } else if (axis == 2) {
+        sp.position += width * base.dp_dy;
+        sp.uv += width * base.uv_dy;
+    }
+    return sp;
+}
+
+// The footprint of a ray as Cycles' dP holds it (one width, differential_make_compact) and
+// unfolds it for the Bump (differential_from_compact): two axes of that length in the plane of
+// the true normal ng, the first along (1, 1, 1) x ng (make_orthonormals), so a stepped height
+// bevels its edges where Cycles' do.
+void node_footprint_axes(vec3 ng, float width, out vec3 dp_dx, out vec3 dp_dy) {
+    vec3 a = ng.x != ng.y || ng.x != ng.z ? vec3(ng.z - ng.y, ng.x - ng.z, ng.y - ng.x)
+                                          : vec3(ng.z - ng.y, ng.x + ng.z, -ng.y - ng.x);
+    a = node_unit(a, vec3(1.0, 0.0, 0.0));
+    dp_dx = a * width;
+    dp_dy = cross(ng, a) * width;
+}
+
+// The change of the UV along a surface step dp, given the surface's directions of increasing
+// u and v (dp = du dP/du + dv dP/dv, solved in the least-squares sense); zero without them.
+vec2 node_uv_change(vec3 dp, vec3 tu, vec3 tv) {
+    float a = dot(tu, tu), b = dot(tu, tv), c = dot(tv, tv);
+    float det = a * c - b * b;
+    if (!(abs(det) > 1e-30)) return vec2(0.0);
+    float pu = dot(dp, tu), pv = dot(dp, tv);
+    return vec2(c * pu - b * pv, a * pv - b * pu) / det;
+}
+
+// Cycles' Bump node: the height's surface gradient from its values at the point (h) and one
+// filter width along dP/dx (hx) and dP/dy (hy), as Mikkelsen's "Bump mapping unparametrized
+// surfaces on the GPU" (2010) does with screen derivatives. R_x, R_y span the dual frame of
+// the differentials in the plane of n, so (hx - h) R_x + (hy - h) R_y is width x det x the
+// gradient; the width times |det| on n makes the result N - distance x grad(height), the same
+// at any filter width. Strength blends towards the input normal, Invert flips the distance.
+vec3 node_bump(ShadingPoint sp, float strength, float distance, float width, float h, float hx, float hy,
+               vec3 normal, bool invert) {
+    vec3 n = node_unit(normal, sp.normal);
+    vec3 rx = cross(sp.dp_dy, n);
+    vec3 ry = cross(n, sp.dp_dx);
+    float det = dot(sp.dp_dx, rx);
+    vec3 gradient = (hx - h) * rx + (hy - h) * ry;
+    float d = invert ? -distance : distance;
+    vec3 bent = node_unit(width * abs(det) * n - d * sign(det) * gradient, n);
+    strength = max(strength, 0.0);
+    return node_unit(strength * bent + (1.0 - strength) * n, n);
 }
 
 #ifdef NODE_FAMILY_COLOUR
@@ -402,6 +479,8 @@ float node_curve_value(uint at, int columns, int column, float x, float min_x, f
 
 // Run the program at word `offset` at the shading point; returns the material's closure.
 NodeClosure node_program_run(int offset, ShadingPoint sp) {
+    // The point as the caller gave it: a Bump's offset instructions move sp away from it and back.
+    ShadingPoint base = sp;
     for (int r = 0; r < NODE_REGISTERS; ++r) node_reg[r] = vec4(0.0);
     uint pc = uint(max(offset, 0));
     vec4 result[4] = vec4[4](vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0));
@@ -433,7 +512,9 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
             node_out[1] = vec4(node_unit(node_to_object(k, sp.normal, 0.0), sp.normal), 0.0);  // object space
             node_out[2] = vec4(sp.uv, 0.0, 0.0);
             node_out[3] = vec4(node_to_object(k, sp.position, 1.0), 0.0);
-            // Camera and Window need the view the point is seen from: not kept (0).
+            node_out[4] = vec4((u_node_world_to_camera * vec4(sp.position, 1.0)).xyz, 0.0);
+            vec4 clip = u_node_world_to_clip * vec4(sp.position, 1.0);
+            node_out[5] = clip.w != 0.0 ? vec4(clip.xy / clip.w * 0.5 + 0.5, 0.0, 0.0) : vec4(0.0);
             node_out[6] = vec4(reflect(-sp.incoming, sp.normal), 0.0);
             break;
         }
@@ -515,6 +596,15 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
         case NODE_OP_NORMAL_MAP:
             node_out[0] = vec4(node_normal_map(sp, int(node_words[set_at]), node_in[0].x, node_in[1].rgb), 0.0);
             break;
+        // -- shading normals and bump
+        case NODE_OP_BUMP_OFFSET:
+            sp = node_bump_offset(base, int(node_words[set_at]), node_in[0].x);
+            break;
+        case NODE_OP_BUMP:
+            node_out[0] = vec4(node_bump(base, node_in[0].x, node_in[1].x, node_in[2].x, node_in[3].x,
+                                         node_in[5].x, node_in[6].x, node_in[4].xyz, node_words[set_at] != 0u), 0.0);
+            break;
+        // -- end of shading normals and bump
         case NODE_OP_BSDF_PRINCIPLED: {
             // Base Color, Metallic, Roughness, IOR, Alpha, Normal, Specular IOR Level,
             // Transmission Weight, Emission Color, Emission Strength (materials.py's folding).

@@ -189,6 +189,9 @@ struct Hit {
     float lod;       // mip level of the ray cone's footprint (textured hits)
 #ifdef NODE_PROGRAMS
     int row;         // world row of the surface's triangle (a cube hit: the face texel's), -1 none
+    vec3 dp_du;      // the triangle's directions of increasing u and v (a node program's tangent
+    vec3 dp_dv;      //   frame: Normal Map); zero where unknown (cube hits) or degenerate
+    float footprint; // the ray cone's width at the hit, metres (a node program's dP: Bump)
 #endif
 };
 
@@ -258,6 +261,17 @@ float ray_cone_footprint(vec3 o, float t, float blur) {
     return u_pixel_width + u_pixel_spread * (distance(o, u_camera_position) + t) + 2.0 * blur * blur * t;
 }
 
+#ifdef NODE_PROGRAMS
+// dP/du and dP/dv of a triangle with edges e1, e2 whose UVs change by d1, d2 along them;
+// zero when its UVs are degenerate.
+void triangle_uv_directions(vec3 e1, vec3 e2, vec2 d1, vec2 d2, out vec3 tu, out vec3 tv) {
+    float r = d1.x * d2.y - d2.x * d1.y;
+    bool ok = abs(r) > 1e-20;
+    tu = ok ? (e1 * d2.y - e2 * d1.y) / r : vec3(0.0);
+    tv = ok ? (e2 * d1.x - e1 * d2.x) / r : vec3(0.0);
+}
+#endif
+
 Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary, float blur) {
     Hit h;
     h.kind = HIT_BVH;
@@ -271,7 +285,18 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary, float blur) {
     ivec4 tex = materials[h.material].textures;
 #ifdef NODE_PROGRAMS
     h.row = tri;
-    if (material_has_program(materials[h.material])) tex.x = 0;  // a program may read the UV
+    h.dp_du = vec3(0.0);
+    h.dp_dv = vec3(0.0);
+    h.footprint = ray_cone_footprint(o, t, blur);
+    if (material_has_program(materials[h.material])) {
+        tex.x = 0;  // a program may read the UV
+        // The triangle's UV directions (its tangent frame, constant over it: a Normal Map's
+        // tangent where Cycles interpolates MikkTSpace's per vertex).
+        TriangleUV tuv = tri_uvs[tri];
+        BVHTriangle tr = bvh_triangle(uint(leaf));
+        triangle_uv_directions(bvh_xyz(tr.v1) - bvh_xyz(tr.v0), bvh_xyz(tr.v2) - bvh_xyz(tr.v0),
+                               tuv.uv01.zw - tuv.uv01.xy, tuv.uv2_scale.xy - tuv.uv01.xy, h.dp_du, h.dp_dv);
+    }
 #endif
     if (max(max(tex.x, tex.y), tex.z) >= 0 || material_has_surface_maps(materials[h.material])) {
         // Texture coordinate by the hit's barycentrics.
@@ -311,6 +336,9 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
     h.lod = 0.0;
 #ifdef NODE_PROGRAMS
     h.row = -1;
+    h.dp_du = vec3(0.0);
+    h.dp_dv = vec3(0.0);
+    h.footprint = 0.0;
 #endif
     bool reached_cube = false;
     bool reentered = false;
@@ -361,6 +389,9 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
 #ifdef NODE_PROGRAMS
                 // The face texel's triangle row (gbuffer.frag.glsl, CUBE_FACE): its bits in w.
                 h.row = floatBitsToInt(texelFetch(u_cube_surface, cm.texel, 0).w);
+                h.footprint = ray_cone_footprint(o, distance(o, cm.position), blur);
+                // No tangent frame: the faces keep no triangle corners (a tangent-space
+                // Normal Map is flat at cube hits).
                 if (material_has_program(materials[h.material])) tex.x = 0;  // a program may read the UV
 #endif
                 if (max(max(tex.x, tex.y), tex.z) >= 0 || material_has_surface_maps(materials[h.material])) {
@@ -507,8 +538,12 @@ Material hit_material(inout Hit h, vec3 d, int depth) {
         sp.duv_dx = vec2(0.0);
         sp.duv_dy = vec2(0.0);
         sp.lod = max(h.lod, 0.0);
-        sp.dp_du = vec3(0.0);  // no tangent frame at hits: a tangent-space Normal Map is flat there
-        sp.dp_dv = vec3(0.0);
+        sp.dp_du = h.dp_du;
+        sp.dp_dv = h.dp_dv;
+        // The ray cone's width as the ray's dP, unfolded in the surface's plane as Cycles does.
+        node_footprint_axes(sp.geometric, h.footprint, sp.dp_dx, sp.dp_dy);
+        sp.uv_dx = node_uv_change(sp.dp_dx, h.dp_du, h.dp_dv);
+        sp.uv_dy = node_uv_change(sp.dp_dy, h.dp_du, h.dp_dv);
         sp.ray_depth = max(depth, 1);
         sp.row = h.row;
         sp.material = h.material;

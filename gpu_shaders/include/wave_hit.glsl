@@ -10,9 +10,10 @@
 #ifndef HYBRID_WAVE_HIT_GLSL
 #define HYBRID_WAVE_HIT_GLSL
 
-// With NODE_PROGRAMS a word more: 10 the triangle row (node programs read the hit's object).
+// With NODE_PROGRAMS eight words more: 10 the triangle row (node programs read the hit's
+// object), 11-13 dP/du, 14-16 dP/dv (the tangent frame) and 17 the ray cone's footprint.
 #ifdef NODE_PROGRAMS
-#define HIT_WORDS 11u
+#define HIT_WORDS 18u
 #else
 #define HIT_WORDS 10u
 #endif
@@ -32,6 +33,9 @@ void store_hit(uint i, Hit h) {
     hits[at + 9u] = floatBitsToUint(h.lod);
 #ifdef NODE_PROGRAMS
     hits[at + 10u] = uint(h.row);
+    QUEUE_STORE_VEC3(hits, at + 11u, h.dp_du)
+    QUEUE_STORE_VEC3(hits, at + 14u, h.dp_dv)
+    hits[at + 17u] = floatBitsToUint(h.footprint);
 #endif
 }
 #else
@@ -50,6 +54,9 @@ Hit load_hit(uint i) {
     h.lod = 0.0;
 #ifdef NODE_PROGRAMS
     h.row = -1;
+    h.dp_du = vec3(0.0);
+    h.dp_dv = vec3(0.0);
+    h.footprint = 0.0;
 #endif
     if (h.kind == HIT_SKY) return h;
     h.position = ray_words_vec3(i);
@@ -59,6 +66,9 @@ Hit load_hit(uint i) {
     h.lod = uintBitsToFloat(hits[at + 9u]);
 #ifdef NODE_PROGRAMS
     h.row = int(hits[at + 10u]);
+    h.dp_du = QUEUE_VEC3(hits, at + 11u);
+    h.dp_dv = QUEUE_VEC3(hits, at + 14u);
+    h.footprint = uintBitsToFloat(hits[at + 17u]);
 #endif
     return h;
 }

@@ -35,6 +35,10 @@ void main() {
     sp.duv_dx = vec2(0.0);
     sp.duv_dy = vec2(0.0);
     sp.lod = 0.0;
+    sp.dp_dx = vec3(0.0);
+    sp.dp_dy = vec3(0.0);
+    sp.uv_dx = vec2(0.0);
+    sp.uv_dy = vec2(0.0);
     sp.dp_du = vec3(0.0);
     sp.dp_dv = vec3(0.0);
     sp.backfacing = false;

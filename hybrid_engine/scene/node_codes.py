@@ -65,6 +65,9 @@ OP_SEPARATE_COLOR = 55
 OP_COMBINE_COLOR = 56
 OP_MAPPING = 57
 OP_VECTOR_ROTATE = 58
+# -- shading normals and bump (opcodes 60-69; block owned by the Bump / Normal Map work)
+OP_BUMP_OFFSET = 60    # shifts the shading point by Filter Width x dP/dx or dP/dy (0: back)
+OP_BUMP = 61           # Cycles' bump: the three heights into a perturbed normal
 # -- attributes (opcodes 70-79): Color Attribute and Attribute, read from the scene's attribute
 # store (hybrid_engine/scene/mesh_attributes.py, passes/scene_upload/node_attributes.py)
 OP_ATTRIBUTE = 70      # settings: source (ATTRIBUTE_SOURCES), slot within the source
@@ -97,9 +100,11 @@ REGISTERS = 32
 
 # White Noise Texture's ``noise_dimensions`` (include/nodes/tex_white_noise.glsl).
 WHITE_NOISE_DIMENSIONS = {"1D": 1, "2D": 2, "3D": 3, "4D": 4}
-# Normal Map's ``space``: only tangent space is evaluated; the rest are listed for the
-# compiler's message.
+# Normal Map's ``space`` (node_program.glsl node_normal_map).
 NORMAL_MAP_SPACES = {"TANGENT": 0, "OBJECT": 1, "WORLD": 2, "BLENDER_OBJECT": 3, "BLENDER_WORLD": 4}
+
+# The Bump's offset instruction: which differential the shading point moves along.
+BUMP_AXIS_NONE, BUMP_AXIS_X, BUMP_AXIS_Y = 0, 1, 2
 
 # -- colour and vector: the int codes of their enums (the headers of gpu_shaders/include/nodes/).
 # Color Ramps and curves travel as Cycles' tables of TABLE_SIZE samples, inline in the program

@@ -30,7 +30,7 @@ import numpy as np
 
 from . import node_codes as nc
 from .mesh_attributes import AttributeRequests, node_key, requests_of
-from .shader_graph import Constant, Link, ShaderGraph
+from .shader_graph import Constant, GraphNode, Link, ShaderGraph
 
 VALUE, VECTOR, RGBA, SHADER = "VALUE", "VECTOR", "RGBA", "SHADER"
 CLOSURE_REGISTERS = 4  # a shader value: node_program.glsl NodeClosure
@@ -164,6 +164,14 @@ NODE_SPECS: dict[str, NodeSpec] = {
                           (("texture", _int(-1)),)),
     "NORMAL_MAP": NodeSpec(nc.OP_NORMAL_MAP, (("Strength", VALUE, 1.0), ("Color", RGBA, (0.5, 0.5, 1.0, 1.0))),
                            (("Normal", VECTOR),), (("space", _enum(nc.NORMAL_MAP_SPACES, "TANGENT")),)),
+    # -- shading normals and bump (opcodes 60-69): the Bump's two shifted Heights are the
+    # pseudo-inputs _BUMP_DX and _BUMP_DY, which the compiler links to copies of the Height's
+    # sub-graph (_bump_steps); Blender's graph never names them.
+    "BUMP": NodeSpec(nc.OP_BUMP, (("Strength", VALUE, 1.0), ("Distance", VALUE, 0.001), ("Filter Width", VALUE, 0.1),
+                                  ("Height", VALUE, 1.0), ("Normal", VECTOR, _N), ("Height_dx", VALUE, 1.0),
+                                  ("Height_dy", VALUE, 1.0)),
+                     (("Normal", VECTOR),), (("invert", _flag(False)),)),
+    # -- end of shading normals and bump
     "BSDF_PRINCIPLED": NodeSpec(nc.OP_BSDF_PRINCIPLED, (
         ("Base Color", RGBA, _GREY), ("Metallic", VALUE, 0.0), ("Roughness", VALUE, 0.5), ("IOR", VALUE, 1.5),
         ("Alpha", VALUE, 1.0), ("Normal", VECTOR, _N), ("Specular IOR Level", VALUE, 0.5),
@@ -326,6 +334,68 @@ NODE_SPECS["COMBINE_XYZ"] = NODE_SPECS["COMBXYZ"]
 NODE_SPECS["BSDF_ANISOTROPIC"] = NODE_SPECS["BSDF_GLOSSY"]
 
 _OUTPUT_SPEC = NodeSpec(nc.OP_OUTPUT, (("Surface", SHADER, None),))
+# The Bump's shifted evaluations (Cycles' SVM compiles a Bump's Height sub-graph three times,
+# at the shading point and at the points one Filter Width along dP/dx and dP/dy): the offset
+# instruction moves the interpreter's shading point, the copies that follow read it.
+_BUMP_DX, _BUMP_DY = "Height_dx", "Height_dy"
+_BUMP_OFFSET_SPEC = NodeSpec(nc.OP_BUMP_OFFSET, (("Filter Width", VALUE, 0.1),), (), (("axis", _int(0)),))
+
+
+def _upstream(graph: ShaderGraph, start: int) -> list[int]:
+    """``start`` and every node it reads, in evaluation order."""
+    needed: set[int] = set()
+    stack = [start]
+    while stack:
+        index = stack.pop()
+        if index not in needed:
+            needed.add(index)
+            stack.extend(v.node for v in graph.nodes[index].inputs.values() if isinstance(v, Link))
+    return sorted(needed)
+
+
+def _bump_steps(graph: ShaderGraph, order: list[int]) -> tuple[list[tuple[int, NodeSpec, GraphNode]], dict[int, str]]:
+    """The instructions of ``order`` with each Bump's shifted Height evaluations before it:
+    per axis an offset instruction and a copy of the Height's sub-graph (fresh ids from
+    ``len(graph.nodes)`` on, so the copies get registers of their own), then an offset back.
+    The copies run the whole sub-graph, constants included: the interpreter cannot tell which
+    node reads the shading point, and a Value node costs one word. A Bump inside a Height
+    sub-graph is copied with its own heights unshifted (its normal unbent there): its shifted
+    copies would move the outer copy's shading point. Returns the steps and each id's kind."""
+    compiled = set(order)
+    kind_of = {i: graph.nodes[i].kind for i in order}
+    steps: list[tuple[int, NodeSpec, GraphNode]] = []
+    next_id = len(graph.nodes)
+
+    def copy(node: GraphNode, ids: dict[int, int]) -> GraphNode:
+        inputs = {k: Link(ids[v.node], v.output) if isinstance(v, Link) and v.node in ids else v
+                  for k, v in node.inputs.items()}
+        if NODE_SPECS[node.kind].opcode == nc.OP_BUMP and "Height" in inputs:
+            inputs[_BUMP_DX] = inputs[_BUMP_DY] = inputs["Height"]
+        return GraphNode(node.kind, node.name, node.settings, inputs)
+
+    for index in order:
+        node = graph.nodes[index]
+        spec = NODE_SPECS[node.kind]
+        if spec.opcode == nc.OP_BUMP:
+            height = node.inputs.get("Height")
+            shifted: dict[str, object] = {}
+            if isinstance(height, Link) and height.node in compiled:
+                width = {"Filter Width": node.inputs["Filter Width"]} if "Filter Width" in node.inputs else {}
+                for axis, ident in ((nc.BUMP_AXIS_X, _BUMP_DX), (nc.BUMP_AXIS_Y, _BUMP_DY)):
+                    steps.append((-1, _BUMP_OFFSET_SPEC, GraphNode("BUMP_OFFSET", node.name, {"axis": axis}, width)))
+                    ids: dict[int, int] = {}
+                    for j in (j for j in _upstream(graph, height.node) if j in compiled):
+                        ids[j] = next_id
+                        kind_of[next_id] = graph.nodes[j].kind
+                        next_id += 1
+                        steps.append((ids[j], NODE_SPECS[graph.nodes[j].kind], copy(graph.nodes[j], ids)))
+                    shifted[ident] = Link(ids[height.node], height.output)
+                steps.append((-1, _BUMP_OFFSET_SPEC, GraphNode("BUMP_OFFSET", node.name, {"axis": nc.BUMP_AXIS_NONE})))
+            elif height is not None:
+                shifted = {_BUMP_DX: height, _BUMP_DY: height}  # an unlinked Height: no slope
+            node = GraphNode(node.kind, node.name, node.settings, {**node.inputs, **shifted})
+        steps.append((index, spec, node))
+    return steps, kind_of
 
 
 def _float_word(value: float) -> int:
@@ -394,20 +464,20 @@ def compile_graph(graph: ShaderGraph, name: str = "material", registers: int = n
     graph.validate()
     order = [i for i in _reachable(graph) if graph.nodes[i].kind in NODE_SPECS]
     unsupported = sorted({graph.nodes[i].kind for i in _reachable(graph)} - set(NODE_SPECS))
-    compiled = set(order)
+    steps, kind_of = _bump_steps(graph, order)
+    compiled = set(kind_of)
 
     def producer(value: object, wanted: str) -> tuple[Link, str] | None:
         """The link and the type it carries when ``value`` links a compiled output that
         can feed a socket of type ``wanted``."""
         if not isinstance(value, Link) or value.node not in compiled:
             return None
-        outputs = dict(NODE_SPECS[graph.nodes[value.node].kind].outputs)
+        outputs = dict(NODE_SPECS[kind_of[value.node]].outputs)
         produced = outputs.get(value.output)
         if produced is None or (produced == SHADER) != (wanted == SHADER):
             return None  # a missing socket, or a shader into a value socket: Blender's invalid link
         return value, produced
 
-    steps = [(i, NODE_SPECS[graph.nodes[i].kind], graph.nodes[i]) for i in order]
     surface = {"Surface": graph.surface} if graph.surface is not None else {}
     steps.append((-1, _OUTPUT_SPEC, type("Out", (), {"inputs": surface, "settings": {}})()))
     last_read: dict[tuple[int, str], int] = {}
@@ -453,7 +523,7 @@ def compile_graph(graph: ShaderGraph, name: str = "material", registers: int = n
             if len(free) < width:
                 raise NodeProgramError(
                     f"{name}: the node graph holds more than {registers} values at once at node "
-                    f"{node.name!r} ({graph.nodes[index].kind}); the interpreter has {registers} registers "
+                    f"{node.name!r} ({kind_of.get(index, '?')}); the interpreter has {registers} registers "
                     f"(a shader value takes {CLOSURE_REGISTERS}): simplify the graph")
             taken, free = free[:width], free[width:]
             live[(index, ident)] = taken

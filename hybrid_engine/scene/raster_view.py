@@ -30,11 +30,15 @@ class RasterView:
     orthographic: bool
     width: int
     height: int
+    # World to camera space as Cycles' Texture Coordinate Camera output gives it (+Z in front
+    # of the camera); None for views that are no camera (the cube-map faces).
+    world_to_camera: np.ndarray | None = None
 
     @classmethod
     def from_camera(cls, camera: Camera) -> "RasterView":
+        to_camera = np.diag([1.0, 1.0, -1.0, 1.0]) @ camera.view_matrix()
         return cls(camera.view_projection(), camera.position, camera.forward,
-                   camera.projection == "ORTHO", int(camera.width), int(camera.height))
+                   camera.projection == "ORTHO", int(camera.width), int(camera.height), to_camera)
 
     def view_proj_bytes(self) -> bytes:
         """The view-projection as a GLSL mat4 (passes that project points into the view)."""
@@ -49,4 +53,13 @@ class RasterView:
             "u_camera_forward": tuple(np.asarray(self.forward, float)),
             "u_orthographic": int(self.orthographic),
             "u_size": (self.width, self.height),
+            **self.node_camera_uniforms(),
         }
+
+    def node_camera_uniforms(self) -> dict:
+        """The node programs' camera (node_program.glsl: Texture Coordinate Camera and
+        Window), only for a view that is a camera."""
+        if self.world_to_camera is None:
+            return {}
+        return {"u_node_world_to_camera": gl_matrix(self.world_to_camera),
+                "u_node_world_to_clip": gl_matrix(self.view_proj)}

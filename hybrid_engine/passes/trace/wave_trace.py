@@ -63,7 +63,8 @@ from .diagnostic_views import is_diagnostic
 WAVE_LOCAL = 64  # the queue kernels' workgroup (wave_queue.glsl WAVE_LOCAL)
 RAY_WORDS = 10  # a queued ray, 32-bit words (wave_queue.glsl RAY_WORDS)
 OCCLUSION_WORDS = 9  # a queued occlusion ray (no blur)
-HIT_WORDS = 10  # a hit (wave_hit.glsl HIT_WORDS; one more, the triangle row, with NODE_PROGRAMS)
+HIT_WORDS = 10  # a hit (wave_hit.glsl HIT_WORDS; NODE_PROGRAM_HIT_WORDS more with NODE_PROGRAMS)
+NODE_PROGRAM_HIT_WORDS = 8  # the triangle row, the tangent frame (6) and the ray cone's footprint
 RAY_BYTES, OCCLUSION_BYTES, HIT_BYTES = 4 * RAY_WORDS, 4 * OCCLUSION_WORDS, 4 * HIT_WORDS
 ACCUM_BYTES = 16  # a pixel's traced light and whether it takes it (wave_primary.comp.glsl)
 MIN_CAPACITY = WAVE_LOCAL  # the fewest slots a queue is made with
@@ -121,7 +122,7 @@ class WaveTracer:
         self.ray_capacity = 0  # slots of each ray queue (and of the hits)
         self.occlusion_capacity = 0  # slots of the occlusion queue
         self.pixels = 0
-        self._hit_bytes = HIT_BYTES  # a hit record: one word more with node programs
+        self._hit_bytes = HIT_BYTES  # a hit record: NODE_PROGRAM_HIT_WORDS more with node programs
         self.overflows = 0  # frames noted (note_overflow) whose waves wanted more than the queues held
         self._request: tuple[int, int] | None = None  # (rays, occlusions) for _request_pixels
         self._request_pixels = 0
@@ -178,7 +179,7 @@ class WaveTracer:
         ctx = self.ctx
         width, height = inputs.size
         pixels = width * height
-        self._ensure(pixels, HIT_BYTES + (4 if "NODE_PROGRAMS" in inputs.defines else 0))
+        self._ensure(pixels, HIT_BYTES + (4 * NODE_PROGRAM_HIT_WORDS if "NODE_PROGRAMS" in inputs.defines else 0))
         waves = wave_count(settings.max_depth)
         slots = self._state_slots(waves)
         overflow_slot = slots - 1

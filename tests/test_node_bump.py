@@ -124,3 +124,14 @@ def test_a_bump_is_evaluated_and_not_reported_to_the_artist(addon):
         row = materials.material_params(material)
     assert told == []
     assert "BUMP" in {n.kind for n in row["node_graph"].nodes}
+
+
+def test_a_bump_whose_height_reads_a_colour_attribute_reads_it_in_every_shifted_copy():
+    """The shifted copies of the Height's sub-graph are nodes the graph does not hold: an
+    Attribute among them still finds its slot (the same as the original's)."""
+    graph = ShaderGraph()
+    colour = graph.add("VERTEX_COLOR", settings={"layer_name": "Paint"})
+    bump = graph.add("BUMP", Distance=0.1, Height=Link(colour, "Fac"))
+    graph.surface = Link(graph.add("BSDF_DIFFUSE", Normal=Link(bump, "Normal")), "BSDF")
+    ops = _opcodes(compile_graph(graph).words)
+    assert ops.count(nc.OP_ATTRIBUTE) == 3 and ops.count(nc.OP_BUMP) == 1

@@ -530,7 +530,7 @@ def compile_graph(graph: ShaderGraph, name: str = "material", registers: int = n
             outputs += taken
         peak = max(peak, registers - len(free))
         node_settings = node.settings
-        key = node_key(graph.nodes[index].kind, node_settings) if index >= 0 else None
+        key = node_key(node.kind, node_settings) if index >= 0 else None  # a Bump's Height copies too
         if key is not None:
             source, slot = attributes.slot(key)
             node_settings = {**node_settings, "attribute_source": source, "attribute_slot": slot}

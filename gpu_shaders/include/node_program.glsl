@@ -227,15 +227,9 @@ vec4 node_convert(vec4 v, uint code) {
 vec4 node_operand(inout uint pc, ShadingPoint sp) {
     uint w = node_words[pc++];
     if ((w & NODE_CONSTANT) != 0u) {
-        // Components by constant index (a component picked by a loop counter is a
-        // per-invocation indirect access on a CPU driver); pc still advances by n.
         uint n = w & 7u;
         vec4 v = vec4(0.0, 0.0, 0.0, 1.0);
-        if (n > 0u) v.x = uintBitsToFloat(node_words[pc]);
-        if (n > 1u) v.y = uintBitsToFloat(node_words[pc + 1u]);
-        if (n > 2u) v.z = uintBitsToFloat(node_words[pc + 2u]);
-        if (n > 3u) v.w = uintBitsToFloat(node_words[pc + 3u]);
-        pc += n;
+        for (uint i = 0u; i < n && i < 4u; ++i) v[i] = uintBitsToFloat(node_words[pc++]);
         return v;
     }
     uint convert = (w >> 16) & 3u;
@@ -397,11 +391,9 @@ float node_curve_value(uint at, int columns, int column, float x, float min_x, f
 }
 #endif
 
-// Operand k of an instruction with n_in operands into node_in[k]; output k's value into its
-// register (NO_REGISTER: nobody reads it). Written out per k so that every index is a constant.
-#define NODE_OPERAND(k) if (n_in > uint(k)) node_in[k] = node_operand(pc, sp);
-#define NODE_STORE(k) if (n_out > uint(k)) { uint r = node_words[out_at + uint(k)]; \
-                                             if (r < uint(NODE_REGISTERS)) node_reg[r] = node_out[k]; }
+// A Noise Texture computes its Color (two more fractals) only where the program reads it,
+// that is where its Color output has a register: Cycles' SVM skips unused outputs alike.
+#define NODE_NOISE_WANTS_COLOR (node_words[out_at + 1u] < uint(NODE_REGISTERS))
 
 // Run the program at word `offset` at the shading point; returns the material's closure.
 NodeClosure node_program_run(int offset, ShadingPoint sp) {
@@ -417,15 +409,10 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
         uint out_at = pc + 1u;
         uint set_at = out_at + n_out;
         pc = set_at + n_set;
-        // Operands into node_in by constant index (NODE_OPERAND: unrolled), so that node_in
-        // and node_out stay registers: an array written at a loop counter's index is memory,
-        // read and written lane by lane, on a CPU driver (llvmpipe), and that cost was most
-        // of an instruction's. Operands past NODE_MAX_OPERANDS are skipped as before.
-        NODE_OPERAND(0) NODE_OPERAND(1) NODE_OPERAND(2) NODE_OPERAND(3)
-        NODE_OPERAND(4) NODE_OPERAND(5) NODE_OPERAND(6) NODE_OPERAND(7)
-        NODE_OPERAND(8) NODE_OPERAND(9) NODE_OPERAND(10) NODE_OPERAND(11)
-        NODE_OPERAND(12) NODE_OPERAND(13) NODE_OPERAND(14) NODE_OPERAND(15)
-        for (uint i = uint(NODE_MAX_OPERANDS); i < n_in; ++i) node_operand(pc, sp);
+        for (uint i = 0u; i < n_in; ++i) {
+            vec4 v = node_operand(pc, sp);
+            if (i < uint(NODE_MAX_OPERANDS)) node_in[i] = v;
+        }
         if (op == NODE_OP_OUTPUT || op == 0u) {
             if (op == NODE_OP_OUTPUT) result = vec4[4](node_in[0], node_in[1], node_in[2], node_in[3]);
             break;
@@ -747,8 +734,8 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
             vec3 color;
             node_tex_noise(int(node_words[set_at]), int(node_words[set_at + 1u]), int(node_words[set_at + 2u]),
                            node_in[0].xyz, node_in[1].x, node_in[2].x, node_in[3].x, node_in[4].x, node_in[5].x,
-                           node_in[6].x, node_in[7].x, node_in[8].x, node_words[out_at + 1u] < uint(NODE_REGISTERS),
-                           fac, color);
+                           node_in[6].x, node_in[7].x, node_in[8].x,
+                           NODE_NOISE_WANTS_COLOR, fac, color);
             node_out[0] = vec4(fac);
             node_out[1] = vec4(color, 1.0);
             break;
@@ -821,8 +808,10 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
         default:
             break;
         }
-        NODE_STORE(0) NODE_STORE(1) NODE_STORE(2) NODE_STORE(3)
-        NODE_STORE(4) NODE_STORE(5) NODE_STORE(6) NODE_STORE(7)
+        for (uint o = 0u; o < n_out && o < uint(NODE_MAX_OUTPUTS); ++o) {
+            uint r = node_words[out_at + o];
+            if (r < uint(NODE_REGISTERS)) node_reg[r] = node_out[o];
+        }
     }
     NodeClosure c;
     float w = result[0].a;

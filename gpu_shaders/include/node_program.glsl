@@ -391,10 +391,6 @@ float node_curve_value(uint at, int columns, int column, float x, float min_x, f
 }
 #endif
 
-// A Noise Texture computes its Color (two more fractals) only where the program reads it,
-// that is where its Color output has a register: Cycles' SVM skips unused outputs alike.
-#define NODE_NOISE_WANTS_COLOR (node_words[out_at + 1u] < uint(NODE_REGISTERS))
-
 // Run the program at word `offset` at the shading point; returns the material's closure.
 NodeClosure node_program_run(int offset, ShadingPoint sp) {
     for (int r = 0; r < NODE_REGISTERS; ++r) node_reg[r] = vec4(0.0);
@@ -734,8 +730,7 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
             vec3 color;
             node_tex_noise(int(node_words[set_at]), int(node_words[set_at + 1u]), int(node_words[set_at + 2u]),
                            node_in[0].xyz, node_in[1].x, node_in[2].x, node_in[3].x, node_in[4].x, node_in[5].x,
-                           node_in[6].x, node_in[7].x, node_in[8].x,
-                           NODE_NOISE_WANTS_COLOR, fac, color);
+                           node_in[6].x, node_in[7].x, node_in[8].x, fac, color);
             node_out[0] = vec4(fac);
             node_out[1] = vec4(color, 1.0);
             break;

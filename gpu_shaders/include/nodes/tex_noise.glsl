@@ -228,11 +228,9 @@ vec4 noise_random_offset(int dims, float seed) {
     return o;
 }
 
-// want_color false: only Fac is read (the program's Color output has no register), so the
-// Color's two further fractals, two thirds of the node's work, are skipped (color = Fac).
 void node_tex_noise(int dimensions, int type, int normalize, vec3 vector, float w, float scale,
                     float detail, float roughness, float lacunarity, float offset, float gain,
-                    float distortion, bool want_color, out float fac, out vec3 color) {
+                    float distortion, out float fac, out vec3 color) {
     int dims = clamp(dimensions, 1, 4);
     // The point's components in the order the dimensions use them: 1D reads W alone.
     vec4 p = dims == 1 ? vec4(w, 0.0, 0.0, 0.0) : vec4(vector, w) * scale;
@@ -252,20 +250,11 @@ void node_tex_noise(int dimensions, int type, int normalize, vec3 vector, float 
     }
     // Fac, then the Color's green and blue: the same fractal at fixed offsets, seeds dims and
     // dims + 1. One call site in a loop keeps the shader small.
-    color = vec3(0.0);
-    for (int k = 0; k < (want_color ? 3 : 1); ++k) {
+    for (int k = 0; k < 3; ++k) {
         vec4 q = k == 0 ? p : p + noise_random_offset(dims, float(dims + k - 1));
         color[k] = noise_fractal(type, dims, q, detail, roughness, lacunarity, offset, gain, norm);
     }
     fac = color.x;
-    if (!want_color) color = vec3(fac);
-}
-
-void node_tex_noise(int dimensions, int type, int normalize, vec3 vector, float w, float scale,
-                    float detail, float roughness, float lacunarity, float offset, float gain,
-                    float distortion, out float fac, out vec3 color) {
-    node_tex_noise(dimensions, type, normalize, vector, w, scale, detail, roughness, lacunarity, offset, gain,
-                   distortion, true, fac, color);
 }
 
 #endif

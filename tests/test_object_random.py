@@ -42,19 +42,7 @@ def _random_scene(bpy):
         empty.instance_collection = shared
         empty.location = (x, 0.0, 0.0)
         scene.collection.objects.link(empty)
-    camera = bpy.data.cameras.new("camera")
-    camera.type, camera.ortho_scale = "ORTHO", 3.0
-    camera_object = bpy.data.objects.new("camera", camera)
-    camera_object.location = (0.0, 0.0, 2.0)
-    scene.collection.objects.link(camera_object)
-    scene.camera = camera_object
-    world = bpy.data.worlds.new("black")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
-    scene.world = world
-    scene.render.resolution_x, scene.render.resolution_y = 60, 20
-    scene.render.resolution_percentage = 100
-    scene.view_settings.view_transform = "Standard"
+    _camera_and_world(bpy, scene)
     return scene
 
 

@@ -95,11 +95,13 @@ def auto_near_size(scene: SceneData | None) -> float:
     return NEAR_SIZE_PER_OBJECT * (typical_object_size(scene) if scene is not None else EMPTY_SCENE_SCALE)
 
 
-def near_limits(settings: RenderSettings, scene: SceneData | None) -> tuple[float, float]:
+def near_limits(settings: RenderSettings, scene: SceneData | None, auto: float | None = None
+                ) -> tuple[float, float]:
     """Frame Budget's smallest and largest near size: the artist's where set, else a fraction
-    and a multiple of the Automatic near size. The largest is never below the smallest (a
-    fixed minimum above an Automatic maximum lifts it)."""
-    auto = auto_near_size(scene) if settings.near_min <= 0.0 or settings.near_max <= 0.0 else 0.0
+    and a multiple of the Automatic near size (``auto`` when the caller has it). The largest
+    is never below the smallest (a fixed minimum above an Automatic maximum lifts it)."""
+    if auto is None:
+        auto = auto_near_size(scene) if settings.near_min <= 0.0 or settings.near_max <= 0.0 else 0.0
     lo = float(settings.near_min) if settings.near_min > 0.0 else NEAR_MIN_PER_NEAR * auto
     hi = float(settings.near_max) if settings.near_max > 0.0 else NEAR_MAX_PER_NEAR * auto
     return lo, max(lo, hi)
@@ -117,11 +119,14 @@ def effective_values(settings: RenderSettings, scene: SceneData, eye, width: int
     """The near size, far clip and face resolution a frame of ``settings`` seen from ``eye``
     at ``width`` x ``height`` renders with."""
     automatic = [name for name in ("near_min", "near_max") if getattr(settings, name) <= 0.0]
-    near_min, near_max = near_limits(settings, scene)
     near = float(settings.near_size)
+    # The typical object size (a median over the objects) once per frame, for every
+    # Automatic near value that needs it.
+    auto = auto_near_size(scene) if automatic or near <= 0.0 else 0.0
+    near_min, near_max = near_limits(settings, scene, auto)
     if near <= 0.0:
         automatic.append("near_size")
-        near = auto_near_size(scene)
+        near = auto
     far = float(settings.cube_far)
     if far <= 0.0:
         automatic.append("cube_far")

@@ -26,6 +26,7 @@ def gl_description() -> dict:
         "max texture size": limits.max_texture_size,
         "max 3D texture size": limits.max_3d_texture_size,
         "max array texture layers": limits.max_array_texture_layers,
+        "max compute storage blocks": limits.max_compute_storage_blocks,
     }
     for key in EXTRA_LIMITS:
         if key in info:
@@ -91,11 +92,18 @@ def kernel_rows(kernels: dict) -> list[str]:
     return lines
 
 
+def _kernels_in_code() -> tuple[str, ...]:
+    from .kernel_bench import kernels_in_code
+
+    return kernels_in_code()
+
+
 def device_report(report: dict, command: str) -> str:
     """The Markdown page for ``report`` (bench.run's), produced by ``command``."""
     gl = report.get("device") or gl_description()
     chosen = report.get("variants", {})
-    in_code = set(report.get("kernels", {}).get("in_code", []))
+    # The kernels section lists them when it ran; any report may ask the code itself.
+    in_code = set(report.get("kernels", {}).get("in_code", [])) or set(_kernels_in_code())
     lines = [f"### {gl['renderer']}", "",
              f"Produced by `{command}`{' (quick sizes: not figures to publish)' if report.get('quick') else ''}.", "",
              "| GL | |", "|---|---|",

@@ -7,13 +7,18 @@ from hybrid_engine.gpu.egl_devices import (EGL_DRM_DEVICE_FILE_EXT, EGL_RENDERER
                                            enumerate_devices)
 
 
-def test_this_machine_lists_its_mesa_software_device_by_index_and_name():
+def test_this_machine_lists_its_devices_by_index_and_name():
+    """Mesa's EGL offers its software device (a machine without a GPU); a GPU's driver offers
+    the GPU, named by its vendor and renderer. Either way every device has an index and a label."""
     devices = enumerate_devices()
-    assert devices, "Mesa's EGL offers at least its software device"
+    assert devices, "EGL offers at least one device (Mesa's software one, or the GPU's)"
     assert [device.index for device in devices] == list(range(len(devices)))
-    software = [device for device in devices if device.software]
-    assert software and "Mesa software renderer" in software[0].name and "no GPU" in software[0].name
-    assert software[0].label == f"{software[0].index}: {software[0].name}"
+    for device in devices:
+        assert device.label == f"{device.index}: {device.name}"
+        if device.software:
+            assert "Mesa software renderer" in device.name and "no GPU" in device.name
+        else:
+            assert device.name and device.name != "EGL device" and "no GPU" not in device.name
 
 
 def test_a_gpu_is_named_by_its_vendor_renderer_and_drm_node():

@@ -249,9 +249,14 @@ GBUFFER_TARGETS = ("depth", "normal_material", "albedo", "emission_scale", "colo
 def frames_rendered(gl, frames, settings, cull: bool) -> dict:
     """Render ``frames`` in order with a fresh renderer whose raster passes cull per triangle
     or draw the object lists; the last frame's targets, shadow layers, counts and the
-    culled batches' drawn triangles."""
+    culled batches' drawn triangles. The per-triangle culling is the ``vertices`` kernel's
+    "cpu" shape (the "gpu" shape draws instanced, unculled), so it is pinned here: the
+    renderer's own choice depends on the GL renderer."""
+    from hybrid_engine.gpu import variants
+
     r = Renderer(gl)
     r.drawer.cull_triangles = cull
+    variants.set_override("vertices=cpu")
     try:
         for scene, camera in frames:
             result = r.render(scene, camera, settings)
@@ -263,6 +268,7 @@ def frames_rendered(gl, frames, settings, cull: bool) -> dict:
                       for layer, batches in r.drawer.culled.items()},
         }
     finally:
+        variants.set_override(None)
         r.release()
 
 

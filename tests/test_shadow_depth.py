@@ -35,7 +35,7 @@ def shadow_layers_with_variant(gl, monkeypatch, family: str) -> tuple[bytes, int
     settings = RenderSettings(mode="RASTER", shadow_resolution=256, shadow_cascades=2)
     gpu, drawer = GPUScene(gl), SceneDrawer(gl)
     shadows = ShadowDepthPass(gl, drawer)
-    variants.set_override(f"faces={family}")
+    variants.set_override(f"faces={family},vertices=cpu")  # the culled batches (not the instanced draws)
     try:
         gpu.upload(scene)
         gpu.transform()
@@ -66,7 +66,7 @@ def test_shadow_slots_in_one_draw_per_batch_equal_one_draw_per_slot_bit_for_bit(
 def test_the_shadow_pass_compiles_the_one_draw_program_only_for_the_gpu_variant(gl, family):
     drawer = SceneDrawer(gl)
     shadows = ShadowDepthPass(gl, drawer)
-    variants.set_override(f"faces={family}")
+    variants.set_override(f"faces={family},vertices=cpu")  # the culled batches (not the instanced draws)
     try:
         program = shadows.faces_program()
     finally:

@@ -51,6 +51,7 @@ from typing import Callable
 import numpy as np
 
 from ..gpu import gl_context
+from ..gpu.dispatch import pass_barrier
 from ..gpu.statistics import LazyCounts, StatisticsRing
 from ..gpu.timing import PassTimer
 from ..passes.film.accumulate import AccumulatePass
@@ -363,6 +364,7 @@ class Renderer:
                 last_step = frame_pass.name
             with timer.measure(frame_pass.name), frame.running(frame_pass):
                 frame_pass.run(frame)
+                pass_barrier(self.ctx)
         step("readback")
         with timer.measure("readback"):
             result = self._read_back(frame, read_image, readback, statistics)

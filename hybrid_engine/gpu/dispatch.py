@@ -114,6 +114,21 @@ def storage_barrier(ctx) -> None:
     ctx.memory_barrier(moderngl.SHADER_STORAGE_BARRIER_BIT)
 
 
+def pass_barrier(ctx) -> None:
+    """Make every write of a pass visible to every way the next passes may read it.
+
+    Passes hand their results over as images, storage buffers, textures, index and indirect
+    buffers and read-backs, and which way a later pass reads a resource is that pass's own
+    business (frame_context.py). GL orders draws and dispatches, but not the incoherent image
+    and storage writes of shaders: on a GPU a later pass may read them from stale caches
+    (llvmpipe's storage is coherent, which hid a missing barrier there). One full barrier
+    where a pass ends costs a cache flush the pass boundary needs anyway; the barriers inside
+    a pass stay as narrow as its own dispatches need."""
+    import moderngl
+
+    ctx.memory_barrier(moderngl.ALL_BARRIER_BITS)
+
+
 @dataclass(frozen=True)
 class BlockSplit:
     """An array of ``count`` items of ``item_bytes`` bytes spread over ``blocks`` bindings.

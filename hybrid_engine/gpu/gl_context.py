@@ -53,6 +53,7 @@ class GLLimits:
     max_texture_size: int
     max_3d_texture_size: int
     max_array_texture_layers: int
+    max_compute_storage_blocks: int = 16  # GL's floor is 8; llvmpipe and NVIDIA give 16
 
 
 # The package can be imported under two names in one process (Blender's ``bl_ext.*.hybrid_rt``
@@ -253,6 +254,7 @@ def limits() -> GLLimits:
             max_texture_size=int(info.get("GL_MAX_TEXTURE_SIZE", 8192)),
             max_3d_texture_size=int(info.get("GL_MAX_3D_TEXTURE_SIZE", 2048)),
             max_array_texture_layers=int(info.get("GL_MAX_ARRAY_TEXTURE_LAYERS", 2048)),
+            max_compute_storage_blocks=int(info.get("GL_MAX_COMPUTE_SHADER_STORAGE_BLOCKS", 16)),
         )
     return _state.limits
 

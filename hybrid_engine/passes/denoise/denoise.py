@@ -155,8 +155,8 @@ class DenoisePass:
 
     def _run(self, program, groups: tuple[int, int, int]) -> None:
         program.run(*groups)
-        # The next step samples what this one stored as images.
-        self.ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT)
+        # The next step samples what this one stored as images, or loads them as images.
+        self.ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT | moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)
 
     def release(self) -> None:
         self.history.release()

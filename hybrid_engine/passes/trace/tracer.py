@@ -24,6 +24,7 @@ shade_hit). The diffuse light of primary pixels is the ``diffuse_light`` pass's
 """
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 from functools import partial
@@ -43,7 +44,9 @@ from ..near_cube_cull.near_cube import overlap_margin
 from ..scene_upload.textures import pixel_footprint
 from .diagnostic_views import is_diagnostic
 from .diagnostic_views import kernel_uniforms as diagnostic_uniforms
-from .wave_trace import TraceInputs, WaveTracer, uses_waves
+from .wave_trace import TraceInputs, WaveTracer, uses_waves, waves_fit
+
+log = logging.getLogger(__name__)
 
 # Kernel modes (u_mode in hybrid_trace.comp.glsl).
 TRACE_MODES = {"HYBRID": 0, "FULL_BVH": 1, "PROVENANCE": 2}
@@ -132,6 +135,10 @@ class HybridTracer:
         self._dummy_rg = ctx.texture((1, 1), 2, dtype="f4")
         self.diagnostic = None  # the diagnostic views' per-pixel counts (diagnostic_views.py)
         self._waves: WaveTracer | None = None  # the wave pipeline, made when first chosen
+        self._traced_in_waves = False  # whether this frame's trace ran in waves
+        # Frames traced by the per-pixel kernel although the wave kernels were chosen, because
+        # their storage blocks would pass the driver's limit (wave_trace.waves_fit).
+        self.wave_fallbacks = 0
         # Whether the frame's plan asks for Cycles' light passes (the renderer sets it): the
         # megakernel then also adds the reflections' and refractions' light to their layers
         # (passes/film/light_passes.py); the waves keep no lobe per ray, so it runs instead.
@@ -148,11 +155,20 @@ class HybridTracer:
         lighting (the same the deferred shading used), adding their radiance to the frame's
         colour (or writing the provenance colours): by the megakernel, or in waves where the
         ``trace`` kernel runs GPU-shaped (wave_trace.py)."""
+        self._traced_in_waves = False
         if uses_waves(frame.settings) and not self.light_passes:
-            if self._waves is None:
-                self._waves = WaveTracer(self.ctx)
-            self._waves.run(self.inputs(frame), frame.settings)
-        else:
+            inputs = self.inputs(frame)
+            if waves_fit(self.ctx, inputs.defines):
+                if self._waves is None:
+                    self._waves = WaveTracer(self.ctx)
+                self._waves.run(inputs, frame.settings)
+                self._traced_in_waves = True
+            else:
+                self.wave_fallbacks += 1
+                if self.wave_fallbacks == 1:
+                    log.info("Hybrid RT: the scene's arrays are split over more storage blocks than the "
+                             "wave trace kernels can bind on this driver; the per-pixel trace kernel runs")
+        if not self._traced_in_waves:
             self.dispatch(frame)
         self.deposit_statistics(frame)
         frame.write("color", frame.read("gbuffer").color)
@@ -168,7 +184,7 @@ class HybridTracer:
         count = frame.read("bvh").count
         frame.statistics.deposit(count.buffer, 1, _bvh_counts, offset=count.offset)
         frame.statistics.deposit(self._counters, COUNTER_WORDS, partial(_ray_counts, int(frame.settings.max_depth)))
-        if uses_waves(frame.settings) and not self.light_passes and self._waves is not None:
+        if self._traced_in_waves:
             self._waves.deposit_statistics(frame.statistics)
 
     def dispatch(self, frame: FrameContext) -> None:

@@ -106,6 +106,34 @@ def uses_waves(settings: RenderSettings, renderer: str | None = None, override: 
             and not is_diagnostic(settings))
 
 
+# Whether the wave kernels link with a set of split-array defines (waves_fit), per set.
+_fits: dict[tuple, bool] = {}
+
+
+def waves_fit(ctx, defines: dict) -> bool:
+    """Whether every wave kernel built with the trace's ``defines`` links. The traversal
+    kernel binds the most storage blocks; an array split over several blocks (a scene past
+    the driver's block size, gpu/dispatch.py) adds blocks and can take it over the driver's
+    limit for a compute shader. Then the frame is traced by the per-pixel kernel, which binds
+    fewer. Decided by building the kernels once per set of splits (the driver is the one
+    that counts the blocks it keeps); a build that fails with the arrays unsplit is a real
+    error and raised."""
+    if not any(name.endswith("_BLOCKS") and int(value) > 1 for name, value in defines.items()):
+        return True
+    key = (id(ctx), tuple(sorted(defines.items())))
+    if key not in _fits:
+        try:
+            for path, extra in SHADERS.values():
+                shader_loader.compute(ctx, path, {**defines, **extra})
+            _fits[key] = True
+        except shader_loader.ShaderError:
+            single = {name: (1 if name.endswith("_BLOCKS") else value) for name, value in defines.items()}
+            for path, extra in SHADERS.values():
+                shader_loader.compute(ctx, path, {**single, **extra})
+            _fits[key] = False
+    return _fits[key]
+
+
 def wave_count(max_depth: int) -> int:
     """The bounce depths that trace rays: 1 .. max_depth, and the one more the depth limit
     traces (trace_ray.glsl push)."""

@@ -498,6 +498,8 @@ def _comparison_report(first: tuple[SceneData, Camera], hybrid_settings: RenderS
         "flip_mean": round(float(np.mean(flips)), 5) if flips else None,
         "passes_hybrid": medians["HYBRID"],
         "passes_full_bvh": medians["FULL_BVH"],
+        "host_passes_hybrid": pass_medians(results["HYBRID"], "host_passes"),
+        "gpu_passes_hybrid": pass_medians(results["HYBRID"], "gpu_passes"),
         # Context for reading the figures above.
         **context,
         "near_size": float(hybrid_settings.near_size),
@@ -519,11 +521,13 @@ def _comparison_report(first: tuple[SceneData, Camera], hybrid_settings: RenderS
     }
 
 
-def pass_medians(results: list) -> dict[str, float]:
-    """Median milliseconds of every pass over the frames, in the order the passes ran."""
+def pass_medians(results: list, kind: str = "passes") -> dict[str, float]:
+    """Median milliseconds of every pass over the frames, in the order the passes ran:
+    wall time (``kind`` "passes"), the main thread's CPU time ("host_passes") or the GPU's
+    timer queries ("gpu_passes", hardware renderers only)."""
     passes: dict[str, list[float]] = {}
     for result in results:
-        for name, ms in result.passes.items():
+        for name, ms in getattr(result, kind, {}).items():
             passes.setdefault(name, []).append(ms)
     return {name: round(statistics.median(values), 3) for name, values in passes.items()}
 
@@ -612,14 +616,17 @@ def format_frame_table(frame: dict) -> str:
         f"({frame['triangles_bvh']} in the near-cube BVH, {frame['objects_near']} of "
         f"{frame['objects_total']} objects near), {frame['resolution']}, max depth "
         f"{frame['max_depth']}, cube faces {frame['cube_resolution']}, near size {frame['near_size']:g}",
-        f"{'pass':<18} {'HYBRID ms':>10} {'FULL_BVH ms':>12}",
+        f"{'pass':<18} {'HYBRID ms':>10} {'FULL_BVH ms':>12} {'HYBRID host':>12} {'HYBRID GPU':>11}",
     ]
     hybrid, full = frame["passes_hybrid"], frame["passes_full_bvh"]
+    host, gpu = frame.get("host_passes_hybrid", {}), frame.get("gpu_passes_hybrid", {})
     names = list(hybrid) + [name for name in full if name not in hybrid]
     for name in names:
         h = f"{hybrid[name]:>10.1f}" if name in hybrid else f"{'-':>10}"
         f = f"{full[name]:>12.1f}" if name in full else f"{'-':>12}"
-        lines.append(f"{name:<18} {h} {f}")
+        c = f"{host[name]:>12.1f}" if name in host else f"{'-':>12}"
+        g = f"{gpu[name]:>11.2f}" if name in gpu else f"{'-':>11}"
+        lines.append(f"{name:<18} {h} {f} {c} {g}")
     lines.append(f"{'frame (median)':<18} {frame['hybrid_ms']:>10.1f} {frame['full_bvh_ms']:>12.1f}")
     flip = frame["flip_mean"]
     lines.append(

@@ -146,6 +146,10 @@ class FrameResult:
     passes: dict[str, float] = field(default_factory=dict)
     counts: Mapping[str, int] = field(default_factory=dict)
     timing_source: str = "off"
+    # With timing on: the main thread's CPU ms inside each pass, and on a hardware GPU the
+    # GPU's own ms from timer queries (gpu/timing.py).
+    host_passes: dict[str, float] = field(default_factory=dict)
+    gpu_passes: dict[str, float] = field(default_factory=dict)
     total_ms: float = 0.0
     mode: str = "RASTER"
     data_passes: dict[str, np.ndarray] = field(default_factory=dict)
@@ -377,6 +381,8 @@ class Renderer:
             progress("done", 1.0)
         result.effective = effective
         result.passes = dict(timer.passes)
+        result.host_passes = dict(timer.host_passes)
+        result.gpu_passes = dict(timer.gpu_passes)
         result.timing_source = timer.source
         result.total_ms = (time.perf_counter() - start) * 1e3
         return result

@@ -111,6 +111,32 @@ def test_a_camera_pan_moves_the_still_scene_as_in_cycles(addon, tmp_path):
     assert np.abs(ours - cycles)[seen].max() < 1.0
 
 
+def test_a_shape_key_deforming_the_cube_moves_its_pixels_as_in_cycles(addon, tmp_path):
+    """The cube's matrix stays; a shape key leans its top 0.3 right per frame: the motion is
+    the vertices' (deformation motion), as Cycles reads it."""
+    import bpy
+
+    scene = build_motion_scene(bpy, cube_moves=False)
+    cube = bpy.data.objects["Cube"]
+    cube.shape_key_add(name="Basis")
+    lean = cube.shape_key_add(name="Lean")
+    for point in lean.data:
+        if point.co.z > 0:
+            point.co.x += 0.6
+    lean.value = 0.0
+    lean.keyframe_insert("value", frame=1)
+    lean.value = 1.0
+    lean.keyframe_insert("value", frame=3)
+    _linear(cube.data.shape_keys.animation_data.action)
+    scene.frame_set(2)
+    cycles = render_vector(bpy, scene, "CYCLES", tmp_path / "cycles.exr")
+    ours = render_vector(bpy, scene, "HYBRID_RT", tmp_path / "ours.exr")
+    moving = interior(np.abs(cycles[..., 0]) > 0.5)
+    assert moving.sum() > 100
+    assert cycles[moving][:, 0].mean() < -2.0
+    assert np.abs(ours - cycles)[moving].mean(axis=0).max() < 0.1, (ours[moving].mean(0), cycles[moving].mean(0))
+
+
 def test_with_motion_blur_on_the_vector_pass_is_there_and_zero_as_in_cycles(addon, tmp_path):
     import bpy
 

@@ -149,6 +149,44 @@ def test_with_motion_blur_on_the_vector_pass_is_there_and_zero_as_in_cycles(addo
     assert np.abs(render_vector(bpy, scene, "HYBRID_RT", tmp_path / "still.exr")).max() > 2.0
 
 
+def test_the_compositors_vector_blur_smears_the_moving_cube_along_our_vector_pass(addon, tmp_path):
+    """The compositor reads the pass: Vector Blur (Image, Speed from Vector, Z from Depth)
+    smears the glowing cube sideways, along its motion, and not up or down."""
+    import bpy
+    from test_engine import render_multilayer
+
+    scene = build_motion_scene(bpy)
+    scene.view_layers[0].use_pass_z = True
+    glow = bpy.data.materials.new("glow")
+    bsdf = glow.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Emission Color"].default_value = (1, 1, 1, 1)
+    bsdf.inputs["Emission Strength"].default_value = 5.0
+    bpy.data.objects["Cube"].data.materials.append(glow)
+    tree = bpy.data.node_groups.new("Blur", "CompositorNodeTree")
+    scene.compositing_node_group = tree
+    tree.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
+    layers, output = tree.nodes.new("CompositorNodeRLayers"), tree.nodes.new("NodeGroupOutput")
+    blur = tree.nodes.new("CompositorNodeVecBlur")
+    tree.links.new(layers.outputs["Image"], blur.inputs["Image"])
+    tree.links.new(layers.outputs["Vector"], blur.inputs["Speed"])
+    tree.links.new(layers.outputs["Depth"], blur.inputs["Z"])
+    blur.inputs["Shutter"].default_value = 2.0  # a frame either way: about 3 pixels each side
+    tree.links.new(blur.outputs[0], output.inputs["Image"])
+    scene.render.engine = "HYBRID_RT"
+    channels = render_multilayer(bpy, scene, tmp_path / "blurred.exr")
+
+    def extent(layer: str) -> tuple[int, int]:
+        """The glow's width and height in pixels."""
+        lit = np.stack([channels[f"{layer}.Combined.{c}"] for c in "RGB"], axis=-1).mean(axis=-1) > 0.1
+        rows, columns = np.nonzero(lit)
+        return int(columns.max() - columns.min() + 1), int(rows.max() - rows.min() + 1)
+
+    sharp, smeared = extent("ViewLayer"), extent("Composite")
+    assert sharp[0] > 8
+    assert smeared[0] >= sharp[0] + 4, (sharp, smeared)
+    assert abs(smeared[1] - sharp[1]) <= 1, (sharp, smeared)
+
+
 def test_the_vector_switch_adds_the_render_layers_socket_and_the_passes_panel_offers_it(addon):
     import bpy
     from test_properties import RecordingLayout

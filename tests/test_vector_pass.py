@@ -222,14 +222,14 @@ def test_the_vector_switch_adds_the_render_layers_socket_and_the_passes_panel_of
 
 # -- the core, without Blender ------------------------------------------------------------------
 
-def _box_scene():
+def _box_scene(box_alpha: float = 1.0):
     from hybrid_engine.scene.data import Lights, MaterialTable, SceneData, Sky
     from hybrid_engine.scene.geometry import Geometry, InstancedGeometry
     from scenes_analytic import box
 
     flat = Geometry.from_objects([(box((-0.3, -0.3, -0.3), (0.3, 0.3, 0.3)), None, 0),
-                                  (box((-3.0, 2.0, -3.0), (3.0, 2.2, 3.0)), None, 0)])  # a wall behind
-    materials = MaterialTable.from_rows([{"base_color": (1, 1, 1)}])
+                                  (box((-3.0, 2.0, -3.0), (3.0, 2.2, 3.0)), None, 1)])  # a wall behind
+    materials = MaterialTable.from_rows([{"base_color": (1, 1, 1), "alpha": box_alpha}, {"base_color": (1, 1, 1)}])
     return SceneData(geometry=InstancedGeometry.from_world(flat), materials=materials, lights=Lights.empty(),
                      sky=Sky(color=(0, 0, 0)))
 
@@ -298,6 +298,27 @@ def test_a_turning_instance_moves_each_pixel_by_its_own_point_not_its_centre(gl)
         before = _project(camera, turn.T[:3, :3] @ point)
         after = _project(camera, turn[:3, :3] @ point)
         assert np.allclose(vector[16, x], [*(before - here), *(here - after)], atol=0.05), (x, vector[16, x])
+
+
+@pytest.mark.parametrize("alpha", [0.0, 0.5])
+def test_a_box_with_alpha_moves_its_pixels_as_often_as_the_g_buffer_sees_it(gl, alpha):
+    """Alpha is coverage (include/alpha.glsl): a sample sees the moving box's front face with
+    probability alpha, else its back face with alpha again (further away: it moves fewer
+    pixels), else the still wall; the pass is the mean over the samples (Cycles averages
+    over every sample that hits)."""
+    scene = _box_scene(box_alpha=alpha)
+    camera = Camera(matrix_world=look_at((0.0, -6.0, 0.0), (0.0, 0.0, 0.0)), width=64, height=32)
+    current = scene.geometry.instances.matrices.astype(np.float64)
+    previous, following = current.copy(), current.copy()
+    previous[0, 0, 3] -= 0.3
+    following[0, 0, 3] += 0.3
+    motion = MotionSteps(times=FRAME_TIMES, instances=np.stack([previous, current, following]),
+                         camera=np.stack([camera.matrix_world] * 3))
+    vector = _render(gl, scene, camera, motion, samples=16)
+    front = _project(camera, (0.3, -0.3, 0.0))[0] - _project(camera, (0.0, -0.3, 0.0))[0]
+    back = _project(camera, (0.3, 0.3, 0.0))[0] - _project(camera, (0.0, 0.3, 0.0))[0]
+    expected = -(alpha * front + (1.0 - alpha) * alpha * back)
+    assert abs(vector[13:19, 29:35, 0].mean() - expected) < 0.08 * front, (vector[13:19, 29:35, 0].mean(), expected)
 
 
 def test_a_frame_without_a_vector_request_plans_no_vector_pass(gl):

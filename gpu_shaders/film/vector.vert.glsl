@@ -8,7 +8,15 @@
 // positions in MotionCorners or -1); a row outside them is still, and only the camera
 // moves it. The fragment stage divides the interpolated clip positions: they are linear in
 // the surface point, so their perspective-correct interpolation is exact.
+// ALPHA_TEST defined (scenes with alpha): the UV and the triangle's material go to the
+// fragment stage, which drops what the G-buffer drops (gbuffer.frag.glsl).
 in vec3 in_pos;
+#ifdef ALPHA_TEST
+in vec2 in_uv;
+layout(std430) readonly buffer TriangleMaterials { int triangle_materials[]; };
+out vec2 v_uv;
+flat out int v_material;
+#endif
 
 uniform mat4 u_view_proj;           // this sample's, as drawn
 uniform mat4 u_previous_view_proj;  // the sample's camera moved to the frame before
@@ -51,6 +59,10 @@ void main() {
             next = motion_matrices[entry.z + 1] * world;
         }
     }
+#ifdef ALPHA_TEST
+    v_uv = in_uv;
+    v_material = triangle_materials[row];
+#endif
     gl_Position = u_view_proj * world;
     v_center = gl_Position;
     v_previous = u_previous_view_proj * previous;

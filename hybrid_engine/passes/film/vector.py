@@ -17,7 +17,8 @@ sample's view-projection, and the vertex stage (``gpu_shaders/film/vector.vert.g
 each corner back to the previous and on to the next frame: a rigid instance through its
 world-to-world motion (``previous matrix x current matrix^-1``, Cycles' ``motion_pass``
 transforms), a deforming mesh through its corners' positions at those frames, and both
-through the camera of that frame. The rasterizer interpolates the three clip positions
+through the camera of that frame; in a scene with alpha the fragment stage drops what the
+G-buffer drops (its alpha test, with its numbers). The rasterizer interpolates the three clip positions
 perspective-correctly, so each fragment divides the exact images of its surface point (no
 G-buffer read-back, no per-pixel host work), and a compute stage adds the sample's vectors
 and hits into sums on the GPU (``vector.comp.glsl``) and writes their mean, which the frame
@@ -158,7 +159,7 @@ class VectorPass:
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
-        self.raster = shader_loader.program(ctx, vertex="film/vector.vert.glsl", fragment="film/vector.frag.glsl")
+        self.raster = self._raster(alpha=False)
         self.accumulate = shader_loader.compute(ctx, "film/vector.comp.glsl")
         self.size: tuple[int, int] | None = None
         self.count = 0  # samples in the sums
@@ -168,6 +169,12 @@ class VectorPass:
         self._entries = 0
         self._vao = None
         self._vao_key: tuple | None = None
+
+    def _raster(self, alpha: bool):
+        """The raster program, with the alpha test where the scene has alpha (a fragment
+        stage that may discard loses the early depth test: opaque scenes go without)."""
+        return shader_loader.program(self.ctx, vertex="film/vector.vert.glsl", fragment="film/vector.frag.glsl",
+                                     defines={"ALPHA_TEST": 1} if alpha else None)
 
     def io(self, settings: RenderSettings) -> PassIO:
         return PassIO(reads=("scene", "world_triangles"), writes=("vector",))
@@ -196,13 +203,15 @@ class VectorPass:
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE)  # both sides of a face, as the G-buffer draws them
-        bind(self.raster, storage={"MotionRows": self._table["rows"], "MotionMatrices": self._table["matrices"],
+        raster = self._raster(scene.materials.has_alpha)
+        parts = [gpu.bindings()] if scene.materials.has_alpha else []
+        bind(raster, *parts, uniforms={"u_alpha_sample": int(sample)}, storage={"MotionRows": self._table["rows"], "MotionMatrices": self._table["matrices"],
                                    "MotionCorners": self._table["corners"]})
-        set_uniforms(self.raster, {"u_view_proj": gl_matrix(projection @ view),
+        set_uniforms(raster, {"u_view_proj": gl_matrix(projection @ view),
                                    "u_previous_view_proj": gl_matrix(projection @ previous),
                                    "u_next_view_proj": gl_matrix(projection @ following),
                                    "u_entries": self._entries, "u_size": size})
-        vao = self._vertex_array(gpu)
+        vao = self._vertex_array(gpu, raster)
         if gpu.triangle_count:
             vao.render(moderngl.TRIANGLES, vertices=3 * int(gpu.triangle_count))
         ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT | moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)
@@ -225,12 +234,12 @@ class VectorPass:
         self._targets["mean"].read_into(out)
         return {PASS[0]: out}
 
-    def _vertex_array(self, gpu):
-        key = (id(gpu), gpu.generation)
+    def _vertex_array(self, gpu, raster):
+        key = (id(gpu), gpu.generation, id(raster))
         if self._vao_key != key:
             if self._vao is not None:
                 self._vao.release()
-            self._vao = self.ctx.vertex_array(self.raster, gpu.vertex_content(self.raster))
+            self._vao = self.ctx.vertex_array(raster, gpu.vertex_content(raster))
             self._vao_key = key
         return self._vao
 

@@ -37,7 +37,7 @@ import moderngl
 import numpy as np
 
 from ...gpu import shader_loader
-from ...gpu.bindings import Image, bind, set_uniforms
+from ...gpu.bindings import Image, bind
 from ...gpu.render_targets import release_all
 from ...scene.data import SceneData
 from ...scene.geometry import InstancedGeometry
@@ -159,7 +159,7 @@ class VectorPass:
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
-        self.raster = self._raster(alpha=False)
+        self._raster(alpha=False)  # compiled with the pass, as the other film passes compile theirs
         self.accumulate = shader_loader.compute(ctx, "film/vector.comp.glsl")
         self.size: tuple[int, int] | None = None
         self.count = 0  # samples in the sums
@@ -203,14 +203,16 @@ class VectorPass:
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE)  # both sides of a face, as the G-buffer draws them
-        raster = self._raster(scene.materials.has_alpha)
-        parts = [gpu.bindings()] if scene.materials.has_alpha else []
-        bind(raster, *parts, uniforms={"u_alpha_sample": int(sample)}, storage={"MotionRows": self._table["rows"], "MotionMatrices": self._table["matrices"],
-                                   "MotionCorners": self._table["corners"]})
-        set_uniforms(raster, {"u_view_proj": gl_matrix(projection @ view),
-                                   "u_previous_view_proj": gl_matrix(projection @ previous),
-                                   "u_next_view_proj": gl_matrix(projection @ following),
-                                   "u_entries": self._entries, "u_size": size})
+        alpha = scene.materials.has_alpha
+        raster = self._raster(alpha)
+        # The G-buffer's own matrix: the same depths, so the alpha test draws its numbers.
+        bind(raster, *([gpu.bindings()] if alpha else []),
+             storage={"MotionRows": self._table["rows"], "MotionMatrices": self._table["matrices"],
+                      "MotionCorners": self._table["corners"]},
+             uniforms={"u_view_proj": gl_matrix(camera.view_projection()),
+                       "u_previous_view_proj": gl_matrix(projection @ previous),
+                       "u_next_view_proj": gl_matrix(projection @ following),
+                       "u_entries": self._entries, "u_size": size, "u_alpha_sample": int(sample)})
         vao = self._vertex_array(gpu, raster)
         if gpu.triangle_count:
             vao.render(moderngl.TRIANGLES, vertices=3 * int(gpu.triangle_count))

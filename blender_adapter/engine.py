@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 import traceback
+from dataclasses import replace
 from operator import attrgetter
 
 import bpy
@@ -22,6 +23,8 @@ from ..hybrid_engine.scene.camera import Camera
 from ..hybrid_engine.frame.film import FrameOutputs
 from ..hybrid_engine.passes.film.light_passes import PASSES as LIGHT_PASSES
 from ..hybrid_engine.passes.film.light_passes import LightPassRequest
+from ..hybrid_engine.passes.film.vector import PASS as VECTOR_PASS
+from ..hybrid_engine.passes.film.vector import VectorRequest
 from ..hybrid_engine.frame.renderer import FrameResult, RenderCancelled, Renderer
 from ..hybrid_engine.frame.near_budget import NearCubeSizer
 from ..hybrid_engine.gpu import gl_context
@@ -32,7 +35,7 @@ from ..hybrid_engine.scene.data import SceneData
 from ..hybrid_engine.scene.settings import RenderSettings
 from . import effective_values, features, messages, preview, properties, viewport
 from .export.camera import camera_from_scene, thin_lens_from_scene
-from .export.motion import motion_steps, shutter
+from .export.motion import frame_motion, motion_steps, shutter
 from .gl_host import gl_block
 from .scene_cache import Changes, SceneCache, SyncReport, TrackedScene, extract_scene
 
@@ -205,6 +208,18 @@ def final_effects(engine, depsgraph) -> CameraEffects | None:
     return CameraEffects(lens=lens, motion=motion, opening=opening, closing=closing)
 
 
+def final_vector(engine, depsgraph) -> VectorRequest | None:
+    """The motion a final render's Vector pass follows: the frames before and after, when
+    the view layer asks for the pass and Motion Blur is off (with it on, Cycles leaves the
+    pass at 0, and so does this engine: ``HybridRTRenderEngine._render``). Needs the
+    ``engine`` to evaluate those frames, and F12's scene cache to read the matrices of."""
+    scene = depsgraph.scene
+    if (engine is None or _final_cache is None or scene.render.use_motion_blur
+            or not depsgraph.view_layer.use_pass_vector):
+        return None
+    return VectorRequest(frame_motion(engine, depsgraph, _final_cache))
+
+
 def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, final=False,
                      source: TrackedScene | None = None, sizer: NearCubeSizer | None = None,
                      settings: RenderSettings | None = None, timing: bool | None = None,
@@ -232,7 +247,8 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
 
     A final render takes the camera's Depth of Field (thin lens) and, given the ``engine``
     that evaluates sub-frames, the Motion Blur over the shutter (export/motion.py), both
-    sampled across the render's samples (hybrid_engine/frame/camera_effects.py).
+    sampled across the render's samples (hybrid_engine/frame/camera_effects.py), and the
+    Vector pass's motion between the frames around it (``final_vector``).
     """
     scene = depsgraph.scene
     if settings is None:
@@ -247,6 +263,7 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
             scene_data = extract_scene(depsgraph)
         features.tell_used_features(scene, depsgraph, final=True)
         effects = final_effects(engine, depsgraph) if final else None
+        vector = final_vector(engine, depsgraph) if final else None
     messages.report_all(report, gathered)
     # After the scene is read: Frame Budget's Automatic limits follow its scale.
     if sizer is not None:
@@ -255,7 +272,7 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
         settings = viewport.budgeted_settings(scene, settings, scene_data)
     if final:
         camera = final_camera(scene, depsgraph)
-        outputs = frame_outputs(scene, depsgraph.view_layer, scene_data)
+        outputs = replace(frame_outputs(scene, depsgraph.view_layer, scene_data), vector=vector)
         samples = settings.render_samples
     else:
         camera, outputs, samples = camera_from_scene(scene, depsgraph), FrameOutputs(), 1
@@ -332,6 +349,9 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
             for name, data in result.data_passes.items():
                 name = DATA_PASSES[name][1] if name in DATA_PASSES else name  # the others: Blender's own
                 passes[name].rect.foreach_set(np.ascontiguousarray(data, np.float32).ravel())
+            if depsgraph.view_layer.use_pass_vector and VECTOR_PASS[0] not in result.data_passes:
+                # Motion Blur is on: Cycles writes no motion there and leaves the pass at 0.
+                passes[VECTOR_PASS[0]].rect.foreach_set(np.zeros(width * height * VECTOR_PASS[1], np.float32))
         finally:
             self.end_result(render_result)
         if result.metadata:
@@ -362,6 +382,8 @@ class HybridRTRenderEngine(bpy.types.RenderEngine):
         for flag, (name, channels, chan_id, kind, *_where) in LIGHT_PASSES.items():
             if getattr(renderlayer, flag):
                 self.register_pass(scene, renderlayer, name, channels, chan_id, kind)
+        if renderlayer.use_pass_vector:  # with Motion Blur on too, as Cycles (left at 0 then)
+            self.register_pass(scene, renderlayer, *VECTOR_PASS)
 
     # -- viewport (blender_adapter/viewport.py does the work) --------------------------------
     def view_update(self, context, depsgraph) -> None:

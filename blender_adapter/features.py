@@ -100,12 +100,6 @@ def _emitter_linking(scene, depsgraph, final) -> list[str]:
     return sorted(names)
 
 
-def _vector_pass(_scene, depsgraph, final) -> list[str]:
-    """The view layer, when a final render is asked for the Vector pass."""
-    layer = depsgraph.view_layer
-    return [layer.name] if final and getattr(layer, "use_pass_vector", False) else []
-
-
 def _world_volume(scene, _depsgraph, _final) -> list[str]:
     world = scene.world
     tree = getattr(world, "node_tree", None) if world is not None else None
@@ -210,12 +204,13 @@ FEATURES: tuple[Feature, ...] = (
     # Output
     Feature("Passes: Combined, Depth, Normal, Mist, Denoising Data, Cryptomatte, the light passes "
             "(Diffuse / Glossy / Transmission Direct, Indirect, Color; Emission, Environment, AO)", SUPPORTED,
-            "Under Cycles' names, for the compositor (its Denoise and Cryptomatte nodes included)."),
-    Feature("Passes: Vector", UNSUPPORTED,
-            "Vector needs the objects' motion, which the engine does not export (Cycles writes no "
-            "Shadow pass, so none is offered).",
-            "the Vector pass of view layer {names} is not written: the engine does not export motion",
-            _vector_pass),
+            "Under Cycles' names, for the compositor (its Denoise and Cryptomatte nodes included); "
+            "Cycles writes no Shadow pass, so none is offered."),
+    Feature("Passes: Vector", SUPPORTED,
+            "As Cycles writes it: the motion in pixels towards the previous frame (xy) and from the next "
+            "(zw) of objects, deforming meshes and the camera, the mean over the samples that hit; "
+            "with Motion Blur on the pass is 0, as in Cycles. The other frames' camera keeps this "
+            "frame's lens."),
     Feature("Persistent Data", SUPPORTED, "The extracted scene and its GPU copy stay between renders."),
     Feature("Material, World and Light previews", SUPPORTED,
             "Rendered on Blender's preview scene with one sample and a small cube map; the "

@@ -81,3 +81,13 @@ def test_the_light_passes_rows_give_their_declarations(passes_of, cls):
         assert names(rows[0][2]) == set(io.reads) and names(rows[0][3]) == set(io.writes)
     finally:
         passes_of(settings, True)  # the shared passes back to a frame without light passes
+
+
+def test_the_vector_row_gives_its_declaration(passes_of):
+    settings = RenderSettings(mode="HYBRID")
+    rows = [r for r in table_rows() if len(r) == 4 and r[0].startswith("Vector pass asked for")
+            and r[1] == "`VectorPass`"]
+    assert len(rows) == 1
+    (frame_pass,) = [p for p in passes_of(settings, True, vector=True) if type(p).__name__ == "VectorPass"]
+    io = frame_pass.io(settings)
+    assert names(rows[0][2]) == set(io.reads) and names(rows[0][3]) == set(io.writes)

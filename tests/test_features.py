@@ -44,8 +44,6 @@ def _switch_on(bpy, scene, name: str) -> None:
         plane.is_shadow_catcher = True
     elif name == "Light Linking of emissive objects":
         plane.light_linking.receiver_collection = bpy.data.collections.new("receivers")
-    elif name == "Passes: Vector":
-        scene.view_layers[0].use_pass_vector = True
     elif name == "World Volume":
         tree = scene.world.node_tree
         volume = tree.nodes.new("ShaderNodeVolumePrincipled")
@@ -60,7 +58,7 @@ def _switch_on(bpy, scene, name: str) -> None:
 
 
 MESSAGED = ["Stereoscopy", "Freestyle", "Ray Visibility", "Holdout",
-            "Shadow Catcher", "Light Linking of emissive objects", "Passes: Vector", "World Volume", "Hair Curves",
+            "Shadow Catcher", "Light Linking of emissive objects", "World Volume", "Hair Curves",
             "Volume objects", "Point Clouds",
             "Grease Pencil"]
 

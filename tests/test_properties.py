@@ -295,8 +295,8 @@ def test_film_and_passes_panels_draw_the_properties_the_final_render_reads(addon
     engine = addon.blender_adapter.engine
     assert "film_transparent" in drawn
     assert {flag.rpartition(".")[2] for flag, *_ in engine.DATA_PASSES.values()} <= set(drawn)
-    # Only the passes the engine writes: Combined, the data passes, Cryptomatte and the light passes.
-    written = {"use_pass_combined", *(flag for flag, *_ in engine.DATA_PASSES.values()),
+    # Only the passes the engine writes: Combined, the data passes, Vector, Cryptomatte and the light passes.
+    written = {"use_pass_combined", "use_pass_vector", *(flag for flag, *_ in engine.DATA_PASSES.values()),
                *engine.CRYPTOMATTE_FLAGS.values(), *engine.LIGHT_PASSES}
     assert {name for name in drawn if name.startswith("use_pass_")} <= written
     assert set(engine.CRYPTOMATTE_FLAGS.values()) | {"pass_cryptomatte_depth"} <= set(drawn)

@@ -267,7 +267,7 @@ class RENDER_PT_hybrid_rt_diagnostics(HybridRTPanel, bpy.types.Panel):
 
 class VIEWLAYER_PT_hybrid_rt_passes(HybridRTPanel, bpy.types.Panel):
     """The passes this engine writes besides Combined (hybrid_engine/frame/film.py,
-    hybrid_engine/passes/film/light_passes.py), laid out as Cycles' Passes panels lay them
+    hybrid_engine/passes/film/light_passes.py, vector.py), laid out as Cycles' Passes panels lay them
     out, and no other: Blender's own pass panels list passes this engine does not write."""
 
     bl_label = "Passes"
@@ -282,6 +282,7 @@ class VIEWLAYER_PT_hybrid_rt_passes(HybridRTPanel, bpy.types.Panel):
         col.prop(view_layer, "use_pass_combined")
         col.prop(view_layer, "use_pass_z")
         col.prop(view_layer, "use_pass_normal")
+        col.prop(view_layer, "use_pass_vector")  # 0 with Motion Blur on, as in Cycles
         col.prop(view_layer, "use_pass_mist")
         # Cycles' switch of the same name: the Denoise node's Albedo and Normal guides.
         col.prop(view_layer.hybrid_rt, "denoising_store_passes")

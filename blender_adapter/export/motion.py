@@ -10,6 +10,10 @@ only (``SceneCache.instance_matrices``), and for the meshes that evaluation defo
 positions and normals (``SceneCache.deformed_arrays``: same topology, as a deformed frame of
 an animation is read); the frame's own evaluation is restored afterwards. A mesh whose
 topology changes within the shutter keeps the frame's shape: the artist is told which.
+
+The Vector pass (hybrid_engine/passes/film/vector.py) reads the same matrices and shapes at
+the frame before and the frame after (``frame_motion``), as Cycles does when Motion Blur is
+off; a mesh whose topology differs there moves rigidly, as in Cycles, without a message.
 """
 from __future__ import annotations
 
@@ -17,6 +21,7 @@ import math
 
 import numpy as np
 
+from ...hybrid_engine.passes.film.vector import FRAME_TIMES
 from ...hybrid_engine.scene.motion import MotionSteps, shutter_interval, step_times
 from .. import messages
 
@@ -38,8 +43,28 @@ def motion_steps(engine, depsgraph, cache, steps: int = MOTION_STEPS) -> MotionS
     render = scene.render
     if not render.use_motion_blur or float(render.motion_blur_shutter) <= 0.0:
         return None
-    frame, subframe = int(scene.frame_current), float(scene.frame_subframe)
     times = step_times(float(render.motion_blur_shutter), render.motion_blur_position, steps)
+    motion, unread = _evaluate(engine, depsgraph, cache, times)
+    if unread:
+        names = sorted(unread)
+        shown = ", ".join(repr(n) for n in names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
+        messages.tell(f"Motion Blur does not blur a change of topology yet ({shown}): the shape is the "
+                      "frame's, only the motion is blurred")
+    return motion
+
+
+def frame_motion(engine, depsgraph, cache) -> MotionSteps:
+    """The matrices of ``cache``'s instance table and of the scene camera, and the deformed
+    meshes' shapes, at the frame before, the frame and the frame after: what the Vector pass
+    follows (Cycles' motion pass transforms, when Motion Blur is off)."""
+    return _evaluate(engine, depsgraph, cache, np.array(FRAME_TIMES))[0]
+
+
+def _evaluate(engine, depsgraph, cache, times: np.ndarray) -> tuple[MotionSteps, set[str]]:
+    """The steps at ``times`` (frames relative to the frame), and the names of the meshes
+    whose topology changed there; the frame's own evaluation is restored afterwards."""
+    scene = depsgraph.scene
+    frame, subframe = int(scene.frame_current), float(scene.frame_subframe)
     instances, cameras, shapes = [], [], []
     unread: set[str] = set()
     try:
@@ -54,13 +79,8 @@ def motion_steps(engine, depsgraph, cache, steps: int = MOTION_STEPS) -> MotionS
             unread.update(names)
     finally:
         engine.frame_set(frame, subframe)
-    if unread:
-        names = sorted(unread)
-        shown = ", ".join(repr(n) for n in names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
-        messages.tell(f"Motion Blur does not blur a change of topology yet ({shown}): the shape is the "
-                      "frame's, only the motion is blurred")
     return MotionSteps(times=times, instances=np.stack(instances), camera=np.stack(cameras),
-                       deformations=_deformations(shapes, cache))
+                       deformations=_deformations(shapes, cache)), unread
 
 
 def _deformations(shapes: list[dict], cache) -> dict[int, tuple[np.ndarray, np.ndarray]]:

@@ -102,9 +102,9 @@ def _render_samples(renderer: Renderer, scene: SceneData, camera: Camera, settin
         renderer.denoiser.forget()
     # Only the first sample reads the Depth and Normal back; every sample adds to the
     # denoising means, which the last reads with the image.
-    # Cryptomatte and the light passes count every sample too, and the last reads them.
+    # Cryptomatte, the light passes and Vector count every sample too, and the last reads them.
     later_outputs = FrameOutputs(transparent=outputs.transparent, denoising=outputs.denoising,
-                                 cryptomatte=outputs.cryptomatte, light=outputs.light)
+                                 cryptomatte=outputs.cryptomatte, light=outputs.light, vector=outputs.vector)
     first: FrameResult | None = None
     passes: dict[str, float] = {}
     total_ms = 0.0

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from ..passes.film.data_passes import BACKGROUND_DEPTH as DATA_PASS_BACKGROUND_DEPTH
 from ..passes.film.data_passes import DENOISING, DEPTH_NORMAL
 from ..passes.film.light_passes import LightPassRequest
+from ..passes.film.vector import VectorRequest
 from ..scene.cryptomatte import CryptomatteRequest
 
 # Cycles' Depth of a pixel that hit nothing (kernel film: "no hit" leaves the 1e10 it
@@ -61,6 +62,9 @@ class FrameOutputs:
     ``light``: fill ``data_passes`` under Cycles' names with the light passes and Mist it
     asks for ((H, W, channels) float32), over every sample of the view
     (passes/film/light_passes.py), read by the frame that reads its image.
+    ``vector``: fill ``data_passes["Vector"]`` ((H, W, 4) float32) with Cycles' Vector pass
+    of the motion it holds, over every sample of the view (passes/film/vector.py), read by
+    the frame that reads its image.
     """
 
     transparent: bool = False
@@ -69,6 +73,7 @@ class FrameOutputs:
     denoising: bool = False
     cryptomatte: CryptomatteRequest | None = None
     light: LightPassRequest | None = None
+    vector: VectorRequest | None = None
 
     @property
     def wants_data(self) -> bool:

@@ -58,6 +58,7 @@ from ..passes.film.accumulate import AccumulatePass
 from ..passes.film.cryptomatte import CryptomattePass
 from ..passes.film.data_passes import DataPassesPass, read_data_passes
 from ..passes.film.light_passes import LightPassesPass, read_light_passes
+from ..passes.film.vector import VectorPass
 from ..passes.cube_light.cube_light import CubeLightPass
 from ..passes.cube_map.cube_map import CubeMapPass
 from ..passes.emitters.emitter_pass import EmitterTablePass
@@ -105,13 +106,14 @@ MODE_STEPS.update({view: MODE_STEPS["HYBRID"] for view in DIAGNOSTIC_VIEWS})
 
 
 def frame_steps(mode: str, accumulate: bool = False, data: bool = False, lit_cube: bool = False,
-                denoise: bool = False, cryptomatte: bool = False, light: bool = False) -> tuple[str, ...]:
+                denoise: bool = False, cryptomatte: bool = False, light: bool = False,
+                vector: bool = False) -> tuple[str, ...]:
     """The steps of a frame of ``mode`` (RenderSettings admits no other); one that
     accumulates adds ``accumulate``, one with data passes ``data_passes``, before the
     read-back; the lit cube map (``lit_cube``) adds ``cube_light`` after the cube map, and one
     that denoises ``denoise`` after the diffuse light (within ``shade``), one with Cryptomatte
     passes ``cryptomatte`` after the data passes; light passes ``light_passes`` after the
-    accumulation."""
+    accumulation; the Vector pass ``vector`` last."""
     steps = MODE_STEPS[mode]
     if lit_cube and "cube_map_raster" in steps:
         at = steps.index("cube_map_raster") + 1
@@ -120,7 +122,7 @@ def frame_steps(mode: str, accumulate: bool = False, data: bool = False, lit_cub
         at = steps.index("shade") + 1
         steps = (*steps[:at], "denoise", *steps[at:])
     extra = (("accumulate",) * accumulate + ("light_passes",) * light + ("data_passes",) * data
-             + ("cryptomatte",) * cryptomatte)
+             + ("cryptomatte",) * cryptomatte + ("vector",) * vector)
     return (*steps[:-1], *extra, steps[-1])
 # The passes that depend only on the geometry, the settings and the eye, and what they leave:
 # another sample of one view keeps them (render(reuse_world=True)).
@@ -187,6 +189,7 @@ class Renderer:
         self.data_passes = DataPassesPass(self.ctx)
         self.cryptomatte: CryptomattePass | None = None  # made on the first frame that asks
         self.light_passes: LightPassesPass | None = None  # Cycles' light passes, likewise
+        self.vector: VectorPass | None = None  # Cycles' Vector pass, likewise
         # The traced modes' passes, made on the first frame that needs them (their kernels
         # take a while to compile).
         self.cube_map: CubeMapPass | None = None
@@ -205,12 +208,14 @@ class Renderer:
 
     # -- the passes ----------------------------------------------------------------------------
     def passes(self, settings: RenderSettings, accumulate: bool = False, data: bool = False,
-               denoise: bool = False, cryptomatte: bool = False, light: bool = False) -> list[FramePass]:
+               denoise: bool = False, cryptomatte: bool = False, light: bool = False,
+               vector: bool = False) -> list[FramePass]:
         """This renderer's passes for ``settings``, in the order a frame runs them;
         ``accumulate`` adds the running mean of the view's samples after the colour, ``data``
         the Depth and Normal passes, ``denoise`` the filter of the ambient estimate before
         the shading reads it, ``cryptomatte`` the Cryptomatte coverage, ``light`` Cycles' light
-        passes (written by the shading and the tracer, summed after the accumulation)."""
+        passes (written by the shading and the tracer, summed after the accumulation),
+        ``vector`` Cycles' Vector pass."""
         mode = settings.mode
         traced = mode != "RASTER"
         if traced:
@@ -249,6 +254,10 @@ class Renderer:
             if self.cryptomatte is None:
                 self.cryptomatte = CryptomattePass(self.ctx)
             plan.append(self.cryptomatte)
+        if vector:
+            if self.vector is None:
+                self.vector = VectorPass(self.ctx)
+            plan.append(self.vector)
         return plan
 
     def _ensure_traced(self) -> None:
@@ -266,12 +275,13 @@ class Renderer:
         return self.denoiser.feedback() if self.denoiser is not None else None
 
     def _checked_passes(self, settings: RenderSettings, accumulate: bool, data: bool,
-                        denoise: bool, cryptomatte: bool = False, light: bool = False) -> list[FramePass]:
-        """``passes(settings, accumulate, data, denoise, cryptomatte, light)``, their order
+                        denoise: bool, cryptomatte: bool = False, light: bool = False,
+                        vector: bool = False) -> list[FramePass]:
+        """``passes(settings, accumulate, data, denoise, cryptomatte, light, vector)``, their order
         checked once per configuration."""
-        plan = self.passes(settings, accumulate, data, denoise, cryptomatte, light)
+        plan = self.passes(settings, accumulate, data, denoise, cryptomatte, light, vector)
         key = (settings.mode, settings.traces_diffuse, settings.lit_cube, accumulate, data, denoise, cryptomatte,
-               light)
+               light, vector)
         if key not in self._checked:
             check_order(plan, settings, final_reads=READBACK_READS + (("film",) if accumulate else ()))
             self._checked.add(key)
@@ -338,10 +348,12 @@ class Renderer:
         outputs = outputs or FrameOutputs()
         crypto = outputs.cryptomatte is not None
         light = outputs.light is not None
-        steps = frame_steps(settings.mode, accumulate, outputs.wants_data, settings.lit_cube, denoise, crypto, light)
+        vector = outputs.vector is not None
+        steps = frame_steps(settings.mode, accumulate, outputs.wants_data, settings.lit_cube, denoise, crypto, light,
+                            vector)
         traced = settings.mode != "RASTER"
         data = outputs.wants_data
-        plan = self._checked_passes(settings, accumulate, data, denoise, crypto, light)
+        plan = self._checked_passes(settings, accumulate, data, denoise, crypto, light, vector)
         if not denoise and self.denoiser is not None:
             self.denoiser.forget()  # its history would miss this frame
         timer = PassTimer(self.ctx, enabled=timing)
@@ -409,6 +421,8 @@ class Renderer:
             data.update(frame.resource("cryptomatte").read())
         if frame.has("light_film") and (read_image or readback is not None):
             data.update(read_light_passes(frame.resource("light_film"), frame.outputs.light))
+        if frame.has("vector") and (read_image or readback is not None):
+            data.update(frame.resource("vector").read())
         counts = dict(frame.counts)
         diagnostic = self.tracer.read_diagnostic(frame.view) if is_diagnostic(settings) else None
         scene = frame.resource("scene")
@@ -445,6 +459,9 @@ class Renderer:
         if self.light_passes is not None:
             self.light_passes.release()
             self.light_passes = None
+        if self.vector is not None:
+            self.vector.release()
+            self.vector = None
         self.deferred_shade.light_targets.release()
         if self.denoiser is not None:
             self.denoiser.release()

@@ -60,3 +60,20 @@ def test_cancel_before_the_trace_pass_leaves_the_renderer_usable(renderer):
     with pytest.raises(RenderCancelled, match="trace"):
         renderer.render(scene(), CAMERA, RenderSettings(mode="HYBRID", **SMALL), cancel=cancel)
     assert np.isfinite(renderer.render(scene(), CAMERA, RenderSettings(mode="HYBRID", **SMALL)).image).all()
+
+
+def test_every_pass_of_a_frame_ends_with_a_full_memory_barrier(renderer, monkeypatch):
+    """Passes hand images and buffers over in whatever way the next one reads them; on a GPU
+    whose caches are not coherent only a full barrier makes them visible (gpu/dispatch.py
+    pass_barrier). Without it, RASTER images on an NVIDIA GPU changed with the mode rendered
+    before them: llvmpipe cannot show that, so the barrier's presence is what is tested."""
+    import moderngl
+
+    from hybrid_engine.frame import renderer as renderer_module
+
+    bits = []
+    monkeypatch.setattr(renderer_module, "pass_barrier",
+                        lambda ctx: (bits.append(moderngl.ALL_BARRIER_BITS), ctx.memory_barrier()))
+    result = renderer.render(scene(), CAMERA, RenderSettings(mode="HYBRID", **SMALL), timing=True)
+    ran = [name for name in result.passes if name != "readback"]
+    assert len(bits) >= len(ran) >= len(MODE_STEPS["HYBRID"]) - 1  # several passes may share a step

@@ -1,7 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Scale-proof defaults (hybrid_engine/scene/scale.py, the texel shadow bias of
-include/lighting.glsl, the scene-relative ray offset of include/scene_bounds.glsl): one
-scene built at 1 mm, 1 m and 1 km, camera and lamp power scaled with it, is one picture;
+include/lighting.glsl, the scene-relative ray offset of include/scene_bounds.glsl, the
+random numbers keyed in the scene's typical object size of include/random.glsl): one scene
+built at 1 mm, 1 m and 1 km, camera and lamp power scaled with it, is one picture with the
+default traced and denoised diffuse light, and one noise pattern in a single sample;
 the Automatic far clip follows a scene grown past the old fixed 1000 m; shadows exist at
 1 mm; the face resolution follows the output size unless fixed."""
 from __future__ import annotations
@@ -12,6 +14,7 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
+from hybrid_engine.frame.antialias import render_antialiased
 from hybrid_engine.scene.camera import look_at
 from hybrid_engine.frame.near_budget import NearCubeSizer
 from hybrid_engine.scene.scale import NEAR_SIZE_PER_OBJECT, auto_cube_resolution, effective_values, near_limits, resolve
@@ -20,12 +23,14 @@ from whitted_reference import flip_mean
 
 SCALES = (1e-3, 1.0, 1e3)
 SIZE = (96, 64)
-# The settings of the test: small maps for speed, everything that follows the scene left
-# Automatic (the defaults). The World's light without occlusion: one traced diffuse path per
-# pixel is noise whose pattern is not the subject here.
+# The settings of the test: small maps for speed, everything else the defaults: what follows
+# the scene left Automatic, the World's and the bounced light traced by paths (diffuse_rays,
+# four bounces), rendered as a final render renders them (render_samples samples, denoised).
+DEFAULTS = RenderSettings(mode="HYBRID", shadow_resolution=512, cube_resolution_ratio=1.0, shadow_cascades=0)
+# The World's light without occlusion, for the tests about lengths and shadows: their
+# pictures need no noise.
 LIGHT = dict(world_light="SCREEN", ao_distance=0.0)
-SETTINGS = RenderSettings(mode="HYBRID", shadow_resolution=512, cube_resolution_ratio=1.0, shadow_cascades=0,
-                          **LIGHT)
+SETTINGS = replace(DEFAULTS, **LIGHT)
 # The fixed values these settings had before they followed the scene.
 EARLIER = RenderSettings(mode="HYBRID", shadow_resolution=512, cube_resolution=96, shadow_cascades=0,
                          near_size=5.0, cube_far=1000.0, shadow_bias=0.005, shadow_bias_texels=0.5, **LIGHT)
@@ -55,24 +60,43 @@ def built(scale: float, width: int = SIZE[0], height: int = SIZE[1], box_too: bo
     return SceneData(Geometry.from_objects(objects), materials, lights, Sky(color=(0.25, 0.3, 0.4))), camera
 
 
-def _images(renderer, settings: RenderSettings) -> dict[float, np.ndarray]:
+def _images(renderer, settings: RenderSettings, samples: int | None = None, denoise: bool | None = None
+            ) -> dict[float, np.ndarray]:
+    """The scene at each scale, rendered as a final render does (the settings' samples and
+    denoiser unless told)."""
+    samples = settings.render_samples if samples is None else samples
+    denoise = settings.denoise_render if denoise is None else denoise
     out = {}
     for scale in SCALES:
         scene, camera = built(scale)
-        out[scale] = renderer.render(scene, camera, settings).image[..., :3].copy()
+        out[scale] = render_antialiased(renderer, scene, camera, settings, samples,
+                                        denoise=denoise).image[..., :3].copy()
     return out
 
 
+def _errors(images: dict[float, np.ndarray]) -> dict[str, float]:
+    """FLIP between each pair of scales."""
+    return {f"{a:g}-{b:g}": flip_mean(images[a], images[b]) for a, b in ((1.0, 1e-3), (1.0, 1e3), (1e-3, 1e3))}
+
+
 def test_one_scene_at_1mm_1m_and_1km_is_one_picture_in_hybrid(renderer):
-    images = _images(renderer, SETTINGS)
-    errors = {scale: flip_mean(images[1.0], images[scale]) for scale in (1e-3, 1e3)}
+    """With the defaults: traced diffuse light of four bounces, its samples denoised."""
+    errors = _errors(_images(renderer, DEFAULTS))
+    assert all(e <= 0.02 for e in errors.values()), errors
+
+
+def test_the_noise_of_one_traced_sample_is_one_pattern_at_every_scale(renderer):
+    """One sample, not denoised: the diffuse paths draw their numbers at the same points of
+    the scene at every scale (random.glsl's position keys in the scene's typical object
+    size), so even the noise is one picture."""
+    errors = _errors(_images(renderer, DEFAULTS, samples=1, denoise=False))
     assert all(e <= 0.02 for e in errors.values()), errors
 
 
 def test_the_fixed_defaults_of_earlier_versions_did_not_hold_at_1mm_or_1km(renderer):
     """What the test above guards against: with the absolute lengths the settings had, the
     millimetre scene loses its shadows and the kilometre one its distant reflections."""
-    images = _images(renderer, EARLIER)
+    images = _images(renderer, EARLIER, samples=1, denoise=False)
     errors = {scale: flip_mean(images[1.0], images[scale]) for scale in (1e-3, 1e3)}
     assert all(e > 0.02 for e in errors.values()), errors
 

@@ -16,11 +16,25 @@ uint hash_key(uvec4 key) {
     return pcg_hash(key.x ^ pcg_hash(key.y ^ pcg_hash(key.z ^ pcg_hash(key.w))));
 }
 
-// A key of a world position, quantised to 1/4096 of a scene unit: the same surface point
-// seen through a cropped projection (a render region, a viewport border) draws the same
-// numbers as in the whole frame, where a pixel index would not.
+// The length position keys are measured in: the scene's typical object size
+// (FrameResources.random_unit, scene/scale.py's typical_object_size), so that one scene
+// modelled in millimetres, metres or kilometres draws the same numbers at the same points
+// and its noise is one pattern at every scale, as its light is. 0 (a program bound without
+// the lighting): one scene unit.
+uniform float u_random_unit;
+
+// A key of a world position, quantised to 1/4096 of the typical object size: the same
+// surface point seen through a cropped projection (a render region, a viewport border)
+// draws the same numbers as in the whole frame, where a pixel index would not. A cell must
+// stay under a pixel's footprint, yet no finer than it needs: a position read back from the
+// depth buffer carries its rounding, which differs from one scale to another, and every
+// point that rounding moves across a cell's boundary draws other numbers. The cells are
+// centred on the grid's points (the + 0.5), so that a surface at a round coordinate (a floor
+// at z = 0, whose points read back a hair above or below it) lies inside one cell, not on
+// the boundary between two.
 uvec3 position_key(vec3 p) {
-    return uvec3(ivec3(floor(clamp(p, vec3(-4.0e5), vec3(4.0e5)) * 4096.0)));
+    vec3 q = p / (u_random_unit > 0.0 ? u_random_unit : 1.0);
+    return uvec3(ivec3(floor(clamp(q, vec3(-4.0e5), vec3(4.0e5)) * 4096.0 + 0.5)));
 }
 
 // Two uniform numbers in [0, 1) for `key`.

@@ -1,11 +1,12 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Scale-proof defaults (hybrid_engine/scene/scale.py, the texel shadow bias of
 include/lighting.glsl, the scene-relative ray offset of include/scene_bounds.glsl, the
-random numbers keyed in the scene's typical object size of include/random.glsl): one scene
-built at 1 mm, 1 m and 1 km, camera and lamp power scaled with it, is one picture with the
-default traced and denoised diffuse light, and one noise pattern in a single sample;
-the Automatic far clip follows a scene grown past the old fixed 1000 m; shadows exist at
-1 mm; the face resolution follows the output size unless fixed."""
+position keys of include/random.glsl in cells of the typical object size times a power of
+two): one scene built at 1 mm, 1 m and 1 km, camera and lamp power scaled with it, is one
+picture with the default traced and denoised diffuse light, one noise pattern in a single
+sample, and one picture with soft lamps; the Automatic far clip follows a scene grown past
+the old fixed 1000 m; shadows exist at 1 mm; the face resolution follows the output size
+unless fixed."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -36,12 +37,13 @@ EARLIER = RenderSettings(mode="HYBRID", shadow_resolution=512, cube_resolution=9
                          near_size=5.0, cube_far=1000.0, shadow_bias=0.005, shadow_bias_texels=0.5, **LIGHT)
 
 
-def built(scale: float, width: int = SIZE[0], height: int = SIZE[1], box_too: bool = True
+def built(scale: float, width: int = SIZE[0], height: int = SIZE[1], box_too: bool = True, soft: bool = False
           ) -> tuple[SceneData, Camera]:
     """A floor, a diffuse box, a mirror ball and a glass ball under a sun and a point lamp
     (power as the square of ``scale``, so the light reaching the floor is the same), seen by
-    a camera whose position and clipping planes scale too. Lamps without size: hard
-    shadows, no sampled penumbra."""
+    a camera whose position and clipping planes scale too. Lamps without size (hard
+    shadows, no sampled penumbra), or with ``soft``: a sun of some angle, a point lamp of
+    some radius and a rectangular area lamp, whose penumbrae are sampled."""
     s = float(scale)
     ball, ball_n = uv_sphere((0.9 * s, 0.3 * s, 0.6 * s), 0.6 * s, 24, 12)
     glass, glass_n = uv_sphere((-1.0 * s, -0.6 * s, 0.5 * s), 0.5 * s, 24, 12)
@@ -52,9 +54,13 @@ def built(scale: float, width: int = SIZE[0], height: int = SIZE[1], box_too: bo
         dict(base_color=(0.7, 0.7, 0.65)), dict(base_color=(0.8, 0.25, 0.2)),
         dict(base_color=(0.95, 0.95, 0.95), reflectivity=1.0, roughness=0.0),
         dict(base_color=(1.0, 1.0, 1.0), transmission=1.0, roughness=0.0, ior=1.45)])
-    lights = Lights.from_rows([dict(kind="SUN", direction=(0.4, 0.5, -1.0), color=(2.0, 2.0, 1.9)),
-                               dict(kind="POINT", position=(1.5 * s, -1.5 * s, 2.5 * s),
-                                    color=(60.0 * s * s,) * 3)])
+    lamps = [dict(kind="SUN", direction=(0.4, 0.5, -1.0), color=(2.0, 2.0, 1.9)),
+             dict(kind="POINT", position=(1.5 * s, -1.5 * s, 2.5 * s), color=(60.0 * s * s,) * 3)]
+    if soft:
+        lamps[0]["radius"], lamps[1]["radius"] = 0.1, 0.5 * s  # the sun's angle; the lamp's radius
+        lamps.append(dict(kind="AREA", position=(-1.5 * s, 0.5 * s, 2.0 * s), direction=(0.5, 0.0, -1.0),
+                          color=(30.0 * s * s,) * 3, radius=0.6 * s, area_size_y=0.3 * s))
+    lights = Lights.from_rows(lamps)
     camera = Camera(matrix_world=look_at((0.5 * s, -5.0 * s, 2.5 * s), (0, 0, 0.5 * s)), width=width,
                     height=height, clip_start=0.05 * s, clip_end=100.0 * s)
     return SceneData(Geometry.from_objects(objects), materials, lights, Sky(color=(0.25, 0.3, 0.4))), camera
@@ -91,6 +97,22 @@ def test_the_noise_of_one_traced_sample_is_one_pattern_at_every_scale(renderer):
     size), so even the noise is one picture."""
     errors = _errors(_images(renderer, DEFAULTS, samples=1, denoise=False))
     assert all(e <= 0.02 for e in errors.values()), errors
+
+
+def test_soft_shadows_and_an_area_lamp_are_one_picture_at_every_scale(renderer):
+    """Sampled penumbrae (a sun of some angle, a point lamp of some radius, a rectangular
+    area lamp), one sample: the filter's rotations are drawn at the same points of the scene
+    at every scale (include/lighting.glsl's position keys), and a lamp's shadow map spans the
+    same share of its distances (shadow_depth.shadow_views: no near plane in scene units)."""
+    images = {}
+    for scale in SCALES:
+        scene, camera = built(scale, soft=True)
+        images[scale] = renderer.render(scene, camera, SETTINGS).image[..., :3]
+    for scale in (1e-3, 1e3):
+        assert flip_mean(images[1.0], images[scale]) <= 0.01, scale
+        # One noise pattern: few pixels differ at all (keyed by float bits, a tenth did).
+        differ = np.abs(images[scale] - images[1.0]).max(axis=2) > 0.01
+        assert differ.mean() < 0.05, (scale, differ.mean())
 
 
 def test_the_fixed_defaults_of_earlier_versions_did_not_hold_at_1mm_or_1km(renderer):

@@ -204,7 +204,9 @@ def test_a_wall_beside_a_floor_gains_the_floors_bounce_as_a_path_tracer_does(ren
     measured = []
     for bounces in (0, 1, 2):
         settings = RenderSettings(mode=mode, near_size=5.0, shadow_resolution=256, diffuse_bounces=bounces)
-        measured.append(float(mean_image(renderer, scene, camera, settings, samples=8)[band].mean()))
+        # 32 paths a pixel: a path sees the sky or the floor, so the band's mean of 8 a pixel
+        # strayed by 2.5 % (one standard deviation), too near the 4 % allowed below.
+        measured.append(float(mean_image(renderer, scene, camera, settings, samples=32)[band].mean()))
     assert measured[0] < measured[1] < measured[2], measured
     assert measured[1] > 1.1 * measured[0], measured
     for bounces, value in enumerate(measured):

@@ -13,6 +13,7 @@ from hybrid_engine.scene.camera import look_at
 from hybrid_engine.frame.film import BACKGROUND_DEPTH, FilmError, FrameOutputs
 from hybrid_engine.frame.views import border_pixels, region_camera
 from scenes_analytic import quad, ray_plane_z
+from test_scale import DEFAULTS, built
 
 SMALL = dict(cube_resolution=32, shadow_resolution=128, near_size=2.0)
 SKY = (0.2, 0.3, 0.5)
@@ -150,6 +151,21 @@ def test_region_camera_renders_exactly_the_regions_pixels_of_the_whole_frame(ren
     np.testing.assert_allclose(part.image, whole.image[y0:y1, x0:x1], rtol=1e-4, atol=1e-5)
     np.testing.assert_allclose(part.data_passes["depth"], whole.data_passes["depth"][y0:y1, x0:x1], rtol=DEPTH_RTOL)
     assert region_camera(camera, (0, 0, camera.width, camera.height)) is camera
+
+
+def test_a_region_draws_the_whole_frames_numbers_for_its_traced_diffuse_light(renderer):
+    """One sample of traced diffuse light, not denoised: its noise is keyed by the surface
+    points (random.glsl's position keys), in cells sized by the whole view's pixel, so a
+    render region shows the same noise as the frame. Only the points whose read-back
+    position crosses a cell's boundary draw other numbers (with cells of 1/4096 m, a tenth
+    of the pixels and more did)."""
+    scene, camera = built(1.0)
+    whole = renderer.render(scene, camera, DEFAULTS).image[..., :3]
+    for rect in ((60, 30, 96, 64), (0, 0, 40, 30), (20, 10, 70, 50)):
+        x0, y0, x1, y1 = rect
+        part = renderer.render(scene, region_camera(camera, rect), DEFAULTS).image[..., :3]
+        differ = np.abs(part - whole[y0:y1, x0:x1]).max(axis=2) > 1e-3
+        assert differ.mean() < 0.03, (rect, differ.mean())
 
 
 # ---------------------------------------------------------------------------------------------

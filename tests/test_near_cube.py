@@ -131,6 +131,19 @@ def test_large_triangle_crossing_the_cube_with_every_vertex_outside_is_kept(ctx)
     assert result.read_indices().tolist() == [0]
 
 
+def test_the_overlap_is_the_same_share_of_the_near_cube_at_every_scale():
+    """The scale scene's near cube (half-size and centre) at 1 mm, 1 m and 1 km: the BVH's
+    overlap past the near planes scales with it, so the boundary between traced and marched
+    surfaces lies at the same place in the picture (a floor in scene units moved it)."""
+    near_size, center = 4.75, np.array([0.5, -5.0, 2.5])
+    at_1m = near_cube.overlap_margin(near_size, center)
+    for scale in (1e-3, 1e3):
+        assert near_cube.overlap_margin(near_size * scale, center * scale) / scale == pytest.approx(at_1m, rel=1e-6)
+    # Several float32 steps of the cube's coordinates, even for a tiny cube far from the origin.
+    far_off = np.array([1.0e4, 0.0, 0.0])
+    assert near_cube.overlap_margin(1e-3, far_off) > 8 * np.spacing(np.float32(1.0e4))
+
+
 def test_overlap_margin_keeps_triangles_just_beyond_the_near_planes(ctx):
     """The paper's overlap: a triangle slightly outside the near plane is still in the BVH."""
     near_size = 2.0

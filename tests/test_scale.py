@@ -1,9 +1,12 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Scale-proof defaults (hybrid_engine/scene/scale.py, the texel shadow bias of
-include/lighting.glsl, the scene-relative ray offset of include/scene_bounds.glsl): one
-scene built at 1 mm, 1 m and 1 km, camera and lamp power scaled with it, is one picture;
-the Automatic far clip follows a scene grown past the old fixed 1000 m; shadows exist at
-1 mm; the face resolution follows the output size unless fixed."""
+include/lighting.glsl, the scene-relative ray offset of include/scene_bounds.glsl, the
+position keys of include/random.glsl in cells of the typical object size times a power of
+two): one scene built at 1 mm, 1 m and 1 km, camera and lamp power scaled with it, is one
+picture with the default traced and denoised diffuse light, one noise pattern in a single
+sample, and one picture with soft lamps; the Automatic far clip follows a scene grown past
+the old fixed 1000 m; shadows exist at 1 mm; the face resolution follows the output size
+unless fixed."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -12,6 +15,7 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
+from hybrid_engine.frame.antialias import render_antialiased
 from hybrid_engine.scene.camera import look_at
 from hybrid_engine.frame.near_budget import NearCubeSizer
 from hybrid_engine.scene.scale import NEAR_SIZE_PER_OBJECT, auto_cube_resolution, effective_values, near_limits, resolve
@@ -20,23 +24,26 @@ from whitted_reference import flip_mean
 
 SCALES = (1e-3, 1.0, 1e3)
 SIZE = (96, 64)
-# The settings of the test: small maps for speed, everything that follows the scene left
-# Automatic (the defaults). The World's light without occlusion: one traced diffuse path per
-# pixel is noise whose pattern is not the subject here.
+# The settings of the test: small maps for speed, everything else the defaults: what follows
+# the scene left Automatic, the World's and the bounced light traced by paths (diffuse_rays,
+# four bounces), rendered as a final render renders them (render_samples samples, denoised).
+DEFAULTS = RenderSettings(mode="HYBRID", shadow_resolution=512, cube_resolution_ratio=1.0, shadow_cascades=0)
+# The World's light without occlusion, for the tests about lengths and shadows: their
+# pictures need no noise.
 LIGHT = dict(world_light="SCREEN", ao_distance=0.0)
-SETTINGS = RenderSettings(mode="HYBRID", shadow_resolution=512, cube_resolution_ratio=1.0, shadow_cascades=0,
-                          **LIGHT)
+SETTINGS = replace(DEFAULTS, **LIGHT)
 # The fixed values these settings had before they followed the scene.
 EARLIER = RenderSettings(mode="HYBRID", shadow_resolution=512, cube_resolution=96, shadow_cascades=0,
                          near_size=5.0, cube_far=1000.0, shadow_bias=0.005, shadow_bias_texels=0.5, **LIGHT)
 
 
-def built(scale: float, width: int = SIZE[0], height: int = SIZE[1], box_too: bool = True
+def built(scale: float, width: int = SIZE[0], height: int = SIZE[1], box_too: bool = True, soft: bool = False
           ) -> tuple[SceneData, Camera]:
     """A floor, a diffuse box, a mirror ball and a glass ball under a sun and a point lamp
     (power as the square of ``scale``, so the light reaching the floor is the same), seen by
-    a camera whose position and clipping planes scale too. Lamps without size: hard
-    shadows, no sampled penumbra."""
+    a camera whose position and clipping planes scale too. Lamps without size (hard
+    shadows, no sampled penumbra), or with ``soft``: a sun of some angle, a point lamp of
+    some radius and a rectangular area lamp, whose penumbrae are sampled."""
     s = float(scale)
     ball, ball_n = uv_sphere((0.9 * s, 0.3 * s, 0.6 * s), 0.6 * s, 24, 12)
     glass, glass_n = uv_sphere((-1.0 * s, -0.6 * s, 0.5 * s), 0.5 * s, 24, 12)
@@ -47,32 +54,71 @@ def built(scale: float, width: int = SIZE[0], height: int = SIZE[1], box_too: bo
         dict(base_color=(0.7, 0.7, 0.65)), dict(base_color=(0.8, 0.25, 0.2)),
         dict(base_color=(0.95, 0.95, 0.95), reflectivity=1.0, roughness=0.0),
         dict(base_color=(1.0, 1.0, 1.0), transmission=1.0, roughness=0.0, ior=1.45)])
-    lights = Lights.from_rows([dict(kind="SUN", direction=(0.4, 0.5, -1.0), color=(2.0, 2.0, 1.9)),
-                               dict(kind="POINT", position=(1.5 * s, -1.5 * s, 2.5 * s),
-                                    color=(60.0 * s * s,) * 3)])
+    lamps = [dict(kind="SUN", direction=(0.4, 0.5, -1.0), color=(2.0, 2.0, 1.9)),
+             dict(kind="POINT", position=(1.5 * s, -1.5 * s, 2.5 * s), color=(60.0 * s * s,) * 3)]
+    if soft:
+        lamps[0]["radius"], lamps[1]["radius"] = 0.1, 0.5 * s  # the sun's angle; the lamp's radius
+        lamps.append(dict(kind="AREA", position=(-1.5 * s, 0.5 * s, 2.0 * s), direction=(0.5, 0.0, -1.0),
+                          color=(30.0 * s * s,) * 3, radius=0.6 * s, area_size_y=0.3 * s))
+    lights = Lights.from_rows(lamps)
     camera = Camera(matrix_world=look_at((0.5 * s, -5.0 * s, 2.5 * s), (0, 0, 0.5 * s)), width=width,
                     height=height, clip_start=0.05 * s, clip_end=100.0 * s)
     return SceneData(Geometry.from_objects(objects), materials, lights, Sky(color=(0.25, 0.3, 0.4))), camera
 
 
-def _images(renderer, settings: RenderSettings) -> dict[float, np.ndarray]:
+def _images(renderer, settings: RenderSettings, samples: int | None = None, denoise: bool | None = None
+            ) -> dict[float, np.ndarray]:
+    """The scene at each scale, rendered as a final render does (the settings' samples and
+    denoiser unless told)."""
+    samples = settings.render_samples if samples is None else samples
+    denoise = settings.denoise_render if denoise is None else denoise
     out = {}
     for scale in SCALES:
         scene, camera = built(scale)
-        out[scale] = renderer.render(scene, camera, settings).image[..., :3].copy()
+        out[scale] = render_antialiased(renderer, scene, camera, settings, samples,
+                                        denoise=denoise).image[..., :3].copy()
     return out
 
 
+def _errors(images: dict[float, np.ndarray]) -> dict[str, float]:
+    """FLIP between each pair of scales."""
+    return {f"{a:g}-{b:g}": flip_mean(images[a], images[b]) for a, b in ((1.0, 1e-3), (1.0, 1e3), (1e-3, 1e3))}
+
+
 def test_one_scene_at_1mm_1m_and_1km_is_one_picture_in_hybrid(renderer):
-    images = _images(renderer, SETTINGS)
-    errors = {scale: flip_mean(images[1.0], images[scale]) for scale in (1e-3, 1e3)}
+    """With the defaults: traced diffuse light of four bounces, its samples denoised."""
+    errors = _errors(_images(renderer, DEFAULTS))
     assert all(e <= 0.02 for e in errors.values()), errors
+
+
+def test_the_noise_of_one_traced_sample_is_one_pattern_at_every_scale(renderer):
+    """One sample, not denoised: the diffuse paths draw their numbers at the same points of
+    the scene at every scale (random.glsl's position keys in the scene's typical object
+    size), so even the noise is one picture."""
+    errors = _errors(_images(renderer, DEFAULTS, samples=1, denoise=False))
+    assert all(e <= 0.02 for e in errors.values()), errors
+
+
+def test_soft_shadows_and_an_area_lamp_are_one_picture_at_every_scale(renderer):
+    """Sampled penumbrae (a sun of some angle, a point lamp of some radius, a rectangular
+    area lamp), one sample: the filter's rotations are drawn at the same points of the scene
+    at every scale (include/lighting.glsl's position keys), and a lamp's shadow map spans the
+    same share of its distances (shadow_depth.shadow_views: no near plane in scene units)."""
+    images = {}
+    for scale in SCALES:
+        scene, camera = built(scale, soft=True)
+        images[scale] = renderer.render(scene, camera, SETTINGS).image[..., :3]
+    for scale in (1e-3, 1e3):
+        assert flip_mean(images[1.0], images[scale]) <= 0.01, scale
+        # One noise pattern: few pixels differ at all (keyed by float bits, a tenth did).
+        differ = np.abs(images[scale] - images[1.0]).max(axis=2) > 0.01
+        assert differ.mean() < 0.05, (scale, differ.mean())
 
 
 def test_the_fixed_defaults_of_earlier_versions_did_not_hold_at_1mm_or_1km(renderer):
     """What the test above guards against: with the absolute lengths the settings had, the
     millimetre scene loses its shadows and the kilometre one its distant reflections."""
-    images = _images(renderer, EARLIER)
+    images = _images(renderer, EARLIER, samples=1, denoise=False)
     errors = {scale: flip_mean(images[1.0], images[scale]) for scale in (1e-3, 1e3)}
     assert all(e > 0.02 for e in errors.values()), errors
 
@@ -232,8 +278,8 @@ def _blender_scene(bpy, scale: float):
     scene.view_settings.view_transform = "Standard"
     scene.render.engine = "HYBRID_RT"
     settings = scene.hybrid_rt
-    settings.mode, settings.world_light, settings.ao_distance = "HYBRID", "SCREEN", 0.0
-    settings.render_samples, settings.shadow_resolution, settings.shadow_cascades = 1, 512, 0
+    # The defaults (traced diffuse light, its samples denoised), small shadow maps for speed.
+    settings.mode, settings.shadow_resolution, settings.shadow_cascades = "HYBRID", 512, 0
     return scene
 
 

@@ -1,21 +1,24 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The shadow-map pass (hybrid_engine/passes/shadow_maps/shadow_depth.py): a point lamp's six
 cube faces (and the other slots of a culled batch) drawn in one multi-draw equal one draw
-per slot, bit for bit, and the faces kernel's variant picks which."""
+per slot, bit for bit, and the faces kernel's variant picks which; a lamp's depth range
+follows the scene's scale."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from hybrid_engine import RenderSettings
+from hybrid_engine import Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
 from hybrid_engine.gpu import variants
 from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
-from hybrid_engine.passes.shadow_maps.shadow_depth import ShadowDepthPass
+from hybrid_engine.passes.shadow_maps.shadow_depth import ShadowDepthPass, shadow_views
 from hybrid_engine.passes.view_cull import draw as draw_module
 from hybrid_engine.passes.view_cull.draw import SceneDrawer
 from hybrid_engine.passes.view_cull.view_cull import CulledDraws
+from hybrid_engine.scene.bounds import SceneBounds
 from hybrid_engine.scene.changes import GeometryDelta
 from benchmarks.scenes.chess import build_chess
+from scenes_analytic import box, quad
 
 
 def shadow_layers_with_variant(gl, monkeypatch, family: str) -> tuple[bytes, int, dict]:
@@ -150,3 +153,22 @@ def test_shadow_slots_of_rotated_and_mirrored_instances_are_the_same_drawn_insta
     assert (layers["cpu"] < 1).mean() > 0.05
     differ = layers["cpu"].view(np.uint32) != layers["gpu"].view(np.uint32)
     assert not differ.any(), f"{int(differ.sum())} texels differ"
+
+
+@pytest.mark.parametrize("kind", ["POINT", "SPOT", "AREA"])
+def test_a_lamps_shadow_depth_range_scales_with_the_scene(kind):
+    """One scene built at 1 mm, 1 m and 1 km: a lamp's perspective slots span the same share
+    of its distances (near and far planes times the scale), so its shadows are the same at
+    every scale; a near plane floored in scene units clipped a millimetre scene's blockers."""
+    ranges = {}
+    for scale in (1e-3, 1.0, 1e3):
+        objects = [(quad((0, 0, 0), (4 * scale, 0, 0), (0, 4 * scale, 0)), None, 0),
+                   (box((-0.4 * scale, 0.6 * scale, 0), (0.2 * scale, 1.2 * scale, 1.0 * scale)), None, 0)]
+        lamp = dict(kind=kind, position=(1.5 * scale, -1.5 * scale, 2.5 * scale), direction=(-0.4, 0.4, -1.0))
+        scene = SceneData(Geometry.from_objects(objects), MaterialTable.from_rows([{}]), Lights.from_rows([lamp]),
+                          Sky())
+        layout = shadow_views(scene, SceneBounds.of(scene))
+        first, count = layout.per_light[0]
+        ranges[scale] = [(view.near / scale, view.far / scale) for view in layout.views[first:first + count]]
+    assert np.allclose(ranges[1e-3], ranges[1.0], rtol=1e-4)
+    assert np.allclose(ranges[1e3], ranges[1.0], rtol=1e-4)

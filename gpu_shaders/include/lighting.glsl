@@ -230,7 +230,12 @@ float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light, bool soft) {
         return probe.receiver <= shadow_depth_at(shadow_slots[finest], probe.texel_f) + 1e-5 ? 1.0 : 0.0;
     }
     bool perspective = shadow_slots[finest].texel.y > 0.5;
-    float angle = float(u_sample) * 2.39996323 + 6.2831853 * random2(uvec4(floatBitsToUint(p.xy), uint(finest), 7u)).x;
+    // The filter's rotation and an area lamp's shift, keyed by where p lies in the scene's
+    // own units (random.glsl), not by its float bits: one scene draws the same numbers at
+    // the same points whether it is modelled in millimetres or kilometres.
+    uvec3 at = position_key(p);
+    uint at_key = at.x ^ pcg_hash(at.y ^ pcg_hash(at.z));
+    float angle = float(u_sample) * 2.39996323 + 6.2831853 * random2(uvec4(at_key, 0u, uint(finest), 7u)).x;
     mat2 rot = mat2(cos(angle), sin(angle), -sin(angle), cos(angle));
     // Blocker search over the widest penumbra a blocker could cast: for a sun, one at the
     // map's near plane; for a lamp, one half-way to it.
@@ -246,7 +251,7 @@ float shadow_visibility(Light light, vec3 p, vec3 n, vec3 to_light, bool soft) {
     // shows them at p, for a blocker half-way to the lamp.
     vec2 axis_u = vec2(0.0), axis_v = vec2(0.0), shift = vec2(0.0);
     if (area) {
-        shift = random2(uvec4(floatBitsToUint(p.yz), uint(u_sample), 11u));
+        shift = random2(uvec4(at_key, 1u, uint(u_sample), 11u));
         axis_u = area_axis_texels(slot, p, shape.u, shape.half_size.x);
         axis_v = area_axis_texels(slot, p, shape.v, shape.half_size.y);
         fit_filter(axis_u, axis_v, slot);

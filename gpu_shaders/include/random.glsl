@@ -16,11 +16,35 @@ uint hash_key(uvec4 key) {
     return pcg_hash(key.x ^ pcg_hash(key.y ^ pcg_hash(key.z ^ pcg_hash(key.w))));
 }
 
-// A key of a world position, quantised to 1/4096 of a scene unit: the same surface point
-// seen through a cropped projection (a render region, a viewport border) draws the same
-// numbers as in the whole frame, where a pixel index would not.
+// Where position keys are measured from (RasterView.uniforms, FrameResources.bindings):
+// u_random_unit, the scene's typical object size (scene/scale.py's typical_object_size);
+// u_key_eye and u_key_pixel, the camera's eye and its pixel on the optical axis (width at the
+// eye, growth per unit of distance: raster_view.axis_pixel). 0 where a program is bound
+// without them: one scene unit, no pixel.
+uniform float u_random_unit;
+uniform vec3 u_key_eye;
+uniform vec2 u_key_pixel;
+
+// A key of a world position: the same surface point seen through a cropped projection (a
+// render region, a viewport border, a sub-pixel sample) draws the same numbers as in the
+// whole frame, where a pixel index would not. The point is quantised to cells of a quarter
+// to a half of the pixel's footprint there, so that neighbouring pixels draw their own
+// numbers, and no finer: a position read back from the depth buffer carries its rounding,
+// and each point that moves across a cell's boundary draws other numbers. The cell is the
+// typical object size times a power of two, so that
+//   * one scene modelled in millimetres, metres or kilometres draws the same numbers at the
+//     same points, and its noise is one pattern at every scale, as its light is;
+//   * a surface keeps its numbers while the camera moves, until its distance doubles.
+// The cells are centred on the grid's points (the + 0.5): a surface at a round coordinate
+// (a floor at z = 0, whose points read back a hair above or below it) lies inside one cell,
+// not on the boundary between two. Without a pixel, cells of 1/4096 of the unit.
 uvec3 position_key(vec3 p) {
-    return uvec3(ivec3(floor(clamp(p, vec3(-4.0e5), vec3(4.0e5)) * 4096.0)));
+    float unit = u_random_unit > 0.0 ? u_random_unit : 1.0;
+    float footprint = u_key_pixel.x + u_key_pixel.y * distance(p, u_key_eye);
+    float level = footprint > 0.0 ? clamp(floor(log2(footprint / unit)) - 1.0, -100.0, 100.0) : -12.0;
+    vec3 q = p / (unit * exp2(level));
+    uvec3 key = uvec3(ivec3(floor(clamp(q, vec3(-2.0e9), vec3(2.0e9)) + 0.5)));
+    return key ^ uvec3(0u, 0u, pcg_hash(uint(level + 128.0)));
 }
 
 // Two uniform numbers in [0, 1) for `key`.

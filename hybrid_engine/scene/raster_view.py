@@ -20,6 +20,24 @@ def gl_matrix(m: np.ndarray) -> bytes:
     return np.ascontiguousarray(np.asarray(m, np.float32).T).tobytes()
 
 
+def axis_pixel(view_proj: np.ndarray, height: int, orthographic: bool) -> tuple[float, float]:
+    """A pixel's footprint on the view's optical axis: (width at the eye, growth per unit of
+    distance), ``width + spread * distance``. Read from the projection's vertical scale, which
+    a crop (a render region, a sub-pixel sample: views.crop_projection) multiplies by as much
+    as it divides the height: every crop of one view has the whole view's pixel, so what is
+    keyed by it (random.glsl's position keys) is the same in the region as in the frame."""
+    m = np.asarray(view_proj, np.float64)
+    row_y = m[1, :3]
+    if not orthographic:
+        back = m[3, :3]  # clip w is the distance in front of the eye: the view's axis
+        back = back / max(float(np.linalg.norm(back)), 1e-300)
+        row_y = row_y - float(np.dot(row_y, back)) * back  # the shear of an off-centre crop removed
+    scale = float(np.linalg.norm(row_y)) * max(int(height), 1) / 2.0
+    if not scale > 0.0:
+        return 0.0, 0.0
+    return (1.0 / scale, 0.0) if orthographic else (0.0, 1.0 / scale)
+
+
 @dataclass(frozen=True)
 class RasterView:
     """A view drawn into a G-buffer: the primary camera or a cube-map face."""
@@ -53,6 +71,9 @@ class RasterView:
             "u_camera_forward": tuple(np.asarray(self.forward, float)),
             "u_orthographic": int(self.orthographic),
             "u_size": (self.width, self.height),
+            # random.glsl's position keys: cells a fraction of this view's pixel.
+            "u_key_eye": tuple(np.asarray(self.position, float)),
+            "u_key_pixel": axis_pixel(self.view_proj, self.height, self.orthographic),
             **self.node_camera_uniforms(),
         }
 

@@ -16,6 +16,7 @@ from ...gpu.bindings import Bindings
 from ...gpu.dispatch import GrowBuffer, SceneLimitError, bytes_of
 from ...scene.data import Lights, Sky
 from ...scene.light_linking import is_linked, mask_words
+from ...scene.scale import typical_object_size
 from ...scene.settings import RenderSettings
 from ..frame_context import FrameContext, PassIO
 from ..shadow_maps.shadow_atlas import ShadowAtlas
@@ -43,6 +44,10 @@ class FrameResources:
         self.shadow_normal_offset = 0.0
         self.ao_distance = 0.0
         self.diffuse_rays = False  # diffuse light gathered by paths (passes/diffuse_light/)
+        # The length the stochastic estimates' position keys are measured in (random.glsl's
+        # u_random_unit): the scene's typical object size, so that the noise of one scene is
+        # one pattern whether it is modelled in millimetres or kilometres.
+        self.random_unit = 1.0
         # Light linking (scene/light_linking.py): the lamps' receiver masks, made and bound
         # only for a scene whose lamps are linked, so that others compile nothing new.
         self.linked = False
@@ -103,7 +108,7 @@ class FrameResources:
                       "u_shadow_bias_texels": self.shadow_bias_texels,
                       "u_shadow_normal_offset": self.shadow_normal_offset,
                       "u_ao_distance": self.ao_distance, "u_sky_visibility_known": int(self.occludes),
-                      "u_ambient_from_rays": int(self.diffuse_rays)})
+                      "u_ambient_from_rays": int(self.diffuse_rays), "u_random_unit": self.random_unit})
 
     def release(self) -> None:
         self.lights.release()
@@ -130,4 +135,5 @@ class LightingPass:
         self.resources.update_lights(scene.lights, frame.read("shadow_maps"), frame.settings,
                                      is_linked(scene.materials, scene.lights))
         self.resources.update_sky(scene.sky)
+        self.resources.random_unit = typical_object_size(scene)
         frame.write("lighting", self.resources)

@@ -54,9 +54,12 @@ LOCAL_SIZE = 64
 # Triangles each culling invocation walks serially (see the "cpu" radix sort's chunks in gpu/radix_sort.py).
 TRIANGLES_PER_CHUNK = 1024
 # Overlap of BVH and cube map: a fraction of the cube's half-size plus a floor for tiny cubes,
-# several float32 ulps at scene scale yet invisible in the image.
+# several float32 ulps of the cube's coordinates (their rounding is about 6e-8 of their
+# magnitude) yet invisible in the image. Both relative: a floor in scene units would be a
+# larger share of a millimetre scene's cube than of a metre one's, and move the boundary
+# between traced and marched surfaces (paper §3.3) with the scene's scale.
 OVERLAP_RELATIVE = 1e-3
-OVERLAP_ABSOLUTE = 1e-5
+OVERLAP_ULPS = 1e-6
 
 CLASS_OUTSIDE = 0
 CLASS_INSIDE = 1
@@ -65,9 +68,11 @@ CLASS_STRADDLING = 2
 _DEFINES = {"LOCAL_SIZE": LOCAL_SIZE}
 
 
-def overlap_margin(near_size: float) -> float:
-    """How far the culling cube extends beyond the near planes (scene units)."""
-    return float(near_size) * OVERLAP_RELATIVE + OVERLAP_ABSOLUTE
+def overlap_margin(near_size: float, center=None) -> float:
+    """How far the culling cube extends beyond the near planes (scene units), for a cube
+    centred on ``center`` (the origin when not given)."""
+    reach = float(near_size) + (float(np.max(np.abs(np.asarray(center, np.float64)))) if center is not None else 0.0)
+    return float(near_size) * OVERLAP_RELATIVE + OVERLAP_ULPS * reach
 
 
 # Statistics names of the stage-1 classes, in the order of ClassCounts (CLASS_*).
@@ -195,7 +200,7 @@ class NearCubeCuller:
         center = np.asarray(center, dtype=np.float64).reshape(3)
         if not np.isfinite(center).all():
             raise ValueError(f"the cube centre must be finite, got {center}")
-        margin = overlap_margin(near_size) if margin is None else float(margin)
+        margin = overlap_margin(near_size, center) if margin is None else float(margin)
         half = float(near_size) + margin
         ranges, bounds = _objects(count, object_ranges, object_bounds)
         num_objects = len(ranges)

@@ -56,5 +56,6 @@ class ScreenSpaceOcclusion:
         bind(prog, textures={"u_depth": targets.depth, "u_normal_material": targets.normal_material},
              images={"u_visibility": Image(targets.ambient, read=False, write=True)},
              uniforms={**view.uniforms(), "u_view_proj": view.view_proj_bytes(),
-                       "u_ao_distance": resources.ao_distance, "u_sample": int(sample)})
+                       "u_ao_distance": resources.ao_distance, "u_sample": int(sample),
+                       "u_random_unit": resources.random_unit})
         prog.run(math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)

@@ -132,7 +132,10 @@ def shadow_views(scene: SceneData, bounds: SceneBounds, camera: Camera | None = 
             matrices.append(ShadowView(proj @ view, 2.0 * radius, False, radius * 0.5, radius * 3.5))
         else:
             far = float(np.linalg.norm(pos - center) + radius) * 1.01
-            near = max(far * 1e-4, 1e-3)
+            # A share of the far plane, never a length in scene units: one scene at 1 mm and
+            # at 1 km keeps the same depth range, and a millimetre scene's blockers are not
+            # clipped by a near plane as deep as the scene.
+            near = far * 1e-4
             spot_fov = float(lights.spot_size[i])
             if kind == LIGHT_SPOT and spot_fov <= MAX_SPOT_SHADOW_FOV:
                 view = view_from_world(look_at(pos, pos + direction))

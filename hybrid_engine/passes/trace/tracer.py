@@ -264,7 +264,7 @@ class HybridTracer:
             "u_max_depth": int(settings.max_depth),
             "u_near_center": tuple(center),
             "u_near_half": float(settings.near_size),
-            "u_bvh_half": float(settings.near_size + overlap_margin(settings.near_size)),
+            "u_bvh_half": float(settings.near_size + overlap_margin(settings.near_size, center)),
             "u_sample": frame.sample,
         }
         values.update(scene_bound_uniforms(SceneBounds.of(scene)))

@@ -46,7 +46,8 @@ class EmitterProbe:
     def _bind(self, defines: dict, storage: dict, uniforms: dict) -> object:
         split = split_blocks(self.world.triangle_count, NORMAL_BYTES, "probe normals")
         prog = shader_loader.compute(self.ctx, PROBE_SHADER, {
-            **self.bvh.traversal_defines(), **split.defines("TRI_NORMAL_BLOCKS", "TRI_NORMAL_BLOCK_SIZE"), **defines})
+            **self.bvh.traversal_defines(), **split.defines("TRI_NORMAL_BLOCKS", "TRI_NORMAL_BLOCK_SIZE"),
+            **self.table.links.defines, **defines})
         depth, rgba, rg = self._dummies
         bind(prog, self.world.bindings(), self.table.bindings(),
              storage={**self.bvh.storage(), **split_storage("TriangleNormals", self.world.normals.buffer, split),
@@ -58,9 +59,11 @@ class EmitterProbe:
              uniforms={"u_mode": TRACE_MODES["FULL_BVH"], **uniforms})
         return prog
 
-    def irradiance(self, points, normals, samples: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    def irradiance(self, points, normals, samples: int, seed: int = 1,
+                   receiver_set: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """The mean of ``samples`` estimates (rounded up to whole chunks) at each point (N, 3)
-        and the shadow rays traced for each point (N,)."""
+        and the shadow rays traced for each point (N,). ``receiver_set``: the points' light
+        linking set (the emitters' linking is read only when some emitter is linked)."""
         points = np.asarray(points, np.float32).reshape(-1, 3)
         normals = np.broadcast_to(np.asarray(normals, np.float32).reshape(-1, 3), points.shape)
         count = len(points)
@@ -72,7 +75,7 @@ class EmitterProbe:
         try:
             prog = self._bind({}, {"Points": bufs[0], "Normals": bufs[1], "Results": bufs[2]},
                               {"u_count": count * chunks, "u_samples": CHUNK, "u_chunks": chunks,
-                               "u_seed": int(seed)})
+                               "u_seed": int(seed), "u_receiver_set": int(receiver_set)})
             dispatch(prog, count * chunks, LOCAL_SIZE)
             storage_barrier(self.ctx)
             out = np.frombuffer(bufs[2].read(), np.float32).reshape(count, chunks, 4)

@@ -13,6 +13,7 @@ import numpy as np
 from hybrid_engine.gpu import shader_loader
 from hybrid_engine.gpu.bindings import bind, split_storage
 from hybrid_engine.gpu.dispatch import dispatch, split_blocks, storage_barrier
+from hybrid_engine.passes.emitters.emitter_links import EmitterLinks
 from hybrid_engine.passes.emitters.emitter_table import EmitterTable
 from hybrid_engine.passes.lbvh.lbvh import LBVHBuilder
 from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
@@ -37,6 +38,8 @@ class EmitterProbe:
         self.bvh = self.builder.build(self.world.positions.buffer, self.world.triangle_count)
         self.table = EmitterTable(ctx, scan_family)
         self.table.update(self.scene, self.world)
+        self.links = EmitterLinks(ctx)  # the frame's lighting owns it (passes/lighting/resources.py)
+        self.links.update(self.scene.materials)
         self._counters = ctx.buffer(reserve=COUNTER_WORDS * 4)
         # The lamps' and the sky's blocks the shared code declares; the estimate reads none.
         self._unused = ctx.buffer(reserve=1 << 16)
@@ -47,9 +50,9 @@ class EmitterProbe:
         split = split_blocks(self.world.triangle_count, NORMAL_BYTES, "probe normals")
         prog = shader_loader.compute(self.ctx, PROBE_SHADER, {
             **self.bvh.traversal_defines(), **split.defines("TRI_NORMAL_BLOCKS", "TRI_NORMAL_BLOCK_SIZE"),
-            **self.table.links.defines, **defines})
+            **self.links.defines, **defines})
         depth, rgba, rg = self._dummies
-        bind(prog, self.world.bindings(), self.table.bindings(),
+        bind(prog, self.world.bindings(), self.table.bindings(), self.links.bindings(),
              storage={**self.bvh.storage(), **split_storage("TriangleNormals", self.world.normals.buffer, split),
                       "CounterBuffer": self._counters, "TriangleUVBuffer": self.world.uv_rows.buffer,
                       "SkyIrradiance": self._unused, "LightBuffer": self._unused,
@@ -102,5 +105,6 @@ class EmitterProbe:
         for obj in (self._counters, self._unused, *self._dummies):
             obj.release()
         self.table.release()
+        self.links.release()
         self.builder.release()
         self.world.release()

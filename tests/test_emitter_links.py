@@ -76,7 +76,7 @@ def test_a_panel_lights_only_the_receiver_sets_of_its_mask(probe_of):
     free = irradiance(probe_of(panel_scene()))
     assert free > 0.1
     linked = probe_of(panel_scene(light_mask=1 << 1))
-    assert linked.table.links.linked
+    assert linked.links.linked
     assert irradiance(linked, receiver_set=1) == pytest.approx(free, rel=1e-6)
     assert irradiance(linked, receiver_set=0) == 0.0
     assert irradiance(linked, receiver_set=33) == 0.0  # the high word
@@ -167,6 +167,40 @@ def test_a_blocker_mask_without_the_spheres_set_takes_its_shadow_away(renderer):
     assert gained.sum() > 50 and relative(left_out, shadowed, gained) > 0.3
     assert (left_out - shadowed).min() > -1e-3  # only light given back
     assert relative(kept, shadowed, gained) < WITHIN  # a mask with its set keeps the shadow
+
+
+def mirror_and_panel(*, emit: bool = True, linked: bool = False, floor_receives: bool = False) -> SceneData:
+    """A mirror floor reflecting a panel above it; the panel lights set 1 when linked, which
+    the floor is in when it receives."""
+    rows = [dict(name="mirror", base_color=(0.9, 0.9, 0.9), reflectivity=1.0, light_set=1 if floor_receives else 0),
+            dict(name="panel", emission=(5.0,) * 3 if emit else (0.0,) * 3,
+                 emitter_light_mask=(1 << 1) if linked else ALL),
+            dict(name="receiver", light_set=1)]  # an object in set 1, so that the set exists
+    geometry = Geometry.from_objects([(quad((0, 0, 0), (8, 0, 0), (0, 8, 0)), None, 0),
+                                      (quad((0, 0.0, 1.5), (1, 0, 0), (0, 1, 0)), None, 1),
+                                      (uv_sphere((5.0, 5.0, 1.0), 0.5, 12, 6)[0], None, 2)])
+    lamps = [dict(kind="POINT", position=(0.0, -3.0, 4.0), color=(100.0,) * 3, radius=0.1, name="fill")]
+    return SceneData(geometry, MaterialTable.from_rows(rows), Lights.from_rows(lamps), Sky(color=(0.02, 0.02, 0.02)))
+
+
+@pytest.mark.parametrize("near_size,lit_cube", [(30.0, False), (1.0, False), (1.0, True)],
+                         ids=["bvh_hit", "cube_map_hit", "lit_cube_map"])
+def test_a_mirror_outside_the_receivers_does_not_show_the_linked_panel(renderer, kernels, near_size, lit_cube):
+    # As Cycles: a reflection ray finds a linked emitter's emission only where it lights the
+    # surface the ray left. The camera looks down at the mirror, the panel's reflection in view.
+    camera = looking_at((0.0, 0.0, -1.5), eye=(0.0, -6.0, 1.2))
+    settings = dict(near_size=near_size, lit_cube=lit_cube)
+    on = render(renderer, mirror_and_panel(), camera, **settings)
+    off = render(renderer, mirror_and_panel(emit=False), camera, **settings)
+    seen = np.abs(on - off).sum(axis=-1) > 0.05
+    assert seen.sum() > 100 and relative(on, off, seen) > 0.5
+    # The lit cube map's stored light is read filtered: texels beside the panel's edge keep a
+    # little of its light, which no material's emission takes away.
+    within = 0.05 if lit_cube else WITHIN
+    linked = render(renderer, mirror_and_panel(linked=True), camera, **settings)
+    assert relative(linked, off, seen) < within
+    receiving = render(renderer, mirror_and_panel(linked=True, floor_receives=True), camera, **settings)
+    assert relative(receiving, on, seen) < WITHIN
 
 
 def test_a_scene_without_emitter_linking_compiles_none_and_renders_the_same_image(renderer, monkeypatch):

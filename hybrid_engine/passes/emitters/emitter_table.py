@@ -37,7 +37,6 @@ from ...gpu.prefix_scan import PrefixScan
 from ...gpu.triangle_input import input_defines, input_split, input_storage
 from ...scene.data import MaterialTable, SceneData
 from ...scene.geometry import InstancedGeometry
-from .emitter_links import EmitterLinks
 
 LOCAL_SIZE = 64
 
@@ -141,8 +140,6 @@ class EmitterTable:
         self._built_for: tuple | None = None  # the world and the emission the table was built from
         self.count = 0
         self.stats = EmitterStats()
-        # Light and shadow linking of the emitters (emitter_links.py), bound only when linked.
-        self.links = EmitterLinks(ctx)
 
     @property
     def scan_family(self) -> str:
@@ -157,7 +154,6 @@ class EmitterTable:
         transform rewrote no row since the last update (the frame's ``GeometryDelta``), so
         with the same emission the table stands as it is and the GPU does nothing."""
         self.stats = EmitterStats()
-        self.links.update(scene.materials)
         geometry = scene.geometry
         emissive = emissive_materials(scene.materials)
         if not emissive.any() or not isinstance(geometry, InstancedGeometry):
@@ -198,16 +194,16 @@ class EmitterTable:
         self.stats.gpu_steps = 3
 
     def bindings(self) -> Bindings:
-        """What emitter_light.glsl binds, by name (with the linking's block when linked)."""
+        """What emitter_light.glsl binds, by name (the emitters' linking is the frame's
+        lighting's: emitter_links.py)."""
         return Bindings(storage={"EmitterTriangles": self._table.buffer, "EmitterCdf": self._cdf.buffer},
-                        uniforms={"u_emitter_count": int(self.count)}) | self.links.bindings()
+                        uniforms={"u_emitter_count": int(self.count)})
 
     @property
     def defines(self) -> dict:
-        """What a kernel that samples the table defines: ``EMITTER_LIGHT``, and
-        ``EMITTER_LINKING`` when some emitter is linked (emitter_links.py); nothing when the
+        """What a kernel that samples the table defines: ``EMITTER_LIGHT``, nothing when the
         table is empty."""
-        return {"EMITTER_LIGHT": 1, **self.links.defines} if self.count else {}
+        return {"EMITTER_LIGHT": 1} if self.count else {}
 
     def read_table(self) -> np.ndarray:
         """The emitters' rows (EMITTER_DTYPE), read back now (tests)."""
@@ -227,6 +223,5 @@ class EmitterTable:
         for buf in (self._rows, self._table, self._cdf, self._max):
             buf.release()
         self._scan.release()
-        self.links.release()
         self.count = 0
         self._key, self._key_refs = None, ()

@@ -125,25 +125,31 @@ vec3 emitter_irradiance(vec3 p, vec3 n_facing, vec3 g_facing, vec3 xi, int recei
     reach = (reach - (scene_offset_absolute(RAY_OFFSET_ABSOLUTE) + RAY_OFFSET_RELATIVE * max(max(abs(q.x), abs(q.y)), abs(q.z)))) * (1.0 - 1e-4);
     float seen = 1.0;
     if (reach > 0.0) {
+#ifdef EMITTER_LINKING
+        // Shadow linking: only the emitter's blockers cast its shadow. The ray goes on past
+        // each surface that is not one, as Cycles' shadow rays skip them; one trace_ray call
+        // site in the loop (the traversal is most of the kernel's code).
+        uvec2 blockers = emitter_links[row].zw;
+        bool linked = blockers != uvec2(0xFFFFFFFFu);
+        vec3 from = o;
+        float left = reach;
+        Hit h;
+        bool itself;
+        for (int k = 0; ; ++k) {
+            emitter_shadow_rays += 1u;
+            h = trace_ray(from, shadow_dir, -1, 1.0, left);
+            itself = emitter_hit_is_light(h, q);
+            if (!linked || h.kind == HIT_SKY || itself
+                || link_mask_holds(blockers, int(materials[h.material].params2.w + 0.5))) break;
+            from = offset_origin(h.position, shadow_dir);
+            left = reach - dot(from - o, shadow_dir);
+            // Past the last surface before the light, or past the loop's reach: the light passes.
+            if (!(left > 0.0) || k == EMITTER_SKIPPED_HITS - 1) { h.kind = HIT_SKY; break; }
+        }
+#else
         emitter_shadow_rays += 1u;
         Hit h = trace_ray(o, shadow_dir, -1, 1.0, reach);
         bool itself = emitter_hit_is_light(h, q);
-#ifdef EMITTER_LINKING
-        // Shadow linking: only the emitter's blockers cast its shadow. The ray goes on past
-        // each surface that is not one, as Cycles' shadow rays skip them.
-        if (emission_shadow_linked(row)) {
-            bool blocked = h.kind == HIT_SKY || itself || emission_shadowed_by(row, h.material);
-            for (int k = 0; k < EMITTER_SKIPPED_HITS && !blocked; ++k) {
-                vec3 past = offset_origin(h.position, shadow_dir);
-                float left = reach - dot(past - o, shadow_dir);
-                if (!(left > 0.0)) { h.kind = HIT_SKY; break; }
-                emitter_shadow_rays += 1u;
-                h = trace_ray(past, shadow_dir, -1, 1.0, left);
-                itself = emitter_hit_is_light(h, q);
-                blocked = h.kind == HIT_SKY || itself || emission_shadowed_by(row, h.material);
-            }
-            if (!blocked) h.kind = HIT_SKY;  // past the loop's reach: let the light through
-        }
 #endif
         if (h.kind != HIT_SKY && !itself) seen = material_transmission(materials[h.material]);
     }

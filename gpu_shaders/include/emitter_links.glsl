@@ -24,16 +24,6 @@ bool emission_lights_set(int emitter, int set) {
     return link_mask_holds(emitter_links[emitter].xy, set);
 }
 
-// Whether some blocker set leaves the emission of row `emitter` unshadowed.
-bool emission_shadow_linked(int emitter) {
-    return emitter_links[emitter].zw != uvec2(0xFFFFFFFFu);
-}
-
-// Whether the surfaces of material row `blocker` cast the shadow of row `emitter`'s light.
-bool emission_shadowed_by(int emitter, int blocker) {
-    return link_mask_holds(emitter_links[emitter].zw, int(materials[blocker].params2.w + 0.5));
-}
-
 // The receiver set of the surfaces of material row `m` (params2.z, light_linking.py).
 int row_light_set(int m) {
     return int(materials[m].params2.z + 0.5);

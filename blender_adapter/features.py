@@ -174,11 +174,12 @@ FEATURES: tuple[Feature, ...] = (
     Feature("Light Linking of emissive objects", APPROXIMATED,
             "As Cycles links mesh lights: an emissive object's Receiver Collection limits what its "
             "light reaches (the diffuse light's sampling of emitters; a reflection or refraction "
-            "shows it only where it lights the surface the pixel shows) and its Blocker Collection "
-            "what shadows it; the camera sees it whatever its linking. The one-ray diffuse light "
-            "of surfaces seen in reflections and the lit cube map's bounced light are not linked.",
-            "Light Linking of {names}: the diffuse light of surfaces seen in reflections, and the "
-            "lit cube map's bounced light, reach every object",
+            "shows it only where it lights the surface the pixel shows; the lit cube map's bounces "
+            "carry it only to its receivers) and its Blocker Collection what shadows it; the camera "
+            "sees it whatever its linking. The one-ray diffuse light of surfaces seen in "
+            "reflections is not linked.",
+            "Light Linking of {names}: the diffuse light of surfaces seen in reflections reaches "
+            "every object",
             _emitter_linking),
     Feature("Emissive materials", SUPPORTED, "Emissive triangles light the scene (sampled by power)."),
     Feature("World node graphs", SUPPORTED,

@@ -203,6 +203,47 @@ def test_a_mirror_outside_the_receivers_does_not_show_the_linked_panel(renderer,
     assert relative(receiving, on, seen) < WITHIN
 
 
+def walled_panel(*, emit: bool = True, linked: bool = False) -> SceneData:
+    """A mirror floor, a grey wall behind it, a panel in front of the wall lighting it; the
+    panel lights only set 1 when linked, which neither the wall nor the floor is in."""
+    rows = [dict(name="mirror", base_color=(0.9, 0.9, 0.9), reflectivity=1.0),
+            dict(name="panel", emission=(20.0,) * 3 if emit else (0.0,) * 3,
+                 emitter_light_mask=(1 << 1) if linked else ALL),
+            dict(name="wall", base_color=(0.8, 0.8, 0.8)),
+            dict(name="receiver", light_set=1)]
+    geometry = Geometry.from_objects([(quad((0, 0, 0), (8, 0, 0), (0, 8, 0)), None, 0),
+                                      (quad((0, 2.0, 1.0), (0.5, 0, 0), (0, 0, 0.5)), None, 1),
+                                      (quad((0, 3.0, 1.5), (4, 0, 0), (0, 0, 1.5)), None, 2),
+                                      (uv_sphere((5.0, -5.0, 1.0), 0.5, 12, 6)[0], None, 3)])
+    lamps = [dict(kind="POINT", position=(0.0, -3.0, 4.0), color=(50.0,) * 3, radius=0.1, name="fill")]
+    return SceneData(geometry, MaterialTable.from_rows(rows), Lights.from_rows(lamps), Sky(color=(0.02, 0.02, 0.02)))
+
+
+def test_the_lit_cube_maps_bounces_carry_a_linked_panels_light_only_to_its_receivers(renderer):
+    # Everything lies in the cube map (near cube 1 m); the camera sees the wall's reflection
+    # in the mirror floor, lit by the panel only through the lit cube map's gathered bounces.
+    camera = looking_at((0.0, 3.0, -1.0), eye=(0.0, -4.0, 0.6))
+    settings = dict(near_size=1.0, lit_cube=True, ao_distance=10.0)
+
+    def fresh(scene: SceneData) -> np.ndarray:
+        """A render whose lit cube map starts over: its bounces carry frame to frame."""
+        if renderer.cube_light is not None:
+            renderer.cube_light.forget()
+        return render(renderer, scene, camera, samples=6, **settings)
+
+    on, off, linked = fresh(walled_panel()), fresh(walled_panel(emit=False)), fresh(walled_panel(linked=True))
+    # The panel itself, which the camera sees whatever its linking (RASTER draws no light
+    # from emitters, only their emission), and its edges' anti-aliasing.
+    panel = np.abs(render(renderer, walled_panel(), camera, mode="RASTER")
+                   - render(renderer, walled_panel(emit=False), camera, mode="RASTER")).sum(axis=-1) > 1e-3
+    panel = np.pad(panel, 1)
+    panel = panel[1:-1, 1:-1] | panel[:-2, 1:-1] | panel[2:, 1:-1] | panel[1:-1, :-2] | panel[1:-1, 2:]
+    lit = (np.abs(on - off).sum(axis=-1) > 0.05) & ~panel
+    assert lit.sum() > 100 and on[lit].mean() > 2 * off[lit].mean()
+    # Means: the gathered bounces are stochastic, and each render draws other numbers.
+    assert abs(linked[lit].mean() - off[lit].mean()) < 0.05 * off[lit].mean(), (linked[lit].mean(), off[lit].mean())
+
+
 def test_a_scene_without_emitter_linking_compiles_none_and_renders_the_same_image(renderer, monkeypatch):
     used: list[dict] = []  # the defines of every program a frame asks the loader for
     original = shader_loader._compile

@@ -87,7 +87,7 @@ def _object_flag(flag: str, value: bool):
 
 def _emitter_linking(scene, depsgraph, final) -> list[str]:
     """Objects other than lamps with a receiver or blocker collection (an emissive mesh's
-    linking): lamps' linking is rendered, theirs is not read."""
+    linking): rendered, but not in every kind of light (the feature's message)."""
     if not final:
         return []
     names = set()
@@ -165,9 +165,15 @@ FEATURES: tuple[Feature, ...] = (
             "A lamp's Receiver Collection limits what it lights (the G-buffer, BVH and cube-map "
             "hits alike) and its Blocker Collection what casts its shadow maps, with Blender's "
             "Include and Exclude states."),
-    Feature("Light Linking of emissive objects", UNSUPPORTED,
-            "An emissive object lights every object and is shadowed by every object.",
-            "Light Linking of {names} is not rendered: an emissive object's light reaches everything",
+    Feature("Light Linking of emissive objects", APPROXIMATED,
+            "As Cycles links mesh lights: an emissive object's Receiver Collection limits what its "
+            "light reaches (the diffuse light's sampling of emitters; a reflection or refraction "
+            "shows it only where it lights the surface the pixel shows; the lit cube map's bounces "
+            "carry it only to its receivers) and its Blocker Collection what shadows it; the camera "
+            "sees it whatever its linking. The one-ray diffuse light of surfaces seen in "
+            "reflections is not linked.",
+            "Light Linking of {names}: the diffuse light of surfaces seen in reflections reaches "
+            "every object",
             _emitter_linking),
     Feature("Emissive materials", SUPPORTED, "Emissive triangles light the scene (sampled by power)."),
     Feature("World node graphs", SUPPORTED,

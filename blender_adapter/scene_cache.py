@@ -40,7 +40,7 @@ import numpy as np
 from ..hybrid_engine.scene.geometry import InstancedGeometry
 from ..hybrid_engine.scene.meshes import Instances, ObjectMesh
 from ..hybrid_engine.scene.geometry import GeometryEdit
-from ..hybrid_engine.scene.data import Lights, SceneData, Sky
+from ..hybrid_engine.scene.data import ALL_LINK_SETS, Lights, SceneData, Sky
 from ..hybrid_engine.scene.mesh_attributes import MISSING, AttributeRequests
 from ..hybrid_engine.scene.node_program import graph_requests
 from . import messages
@@ -49,6 +49,11 @@ from .export import lights as export_lights
 from .export import materials as export_materials
 from .export import meshes as export_meshes
 from .export import world as export_world
+
+# Objects that emit through their materials and so may be emitters of light linking.
+LINKABLE_OBJECTS = frozenset({"MESH"}) | export_meshes.CONVERTIBLE_TYPES
+# Every light set: the masks of an object that is no emitter of its own (light_linking.py).
+EVERY_SET = int(ALL_LINK_SETS)
 
 # Depsgraph update id types (bpy.types names) and what they refresh.
 _OBJECT, _MESH, _MATERIAL, _LIGHT, _WORLD, _SCENE = "Object", "Mesh", "Material", "Light", "World", "Scene"
@@ -186,22 +191,25 @@ class _PersistentMaterials(export_materials.MaterialTableBuilder):
         super().__init__()
         self._originals: dict[int, object] = {}
         self._thickness: dict[int, float] = {}
-        # Light linking: (row, receiver set, blocker set) -> the row's copy for objects of
-        # those sets (hybrid_engine/scene/light_linking.py); none without linking.
-        self._variants: dict[tuple[int, int, int], int] = {}
+        # Light linking: (row, receiver set, blocker set, emitter light mask, emitter shadow
+        # mask) -> the row's copy for objects of that linking
+        # (hybrid_engine/scene/light_linking.py); none without linking.
+        self._variants: dict[tuple[int, int, int, int, int], int] = {}
         self._requests: dict[bytes, AttributeRequests] = {}
 
-    def linked(self, slot_ids: np.ndarray, light_set: int, shadow_set: int) -> np.ndarray:
-        """``slot_ids`` for an object of the given linking sets: each row's copy carrying
-        them, made once and refreshed with its row; the rows themselves for sets (0, 0)."""
-        if light_set == 0 and shadow_set == 0:
+    def linked(self, slot_ids: np.ndarray, light_set: int, shadow_set: int,
+               emitter_masks: tuple[int, int] = (EVERY_SET, EVERY_SET)) -> np.ndarray:
+        """``slot_ids`` for an object of the given linking sets, and of the given masks as an
+        emitter (its emission's receivers and blockers): each row's copy carrying them, made
+        once and refreshed with its row; the rows themselves for an unlinked object."""
+        if light_set == 0 and shadow_set == 0 and emitter_masks == (EVERY_SET, EVERY_SET):
             return slot_ids
         out = np.empty_like(slot_ids)
         for i, index in enumerate(slot_ids):
-            key = (int(index), light_set, shadow_set)
+            key = (int(index), light_set, shadow_set, *emitter_masks)
             if key not in self._variants:
                 self._variants[key] = len(self.rows)
-                self.rows.append({**self.rows[key[0]], "light_set": light_set, "shadow_set": shadow_set})
+                self.rows.append(_linked_row(self.rows[key[0]], key))
             out[i] = self._variants[key]
         return out
 
@@ -244,10 +252,18 @@ class _PersistentMaterials(export_materials.MaterialTableBuilder):
             self._thickness[key] = _thickness(material)
             self._requests.clear()
         rows = {self._index[key] for key in stale}
-        for (index, light_set, shadow_set), row in self._variants.items():
-            if index in rows:
-                self.rows[row] = {**self.rows[index], "light_set": light_set, "shadow_set": shadow_set}
+        for key, row in self._variants.items():
+            if key[0] in rows:
+                self.rows[row] = _linked_row(self.rows[key[0]], key)
         return len(stale)
+
+
+def _linked_row(row: dict, key: tuple) -> dict:
+    """A material row's copy for the objects of one linking: ``key`` is (row, receiver set,
+    blocker set, emitter light mask, emitter shadow mask)."""
+    _, light_set, shadow_set, light_mask, shadow_mask = key
+    return {**row, "light_set": light_set, "shadow_set": shadow_set,
+            "emitter_light_mask": light_mask, "emitter_shadow_mask": shadow_mask}
 
 
 def _thickness(material) -> float:
@@ -319,7 +335,11 @@ class SceneCache:
                 report.ms = (time.perf_counter() - start) * 1e3
                 return report
         report.walked = True
-        self._linking = export_lights.read_linking(o for o in depsgraph.objects if o.type == "LIGHT")
+        # Emitters of the linking: the lamps, and the objects with collections of their own
+        # (an emissive mesh's light, as Cycles links it).
+        self._linking = export_lights.read_linking(
+            o for o in depsgraph.objects
+            if o.type == "LIGHT" or (o.type in LINKABLE_OBJECTS and export_lights.links_light(o)))
         if self._linking is not None and self._linking.overflow:
             messages.tell("Light Linking: more than 64 different linkings (Blender's limit of light sets); "
                           "the objects past it are lit and shadowed by every lamp")
@@ -545,7 +565,9 @@ class SceneCache:
         slot_ids = export_materials.slot_lookup(obj, mesh if mesh is not None else obj.data, self._materials) \
             if (mesh is not None or entry is None or self._relink) and touched else entry.slot_ids
         if self._linking is not None and slot_ids is not getattr(entry, "slot_ids", None):
-            slot_ids = self._materials.linked(slot_ids, *self._linking.sets_of(obj.original.as_pointer()))
+            pointer = obj.original.as_pointer()
+            slot_ids = self._materials.linked(slot_ids, *self._linking.sets_of(pointer),
+                                              self._linking.emitter_masks_of(pointer))
         # The attributes its materials' programs read (none: nothing read); a new request
         # (a Color Attribute node added) reads the mesh's attributes again.
         names = self._materials.requests(slot_ids).geometry

@@ -13,6 +13,7 @@ import numpy as np
 from hybrid_engine.gpu import shader_loader
 from hybrid_engine.gpu.bindings import bind, split_storage
 from hybrid_engine.gpu.dispatch import dispatch, split_blocks, storage_barrier
+from hybrid_engine.passes.emitters.emitter_links import EmitterLinks
 from hybrid_engine.passes.emitters.emitter_table import EmitterTable
 from hybrid_engine.passes.lbvh.lbvh import LBVHBuilder
 from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
@@ -37,6 +38,8 @@ class EmitterProbe:
         self.bvh = self.builder.build(self.world.positions.buffer, self.world.triangle_count)
         self.table = EmitterTable(ctx, scan_family)
         self.table.update(self.scene, self.world)
+        self.links = EmitterLinks(ctx)  # the frame's lighting owns it (passes/lighting/resources.py)
+        self.links.update(self.scene.materials)
         self._counters = ctx.buffer(reserve=COUNTER_WORDS * 4)
         # The lamps' and the sky's blocks the shared code declares; the estimate reads none.
         self._unused = ctx.buffer(reserve=1 << 16)
@@ -46,9 +49,10 @@ class EmitterProbe:
     def _bind(self, defines: dict, storage: dict, uniforms: dict) -> object:
         split = split_blocks(self.world.triangle_count, NORMAL_BYTES, "probe normals")
         prog = shader_loader.compute(self.ctx, PROBE_SHADER, {
-            **self.bvh.traversal_defines(), **split.defines("TRI_NORMAL_BLOCKS", "TRI_NORMAL_BLOCK_SIZE"), **defines})
+            **self.bvh.traversal_defines(), **split.defines("TRI_NORMAL_BLOCKS", "TRI_NORMAL_BLOCK_SIZE"),
+            **self.links.defines, **defines})
         depth, rgba, rg = self._dummies
-        bind(prog, self.world.bindings(), self.table.bindings(),
+        bind(prog, self.world.bindings(), self.table.bindings(), self.links.bindings(),
              storage={**self.bvh.storage(), **split_storage("TriangleNormals", self.world.normals.buffer, split),
                       "CounterBuffer": self._counters, "TriangleUVBuffer": self.world.uv_rows.buffer,
                       "SkyIrradiance": self._unused, "LightBuffer": self._unused,
@@ -58,9 +62,11 @@ class EmitterProbe:
              uniforms={"u_mode": TRACE_MODES["FULL_BVH"], **uniforms})
         return prog
 
-    def irradiance(self, points, normals, samples: int, seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    def irradiance(self, points, normals, samples: int, seed: int = 1,
+                   receiver_set: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """The mean of ``samples`` estimates (rounded up to whole chunks) at each point (N, 3)
-        and the shadow rays traced for each point (N,)."""
+        and the shadow rays traced for each point (N,). ``receiver_set``: the points' light
+        linking set (the emitters' linking is read only when some emitter is linked)."""
         points = np.asarray(points, np.float32).reshape(-1, 3)
         normals = np.broadcast_to(np.asarray(normals, np.float32).reshape(-1, 3), points.shape)
         count = len(points)
@@ -72,7 +78,7 @@ class EmitterProbe:
         try:
             prog = self._bind({}, {"Points": bufs[0], "Normals": bufs[1], "Results": bufs[2]},
                               {"u_count": count * chunks, "u_samples": CHUNK, "u_chunks": chunks,
-                               "u_seed": int(seed)})
+                               "u_seed": int(seed), "u_receiver_set": int(receiver_set)})
             dispatch(prog, count * chunks, LOCAL_SIZE)
             storage_barrier(self.ctx)
             out = np.frombuffer(bufs[2].read(), np.float32).reshape(count, chunks, 4)
@@ -99,5 +105,6 @@ class EmitterProbe:
         for obj in (self._counters, self._unused, *self._dummies):
             obj.release()
         self.table.release()
+        self.links.release()
         self.builder.release()
         self.world.release()

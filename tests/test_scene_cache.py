@@ -308,6 +308,28 @@ def test_editing_a_lamps_light_linking_shows_in_the_next_frame(addon, fed_sessio
     np.testing.assert_array_equal(excluded, _from_scratch(addon, bpy))
 
 
+def test_editing_an_emissive_objects_light_linking_shows_in_the_next_frame(addon, fed_session):
+    import bpy
+
+    session, reports = fed_session
+    scene, cube = _scene(bpy)
+    glow = bpy.data.materials.new("glow")
+    glow.node_tree.nodes["Principled BSDF"].inputs["Emission Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    glow.node_tree.nodes["Principled BSDF"].inputs["Emission Strength"].default_value = 20.0
+    cube.data.materials.append(glow)
+    bpy.context.evaluated_depsgraph_get()
+    before = _frame(addon, bpy, session).image
+    # The cube's light reaches the sphere alone (hybrid_engine/passes/emitters/emitter_links.py):
+    # the floor around it loses its glow.
+    receivers = bpy.data.collections.new("receivers")
+    receivers.objects.link(bpy.data.objects["Sphere"])
+    cube.light_linking.receiver_collection = receivers
+    bpy.context.evaluated_depsgraph_get()
+    linked = _frame(addon, bpy, session).image
+    assert np.abs(linked - before).max() > 0.05
+    np.testing.assert_array_equal(linked, _from_scratch(addon, bpy))
+
+
 def test_a_linked_objects_material_edit_shows_in_the_next_frame(addon, fed_session):
     import bpy
 

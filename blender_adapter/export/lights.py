@@ -87,10 +87,11 @@ def light_row(name: str, light, matrix: np.ndarray) -> dict:
 
 @dataclass
 class LampLinking:
-    """The light and shadow linking of a depsgraph's lamps, by original pointers: each linked
-    object's receiver and blocker set, each linked lamp's masks (scene/light_linking.py).
-    Lamps only: an emissive object's receiver collection is not read (its light is traced
-    towards every surface)."""
+    """The light and shadow linking of a depsgraph's emitters, by original pointers: each
+    linked object's receiver and blocker set, each linked emitter's masks
+    (scene/light_linking.py). Emitters are the lamps and, as in Cycles, the objects (an
+    emissive mesh) with a receiver or blocker collection of their own: Blender builds the
+    light sets over both together."""
 
     light_sets: dict[int, int] = field(default_factory=dict)
     shadow_sets: dict[int, int] = field(default_factory=dict)
@@ -108,6 +109,12 @@ class LampLinking:
         return dict(light_mask=self.light_masks.get(pointer, everything),
                     shadow_mask=self.shadow_masks.get(pointer, everything))
 
+    def emitter_masks_of(self, pointer: int) -> tuple[int, int]:
+        """An object's (light mask, shadow mask) as an emitter: what its emission lights and
+        what shadows it (every set when it has no collection of its own)."""
+        masks = self.masks_of(pointer)
+        return masks["light_mask"], masks["shadow_mask"]
+
     def key(self) -> tuple:
         """Equal for equal linking: a sync whose key changed reads every instance again."""
         return tuple(tuple(sorted(d.items())) for d in (self.light_sets, self.shadow_sets, self.light_masks,
@@ -124,11 +131,20 @@ def _members(collection, state: str | None, out: list) -> None:
         out.append((obj.original.as_pointer(), state or entry.light_linking.link_state))
 
 
-def read_linking(lamps) -> LampLinking | None:
-    """The linking of ``lamps`` (evaluated lamp objects), None when none has a receiver or
-    blocker collection: the common scene pays one attribute read per lamp."""
+def links_light(obj) -> bool:
+    """Whether ``obj`` has a receiver or blocker collection of its own: a lamp that does is
+    linked, and so is an object that does (as an emitter: its emission)."""
+    links = getattr(obj, "light_linking", None)
+    return links is not None and (getattr(links, "receiver_collection", None) is not None
+                                  or getattr(links, "blocker_collection", None) is not None)
+
+
+def read_linking(emitters) -> LampLinking | None:
+    """The linking of ``emitters`` (evaluated lamp objects, and the objects with a collection
+    of their own, ``links_light``), None when none has a receiver or blocker collection: the
+    common scene pays one attribute read per lamp."""
     receivers, blockers, pointers = [], [], []
-    for obj in lamps:
+    for obj in emitters:
         links = getattr(obj, "light_linking", None)
         receivers.append(getattr(links, "receiver_collection", None))
         blockers.append(getattr(links, "blocker_collection", None))

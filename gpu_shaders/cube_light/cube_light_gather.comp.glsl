@@ -15,7 +15,7 @@
 // cube's contents are clipped from the faces, paper §3.2), so they neither hide the sky nor
 // bounce light here.
 //
-// Storage block MaterialBuffer. Samplers: the cube map's (cube_march.glsl, u_cube_geometric),
+// Storage block MaterialBuffer (and EmitterLinks with EMITTER_LINKING). Samplers: the cube map's (cube_march.glsl, u_cube_geometric),
 // u_cube_radiance (the previous frame's lit cube map, level 0), u_gather_prev (the previous
 // frame's gather). Image u_gather (rgba16f, written). Uniforms: cube_march.glsl's,
 // cube_radiance.glsl's, u_prev_center (the previous map's centre), u_history (1: the
@@ -27,6 +27,8 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
+// EMITTER_LINKING (some emissive object is linked): EmitterLinks, bound with it.
+#include "emitter_links.glsl"
 
 #include "cube_march.glsl"
 #include "scene_bounds.glsl"
@@ -103,6 +105,13 @@ void main() {
     vec4 sample_value = vec4(0.0, 0.0, 0.0, 1.0);
     if (cm.kind == CUBE_HIT) {
         vec3 seen = previous_radiance(cm.position, cm.texel.y >= u_cube_res ? 1 : 0);
+#ifdef EMITTER_LINKING
+        // A linked emitter's light bounces only onto its receivers (the block's texel's set):
+        // elsewhere its emission, at the material's factor, leaves what the ray brings.
+        if (all(greaterThanEqual(seen, vec3(0.0))) && cm.material >= 0
+            && !emission_lights_set(cm.material, row_light_set(int(abs(nm.w) + 0.5) - 1)))
+            seen = max(seen - max(materials[cm.material].emission_trans.rgb, vec3(0.0)), vec3(0.0));
+#endif
         sample_value = vec4(PI * clamp(seen, vec3(0.0), vec3(CUBE_LIGHT_MAX)), 0.0);
     }
 

@@ -145,7 +145,8 @@ vec3 diffuse_path(vec3 p, vec3 n, vec3 g, int path, out float sky) {
         if (!(max(max(throughput.r, throughput.g), throughput.b) > 0.0)) break;
 #ifdef EMITTER_LIGHT
         radiance += throughput / PI * emitter_irradiance(h.position, hs.n_facing, hs.g_facing,
-                                                         random3(EMITTER_SALT + 32 * path + vertex));
+                                                         random3(EMITTER_SALT + 32 * path + vertex),
+                                                         material_light_set(materials[h.material]));
 #endif
         d = cosine_direction(hs.n_facing, hs.g_facing, lobe_random(salt + vertex));
         o = offset_origin(h.position, hs.g_facing);
@@ -175,7 +176,8 @@ void main() {
             irradiance += PI * diffuse_path(p, n_facing, g_facing, i, seen);
             sky += seen;
 #ifdef EMITTER_LIGHT
-            irradiance += emitter_irradiance(p, n_facing, g_facing, random3(EMITTER_SALT + 32 * i));
+            irradiance += emitter_irradiance(p, n_facing, g_facing, random3(EMITTER_SALT + 32 * i),
+                                             material_light_set(materials[int(abs(nm.w) + 0.5) - 1]));
 #endif
         }
         ambient = vec4(irradiance, sky) / float(paths);

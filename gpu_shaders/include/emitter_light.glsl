@@ -15,6 +15,11 @@
 //
 // Emission is two-sided, as Cycles' Emission shader (and lamp_light_response, which adds a
 // surface's emission whichever side it is seen from): |cos| at the light.
+//
+// With EMITTER_LINKING (some emissive object has a receiver or blocker collection,
+// hybrid_engine/passes/emitters/emitter_links.py) the host also binds EmitterLinks
+// (emitter_links.glsl): an emitter adds nothing to a surface whose receiver set its light
+// mask lacks, and its shadow ray passes through the surfaces that are not its blockers.
 #ifdef EMITTER_LIGHT
 #ifndef HYBRID_EMITTER_LIGHT_GLSL
 #define HYBRID_EMITTER_LIGHT_GLSL
@@ -22,6 +27,7 @@
 #error "emitter_light.glsl traces shadow rays: it needs trace_ray.glsl's tracing (no TRACE_SHADING_ONLY)"
 #endif
 #include "emitter_layout.glsl"
+#include "emitter_links.glsl"
 
 layout(std430) readonly buffer EmitterTriangles { Emitter emitters[]; };
 layout(std430) readonly buffer EmitterCdf { uint emitter_cdf[]; };
@@ -29,6 +35,18 @@ uniform int u_emitter_count;
 
 // Shadow rays this invocation traced toward emitters (a kernel may count them).
 uint emitter_shadow_rays = 0u;
+
+// Surfaces that are not an emitter's blockers a shadow ray passes through before it gives up
+// and lets the light through (EMITTER_LINKING): Cycles skips every one, a bounded loop skips
+// as many as a scene's linking plausibly stacks between a surface and a light.
+#define EMITTER_SKIPPED_HITS 8
+
+// Whether hit h of a shadow ray towards point q of an emitter is the emitter itself: a
+// cube-map march takes a hit a little behind its surface (cube_max_hit_overshoot), and the
+// light's own texel found at the end of the ray is the light, not a blocker.
+bool emitter_hit_is_light(Hit h, vec3 q) {
+    return h.kind == HIT_CUBE && distance(h.position, q) <= cube_max_hit_overshoot() * distance(q, u_cube_center);
+}
 
 // The emitter whose CDF interval holds u in [0, 1) (binary search of the exclusive prefix:
 // the last entry not above u x total, so a zero-weight emitter is never picked) and the
@@ -57,11 +75,21 @@ int emitter_pick(float u, out float probability) {
 // it: L_e cos_p |cos_l| / (d^2 pdf_area), pdf_area = P(pick) / area. What lies in between
 // lets through its transmission, as occlusion_seen (trace_ray.glsl) has glass do. Not
 // divided by pi, not multiplied by albedo: an irradiance, as sky_irradiance's.
-vec3 emitter_irradiance(vec3 p, vec3 n_facing, vec3 g_facing, vec3 xi) {
+// `receiver_set`: the surface's light-linking set (its material's, light_linking.py), read
+// only with EMITTER_LINKING.
+vec3 emitter_irradiance(vec3 p, vec3 n_facing, vec3 g_facing, vec3 xi, int receiver_set) {
     float probability;
     int picked = emitter_pick(xi.x, probability);
     if (picked < 0 || !(probability > 0.0)) return vec3(0.0);
     Emitter e = emitters[picked];
+    int tri = floatBitsToInt(e.corner.w);
+    int row = tri_materials[tri];
+#ifdef EMITTER_LINKING
+    // Light linking: an emitter that does not light this surface adds nothing. It is still
+    // picked by its power (one table serves every receiver set), which keeps the estimate
+    // unbiased and only adds noise where much of the power is linked elsewhere.
+    if (!emission_lights_set(row, receiver_set)) return vec3(0.0);
+#endif
     // Uniform on the triangle (the square-root warp of two numbers).
     float su = sqrt(xi.y);
     vec2 bary = vec2(su * (1.0 - xi.z), su * xi.z);
@@ -79,8 +107,7 @@ vec3 emitter_irradiance(vec3 p, vec3 n_facing, vec3 g_facing, vec3 xi) {
     if (!(twice_area > 0.0)) return vec3(0.0);
     float cos_l = abs(dot(cross_edges, w)) / twice_area;
     if (!(cos_l > 0.0)) return vec3(0.0);
-    int tri = floatBitsToInt(e.corner.w);
-    Material m = materials[tri_materials[tri]];
+    Material m = materials[row];
     vec2 uv = vec2(0.0);
     if (m.textures.y >= 0) {
         TriangleUV tuv = tri_uvs[tri];
@@ -98,12 +125,32 @@ vec3 emitter_irradiance(vec3 p, vec3 n_facing, vec3 g_facing, vec3 xi) {
     reach = (reach - (scene_offset_absolute(RAY_OFFSET_ABSOLUTE) + RAY_OFFSET_RELATIVE * max(max(abs(q.x), abs(q.y)), abs(q.z)))) * (1.0 - 1e-4);
     float seen = 1.0;
     if (reach > 0.0) {
+#ifdef EMITTER_LINKING
+        // Shadow linking: only the emitter's blockers cast its shadow. The ray goes on past
+        // each surface that is not one, as Cycles' shadow rays skip them; one trace_ray call
+        // site in the loop (the traversal is most of the kernel's code).
+        uvec2 blockers = emitter_links[row].zw;
+        bool linked = blockers != uvec2(0xFFFFFFFFu);
+        vec3 from = o;
+        float left = reach;
+        Hit h;
+        bool itself;
+        for (int k = 0; ; ++k) {
+            emitter_shadow_rays += 1u;
+            h = trace_ray(from, shadow_dir, -1, 1.0, left);
+            itself = emitter_hit_is_light(h, q);
+            if (!linked || h.kind == HIT_SKY || itself
+                || link_mask_holds(blockers, int(materials[h.material].params2.w + 0.5))) break;
+            from = offset_origin(h.position, shadow_dir);
+            left = reach - dot(from - o, shadow_dir);
+            // Past the last surface before the light, or past the loop's reach: the light passes.
+            if (!(left > 0.0) || k == EMITTER_SKIPPED_HITS - 1) { h.kind = HIT_SKY; break; }
+        }
+#else
         emitter_shadow_rays += 1u;
         Hit h = trace_ray(o, shadow_dir, -1, 1.0, reach);
-        // A cube-map march takes a hit a little behind its surface (cube_max_hit_overshoot):
-        // the light's own texel found at the end of the ray is the light, not a blocker.
-        bool itself = h.kind == HIT_CUBE
-                      && distance(h.position, q) <= cube_max_hit_overshoot() * distance(q, u_cube_center);
+        bool itself = emitter_hit_is_light(h, q);
+#endif
         if (h.kind != HIT_SKY && !itself) seen = material_transmission(materials[h.material]);
     }
     if (!(seen > 0.0)) return vec3(0.0);

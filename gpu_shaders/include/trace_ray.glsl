@@ -36,6 +36,8 @@
 
 
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
+// The emissive objects' light linking (EMITTER_LINKING only; passes/emitters/emitter_links.py).
+#include "emitter_links.glsl"
 
 // The lit cube map's reads (lit_cube.glsl) locate hits in the faces: the shading kernels need the march's uniforms too.
 #if !defined(TRACE_SHADING_ONLY) || defined(LIT_CUBE)
@@ -490,6 +492,18 @@ void spawn_children(SpecularSplit split, vec3 p, vec3 weight, int depth, float b
 // This sample's numbers for the lobes of the hit at bounce `depth` of the pixel whose
 // primary hit lies at pixel_key (position_key: a cropped view draws the same numbers).
 uvec3 pixel_key;
+#ifdef EMITTER_LINKING
+// The receiver set whose linked emitters a traced ray may see (emitter_links.glsl): the
+// light-linking set of the pixel's primary surface, set with pixel_key. Cycles checks the
+// surface a ray leaves; for the first bounce, the reflections and refractions a pixel shows
+// directly, that is this one.
+int ray_receiver_set = 0;
+
+int pixel_receiver_set(ivec2 pixel) {
+    float w = texelFetch(u_normal_material, pixel, 0).w;
+    return w == 0.0 ? 0 : row_light_set(int(abs(w) + 0.5) - 1);
+}
+#endif
 vec2 lobe_random(int depth) {
     return random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), uint(u_sample), uint(depth)));
 }
@@ -599,6 +613,13 @@ void shade_hit(PendingRay ray, Hit h, inout vec3 traced) {
     Material hm = hit_material(h, ray.dir, ray.depth);
     vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
     vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
+#ifdef EMITTER_LINKING
+    // A linked emitter shows in a reflection or refraction only where it lights the surface
+    // the ray left (ray_receiver_set), as Cycles links what its indirect rays find; the
+    // camera sees it whatever its linking (the deferred shading adds every emission).
+    vec3 unlinked_emission = emission_lights_set(h.material, ray_receiver_set) ? vec3(0.0) : h_emission;
+    h_emission -= unlinked_emission;
+#endif
     SpecularSplit hs = specular_split_sampled(hm, h_albedo, ray.dir, h.normal, h.geometric,
                                               lobe_random(ray.depth));
     // Seen through a rough lobe, a sharp lamp highlight is a firefly: widen it to that
@@ -606,7 +627,11 @@ void shade_hit(PendingRay ray, Hit h, inout vec3 traced) {
 #ifdef LIT_CUBE
     // A cube-map hit's diffuse light (lamps, emission, World) is the lit cube map's (lit_cube.glsl).
     bool stored = h.kind == HIT_CUBE;
+#ifdef EMITTER_LINKING
+    if (stored) traced += ray.weight * max(cube_hit_light(hm, h, ray.dir, hs, ray.blur) - unlinked_emission, vec3(0.0));
+#else
     if (stored) traced += ray.weight * cube_hit_light(hm, h, ray.dir, hs, ray.blur);
+#endif
     else traced += ray.weight * lamp_light_response(hm, h_albedo, h_emission, h.position, ray.dir, hs, ray.blur);
 #else
     const bool stored = false;
@@ -660,7 +685,11 @@ vec3 primary_position(ivec2 pixel) {
 
 // The key of the numbers every bounce of the pixel draws (pixel_key), from its primary
 // surface alone: the wave tracer recomputes it per ray instead of queueing it.
+// With EMITTER_LINKING it also sets ray_receiver_set, which the waves recompute alike.
 uvec3 primary_key(ivec2 pixel) {
+#ifdef EMITTER_LINKING
+    ray_receiver_set = pixel_receiver_set(pixel);
+#endif
     return position_key(primary_position(pixel));
 }
 
@@ -681,6 +710,9 @@ void spawn_primary(ivec2 pixel, Material m, vec3 p, vec3 view_dir, vec3 n) {
     vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
     vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
     pixel_key = position_key(p);
+#ifdef EMITTER_LINKING
+    ray_receiver_set = pixel_receiver_set(pixel);
+#endif
     SpecularSplit split = specular_split_sampled(m, albedo_g.rgb, view_dir, n, g, lobe_random(0));
     spawn_children(split, p, vec3(1.0), 1, material_roughness(m));
 }

@@ -160,6 +160,9 @@ void spawn_primary_lobe(ivec2 pixel, Material m, vec3 p, vec3 view_dir, vec3 n, 
     vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
     vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
     pixel_key = position_key(p);
+#ifdef EMITTER_LINKING
+    ray_receiver_set = pixel_receiver_set(pixel);
+#endif
     SpecularSplit split = specular_split_sampled(m, albedo_g.rgb, view_dir, n, g, lobe_random(0));
     float blur = material_roughness(m);
     if (refraction) push(offset_origin(p, -split.g_facing), split.refract_dir, vec3(1.0) * split.refract_weight, 1, blur);

@@ -105,10 +105,22 @@ class MaterialTable:
     # every lamp lights and every shadow holds.
     light_set: np.ndarray | None = None  # (M,) int32 in 0..MAX_LINK_SETS - 1
     shadow_set: np.ndarray | None = None  # (M,) int32 in 0..MAX_LINK_SETS - 1
+    # Emissive objects are emitters of the linking too (Cycles' mesh lights): bit s of
+    # ``emitter_light_mask[i]`` says the emission of the objects that wear row i lights
+    # receiver set s, of ``emitter_shadow_mask[i]`` that blocker set s shadows it; None: every
+    # set (passes/emitters/emitter_links.py).
+    emitter_light_mask: np.ndarray | None = None  # (M,) uint64
+    emitter_shadow_mask: np.ndarray | None = None  # (M,) uint64
 
     def __post_init__(self) -> None:
         self.base_color = as_array(self.base_color, np.float32, (3,), "base_color")
         m = len(self.base_color)
+        for name in ("emitter_light_mask", "emitter_shadow_mask"):
+            value = getattr(self, name)
+            masks = np.full(m, ALL_LINK_SETS, np.uint64) if value is None else np.asarray(value, np.uint64).reshape(-1)
+            if len(masks) != m:
+                raise SceneDataError(f"material {name} has {len(masks)} rows, expected {m}")
+            setattr(self, name, masks)
         for name in ("light_set", "shadow_set"):
             value = getattr(self, name)
             sets = np.zeros(m, np.int32) if value is None else as_array(value, np.int32, (), name)
@@ -193,8 +205,8 @@ class MaterialTable:
         """Build from dicts with keys base_color, emission, reflectivity, transmission, ior,
         thickness, roughness, specular, name, base_color_texture, emission_texture,
         normal_texture, normal_strength, roughness_texture, roughness_channel,
-        metallic_texture, metallic_channel, alpha, alpha_texture, alpha_channel, alpha_clip
-        (all optional).
+        metallic_texture, metallic_channel, alpha, alpha_texture, alpha_channel, alpha_clip,
+        light_set, shadow_set, emitter_light_mask, emitter_shadow_mask (all optional).
 
         A texture key holds an index into ``textures``, None (no texture) or the image
         array itself; arrays are appended to the texture list once per array object, so
@@ -239,6 +251,8 @@ class MaterialTable:
             textures=texture_list,
             light_set=np.array(get("light_set", 0), np.int32),
             shadow_set=np.array(get("shadow_set", 0), np.int32),
+            emitter_light_mask=np.array([int(v) for v in get("emitter_light_mask", int(ALL_LINK_SETS))], np.uint64),
+            emitter_shadow_mask=np.array([int(v) for v in get("emitter_shadow_mask", int(ALL_LINK_SETS))], np.uint64),
         )
 
     def packed(self) -> np.ndarray:

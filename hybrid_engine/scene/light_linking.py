@@ -17,6 +17,12 @@ lamp loop (gpu_shaders/include/lighting.glsl, ``LIGHT_LINKING``) skips the lamps
 ``Lights.light_mask`` lacks it. A lamp's shadow map draws only the objects whose blocker
 set is in its ``Lights.shadow_mask`` (passes/shadow_maps/shadow_depth.py). A scene without
 linking has every set 0 and every mask full, and compiles and runs as before.
+
+Emissive objects are emitters too, as Cycles links its mesh lights: the sets are resolved
+over the lamps and the objects with a collection of their own together, and an emissive
+object's masks ride on its material rows (``MaterialTable.emitter_light_mask`` and
+``emitter_shadow_mask``), which the emitter table's next-event estimate reads
+(passes/emitters/emitter_links.py, ``EMITTER_LINKING``).
 """
 from __future__ import annotations
 
@@ -101,6 +107,17 @@ def is_linked(materials: MaterialTable, lights: Lights) -> bool:
     """Whether some lamp lights or shadows less than everything: only then do the shading
     passes compile the linking test (``LIGHT_LINKING``)."""
     return bool(materials.light_set.any() or (lights.light_mask != ALL_LINK_SETS).any())
+
+
+def emission_linked(materials: MaterialTable) -> bool:
+    """Whether some emissive row lights or is shadowed by less than every set: only then do
+    the passes that gather the emitters' light compile their linking (``EMITTER_LINKING``)."""
+    full = ALL_LINK_SETS
+    masked = (materials.emitter_light_mask != full) | (materials.emitter_shadow_mask != full)
+    if not masked.any():
+        return False
+    emission = np.nan_to_num(np.asarray(materials.emission, np.float64), nan=0.0)
+    return bool((masked & (emission.max(axis=1) > 0.0)).any())
 
 
 def shadow_linked(lights: Lights) -> bool:

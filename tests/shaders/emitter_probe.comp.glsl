@@ -10,7 +10,8 @@
 // Host defines: PICK_PROBE (optional); the BVH's traversal defines.
 // Storage blocks: as trace/hybrid_trace.comp.glsl's, EmitterTable.bindings(), Points,
 //   Normals (read: vec4, xyz used), Results / Picks (written).
-// Uniforms: u_count, u_samples, u_chunks, u_seed, u_mode, EmitterTable.bindings()'s.
+// Uniforms: u_count, u_samples, u_chunks, u_seed, u_mode, u_receiver_set (the points' light
+//   linking set: read with EMITTER_LINKING), EmitterTable.bindings()'s.
 #define EMITTER_LIGHT
 #include "trace_ray.glsl"
 #include "emitter_light.glsl"
@@ -21,6 +22,7 @@ uniform uint u_count;
 uniform uint u_samples;
 uniform uint u_chunks;
 uniform uint u_seed;
+uniform int u_receiver_set;
 
 bool ray_room() { return false; }
 void store_ray(vec3 origin, vec3 dir, vec3 weight, int depth, float blur, float reach) {}
@@ -51,7 +53,7 @@ void main() {
         uint s = (i % u_chunks) * u_samples + k;
         vec2 a = random2(uvec4(point, s, u_seed, 1u));
         vec2 b = random2(uvec4(point, s, u_seed, 2u));
-        sum += emitter_irradiance(p, n, n, vec3(a, b.x));
+        sum += emitter_irradiance(p, n, n, vec3(a, b.x), u_receiver_set);
     }
     results[i] = vec4(sum, float(emitter_shadow_rays));
 }

@@ -142,17 +142,21 @@ class CubeLightPass:
             self.gather.reverse()
             blend = BLEND if history else 1.0 / (k + 1)
             if gathered:
-                self._gather(cube, materials, common, center, history or k > 0, blend)
+                self._gather(cube, materials, common, center, history or k > 0, blend,
+                             frame.read("lighting").emitter_links)
             self._shade(cube, materials, lighting, {**common, "u_gathered": int(gathered)},
                         frame.read("lighting").defines)
             self._prev_center = center
         self._downsample()
         frame.write("cube_light", self.lit(rows))
 
-    def _gather(self, cube, materials, common: dict, center: tuple, history: bool, blend: float) -> None:
-        defines = cube.defines
+    def _gather(self, cube, materials, common: dict, center: tuple, history: bool, blend: float,
+                links) -> None:
+        # The emissive objects' linking (passes/emitters/emitter_links.py): a linked emitter's
+        # light bounces only onto the texels of its receivers.
+        defines = {**cube.defines, **links.defines}
         prog = shader_loader.compute(self.ctx, "cube_light/cube_light_gather.comp.glsl", defines or None)
-        bind(prog, materials, storage={}, textures={**cube.textures, "u_cube_radiance": self.radiance[1],
+        bind(prog, materials, links.bindings(), storage={}, textures={**cube.textures, "u_cube_radiance": self.radiance[1],
                                                      "u_gather_prev": self.gather[1]},
              images={"u_gather": Image(self.gather[0], read=False, write=True)},
              uniforms={**common, "u_prev_center": self._prev_center if history else center,

@@ -79,7 +79,7 @@ class DiffuseLightPass:
         # a scene without them runs the kernel without the emitters' code.
         emitters = frame.read("emitters")
         emitter_parts = (emitters.bindings(),) if emitters.count else ()
-        defines = {**inputs.defines, "EMITTER_LIGHT": 1} if emitters.count else dict(inputs.defines)
+        defines = {**inputs.defines, **emitters.defines}
         history = self.feedback() if self.feedback is not None and settings.diffuse_bounces > 0 else None
         if history is not None:
             defines["DIFFUSE_FEEDBACK"] = 1

@@ -194,9 +194,16 @@ class EmitterTable:
         self.stats.gpu_steps = 3
 
     def bindings(self) -> Bindings:
-        """What emitter_light.glsl binds, by name."""
+        """What emitter_light.glsl binds, by name (the emitters' linking is the frame's
+        lighting's: emitter_links.py)."""
         return Bindings(storage={"EmitterTriangles": self._table.buffer, "EmitterCdf": self._cdf.buffer},
                         uniforms={"u_emitter_count": int(self.count)})
+
+    @property
+    def defines(self) -> dict:
+        """What a kernel that samples the table defines: ``EMITTER_LIGHT``, nothing when the
+        table is empty."""
+        return {"EMITTER_LIGHT": 1} if self.count else {}
 
     def read_table(self) -> np.ndarray:
         """The emitters' rows (EMITTER_DTYPE), read back now (tests)."""

@@ -19,6 +19,7 @@ from ...scene.light_linking import is_linked, mask_words
 from ...scene.scale import typical_object_size
 from ...scene.settings import RenderSettings
 from ..frame_context import FrameContext, PassIO
+from ..emitters.emitter_links import EmitterLinks
 from ..shadow_maps.shadow_atlas import ShadowAtlas
 from ..shadow_maps.shadow_depth import ShadowMaps
 from .lights import LIGHT_DTYPE, pack_lights
@@ -52,6 +53,10 @@ class FrameResources:
         # only for a scene whose lamps are linked, so that others compile nothing new.
         self.linked = False
         self._links = None
+        # The emissive objects' linking (passes/emitters/emitter_links.py): every pass that
+        # gathers or sees their light (the diffuse paths' next-event estimate, the tracer's
+        # hits) binds it with the lamps', only for a scene whose emitters are linked.
+        self.emitter_links = EmitterLinks(ctx)
 
     def update_lights(self, lights: Lights, shadows: ShadowMaps, settings: RenderSettings,
                       linked: bool = False) -> None:
@@ -81,8 +86,9 @@ class FrameResources:
     @property
     def defines(self) -> dict:
         """What the shaders that light a surface need defined: ``LIGHT_LINKING`` (the lamp
-        loop's set test, include/lighting.glsl) only when the scene's lamps are linked."""
-        return {"LIGHT_LINKING": 1} if self.linked else {}
+        loop's set test, include/lighting.glsl) only when the scene's lamps are linked,
+        ``EMITTER_LINKING`` (include/emitter_links.glsl) only when its emitters are."""
+        return {**({"LIGHT_LINKING": 1} if self.linked else {}), **self.emitter_links.defines}
 
     @property
     def occludes(self) -> bool:
@@ -99,6 +105,7 @@ class FrameResources:
             raise RuntimeError("FrameResources.update_lights must run before the lighting is bound")
         self.shadows.ensure_bindable()
         links = {"LightLinkBuffer": self._links} if self.linked else {}
+        links.update(self.emitter_links.bindings().storage)
         return Bindings(
             storage={"LightBuffer": self.lights.buffer, "ShadowSlotBuffer": self.shadows.slot_buffer,
                      "SkyIrradiance": self.sky.sh_buffer, **links},
@@ -113,6 +120,7 @@ class FrameResources:
     def release(self) -> None:
         self.lights.release()
         self.sky.release()
+        self.emitter_links.release()
         if self._links is not None:
             self._links.release()
             self._links = None
@@ -134,6 +142,7 @@ class LightingPass:
         scene = frame.read("scene")
         self.resources.update_lights(scene.lights, frame.read("shadow_maps"), frame.settings,
                                      is_linked(scene.materials, scene.lights))
+        self.resources.emitter_links.update(scene.materials)
         self.resources.update_sky(scene.sky)
         self.resources.random_unit = typical_object_size(scene)
         frame.write("lighting", self.resources)

@@ -18,6 +18,7 @@ need. A storage block given as None is declared unused by this dispatch and left
 """
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass, field
 from typing import Mapping
 
@@ -90,6 +91,12 @@ class ProgramLayout:
     images: dict[str, int]
     samplers: dict[str, int]
     uniform_blocks: dict[str, int] = field(default_factory=dict)
+    # Uniform members by name (None: optimised away) and the bytes last written to each. A
+    # program keeps its uniforms' values across draws and frames (GL state per program), so
+    # a value equal to the last one written needs no write: most of a frame's uniforms
+    # (lamps, settings, the cube map's faces) are the same from frame to frame.
+    members: dict[str, object] = field(default_factory=dict, repr=False)
+    written: dict[str, bytes] = field(default_factory=dict, repr=False)
 
     @classmethod
     def of(cls, program, label: str = "program") -> "ProgramLayout":
@@ -121,17 +128,47 @@ def layout(program, label: str | None = None) -> ProgramLayout:
     return found
 
 
+def uniform_bytes(member, value) -> bytes:
+    """The bytes moderngl's ``Uniform.value`` setter writes for ``value`` (``bytes`` as they
+    are), so that a write can be compared with the last one before it is made."""
+    if isinstance(value, bytes):
+        return value
+    if member.array_length > 1:
+        if member.dimension > 1:
+            return b"".join(struct.pack(member.fmt, *row) for row in value)
+        return b"".join(struct.pack(member.fmt, item) for item in value)
+    if member.dimension > 1:
+        return struct.pack(member.fmt, *value)
+    return struct.pack(member.fmt, value)
+
+
+_ABSENT = object()
+
+
 def set_uniforms(program, values: Mapping[str, object]) -> None:
     """Set the uniforms the compiler kept (unused ones are optimised away and absent);
-    ``bytes`` values are written raw (matrices and arrays)."""
+    ``bytes`` values are written raw (matrices and arrays). A program with a layout
+    (every program the shader loader compiles) skips the writes of values equal to the
+    ones it last wrote: the GL keeps them, and the host's per-frame cost then follows
+    what changed rather than how many uniforms the passes set."""
+    found = program.extra
+    if not isinstance(found, ProgramLayout):
+        for name, value in values.items():
+            member = program.get(name, None)
+            if member is not None:
+                member.write(uniform_bytes(member, value))
+        return
+    members, written = found.members, found.written
     for name, value in values.items():
-        member = program.get(name, None)
+        member = members.get(name, _ABSENT)
+        if member is _ABSENT:
+            member = members[name] = program.get(name, None)
         if member is None:
             continue
-        if isinstance(value, bytes):
-            member.write(value)
-        else:
-            member.value = value
+        data = uniform_bytes(member, value)
+        if written.get(name) != data:
+            member.write(data)
+            written[name] = data
 
 
 def bind(program, *parts: Bindings, storage: Mapping[str, object] | None = None,
@@ -143,20 +180,25 @@ def bind(program, *parts: Bindings, storage: Mapping[str, object] | None = None,
     ``textures`` (samplers) and ``uniforms``. Raises ValueError naming the program and the
     blocks when one of its storage blocks is missing, or when a range exceeds the driver's
     block-size limit."""
-    whole = Bindings(storage or {}, images or {}, textures or {}, uniforms or {})
-    for part in parts:
-        whole = part | whole
+    # The program's own names are looked up in the call's names, then in the parts in turn
+    # (the first that has a name wins, as ``part | call`` merges them): a pass hands over
+    # every table the frame owns, and merging them all into new dictionaries per dispatch
+    # cost more than the few names a program declares.
+    call = Bindings(storage or {}, images or {}, textures or {}, uniforms or {})
+    sources = (call, *parts)
     found = layout(program)
+    storages = [source.storage for source in sources]
     for kind, names in (("storage", found.blocks), ("uniform", found.uniform_blocks)):
-        missing = [name for name in names if name not in whole.storage]
+        missing = [name for name in names if not any(name in table for table in storages)]
         if missing:
             raise ValueError(f"{found.label}: {kind} block(s) {', '.join(missing)} not bound")
-    for name, what in whole.storage.items():
-        if name in found.uniform_blocks and what is not None:
-            what.bind_to_uniform_block(found.uniform_blocks[name])  # a whole buffer, sized by its owner
-            continue
-        binding = found.blocks.get(name)
-        if binding is None or what is None:
+    for name, point in found.uniform_blocks.items():
+        what = _first(storages, name)
+        if what is not None:
+            what.bind_to_uniform_block(point)  # a whole buffer, sized by its owner
+    for name, binding in found.blocks.items():
+        what = _first(storages, name)
+        if what is None:
             continue
         if not isinstance(what, Storage):
             what.bind_to_storage_buffer(binding)  # a whole buffer: the block reads what it declares
@@ -166,12 +208,27 @@ def bind(program, *parts: Bindings, storage: Mapping[str, object] | None = None,
             raise ValueError(f"{found.label}: storage block {name}: a {size}-byte range exceeds the "
                              f"driver's {max_block_bytes()}-byte block limit")
         what.buffer.bind_to_storage_buffer(binding, offset=what.offset, size=max(size, 4))
-    for name, image in whole.images.items():
-        unit = found.images.get(name)
-        if unit is not None:
-            image.texture.bind_to_image(unit, read=image.read, write=image.write, level=image.level)
-    for name, texture in whole.textures.items():
-        unit = found.samplers.get(name)
-        if unit is not None:
-            texture.use(location=unit)
-    set_uniforms(program, whole.uniforms)
+    if found.images:
+        tables = [source.images for source in sources]
+        for name, unit in found.images.items():
+            image = _first(tables, name)
+            if image is not None:
+                image.texture.bind_to_image(unit, read=image.read, write=image.write, level=image.level)
+    if found.samplers:
+        tables = [source.textures for source in sources]
+        for name, unit in found.samplers.items():
+            texture = _first(tables, name)
+            if texture is not None:
+                texture.use(location=unit)
+    values: dict[str, object] = {}
+    for source in reversed(sources):
+        values.update(source.uniforms)
+    set_uniforms(program, values)
+
+
+def _first(tables: list[Mapping[str, object]], name: str):
+    """``name``'s value in the first of ``tables`` that has it (None when none has)."""
+    for table in tables:
+        if name in table:
+            return table[name]
+    return None

@@ -8,8 +8,8 @@ import math
 import numpy as np
 
 from hybrid_engine.scene.camera import look_at, perspective_matrix, view_from_world, orthographic_matrix
-from hybrid_engine.passes.view_cull.frustum import (beyond_near_plane, draw_ranges, front_face_winding, frustum_masks,
-                                                  visible_objects)
+from hybrid_engine.passes.view_cull.frustum import (beyond_near_plane, candidate_masks, draw_ranges, front_face_winding,
+                                                  frustum_masks, visible_objects)
 
 VIEW = view_from_world(look_at(np.zeros(3), np.array([0.0, 10.0, 0.0])))  # eye at the origin, looking +y
 PERSPECTIVE = perspective_matrix(math.radians(60.0), 1.0, 1.0, 100.0) @ VIEW
@@ -88,3 +88,16 @@ def test_no_views_or_no_objects_give_empty_masks():
     assert visible.shape == beyond.shape == (0, 1)
     visible, beyond = frustum_masks([PERSPECTIVE], np.zeros((0, 2, 3)))
     assert visible.shape == beyond.shape == (1, 0)
+
+
+def test_only_the_candidates_are_tested_and_the_others_are_neither_visible_nor_culled(rng):
+    bounds = boxes(*rng.uniform(-30.0, 30.0, (50, 3)), half=2.0)
+    views = [PERSPECTIVE, orthographic_matrix(40.0, 40.0, 0.1, 80.0) @ VIEW]
+    candidates = rng.random(len(bounds)) < 0.3
+    visible, beyond = candidate_masks(views, bounds, candidates)
+    all_visible, all_beyond = frustum_masks(views, bounds)
+    np.testing.assert_array_equal(visible, all_visible & candidates)
+    np.testing.assert_array_equal(beyond, all_beyond & candidates)
+    assert visible[:, candidates].any() and (all_visible & ~candidates).any()
+    none = candidate_masks(views, bounds, np.zeros(len(bounds), bool))
+    assert not none[0].any() and not none[1].any()

@@ -184,51 +184,59 @@ def bind(program, *parts: Bindings, storage: Mapping[str, object] | None = None,
     # (the first that has a name wins, as ``part | call`` merges them): a pass hands over
     # every table the frame owns, and merging them all into new dictionaries per dispatch
     # cost more than the few names a program declares.
-    call = Bindings(storage or {}, images or {}, textures or {}, uniforms or {})
-    sources = (call, *parts)
     found = layout(program)
-    storages = [source.storage for source in sources]
-    for kind, names in (("storage", found.blocks), ("uniform", found.uniform_blocks)):
-        missing = [name for name in names if not any(name in table for table in storages)]
+    storages = (storage or _NOTHING, *(part.storage for part in parts))
+    uniform_blocks = [(name, point, _first(storages, name)) for name, point in found.uniform_blocks.items()]
+    blocks = [(name, point, _first(storages, name)) for name, point in found.blocks.items()]
+    for kind, chosen in (("storage", blocks), ("uniform", uniform_blocks)):
+        missing = [name for name, _, what in chosen if what is _ABSENT]
         if missing:
             raise ValueError(f"{found.label}: {kind} block(s) {', '.join(missing)} not bound")
-    for name, point in found.uniform_blocks.items():
-        what = _first(storages, name)
+    for _, point, what in uniform_blocks:
         if what is not None:
             what.bind_to_uniform_block(point)  # a whole buffer, sized by its owner
-    for name, binding in found.blocks.items():
-        what = _first(storages, name)
+    limit = None
+    for name, binding, what in blocks:
         if what is None:
             continue
         if not isinstance(what, Storage):
             what.bind_to_storage_buffer(binding)  # a whole buffer: the block reads what it declares
             continue
         size = what.buffer.size - what.offset if what.size is None else what.size
-        if size > max_block_bytes():
+        limit = max_block_bytes() if limit is None else limit
+        if size > limit:
             raise ValueError(f"{found.label}: storage block {name}: a {size}-byte range exceeds the "
-                             f"driver's {max_block_bytes()}-byte block limit")
+                             f"driver's {limit}-byte block limit")
         what.buffer.bind_to_storage_buffer(binding, offset=what.offset, size=max(size, 4))
     if found.images:
-        tables = [source.images for source in sources]
+        tables = (images or _NOTHING, *(part.images for part in parts))
         for name, unit in found.images.items():
             image = _first(tables, name)
-            if image is not None:
+            if image is not None and image is not _ABSENT:
                 image.texture.bind_to_image(unit, read=image.read, write=image.write, level=image.level)
     if found.samplers:
-        tables = [source.textures for source in sources]
+        tables = (textures or _NOTHING, *(part.textures for part in parts))
         for name, unit in found.samplers.items():
             texture = _first(tables, name)
-            if texture is not None:
+            if texture is not None and texture is not _ABSENT:
                 texture.use(location=unit)
-    values: dict[str, object] = {}
-    for source in reversed(sources):
-        values.update(source.uniforms)
+    if parts:
+        values: dict[str, object] = {}
+        for part in reversed(parts):
+            values.update(part.uniforms)
+        values.update(uniforms or _NOTHING)
+    else:
+        values = uniforms or _NOTHING
     set_uniforms(program, values)
 
 
-def _first(tables: list[Mapping[str, object]], name: str):
-    """``name``'s value in the first of ``tables`` that has it (None when none has)."""
+_NOTHING: Mapping[str, object] = {}
+
+
+def _first(tables, name: str):
+    """``name``'s value in the first of ``tables`` that has it (_ABSENT when none has)."""
     for table in tables:
-        if name in table:
-            return table[name]
-    return None
+        what = table.get(name, _ABSENT)
+        if what is not _ABSENT:
+            return what
+    return _ABSENT

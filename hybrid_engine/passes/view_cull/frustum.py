@@ -15,37 +15,53 @@ from ...scene.matrix4 import determinant
 _CORNER_BITS = np.array([[(i >> 0) & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)], bool)
 
 
-def object_corners(object_bounds: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The eight corners of each object's AABB ((K, 8, 3) float64; an object with a
-    non-finite bound gets the origin's), which objects have finite bounds, and which have
-    valid ones (finite, min <= max). Made once for all the views a pass tests."""
-    bounds = np.asarray(object_bounds, np.float64).reshape(-1, 2, 3)
-    finite = np.isfinite(bounds).all(axis=(1, 2))
-    valid = finite & (bounds[:, 0] <= bounds[:, 1]).all(axis=1)
-    b = np.where(finite[:, None, None], bounds, 0.0)
-    corners = np.where(_CORNER_BITS[None], b[:, 1][:, None, :], b[:, 0][:, None, :])
-    return corners, finite, valid
-
-
 def frustum_masks(view_projs, object_bounds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`visible_objects` and :func:`beyond_near_plane` of every view at once, as
     (V, K) masks. A pass tests the same objects against several views (the six cube faces,
-    the shadow slots): the corners are made once and every view's clip coordinates come
-    from one product, so the host's cost per view is a few array operations whatever the
-    object count, not a numpy round per test."""
+    the shadow slots): one round of array operations for all of them costs the host less
+    than a round per view and test."""
     matrices = np.asarray(view_projs, np.float64).reshape(-1, 4, 4)
-    corners, finite, valid = object_corners(object_bounds)
-    views, count = len(matrices), len(corners)
+    bounds = np.asarray(object_bounds, np.float64).reshape(-1, 2, 3)
+    views, count = len(matrices), len(bounds)
     if count == 0 or views == 0:
         return np.zeros((views, count), bool), np.zeros((views, count), bool)
-    # (K*8, 3) @ (3, V*4) + (V*4): row r of view v is corners . M_v[r, :3] + M_v[r, 3].
-    linear = matrices[:, :, :3].reshape(views * 4, 3).T
-    clip = (corners.reshape(-1, 3) @ linear + matrices[:, :, 3].reshape(-1)).reshape(count, 8, views, 4)
-    clip = clip.transpose(2, 0, 1, 3)  # (V, K, 8, 4)
-    xyz, w = clip[..., :3], clip[..., 3:]
-    outside = ((xyz < -w).all(axis=2) | (xyz > w).all(axis=2)).any(axis=2)
+    finite = np.isfinite(bounds).all(axis=(1, 2))
+    valid = finite & (bounds[:, 0] <= bounds[:, 1]).all(axis=1)
+    # Row r of view v at a corner (x, y, z) is ((x M[r,0] + y M[r,1]) + z M[r,2]) + M[r,3]. A
+    # corner takes each coordinate from the box's low or high side, so the six products per
+    # row are made once and the eight corners are sums of them (the same operations, in the
+    # same order, as corner by corner). The objects are the last, contiguous axis, so that
+    # every operation is a long loop; a matrix product would go to a threaded BLAS, whose
+    # threads contend with the GL driver's. A non-finite box is tested as the origin's.
+    sides = np.ascontiguousarray(np.where(finite[:, None, None], bounds, 0.0).transpose(2, 1, 0))  # (axis, side, K)
+    row = matrices[:, :, :, None, None]  # (V, row, column, 1, 1)
+    px, py, pz = row[:, :, 0] * sides[0], row[:, :, 1] * sides[1], row[:, :, 2] * sides[2]  # (V, row, side, K)
+    clip = ((px[:, :, :, None, None] + py[:, :, None, :, None]) + pz[:, :, None, None, :]) + matrices[:, :, 3, None, None, None, None]
+    clip = clip.reshape(views, 4, 8, count)  # (V, row, corner, K)
+    w = clip[:, 3]
+    below = -w
+    outside = np.zeros((views, count), bool)
+    for axis in range(3):
+        outside |= (clip[:, axis] < below).all(axis=1)
+        outside |= (clip[:, axis] > w).all(axis=1)
     visible = valid & ~outside
-    beyond = finite & (clip[..., 2] >= -clip[..., 3]).all(axis=2) & (clip[..., 3] > 0).all(axis=2)
+    beyond = finite & (clip[:, 2] >= below).all(axis=1) & (w > 0).all(axis=1)
+    return visible, beyond
+
+
+def candidate_masks(view_projs, object_bounds: np.ndarray, candidates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`frustum_masks` of the objects ``candidates`` selects, False for the others: a
+    layer that draws only what moved (the shadows' dynamic layer) tests only that, so its
+    cost follows what changed rather than the scene's size."""
+    matrices = np.asarray(view_projs, np.float64).reshape(-1, 4, 4)
+    picked = np.flatnonzero(candidates)
+    visible = np.zeros((len(matrices), len(candidates)), bool)
+    beyond = np.zeros_like(visible)
+    if len(picked) == len(candidates):
+        return frustum_masks(matrices, object_bounds)
+    if len(picked):
+        bounds = np.asarray(object_bounds).reshape(-1, 2, 3)
+        visible[:, picked], beyond[:, picked] = frustum_masks(matrices, bounds[picked])
     return visible, beyond
 
 

@@ -38,7 +38,7 @@ from ...gpu.dispatch import GrowBuffer
 from ...scene.data import SceneData
 from ...scene.raster_view import gl_matrix
 from ..scene_upload.raster_meshes import VERTEX_ATTRIBUTES, VERTEX_DTYPE, RasterMeshes
-from .frustum import draw_ranges, frustum_masks
+from .frustum import candidate_masks, draw_ranges
 
 COMMAND_DTYPE = np.dtype([("count", "<u4"), ("instances", "<u4"), ("first_index", "<u4"),
                           ("base_vertex", "<i4"), ("base_instance", "<u4")])
@@ -110,10 +110,10 @@ class InstancedDrawer:
         draws = meshes.draws(geo)
         stats = self.stats = InstancedStats()
         plans, commands = [], []
-        all_visible, all_beyond = frustum_masks([view_proj for view_proj, _ in views], geo.object_bounds)
         drawn = ranges[:, 1] > 0
         if include is not None:
             drawn &= include
+        all_visible, all_beyond = candidate_masks([view_proj for view_proj, _ in views], geo.object_bounds, drawn)
         for index, (view_proj, rect) in enumerate(views):
             mask = all_visible[index] & drawn
             culled = np.zeros_like(mask)

@@ -35,7 +35,7 @@ from ...gpu.bindings import Storage, bind
 from ...gpu.dispatch import GrowBuffer, dispatch, max_block_bytes, storage_barrier
 from ...gpu.prefix_scan import PrefixScan
 from ...gpu.triangle_input import input_defines, input_split, input_storage
-from .frustum import front_face_winding, frustum_masks
+from .frustum import candidate_masks, front_face_winding
 
 LOCAL_SIZE = 64
 MAX_VIEWS = 6
@@ -75,10 +75,10 @@ def view_segments(views: list[CullView], object_ranges: np.ndarray, object_bound
     rows = []
     view_chunks = [0]
     work = 0
-    all_visible, all_beyond = frustum_masks([view.view_proj for view in views], object_bounds)
     drawn = ranges[:, 1] > 0
     if include is not None:
         drawn &= include
+    all_visible, all_beyond = candidate_masks([view.view_proj for view in views], object_bounds, drawn)
     for index, view in enumerate(views):
         visible = all_visible[index] & drawn
         cullable = visible & closed_objects & all_beyond[index]

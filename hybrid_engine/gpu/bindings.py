@@ -91,21 +91,25 @@ class ProgramLayout:
     images: dict[str, int]
     samplers: dict[str, int]
     uniform_blocks: dict[str, int] = field(default_factory=dict)
-    # Uniform members by name (None: optimised away) and the bytes last written to each. A
-    # program keeps its uniforms' values across draws and frames (GL state per program), so
-    # a value equal to the last one written needs no write: most of a frame's uniforms
-    # (lamps, settings, the cube map's faces) are the same from frame to frame.
-    members: dict[str, object] = field(default_factory=dict, repr=False)
+    # The program's uniforms by name (what the compiler kept), the bytes last written to each
+    # and the value they were made from. A program keeps its uniforms' values across draws
+    # and frames (GL state per program), so a value equal to the last one written needs no
+    # write: most of a frame's uniforms (lamps, settings, the cube map's faces) are the same
+    # from frame to frame, and a pass hands many more names than one program reads.
+    uniforms: dict[str, object] = field(default_factory=dict, repr=False)
     written: dict[str, bytes] = field(default_factory=dict, repr=False)
+    raw: dict[str, object] = field(default_factory=dict, repr=False)
 
     @classmethod
     def of(cls, program, label: str = "program") -> "ProgramLayout":
         """Give every storage and uniform block the binding point of its resource index and
         every image and sampler its own unit, in declaration order. Two samplers of different types on
         one unit would make every dispatch fail, so each gets one even if never bound."""
-        blocks, images, samplers, uniform_blocks = {}, {}, {}, {}
+        blocks, images, samplers, uniform_blocks, uniforms = {}, {}, {}, {}, {}
         for name in program:
             member = program[name]
+            if isinstance(member, moderngl.Uniform):
+                uniforms[name] = member
             if isinstance(member, moderngl.StorageBlock):
                 member.binding = member.index
                 blocks[name] = member.index
@@ -116,7 +120,7 @@ class ProgramLayout:
                 images[name] = member.value = len(images)
             elif isinstance(member, moderngl.Uniform) and _is_sampler(member.gl_type):
                 samplers[name] = member.value = len(samplers)
-        return cls(label, blocks, images, samplers, uniform_blocks)
+        return cls(label, blocks, images, samplers, uniform_blocks, uniforms)
 
 
 def layout(program, label: str | None = None) -> ProgramLayout:
@@ -158,17 +162,28 @@ def set_uniforms(program, values: Mapping[str, object]) -> None:
             if member is not None:
                 member.write(uniform_bytes(member, value))
         return
-    members, written = found.members, found.written
-    for name, value in values.items():
-        member = members.get(name, _ABSENT)
-        if member is _ABSENT:
-            member = members[name] = program.get(name, None)
-        if member is None:
+    _set_layout_uniforms(found, (values,))
+
+
+# Values whose identity with the last one written proves them equal (immutable).
+_IMMUTABLE = (bytes, int, float, bool)
+
+
+def _set_layout_uniforms(found: ProgramLayout, tables) -> None:
+    """Each of the program's uniforms that ``tables`` name (the first table that has it
+    wins), written only when its bytes differ from the last written."""
+    written, raw = found.written, found.raw
+    for name, member in found.uniforms.items():
+        value = _first(tables, name)
+        if value is _ABSENT:
             continue
+        if value is raw.get(name, _ABSENT) and type(value) in _IMMUTABLE:
+            continue  # the very value last written
         data = uniform_bytes(member, value)
         if written.get(name) != data:
             member.write(data)
             written[name] = data
+        raw[name] = value
 
 
 def bind(program, *parts: Bindings, storage: Mapping[str, object] | None = None,
@@ -220,14 +235,7 @@ def bind(program, *parts: Bindings, storage: Mapping[str, object] | None = None,
             texture = _first(tables, name)
             if texture is not None and texture is not _ABSENT:
                 texture.use(location=unit)
-    if parts:
-        values: dict[str, object] = {}
-        for part in reversed(parts):
-            values.update(part.uniforms)
-        values.update(uniforms or _NOTHING)
-    else:
-        values = uniforms or _NOTHING
-    set_uniforms(program, values)
+    _set_layout_uniforms(found, (uniforms or _NOTHING, *(part.uniforms for part in parts)))
 
 
 _NOTHING: Mapping[str, object] = {}

@@ -113,9 +113,11 @@ def measure(detail: float, frames: int, resolution: tuple[int, int], kernels: st
         scene, camera = scenes[-1]
         for _ in range(frames):
             found["still"].append(host_ms(scene, camera))
+        chosen = variants.chosen()
     finally:
         renderer.release()
-    report = {"detail": detail, "resolution": f"{width}x{height}", "kernels": kernels, "variants": variants.chosen()}
+        variants.set_override(None)  # the process's kernels follow the renderer again
+    report = {"detail": detail, "resolution": f"{width}x{height}", "kernels": kernels, "variants": chosen}
     for kind, values in found.items():
         report[f"{kind}_ms"] = [round(total, 3) for total, _ in values]
         report[f"{kind}_median_ms"] = round(statistics.median(total for total, _ in values), 3)

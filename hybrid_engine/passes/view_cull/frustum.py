@@ -12,9 +12,6 @@ import numpy as np
 
 from ...scene.matrix4 import determinant
 
-_CORNER_BITS = np.array([[(i >> 0) & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)], bool)
-
-
 def frustum_masks(view_projs, object_bounds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`visible_objects` and :func:`beyond_near_plane` of every view at once, as
     (V, K) masks. A pass tests the same objects against several views (the six cube faces,
@@ -35,8 +32,9 @@ def frustum_masks(view_projs, object_bounds: np.ndarray) -> tuple[np.ndarray, np
     # threads contend with the GL driver's. A non-finite box is tested as the origin's.
     sides = np.ascontiguousarray(np.where(finite[:, None, None], bounds, 0.0).transpose(2, 1, 0))  # (axis, side, K)
     row = matrices[:, :, :, None, None]  # (V, row, column, 1, 1)
-    px, py, pz = row[:, :, 0] * sides[0], row[:, :, 1] * sides[1], row[:, :, 2] * sides[2]  # (V, row, side, K)
-    clip = ((px[:, :, :, None, None] + py[:, :, None, :, None]) + pz[:, :, None, None, :]) + matrices[:, :, 3, None, None, None, None]
+    px, py, pz = (row[:, :, axis] * sides[axis] for axis in range(3))  # (V, row, side, K)
+    offset = matrices[:, :, 3, None, None, None, None]
+    clip = ((px[:, :, :, None, None] + py[:, :, None, :, None]) + pz[:, :, None, None, :]) + offset
     clip = clip.reshape(views, 4, 8, count)  # (V, row, corner, K)
     w = clip[:, 3]
     below = -w

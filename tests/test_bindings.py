@@ -144,3 +144,29 @@ def test_uniform_blocks_are_bound_by_name_like_storage_blocks_and_one_left_unbou
     finally:
         for obj in (table, scale, out, program):
             obj.release()
+
+
+def test_a_uniform_is_written_only_when_its_value_differs_from_the_last_one_written(ctx, monkeypatch):
+    import _moderngl
+
+    prog = ctx.compute_shader(COPY_SHADER)
+    src, dst = ctx.buffer(np.ones(4, np.float32).tobytes()), ctx.buffer(reserve=16)
+    flat = ctx.texture((1, 1), 1, np.zeros(1, np.float32).tobytes(), dtype="f4")
+    layers = ctx.texture_array((1, 1, 2), 1, np.zeros(2, np.float32).tobytes(), dtype="f4")
+    target = ctx.texture((4, 1), 4, dtype="f4")
+    bindings.layout(prog)  # as the shader loader makes it at compile time (it sets the units)
+    writes = []
+    original = _moderngl.Uniform.write
+    monkeypatch.setattr(_moderngl.Uniform, "write", lambda self, data: (writes.append(self.name), original(self, data)))
+    try:
+        parts = dict(storage={"Input": src, "Output": dst}, images={"u_target": Image(target, read=False)},
+                     textures={"u_flat": flat, "u_layers": layers})
+        for scale in (2.0, 2.0, 2.0, 3.0, 3.0):
+            bind(prog, uniforms={"u_scale": scale}, **parts)
+            prog.run(4)
+            np.testing.assert_array_equal(np.frombuffer(dst.read(), np.float32), np.full(4, scale))
+        assert writes == ["u_scale", "u_scale"]
+        assert prog["u_scale"].value == 3.0
+    finally:
+        for obj in (prog, src, dst, flat, layers, target):
+            obj.release()

@@ -109,3 +109,22 @@ def test_a_huge_matrix_is_drawn_from_the_rows(ctx):
         assert meshes.draws(huge).instanced.tolist() == [True, False, True, True, True, True]
     finally:
         meshes.release()
+
+
+def test_draws_are_made_once_per_change_of_the_instances(ctx):
+    scene = instanced_scene()
+    geometry = scene.geometry
+    meshes = RasterMeshes(ctx)
+    try:
+        meshes.update(geometry)
+        first = meshes.draws(geometry)
+        meshes.update(geometry)  # every layer of draws brings the buffers up to date first
+        assert meshes.draws(geometry) is first
+        mirror = np.diag([-1.0, 1.0, 1.0, 1.0]).astype(np.float32)
+        geometry.instances.matrices[0] = mirror @ geometry.instances.matrices[0]  # a change in place
+        moved = meshes.draws(geometry)
+        assert moved is not first
+        assert moved.first_index[0] != first.first_index[0]  # now the mirrored list
+        np.testing.assert_array_equal(moved.first_index[1:], first.first_index[1:])
+    finally:
+        meshes.release()

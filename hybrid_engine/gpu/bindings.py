@@ -18,6 +18,7 @@ need. A storage block given as None is declared unused by this dispatch and left
 """
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass, field
 from typing import Mapping
 
@@ -90,15 +91,25 @@ class ProgramLayout:
     images: dict[str, int]
     samplers: dict[str, int]
     uniform_blocks: dict[str, int] = field(default_factory=dict)
+    # The program's uniforms by name (what the compiler kept), the bytes last written to each
+    # and the value they were made from. A program keeps its uniforms' values across draws
+    # and frames (GL state per program), so a value equal to the last one written needs no
+    # write: most of a frame's uniforms (lamps, settings, the cube map's faces) are the same
+    # from frame to frame, and a pass hands many more names than one program reads.
+    uniforms: dict[str, object] = field(default_factory=dict, repr=False)
+    written: dict[str, bytes] = field(default_factory=dict, repr=False)
+    raw: dict[str, object] = field(default_factory=dict, repr=False)
 
     @classmethod
     def of(cls, program, label: str = "program") -> "ProgramLayout":
         """Give every storage and uniform block the binding point of its resource index and
         every image and sampler its own unit, in declaration order. Two samplers of different types on
         one unit would make every dispatch fail, so each gets one even if never bound."""
-        blocks, images, samplers, uniform_blocks = {}, {}, {}, {}
+        blocks, images, samplers, uniform_blocks, uniforms = {}, {}, {}, {}, {}
         for name in program:
             member = program[name]
+            if isinstance(member, moderngl.Uniform):
+                uniforms[name] = member
             if isinstance(member, moderngl.StorageBlock):
                 member.binding = member.index
                 blocks[name] = member.index
@@ -109,7 +120,7 @@ class ProgramLayout:
                 images[name] = member.value = len(images)
             elif isinstance(member, moderngl.Uniform) and _is_sampler(member.gl_type):
                 samplers[name] = member.value = len(samplers)
-        return cls(label, blocks, images, samplers, uniform_blocks)
+        return cls(label, blocks, images, samplers, uniform_blocks, uniforms)
 
 
 def layout(program, label: str | None = None) -> ProgramLayout:
@@ -121,17 +132,58 @@ def layout(program, label: str | None = None) -> ProgramLayout:
     return found
 
 
+def uniform_bytes(member, value) -> bytes:
+    """The bytes moderngl's ``Uniform.value`` setter writes for ``value`` (``bytes`` as they
+    are), so that a write can be compared with the last one before it is made."""
+    if isinstance(value, bytes):
+        return value
+    if member.array_length > 1:
+        if member.dimension > 1:
+            return b"".join(struct.pack(member.fmt, *row) for row in value)
+        return b"".join(struct.pack(member.fmt, item) for item in value)
+    if member.dimension > 1:
+        return struct.pack(member.fmt, *value)
+    return struct.pack(member.fmt, value)
+
+
+_ABSENT = object()
+
+
 def set_uniforms(program, values: Mapping[str, object]) -> None:
     """Set the uniforms the compiler kept (unused ones are optimised away and absent);
-    ``bytes`` values are written raw (matrices and arrays)."""
-    for name, value in values.items():
-        member = program.get(name, None)
-        if member is None:
+    ``bytes`` values are written raw (matrices and arrays). A program with a layout
+    (every program the shader loader compiles) skips the writes of values equal to the
+    ones it last wrote: the GL keeps them, and the host's per-frame cost then follows
+    what changed rather than how many uniforms the passes set."""
+    found = program.extra
+    if not isinstance(found, ProgramLayout):
+        for name, value in values.items():
+            member = program.get(name, None)
+            if member is not None:
+                member.write(uniform_bytes(member, value))
+        return
+    _set_layout_uniforms(found, (values,))
+
+
+# Values whose identity with the last one written proves them equal (immutable).
+_IMMUTABLE = (bytes, int, float, bool)
+
+
+def _set_layout_uniforms(found: ProgramLayout, tables) -> None:
+    """Each of the program's uniforms that ``tables`` name (the first table that has it
+    wins), written only when its bytes differ from the last written."""
+    written, raw = found.written, found.raw
+    for name, member in found.uniforms.items():
+        value = _first(tables, name)
+        if value is _ABSENT:
             continue
-        if isinstance(value, bytes):
-            member.write(value)
-        else:
-            member.value = value
+        if value is raw.get(name, _ABSENT) and type(value) in _IMMUTABLE:
+            continue  # the very value last written
+        data = uniform_bytes(member, value)
+        if written.get(name) != data:
+            member.write(data)
+            written[name] = data
+        raw[name] = value
 
 
 def bind(program, *parts: Bindings, storage: Mapping[str, object] | None = None,
@@ -143,35 +195,56 @@ def bind(program, *parts: Bindings, storage: Mapping[str, object] | None = None,
     ``textures`` (samplers) and ``uniforms``. Raises ValueError naming the program and the
     blocks when one of its storage blocks is missing, or when a range exceeds the driver's
     block-size limit."""
-    whole = Bindings(storage or {}, images or {}, textures or {}, uniforms or {})
-    for part in parts:
-        whole = part | whole
+    # The program's own names are looked up in the call's names, then in the parts in turn
+    # (the first that has a name wins, as ``part | call`` merges them): a pass hands over
+    # every table the frame owns, and merging them all into new dictionaries per dispatch
+    # cost more than the few names a program declares.
     found = layout(program)
-    for kind, names in (("storage", found.blocks), ("uniform", found.uniform_blocks)):
-        missing = [name for name in names if name not in whole.storage]
+    storages = (storage or _NOTHING, *(part.storage for part in parts))
+    uniform_blocks = [(name, point, _first(storages, name)) for name, point in found.uniform_blocks.items()]
+    blocks = [(name, point, _first(storages, name)) for name, point in found.blocks.items()]
+    for kind, chosen in (("storage", blocks), ("uniform", uniform_blocks)):
+        missing = [name for name, _, what in chosen if what is _ABSENT]
         if missing:
             raise ValueError(f"{found.label}: {kind} block(s) {', '.join(missing)} not bound")
-    for name, what in whole.storage.items():
-        if name in found.uniform_blocks and what is not None:
-            what.bind_to_uniform_block(found.uniform_blocks[name])  # a whole buffer, sized by its owner
-            continue
-        binding = found.blocks.get(name)
-        if binding is None or what is None:
+    for _, point, what in uniform_blocks:
+        if what is not None:
+            what.bind_to_uniform_block(point)  # a whole buffer, sized by its owner
+    limit = None
+    for name, binding, what in blocks:
+        if what is None:
             continue
         if not isinstance(what, Storage):
             what.bind_to_storage_buffer(binding)  # a whole buffer: the block reads what it declares
             continue
         size = what.buffer.size - what.offset if what.size is None else what.size
-        if size > max_block_bytes():
+        limit = max_block_bytes() if limit is None else limit
+        if size > limit:
             raise ValueError(f"{found.label}: storage block {name}: a {size}-byte range exceeds the "
-                             f"driver's {max_block_bytes()}-byte block limit")
+                             f"driver's {limit}-byte block limit")
         what.buffer.bind_to_storage_buffer(binding, offset=what.offset, size=max(size, 4))
-    for name, image in whole.images.items():
-        unit = found.images.get(name)
-        if unit is not None:
-            image.texture.bind_to_image(unit, read=image.read, write=image.write, level=image.level)
-    for name, texture in whole.textures.items():
-        unit = found.samplers.get(name)
-        if unit is not None:
-            texture.use(location=unit)
-    set_uniforms(program, whole.uniforms)
+    if found.images:
+        tables = (images or _NOTHING, *(part.images for part in parts))
+        for name, unit in found.images.items():
+            image = _first(tables, name)
+            if image is not None and image is not _ABSENT:
+                image.texture.bind_to_image(unit, read=image.read, write=image.write, level=image.level)
+    if found.samplers:
+        tables = (textures or _NOTHING, *(part.textures for part in parts))
+        for name, unit in found.samplers.items():
+            texture = _first(tables, name)
+            if texture is not None and texture is not _ABSENT:
+                texture.use(location=unit)
+    _set_layout_uniforms(found, (uniforms or _NOTHING, *(part.uniforms for part in parts)))
+
+
+_NOTHING: Mapping[str, object] = {}
+
+
+def _first(tables, name: str):
+    """``name``'s value in the first of ``tables`` that has it (_ABSENT when none has)."""
+    for table in tables:
+        what = table.get(name, _ABSENT)
+        if what is not _ABSENT:
+            return what
+    return _ABSENT

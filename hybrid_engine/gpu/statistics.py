@@ -13,9 +13,13 @@ frame's counts are read from it the first time a caller asks (``LazyCounts``): a
 render and a timing report ask, after the image is read anyway; a viewport asks only when
 it refreshes its statistics line, a frame or more later, when the copy has long been done.
 
-A slot is reused ``slots`` frames later; a frame whose counts were never asked for and are
-still referenced is resolved just before (its copy finished frames ago), so late readers get
-the right numbers whatever the frame rate.
+A slot is reused ``slots`` frames later. A frame whose counts were never asked for and are
+still referenced then keeps its copy: the slot takes a new buffer and the old one stays with
+that frame, released once its counts are read or the frame is dropped. Reading it there
+instead would make the host wait, in the middle of recording a frame, for everything the
+GPU has been given so far (a driver reads a buffer only after the commands before the read
+have run), and a caller that merely holds its results (a viewport keeping the last frame's)
+asked for nothing. Late readers get their own frame's numbers whatever the frame rate.
 """
 from __future__ import annotations
 
@@ -96,14 +100,20 @@ class StatisticsRing:
             slot.ensure(64)
         self._pending: list[weakref.ref | None] = [None] * slots
         self._next = 0
+        # Buffers handed over to frames still held and unread: (the frame's counts, buffer).
+        self._kept: list[tuple[weakref.ref, GrowBuffer]] = []
 
     def collect(self, statistics: FrameStatistics) -> PendingCounts:
         """Copy the frame's deposits into the next slot on the GPU; nothing is read."""
         index = self._next
         self._next = (index + 1) % len(self._slots)
+        self._release_kept()
         earlier = self._pending[index]() if self._pending[index] is not None else None
         if earlier is not None and not earlier.resolved:
-            earlier.resolve()  # a frame `slots` ago, still referenced: its copy is long done
+            # A frame `slots` ago, still held and never read: it keeps its buffer (module doc).
+            self._kept.append((self._pending[index], self._slots[index]))
+            self._slots[index] = GrowBuffer(self.ctx, f"frame statistics {index}", min_bytes=64)
+            self._slots[index].ensure(64)
         nbytes = sum(4 * deposit.words for deposit in statistics.deposits)
         slot = self._slots[index].ensure(nbytes)
         layout, at = [], 0
@@ -117,13 +127,30 @@ class StatisticsRing:
         self._pending[index] = weakref.ref(pending)
         return pending
 
+    @property
+    def kept(self) -> int:
+        """Buffers held by frames whose slots have moved on (tests)."""
+        return len(self._kept)
+
+    def _release_kept(self) -> None:
+        """Release the kept buffers whose frames were read or dropped."""
+        still = []
+        for pending, buffer in self._kept:
+            alive = pending()
+            if alive is None or alive.resolved:
+                buffer.release()
+            else:
+                still.append((pending, buffer))
+        self._kept = still
+
     def release(self) -> None:
-        for pending in self._pending:
+        for pending in self._pending + [pending for pending, _ in self._kept]:
             alive = pending() if pending is not None else None
             if alive is not None and not alive.resolved:
                 alive.resolve()
         for slot in self._slots:
             slot.release()
+        self._release_kept()
         self._pending = [None] * len(self._slots)
 
 

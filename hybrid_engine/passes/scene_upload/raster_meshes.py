@@ -126,6 +126,9 @@ class RasterMeshes:
         self._order: list[tuple[int, int]] = []
         self.generation = 0  # bumps when a buffer object is replaced (vertex arrays follow)
         self.meshes_sent = 0  # meshes written by the last update (tests)
+        # The last geometry's draws and what they were made from: a frame asks once per
+        # layer of draws (primary view, shadow layers) for the same instances.
+        self._draws: tuple[tuple, InstanceDraws] | None = None
 
     def update(self, geometry: InstancedGeometry) -> None:
         """Bring the buffers up to ``geometry``'s meshes."""
@@ -151,6 +154,7 @@ class RasterMeshes:
                                        place.vertex * VERTEX_DTYPE.itemsize)
                 self.meshes_sent += 1
             self._placed[mesh.mesh_id] = replace(place, sent=mesh)
+            self._draws = None
 
     def _rebuild(self, meshes: list[ObjectMesh]) -> None:
         placed: dict[int, _Placed] = {}
@@ -172,6 +176,7 @@ class RasterMeshes:
             vertex += len(rows)
             index += 2 * len(indices)
         self._placed = placed
+        self._draws = None
         allocations = (self.vertices.allocations, self.indices.allocations)
         self.vertices.upload(np.concatenate(all_rows).tobytes() if all_rows else b"")
         self.indices.upload(np.concatenate(index_rows).astype(np.uint32).tobytes() if index_rows else b"")
@@ -180,8 +185,18 @@ class RasterMeshes:
         self.meshes_sent = len(placed)
 
     def draws(self, geometry: InstancedGeometry) -> InstanceDraws:
-        """Each instance's indexed draw (``update`` first)."""
+        """Each instance's indexed draw (``update`` first); the same arrays again while
+        neither the instances nor the buffers changed (the caller only reads them)."""
         instances = geometry.instances
+        key = (instances.matrices.tobytes(), instances.mesh.tobytes(),
+               tuple((m.mesh_id, m.version) for m in instances.meshes))
+        if self._draws is not None and self._draws[0] == key:
+            return self._draws[1]
+        found = self._make_draws(instances)
+        self._draws = (key, found)
+        return found
+
+    def _make_draws(self, instances) -> InstanceDraws:
         meshes = instances.meshes
         k = len(instances)
         places = [self._placed[m.mesh_id] for m in meshes]
@@ -209,3 +224,4 @@ class RasterMeshes:
         self.indices.release()
         self._placed.clear()
         self._order = []
+        self._draws = None

@@ -38,7 +38,7 @@ from ...gpu.dispatch import GrowBuffer
 from ...scene.data import SceneData
 from ...scene.raster_view import gl_matrix
 from ..scene_upload.raster_meshes import VERTEX_ATTRIBUTES, VERTEX_DTYPE, RasterMeshes
-from .frustum import beyond_near_plane, draw_ranges, visible_objects
+from .frustum import candidate_masks, draw_ranges
 
 COMMAND_DTYPE = np.dtype([("count", "<u4"), ("instances", "<u4"), ("first_index", "<u4"),
                           ("base_vertex", "<i4"), ("base_instance", "<u4")])
@@ -110,13 +110,15 @@ class InstancedDrawer:
         draws = meshes.draws(geo)
         stats = self.stats = InstancedStats()
         plans, commands = [], []
-        for view_proj, rect in views:
-            mask = visible_objects(view_proj, geo.object_bounds) & (ranges[:, 1] > 0)
-            if include is not None:
-                mask &= include
+        drawn = ranges[:, 1] > 0
+        if include is not None:
+            drawn &= include
+        all_visible, all_beyond = candidate_masks([view_proj for view_proj, _ in views], geo.object_bounds, drawn)
+        for index, (view_proj, rect) in enumerate(views):
+            mask = all_visible[index] & drawn
             culled = np.zeros_like(mask)
             if geo.object_closed is not None and mask.any():
-                culled = mask & geo.object_closed & beyond_near_plane(view_proj, geo.object_bounds)
+                culled = mask & geo.object_closed & all_beyond[index]
             visible = np.flatnonzero(mask)
             indexed = draws.instanced[visible]
             stats.triangles += int(ranges[visible, 1].astype(np.int64).sum())

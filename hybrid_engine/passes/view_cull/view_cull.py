@@ -35,7 +35,7 @@ from ...gpu.bindings import Storage, bind
 from ...gpu.dispatch import GrowBuffer, dispatch, max_block_bytes, storage_barrier
 from ...gpu.prefix_scan import PrefixScan
 from ...gpu.triangle_input import input_defines, input_split, input_storage
-from .frustum import beyond_near_plane, front_face_winding, visible_objects
+from .frustum import candidate_masks, front_face_winding
 
 LOCAL_SIZE = 64
 MAX_VIEWS = 6
@@ -75,11 +75,13 @@ def view_segments(views: list[CullView], object_ranges: np.ndarray, object_bound
     rows = []
     view_chunks = [0]
     work = 0
+    drawn = ranges[:, 1] > 0
+    if include is not None:
+        drawn &= include
+    all_visible, all_beyond = candidate_masks([view.view_proj for view in views], object_bounds, drawn)
     for index, view in enumerate(views):
-        visible = visible_objects(view.view_proj, object_bounds) & (ranges[:, 1] > 0)
-        if include is not None:
-            visible &= include
-        cullable = visible & closed_objects & beyond_near_plane(view.view_proj, object_bounds)
+        visible = all_visible[index] & drawn
+        cullable = visible & closed_objects & all_beyond[index]
         picked = order[visible[order]]
         flags = cullable.astype(np.uint32) << 8
         if tag_closed:

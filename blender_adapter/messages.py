@@ -62,6 +62,11 @@ def tell(message: str) -> None:
         log.log(logging.DEBUG if _open else logging.WARNING, "%s", message)
 
 
+def is_collected() -> bool:
+    """Whether a caller is collecting what ``tell`` hears now (else it reaches the console)."""
+    return bool(_open)
+
+
 @contextmanager
 def collecting() -> Iterator[list[str]]:
     """Gather what ``tell`` hears inside the block, in order, each text once."""

@@ -26,6 +26,7 @@ from ..hybrid_engine.frame.antialias import render_antialiased
 from ..hybrid_engine.frame.film import FrameOutputs
 from ..hybrid_engine.frame.renderer import FrameResult, Renderer
 from ..hybrid_engine.scene.settings import RenderSettings
+from . import messages
 from .export.camera import camera_from_scene
 from .gl_host import gl_block
 from .scene_cache import extract_scene
@@ -46,7 +47,11 @@ def render_preview(depsgraph, cancel=None) -> FrameResult:
     """Render Blender's preview scene (``depsgraph``) with the cheap settings: one sample of
     the whole frame, opaque, untimed."""
     global _renderer
-    scene_data = extract_scene(depsgraph)
+    # Blender's preview scene is Blender's: what its own materials use (the hidden floor's
+    # alpha, say) is nothing the artist can change, and what the previewed material uses
+    # reaches the artist from the viewport and F12. A preview tells nothing.
+    with messages.collecting():
+        scene_data = extract_scene(depsgraph)
     camera = camera_from_scene(depsgraph.scene, depsgraph)
     with _renderer_lock, gl_block():
         if _renderer is None:

@@ -90,6 +90,25 @@ def test_a_material_preview_renders_through_blenders_preview_job_in_the_material
     assert blue[2] > 1.5 * blue[0] and blue[2] > 1.5 * blue[1], blue
 
 
+def test_a_preview_tells_the_artist_nothing_about_blenders_preview_scene(preview_scene, monkeypatch):
+    """Blender's preview scene has a hidden floor whose Alpha reads a Math node, which the
+    exporter names when it meets it in the artist's own scenes. In a preview it is Blender's,
+    not the artist's: no message may leave the preview uncollected (it would reach the
+    console as a warning)."""
+    bpy = preview_scene
+    messages = preview_scene_module(bpy).messages
+    uncollected = []
+    original = messages.tell
+
+    def tell(message):
+        if not messages.is_collected():
+            uncollected.append(message)
+        original(message)
+    monkeypatch.setattr(messages, "tell", tell)
+    generate_preview(bpy, red_material(bpy, RED))
+    assert uncollected == []
+
+
 def test_a_world_preview_shows_the_worlds_colour(preview_scene):
     bpy = preview_scene
     world = bpy.data.worlds.new("preview")

@@ -52,8 +52,6 @@ class CryptomattePass:
         self._targets: dict[str, object] = {}
         self._ids: dict[str, object] = {}
         self._ids_key: tuple | None = None
-        self._vao = None
-        self._vao_key: tuple | None = None
 
     def io(self, settings: RenderSettings) -> PassIO:
         return PassIO(reads=("scene", "world_triangles"), writes=("cryptomatte",))
@@ -81,7 +79,7 @@ class CryptomattePass:
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE)  # both sides of a face, as the G-buffer draws them
         set_uniforms(self.raster, {"u_view_proj": gl_matrix(view.view_proj)})
-        vao = self._vertex_array(gpu)
+        vao = gpu.vertex_array(self.raster)
         if gpu.triangle_count:
             vao.render(moderngl.TRIANGLES, vertices=3 * int(gpu.triangle_count))
         ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT | moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)
@@ -121,14 +119,6 @@ class CryptomattePass:
                 out[name] = layers[k * passes + p]
         return out
 
-    def _vertex_array(self, gpu):
-        key = (id(gpu), gpu.generation)
-        if self._vao_key != key:
-            if self._vao is not None:
-                self._vao.release()
-            self._vao = self.ctx.vertex_array(self.raster, gpu.vertex_content(self.raster))
-            self._vao_key = key
-        return self._vao
 
     def _upload_ids(self, scene: SceneData, request: CryptomatteRequest) -> None:
         """The objects' first rows, their (object, asset) ids and the materials' ids, made
@@ -169,7 +159,5 @@ class CryptomattePass:
     def release(self) -> None:
         release_all(self._targets.values())
         release_all(self._ids.values())
-        if self._vao is not None:
-            self._vao.release()
-        self._targets, self._ids, self._ids_key, self._vao, self._vao_key = {}, {}, None, None, None
+        self._targets, self._ids, self._ids_key = {}, {}, None
         self.size, self.request, self.count = None, None, 0

@@ -167,8 +167,6 @@ class VectorPass:
         self._table: dict[str, object] = {}
         self._table_key: tuple | None = None
         self._entries = 0
-        self._vao = None
-        self._vao_key: tuple | None = None
 
     def _raster(self, alpha: bool):
         """The raster program, with the alpha test where the scene has alpha (a fragment
@@ -213,7 +211,7 @@ class VectorPass:
                        "u_previous_view_proj": gl_matrix(projection @ previous),
                        "u_next_view_proj": gl_matrix(projection @ following),
                        "u_entries": self._entries, "u_size": size, "u_alpha_sample": int(sample)})
-        vao = self._vertex_array(gpu, raster)
+        vao = gpu.vertex_array(raster)
         if gpu.triangle_count:
             vao.render(moderngl.TRIANGLES, vertices=3 * int(gpu.triangle_count))
         ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT | moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)
@@ -236,14 +234,6 @@ class VectorPass:
         self._targets["mean"].read_into(out)
         return {PASS[0]: out}
 
-    def _vertex_array(self, gpu, raster):
-        key = (id(gpu), gpu.generation, id(raster))
-        if self._vao_key != key:
-            if self._vao is not None:
-                self._vao.release()
-            self._vao = self.ctx.vertex_array(raster, gpu.vertex_content(raster))
-            self._vao_key = key
-        return self._vao
 
     def _upload_table(self, scene: SceneData, request: VectorRequest) -> None:
         """The motion table (``motion_table``), made again only for another request or scene."""
@@ -277,7 +267,5 @@ class VectorPass:
     def release(self) -> None:
         release_all(self._targets.values())
         release_all(self._table.values())
-        if self._vao is not None:
-            self._vao.release()
-        self._targets, self._table, self._table_key, self._vao, self._vao_key = {}, {}, None, None, None
+        self._targets, self._table, self._table_key = {}, {}, None
         self.size, self.count = None, 0

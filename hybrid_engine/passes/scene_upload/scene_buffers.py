@@ -59,6 +59,8 @@ class GPUScene:
         # ``vertices`` kernel's "gpu" variant); allocated when first updated.
         self.raster_meshes = RasterMeshes(ctx)
         self.generation = 0  # bumps when a vertex attribute's buffer object changes
+        # Each program's vertex array over these buffers and the generation it was made for.
+        self._vertex_arrays: dict[int, tuple[int, object]] = {}
         self.host_ms = 0.0  # host time of the last upload
         self.triangle_count = 0
         self.sequence = 0  # counts uploads: a GeometryDelta's sequence
@@ -83,6 +85,19 @@ class GPUScene:
         (the GLSL compiler drops unused inputs)."""
         return [(getattr(self, buffer).buffer, fmt, name)
                 for name, fmt, buffer in VERTEX_ATTRIBUTES if name in program]
+
+    def vertex_array(self, program):
+        """``program``'s vertex array over these buffers (``vertex_content``), made again only
+        when a buffer object is replaced (``generation``): every raster pass that draws the
+        world rows shares it."""
+        entry = self._vertex_arrays.get(id(program))
+        if entry is not None and entry[0] == self.generation:
+            return entry[1]
+        if entry is not None:
+            entry[1].release()
+        vao = self.ctx.vertex_array(program, self.vertex_content(program))
+        self._vertex_arrays[id(program)] = (self.generation, vao)
+        return vao
 
     def bindings(self) -> Bindings:
         """The materials, the per-triangle material ids and the textures, by the names every
@@ -149,6 +164,9 @@ class GPUScene:
                              sequence=self.sequence)
 
     def release(self) -> None:
+        for _generation, vao in self._vertex_arrays.values():
+            vao.release()
+        self._vertex_arrays.clear()
         for buf in (*self._world_buffers.values(), self.materials):
             buf.release()
         self.instance_transform.release()

@@ -57,9 +57,6 @@ class SceneDrawer:
         # Each layer's last culled batches (None: drawn from the object lists), for tests and
         # statistics: CulledDraws.drawn() reads the survivors' counts back.
         self.culled: dict[str, list] = {}
-        # Each program's vertex array over the scene's buffers, and the scene and buffer
-        # generation it was made for (GPUScene.generation bumps when a buffer is replaced).
-        self._vaos: dict[int, tuple[int, int, object]] = {}
         # The ``vertices`` kernel's "gpu" variant: instanced, indexed draws (instanced_draw.py),
         # one drawer per layer, and each layer's last InstancedStats.
         self._instanced: dict[str, InstancedDrawer] = {}
@@ -92,15 +89,7 @@ class SceneDrawer:
 
     def vertex_array(self, prog, gpu: GPUScene):
         """``prog``'s vertex array over ``gpu``'s buffers, rebuilt only when they change."""
-        key = (id(gpu), gpu.generation)
-        entry = self._vaos.get(id(prog))
-        if entry is not None and entry[:2] == key:
-            return entry[2]
-        if entry is not None:
-            entry[2].release()
-        vao = self.ctx.vertex_array(prog, gpu.vertex_content(prog))
-        self._vaos[id(prog)] = (*key, vao)
-        return vao
+        return gpu.vertex_array(prog)
 
     def draw_world(self, vao, view_proj: np.ndarray, scene: SceneData, include: np.ndarray | None = None,
                    back_faces: bool = False) -> int:
@@ -229,6 +218,3 @@ class SceneDrawer:
         for culler in self._cullers.values():
             culler.release()
         self._cullers.clear()
-        for *_, vao in self._vaos.values():
-            vao.release()
-        self._vaos.clear()

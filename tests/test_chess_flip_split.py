@@ -1,0 +1,24 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""benchmarks/chess_flip_split.py: the split of HYBRID's Chess difference from FULL_BVH into
+noise and bias, and into the light that makes it."""
+from __future__ import annotations
+
+from benchmarks import chess_flip_split
+
+
+def test_bias_share_is_one_for_a_difference_both_halves_hold_and_near_zero_for_noise(rng):
+    bias = rng.normal(size=(40, 60))
+    assert chess_flip_split.bias_share(bias, bias) == 1.0
+    noise_a, noise_b = rng.normal(size=(2, 40, 60))
+    assert abs(chess_flip_split.bias_share(noise_a, noise_b)) < 0.05
+    mixed = chess_flip_split.bias_share(bias + noise_a, bias + noise_b)
+    assert 0.35 < mixed < 0.65  # as much bias as noise
+
+
+def test_without_reflections_the_whole_difference_is_the_primary_diffuse_light(gl):
+    report = chess_flip_split.run(0.02, (64, 36), 64, 2, ["depth0"])["variants"]["depth0"]
+    # Putting FULL_BVH's Diffuse Indirect into HYBRID's image leaves nothing else to differ.
+    assert report["flip_glossy_only"] < 1e-3
+    assert report["flip_diffuse_only"] > 0.0
+    assert abs(report["flip_diffuse_only"] - report["same_all"]) < 1e-3
+    assert report["samples"] == 4 and 0.0 <= report["noise_h"] <= 1.0

@@ -19,6 +19,11 @@ measures both, per variant of the settings (``VARIANTS``), in one process:
 * ``bias_share``: of the per-pixel difference HYBRID - FULL_BVH (LDR luminance), the share
   that is the same in both halves (their covariance over the variance of one): 1 is pure
   bias, 0 pure noise;
+* ``denoised_1``, ``denoised_all``: FLIP of the two modes' viewport pictures, the
+  accumulated samples with the viewport's denoiser (``render(denoise=True)``), after one
+  sample and after ``2n``;
+* ``bias_share_diffuse``: the same share for the primary pixels' diffuse light alone
+  (Diffuse Indirect times Diffuse Color, halves A and B);
 * which light makes the difference: Cycles' light passes (passes/film/light_passes.py) of
   HYBRID with FULL_BVH's Diffuse Indirect put in (``flip_glossy_only``: what the
   reflections and refractions alone part), and FULL_BVH with HYBRID's Diffuse Indirect
@@ -61,22 +66,36 @@ def base_settings(cube: int) -> dict:
                 cube_march="HIERARCHICAL", cube_back_layer=True)
 
 
-def render_samples(renderer, scene, camera, settings, count: int) -> tuple[np.ndarray, dict]:
+def render_samples(renderer, scene, camera, settings, count: int) -> tuple[np.ndarray, dict, dict]:
     """Samples 0 .. count - 1 of one view, each on its own ((count, H, W, 3) float64, recovered
-    from the accumulated means), and the light passes' means over all of them."""
+    from the accumulated means), and the light passes' means over all of them and over the
+    first half of them."""
     from hybrid_engine.frame.film import FrameOutputs
     from hybrid_engine.passes.film.light_passes import LightPassRequest
 
     outputs = FrameOutputs(light=LightPassRequest(flags=LIGHT_FLAGS))
-    samples, previous, result = [], 0.0, None
+    samples, previous, result, first_half = [], 0.0, None, {}
     for k in range(count):
         result = renderer.render(scene, camera, settings, sample=k, accumulate=True, reuse_world=k > 0,
                                  outputs=outputs, statistics=False)
         total = result.image[..., :3].astype(np.float64) * (k + 1)
         samples.append(total - previous)
         previous = total
+        if k == count // 2 - 1:
+            first_half = {name: a[..., :3].astype(np.float64) for name, a in result.data_passes.items()}
     passes = {name: a[..., :3].astype(np.float64) for name, a in result.data_passes.items()}
-    return np.array(samples), passes
+    return np.array(samples), passes, first_half
+
+
+def denoised_pictures(renderer, scene, camera, settings, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """The viewport's denoised picture of one view after its first sample and after ``count``."""
+    first = None
+    for k in range(count):
+        result = renderer.render(scene, camera, settings, sample=k, accumulate=True, reuse_world=k > 0,
+                                 statistics=False, denoise=True)
+        if k == 0:
+            first = result.image[..., :3].copy()
+    return first, result.image[..., :3].copy()
 
 
 def bias_share(difference_a: np.ndarray, difference_b: np.ndarray) -> float:
@@ -95,12 +114,15 @@ def ldr_luminance(image: np.ndarray) -> np.ndarray:
 
 def compare(hybrid: tuple[np.ndarray, dict], full: tuple[np.ndarray, dict]) -> dict:
     """The figures of the module docstring from both modes' samples and light passes."""
-    h, hp = hybrid
-    f, fp = full
+    h, hp, hp_a = hybrid
+    f, fp, fp_a = full
     n = len(h) // 2
     ha, hb, fa, fb = h[:n].mean(0), h[n:].mean(0), f[:n].mean(0), f[n:].mean(0)
     h_all, f_all = h.mean(0), f.mean(0)
     diffuse = (hp["Diffuse Indirect"] - fp["Diffuse Indirect"]) * hp["Diffuse Color"]
+    # The primary pixels' diffuse light of halves A and B (B's mean: twice the whole's less A's).
+    diffuse_a = (hp_a["Diffuse Indirect"] - fp_a["Diffuse Indirect"]) * hp["Diffuse Color"]
+    diffuse_b = 2.0 * diffuse - diffuse_a
     report = {
         "samples": len(h),
         "same_1": flip_mean(f[0], h[0]),
@@ -110,6 +132,7 @@ def compare(hybrid: tuple[np.ndarray, dict], full: tuple[np.ndarray, dict]) -> d
         "noise_f": flip_mean(fb, fa),
         "crossed": 0.5 * (flip_mean(fb, ha) + flip_mean(hb, fa)),
         "bias_share": bias_share(ldr_luminance(ha) - ldr_luminance(fa), ldr_luminance(hb) - ldr_luminance(fb)),
+        "bias_share_diffuse": bias_share(diffuse_a.mean(axis=-1), diffuse_b.mean(axis=-1)),
         "flip_glossy_only": flip_mean(f_all, h_all - diffuse),
         "flip_diffuse_only": flip_mean(f_all, f_all + diffuse),
         "diffuse_indirect_mean": [float(hp["Diffuse Indirect"].mean()), float(fp["Diffuse Indirect"].mean())],
@@ -134,7 +157,13 @@ def run(detail: float, size: tuple[int, int], cube: int, half: int, variants: li
             modes = {mode: render_samples(r, scene, camera,
                                           RenderSettings(**{**base_settings(cube), **changes, "mode": mode}), 2 * half)
                      for mode, r in renderers.items()}
+            denoised = {mode: denoised_pictures(r, scene, camera,
+                                                RenderSettings(**{**base_settings(cube), **changes, "mode": mode}),
+                                                2 * half)
+                        for mode, r in renderers.items()}
             report["variants"][name] = {**compare(modes["HYBRID"], modes["FULL_BVH"]),
+                                        "denoised_1": round(flip_mean(denoised["FULL_BVH"][0], denoised["HYBRID"][0]), 5),
+                                        "denoised_all": round(flip_mean(denoised["FULL_BVH"][1], denoised["HYBRID"][1]), 5),
                                         "seconds": round(time.perf_counter() - start, 1)}
             print(name, json.dumps(report["variants"][name]), file=sys.stderr, flush=True)
     finally:

@@ -21,4 +21,4 @@ def test_without_reflections_the_whole_difference_is_the_primary_diffuse_light(g
     assert report["flip_glossy_only"] < 1e-3
     assert report["flip_diffuse_only"] > 0.0
     assert abs(report["flip_diffuse_only"] - report["same_all"]) < 1e-3
-    assert report["samples"] == 4 and 0.0 <= report["noise_h"] <= 1.0
+    assert report["samples"] == 4 and 0.0 <= report["noise_h"] <= 1.0 and 0.0 <= report["denoised_1"] <= 1.0

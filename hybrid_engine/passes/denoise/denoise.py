@@ -77,6 +77,10 @@ class DenoisePass:
         self.variance = shader_loader.compute(ctx, "denoise/variance.comp.glsl")
         self.atrous = shader_loader.compute(ctx, "denoise/atrous.comp.glsl")
         self.history = DenoiseHistory(ctx)
+        # The wavelet filter's levels (ITERATIONS); 0 keeps the temporal step alone, whose
+        # mean over a still view's samples is unbiased: what a converged reference is made of
+        # (benchmarks/light_noise.py), with the fed-back light the denoiser's history carries.
+        self.levels = ITERATIONS
         # What the ambient estimate meant last frame: a history of another kind of estimate
         # (screen-space occlusion's visibility, rays' irradiance) is not blended with.
         self._estimate: tuple | None = None
@@ -123,7 +127,7 @@ class DenoisePass:
                        "u_alpha_color": ALPHA_COLOR})
         self._run(self.variance, groups)
         source, source_variance = history.current("color"), variance[0]
-        for level in range(ITERATIONS):
+        for level in range(self.levels):
             target = work[level % 2]
             target_variance = variance[(level + 1) % 2]
             bind(self.atrous, textures={**surface, "u_color_in": source, "u_variance_in": source_variance},

@@ -287,3 +287,30 @@ def test_mirrors_and_glass_render_alike_whatever_the_diffuse_light(renderer):
     assert (np.abs(images[0] - sky).max(axis=-1) > 0.05).mean() > 0.1  # the spheres fill part of the view
     assert np.abs(images[0] - images[1]).max() == 0.0
     assert np.abs(images[0] - images[2]).max() < 1e-6
+
+
+# -- the numbers the paths draw ---------------------------------------------------------------
+def temporal_blend(renderer, scene, camera, settings, samples) -> np.ndarray:
+    """The denoiser's temporal blend of the irradiance after one frame per entry of
+    ``samples`` (the view's sample number of each redraw), from a fresh history."""
+    renderer.render(scene, camera, settings, sample=0)  # a frame without the denoiser: it starts over
+    for sample in samples:
+        renderer.render(scene, camera, settings, sample=sample, reuse_world=True, denoise=True)
+    return renderer.denoiser.history.read("color")[..., :3]
+
+
+def test_redraws_that_restart_the_views_samples_still_blend_fresh_paths(renderer):
+    # The viewport restarts its samples at 0 on every redraw where something moved (the
+    # camera, or an object elsewhere while this view stays still). The denoiser's history
+    # still gathers those frames: each must draw new paths, or the blend averages one
+    # frame's noise with itself. Twelve redraws at sample 0 are as clean as twelve at
+    # samples 0..11 (against a long blend), and much cleaner than one frame.
+    scene = closed_room(SHADOWED_LAMP, partition=True)
+    camera = Camera(matrix_world=look_at(SHADOWED_CAMERA["eye"], SHADOWED_CAMERA["target"]), width=W, height=H)
+    settings = room_settings("FULL_BVH", diffuse_bounces=1)
+    truth = temporal_blend(renderer, scene, camera, settings, range(100, 164))
+    error = lambda blend: float(np.sqrt(np.mean((blend - truth) ** 2)))  # noqa: E731
+    counted = error(temporal_blend(renderer, scene, camera, settings, range(12)))
+    restarted = error(temporal_blend(renderer, scene, camera, settings, [0] * 12))
+    single = error(temporal_blend(renderer, scene, camera, settings, [0]))
+    assert restarted < 1.25 * counted and restarted < 0.6 * single, (restarted, counted, single)

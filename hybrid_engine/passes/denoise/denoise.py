@@ -143,14 +143,18 @@ class DenoisePass:
     def feedback(self) -> Bindings | None:
         """Last frame's diffuse light where the camera saw it (the temporal blend of the
         irradiance and the surface points it belongs to, and that frame's view-projection),
-        for the diffuse gather's path ends (``DIFFUSE_FEEDBACK``); None without a history."""
+        for the diffuse gather's path ends (``DIFFUSE_FEEDBACK``), and how many frames the
+        history holds (``u_feedback_frames``: the index whose numbers the gather draws, so
+        that frames of a moving view, each its sample 0, still blend fresh paths); None
+        without a history."""
         history = self.history
         if not history.valid:
             return None
         return Bindings(textures={"u_feedback_color": history.previous("color"),
                                   "u_feedback_surface": history.previous("surface")},
                         uniforms={"u_feedback_view_proj": history.previous_uniforms()["u_prev_view_proj"],
-                                  "u_feedback_size": tuple(int(v) for v in history.size)})
+                                  "u_feedback_size": tuple(int(v) for v in history.size),
+                                  "u_feedback_frames": int(history.frames)})
 
     def forget(self) -> None:
         """Start every pixel over at the next frame (a frame this pass did not see, a final

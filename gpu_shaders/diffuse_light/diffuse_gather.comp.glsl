@@ -95,6 +95,21 @@ vec2 gather_random(int salt) {
     return random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), gather_index(), uint(salt)));
 }
 
+// The first direction of path `path`: point gather_index() * paths + path of the R2 sequence
+// (Roberts 2018: the plastic number's Kronecker lattice, in 32-bit fixed point so that the
+// index never loses precision), shifted per surface point by a number of its key alone
+// (Cranley-Patterson rotation). Consecutive frames of one point thus cover the hemisphere
+// evenly where independent numbers clump and leave holes, so the mean of a still view's
+// samples, and the temporal blend, converge faster than one over the square root of the
+// count; the later bounces, whose light is a smaller share, keep independent numbers. The
+// shift draws from the scale-invariant position key (random.glsl), as every other number.
+vec2 first_random(int path, int paths) {
+    uint k = gather_index() * uint(paths) + uint(path);
+    vec2 shift = random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), 0x9e3779b9u, uint(PATH_SALT)));
+    uvec2 lattice = uvec2(k * 3242174889u, k * 2447445414u);  // k (1/g, 1/g^2) 2^32, g^3 = g + 1
+    return fract(vec2(lattice >> 8u) * (1.0 / 16777216.0) + shift);
+}
+
 // trace_ray.glsl's spawning is the tracer's: nothing is spawned here.
 bool ray_room() { return false; }
 void store_ray(vec3 origin, vec3 dir, vec3 weight, int depth, float blur, float reach) {}
@@ -112,7 +127,7 @@ vec3 diffuse_path(vec3 p, vec3 n, vec3 g, int path, out float sky) {
     vec3 radiance = vec3(0.0);
     vec3 throughput = vec3(1.0);
     int salt = PATH_SALT + 32 * path;
-    vec3 d = cosine_direction(n, g, gather_random(salt));
+    vec3 d = cosine_direction(n, g, first_random(path, max(u_diffuse_rays, 1)));
     vec3 o = offset_origin(p, g);
     int vertex = 1;
     int crossings = 0;

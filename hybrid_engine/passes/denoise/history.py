@@ -27,6 +27,7 @@ _PAIRS = {
     "surface": (4, "f4"),  # world point and packed normal (include/denoise.glsl)
     "work": (4, "f4"),  # the wavelet filter's ping-pong
     "variance": (2, "f4"),  # the guides' variances, ping-pong
+    "shown": (4, "f4"),  # the filtered estimate the film's mean showed (DenoisePass.film_share)
 }
 
 

@@ -280,3 +280,4 @@ def test_a_still_views_film_shows_the_latest_filtered_estimate_not_the_mean_of_t
         alone = renderer.render(scene, camera, RASTER, sample=k, denoise=True).image[..., :3]
     np.testing.assert_allclose(film, alone, atol=2e-4)
 
+

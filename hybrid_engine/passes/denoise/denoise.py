@@ -69,10 +69,13 @@ MIN_LENGTH = 4.0
 PLANE_TOLERANCE = 0.02
 NORMAL_COS = 0.9
 # The wavelet filter's edge stops: plane offset (share of the camera distance) and standard
-# deviations of the guides (SVGF's sigma_l); the normal's power is SVGF's 128
-# (include/denoise.glsl).
+# deviations of the guides; the normal's power is SVGF's 128 (include/denoise.glsl). SVGF's
+# sigma_l is 4, for noise that is roughly symmetric; the paths' light is skewed (a few
+# bright paths among many dim ones) and a stop that narrow keeps the bright ones out of
+# their neighbours' means: the image loses energy. A wide stop leaves the edges to the
+# geometry's stops (plane, normal) and to the albedo, which the filter never sees.
 PLANE_SIGMA = 0.01
-SIGMA_GUIDE = 4.0
+SIGMA_GUIDE = 16.0
 # The film's samples of a still view during which the temporal blend is their plain mean
 # (1 / n >= ALPHA_COLOR): the pass writes its share of the film's mean (module docstring).
 FILM_SHARE_SAMPLES = round(1.0 / ALPHA_COLOR)

@@ -14,7 +14,10 @@ against the converged image of its own view:
 * **moving**: the camera slides steadily sideways; the viewport starts its mean over at every
   move, so each frame shows one sample, with the denoiser's history reprojected from the last
   frame: FLIP of every frame against its own view's converged image (the bar: the frames
-  after the first five).
+  after the first five);
+* **stopped**: the camera then stays at the last view, whose samples accumulate on the
+  history the motion left: FLIP after 1, 2, 4, 8 and 16 samples (the still view as an artist
+  meets it, where **still** starts from nothing).
 
 **The converged image** of a view is the renderer's own, through the viewport's path: the
 same passes, the denoiser on, so that the paths that end on a surface the last frame saw take
@@ -193,10 +196,18 @@ def measure(width: int, height: int, reference: int, frames: int, settle: int = 
             image = viewport.render(scene, camera, settings, sample=0, accumulate=True, denoise=True).image
             if f >= 5:
                 moving.append(round(flip_mean(moving_truth[f - 5], image[..., :3]), 4))
+        stopped = {}
+        if moving:  # the camera stops at the last view: its samples accumulate on a warm history
+            for i in range(max(STILL_SAMPLES)):
+                image = viewport.render(scene, camera, settings, sample=i, reuse_world=i > 0, accumulate=True,
+                                        denoise=True).image
+                if i + 1 in STILL_SAMPLES:
+                    stopped[i + 1] = round(flip_mean(moving_truth[-1], image[..., :3]), 4)
     finally:
         viewport.release()
     report["moving_denoised_after_five"] = moving
     report["moving_after_five_max"] = max(moving) if moving else None
+    report["stopped_denoised"] = stopped
     return report
 
 

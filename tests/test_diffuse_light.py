@@ -107,8 +107,8 @@ def test_bounces_build_up_over_frames_through_last_frames_light(renderer):
     # denoiser's history): every frame adds the bounces its paths trace to those the last
     # one held, so the shadowed half brightens over frames and settles; an undenoised frame
     # (no history) stays at the first frame's light. The first denoised frame holds that
-    # light (the filter keeps the energy, below): what the camera sees of the room adds
-    # about a tenth to it over frames.
+    # light (the filter keeps the energy, below), so the gain is only what the surfaces the
+    # camera sees (the shadowed half, dim) give back.
     scene = closed_room(SHADOWED_LAMP, partition=True)
     camera = Camera(matrix_world=look_at(SHADOWED_CAMERA["eye"], SHADOWED_CAMERA["target"]), width=W, height=H)
     settings = room_settings("FULL_BVH", diffuse_bounces=1)

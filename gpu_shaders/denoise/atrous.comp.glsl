@@ -14,7 +14,7 @@
 //     it averages. The stop is shared by the two pixels: with this pixel's variance alone a
 //     bright outlier (a path that found a lamp-lit wall), noisy around itself, would spread
 //     its light into its own mean while its cleaner neighbours kept it out of theirs, and
-//     the skewed light of the paths would lose energy (a tenth of a bounce-lit room's).
+//     the skewed light of the paths would lose energy.
 // The estimate is irradiance, before the albedo multiplies it (deferred_shade.comp.glsl), so
 // a texture's edges are not in what is blurred and come back sharp in the shading; mirrors
 // and glass are not in it at all (the tracer adds them to the colour).

@@ -103,6 +103,8 @@ class Reference:
         ``self.settle`` the first time, a quarter after: the history carries over), their
         sample numbers from ``first`` on (another reference of one view draws other numbers)."""
         settle = (self.settle if not self.settled else max(self.settle // 4, 1)) if settle is None else settle
+        if self.renderer.denoiser is None:
+            settle = max(settle, 1)  # the frame that makes the denoiser is filtered: not counted
         total = np.zeros((camera.height, camera.width, 3), np.float64)
         for i in range(settle + samples):
             result = self.renderer.render(self.scene, camera, self.settings, sample=first + i, reuse_world=i > 0,

@@ -1,18 +1,37 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """How quickly the traced diffuse light becomes clean, still and moving, in the viewport's way.
 
-``python -m benchmarks.light_noise [--size 160x120] [--reference 64] [--frames 10] [--json PATH]``
+``python -m benchmarks.light_noise [--size 96x72] [--reference 256] [--frames 10] [--settle 48]
+[--check] [--cache PATH] [--json PATH]``
 
 The scene is an interior lit only by bounced light: a closed room whose lamp stands behind a
 partition, so that half of what the camera sees is lit by the walls alone (the room of
 tests/test_diffuse_light.py, built here from the core's types). Two measurements, each
-against the converged image of its own view (``--reference`` samples, averaged, undenoised):
+against the converged image of its own view:
 
 * **still**: the viewport's accumulation (``render(accumulate=True)``, one sample per redraw,
   denoised as the viewport denoises) after 1, 2, 4, 8 and 16 samples: FLIP of the mean so far;
 * **moving**: the camera slides steadily sideways; the viewport starts its mean over at every
   move, so each frame shows one sample, with the denoiser's history reprojected from the last
-  frame: FLIP of every frame against its own view's converged image.
+  frame: FLIP of every frame against its own view's converged image (the bar: the frames
+  after the first five);
+* **stopped**: the camera then stays at the last view, whose samples accumulate on the
+  history the motion left: FLIP after 1, 2, 4, 8 and 16 samples (the still view as an artist
+  meets it, where **still** starts from nothing).
+
+**The converged image** of a view is the renderer's own, through the viewport's path: the
+same passes, the denoiser on, so that the paths that end on a surface the last frame saw take
+its light (the fed-back bounces, ``DIFFUSE_FEEDBACK``), which a renderer without the denoiser
+lacks and is darker by. The denoiser's wavelet filter is off for it (``DenoisePass.levels``
+0): what is averaged is the temporal step's blend, an unbiased estimate once the feedback has
+settled, where the spatial filter would blur the light's true gradients into the reference.
+The view is first rendered ``--settle`` frames (not counted: the fed-back light grows over
+frames and the temporal blend lags it), then ``--reference`` frames are averaged in float64
+on the host. ``--check`` renders the still view's reference at twice as many frames and
+reports the FLIP between the two and how much each still figure moves with it: the
+reference is converged when that is below 0.005. ``--cache`` keeps the references in an npz
+file (keyed by size and sample counts), so that two versions of the renderer are measured
+against the very same images.
 
 FLIP is the LDR one of docs/PICTURES.md (benchmarks/bench.py ``flip_mean``). Seeds are fixed: a
 sample's numbers depend on its index and the pixel's surface point only.
@@ -64,52 +83,148 @@ def camera_at(offset: float, width: int, height: int) -> Camera:
     return Camera(matrix_world=look_at(eye, eye + np.array([1.0, 3.0, -0.6])), width=width, height=height)
 
 
-def converged(renderer, scene, camera, settings, samples: int) -> np.ndarray:
-    total = None
-    for i in range(samples):
-        image = renderer.render(scene, camera, settings, sample=i).image[..., :3].astype(np.float64)
-        total = image if total is None else total + image
-    return (total / samples).astype(np.float32)
+def _viewport_settings() -> RenderSettings:
+    return RenderSettings(mode="HYBRID", near_size=2.0, shadow_resolution=512)
 
 
-def measure(width: int, height: int, reference: int, frames: int) -> dict:
+class Reference:
+    """Converged images of views of the room (module docstring), made by one renderer whose
+    denoiser keeps only its temporal step; consecutive views carry its history on."""
+
+    def __init__(self, scene: SceneData, settings: RenderSettings, settle: int) -> None:
+        from hybrid_engine.frame.renderer import Renderer
+
+        self.scene, self.settings, self.settle = scene, settings, settle
+        self.renderer = Renderer()
+        self.settled = False
+
+    def image(self, camera: Camera, samples: int, settle: int | None = None, first: int = 0) -> np.ndarray:
+        """The mean of ``samples`` frames of ``camera``'s view after ``settle`` frames (all of
+        ``self.settle`` the first time, a quarter after: the history carries over), their
+        sample numbers from ``first`` on (another reference of one view draws other numbers)."""
+        settle = (self.settle if not self.settled else max(self.settle // 4, 1)) if settle is None else settle
+        if self.renderer.denoiser is None:
+            settle = max(settle, 1)  # the frame that makes the denoiser is filtered: not counted
+        total = np.zeros((camera.height, camera.width, 3), np.float64)
+        for i in range(settle + samples):
+            result = self.renderer.render(self.scene, camera, self.settings, sample=first + i, reuse_world=i > 0,
+                                          denoise=True)
+            self.renderer.denoiser.levels = 0  # the filter of the frames that count: none
+            if i >= settle:
+                total += result.image[..., :3]
+        self.settled = True
+        return (total / samples).astype(np.float32)
+
+    def release(self) -> None:
+        self.renderer.release()
+
+
+class ReferenceCache:
+    """References kept in an npz file (``--cache``): two runs measure against one set."""
+
+    def __init__(self, path: str | None) -> None:
+        self.path = path
+        self.images: dict[str, np.ndarray] = {}
+        if path:
+            try:
+                with np.load(path) as data:
+                    self.images = {key: data[key] for key in data.files}
+            except FileNotFoundError:
+                pass
+
+    def get(self, key: str, make) -> np.ndarray:
+        if key not in self.images:
+            self.images[key] = make()
+            if self.path:
+                np.savez_compressed(self.path, **self.images)
+        return self.images[key]
+
+
+def still_figures(width: int, height: int, truth: np.ndarray, scene: SceneData,
+                  settings: RenderSettings) -> tuple[dict, dict, "object"]:
+    """FLIP of the still view's viewport mean (denoised, and not) at STILL_SAMPLES; returns
+    the denoised viewport's renderer, its history warm, for the moving run."""
     from hybrid_engine.frame.renderer import Renderer
 
-    scene = room()
-    settings = RenderSettings(mode="HYBRID", near_size=2.0, shadow_resolution=512)
-    plain, viewport = Renderer(), Renderer()
+    camera = camera_at(0.0, width, height)
+    viewport, plain = Renderer(), Renderer()
+    still, undenoised = {}, {}
     try:
-        still_camera = camera_at(0.0, width, height)
-        truth = converged(plain, scene, still_camera, settings, reference)
-        still, undenoised = {}, {}
         for i in range(max(STILL_SAMPLES)):
-            image = viewport.render(scene, still_camera, settings, sample=i, accumulate=True, denoise=True).image
-            raw = plain.render(scene, still_camera, settings, sample=i, accumulate=True).image
+            image = viewport.render(scene, camera, settings, sample=i, reuse_world=i > 0, accumulate=True,
+                                    denoise=True).image
+            raw = plain.render(scene, camera, settings, sample=i, reuse_world=i > 0, accumulate=True).image
             if i + 1 in STILL_SAMPLES:
                 still[i + 1] = round(flip_mean(truth, image[..., :3]), 4)
                 undenoised[i + 1] = round(flip_mean(truth, raw[..., :3]), 4)
+    finally:
+        plain.release()
+    return still, undenoised, viewport
+
+
+def measure(width: int, height: int, reference: int, frames: int, settle: int = 48, check: bool = False,
+            cache: str | None = None) -> dict:
+    scene = room()
+    settings = _viewport_settings()
+    references = ReferenceCache(cache)
+    maker = Reference(scene, settings, settle)
+    size = f"{width}x{height}"
+    try:
+        still_camera = camera_at(0.0, width, height)
+        truth = references.get(f"still_{size}_{reference}_{settle}",
+                               lambda: maker.image(still_camera, reference, settle))
+        doubled = None
+        if check:
+            doubled = references.get(f"still_{size}_{2 * reference}_{settle}",
+                                     lambda: maker.image(still_camera, 2 * reference, settle, first=settle + reference))
+        moving_truth = [references.get(f"moving{f}_{size}_{reference}_{settle}",
+                                       lambda f=f: maker.image(camera_at(f * SLIDE_PER_FRAME, width, height),
+                                                               reference))
+                        for f in range(min(5, frames), frames)]
+    finally:
+        maker.release()
+    still, undenoised, viewport = still_figures(width, height, truth, scene, settings)
+    report = {"size": size, "reference_samples": reference, "settle_frames": settle,
+              "still_denoised": still, "still_undenoised": undenoised}
+    try:
+        if doubled is not None:
+            report["reference_check"] = {"flip_reference_to_doubled": round(flip_mean(doubled, truth), 4)}
+            again, _, other = still_figures(width, height, doubled, scene, settings)
+            other.release()
+            report["reference_check"]["still_denoised_against_doubled"] = again
         moving = []
         for f in range(frames):
             camera = camera_at(f * SLIDE_PER_FRAME, width, height)
             image = viewport.render(scene, camera, settings, sample=0, accumulate=True, denoise=True).image
-            moving.append(round(flip_mean(converged(plain, scene, camera, settings, reference), image[..., :3]), 4))
+            if f >= 5:
+                moving.append(round(flip_mean(moving_truth[f - 5], image[..., :3]), 4))
+        stopped = {}
+        if moving:  # the camera stops at the last view: its samples accumulate on a warm history
+            for i in range(max(STILL_SAMPLES)):
+                image = viewport.render(scene, camera, settings, sample=i, reuse_world=i > 0, accumulate=True,
+                                        denoise=True).image
+                if i + 1 in STILL_SAMPLES:
+                    stopped[i + 1] = round(flip_mean(moving_truth[-1], image[..., :3]), 4)
     finally:
-        plain.release()
         viewport.release()
-    return {"size": f"{width}x{height}", "reference_samples": reference, "still_denoised": still,
-            "still_undenoised": undenoised, "moving_denoised": moving,
-            "moving_after_five_max": max(moving[5:]) if len(moving) > 5 else None}
+    report["moving_denoised_after_five"] = moving
+    report["moving_after_five_max"] = max(moving) if moving else None
+    report["stopped_denoised"] = stopped
+    return report
 
 
 def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--size", default="160x120")
-    parser.add_argument("--reference", type=int, default=64)
+    parser.add_argument("--size", default="96x72")
+    parser.add_argument("--reference", type=int, default=256)
     parser.add_argument("--frames", type=int, default=10)
+    parser.add_argument("--settle", type=int, default=48)
+    parser.add_argument("--check", action="store_true")
+    parser.add_argument("--cache")
     parser.add_argument("--json")
     args = parser.parse_args(argv)
     width, height = (int(v) for v in args.size.split("x"))
-    report = measure(width, height, args.reference, args.frames)
+    report = measure(width, height, args.reference, args.frames, args.settle, args.check, args.cache)
     print(json.dumps(report, indent=2))
     bench.write_json(report, args.json)
     return report

@@ -257,3 +257,27 @@ def test_a_denoised_final_render_does_not_depend_on_what_the_renderer_drew_befor
                     denoise=True)
     again = render_antialiased(renderer, scene, CORNER_CAMERA, RAYS, 3, denoise=True).image
     np.testing.assert_array_equal(first, again)
+
+
+# -- the film's mean of a still view -----------------------------------------------------------
+def still_floor() -> tuple[SceneData, Camera]:
+    floor = SceneData(Geometry.from_objects([(quad((0, 0, 0), (20, 0, 0), (0, 20, 0)), None, 0)]), grey(),
+                      Lights.empty(), Sky(color=(1.0, 1.0, 1.0)))
+    return floor, Camera(matrix_world=look_at((0.0, -5.0, 4.0), (0.0, 0.0, 0.0)), width=64, height=48)
+
+
+def test_a_still_views_film_shows_the_latest_filtered_estimate_not_the_mean_of_them(renderer, probe):
+    """The temporal blend of a still view's first frames is already the mean of all of them:
+    the film's mean of the viewport's samples is the last denoised frame itself, not the mean
+    of the filtered means (which counts the first, noisiest frames most)."""
+    scene, camera = still_floor()
+    probe(pattern=0, noise=0.6)
+    renderer.render(scene, camera, RASTER)  # undenoised: the history starts over
+    for k in range(8):
+        film = renderer.render(scene, camera, RASTER, sample=k, accumulate=True, denoise=True).image[..., :3]
+    renderer.render(scene, camera, RASTER)
+    for k in range(8):
+        alone = renderer.render(scene, camera, RASTER, sample=k, denoise=True).image[..., :3]
+    np.testing.assert_allclose(film, alone, atol=2e-4)
+
+

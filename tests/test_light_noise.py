@@ -13,11 +13,39 @@ def test_the_room_is_closed_and_lit_by_one_lamp_behind_a_partition():
     assert len(scene.lights) == 1 and scene.geometry.triangle_count == 14
 
 
-def test_a_small_run_reports_still_and_moving_flip_and_denoising_lowers_the_first_samples_error(gl, tmp_path):
-    out = tmp_path / "noise.json"
-    report = light_noise.main(["--size", "32x24", "--reference", "4", "--frames", "6", "--json", str(out)])
+def test_a_small_run_reports_still_moving_and_stopped_flip_and_denoising_lowers_the_first_samples_error(
+        gl, tmp_path):
+    out, cache = tmp_path / "noise.json", tmp_path / "references.npz"
+    args = ["--size", "32x24", "--reference", "4", "--settle", "2", "--frames", "7", "--check",
+            "--cache", str(cache), "--json", str(out)]
+    report = light_noise.main(args)
     assert json.loads(out.read_text()) == json.loads(json.dumps(report))
-    assert set(report["still_denoised"]) == set(light_noise.STILL_SAMPLES)
-    assert len(report["moving_denoised"]) == 6
-    assert report["moving_after_five_max"] == max(report["moving_denoised"][5:])
+    assert set(report["still_denoised"]) == set(light_noise.STILL_SAMPLES) == set(report["stopped_denoised"])
+    assert len(report["moving_denoised_after_five"]) == 2
+    assert report["moving_after_five_max"] == max(report["moving_denoised_after_five"])
     assert report["still_denoised"][1] < report["still_undenoised"][1]
+    assert set(report["reference_check"]) == {"flip_reference_to_doubled", "still_denoised_against_doubled"}
+    # The references are kept: a second run measures against the very same images.
+    assert light_noise.main(args) == report
+
+
+def test_the_reference_is_the_fed_back_light_settled_and_unfiltered(gl):
+    # A renderer without the denoiser has no fed-back bounces and is darker; the reference
+    # (temporal step only, settled) holds them.
+    scene = light_noise.room()
+    settings = light_noise._viewport_settings()
+    camera = light_noise.camera_at(0.0, 32, 24)
+    maker = light_noise.Reference(scene, settings, settle=12)
+    try:
+        reference = maker.image(camera, 4)
+        assert maker.renderer.denoiser.levels == 0
+    finally:
+        maker.release()
+    from hybrid_engine.frame.renderer import Renderer
+
+    plain = Renderer()
+    try:
+        undenoised = sum(plain.render(scene, camera, settings, sample=i).image[..., :3] for i in range(4)) / 4
+    finally:
+        plain.release()
+    assert reference.mean() > 1.03 * undenoised.mean(), (reference.mean(), undenoised.mean())

@@ -8,9 +8,13 @@
 //   - plane: a tap off this pixel's tangent plane (another object, or one behind a
 //     silhouette) by more than u_plane_sigma of the distance to the camera weighs little;
 //   - normal: max(0, n.n_q)^128 (creases, curved surfaces);
-//   - guides: |guide - guide_q| against u_sigma_guide standard deviations of this pixel's
-//     variance (3x3-blurred), for each guide: where the estimate is clean the filter
-//     keeps its detail (a shadow's edge), where it is noisy it averages.
+//   - guides: |guide - guide_q| against u_sigma_guide standard deviations of the two pixels'
+//     variance (the mean of this pixel's, 3x3-blurred, and the tap's), for each guide: where
+//     the estimate is clean the filter keeps its detail (a shadow's edge), where it is noisy
+//     it averages. The stop is shared by the two pixels: with this pixel's variance alone a
+//     bright outlier (a path that found a lamp-lit wall), noisy around itself, would spread
+//     its light into its own mean while its cleaner neighbours kept it out of theirs, and
+//     the skewed light of the paths would lose energy.
 // The estimate is irradiance, before the albedo multiplies it (deferred_shade.comp.glsl), so
 // a texture's edges are not in what is blurred and come back sharp in the shading; mirrors
 // and glass are not in it at all (the tracer adds them to the colour).
@@ -70,7 +74,7 @@ void main() {
     vec3 n = denoise_surface_normal(surface);
     float scale = u_orthographic != 0 ? 1.0 : distance(p, u_camera_position);
     vec2 guide = denoise_guides(center);
-    vec2 guide_scale = u_sigma_guide * sqrt(blurred_variance(pixel)) + 1e-4;
+    vec2 variance_p = blurred_variance(pixel);
 
     vec4 sum = center * (B3[0] * B3[0]);
     vec2 sum_variance = center_variance * (B3[0] * B3[0]) * (B3[0] * B3[0]);
@@ -83,14 +87,15 @@ void main() {
             ivec2 q = clamp(want, ivec2(0), u_size - 1);
             vec4 surface_q = texelFetch(u_surface, q, 0);
             vec4 color_q = texelFetch(u_color_in, q, 0);
-            vec2 guide_stop = abs(guide - denoise_guides(color_q)) / guide_scale;
+            vec2 variance_q = texelFetch(u_variance_in, q, 0).rg;
+            vec2 guide_stop = abs(guide - denoise_guides(color_q)) / (u_sigma_guide * sqrt(0.5 * (variance_p + variance_q)) + 1e-4);
             float keep = (want == q && !denoise_is_background(surface_q) && (dx != 0 || dy != 0)) ? 1.0 : 0.0;
             float w = keep * B3[abs(dx)] * B3[abs(dy)]
                       * denoise_normal_weight(dot(n, denoise_surface_normal(surface_q)))
                       * exp(-denoise_plane_offset(p, n, surface_q.xyz, scale) / u_plane_sigma
                             - guide_stop.x - guide_stop.y);
             sum += w * color_q;
-            sum_variance += w * w * texelFetch(u_variance_in, q, 0).rg;
+            sum_variance += w * w * variance_q;
             weight += w;
         }
     }

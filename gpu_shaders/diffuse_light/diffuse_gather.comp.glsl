@@ -41,6 +41,8 @@ uniform sampler2D u_feedback_color;
 uniform sampler2D u_feedback_surface;
 uniform mat4 u_feedback_view_proj;
 uniform ivec2 u_feedback_size;
+// Frames the denoiser's history holds: this frame's index in it (gather_index).
+uniform int u_feedback_frames;
 
 // The diffuse light (lamps and last frame's irradiance) leaving the surface a path ends on,
 // if last frame's camera saw that very point; else nothing (as without feedback). Each frame
@@ -70,8 +72,43 @@ uniform int u_diffuse_rays;     // paths per pixel
 
 #define MAX_DIFFUSE_BOUNCES 8    // settings.FIELD_LIMITS["diffuse_bounces"]
 #define MAX_GLASS_CROSSINGS 4    // glass surfaces one path passes straight through
-#define PATH_SALT 0x5ca1         // random numbers of path i, vertex k: lobe_random(PATH_SALT + 32 i + k)
+#define PATH_SALT 0x5ca1         // random numbers of path i, vertex k: gather_random(PATH_SALT + 32 i + k)
 #define EMITTER_SALT 0x6ca1
+
+// Whose numbers this frame's paths draw. Without a history, the view's sample (a final
+// render's samples, a still view's redraws). With the denoiser's history, the frame's index
+// in it, which equals the sample in a final render and a still view, but goes on counting
+// where the viewport restarts its sample at 0 on every redraw that something moved: a
+// moving camera, or a still camera with a moving object. There, the view's sample would
+// give a surface point the same paths every frame, and the temporal blend would average one
+// frame's noise with itself instead of converging.
+uint gather_index() {
+#ifdef DIFFUSE_FEEDBACK
+    return uint(u_feedback_frames);
+#else
+    return uint(u_sample);
+#endif
+}
+
+// Two uniform numbers for `salt` of this pixel's paths (lobe_random's, at gather_index()).
+vec2 gather_random(int salt) {
+    return random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), gather_index(), uint(salt)));
+}
+
+// The first direction of path `path`: point gather_index() * paths + path of the R2 sequence
+// (Roberts 2018: the plastic number's Kronecker lattice, in 32-bit fixed point so that the
+// index never loses precision), shifted per surface point by a number of its key alone
+// (Cranley-Patterson rotation). Consecutive frames of one point thus cover the hemisphere
+// evenly where independent numbers clump and leave holes, so the mean of a still view's
+// samples, and the temporal blend, converge faster than one over the square root of the
+// count; the later bounces, whose light is a smaller share, keep independent numbers. The
+// shift draws from the scale-invariant position key (random.glsl), as every other number.
+vec2 first_random(int path, int paths) {
+    uint k = gather_index() * uint(paths) + uint(path);
+    vec2 shift = random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), 0x9e3779b9u, uint(PATH_SALT)));
+    uvec2 lattice = uvec2(k * 3242174889u, k * 2447445414u);  // k (1/g, 1/g^2) 2^32, g^3 = g + 1
+    return fract(vec2(lattice >> 8u) * (1.0 / 16777216.0) + shift);
+}
 
 // trace_ray.glsl's spawning is the tracer's: nothing is spawned here.
 bool ray_room() { return false; }
@@ -79,7 +116,7 @@ void store_ray(vec3 origin, vec3 dir, vec3 weight, int depth, float blur, float 
 
 #ifdef EMITTER_LIGHT
 vec3 random3(int salt) {
-    return vec3(lobe_random(salt), lobe_random(salt + 0x10000).x);
+    return vec3(gather_random(salt), gather_random(salt + 0x10000).x);
 }
 #endif
 
@@ -90,7 +127,7 @@ vec3 diffuse_path(vec3 p, vec3 n, vec3 g, int path, out float sky) {
     vec3 radiance = vec3(0.0);
     vec3 throughput = vec3(1.0);
     int salt = PATH_SALT + 32 * path;
-    vec3 d = cosine_direction(n, g, lobe_random(salt));
+    vec3 d = cosine_direction(n, g, first_random(path, max(u_diffuse_rays, 1)));
     vec3 o = offset_origin(p, g);
     int vertex = 1;
     int crossings = 0;
@@ -148,7 +185,7 @@ vec3 diffuse_path(vec3 p, vec3 n, vec3 g, int path, out float sky) {
                                                          random3(EMITTER_SALT + 32 * path + vertex),
                                                          material_light_set(materials[h.material]));
 #endif
-        d = cosine_direction(hs.n_facing, hs.g_facing, lobe_random(salt + vertex));
+        d = cosine_direction(hs.n_facing, hs.g_facing, gather_random(salt + vertex));
         o = offset_origin(h.position, hs.g_facing);
         vertex += 1;
     }

@@ -359,7 +359,8 @@ class Renderer:
         timer = PassTimer(self.ctx, enabled=timing)
         start = time.perf_counter()
         frame = FrameContext(self.ctx, scene_data=scene, camera=camera, settings=settings,
-                             view=RasterView.from_camera(camera), outputs=outputs, sample=sample, denoise=denoise)
+                             view=RasterView.from_camera(camera), outputs=outputs, sample=sample, denoise=denoise,
+                             accumulate=accumulate)
         world_key = (id(scene), settings, frame.center)
         may_keep = reuse_world and traced and self._same_world(world_key)
         self._world_key = None  # set again once this frame's world is complete

@@ -82,10 +82,12 @@ class FrameContext:
     """One frame: its inputs, its counts and the resources its passes write (module
     docstring). ``keep_world``: this frame sees the last frame's geometry from the same eye,
     so the cube map, the near-cube cull and the BVH of the last frame stand. ``denoise``: the
-    frame's ambient estimate is filtered (passes/denoise/) before the shading reads it."""
+    frame's ambient estimate is filtered (passes/denoise/) before the shading reads it.
+    ``accumulate``: the frame's colour joins the film's mean of the view's samples (the
+    denoiser then writes its share of that mean)."""
 
     def __init__(self, ctx, *, scene_data, camera, settings, view, outputs, sample: int = 0,
-                 keep_world: bool = False, denoise: bool = False) -> None:
+                 keep_world: bool = False, denoise: bool = False, accumulate: bool = False) -> None:
         self.ctx = ctx
         self.camera = camera
         # The lens centre: the centre of the near cube and of the cube map (paper §3.2).
@@ -96,6 +98,7 @@ class FrameContext:
         self.sample = int(sample)
         self.keep_world = bool(keep_world)
         self.denoise = bool(denoise)
+        self.accumulate = bool(accumulate)
         self.counts: dict[str, int] = {}
         self.statistics = FrameStatistics()
         self._resources: dict[str, object] = {"scene_data": scene_data, "camera": camera, "settings": settings,

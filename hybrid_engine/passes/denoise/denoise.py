@@ -25,7 +25,16 @@ What the next frame reprojects is the temporal blend, not a filtered level as in
 history, filtered again every frame, keeps blurring a still view); instead the variance that
 guides the filter is the variance of that blend's mean, which shrinks as the history grows,
 so a view that stays still converges to the unfiltered mean while a moving one is filtered
-hard where its history is short. The pass writes the filtered estimate as the frame's
+hard where its history is short.
+
+A frame that joins the film's mean of a still view (``FrameContext.accumulate``: the
+viewport's redraws, a final render's samples) shows that mean, not the frame. While the
+temporal blend is the plain mean of a still view's frames (its first ``FILM_SHARE_SAMPLES``,
+1 / ALPHA_COLOR), the film's mean of the filtered means would weigh the first, noisiest and
+most filtered frames most; the pass writes instead its share of the film's mean
+(gpu_shaders/denoise/film_share.comp.glsl), so that the film shows the latest filtered
+estimate itself. After that the film averages the frames as they come: their blends no
+longer narrow (the exponential average's floor), and the film's mean goes on converging. The pass writes the filtered estimate as the frame's
 ``ambient`` (a texture of its own; the G-buffer's stays as it came),
 which the deferred shading then takes as it is, without its own 3x3 smoothing.
 """
@@ -60,10 +69,16 @@ MIN_LENGTH = 4.0
 PLANE_TOLERANCE = 0.02
 NORMAL_COS = 0.9
 # The wavelet filter's edge stops: plane offset (share of the camera distance) and standard
-# deviations of the guides (SVGF's sigma_l); the normal's power is SVGF's 128
-# (include/denoise.glsl).
+# deviations of the guides; the normal's power is SVGF's 128 (include/denoise.glsl). SVGF's
+# sigma_l is 4, for noise that is roughly symmetric; the paths' light is skewed (a few
+# bright paths among many dim ones) and a stop that narrow keeps the bright ones out of
+# their neighbours' means: the image loses energy. A wide stop leaves the edges to the
+# geometry's stops (plane, normal) and to the albedo, which the filter never sees.
 PLANE_SIGMA = 0.01
-SIGMA_GUIDE = 4.0
+SIGMA_GUIDE = 16.0
+# The film's samples of a still view during which the temporal blend is their plain mean
+# (1 / n >= ALPHA_COLOR): the pass writes its share of the film's mean (module docstring).
+FILM_SHARE_SAMPLES = round(1.0 / ALPHA_COLOR)
 
 
 class DenoisePass:
@@ -76,10 +91,17 @@ class DenoisePass:
         self.reproject = shader_loader.compute(ctx, "denoise/reproject.comp.glsl")
         self.variance = shader_loader.compute(ctx, "denoise/variance.comp.glsl")
         self.atrous = shader_loader.compute(ctx, "denoise/atrous.comp.glsl")
+        self.share = shader_loader.compute(ctx, "denoise/film_share.comp.glsl")
         self.history = DenoiseHistory(ctx)
+        # The wavelet filter's levels (ITERATIONS); 0 keeps the temporal step alone, whose
+        # mean over a still view's samples is unbiased: what a converged reference is made of
+        # (benchmarks/light_noise.py), with the fed-back light the denoiser's history carries.
+        self.levels = ITERATIONS
         # What the ambient estimate meant last frame: a history of another kind of estimate
         # (screen-space occlusion's visibility, rays' irradiance) is not blended with.
         self._estimate: tuple | None = None
+        # The film's sample whose share the last frame's estimate leads to (film_share), or None.
+        self._film_next: int | None = None
 
     def io(self, settings: RenderSettings) -> PassIO:
         return PassIO(reads=("gbuffer", "ambient", "lighting"), writes=("ambient",))
@@ -95,11 +117,14 @@ class DenoisePass:
             self.forget()
             self._estimate = estimate
         targets = frame.read("gbuffer")
-        frame.write("ambient", self.filter(frame.read("ambient"), targets.depth, targets.normal_material, frame.view))
+        frame.write("ambient", self.filter(frame.read("ambient"), targets.depth, targets.normal_material, frame.view,
+                                           frame.sample if frame.accumulate else None))
 
-    def filter(self, ambient, depth, normal_material, view: RasterView):
+    def filter(self, ambient, depth, normal_material, view: RasterView, film_sample: int | None = None):
         """The filtered ``ambient`` of the G-buffer (``depth``, ``normal_material``) of
-        ``view``: a texture of this pass, valid until its next frame."""
+        ``view``: a texture of this pass, valid until its next frame. ``film_sample``: the
+        frame is that sample of the film's mean of a still view (module docstring); None: it
+        is shown alone."""
         history = self.history
         history.ensure((view.width, view.height))
         work, variance = history.pair("work"), history.pair("variance")
@@ -123,7 +148,7 @@ class DenoisePass:
                        "u_alpha_color": ALPHA_COLOR})
         self._run(self.variance, groups)
         source, source_variance = history.current("color"), variance[0]
-        for level in range(ITERATIONS):
+        for level in range(self.levels):
             target = work[level % 2]
             target_variance = variance[(level + 1) % 2]
             bind(self.atrous, textures={**surface, "u_color_in": source, "u_variance_in": source_variance},
@@ -133,25 +158,49 @@ class DenoisePass:
                            "u_sigma_guide": SIGMA_GUIDE})
             self._run(self.atrous, groups)
             source, source_variance = target, target_variance
+        source = self._film_share(source, work[self.levels % 2], view, groups, film_sample)
         history.advance(np.asarray(view.view_proj, np.float64))
         return source
+
+    def _film_share(self, estimate, out, view: RasterView, groups: tuple[int, int, int],
+                    film_sample: int | None):
+        """What the film adds for ``estimate`` (module docstring): its share of the mean while
+        the film's samples follow one another within FILM_SHARE_SAMPLES, else the estimate."""
+        follows = film_sample is not None and film_sample < FILM_SHARE_SAMPLES and (
+            film_sample == 0 or film_sample == self._film_next)
+        if not follows:
+            self._film_next = None
+            return estimate
+        history = self.history
+        bind(self.share, textures={"u_estimate": estimate, "u_prev_shown": history.previous("shown")},
+             images={"u_shown": Image(history.current("shown"), read=False, write=True),
+                     "u_share": Image(out, read=False, write=True)},
+             uniforms={"u_size": (view.width, view.height), "u_sample": float(film_sample)})
+        self._run(self.share, groups)
+        self._film_next = film_sample + 1
+        return out
 
     def feedback(self) -> Bindings | None:
         """Last frame's diffuse light where the camera saw it (the temporal blend of the
         irradiance and the surface points it belongs to, and that frame's view-projection),
-        for the diffuse gather's path ends (``DIFFUSE_FEEDBACK``); None without a history."""
+        for the diffuse gather's path ends (``DIFFUSE_FEEDBACK``), and how many frames the
+        history holds (``u_feedback_frames``: the index whose numbers the gather draws, so
+        that frames of a moving view, each its sample 0, still blend fresh paths); None
+        without a history."""
         history = self.history
         if not history.valid:
             return None
         return Bindings(textures={"u_feedback_color": history.previous("color"),
                                   "u_feedback_surface": history.previous("surface")},
                         uniforms={"u_feedback_view_proj": history.previous_uniforms()["u_prev_view_proj"],
-                                  "u_feedback_size": tuple(int(v) for v in history.size)})
+                                  "u_feedback_size": tuple(int(v) for v in history.size),
+                                  "u_feedback_frames": int(history.frames)})
 
     def forget(self) -> None:
         """Start every pixel over at the next frame (a frame this pass did not see, a final
         render's first sample)."""
         self.history.forget()
+        self._film_next = None
 
     def _run(self, program, groups: tuple[int, int, int]) -> None:
         program.run(*groups)

@@ -27,6 +27,7 @@ _PAIRS = {
     "surface": (4, "f4"),  # world point and packed normal (include/denoise.glsl)
     "work": (4, "f4"),  # the wavelet filter's ping-pong
     "variance": (2, "f4"),  # the guides' variances, ping-pong
+    "shown": (4, "f4"),  # the filtered estimate the film's mean showed (DenoisePass.film_share)
 }
 
 
@@ -38,6 +39,10 @@ class DenoiseHistory:
         self.ctx = ctx
         self.size: tuple[int, int] | None = None
         self.valid = False
+        # Frames since the history last started over: the diffuse gather draws the numbers of
+        # this index (DenoisePass.feedback), not of the view's sample, which the viewport
+        # holds at 0 while anything moves.
+        self.frames = 0
         self.prev_view_proj: np.ndarray | None = None
         self._pairs: dict[str, list] = {}
         self._current = 0
@@ -75,6 +80,7 @@ class DenoiseHistory:
     def advance(self, view_proj: np.ndarray) -> None:
         """This frame's textures become the history of the next, seen through ``view_proj``."""
         self._current = 1 - self._current
+        self.frames = self.frames + 1 if self.valid else 1
         self.prev_view_proj = np.array(view_proj, np.float64)
         self.valid = True
 

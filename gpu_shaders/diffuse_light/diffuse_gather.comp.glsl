@@ -19,8 +19,11 @@
 //
 // Writes u_ambient (RGBA32F): rgb the diffuse irradiance at the pixel (demodulated: not times
 // its albedo; the deferred shading multiplies, shade_surface's world_irradiance), a the share
-// of the first rays that saw the sky (the rough reflections' sky visibility). Pixels that are
-// background or not diffuse: (0, 0, 0, 1).
+// of the first rays that saw the sky (the rough reflections' sky visibility). A rough metal
+// (shading.glsl material_glossy_gathered: no diffuse layer whose rays could tell what hides
+// the sky from its reflection) gathers the same way along its GGX lobe instead of the
+// cosine: rgb is then pi times the radiance the lobe brings, which the deferred shading
+// takes times the lobe's albedo. Pixels that are background or neither: (0, 0, 0, 1).
 //
 // Host defines: those of trace/hybrid_trace.comp.glsl (tracer.HybridTracer.inputs), and
 //   EMITTER_LIGHT (the emissive triangles' table, include/emitter_light.glsl).
@@ -83,14 +86,15 @@ vec3 random3(int salt) {
 }
 #endif
 
-// One path from the primary point p (facing normals n, g): the radiance it brings back along
-// its first direction (a cosine-distributed sample: pi times it estimates the irradiance),
-// and `sky` the share of the first ray that escaped (through glass by its transmission).
-vec3 diffuse_path(vec3 p, vec3 n, vec3 g, int path, out float sky) {
+// One path from the primary point p (facing geometric normal g) along its first direction
+// d: the radiance it brings back (for a cosine-distributed d, pi times it estimates the
+// irradiance), and `sky` the share of the first ray that escaped (through glass by its
+// transmission). `first_emission`: the first surface's emission counts even with
+// EMITTER_LIGHT (a glossy lobe's paths, which take no next-event estimate of the emitters).
+vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, out float sky) {
     vec3 radiance = vec3(0.0);
     vec3 throughput = vec3(1.0);
     int salt = PATH_SALT + 32 * path;
-    vec3 d = cosine_direction(n, g, lobe_random(salt));
     vec3 o = offset_origin(p, g);
     int vertex = 1;
     int crossings = 0;
@@ -113,7 +117,8 @@ vec3 diffuse_path(vec3 p, vec3 n, vec3 g, int path, out float sky) {
             vec3 stored = cube_stored_radiance(h, 0.0);
 #ifdef EMITTER_LIGHT
             // The emitters' light reached the last vertex by its next-event estimate.
-            stored = max(stored - material_emission_lod(hm, h.uv, h.lod), vec3(0.0));
+            if (!(first_emission && vertex == 1))
+                stored = max(stored - material_emission_lod(hm, h.uv, h.lod), vec3(0.0));
 #endif
             radiance += throughput * stored;
             break;
@@ -121,6 +126,8 @@ vec3 diffuse_path(vec3 p, vec3 n, vec3 g, int path, out float sky) {
 #endif
 #ifndef EMITTER_LIGHT
         radiance += throughput * material_emission_lod(hm, h.uv, h.lod);
+#else
+        if (first_emission && vertex == 1) radiance += throughput * material_emission_lod(hm, h.uv, h.lod);
 #endif
         if (bounces_left) {
             // The lamps' light off this surface (its emission counted above); the ray
@@ -160,7 +167,16 @@ void main() {
     if (any(greaterThanEqual(pixel, u_size))) return;
     vec4 nm = texelFetch(u_normal_material, pixel, 0);
     vec4 ambient = vec4(0.0, 0.0, 0.0, 1.0);
-    if (nm.w != 0.0 && material_diffuse(primary_material(int(abs(nm.w) + 0.5) - 1, pixel)) > 0.0) {
+    Material m;
+    bool glossy = false;
+    if (nm.w != 0.0) {
+        m = primary_material(int(abs(nm.w) + 0.5) - 1, pixel);
+        // A rough metal gathers along its glossy lobe (shading.glsl material_glossy_gathered):
+        // pi times the radiance its lobe's samples bring back, which the deferred shading
+        // takes in place of the prefiltered sky.
+        glossy = material_glossy_gathered(m);
+    }
+    if (nm.w != 0.0 && (glossy || material_diffuse(m) > 0.0)) {
         vec3 p, view_dir, n;
         primary_surface(pixel, nm, p, view_dir, n);
         vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
@@ -173,11 +189,18 @@ void main() {
         int paths = max(u_diffuse_rays, 1);
         for (int i = 0; i < paths; ++i) {
             float seen;
-            irradiance += PI * diffuse_path(p, n_facing, g_facing, i, seen);
+            vec2 xi = lobe_random(PATH_SALT + 32 * i);
+            // The glossy lobe's direction: a visible-normal sample of its GGX lobe, as the
+            // tracer samples the traced ones (weight 1: split.glossy_local is the lobe's albedo).
+            vec3 d = glossy ? specular_split_sampled(m, albedo_g.rgb, view_dir, n, g, xi).reflect_dir
+                            : cosine_direction(n_facing, g_facing, xi);
+            irradiance += PI * diffuse_path(p, g_facing, d, i, glossy, seen);
             sky += seen;
 #ifdef EMITTER_LIGHT
-            irradiance += emitter_irradiance(p, n_facing, g_facing, random3(EMITTER_SALT + 32 * i),
-                                             material_light_set(materials[int(abs(nm.w) + 0.5) - 1]));
+            // The emitters' next-event estimate is the diffuse layer's (cosine-weighted).
+            if (!glossy)
+                irradiance += emitter_irradiance(p, n_facing, g_facing, random3(EMITTER_SALT + 32 * i),
+                                                 material_light_set(materials[int(abs(nm.w) + 0.5) - 1]));
 #endif
         }
         ambient = vec4(irradiance, sky) / float(paths);

@@ -201,6 +201,39 @@ def test_a_mirrors_reflection_of_a_rough_metal_in_a_closed_room_is_black(rendere
     assert image[sees_panel].mean() <= 0.01, image[sees_panel].mean()
 
 
+FURNACE_ALBEDO = 0.7
+
+
+def furnace_room() -> SceneData:
+    """The closed room, every surface emitting radiance 1 (no World, no lamps): a diffuse
+    floor and rough-metal walls and ceiling, all of albedo FURNACE_ALBEDO."""
+    walls = box((-ROOM_HALF,) * 3, (ROOM_HALF,) * 3)[:, ::-1].copy()  # corners reversed: normals inward
+    floor_rows = np.abs(walls.mean(axis=1)[:, 2] + ROOM_HALF) < 1e-3
+    rows = [dict(base_color=(FURNACE_ALBEDO,) * 3, emission=(1.0,) * 3),
+            dict(base_color=(FURNACE_ALBEDO,) * 3, emission=(1.0,) * 3, reflectivity=1.0, roughness=1.0)]
+    return SceneData(Geometry.from_objects([(walls[floor_rows], None, 0), (walls[~floor_rows], None, 1)]),
+                     MaterialTable.from_rows(rows), Lights.from_rows([]), Sky(color=(0.0, 0.0, 0.0)))
+
+
+@pytest.mark.parametrize("bounces", [1, 2])
+def test_a_furnace_of_rough_metal_walls_passes_the_floors_paths_on_as_a_path_tracer_does(renderer, bounces):
+    # A furnace: in a closed room where every surface emits 1 and reflects a share a of what
+    # it receives, whatever its BRDF, a path of b bounces brings 1 + a + ... + a^(b+1) to
+    # a diffuse floor pixel (emission, then one term per vertex). Paths that meet the rough
+    # metal walls go on along their lobe; were they to end there, the floor would take
+    # 1 + a whatever the bounces.
+    camera = Camera(matrix_world=look_at((0.0, -1.0, 0.5), (0.0, 1.0, -ROOM_HALF)), width=W, height=H)
+    origins, dirs = camera.pixel_rays()
+    t = (-ROOM_HALF - origins[..., 2]) / dirs[..., 2]
+    hit = origins + dirs * t[..., None]
+    floor = (t > 0) & (np.abs(hit[..., :2]) < ROOM_HALF - 0.3).all(axis=-1)
+    assert floor.sum() > 300
+    settings = RenderSettings(mode="FULL_BVH", shadow_resolution=256, diffuse_bounces=bounces)
+    image = luminance(mean_image(renderer, furnace_room(), camera, settings, samples=8))
+    expected = sum(FURNACE_ALBEDO ** k for k in range(bounces + 2))
+    assert image[floor].mean() == pytest.approx(expected, rel=0.03), (image[floor].mean(), expected)
+
+
 ALBEDO = 0.6
 WALL_BAND = (0.3, 1.3)  # the wall's heights the comparison averages over
 

@@ -14,6 +14,9 @@
 //     bounce, the path's throughput times the surface's diffuse albedo;
 //   * meeting glass: straight on through it, times its transmission (as the tracer's
 //     occlusion rays take it), without spending a bounce.
+//   * meeting a rough metal (shading.glsl material_glossy_gathered): its lamp light, then
+//     one more bounce along its GGX lobe, times the lobe's albedo (emitters then count by
+//     their emission where the path meets them, no next-event estimate being taken there).
 // u_diffuse_bounces 0 is direct light only: the sky or emission the primary's ray meets (and
 // the emitters' next-event estimate at the primary point), no light off other surfaces.
 //
@@ -98,6 +101,9 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, out flo
     vec3 o = offset_origin(p, g);
     int vertex = 1;
     int crossings = 0;
+    // Whether the surface this ray meets adds its emission with EMITTER_LIGHT: only where the
+    // vertex it left took no next-event estimate of the emitters (a glossy lobe's).
+    bool emission_counts = first_emission;
     sky = 0.0;
     for (int step = 0; step <= MAX_DIFFUSE_BOUNCES + MAX_GLASS_CROSSINGS; ++step) {
         Hit h = trace_ray(o, d, vertex, 1.0, FLOAT_MAX);
@@ -117,7 +123,7 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, out flo
             vec3 stored = cube_stored_radiance(h, 0.0);
 #ifdef EMITTER_LIGHT
             // The emitters' light reached the last vertex by its next-event estimate.
-            if (!(first_emission && vertex == 1))
+            if (!emission_counts)
                 stored = max(stored - material_emission_lod(hm, h.uv, h.lod), vec3(0.0));
 #endif
             radiance += throughput * stored;
@@ -127,7 +133,7 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, out flo
 #ifndef EMITTER_LIGHT
         radiance += throughput * material_emission_lod(hm, h.uv, h.lod);
 #else
-        if (first_emission && vertex == 1) radiance += throughput * material_emission_lod(hm, h.uv, h.lod);
+        if (emission_counts) radiance += throughput * material_emission_lod(hm, h.uv, h.lod);
 #endif
         if (bounces_left) {
             // The lamps' light off this surface (its emission counted above); the ray
@@ -147,7 +153,22 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, out flo
             break;
         }
 #endif
-        if (!bounces_left || !(hs.diffuse_weight > 0.0)) break;
+        if (!bounces_left) break;
+        if (!(hs.diffuse_weight > 0.0) && material_glossy_gathered(hm)) {
+            // A rough metal passes the path on along its GGX lobe (times the lobe's albedo),
+            // as its own pixels gather: the light it reflects onto the rest of the room.
+            SpecularSplit gs = specular_split_sampled(hm, h_albedo, d, h.normal, h.geometric,
+                                                      lobe_random(salt + vertex));
+            throughput *= gs.glossy_local;
+            if (!(max(max(throughput.r, throughput.g), throughput.b) > 0.0)) break;
+            d = gs.reflect_dir;
+            o = offset_origin(h.position, gs.g_facing);
+            emission_counts = true;
+            vertex += 1;
+            continue;
+        }
+        if (!(hs.diffuse_weight > 0.0)) break;
+        emission_counts = false;
         throughput *= hs.diffuse_weight * h_albedo;
         if (!(max(max(throughput.r, throughput.g), throughput.b) > 0.0)) break;
 #ifdef EMITTER_LIGHT

@@ -238,15 +238,18 @@ ALBEDO = 0.6
 WALL_BAND = (0.3, 1.3)  # the wall's heights the comparison averages over
 
 
-def wall_and_floor() -> SceneData:
+def wall_and_floor(floor_material: dict | None = None) -> SceneData:
     """The floor z = 0 in front of (y < 0) the wall y = 0, which faces -y: wide enough to be
-    the two half-planes of the reference below."""
+    the two half-planes of the reference below. ``floor_material``: the floor's own row
+    (else the wall's)."""
     size = 200.0
     floor = quad((0.0, -size / 2, 0.0), (size, 0, 0), (0, size / 2, 0))
     wall = quad((0.0, 0.0, size / 2), (size, 0, 0), (0, 0, size / 2))  # facing -y
     rows = [dict(base_color=(ALBEDO,) * 3, specular=0.0, roughness=1.0)]
-    return SceneData(Geometry.from_objects([(floor, None, 0), (wall, None, 0)]), MaterialTable.from_rows(rows),
-                     sky=Sky(color=(1.0, 1.0, 1.0)))
+    if floor_material is not None:
+        rows.append(floor_material)
+    return SceneData(Geometry.from_objects([(floor, None, len(rows) - 1), (wall, None, 0)]),
+                     MaterialTable.from_rows(rows), sky=Sky(color=(1.0, 1.0, 1.0)))
 
 
 def reference_wall_radiance(bounces: int, paths: int = 400_000, seed: int = 36) -> float:
@@ -321,6 +324,26 @@ def test_a_wall_beside_a_floor_gains_the_floors_bounce_as_a_path_tracer_does(ren
 
 
 # -- emissive meshes as lights ---------------------------------------------------------------------
+@pytest.mark.parametrize("mode", ["HYBRID", "FULL_BVH"])
+def test_a_wall_beside_a_mirror_floor_sees_the_sky_in_it(renderer, mode):
+    # The wall's lower hemisphere sees the mirror floor, and in it the sky's mirror image
+    # (the wall cannot see itself there: rays going down and away from it keep going away):
+    # with a bounce its radiance is the albedo times the whole white sky, not half of it.
+    # A path that met the mirror went on along its lobe; had it ended there, the mirror
+    # would add nothing.
+    scene = wall_and_floor(floor_material=dict(base_color=(1.0, 1.0, 1.0), reflectivity=1.0, roughness=0.0))
+    camera = Camera(matrix_world=look_at((0.0, -4.0, 0.8), (0.0, 0.0, 0.8)), width=W, height=H)
+    origins, dirs = camera.pixel_rays()
+    hit = origins + dirs * (-origins[..., 1:2] / dirs[..., 1:2])
+    band = (hit[..., 2] > WALL_BAND[0]) & (hit[..., 2] < WALL_BAND[1]) & (np.abs(hit[..., 0]) < 1.0)
+    measured = [float(luminance(mean_image(renderer, scene, camera,
+                                           RenderSettings(mode=mode, near_size=5.0, shadow_resolution=256,
+                                                          diffuse_bounces=bounces), samples=8))[band].mean())
+                for bounces in (0, 1)]
+    assert measured[0] == pytest.approx(ALBEDO / 2, rel=0.04), measured
+    assert measured[1] == pytest.approx(ALBEDO, rel=0.04), measured
+
+
 PANEL_HEIGHT = 1.0
 PANEL_HALF = 0.25
 PANEL_RADIANCE = 8.0

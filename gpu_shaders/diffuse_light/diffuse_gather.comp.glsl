@@ -10,13 +10,14 @@
 //   * escaping, the sky's radiance along the ray;
 //   * meeting a surface: its emission (not with EMITTER_LIGHT, whose next-event estimate
 //     already counts it), and while bounces remain the light its lamps give it (shadow maps)
-//     and, with EMITTER_LIGHT, the emitters' (emitter_irradiance), then one more cosine
-//     bounce, the path's throughput times the surface's diffuse albedo;
+//     and, with EMITTER_LIGHT, the emitters' (emitter_irradiance, where the path bounces
+//     off the diffuse layer), then one more bounce (below);
 //   * meeting glass: straight on through it, times its transmission (as the tracer's
 //     occlusion rays take it), without spending a bounce.
-//   * meeting a rough metal (shading.glsl material_glossy_gathered): its lamp light, then
-//     one more bounce along its GGX lobe, times the lobe's albedo (emitters then count by
-//     their emission where the path meets them, no next-event estimate being taken there).
+//   * the bounce takes one of the surface's lobes, picked by its share of the reflected
+//     light: the diffuse layer (cosine) or the specular layers (their GGX lobe, weight the
+//     lobe's albedo; a rough metal has only that one); after a specular bounce the next
+//     surface's emission counts, no next-event estimate having been taken there.
 // u_diffuse_bounces 0 is direct light only: the sky or emission the primary's ray meets (and
 // the emitters' next-event estimate at the primary point), no light off other surfaces.
 //
@@ -78,6 +79,7 @@ uniform int u_diffuse_rays;     // paths per pixel
 #define MAX_GLASS_CROSSINGS 4    // glass surfaces one path passes straight through
 #define PATH_SALT 0x5ca1         // random numbers of path i, vertex k: lobe_random(PATH_SALT + 32 i + k)
 #define EMITTER_SALT 0x6ca1
+#define GLOSSY_SALT 0x7ca1       // the specular lobe's direction and the lobe's pick at a path's vertex
 
 // trace_ray.glsl's spawning is the tracer's: nothing is spawned here.
 bool ray_room() { return false; }
@@ -154,22 +156,30 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, out flo
         }
 #endif
         if (!bounces_left) break;
-        if (!(hs.diffuse_weight > 0.0) && material_glossy_gathered(hm)) {
-            // A rough metal passes the path on along its GGX lobe (times the lobe's albedo),
-            // as its own pixels gather: the light it reflects onto the rest of the room.
-            SpecularSplit gs = specular_split_sampled(hm, h_albedo, d, h.normal, h.geometric,
-                                                      lobe_random(salt + vertex));
-            throughput *= gs.glossy_local;
+        // The path goes on along one of the surface's lobes, picked by its share of what the
+        // surface reflects: the diffuse layer (a cosine direction) or the specular layers
+        // (a visible-normal sample of their GGX lobe, traced or too rough to trace alike;
+        // a rough metal has nothing else). A wall sees the sky and the sunlit floor in a
+        // glossy floor's reflection, and a rough metal passes on what it reflects, as in a
+        // path tracer; ending the path at the specular layers drops that light.
+        vec3 diffuse_w = hs.diffuse_weight * h_albedo;
+        SpecularSplit gs = specular_split_sampled(hm, h_albedo, d, h.normal, h.geometric,
+                                                  lobe_random(GLOSSY_SALT + 32 * path + vertex));
+        vec3 specular_w = gs.reflect_weight + gs.glossy_local;
+        float p_diffuse = dot(diffuse_w, vec3(1.0));
+        float p_specular = dot(specular_w, vec3(1.0));
+        if (!(p_diffuse + p_specular > 0.0)) break;
+        if (lobe_random(GLOSSY_SALT + 32 * path + vertex + 16).x * (p_diffuse + p_specular) < p_specular) {
+            throughput *= specular_w * ((p_diffuse + p_specular) / p_specular);
             if (!(max(max(throughput.r, throughput.g), throughput.b) > 0.0)) break;
             d = gs.reflect_dir;
             o = offset_origin(h.position, gs.g_facing);
-            emission_counts = true;
+            emission_counts = true;  // no next-event estimate of the emitters along a specular lobe
             vertex += 1;
             continue;
         }
-        if (!(hs.diffuse_weight > 0.0)) break;
         emission_counts = false;
-        throughput *= hs.diffuse_weight * h_albedo;
+        throughput *= diffuse_w * ((p_diffuse + p_specular) / p_diffuse);
         if (!(max(max(throughput.r, throughput.g), throughput.b) > 0.0)) break;
 #ifdef EMITTER_LIGHT
         radiance += throughput / PI * emitter_irradiance(h.position, hs.n_facing, hs.g_facing,

@@ -10,17 +10,24 @@
 //   * escaping, the sky's radiance along the ray;
 //   * meeting a surface: its emission (not with EMITTER_LIGHT, whose next-event estimate
 //     already counts it), and while bounces remain the light its lamps give it (shadow maps)
-//     and, with EMITTER_LIGHT, the emitters' (emitter_irradiance), then one more cosine
-//     bounce, the path's throughput times the surface's diffuse albedo;
+//     and, with EMITTER_LIGHT, the emitters' (emitter_irradiance, where the path bounces
+//     off the diffuse layer), then one more bounce (below);
 //   * meeting glass: straight on through it, times its transmission (as the tracer's
 //     occlusion rays take it), without spending a bounce.
+//   * the bounce takes one of the surface's lobes, picked by its share of the reflected
+//     light: the diffuse layer (cosine) or the specular layers (their GGX lobe, weight the
+//     lobe's albedo; a rough metal has only that one); after a specular bounce the next
+//     surface's emission counts, no next-event estimate having been taken there.
 // u_diffuse_bounces 0 is direct light only: the sky or emission the primary's ray meets (and
 // the emitters' next-event estimate at the primary point), no light off other surfaces.
 //
 // Writes u_ambient (RGBA32F): rgb the diffuse irradiance at the pixel (demodulated: not times
 // its albedo; the deferred shading multiplies, shade_surface's world_irradiance), a the share
-// of the first rays that saw the sky (the rough reflections' sky visibility). Pixels that are
-// background or not diffuse: (0, 0, 0, 1).
+// of the first rays that saw the sky (the rough reflections' sky visibility). A rough metal
+// (shading.glsl material_glossy_gathered: no diffuse layer whose rays could tell what hides
+// the sky from its reflection) gathers the same way along its GGX lobe instead of the
+// cosine: rgb is then pi times the radiance the lobe brings, which the deferred shading
+// takes times the lobe's albedo. Pixels that are background or neither: (0, 0, 0, 1).
 //
 // Host defines: those of trace/hybrid_trace.comp.glsl (tracer.HybridTracer.inputs), and
 //   EMITTER_LIGHT (the emissive triangles' table, include/emitter_light.glsl).
@@ -74,6 +81,7 @@ uniform int u_diffuse_rays;     // paths per pixel
 #define MAX_GLASS_CROSSINGS 4    // glass surfaces one path passes straight through
 #define PATH_SALT 0x5ca1         // random numbers of path i, vertex k: gather_random(PATH_SALT + 32 i + k)
 #define EMITTER_SALT 0x6ca1
+#define GLOSSY_SALT 0x7ca1       // the specular lobe's direction and the lobe's pick at a path's vertex
 
 // Whose numbers this frame's paths draw. Without a history, the view's sample (a final
 // render's samples, a still view's redraws). With the denoiser's history, the frame's index
@@ -120,17 +128,21 @@ vec3 random3(int salt) {
 }
 #endif
 
-// One path from the primary point p (facing normals n, g): the radiance it brings back along
-// its first direction (a cosine-distributed sample: pi times it estimates the irradiance),
-// and `sky` the share of the first ray that escaped (through glass by its transmission).
-vec3 diffuse_path(vec3 p, vec3 n, vec3 g, int path, out float sky) {
+// One path from the primary point p (facing geometric normal g) along its first direction
+// d: the radiance it brings back (for a cosine-distributed d, pi times it estimates the
+// irradiance), and `sky` the share of the first ray that escaped (through glass by its
+// transmission). `first_emission`: the first surface's emission counts even with
+// EMITTER_LIGHT (a glossy lobe's paths, which take no next-event estimate of the emitters).
+vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, out float sky) {
     vec3 radiance = vec3(0.0);
     vec3 throughput = vec3(1.0);
     int salt = PATH_SALT + 32 * path;
-    vec3 d = cosine_direction(n, g, first_random(path, max(u_diffuse_rays, 1)));
     vec3 o = offset_origin(p, g);
     int vertex = 1;
     int crossings = 0;
+    // Whether the surface this ray meets adds its emission with EMITTER_LIGHT: only where the
+    // vertex it left took no next-event estimate of the emitters (a glossy lobe's).
+    bool emission_counts = first_emission;
     sky = 0.0;
     for (int step = 0; step <= MAX_DIFFUSE_BOUNCES + MAX_GLASS_CROSSINGS; ++step) {
         Hit h = trace_ray(o, d, vertex, 1.0, FLOAT_MAX);
@@ -150,7 +162,8 @@ vec3 diffuse_path(vec3 p, vec3 n, vec3 g, int path, out float sky) {
             vec3 stored = cube_stored_radiance(h, 0.0);
 #ifdef EMITTER_LIGHT
             // The emitters' light reached the last vertex by its next-event estimate.
-            stored = max(stored - material_emission_lod(hm, h.uv, h.lod), vec3(0.0));
+            if (!emission_counts)
+                stored = max(stored - material_emission_lod(hm, h.uv, h.lod), vec3(0.0));
 #endif
             radiance += throughput * stored;
             break;
@@ -158,6 +171,8 @@ vec3 diffuse_path(vec3 p, vec3 n, vec3 g, int path, out float sky) {
 #endif
 #ifndef EMITTER_LIGHT
         radiance += throughput * material_emission_lod(hm, h.uv, h.lod);
+#else
+        if (emission_counts) radiance += throughput * material_emission_lod(hm, h.uv, h.lod);
 #endif
         if (bounces_left) {
             // The lamps' light off this surface (its emission counted above); the ray
@@ -177,8 +192,31 @@ vec3 diffuse_path(vec3 p, vec3 n, vec3 g, int path, out float sky) {
             break;
         }
 #endif
-        if (!bounces_left || !(hs.diffuse_weight > 0.0)) break;
-        throughput *= hs.diffuse_weight * h_albedo;
+        if (!bounces_left) break;
+        // The path goes on along one of the surface's lobes, picked by its share of what the
+        // surface reflects: the diffuse layer (a cosine direction) or the specular layers
+        // (a visible-normal sample of their GGX lobe, traced or too rough to trace alike;
+        // a rough metal has nothing else). A wall sees the sky and the sunlit floor in a
+        // glossy floor's reflection, and a rough metal passes on what it reflects, as in a
+        // path tracer; ending the path at the specular layers drops that light.
+        vec3 diffuse_w = hs.diffuse_weight * h_albedo;
+        SpecularSplit gs = specular_split_sampled(hm, h_albedo, d, h.normal, h.geometric,
+                                                  gather_random(GLOSSY_SALT + 32 * path + vertex));
+        vec3 specular_w = gs.reflect_weight + gs.glossy_local;
+        float p_diffuse = dot(diffuse_w, vec3(1.0));
+        float p_specular = dot(specular_w, vec3(1.0));
+        if (!(p_diffuse + p_specular > 0.0)) break;
+        if (gather_random(GLOSSY_SALT + 32 * path + vertex + 16).x * (p_diffuse + p_specular) < p_specular) {
+            throughput *= specular_w * ((p_diffuse + p_specular) / p_specular);
+            if (!(max(max(throughput.r, throughput.g), throughput.b) > 0.0)) break;
+            d = gs.reflect_dir;
+            o = offset_origin(h.position, gs.g_facing);
+            emission_counts = true;  // no next-event estimate of the emitters along a specular lobe
+            vertex += 1;
+            continue;
+        }
+        emission_counts = false;
+        throughput *= diffuse_w * ((p_diffuse + p_specular) / p_diffuse);
         if (!(max(max(throughput.r, throughput.g), throughput.b) > 0.0)) break;
 #ifdef EMITTER_LIGHT
         radiance += throughput / PI * emitter_irradiance(h.position, hs.n_facing, hs.g_facing,
@@ -197,7 +235,16 @@ void main() {
     if (any(greaterThanEqual(pixel, u_size))) return;
     vec4 nm = texelFetch(u_normal_material, pixel, 0);
     vec4 ambient = vec4(0.0, 0.0, 0.0, 1.0);
-    if (nm.w != 0.0 && material_diffuse(primary_material(int(abs(nm.w) + 0.5) - 1, pixel)) > 0.0) {
+    Material m;
+    bool glossy = false;
+    if (nm.w != 0.0) {
+        m = primary_material(int(abs(nm.w) + 0.5) - 1, pixel);
+        // A rough metal gathers along its glossy lobe (shading.glsl material_glossy_gathered):
+        // pi times the radiance its lobe's samples bring back, which the deferred shading
+        // takes in place of the prefiltered sky.
+        glossy = material_glossy_gathered(m);
+    }
+    if (nm.w != 0.0 && (glossy || material_diffuse(m) > 0.0)) {
         vec3 p, view_dir, n;
         primary_surface(pixel, nm, p, view_dir, n);
         vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
@@ -210,11 +257,18 @@ void main() {
         int paths = max(u_diffuse_rays, 1);
         for (int i = 0; i < paths; ++i) {
             float seen;
-            irradiance += PI * diffuse_path(p, n_facing, g_facing, i, seen);
+            vec2 xi = first_random(i, paths);
+            // The glossy lobe's direction: a visible-normal sample of its GGX lobe, as the
+            // tracer samples the traced ones (weight 1: split.glossy_local is the lobe's albedo).
+            vec3 d = glossy ? specular_split_sampled(m, albedo_g.rgb, view_dir, n, g, xi).reflect_dir
+                            : cosine_direction(n_facing, g_facing, xi);
+            irradiance += PI * diffuse_path(p, g_facing, d, i, glossy, seen);
             sky += seen;
 #ifdef EMITTER_LIGHT
-            irradiance += emitter_irradiance(p, n_facing, g_facing, random3(EMITTER_SALT + 32 * i),
-                                             material_light_set(materials[int(abs(nm.w) + 0.5) - 1]));
+            // The emitters' next-event estimate is the diffuse layer's (cosine-weighted).
+            if (!glossy)
+                irradiance += emitter_irradiance(p, n_facing, g_facing, random3(EMITTER_SALT + 32 * i),
+                                                 material_light_set(materials[int(abs(nm.w) + 0.5) - 1]));
 #endif
         }
         ambient = vec4(irradiance, sky) / float(paths);

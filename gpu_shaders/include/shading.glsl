@@ -60,6 +60,15 @@ bool material_is_specular(Material m) {
     bool reflects = material_reflectivity(m) > 0.0 || material_coat_f0(m) > 0.0;
     return material_transmission(m) > 0.0 || (reflects && material_reflection_traced(m));
 }
+// Whether the World's light reaches this material only through a reflection too rough to
+// trace (a rough metal: no diffuse layer, no glass). No diffuse ray is gathered for it whose
+// sky visibility could hide the sky from that reflection, so the traced World light
+// (diffuse_light/diffuse_gather.comp.glsl, the tracer's first-bounce hits) gathers along its
+// glossy lobe instead: without that, a rough metal indoors reflects the whole sky.
+bool material_glossy_gathered(Material m) {
+    return material_diffuse(m) <= 0.0 && material_transmission(m) <= 0.0 && !material_reflection_traced(m)
+           && material_reflectivity(m) > 0.0;
+}
 
 // The specular coat's directional albedo (Karis 2014's fit of the split-sum DFG term): the
 // share of light it reflects at cos_v and roughness, scale * f0 + bias. Reflectances below

@@ -652,6 +652,14 @@ void shade_hit(PendingRay ray, Hit h, inout vec3 traced) {
                        FLOAT_MAX);
         return;
     }
+    // A rough metal (material_glossy_gathered) has no diffuse ray to hide the sky from its
+    // reflection: one ray along its lobe (hs's sampled direction) of unlimited reach brings
+    // what it reflects, the sky or the surfaces that hide it, as at primary pixels.
+    if (ray.depth == 1 && !stored && material_glossy_gathered(hm)) {
+        push_occlusion(offset_origin(h.position, hs.g_facing), hs.reflect_dir, ray.weight * hs.glossy_local,
+                       FLOAT_MAX);
+        return;
+    }
 #endif
     vec3 world = ray.weight * world_light_response(hm, h_albedo, hs, stored ? vec3(0.0) : sky_irradiance(hs.n_facing), 1.0);
     // The World's light at the first bounce's hits near the camera is hidden as at

@@ -44,7 +44,9 @@ uniform sampler2D u_albedo;
 uniform sampler2D u_emission_scale;
 uniform sampler2D u_surface;  // roughness, metallic (gbuffer.frag.glsl location 3)
 uniform mat4 u_inv_view_proj;
-uniform sampler2D u_ambient;  // per pixel: rgb the World's irradiance gathered by sky rays, a the sky's visibility
+// per pixel: rgb the World's irradiance gathered by sky rays (a rough metal's: pi times the
+// radiance its glossy lobe gathered), a the sky's visibility
+uniform sampler2D u_ambient;
 uniform int u_ambient_from_rays;     // 1: rgb holds the World's light (sky rays), 0: only a
 uniform int u_sky_visibility_known;  // 0: no pass estimated it, the whole sky is seen
 uniform int u_ambient_filtered;      // 1: the denoiser filtered u_ambient, take it as it is
@@ -148,13 +150,19 @@ void main() {
                    : u_ambient_filtered != 0 ? texelFetch(u_ambient, pixel, 0) : smoothed_ambient(local, p, split.n_facing);
     float visibility = ambient.a;
     vec3 world = u_ambient_from_rays != 0 ? ambient.rgb : sky_irradiance(split.n_facing) * visibility;
+    // A rough metal's traced World light is what its glossy lobe gathered (pi times the
+    // radiance along it: diffuse_gather.comp.glsl), the sky and the surfaces that hide it;
+    // the prefiltered sky it would otherwise take is left out (visibility 0).
+    bool glossy_gathered = u_ambient_from_rays != 0 && material_glossy_gathered(m);
+    vec3 glossy_world = glossy_gathered ? split.glossy_local * ambient.rgb / PI : vec3(0.0);
+    float sky_visibility = glossy_gathered ? 0.0 : visibility;
 #ifdef LIGHT_PASSES
-    SurfaceLight parts = shade_surface_parts(m, albedo, emission, p, view_dir, split, world, visibility, 0.0);
-    vec3 color = parts.total;
-    vec3 glossy_indirect = parts.glossy_indirect;
+    SurfaceLight parts = shade_surface_parts(m, albedo, emission, p, view_dir, split, world, sky_visibility, 0.0);
+    vec3 color = parts.total + glossy_world;
+    vec3 glossy_indirect = parts.glossy_indirect + glossy_world;
     vec3 transmission_indirect = vec3(0.0);
 #else
-    vec3 color = shade_surface(m, albedo, emission, p, view_dir, split, world, visibility, 0.0);
+    vec3 color = shade_surface(m, albedo, emission, p, view_dir, split, world, sky_visibility, 0.0) + glossy_world;
 #endif
     if (u_traced_specular == 0) {
         float roughness = material_roughness(m);

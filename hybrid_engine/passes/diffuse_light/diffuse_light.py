@@ -11,7 +11,10 @@ up to ``diffuse_bounces`` bounces are traced through them as the reflections are
 (``gpu_shaders/diffuse_light/diffuse_gather.comp.glsl`` with trace_ray.glsl; the hybrid
 ambient occlusion of Reinbothe et al., the paper's reference [14], carried on to several
 bounces). Escaping, a path takes the sky; at each surface it meets, that surface's lamp
-light (shadow maps) and emission, then bounces on.
+light (shadow maps) and emission, then bounces on. A rough metal, whose reflection is too
+rough to trace and which has no diffuse layer, starts its paths along its GGX lobe instead:
+otherwise nothing would hide the sky from it, and indoors it would reflect the whole sky
+(Sponza's curtains, metallic at roughness 1).
 
 The pass writes the frame's ``ambient``: rgb the diffuse irradiance (demodulated, not times
 the albedo, which the deferred shading applies: a denoiser may filter it without blurring

@@ -563,3 +563,24 @@ def test_a_math_constant_edit_renders_the_new_value_without_a_shader_compile(add
     assert shader_loader.compiles == compiles
     assert np.abs(cells(images["HYBRID_RT"], 1)[0] - cells(before, 1)[0]).mean() > 0.05
     assert_cases_match_cycles(["edit"], images)
+
+
+# A slice of the kinds, one or two per node family, that runs as generated GLSL (the nodes
+# kernel's "gpu" shape, passes/scene_upload/node_codegen.py) instead of the interpreter.
+GENERATED_CASES = ("MATH SNAP/PINGPONG/SINE clamped", "VECT_MATH REFRACT", "MIX VECTOR non-uniform unclamped",
+                   "MIX RGBA SOFT_LIGHT clamp_result", "VALTORGB B_SPLINE RGB", "CURVE_RGB EXTRAPOLATED",
+                   "HUE_SAT", "MAP_RANGE FLOAT_VECTOR STEPPED clamp", "COMBINE_COLOR/SEPARATE_COLOR HSL",
+                   "MAPPING TEXTURE", "VECTOR_ROTATE EULER_XYZ invert", "VALUE/RGB into MATH and MIX")
+
+
+def test_the_generated_code_matches_cycles_through_blenders_render_path(addon, tmp_path, monkeypatch):
+    import bpy
+    monkeypatch.setenv("HYBRID_RT_KERNELS", "nodes=gpu")
+    shader_loader = addon.hybrid_engine.gpu.shader_loader
+    builds = {name: CASES[name] for name in GENERATED_CASES}
+    scene, _ = grid_scene(bpy, builds)
+    images = render_both(bpy, scene, tmp_path)
+    # Every program had its function: the G-buffer ran them without the interpreter.
+    assert any(("NODE_GENERATED_ONLY", 1) in key[2] for key in shader_loader._cache)
+    assert all(np.ptp(c) > 0.05 for c in cells(images["CYCLES"], len(builds)))
+    assert_cases_match_cycles(list(builds), images)

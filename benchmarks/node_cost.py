@@ -22,10 +22,10 @@ Four materials render the same scene, each in its own Renderer:
 ``graph20``
     a realistic graph of exactly 20 nodes (:func:`twenty_node_graph`): Noise through a Color
     Ramp into Base Color, Mapping, Math, Mix, Voronoi into Roughness, Wave, Layer Weight ...,
-    run by the interpreter (the ``nodes`` kernel's "cpu" shape, variants.py);
+    run by the interpreter (``NodePrograms.generate`` False);
 ``graph20_generated``
-    the same graph run as generated GLSL (the ``nodes`` kernel's "gpu" shape:
-    passes/scene_upload/node_codegen.py).
+    the same graph run as generated GLSL (passes/scene_upload/node_codegen.py), the
+    default.
 
 Each renderer's first frame compiles its shaders: the tracer's compile (wall clock and the
 calling thread's CPU time) is reported per material, the interpreter's against the
@@ -52,7 +52,7 @@ from typing import Iterator
 import numpy as np
 
 from hybrid_engine.frame.renderer import Renderer
-from hybrid_engine.gpu import gl_context, shader_loader, variants
+from hybrid_engine.gpu import gl_context, shader_loader
 from hybrid_engine.scene.camera import Camera, look_at
 from hybrid_engine.scene.data import Lights, MaterialTable, SceneData, Sky
 from hybrid_engine.scene.geometry import Geometry
@@ -170,8 +170,8 @@ def camera(width: int, height: int) -> Camera:
 
 MATERIALS = {"plain": lambda: None, "principled_graph": principled_graph, "graph20": twenty_node_graph,
              "graph20_generated": twenty_node_graph}
-# The ``nodes`` kernel's shape each material runs (variants.py): the interpreter, or generated GLSL.
-NODES_SHAPE = {"graph20_generated": "gpu"}
+# The materials whose programs run as generated GLSL; the others' run in the interpreter.
+GENERATED = frozenset({"graph20_generated"})
 TRACER = "trace/hybrid_trace.comp.glsl"
 
 
@@ -222,7 +222,7 @@ def measure(size: tuple[int, int], depth: int, mode: str, rounds: int) -> dict:
             order = list(MATERIALS) if index % 2 == 0 else list(reversed(MATERIALS))
             for name in order:
                 ctx.finish()
-                variants.set_override(f"nodes={NODES_SHAPE.get(name, 'cpu')}")
+                renderers[name].gpu_scene.node_programs.generate = name in GENERATED
                 with timed_compiles(compiles[name]):
                     result = renderers[name].render(scenes[name], cam, settings, sample=0, timing=True)
                 hits[name] = int(result.counts["rays_bvh_hit"])
@@ -231,7 +231,6 @@ def measure(size: tuple[int, int], depth: int, mode: str, rounds: int) -> dict:
                     times[name].append(ms)
                     per_hit[name].append(ms * 1e6 / max(hits[name], 1))
     finally:
-        variants.set_override(None)
         for renderer in renderers.values():
             renderer.release()
     medians = {name: statistics.median(values) for name, values in times.items()}

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from benchmarks.node_cost import mirror_box, sphere, twenty_node_graph
-from hybrid_engine.gpu import shader_loader, variants
+from hybrid_engine.gpu import shader_loader
 from hybrid_engine.passes.scene_upload import node_codegen as cg
 from hybrid_engine.scene import node_codes as nc
 from hybrid_engine.scene.camera import Camera, look_at
@@ -47,6 +47,13 @@ def test_values_and_enums_share_a_topology_and_a_new_link_makes_another():
     assert again.source == generated.source
 
 
+def test_topologies_beyond_the_cap_stay_with_the_interpreter(monkeypatch):
+    monkeypatch.setattr(cg, "MAX_TOPOLOGIES", 1)
+    generated = cg.generate(compile_table([emission(1.0), emission(1.0, linked=False), emission(3.0)], 3))
+    assert generated.dispatch.tolist() == [0, DISPATCH_NONE, 0]
+    assert generated.topologies == 1 and not generated.complete
+
+
 def test_a_program_with_an_opcode_the_generator_lacks_stays_with_the_interpreter():
     cases = {op: found for op, found in cg.interpreter_cases().items() if op != nc.OP_MIX}
     table = compile_table([emission(1.0), twenty_node_graph()], 2)
@@ -65,10 +72,11 @@ def test_the_generated_code_reads_constants_from_the_words_and_keeps_registers_n
 
 # -- through the renderer -------------------------------------------------------------------------
 @pytest.fixture
-def nodes_variant(request):
-    variants.set_override(f"nodes={request.param}")
+def nodes_variant(request, renderer):
+    """"generated" (the default) or "interpreter" for the module's renderer."""
+    renderer.gpu_scene.node_programs.generate = request.param == "generated"
     yield request.param
-    variants.set_override(None)
+    renderer.gpu_scene.node_programs.generate = None
 
 
 def textured_graphs() -> list[ShaderGraph]:
@@ -119,22 +127,22 @@ SETTINGS = RenderSettings(mode="HYBRID", max_depth=2, near_size=1.0)
 _images: dict[str, np.ndarray] = {}
 
 
-@pytest.mark.parametrize("nodes_variant", ["cpu", "gpu"], indirect=True)
+@pytest.mark.parametrize("nodes_variant", ["interpreter", "generated"], indirect=True)
 def test_generated_code_renders_what_the_interpreter_renders(renderer, nodes_variant):
-    """The same scene (G-buffer, BVH and cube-map hits, bounces) with each shape; with "gpu"
-    every program has its function, so the interpreter is not even compiled in."""
+    """The same scene (G-buffer, BVH and cube-map hits, bounces) both ways; generated, every
+    program has its function, so the interpreter is not even compiled in."""
     image = renderer.render(textured_scene(), CAMERA, SETTINGS).image
     defines = renderer.gpu_scene.defines
-    assert ("NODE_GENERATED_ONLY" in defines) == (nodes_variant == "gpu")
+    assert ("NODE_GENERATED_ONLY" in defines) == (nodes_variant == "generated")
     assert image[..., :3].std() > 0.05
     _images[nodes_variant] = image
     if len(_images) == 2:
-        generated, interpreted = _images["gpu"], _images["cpu"]
+        generated, interpreted = _images["generated"], _images["interpreter"]
         np.testing.assert_allclose(generated, interpreted, atol=2e-3)
         assert np.abs(generated - interpreted).mean() < 1e-5
 
 
-@pytest.mark.parametrize("nodes_variant", ["gpu"], indirect=True)
+@pytest.mark.parametrize("nodes_variant", ["generated"], indirect=True)
 def test_a_value_edit_compiles_nothing_and_a_topology_edit_each_program_once(renderer, nodes_variant):
     graphs = [emission(1.0), emission(2.0)]
     scene = textured_scene()

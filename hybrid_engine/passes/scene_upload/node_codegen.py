@@ -46,6 +46,9 @@ INTERPRETER = SHADER_ROOT / "include" / "node_program.glsl"
 MAX_INSTRUCTIONS = 256  # node_program.glsl NODE_MAX_INSTRUCTIONS
 MAX_OPERANDS = 16       # NODE_MAX_OPERANDS
 MAX_OUTPUTS = 8         # NODE_MAX_OUTPUTS
+# Functions per scene at most: the source, and so the compile, grows with each; programs of
+# further topologies run in the interpreter (then compiled in as well).
+MAX_TOPOLOGIES = 32
 # Words an instruction's case reads after its operands (the tables), by opcode.
 TABLE_WORDS = {nc.OP_COLOR_RAMP: nc.RAMP_TABLE_WORDS, nc.OP_CURVE_RGB: nc.CURVE_TABLE_WORDS["CURVE_RGB"],
                nc.OP_CURVE_VECTOR: nc.CURVE_TABLE_WORDS["CURVE_VEC"],
@@ -273,6 +276,9 @@ def generate(table: ProgramTable, cases: dict[int, tuple[Case, ...]] | None = No
             complete = False
             continue
         if body not in index_of:
+            if len(bodies) >= MAX_TOPOLOGIES:
+                complete = False
+                continue
             index_of[body] = len(bodies)
             bodies.append(body)
         dispatch[m] = index_of[body]

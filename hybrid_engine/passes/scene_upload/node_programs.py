@@ -17,15 +17,19 @@ Generated (the mesh's object-space bounds, Blender's automatic texture space).
 """
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
-from ...gpu import shader_loader, variants
+from ...gpu import shader_loader
 from ...gpu.dispatch import GrowBuffer
 from ...scene.data import MaterialTable
 from ...scene.geometry import InstancedGeometry
 from ...scene.node_program import ProgramTable, compile_table, row_estimate
 from .node_codegen import GeneratedPrograms, generate
 
+# Set to "interpreter" to run every program in the interpreter (tests compare the two ways).
+MODE_ENVIRONMENT_VARIABLE = "HYBRID_RT_NODE_PROGRAMS"
 NODE_OBJECT_DTYPE = np.dtype([("to_object", np.float32, (3, 4)), ("location", np.float32, 4),
                               ("color", np.float32, 4), ("space_min", np.float32, 4),
                               ("space_size", np.float32, 4), ("rows", np.int32, 4)])
@@ -70,6 +74,10 @@ class NodePrograms:
         self._sent_objects: bytes | None = None
         self._bounds: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self.word_uploads = 0  # times the words were sent (tests: an unchanged scene sends none)
+        # Run the programs as generated GLSL (node_codegen.py), the default on llvmpipe and on
+        # GPUs alike (docs/BENCHMARKS.md "Shader node programs"); False: the interpreter only;
+        # None: as MODE_ENVIRONMENT_VARIABLE says.
+        self.generate: bool | None = None
         self.generated: GeneratedPrograms | None = None  # the programs' generated GLSL, if run
         self.generated_key: str | None = None  # its shader_loader.register_source key
         self._generated_for: bytes | None = None
@@ -84,10 +92,13 @@ class NodePrograms:
         return {"NODE_GENERATED": self.generated_key, **({"NODE_GENERATED_ONLY": 1} if self.generated.complete else {})}
 
     def _generate(self, table: ProgramTable) -> None:
-        """Give each program the generated function of its topology (node_codegen.py) where
-        the ``nodes`` kernel runs generated code (variants.py); regenerated only when the
-        words change, and the same topologies give the same source (no compile)."""
-        if variants.choose("nodes") != "gpu":
+        """Give each program the generated function of its topology (node_codegen.py) unless
+        the interpreter is asked for; regenerated only when the words change, and the same
+        topologies give the same source (no compile)."""
+        wanted = self.generate
+        if wanted is None:
+            wanted = os.environ.get(MODE_ENVIRONMENT_VARIABLE, "").strip().lower() != "interpreter"
+        if not wanted:
             self.generated, self.generated_key, self._generated_for = None, None, None
             return
         key = table.words.tobytes() + table.offsets.tobytes()

@@ -37,6 +37,15 @@ def test_every_opcode_the_compiler_emits_has_an_interpreter_case_the_generator_r
     assert missing == []
 
 
+def test_a_case_keeps_the_preprocessor_branches_around_it():
+    """A family's case compiles only under its define, in generated code as in the
+    interpreter; an #else branch is the opposite condition."""
+    cases = cg.interpreter_cases()
+    assert [c.conditions for c in cases[nc.OP_MATH]] == [("#ifdef " + nc.FAMILY_VECTOR,)]
+    assert [c.conditions for c in cases[nc.OP_ATTRIBUTE]] == [("#ifdef NODE_ATTRIBUTES",), ("#ifndef NODE_ATTRIBUTES",)]
+    assert [c.conditions for c in cases[nc.OP_BSDF_PRINCIPLED]] == [()]
+
+
 def test_values_and_enums_share_a_topology_and_a_new_link_makes_another():
     table = compile_table([emission(1.0), emission(7.0, "SCREEN"), emission(1.0, linked=False)], 3)
     generated = cg.generate(table)

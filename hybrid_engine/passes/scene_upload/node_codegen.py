@@ -98,8 +98,9 @@ def _cases_of(text: str) -> dict[int, tuple[Case, ...]]:
                 conditions.append(stripped)
             elif word == "#else" and conditions:
                 top = conditions.pop()
-                conditions.append("#ifndef " + top.split()[1] if top.startswith("#ifdef")
-                                  else "#ifdef " + top.split()[1] if top.startswith("#ifndef") else "#if !(1)")
+                rest = top.split(None, 1)[1]
+                conditions.append("#ifndef " + rest if top.startswith("#ifdef")
+                                  else "#ifdef " + rest if top.startswith("#ifndef") else f"#if !({rest})")
             elif word == "#endif" and conditions:
                 conditions.pop()
             continue

@@ -56,8 +56,8 @@ def test_values_and_enums_share_a_topology_and_a_new_link_makes_another():
     assert again.source == generated.source
 
 
-def test_topologies_beyond_the_cap_stay_with_the_interpreter(monkeypatch):
-    monkeypatch.setattr(cg, "MAX_TOPOLOGIES", 1)
+def test_topologies_past_the_scenes_budget_of_instructions_stay_with_the_interpreter(monkeypatch):
+    monkeypatch.setattr(cg, "MAX_GENERATED_INSTRUCTIONS", 4)  # one emission program: 3
     generated = cg.generate(compile_table([emission(1.0), emission(1.0, linked=False), emission(3.0)], 3))
     assert generated.dispatch.tolist() == [0, DISPATCH_NONE, 0]
     assert generated.topologies == 1 and not generated.complete

@@ -46,9 +46,12 @@ INTERPRETER = SHADER_ROOT / "include" / "node_program.glsl"
 MAX_INSTRUCTIONS = 256  # node_program.glsl NODE_MAX_INSTRUCTIONS
 MAX_OPERANDS = 16       # NODE_MAX_OPERANDS
 MAX_OUTPUTS = 8         # NODE_MAX_OUTPUTS
-# Functions per scene at most: the source, and so the compile, grows with each; programs of
-# further topologies run in the interpreter (then compiled in as well).
-MAX_TOPOLOGIES = 32
+# Instructions written out per scene at most, over all its topologies: the compile grows with
+# each, and on llvmpipe a tracer with the benchmark's 20 nodes (three textures) written out
+# compiled in about 40 % of the time of one with the interpreter and four families
+# (docs/BENCHMARKS.md "Shader node programs"), so past a few dozen nodes the interpreter is the
+# cheaper compile. Programs of further topologies run in the interpreter (then compiled in).
+MAX_GENERATED_INSTRUCTIONS = 64
 # Words an instruction's case reads after its operands (the tables), by opcode.
 TABLE_WORDS = {nc.OP_COLOR_RAMP: nc.RAMP_TABLE_WORDS, nc.OP_CURVE_RGB: nc.CURVE_TABLE_WORDS["CURVE_RGB"],
                nc.OP_CURVE_VECTOR: nc.CURVE_TABLE_WORDS["CURVE_VEC"],
@@ -268,6 +271,7 @@ def generate(table: ProgramTable, cases: dict[int, tuple[Case, ...]] | None = No
     bodies: list[str] = []
     index_of: dict[str, int] = {}
     complete = True
+    written = 0
     words = table.words.tolist()
     for m, offset in enumerate(table.offsets.tolist()):
         if offset < 0:
@@ -277,9 +281,11 @@ def generate(table: ProgramTable, cases: dict[int, tuple[Case, ...]] | None = No
             complete = False
             continue
         if body not in index_of:
-            if len(bodies) >= MAX_TOPOLOGIES:
+            size = body.count("        do {")
+            if written + size > MAX_GENERATED_INSTRUCTIONS:
                 complete = False
                 continue
+            written += size
             index_of[body] = len(bodies)
             bodies.append(body)
         dispatch[m] = index_of[body]

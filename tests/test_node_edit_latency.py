@@ -4,8 +4,9 @@
 as tests/test_viewport.py drives it headless: issue 38's Edit latency.
 
 A value edit must reach the very next frame, with no shader compile and no more time than a
-frame plus the upload of the program's words (docs/ARCHITECTURE.md "Shader node programs").
-A topology edit that brings a new node family costs a compile, once, in the frame after it.
+frame plus the upload of the program's words (docs/ARCHITECTURE.md "Shader node programs"):
+the generated code of the program's topology reads the new value from the words. A topology
+edit (here one that also brings a new node family) costs a compile, once, in the frame after it.
 Run with ``-s`` to see the figures docs/BENCHMARKS.md quotes.
 """
 from __future__ import annotations
@@ -81,7 +82,7 @@ def test_a_node_value_edit_shows_in_the_next_viewport_frame_within_a_frame_and_i
                        denoise_viewport=False, viewport_samples=1)
     _timed_sync(bpy)
     eye = np.array([6.0, -7.0, 5.0])
-    _timed_frame(session, _region(eye), settings)  # compiles the passes with the interpreter
+    _timed_frame(session, _region(eye), settings)  # compiles the passes with the program's code
     # A frame of a new view (sample 0 of it, nothing else changed): what one frame costs.
     steady = []
     for k in range(STEADY_FRAMES):

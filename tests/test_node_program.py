@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from hybrid_engine.scene import node_codes as nc
-from hybrid_engine.scene.node_program import (NodeProgramError, compile_graph, compile_table,
+from hybrid_engine.scene.node_program import (DISPATCH_NONE, NodeProgramError, compile_graph, compile_table,
                                               row_estimate)
 from hybrid_engine.scene.shader_graph import Link, ShaderGraph
 
@@ -114,8 +114,9 @@ def test_a_table_packs_programs_after_one_another_with_an_offset_per_material():
     a, b = emission_of_uv(1.0), emission_of_uv(3.0)
     table = compile_table([a, None, b], 3)
     n = len(compile_graph(a).words)
-    assert table.offsets.tolist() == [0, -1, n]
-    assert table.words[n] == table.words[0]  # the second program's first header
+    assert table.offsets.tolist() == [1, -1, n + 2]  # each after its dispatch word
+    assert table.words[0] == table.words[n + 1] == DISPATCH_NONE
+    assert table.words[n + 2] == table.words[1]  # the second program's first header
     assert compile_table(None, 2).empty and compile_table([None, None], 2).empty
 
 

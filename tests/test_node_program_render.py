@@ -135,7 +135,17 @@ def test_a_mirror_shows_the_graphs_colour_at_bvh_and_cube_map_hits(renderer, tra
     np.testing.assert_allclose(image[..., :2], expected, atol=tolerance, err_msg=where)
 
 
-def test_a_value_edit_renders_without_a_shader_compile(renderer):
+@pytest.fixture
+def nodes_variant(request, renderer):
+    renderer.gpu_scene.node_programs.generate = request.param == "generated"
+    yield request.param
+    renderer.gpu_scene.node_programs.generate = None
+
+
+@pytest.mark.parametrize("nodes_variant", ["interpreter", "generated"], indirect=True)
+def test_a_value_edit_renders_without_a_shader_compile(renderer, nodes_variant):
+    """The interpreter and the generated code, which reads values from the words as the
+    interpreter does."""
     tris, uvs = textured_quad((-1, -1, 0), (2, 0, 0), (0, 2, 0), (0.0, 0.0), (1.0, 1.0))
     scene = plane_scene([(tris, uvs, 0)], [uv_emission(1.0)])
     camera = top_down_camera(scale=1.9)
@@ -147,6 +157,7 @@ def test_a_value_edit_renders_without_a_shader_compile(renderer):
     after = renderer.render(scene, camera, settings).image
     assert shader_loader.compiles == compiled
     assert renderer_uploads(renderer) == uploads + 1
+    assert ("NODE_GENERATED" in renderer_gpu(renderer).defines) == (nodes_variant == "generated")
     np.testing.assert_allclose(after[..., :2], 3.0 * before[..., :2], atol=1e-2)
     renderer.render(scene, camera, settings)
     assert renderer_uploads(renderer) == uploads + 1  # unchanged words are not sent again
@@ -163,7 +174,7 @@ def test_a_scene_without_graphs_compiles_the_shaders_without_the_interpreter(ren
     tris, uvs = textured_quad((-1, -1, 0), (2, 0, 0), (0, 2, 0), (0.0, 0.0), (1.0, 1.0))
     settings = RenderSettings(mode="HYBRID")
     renderer.render(plane_scene([(tris, uvs, 0)], [uv_emission()]), top_down_camera(scale=1.9), settings)
-    assert renderer_gpu(renderer).defines == {"NODE_PROGRAMS": 1}
+    assert renderer_gpu(renderer).defines.keys() == {"NODE_PROGRAMS", "NODE_GENERATED", "NODE_GENERATED_ONLY"}
     scene = plane_scene([(tris, uvs, 0)], [None])
     renderer.render(scene, top_down_camera(scale=1.9), settings)
     assert renderer_gpu(renderer).defines == {}

@@ -563,3 +563,28 @@ def test_a_math_constant_edit_renders_the_new_value_without_a_shader_compile(add
     assert shader_loader.compiles == compiles
     assert np.abs(cells(images["HYBRID_RT"], 1)[0] - cells(before, 1)[0]).mean() > 0.05
     assert_cases_match_cycles(["edit"], images)
+
+
+# A slice of the kinds, one or two per node family, run by the interpreter (the other tests
+# run the default, generated GLSL: passes/scene_upload/node_codegen.py).
+INTERPRETED_CASES = ("MATH SNAP/PINGPONG/SINE clamped", "VECT_MATH REFRACT", "MIX VECTOR non-uniform unclamped",
+                   "MIX RGBA SOFT_LIGHT clamp_result", "VALTORGB B_SPLINE RGB", "CURVE_RGB EXTRAPOLATED",
+                   "HUE_SAT", "MAP_RANGE FLOAT_VECTOR STEPPED clamp", "COMBINE_COLOR/SEPARATE_COLOR HSL",
+                   "MAPPING TEXTURE", "VECTOR_ROTATE EULER_XYZ invert", "VALUE/RGB into MATH and MIX")
+
+
+def test_the_interpreter_matches_cycles_through_blenders_render_path(addon, tmp_path, monkeypatch):
+    import bpy
+    node_programs = addon.hybrid_engine.passes.scene_upload.node_programs
+    monkeypatch.setenv(node_programs.MODE_ENVIRONMENT_VARIABLE, "interpreter")
+    shader_loader = addon.hybrid_engine.gpu.shader_loader
+    compiled = len(shader_loader._cache)
+    builds = {name: CASES[name] for name in INTERPRETED_CASES}
+    scene, _ = grid_scene(bpy, builds)
+    images = render_both(bpy, scene, tmp_path)
+    # The G-buffer ran the programs without generated code.
+    new = list(shader_loader._cache)[compiled:]
+    assert any(("NODE_PROGRAMS", 1) in key[2] for key in new)
+    assert not any(name == "NODE_GENERATED" for key in new for name, _ in key[2])
+    assert all(np.ptp(c) > 0.05 for c in cells(images["CYCLES"], len(builds)))
+    assert_cases_match_cycles(list(builds), images)

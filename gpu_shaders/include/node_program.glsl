@@ -200,9 +200,11 @@ struct NodeClosure {
     vec3 normal;         // unit shading normal as modelled (not flipped)
 };
 
+#ifndef NODE_GENERATED_ONLY
 vec4 node_reg[NODE_REGISTERS];
 vec4 node_in[NODE_MAX_OPERANDS];
 vec4 node_out[NODE_MAX_OUTPUTS];
+#endif
 
 // The NodeObjects row of the instance whose world rows hold `row` (-1 when unknown):
 // instances lie in row order.
@@ -247,6 +249,7 @@ vec4 node_convert(vec4 v, uint code) {
     return v;
 }
 
+#ifndef NODE_GENERATED_ONLY
 // One operand at word pc (advanced past it).
 vec4 node_operand(inout uint pc, ShadingPoint sp) {
     uint w = node_words[pc++];
@@ -265,6 +268,7 @@ vec4 node_operand(inout uint pc, ShadingPoint sp) {
     }
     return node_convert(node_reg[min(w & 0xffffu, uint(NODE_REGISTERS - 1))], convert);
 }
+#endif
 
 // Cycles' Fresnel of a dielectric of relative index eta at cos(theta) = cosi.
 float node_fresnel_dielectric(float cosi, float eta) {
@@ -282,14 +286,15 @@ vec3 node_unit(vec3 v, vec3 fallback) {
     return l > 1e-20 && !isinf(l) && !isnan(l) ? v * inversesqrt(l) : fallback;
 }
 
-// One BSDF's closure into node_out[0..3] (weights: module header).
+// One BSDF's closure as a shader socket's four registers (weights: module header).
 void node_bsdf(float w, vec3 base, float metallic, float roughness, float transmission, float ior,
-               float specular, vec3 n, vec3 emission, float transparent) {
-    node_out[0] = vec4(w * max(base, vec3(0.0)), w);
-    node_out[1] = w * vec4(clamp(metallic, 0.0, 1.0), clamp(roughness, 0.0, 1.0),
-                           clamp(transmission, 0.0, 1.0), max(ior, 1.0));
-    node_out[2] = vec4(max(emission, vec3(0.0)), transparent);
-    node_out[3] = w * vec4(n, clamp(specular, 0.0, 1.0));
+               float specular, vec3 n, vec3 emission, float transparent,
+               out vec4 c0, out vec4 c1, out vec4 c2, out vec4 c3) {
+    c0 = vec4(w * max(base, vec3(0.0)), w);
+    c1 = w * vec4(clamp(metallic, 0.0, 1.0), clamp(roughness, 0.0, 1.0),
+                  clamp(transmission, 0.0, 1.0), max(ior, 1.0));
+    c2 = vec4(max(emission, vec3(0.0)), transparent);
+    c3 = w * vec4(n, clamp(specular, 0.0, 1.0));
 }
 
 vec4 node_image(int layer, vec2 uv, ShadingPoint sp) {
@@ -477,8 +482,29 @@ float node_curve_value(uint at, int columns, int column, float x, float min_x, f
 }
 #endif
 
-// Run the program at word `offset` at the shading point; returns the material's closure.
-NodeClosure node_program_run(int offset, ShadingPoint sp) {
+// The closure at the Material Output from its four registers of weighted sums (header).
+NodeClosure node_closure_of(vec4 r0, vec4 r1, vec4 r2, vec4 r3, ShadingPoint sp) {
+    NodeClosure c;
+    float w = r0.a;
+    float inv_w = w > 1e-8 ? 1.0 / w : 0.0;
+    c.alpha = clamp(1.0 - r2.a, 0.0, 1.0);
+    c.base_color = c.alpha > 1e-8 ? max(r0.rgb / c.alpha, vec3(0.0)) : vec3(0.0);
+    c.metallic = w > 1e-8 ? clamp(r1.x * inv_w, 0.0, 1.0) : 0.0;
+    c.roughness = w > 1e-8 ? clamp(r1.y * inv_w, 0.0, 1.0) : 1.0;
+    c.transmission = w > 1e-8 ? clamp(r1.z * inv_w, 0.0, 1.0) : 0.0;
+    c.ior = w > 1e-8 ? max(r1.w * inv_w, 1.0) : 1.5;
+    c.specular = w > 1e-8 ? clamp(r3.w * inv_w, 0.0, 1.0) : 0.0;
+    c.emission = max(r2.rgb, vec3(0.0));
+    vec3 n = node_unit(r3.xyz, sp.normal);
+    c.normal = sp.backfacing ? -n : n;  // back to the orientation as modelled
+    if (any(isnan(c.base_color)) || any(isinf(c.base_color))) c.base_color = vec3(0.0);
+    if (any(isnan(c.emission)) || any(isinf(c.emission))) c.emission = vec3(0.0);
+    return c;
+}
+
+#ifndef NODE_GENERATED_ONLY
+// Interpret the program at word `offset` at the shading point; returns the material's closure.
+NodeClosure node_program_interpret(int offset, ShadingPoint sp) {
     // The point as the caller gave it: a Bump's offset instructions move sp away from it and back.
     ShadingPoint base = sp;
     for (int r = 0; r < NODE_REGISTERS; ++r) node_reg[r] = vec4(0.0);
@@ -614,24 +640,30 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
             float f0 = (ior - 1.0) / (ior + 1.0);
             float coat = clamp(f0 * f0 * 2.0 * clamp(node_in[6].x, 0.0, 1.0), 0.0, 1.0);
             node_bsdf(alpha, node_in[0].rgb, metallic, node_in[2].x, clamp(node_in[7].x, 0.0, 1.0) * (1.0 - metallic),
-                      ior, coat, node_in[5].xyz, alpha * node_in[8].rgb * max(node_in[9].x, 0.0), 1.0 - alpha);
+                      ior, coat, node_in[5].xyz, alpha * node_in[8].rgb * max(node_in[9].x, 0.0), 1.0 - alpha,
+                      node_out[0], node_out[1], node_out[2], node_out[3]);
             break;
         }
         case NODE_OP_BSDF_DIFFUSE:
-            node_bsdf(1.0, node_in[0].rgb, 0.0, 1.0, 0.0, 1.5, 0.0, node_in[2].xyz, vec3(0.0), 0.0);
+            node_bsdf(1.0, node_in[0].rgb, 0.0, 1.0, 0.0, 1.5, 0.0, node_in[2].xyz, vec3(0.0), 0.0,
+                      node_out[0], node_out[1], node_out[2], node_out[3]);
             break;
         case NODE_OP_BSDF_GLOSSY:
-            node_bsdf(1.0, node_in[0].rgb, 1.0, node_in[1].x, 0.0, 1.5, 0.0, node_in[2].xyz, vec3(0.0), 0.0);
+            node_bsdf(1.0, node_in[0].rgb, 1.0, node_in[1].x, 0.0, 1.5, 0.0, node_in[2].xyz, vec3(0.0), 0.0,
+                      node_out[0], node_out[1], node_out[2], node_out[3]);
             break;
         case NODE_OP_BSDF_GLASS:
         case NODE_OP_BSDF_REFRACTION:
-            node_bsdf(1.0, node_in[0].rgb, 0.0, node_in[1].x, 1.0, node_in[2].x, 0.0, node_in[3].xyz, vec3(0.0), 0.0);
+            node_bsdf(1.0, node_in[0].rgb, 0.0, node_in[1].x, 1.0, node_in[2].x, 0.0, node_in[3].xyz, vec3(0.0), 0.0,
+                      node_out[0], node_out[1], node_out[2], node_out[3]);
             break;
         case NODE_OP_BSDF_TRANSPARENT:
-            node_bsdf(0.0, vec3(0.0), 0.0, 0.0, 0.0, 1.0, 0.0, vec3(0.0), vec3(0.0), 1.0);
+            node_bsdf(0.0, vec3(0.0), 0.0, 0.0, 0.0, 1.0, 0.0, vec3(0.0), vec3(0.0), 1.0,
+                      node_out[0], node_out[1], node_out[2], node_out[3]);
             break;
         case NODE_OP_EMISSION:
-            node_bsdf(0.0, vec3(0.0), 0.0, 0.0, 0.0, 1.0, 0.0, vec3(0.0), node_in[0].rgb * node_in[1].x, 0.0);
+            node_bsdf(0.0, vec3(0.0), 0.0, 0.0, 0.0, 1.0, 0.0, vec3(0.0), node_in[0].rgb * node_in[1].x, 0.0,
+                      node_out[0], node_out[1], node_out[2], node_out[3]);
             break;
         case NODE_OP_MIX_SHADER: {
             float fac = clamp(node_in[0].x, 0.0, 1.0);
@@ -804,7 +836,8 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
 #endif
         // -- world
         case NODE_OP_BACKGROUND:  // radiance colour x strength: an emission seen from every direction
-            node_bsdf(0.0, vec3(0.0), 0.0, 0.0, 0.0, 1.0, 0.0, vec3(0.0), node_in[0].rgb * node_in[1].x, 0.0);
+            node_bsdf(0.0, vec3(0.0), 0.0, 0.0, 0.0, 1.0, 0.0, vec3(0.0), node_in[0].rgb * node_in[1].x, 0.0,
+                      node_out[0], node_out[1], node_out[2], node_out[3]);
             break;
 #ifdef NODE_WORLD
         case NODE_OP_TEX_ENVIRONMENT: {
@@ -944,22 +977,27 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
             if (r < uint(NODE_REGISTERS)) node_reg[r] = node_out[o];
         }
     }
+    return node_closure_of(result[0], result[1], result[2], result[3], sp);
+}
+#endif
+
+// Generated straight-line GLSL, one function per program topology (values still read from
+// the words), and node_generated_run, which runs a program's function when the word before
+// the program names one (passes/scene_upload/node_codegen.py); absent without NODE_GENERATED.
+#include "generated:NODE_GENERATED"
+
+// Run the program at word `offset` at the shading point; returns the material's closure:
+// the generated function of its topology where one is compiled in, else the interpreter.
+NodeClosure node_program_run(int offset, ShadingPoint sp) {
+#ifdef NODE_GENERATED
     NodeClosure c;
-    float w = result[0].a;
-    float inv_w = w > 1e-8 ? 1.0 / w : 0.0;
-    c.alpha = clamp(1.0 - result[2].a, 0.0, 1.0);
-    c.base_color = c.alpha > 1e-8 ? max(result[0].rgb / c.alpha, vec3(0.0)) : vec3(0.0);
-    c.metallic = w > 1e-8 ? clamp(result[1].x * inv_w, 0.0, 1.0) : 0.0;
-    c.roughness = w > 1e-8 ? clamp(result[1].y * inv_w, 0.0, 1.0) : 1.0;
-    c.transmission = w > 1e-8 ? clamp(result[1].z * inv_w, 0.0, 1.0) : 0.0;
-    c.ior = w > 1e-8 ? max(result[1].w * inv_w, 1.0) : 1.5;
-    c.specular = w > 1e-8 ? clamp(result[3].w * inv_w, 0.0, 1.0) : 0.0;
-    c.emission = max(result[2].rgb, vec3(0.0));
-    vec3 n = node_unit(result[3].xyz, sp.normal);
-    c.normal = sp.backfacing ? -n : n;  // back to the orientation as modelled
-    if (any(isnan(c.base_color)) || any(isinf(c.base_color))) c.base_color = vec3(0.0);
-    if (any(isnan(c.emission)) || any(isinf(c.emission))) c.emission = vec3(0.0);
-    return c;
+    if (node_generated_run(offset, sp, c)) return c;
+#endif
+#ifdef NODE_GENERATED_ONLY
+    return node_closure_of(vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), sp);
+#else
+    return node_program_interpret(offset, sp);
+#endif
 }
 
 // The material row with the closure's parameters in its slots, its images switched off: what

@@ -11,9 +11,16 @@ errors into ``file:line: message`` form.
 
 Programs are cached per context and per (names, defines): compiling happens once per
 process, never per frame.
+
+Generated sources: ``#include "generated:NAME"`` pulls in the text that ``register_source``
+returned the key of, where a program's defines set NAME to that key, and nothing where they
+do not set NAME. The key is the text's hash, so the cache (keyed by the defines) compiles a
+program again exactly when the text it includes changes (node programs' generated GLSL:
+passes/scene_upload/node_codegen.py).
 """
 from __future__ import annotations
 
+import hashlib
 import re
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -30,6 +37,9 @@ GLSL_VERSION = "#version 430 core"
 LINE_STRIDE = 100_000
 
 _INCLUDE_RE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
+GENERATED_PREFIX = "generated:"
+# Generated texts by key (register_source); a handful per process, kept while it lives.
+_generated: dict[str, str] = {}
 # Mesa: "0:12(3): error: ..."; NVIDIA: "0(12) : error C1008: ..."; generic "ERROR: 0:12: ...".
 _ERROR_LOC_RES = (
     re.compile(r"(?P<src>\d+):(?P<line>\d+)\(\d+\)"),
@@ -73,6 +83,14 @@ def shader_path(name: str | Path) -> Path:
     return path
 
 
+def register_source(text: str) -> str:
+    """Keep ``text`` for ``#include "generated:NAME"`` and return its key (the value NAME
+    must be defined to): the same text always has the same key."""
+    key = "g" + hashlib.sha1(text.encode("utf-8")).hexdigest()[:16]
+    _generated[key] = text
+    return key
+
+
 def _label(path: Path) -> str:
     return path.relative_to(SHADER_ROOT).as_posix() if SHADER_ROOT in path.parents else str(path)
 
@@ -107,6 +125,10 @@ def assemble(name: str | Path, defines: Mapping[str, object] | None = None) -> S
                 out.append("")  # the loader owns the version line
                 continue
             match = _INCLUDE_RE.match(line)
+            if match and match.group(1).startswith(GENERATED_PREFIX):
+                emit_generated(match.group(1)[len(GENERATED_PREFIX):])
+                out.append(f"#line {string_no * LINE_STRIDE + lineno + 1} {string_no}")
+                continue
             if match:
                 target = match.group(1)
                 if not target.startswith("include/") and "/" not in target:
@@ -115,6 +137,18 @@ def assemble(name: str | Path, defines: Mapping[str, object] | None = None) -> S
                 out.append(f"#line {string_no * LINE_STRIDE + lineno + 1} {string_no}")
                 continue
             out.append(line)
+
+    def emit_generated(define: str) -> None:
+        key = (defines or {}).get(define)
+        if key is None:
+            return
+        text = _generated.get(str(key))
+        if text is None:
+            raise ShaderError(f"{name}: no generated source {key!r} for {define}")
+        string_no = len(src.files)
+        src.files.append(f"<generated {define}>")
+        out.append(f"#line {string_no * LINE_STRIDE + 1} {string_no}")
+        out.extend(text.splitlines())
 
     emit(name, ())
     src.text = "\n".join(out) + "\n"

@@ -2,12 +2,13 @@
 """Shader graphs compiled into node programs: the words one interpreter shader runs
 (gpu_shaders/include/node_program.glsl), in the shape of Cycles' SVM.
 
-Why a program and not generated GLSL: a generated shader per material would run faster per
-hit, but every edit of the artist's graph would be a shader compile (seconds on a CPU driver,
-and the viewport stalls for it). A program is data: a value edit changes the constant words,
-a new link or enum changes other words, and either is an upload of a few hundred bytes; the
-one interpreter is compiled once per scene shape (docs/ARCHITECTURE.md "Shader node
-programs").
+Why a program: a shader generated per material would bake the artist's values into code,
+and every edit would be a shader compile (seconds on a CPU driver, and the viewport stalls for
+it). A program is data: a value edit changes the constant words, a new link or enum changes
+other words, and either is an upload of a few hundred bytes; the one interpreter is compiled
+once per scene shape. Where generated GLSL runs (passes/scene_upload/node_codegen.py), it is
+written per program *topology* and still reads every value from these words, so a value edit
+stays an upload (docs/ARCHITECTURE.md "Shader node programs").
 
 The words (node_codes.py): one instruction per node, its inputs read from registers, inline
 constants or the shading point, its outputs written to registers. Registers are reused once
@@ -546,10 +547,17 @@ def compile_graph(graph: ShaderGraph, name: str = "material", registers: int = n
     return NodeProgram(np.array(words, np.uint32), peak, unsupported, families, kinds)
 
 
+# The word before each program in a table: the index of the generated function of its
+# topology (passes/scene_upload/node_codegen.py), this value where the interpreter runs it.
+DISPATCH_NONE = 0xFFFFFFFF
+
+
 @dataclass
 class ProgramTable:
     """Every material's program in one word array: ``offsets[m]`` is where material m's
-    program starts (``Material.textures2.w``), -1 for a material without a graph."""
+    program starts (``Material.textures2.w``), -1 for a material without a graph. Each
+    program follows one dispatch word (``DISPATCH_NONE`` until a generated function is
+    given it), so the words from ``offsets[m]`` on are exactly ``compile_graph``'s."""
 
     words: np.ndarray  # uint32
     offsets: np.ndarray  # int32 per material
@@ -580,9 +588,10 @@ def compile_table(graphs: Sequence[ShaderGraph | None] | None, count: int,
             continue
         program = compile_graph(graph, names[m] if names else f"material {m}", attributes=attributes)
         programs[m] = program
-        offsets[m] = at
+        offsets[m] = at + 1
+        chunks.append(np.array([DISPATCH_NONE], np.uint32))
         chunks.append(program.words)
-        at += len(program.words)
+        at += 1 + len(program.words)
     words = np.concatenate(chunks).astype(np.uint32) if chunks else np.zeros(0, np.uint32)
     return ProgramTable(words, offsets, programs, attributes)
 

@@ -17,13 +17,19 @@ Generated (the mesh's object-space bounds, Blender's automatic texture space).
 """
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
+from ...gpu import shader_loader
 from ...gpu.dispatch import GrowBuffer
 from ...scene.data import MaterialTable
 from ...scene.geometry import InstancedGeometry
 from ...scene.node_program import ProgramTable, compile_table, row_estimate
+from .node_codegen import GeneratedPrograms, generate
 
+# Set to "interpreter" to run every program in the interpreter (tests compare the two ways).
+MODE_ENVIRONMENT_VARIABLE = "HYBRID_RT_NODE_PROGRAMS"
 NODE_OBJECT_DTYPE = np.dtype([("to_object", np.float32, (3, 4)), ("location", np.float32, 4),
                               ("color", np.float32, 4), ("space_min", np.float32, 4),
                               ("space_size", np.float32, 4), ("rows", np.int32, 4)])
@@ -68,6 +74,40 @@ class NodePrograms:
         self._sent_objects: bytes | None = None
         self._bounds: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self.word_uploads = 0  # times the words were sent (tests: an unchanged scene sends none)
+        # Run the programs as generated GLSL (node_codegen.py), the default on llvmpipe and on
+        # GPUs alike (docs/BENCHMARKS.md "Shader node programs"); False: the interpreter only;
+        # None: as MODE_ENVIRONMENT_VARIABLE says.
+        self.generate: bool | None = None
+        self.generated: GeneratedPrograms | None = None  # the programs' generated GLSL, if run
+        self.generated_key: str | None = None  # its shader_loader.register_source key
+        self._generated_for: bytes | None = None
+
+    @property
+    def defines(self) -> dict:
+        """``NODE_GENERATED`` (the generated source's key) where the programs run as
+        generated GLSL, and ``NODE_GENERATED_ONLY`` where every program has its function
+        (the interpreter is then left out); nothing where the interpreter runs them all."""
+        if self.generated_key is None or self.generated is None or not self.generated.topologies:
+            return {}
+        return {"NODE_GENERATED": self.generated_key, **({"NODE_GENERATED_ONLY": 1} if self.generated.complete else {})}
+
+    def _generate(self, table: ProgramTable) -> None:
+        """Give each program the generated function of its topology (node_codegen.py) unless
+        the interpreter is asked for; regenerated only when the words change, and the same
+        topologies give the same source (no compile)."""
+        wanted = self.generate
+        if wanted is None:
+            wanted = os.environ.get(MODE_ENVIRONMENT_VARIABLE, "").strip().lower() != "interpreter"
+        if not wanted:
+            self.generated, self.generated_key, self._generated_for = None, None, None
+            return
+        key = table.words.tobytes() + table.offsets.tobytes()
+        if key != self._generated_for:
+            self.generated = generate(table)
+            self.generated_key = shader_loader.register_source(self.generated.source)
+            self._generated_for = key
+        offsets = table.offsets
+        table.words[offsets[offsets >= 0] - 1] = self.generated.dispatch[offsets >= 0]
 
     @property
     def active(self) -> bool:
@@ -80,8 +120,10 @@ class NodePrograms:
         graphs = materials.node_graphs
         if not graphs or all(g is None for g in graphs):
             self.table = None
+            self.generated, self.generated_key = None, None
             return
         self.table = compile_table(graphs, len(materials), materials.names)
+        self._generate(self.table)
         rows["textures2"][:, 3] = self.table.offsets
         for m, graph in enumerate(graphs):
             if graph is None:

@@ -75,10 +75,12 @@ class GPUScene:
         ``NODE_PROGRAMS`` when some material has a node graph (the interpreter,
         include/node_program.glsl), nothing otherwise, so scenes without graphs run the
         shaders as they were. With it, the family defines its programs' nodes need
-        (node_codes.FAMILY_*): each family's cases compile in only where a graph uses it."""
+        (node_codes.FAMILY_*): each family's cases compile in only where a graph uses it;
+        and the programs' generated GLSL where it runs (NodePrograms.defines)."""
         if not self.node_programs.active:
             return {}
-        return {"NODE_PROGRAMS": 1, **{family: 1 for family in sorted(self.node_programs.table.families)}}
+        return {"NODE_PROGRAMS": 1, **{family: 1 for family in sorted(self.node_programs.table.families)},
+                **self.node_programs.defines}
 
     def vertex_content(self, program) -> list[tuple]:
         """moderngl vertex-array content of ``program``: one binding per attribute it reads

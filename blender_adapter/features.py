@@ -185,13 +185,13 @@ FEATURES: tuple[Feature, ...] = (
             "World {names}: the Volume shader is not rendered", _world_volume),
     # Materials
     Feature("Shader node graphs", SUPPORTED,
-            "Evaluated per shading point on the GPU (G-buffer, cube-map and BVH hits) by one "
-            "interpreter: Principled, Diffuse, Glossy, Glass, Refraction, Transparent, Emission, "
+            "Evaluated per shading point on the GPU (G-buffer, cube-map and BVH hits) as GLSL "
+            "written out per graph shape, with one interpreter behind it: Principled, Diffuse, Glossy, Glass, Refraction, Transparent, Emission, "
             "Mix and Add Shader; Image, Noise, Voronoi, Wave, Checker, Brick, Gradient, Magic and "
             "White Noise textures; Math, Vector Math, Mix, Color Ramp, curves, colour "
             "adjustments, Map Range, Clamp, Mapping, Vector Rotate, Separate and Combine; input "
             "nodes; groups, reroutes and muted nodes as Blender evaluates them. A value edit is "
-            "an upload, never a shader compile. Mix Shader mixes the closures' parameters."),
+            "an upload, never a shader compile; a new link compiles once. Mix Shader mixes the closures' parameters."),
     Feature("Bump node", APPROXIMATED,
             "Evaluated as Cycles does (the Height at the shading point and one Filter Width along "
             "the footprint's two axes), in the G-buffer and at BVH hits; at cube-map hits a Bump "

@@ -20,9 +20,10 @@ from __future__ import annotations
 import numpy as np
 
 from ...gpu.dispatch import GrowBuffer
+from ...scene.closure_alpha import closure_alpha_graph
 from ...scene.data import MaterialTable
 from ...scene.geometry import InstancedGeometry
-from ...scene.node_program import ProgramTable, compile_table, row_estimate
+from ...scene.node_program import ProgramTable, compile_graph, compile_table, row_estimate
 
 NODE_OBJECT_DTYPE = np.dtype([("to_object", np.float32, (3, 4)), ("location", np.float32, 4),
                               ("color", np.float32, 4), ("space_min", np.float32, 4),
@@ -68,6 +69,7 @@ class NodePrograms:
         self._sent_objects: bytes | None = None
         self._bounds: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self.word_uploads = 0  # times the words were sent (tests: an unchanged scene sends none)
+        self.closure_alpha = False  # some material's coverage is an alpha program (closure alpha)
 
     @property
     def active(self) -> bool:
@@ -78,6 +80,7 @@ class NodePrograms:
         its closure, node_program.row_estimate) into the packed material ``rows``, and send
         what changed."""
         graphs = materials.node_graphs
+        self.closure_alpha = False
         if not graphs or all(g is None for g in graphs):
             self.table = None
             return
@@ -93,9 +96,9 @@ class NodePrograms:
             rows["base_color"][m, 3] = 0.0
             rows["textures"][m] = (-1, -1, -1, 0)
             # The program gives roughness and metallic; the alpha image (z) and alpha stay
-            # the row's: every alpha test (G-buffer, shadow maps, BVH) reads the row.
+            # the row's unless the graph has a closure alpha (below).
             rows["textures2"][m, :2] = -1
-        words = self.table.words.tobytes() or bytes(4)
+        words = (self.table.words.tobytes() + self._closure_alpha(graphs, materials.names, rows)) or bytes(4)
         if words != self._sent_words:
             self.words.upload(words)
             self._sent_words = words
@@ -104,6 +107,29 @@ class NodePrograms:
         if objects != self._sent_objects:
             self.objects.upload(objects)
             self._sent_objects = objects
+
+    # -- closure alpha
+    def _closure_alpha(self, graphs, names, rows: np.ndarray) -> bytes:
+        """The alpha programs (scene/closure_alpha.py) of the graphs that have a closure
+        alpha, placed after the table's words: such a row's alpha image slot holds -2 - the
+        program's first word (include/alpha.glsl), and its alpha factor and clip are 1 and
+        none, since the program gives the whole coverage. Compiled with the table's attribute
+        slots, so an alpha that reads a Color Attribute reads the surface program's slot."""
+        at = len(self.table.words)
+        chunks: list[bytes] = []
+        for m, graph in enumerate(graphs):
+            alpha_graph = closure_alpha_graph(graph)
+            if alpha_graph is None:
+                continue
+            name = f"{names[m] if names else f'material {m}'} (alpha)"
+            program = compile_graph(alpha_graph, name, attributes=self.table.attributes)
+            rows["textures2"][m, 2] = -2 - at
+            rows["params2"][m, :2] = (1.0, 0.0)
+            chunks.append(program.words.astype(np.uint32).tobytes())
+            at += len(program.words)
+            self.closure_alpha = True
+        return b"".join(chunks)
+    # -- end of closure alpha
 
     def _mesh_bounds(self, mesh) -> tuple[np.ndarray, np.ndarray]:
         key = (mesh.mesh_id, mesh.version, id(mesh.positions))

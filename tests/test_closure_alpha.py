@@ -209,3 +209,17 @@ def test_a_graph_computed_coverage_shows_in_a_mirror(addon, tmp_path):
     ours, cycles = _both(bpy, scene, tmp_path, "HYBRID", 4)
     assert 0.2 < (cycles > 0.5).mean() < 0.6
     assert _coverage_mismatch(ours, cycles, 0.5) <= 0.02
+
+
+def test_a_coverage_the_program_computes_is_not_told_as_unread(addon):
+    """The row's reader cannot read a Math chain into the Mix's Factor; the alpha program
+    does, so the artist is not told that the Factor's own value is used."""
+    import bpy
+
+    scene, _ = _leaf_card_blender(bpy, card_emits=True, floor_z=-1.0, floor_kind="EMIT")
+    _graph_card(bpy, scene, card_emits=True, through="MIX")
+    read = addon.blender_adapter.export.materials.material_params
+    with addon.blender_adapter.messages.collecting() as told:
+        row = read(bpy.data.materials["card"])
+    assert row.get("node_graph") is not None and has_closure_alpha(row["node_graph"])
+    assert not [line for line in told if "Factor" in line]

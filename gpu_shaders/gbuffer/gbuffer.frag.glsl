@@ -53,10 +53,6 @@
 #include "scene_layout.glsl"
 #include "textures.glsl"
 #include "octahedral.glsl"
-#ifdef ALPHA_TEST
-#include "alpha.glsl"
-uniform int u_alpha_sample;
-#endif
 #ifdef NODE_PROGRAMS
 #include "node_program.glsl"
 #ifndef CUBE_FACE
@@ -64,6 +60,10 @@ uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
 uniform int u_orthographic;
 #endif
+#endif
+#ifdef ALPHA_TEST
+#include "alpha.glsl"
+uniform int u_alpha_sample;
 #endif
 
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };

@@ -48,8 +48,9 @@ float material_alpha_lod(Material m, vec2 uv, float lod) {
 }
 
 // -- closure alpha
+// The includer includes node_program.glsl before this file: the loader pastes an include
+// once, where it first appears, even inside a block the preprocessor then drops.
 #ifdef NODE_PROGRAMS
-#include "node_program.glsl"
 bool material_has_closure_alpha(Material m) { return m.textures2.z <= -2; }
 
 // The coverage the material's alpha program gives at a point: world position, unit shading

@@ -8,6 +8,9 @@
 // NODE_PROGRAMS with it (GPUScene.defines: some material has a closure alpha): a material's
 // alpha program (alpha.glsl) gives its coverage.
 #ifdef ALPHA_TEST
+#ifdef NODE_PROGRAMS
+#include "node_program.glsl"
+#endif
 #include "alpha.glsl"
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 #ifdef INSTANCED

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from hybrid_engine.scene import node_codes as nc
-from hybrid_engine.scene.node_program import (DISPATCH_NONE, NodeProgramError, compile_graph, compile_table,
+from hybrid_engine.scene.node_program import (CLOSURE_REGISTERS, DISPATCH_NONE, NodeProgramError, compile_graph,
+                                              compile_table,
                                               row_estimate)
 from hybrid_engine.scene.shader_graph import Link, ShaderGraph
 
@@ -34,9 +35,9 @@ def test_an_emission_of_the_uv_compiles_to_three_instructions_with_its_constant_
     words = compile_graph(emission_of_uv(2.0)).words.tolist()
     no = nc.NO_REGISTER
     coord = [nc.OP_TEX_COORD | 7 << 8, no, no, 0, no, no, no, no]  # only UV is read: register 0
-    # Emission's closure goes to registers 0-3: the UV's register is free once Emission read it.
-    emission = [nc.OP_EMISSION | 4 << 8 | 2 << 24, 0, 1, 2, 3, nc.REGISTER | 0, nc.CONSTANT | 1, f(2.0)]
-    output = [nc.OP_OUTPUT | 4 << 24, 0, 1, 2, 3]
+    # Emission's closure goes to registers 0-5: the UV's register is free once Emission read it.
+    emission = [nc.OP_EMISSION | 6 << 8 | 2 << 24, 0, 1, 2, 3, 4, 5, nc.REGISTER | 0, nc.CONSTANT | 1, f(2.0)]
+    output = [nc.OP_OUTPUT | 6 << 24, 0, 1, 2, 3, 4, 5]
     assert words == coord + emission + output
 
 
@@ -72,7 +73,7 @@ def test_registers_are_reused_once_a_values_last_reader_has_run():
     assert program.registers <= CLOSURE_PLUS_ONE
 
 
-CLOSURE_PLUS_ONE = 5  # Emission's closure (four registers) while its colour is still read
+CLOSURE_PLUS_ONE = 7  # Emission's closure (six registers) while its colour is still read
 
 
 def values_all_live(count: int) -> ShaderGraph:
@@ -136,3 +137,4 @@ def test_the_interpreters_opcodes_are_the_compilers():
     defined = {name: int(value) for name, value in re.findall(r"#define NODE_OP_(\w+) (\d+)u", text)}
     assert defined == {name[3:]: value for name, value in nc.OPCODES.items()}
     assert f"#define NODE_REGISTERS {nc.REGISTERS}" in text
+    assert f"#define NODE_CLOSURE_REGISTERS {CLOSURE_REGISTERS}" in text

@@ -92,10 +92,11 @@ def _clipped(node, output):
     return (*source, cutoff) if source is not None and cutoff is not None else None
 
 
-def read_coverage(socket, owner: str, what: str) -> dict:
+def read_coverage(socket, owner: str, what: str, quiet: bool = False) -> dict:
     """The coverage a value socket gives, as material-row keys: ``alpha`` (its value, or 1
     for an image), and for an image ``alpha_texture`` (pixels), ``alpha_channel`` and
-    ``alpha_clip`` (0: none)."""
+    ``alpha_clip`` (0: none). ``quiet``: what it cannot read is not told (a node program
+    computes the coverage instead)."""
     own = _constant(socket) if socket is not None and not socket.is_linked else None
     if socket is None:
         return {"alpha": 1.0}
@@ -107,8 +108,9 @@ def read_coverage(socket, owner: str, what: str) -> dict:
     found = _image_channel(node, output)
     found = (*found, 0.0) if found is not None else _clipped(node, output)
     if found is None:
-        tell("%s: %s is linked to %r, which is not an image's alpha or channel (or a clip of "
-             "one); its own value is used", owner, what, node.name)
+        if not quiet:
+            tell("%s: %s is linked to %r, which is not an image's alpha or channel (or a clip of "
+                 "one); its own value is used", owner, what, node.name)
         return {"alpha": float(socket.default_value)}
     image, channel, cutoff = found
     pixels = image_pixels(image)
@@ -117,7 +119,7 @@ def read_coverage(socket, owner: str, what: str) -> dict:
     return {"alpha": 1.0, "alpha_texture": pixels, "alpha_channel": channel, "alpha_clip": float(cutoff)}
 
 
-def split_transparent(node, owner: str):
+def split_transparent(node, owner: str, quiet: bool = False):
     """(the shader node to read as the surface, coverage row keys) of a material's surface
     node. A Mix Shader of a Transparent BSDF and another shader is the other shader with a
     coverage of the mix's factor (Blender mixes (1 - f) A + f B: f when the Transparent BSDF
@@ -135,13 +137,14 @@ def split_transparent(node, owner: str):
     b, _ = _linked(node.inputs[2])
     if a is not None and a.type == "BSDF_TRANSPARENT" and (b is None or b.type != "BSDF_TRANSPARENT"):
         _tell_tinted(a, owner)
-        return b, read_coverage(factor, owner, "the Mix Shader's Factor")
+        return b, read_coverage(factor, owner, "the Mix Shader's Factor", quiet)
     if b is not None and b.type == "BSDF_TRANSPARENT" and a is not None:
         _tell_tinted(b, owner)
         value = _constant(factor)
         if value is None:
-            tell("%s: the Transparent BSDF is the Mix Shader's second shader and its Factor is "
-                 "linked; put the Transparent BSDF first for a mask to cut out, it is left opaque", owner)
+            if not quiet:
+                tell("%s: the Transparent BSDF is the Mix Shader's second shader and its Factor is "
+                     "linked; put the Transparent BSDF first for a mask to cut out, it is left opaque", owner)
             return a, {}
         return a, {"alpha": 1.0 - min(max(value, 0.0), 1.0)}
     return node, {}
@@ -161,15 +164,15 @@ def render_method_note(material) -> None:
              material.name)
 
 
-def surface_coverage(material, node, images: bool) -> dict:
+def surface_coverage(material, node, images: bool, quiet: bool = False) -> dict:
     """The coverage row keys of ``material`` whose surface node is ``node`` (the Principled
     BSDF's Alpha, a Transparent mix); without ``images`` only the factor (the material
     panel's row)."""
     render_method_note(material)
-    surface, mixed = split_transparent(node, material.name)
+    surface, mixed = split_transparent(node, material.name, quiet)
     principled = {}
     if surface is not None and surface.type == "BSDF_PRINCIPLED":
-        principled = read_coverage(surface.inputs.get("Alpha"), material.name, "Alpha")
+        principled = read_coverage(surface.inputs.get("Alpha"), material.name, "Alpha", quiet)
     out = combine(principled, mixed, material.name)
     if not images:
         out = {"alpha": float(out.get("alpha", 1.0))}

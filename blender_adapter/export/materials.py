@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...hybrid_engine.scene.closure_alpha import has_closure_alpha
 from ...hybrid_engine.scene.materials import DEFAULT_THICKNESS, principled_to_params
 from ...hybrid_engine.scene.data import MaterialTable
 from ...hybrid_engine.scene.node_program import NODE_SPECS
@@ -296,7 +297,12 @@ def material_params(material, textures: bool = True) -> dict:
         images: dict | None = {} if textures else None
         row = principled_to_params(**material_inputs(material, images))
         row.update(images or {})
-    row.update(surface_coverage(material, surface_node(getattr(material, "node_tree", None)), textures))
+    # -- closure alpha: where the graph has an alpha program (hybrid_engine/scene/
+    # closure_alpha.py), it gives the coverage; the row's reading is only the panel's, and
+    # what it cannot read is no loss to tell the artist of.
+    program = has_closure_alpha(row.get("node_graph"))
+    row.update(surface_coverage(material, surface_node(getattr(material, "node_tree", None)), textures,
+                                quiet=program))
     row["name"] = material.name
     return row
 

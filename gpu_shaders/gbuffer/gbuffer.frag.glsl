@@ -53,10 +53,6 @@
 #include "scene_layout.glsl"
 #include "textures.glsl"
 #include "octahedral.glsl"
-#ifdef ALPHA_TEST
-#include "alpha.glsl"
-uniform int u_alpha_sample;
-#endif
 #ifdef NODE_PROGRAMS
 #include "node_program.glsl"
 #ifndef CUBE_FACE
@@ -64,6 +60,10 @@ uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
 uniform int u_orthographic;
 #endif
+#endif
+#ifdef ALPHA_TEST
+#include "alpha.glsl"
+uniform int u_alpha_sample;
 #endif
 
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
@@ -105,9 +105,30 @@ void main() {
     vec2 duv_dx = dFdx(v_uv);
     vec2 duv_dy = dFdy(v_uv);
 #ifdef ALPHA_TEST
-    if (material_has_alpha(m) && !alpha_kept(material_alpha_grad(m, v_uv, duv_dx, duv_dy),
-            uvec4(uvec2(gl_FragCoord.xy), uint(u_alpha_sample), floatBitsToUint(gl_FragCoord.z)))) {
-        discard;
+    if (material_has_alpha(m)) {
+        float alpha = material_alpha_grad(m, v_uv, duv_dx, duv_dy);
+        // -- closure alpha: the material's alpha program (alpha.glsl), seen from the camera
+        // (the faces: from the normal's side; no viewer there)
+#ifdef NODE_PROGRAMS
+        if (material_has_closure_alpha(m)) {
+            vec3 facing = node_unit(v_normal, vec3(0.0, 0.0, 1.0));
+#ifdef CUBE_FACE
+            vec3 seen_from = gl_FrontFacing ? facing : -facing;
+#else
+            vec3 seen_from = u_orthographic != 0 ? -normalize(u_camera_forward) : normalize(u_camera_position - v_world);
+#endif
+#ifdef INSTANCED
+            int row = v_first_row + gl_PrimitiveID;
+#else
+            int row = v_row;
+#endif
+            alpha = material_closure_alpha(m, v_world, facing, seen_from, v_uv, duv_dx, duv_dy, -1.0, row, material, 0);
+        }
+#endif
+        // -- end of closure alpha
+        if (!alpha_kept(alpha, uvec4(uvec2(gl_FragCoord.xy), uint(u_alpha_sample), floatBitsToUint(gl_FragCoord.z)))) {
+            discard;
+        }
     }
 #endif
     vec3 n = v_normal;

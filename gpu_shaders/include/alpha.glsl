@@ -13,6 +13,11 @@
 // image's value is clipped at that threshold first (glTF's MASK mode as Blender's importer
 // builds it: 1 - (alpha < cutoff)).
 //
+// A material with a node graph whose closure has an alpha (a Transparent BSDF mixed in, a
+// Principled Alpha the graph computes: scene/closure_alpha.py) has its own short alpha
+// program instead: textures2.z = -2 - its first word (NODE_PROGRAMS only), params2.xy = 1, 0;
+// material_closure_alpha runs it at the point the caller describes.
+//
 // Compiled only into the variants a scene with alpha asks for (ALPHA_TEST, set by the passes
 // when MaterialTable.has_alpha): a fragment shader that may discard loses the early depth
 // test, and a traversal that fetches a texture per candidate hit costs the opaque scenes
@@ -23,7 +28,7 @@
 #include "textures.glsl"
 #include "random.glsl"
 
-bool material_has_alpha(Material m) { return m.params2.x < 1.0 || m.textures2.z >= 0; }
+bool material_has_alpha(Material m) { return m.params2.x < 1.0 || m.textures2.z != -1; }
 
 // The coverage given the alpha image's texel.
 float material_alpha_of_texel(Material m, vec4 texel) {
@@ -41,6 +46,44 @@ float material_alpha_lod(Material m, vec2 uv, float lod) {
     if (m.textures2.z < 0) return m.params2.x;
     return material_alpha_of_texel(m, textureLod(u_textures, vec3(uv, float(m.textures2.z >> 2)), lod));
 }
+
+// -- closure alpha
+// The includer includes node_program.glsl before this file: the loader pastes an include
+// once, where it first appears, even inside a block the preprocessor then drops.
+#ifdef NODE_PROGRAMS
+bool material_has_closure_alpha(Material m) { return m.textures2.z <= -2; }
+
+// The coverage the material's alpha program gives at a point: world position, unit shading
+// normal as modelled, unit direction towards where the point is seen from (the camera; the
+// normal where no viewer is known: shadow maps, cube faces), UV with its derivatives
+// (fragment stages) or a mip level (lod >= 0: traversal), world row and material, and the
+// ray depth (0: the camera's). The footprint and UV directions are left out: Bump and
+// tangent-space Normal Maps do not reach a coverage.
+float material_closure_alpha(Material m, vec3 position, vec3 normal, vec3 incoming, vec2 uv, vec2 duv_dx,
+                             vec2 duv_dy, float lod, int row, int material, int depth) {
+    ShadingPoint sp;
+    sp.position = position;
+    sp.backfacing = dot(normal, incoming) < 0.0;
+    sp.normal = sp.backfacing ? -normal : normal;
+    sp.geometric = sp.normal;
+    sp.incoming = incoming;
+    sp.uv = uv;
+    sp.duv_dx = duv_dx;
+    sp.duv_dy = duv_dy;
+    sp.lod = lod;
+    sp.dp_du = vec3(0.0);
+    sp.dp_dv = vec3(0.0);
+    sp.dp_dx = vec3(0.0);
+    sp.dp_dy = vec3(0.0);
+    sp.uv_dx = vec2(0.0);
+    sp.uv_dy = vec2(0.0);
+    sp.ray_depth = depth;
+    sp.row = row;
+    sp.material = material;
+    return node_program_run(-2 - m.textures2.z, sp).alpha;
+}
+#endif
+// -- end of closure alpha
 
 // Whether a surface of coverage `alpha` is there for this draw: `key` names the pixel (or
 // ray), the sample and the layer, so stacked surfaces and successive samples draw

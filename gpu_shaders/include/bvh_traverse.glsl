@@ -39,7 +39,7 @@
 // BVH_ALPHA_TEST defined (trace_ray.glsl, for scenes with alpha: ALPHA_TEST): a triangle the
 // ray meets is a hit only if its material's coverage keeps it (an any-hit test during the
 // traversal, for closest and occlusion rays alike): the including shader defines
-//   bool bvh_alpha_kept(int original_tri, vec2 bary, BVHRay ray);
+//   bool bvh_alpha_kept(int original_tri, vec2 bary, BVHRay ray, float t);
 // Without it the leaf test is the plain one, so opaque scenes trace exactly as before.
 // Host defines (optional): for a BVH whose arrays exceed one storage block, the split defines of bvh_storage.glsl
 // (BVH_NODE_BLOCKS, BVH_NODE_BLOCK_SIZE, BVH_TRIANGLE_BLOCKS, BVH_TRIANGLE_BLOCK_SIZE; the host
@@ -230,7 +230,7 @@ bool bvh_intersect_triangle(BVHRay ray, vec3 p0, vec3 p1, vec3 p2, float tmin,
 }
 
 #ifdef BVH_ALPHA_TEST
-bool bvh_alpha_kept(int original_tri, vec2 bary, BVHRay ray);
+bool bvh_alpha_kept(int original_tri, vec2 bary, BVHRay ray, float t);
 #endif
 
 // Intersect leaf `leaf` (a triangle of the reordered array); updates t_best/bary on a closer hit.
@@ -240,7 +240,7 @@ bool bvh_intersect_leaf(BVHRay ray, int leaf, float tmin, inout float t_best, in
     float t = t_best;
     vec2 b = bary;
     if (!bvh_intersect_triangle(ray, bvh_xyz(tr.v0), bvh_xyz(tr.v1), bvh_xyz(tr.v2), tmin, t, b)
-        || !bvh_alpha_kept(int(tr.v0.w), b, ray)) {
+        || !bvh_alpha_kept(int(tr.v0.w), b, ray, t)) {
         return false;
     }
     t_best = t;

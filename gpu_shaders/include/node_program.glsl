@@ -10,17 +10,21 @@
 // instance table: world-to-object map, texture space, location, colour, random; written by
 // hybrid_engine/passes/scene_upload/node_programs.py). Sampler: u_textures (textures.glsl).
 //
-// The closure. A shader socket carries four registers of weighted sums (Cycles' SVM instead
-// keeps a list of closures, each with its own BSDF): rgb = weight x base colour and a = the
-// surface weight w; metallic, roughness, transmission, IOR times w; emission (summed) and
-// the Transparent weight t; normal and specular coat times w. Mix Shader mixes the sums by
-// its factor, Add Shader adds them. At the Material Output the parameters are the w-weighted
-// means (one BSDF whose lobes are the means of the mixed ones'), the base colour is the sum
-// over the alpha (so that an Emission mixed with a Diffuse darkens the diffuse as Cycles'
-// closure weights do), alpha = 1 - t, emission the sum. What this cannot show: two lobes
-// of different colours or roughnesses at once (a mix of a red diffuse and a blue glossy is
-// one lobe pair of the mean colour), which the engine's shading model (shading.glsl: one
-// base colour, one roughness) could not hold either.
+// The closure. A shader socket carries NODE_CLOSURE_REGISTERS registers of weighted sums
+// (Cycles' SVM instead keeps a list of closures, each with its own BSDF): rgb = weight x base
+// colour and a = the surface weight w; metallic, roughness, transmission, IOR times w;
+// emission (summed) and the Transparent weight t; normal and specular coat times w; and the
+// Glossy lobes' own sums (weight x tint and weight; weight x roughness), which registers 0-3
+// hold too. Mix Shader mixes the sums by its factor, Add Shader adds them. At the Material
+// Output (node_closure_of, "closure lobes" below) the parameters are the w-weighted means
+// (one BSDF whose lobes are the means of the mixed ones'), the base colour is the sum over
+// the alpha (so that an Emission mixed with a Diffuse darkens the diffuse as Cycles' closure
+// weights do), alpha = 1 - t, emission the sum; except that Glossy lobes over a base with a
+// diffuse part become that diffuse layer's coat (lobes, not means). What this cannot show:
+// two lobes of different colours or roughnesses where no layer holds them (a tinted Glossy
+// over a diffuse is a white coat of the tint's luminance; a Glossy mixed with a metal or a
+// glass is one lobe of the mean colour and roughness), as the engine's shading model
+// (shading.glsl: one base colour, one roughness, one white coat) cannot hold them.
 #ifndef HYBRID_NODE_PROGRAM_GLSL
 #define HYBRID_NODE_PROGRAM_GLSL
 #include "scene_layout.glsl"
@@ -45,6 +49,8 @@
 #include "include/nodes/tex_image_mapping.glsl"
 #endif
 #include "node_material.glsl"
+// closure lobes: the Glossy layer as the diffuse layer's coat
+#include "coat.glsl"
 // -- colour and vector: each family's node functions only where a graph uses it
 // (node_codes.FAMILY_*, GPUScene.defines).
 #ifdef NODE_FAMILY_COLOUR
@@ -136,6 +142,9 @@ uniform float u_world_lod;  // the images' mip level whose texels match the bake
 #define NODE_MAX_OPERANDS 16
 #define NODE_MAX_OUTPUTS 8
 #define NODE_MAX_INSTRUCTIONS 256
+// -- closure lobes: a shader value's registers (scene/node_program.py CLOSURE_REGISTERS)
+#define NODE_CLOSURE_REGISTERS 6
+// -- end of closure lobes
 
 layout(std430) readonly buffer NodeProgram { uint node_words[]; };
 
@@ -482,25 +491,76 @@ float node_curve_value(uint at, int columns, int column, float x, float min_x, f
 }
 #endif
 
-// The closure at the Material Output from its four registers of weighted sums (header).
-NodeClosure node_closure_of(vec4 r0, vec4 r1, vec4 r2, vec4 r3, ShadingPoint sp) {
+// -- closure lobes
+// Glossy lobes (Cycles: a GGX lobe of constant colour, weighted by their Mix factors, a
+// Fresnel or Layer Weight most often) over the rest of the closure (the base: its own means)
+// as the shading model holds two layers: the base's diffuse part under a white dielectric
+// coat (shading.glsl), whose f0 is chosen so that at this point's view it reflects what the
+// Glossy lobes weigh here, plus the base's own coat. The base's layers are rescaled so that
+// metal, glass and diffuse keep the light Cycles gives each: with the base's shares m, t, d
+// (sum 1, d its diffuse after its own coat), scale s and gloss weight G (both over the
+// alpha), the material's albedo is s A (m + t + d) / (1 - G), its metal and glass shares
+// m (1 - G) / (m + t + d) and t alike, and its coat reflects G / (its diffuse share). One
+// roughness for every specular lobe: the mean of the gloss's and the base's specular
+// roughnesses, weighted by the light each reflects. Without a diffuse part in the base (a
+// Glossy alone, or over a metal or glass) the means stand (the metal lobe holds a Glossy
+// exactly when it is alone).
+void node_gloss_layer(vec4 result[NODE_CLOSURE_REGISTERS], ShadingPoint sp, inout NodeClosure c) {
+    float wg = result[4].a;
+    float w = result[0].a;
+    float wb = w - wg;
+    if (!(wg > 1e-6) || !(wb > 1e-6) || c.alpha <= 1e-8) return;
+    float inv_wb = 1.0 / wb;
+    float m_b = clamp((result[1].x - wg) * inv_wb, 0.0, 1.0);
+    float t_b = clamp(result[1].z * inv_wb, 0.0, 1.0 - m_b);
+    float d_b = 1.0 - m_b - t_b;
+    if (d_b <= 1e-3) return;
+    float r_b = clamp((result[1].y - result[5].x) * inv_wb, 0.0, 1.0);
+    float f0_b = clamp(result[3].w * inv_wb, 0.0, 1.0);
+    float ior_b = max((result[1].w - 1.5 * wg) * inv_wb, 1.0);
+    float r_g = clamp(result[5].x / wg, 0.0, 1.0);
+    float s = wb / c.alpha;
+    vec3 base = max(result[0].rgb - result[4].rgb, vec3(0.0)) / c.alpha;  // s x the base's mean colour
+    float gloss = dot(result[4].rgb, vec3(0.2126, 0.7152, 0.0722)) / c.alpha;
+    float cos_v = clamp(abs(dot(sp.incoming, c.normal)), 1e-4, 1.0);
+    float coat_b = coat_reflectance(f0_b, cos_v, r_b);
+    float d_after = d_b * (1.0 - coat_b);
+    float gloss_total = min(gloss + s * d_b * coat_b, 0.999);
+    float shares = m_b + t_b + d_after;
+    if (!(shares > 1e-6)) return;
+    float spec_b = s * (m_b + t_b + d_b * coat_b);
+    c.base_color = base * (shares / (1.0 - gloss_total));
+    c.metallic = m_b * (1.0 - gloss_total) / shares;
+    c.transmission = t_b * (1.0 - gloss_total) / shares;
+    c.ior = ior_b;
+    c.roughness = (gloss * r_g + spec_b * r_b) / max(gloss + spec_b, 1e-8);
+    float diffuse_share = max(1.0 - c.metallic - c.transmission, 1e-6);
+    c.specular = coat_f0_for(min(gloss_total / diffuse_share, 1.0), cos_v, c.roughness);
+    if (any(isnan(c.base_color)) || any(isinf(c.base_color))) c.base_color = vec3(0.0);
+}
+
+// The closure of the Output's sums (module header) at the shading point: the w-weighted
+// means, or, where Glossy lobes lie over a base with a diffuse part, the two as layers.
+NodeClosure node_closure_of(vec4 result[NODE_CLOSURE_REGISTERS], ShadingPoint sp) {
     NodeClosure c;
-    float w = r0.a;
+    float w = result[0].a;
     float inv_w = w > 1e-8 ? 1.0 / w : 0.0;
-    c.alpha = clamp(1.0 - r2.a, 0.0, 1.0);
-    c.base_color = c.alpha > 1e-8 ? max(r0.rgb / c.alpha, vec3(0.0)) : vec3(0.0);
-    c.metallic = w > 1e-8 ? clamp(r1.x * inv_w, 0.0, 1.0) : 0.0;
-    c.roughness = w > 1e-8 ? clamp(r1.y * inv_w, 0.0, 1.0) : 1.0;
-    c.transmission = w > 1e-8 ? clamp(r1.z * inv_w, 0.0, 1.0) : 0.0;
-    c.ior = w > 1e-8 ? max(r1.w * inv_w, 1.0) : 1.5;
-    c.specular = w > 1e-8 ? clamp(r3.w * inv_w, 0.0, 1.0) : 0.0;
-    c.emission = max(r2.rgb, vec3(0.0));
-    vec3 n = node_unit(r3.xyz, sp.normal);
+    c.alpha = clamp(1.0 - result[2].a, 0.0, 1.0);
+    c.base_color = c.alpha > 1e-8 ? max(result[0].rgb / c.alpha, vec3(0.0)) : vec3(0.0);
+    c.metallic = w > 1e-8 ? clamp(result[1].x * inv_w, 0.0, 1.0) : 0.0;
+    c.roughness = w > 1e-8 ? clamp(result[1].y * inv_w, 0.0, 1.0) : 1.0;
+    c.transmission = w > 1e-8 ? clamp(result[1].z * inv_w, 0.0, 1.0) : 0.0;
+    c.ior = w > 1e-8 ? max(result[1].w * inv_w, 1.0) : 1.5;
+    c.specular = w > 1e-8 ? clamp(result[3].w * inv_w, 0.0, 1.0) : 0.0;
+    c.emission = max(result[2].rgb, vec3(0.0));
+    vec3 n = node_unit(result[3].xyz, sp.normal);
     c.normal = sp.backfacing ? -n : n;  // back to the orientation as modelled
     if (any(isnan(c.base_color)) || any(isinf(c.base_color))) c.base_color = vec3(0.0);
     if (any(isnan(c.emission)) || any(isinf(c.emission))) c.emission = vec3(0.0);
+    node_gloss_layer(result, sp, c);
     return c;
 }
+// -- end of closure lobes
 
 #ifndef NODE_GENERATED_ONLY
 // Interpret the program at word `offset` at the shading point; returns the material's closure.
@@ -509,7 +569,8 @@ NodeClosure node_program_interpret(int offset, ShadingPoint sp) {
     ShadingPoint base = sp;
     for (int r = 0; r < NODE_REGISTERS; ++r) node_reg[r] = vec4(0.0);
     uint pc = uint(max(offset, 0));
-    vec4 result[4] = vec4[4](vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0));
+    vec4 result[NODE_CLOSURE_REGISTERS];
+    for (int k = 0; k < NODE_CLOSURE_REGISTERS; ++k) result[k] = vec4(0.0);
     for (int step = 0; step < NODE_MAX_INSTRUCTIONS; ++step) {
         uint header = node_words[pc];
         uint op = header & 0xffu;
@@ -524,7 +585,9 @@ NodeClosure node_program_interpret(int offset, ShadingPoint sp) {
             if (i < uint(NODE_MAX_OPERANDS)) node_in[i] = v;
         }
         if (op == NODE_OP_OUTPUT || op == 0u) {
-            if (op == NODE_OP_OUTPUT) result = vec4[4](node_in[0], node_in[1], node_in[2], node_in[3]);
+            if (op == NODE_OP_OUTPUT) {
+                for (int k = 0; k < NODE_CLOSURE_REGISTERS; ++k) result[k] = node_in[k];
+            }
             break;
         }
         for (int o = 0; o < NODE_MAX_OUTPUTS; ++o) node_out[o] = vec4(0.0);
@@ -651,6 +714,10 @@ NodeClosure node_program_interpret(int offset, ShadingPoint sp) {
         case NODE_OP_BSDF_GLOSSY:
             node_bsdf(1.0, node_in[0].rgb, 1.0, node_in[1].x, 0.0, 1.5, 0.0, node_in[2].xyz, vec3(0.0), 0.0,
                       node_out[0], node_out[1], node_out[2], node_out[3]);
+            // -- closure lobes: the Glossy layer's own sums (weight 1)
+            node_out[4] = vec4(max(node_in[0].rgb, vec3(0.0)), 1.0);
+            node_out[5] = vec4(clamp(node_in[1].x, 0.0, 1.0), 0.0, 0.0, 0.0);
+            // -- end of closure lobes
             break;
         case NODE_OP_BSDF_GLASS:
         case NODE_OP_BSDF_REFRACTION:
@@ -667,11 +734,12 @@ NodeClosure node_program_interpret(int offset, ShadingPoint sp) {
             break;
         case NODE_OP_MIX_SHADER: {
             float fac = clamp(node_in[0].x, 0.0, 1.0);
-            for (int k = 0; k < 4; ++k) node_out[k] = mix(node_in[1 + k], node_in[5 + k], fac);
+            for (int k = 0; k < NODE_CLOSURE_REGISTERS; ++k)
+                node_out[k] = mix(node_in[1 + k], node_in[1 + NODE_CLOSURE_REGISTERS + k], fac);
             break;
         }
         case NODE_OP_ADD_SHADER:
-            for (int k = 0; k < 4; ++k) node_out[k] = node_in[k] + node_in[4 + k];
+            for (int k = 0; k < NODE_CLOSURE_REGISTERS; ++k) node_out[k] = node_in[k] + node_in[NODE_CLOSURE_REGISTERS + k];
             break;
         // -- colour and vector
 #ifdef NODE_FAMILY_VECTOR
@@ -977,7 +1045,7 @@ NodeClosure node_program_interpret(int offset, ShadingPoint sp) {
             if (r < uint(NODE_REGISTERS)) node_reg[r] = node_out[o];
         }
     }
-    return node_closure_of(result[0], result[1], result[2], result[3], sp);
+    return node_closure_of(result, sp);
 }
 #endif
 
@@ -994,7 +1062,9 @@ NodeClosure node_program_run(int offset, ShadingPoint sp) {
     if (node_generated_run(offset, sp, c)) return c;
 #endif
 #ifdef NODE_GENERATED_ONLY
-    return node_closure_of(vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), sp);
+    vec4 nothing[NODE_CLOSURE_REGISTERS];
+    for (int k = 0; k < NODE_CLOSURE_REGISTERS; ++k) nothing[k] = vec4(0.0);
+    return node_closure_of(nothing, sp);
 #else
     return node_program_interpret(offset, sp);
 #endif

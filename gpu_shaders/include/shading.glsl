@@ -22,6 +22,7 @@
 #include "sky.glsl"
 #include "world_light.glsl"
 #include "random.glsl"
+#include "coat.glsl"
 
 // Exact unpolarised Fresnel reflectance; eta = n_transmitted / n_incident.
 float fresnel_dielectric(float cos_i, float eta) {
@@ -68,19 +69,6 @@ bool material_is_specular(Material m) {
 bool material_glossy_gathered(Material m) {
     return material_diffuse(m) <= 0.0 && material_transmission(m) <= 0.0 && !material_reflection_traced(m)
            && material_reflectivity(m) > 0.0;
-}
-
-// The specular coat's directional albedo (Karis 2014's fit of the split-sum DFG term): the
-// share of light it reflects at cos_v and roughness, scale * f0 + bias. Reflectances below
-// 2 % fade the grazing bias out with them (a coat of level 0 reflects nothing).
-float coat_reflectance(float f0, float cos_v, float roughness) {
-    if (!(f0 > 0.0)) return 0.0;
-    const vec4 c0 = vec4(-1.0, -0.0275, -0.572, 0.022);
-    const vec4 c1 = vec4(1.0, 0.0425, 1.04, -0.04);
-    vec4 r = roughness * c0 + c1;
-    float a004 = min(r.x * r.x, exp2(-9.28 * cos_v)) * r.x + r.y;
-    vec2 ab = vec2(-1.04, 1.04) * a004 + r.zw;
-    return clamp(f0 * ab.x + clamp(50.0 * f0, 0.0, 1.0) * ab.y, 0.0, 1.0);
 }
 
 // A microfacet normal of the GGX lobe of roughness alpha around n, seen from v (unit, towards

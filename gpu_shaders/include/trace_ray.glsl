@@ -118,13 +118,28 @@ layout(std430) readonly buffer TriangleUVBuffer { TriangleUV tri_uvs[]; };
 // The traversal's any-hit test (bvh_traverse.glsl): the triangle's coverage at the hit,
 // its alpha image read at the finest level, against a number drawn from the ray (origin and
 // direction change with every sample's jitter and lobe choice) and the triangle.
-bool bvh_alpha_kept(int tri, vec2 bary, BVHRay ray) {
-    Material m = materials[tri_materials[tri]];
+bool bvh_alpha_kept(int tri, vec2 bary, BVHRay ray, float t) {
+    int material = tri_materials[tri];
+    Material m = materials[material];
     if (!material_has_alpha(m)) return true;
     TriangleUV tuv = tri_uvs[tri];
     vec2 uv = (1.0 - bary.x - bary.y) * tuv.uv01.xy + bary.x * tuv.uv01.zw + bary.y * tuv.uv2_scale.xy;
     uvec3 o = floatBitsToUint(ray.origin) ^ (floatBitsToUint(ray.inv_dir) * 0x9e3779b9u);
-    return alpha_kept(material_alpha_lod(m, uv, 0.0), uvec4(o, uint(tri)));
+    float alpha = material_alpha_lod(m, uv, 0.0);
+    // -- closure alpha: the material's alpha program at the candidate hit (alpha.glsl), a
+    // short program of the nodes the coverage reads (scene/closure_alpha.py); t is in units
+    // of the ray's direction as bvh_make_ray was given it
+#ifdef NODE_PROGRAMS
+    if (material_has_closure_alpha(m)) {
+        vec3 dir = 1.0 / ray.inv_dir;
+        vec3 towards = -node_unit(dir, vec3(0.0, 0.0, 1.0));
+        vec3 n = node_unit(interpolated_normal(tri, bary), towards);
+        alpha = material_closure_alpha(m, ray.origin + t * dir, n, towards, uv, vec2(0.0), vec2(0.0), 0.0, tri,
+                                       material, 1);
+    }
+#endif
+    // -- end of closure alpha
+    return alpha_kept(alpha, uvec4(o, uint(tri)));
 }
 #endif
 #endif  // TRACE_SHADING_ONLY

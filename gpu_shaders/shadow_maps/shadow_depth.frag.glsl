@@ -5,7 +5,12 @@
 // per texel and depth, not per sample: the maps are cached across frames
 // (shadow_cache.py), so a partly covering surface casts a fixed dithered shadow that the
 // shadow filter averages. Opaque scenes compile no discard (the early depth test stays).
+// NODE_PROGRAMS with it (GPUScene.defines: some material has a closure alpha): a material's
+// alpha program (alpha.glsl) gives its coverage.
 #ifdef ALPHA_TEST
+#ifdef NODE_PROGRAMS
+#include "node_program.glsl"
+#endif
 #include "alpha.glsl"
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 #ifdef INSTANCED
@@ -15,21 +20,47 @@ flat in int v_first_row;
 flat in int v_material;
 #endif
 in vec2 v_uv;
+#ifdef NODE_PROGRAMS
+in vec3 v_world;
+#ifndef INSTANCED
+flat in int v_row;
+#endif
+#endif
 #endif
 
 void main() {
 #ifdef ALPHA_TEST
 #ifdef INSTANCED
-    Material m = materials[triangle_materials[v_first_row + gl_PrimitiveID]];
+    int material = triangle_materials[v_first_row + gl_PrimitiveID];
 #else
-    Material m = materials[v_material];
+    int material = v_material;
 #endif
+    Material m = materials[material];
     // Derivatives outside any branch (undefined in non-uniform control flow).
     vec2 duv_dx = dFdx(v_uv);
     vec2 duv_dy = dFdy(v_uv);
-    if (material_has_alpha(m) && !alpha_kept(material_alpha_grad(m, v_uv, duv_dx, duv_dy),
-            uvec4(uvec2(gl_FragCoord.xy), 0x5bd1e995u, floatBitsToUint(gl_FragCoord.z)))) {
-        discard;
+#ifdef NODE_PROGRAMS
+    vec3 plane = cross(dFdx(v_world), dFdy(v_world));
+#endif
+    if (material_has_alpha(m)) {
+        float alpha = material_alpha_grad(m, v_uv, duv_dx, duv_dy);
+        // -- closure alpha: the alpha program at the texel's point, seen along its plane's
+        // normal (no viewer: the lamp's direction is not at hand)
+#ifdef NODE_PROGRAMS
+        if (material_has_closure_alpha(m)) {
+            vec3 n = node_unit(plane, vec3(0.0, 0.0, 1.0));
+#ifdef INSTANCED
+            int row = v_first_row + gl_PrimitiveID;
+#else
+            int row = v_row;
+#endif
+            alpha = material_closure_alpha(m, v_world, n, n, v_uv, duv_dx, duv_dy, -1.0, row, material, 1);
+        }
+#endif
+        // -- end of closure alpha
+        if (!alpha_kept(alpha, uvec4(uvec2(gl_FragCoord.xy), 0x5bd1e995u, floatBitsToUint(gl_FragCoord.z)))) {
+            discard;
+        }
     }
 #endif
 }

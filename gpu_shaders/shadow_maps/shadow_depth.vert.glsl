@@ -10,7 +10,8 @@
 // arithmetic (instance_space.glsl; gbuffer/gbuffer.vert.glsl says why): the same depths
 // as drawing the world-space rows, bit for bit. Not combined with FACE_VIEWPORTS.
 // ALPHA_TEST defined: the fragment stage's alpha test also gets the UV and the triangle's
-// material (its row; for INSTANCED the instance's first row, as gbuffer.vert.glsl).
+// material (its row; for INSTANCED the instance's first row, as gbuffer.vert.glsl); with
+// NODE_PROGRAMS also the world position and row, for a material's alpha program.
 #if defined(INSTANCED) && defined(FACE_VIEWPORTS)
 #error "INSTANCED draws one slot per draw"
 #endif
@@ -34,6 +35,12 @@ in vec3 in_pos;
 #ifdef ALPHA_TEST
 in vec2 in_uv;
 out vec2 v_uv;
+#ifdef NODE_PROGRAMS  // closure alpha: the point and its world row for the alpha program
+out vec3 v_world;
+#ifndef INSTANCED
+flat out int v_row;
+#endif
+#endif
 #ifdef INSTANCED
 flat out int v_first_row;
 #else
@@ -50,6 +57,12 @@ void main() {
 #endif
 #ifdef ALPHA_TEST
     v_uv = in_uv;
+#ifdef NODE_PROGRAMS
+    v_world = world;
+#ifndef INSTANCED
+    v_row = gl_VertexID / 3;
+#endif
+#endif
 #ifdef INSTANCED
     v_first_row = instances[gl_BaseInstanceARB].info.x;
 #else

@@ -15,6 +15,7 @@ import numpy as np
 
 from .arrays import SceneDataError, as_array
 from .geometry import Geometry
+from .closure_alpha import has_closure_alpha
 from .shader_graph import ShaderGraph
 from .sky_sun import sun_rows
 
@@ -188,9 +189,13 @@ class MaterialTable:
 
     @property
     def has_alpha(self) -> bool:
-        """True when some surface is not wholly there (alpha below 1, or an alpha image):
+        """True when some surface is not wholly there (alpha below 1, an alpha image, or a
+        node graph's closure alpha):
         only then do the passes compile their alpha tests (``ALPHA_TEST``)."""
-        return bool((np.nan_to_num(self.alpha, nan=1.0) < 1.0).any() or (self.alpha_texture >= 0).any())
+        if (np.nan_to_num(self.alpha, nan=1.0) < 1.0).any() or (self.alpha_texture >= 0).any():
+            return True
+        # -- closure alpha: a graph's Transparent BSDF or Principled Alpha (closure_alpha.py)
+        return any(has_closure_alpha(graph) for graph in self.node_graphs or ())
 
     def __len__(self) -> int:
         return int(len(self.base_color))

@@ -16,9 +16,11 @@ the last reader of a value has run (a linear scan over the nodes in evaluation o
 deep graph fits the interpreter's small fixed register file; a graph that does not fit fails
 here with its material's name. Only the nodes the Material Output reaches are compiled.
 
-A shader socket carries a closure (four registers): the weighted sums of the surface's
-parameters, so that Mix Shader and Add Shader mix closures by mixing their parameters
-(node_program.glsl documents the approximation against Cycles' true mix of closures).
+A shader socket carries a closure (six registers): the weighted sums of the surface's
+parameters and, apart, of its Glossy lobes, so that Mix Shader and Add Shader mix closures
+by mixing their sums; the interpreter makes Glossy lobes over a diffuse base a coat layer of
+their own and means of the rest (node_program.glsl documents what this holds against
+Cycles' true mix of closures).
 """
 from __future__ import annotations
 
@@ -34,7 +36,7 @@ from .mesh_attributes import AttributeRequests, node_key, requests_of
 from .shader_graph import Constant, GraphNode, Link, ShaderGraph
 
 VALUE, VECTOR, RGBA, SHADER = "VALUE", "VECTOR", "RGBA", "SHADER"
-CLOSURE_REGISTERS = 4  # a shader value: node_program.glsl NodeClosure
+CLOSURE_REGISTERS = 6  # a shader value: node_program.glsl NODE_CLOSURE_REGISTERS (closure lobes)
 
 
 class NodeProgramError(ValueError):

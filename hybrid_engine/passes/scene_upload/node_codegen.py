@@ -40,7 +40,7 @@ import numpy as np
 
 from ...gpu.shader_loader import SHADER_ROOT
 from ...scene import node_codes as nc
-from ...scene.node_program import DISPATCH_NONE, ProgramTable
+from ...scene.node_program import CLOSURE_REGISTERS, DISPATCH_NONE, ProgramTable
 
 INTERPRETER = SHADER_ROOT / "include" / "node_program.glsl"
 MAX_INSTRUCTIONS = 256  # node_program.glsl NODE_MAX_INSTRUCTIONS
@@ -230,11 +230,12 @@ def topology_body(words: np.ndarray | list[int], offset: int, cases: dict[int, t
                     registers.add(register)
                     operands.append(_operand("register", register, (w >> 16) & 3, 0))
             if op == 0:
-                body.append("    return node_closure_of(vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), sp);")
+                body.append(f"    return node_closure_of(vec4[{CLOSURE_REGISTERS}]"
+                            f"({', '.join(['vec4(0.0)'] * CLOSURE_REGISTERS)}), sp);")
                 break
             if op == nc.OP_OUTPUT:
-                result = (operands + ["vec4(0.0)"] * 4)[:4]
-                body.append(f"    return node_closure_of({', '.join(result)}, sp);")
+                result = (operands + ["vec4(0.0)"] * CLOSURE_REGISTERS)[:CLOSURE_REGISTERS]
+                body.append(f"    return node_closure_of(vec4[{CLOSURE_REGISTERS}]({', '.join(result)}), sp);")
                 break
             case_list = cases.get(op)
             if not case_list:

@@ -23,9 +23,10 @@ import numpy as np
 
 from ...gpu import shader_loader
 from ...gpu.dispatch import GrowBuffer
+from ...scene.closure_alpha import closure_alpha_graph
 from ...scene.data import MaterialTable
 from ...scene.geometry import InstancedGeometry
-from ...scene.node_program import ProgramTable, compile_table, row_estimate
+from ...scene.node_program import DISPATCH_NONE, ProgramTable, compile_graph, compile_table, row_estimate
 from .node_codegen import GeneratedPrograms, generate
 
 # Set to "interpreter" to run every program in the interpreter (tests compare the two ways).
@@ -74,6 +75,7 @@ class NodePrograms:
         self._sent_objects: bytes | None = None
         self._bounds: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self.word_uploads = 0  # times the words were sent (tests: an unchanged scene sends none)
+        self.closure_alpha = False  # some material's coverage is an alpha program (closure alpha)
         # Run the programs as generated GLSL (node_codegen.py), the default on llvmpipe and on
         # GPUs alike (docs/BENCHMARKS.md "Shader node programs"); False: the interpreter only;
         # None: as MODE_ENVIRONMENT_VARIABLE says.
@@ -118,12 +120,21 @@ class NodePrograms:
         its closure, node_program.row_estimate) into the packed material ``rows``, and send
         what changed."""
         graphs = materials.node_graphs
+        self.closure_alpha = False
         if not graphs or all(g is None for g in graphs):
             self.table = None
             self.generated, self.generated_key = None, None
             return
         self.table = compile_table(graphs, len(materials), materials.names)
-        self._generate(self.table)
+        # The alpha programs follow the surface programs, each after its own dispatch word,
+        # so that generated code runs them as it runs the surfaces' (node_generated_run reads
+        # the word before a program).
+        alpha_words, alpha_offsets, alpha_programs = self._closure_alpha(graphs, materials.names, rows)
+        run = ProgramTable(np.concatenate([self.table.words, alpha_words]).astype(np.uint32),
+                           np.concatenate([self.table.offsets, alpha_offsets]).astype(np.int32),
+                           list(self.table.programs) + alpha_programs, self.table.attributes)
+        self._generate(run)
+        self.table.words[:] = run.words[:len(self.table.words)]  # the surfaces' dispatch words
         rows["textures2"][:, 3] = self.table.offsets
         for m, graph in enumerate(graphs):
             if graph is None:
@@ -135,9 +146,9 @@ class NodePrograms:
             rows["base_color"][m, 3] = 0.0
             rows["textures"][m] = (-1, -1, -1, 0)
             # The program gives roughness and metallic; the alpha image (z) and alpha stay
-            # the row's: every alpha test (G-buffer, shadow maps, BVH) reads the row.
+            # the row's unless the graph has a closure alpha (below).
             rows["textures2"][m, :2] = -1
-        words = self.table.words.tobytes() or bytes(4)
+        words = run.words.tobytes() or bytes(4)
         if words != self._sent_words:
             self.words.upload(words)
             self._sent_words = words
@@ -146,6 +157,37 @@ class NodePrograms:
         if objects != self._sent_objects:
             self.objects.upload(objects)
             self._sent_objects = objects
+
+    # -- closure alpha
+    def _closure_alpha(self, graphs, names, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, list]:
+        """The alpha programs (scene/closure_alpha.py) of the graphs that have a closure
+        alpha, placed after the table's words, each after a dispatch word as the table's
+        programs are: such a row's alpha image slot holds -2 - the program's first word
+        (include/alpha.glsl), and its alpha factor and clip are 1 and none, since the program
+        gives the whole coverage. Compiled with the table's attribute slots, so an alpha that
+        reads a Color Attribute reads the surface program's slot. Returns the words, the
+        programs' first words and the programs."""
+        at = len(self.table.words)
+        chunks: list[np.ndarray] = []
+        offsets: list[int] = []
+        programs: list = []
+        for m, graph in enumerate(graphs):
+            alpha_graph = closure_alpha_graph(graph)
+            if alpha_graph is None:
+                continue
+            name = f"{names[m] if names else f'material {m}'} (alpha)"
+            program = compile_graph(alpha_graph, name, attributes=self.table.attributes)
+            at += 1  # the dispatch word
+            rows["textures2"][m, 2] = -2 - at
+            rows["params2"][m, :2] = (1.0, 0.0)
+            chunks += [np.array([DISPATCH_NONE], np.uint32), program.words.astype(np.uint32)]
+            offsets.append(at)
+            programs.append(program)
+            at += len(program.words)
+            self.closure_alpha = True
+        words = np.concatenate(chunks) if chunks else np.zeros(0, np.uint32)
+        return words, np.array(offsets, np.int32), programs
+    # -- end of closure alpha
 
     def _mesh_bounds(self, mesh) -> tuple[np.ndarray, np.ndarray]:
         key = (mesh.mesh_id, mesh.version, id(mesh.positions))

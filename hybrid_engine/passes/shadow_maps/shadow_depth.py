@@ -323,8 +323,10 @@ class ShadowDepthPass:
         if not len(chosen) or (include is not None and not include.any()):
             return 0
         alpha = scene.materials.has_alpha
-        prog = self.variant(alpha)
-        faces_prog = self.faces_program(alpha)
+        # -- closure alpha: the node programs' interpreter where some alpha is a program's
+        programs = dict(gpu.defines) if alpha and gpu.node_programs.closure_alpha else {}
+        prog = self.variant(alpha, **programs)
+        faces_prog = self.faces_program(alpha, programs)
 
         def bind() -> None:
             ctx.enable(ctx.DEPTH_TEST)
@@ -341,7 +343,7 @@ class ShadowDepthPass:
                 bind()
                 bind_storage(program, *((gpu.bindings(),) if alpha else ()), storage={"InstanceTable": table})
 
-            return self.drawer.draw_instanced(layer, self.instanced_program(alpha), prog, gpu, scene,
+            return self.drawer.draw_instanced(layer, self.instanced_program(alpha, programs), prog, gpu, scene,
                                               atlas.layer_framebuffer(dynamic), draws, bind_program, include)
         return self.drawer.draw_views(layer, prog, self.drawer.vertex_array(prog, gpu), gpu, scene,
                                       atlas.layer_framebuffer(dynamic), draws, bind, include,
@@ -356,15 +358,16 @@ class ShadowDepthPass:
         return shader_loader.program(self.ctx, vertex="shadow_maps/shadow_depth.vert.glsl",
                                      fragment="shadow_maps/shadow_depth.frag.glsl", defines=defines or None)
 
-    def instanced_program(self, alpha: bool = False):
+    def instanced_program(self, alpha: bool = False, programs: dict | None = None):
         """The depth program of the instanced, indexed draws (the ``vertices`` kernel's "gpu"
-        variant, view_cull/instanced_draw.py)."""
-        return self.variant(alpha, INSTANCED=1)
+        variant, view_cull/instanced_draw.py). ``programs``: the node programs' defines,
+        where some material's alpha is a program (GPUScene.defines)."""
+        return self.variant(alpha, INSTANCED=1, **(programs or {}))
 
-    def faces_program(self, alpha: bool = False):
+    def faces_program(self, alpha: bool = False, programs: dict | None = None):
         """The depth program that draws up to view_cull.MAX_VIEWS slots (a point lamp's six
         faces) in one multi-draw (draw.py SceneDrawer.draw_faces); None where the ``faces``
         kernel's "cpu" variant draws them one by one."""
         if not self.drawer.faces_in_one_draw():
             return None
-        return self.variant(alpha, FACE_VIEWPORTS=MAX_VIEWS)
+        return self.variant(alpha, FACE_VIEWPORTS=MAX_VIEWS, **(programs or {}))

@@ -1,0 +1,225 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Closure alpha (scene/closure_alpha.py, gpu_shaders/include/alpha.glsl): a coverage the
+node graph computes (a Transparent BSDF mixed in by a factor of Math nodes, a Principled
+Alpha fed by them) cuts the surface where every alpha test runs, from a short program of
+the nodes the coverage reads. Against Cycles through Blender's render path at the end."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hybrid_engine import Camera, MaterialTable, RenderSettings, SceneData
+from hybrid_engine.gpu import variants
+from hybrid_engine.scene.camera import look_at
+from hybrid_engine.scene.closure_alpha import closure_alpha_graph, has_closure_alpha
+from hybrid_engine.scene.node_program import compile_graph
+from hybrid_engine.scene.shader_graph import Link, ShaderGraph
+from test_alpha import (DISC_RADIUS, EMISSIVE_CARD, SMALL, _both, _coverage_mismatch, _leaf_card_blender, card_scene,
+                        disc_mask, mirror_view, top_camera)
+
+
+def _disc_factor(graph: ShaderGraph) -> int:
+    """A node whose Value is 1 inside the UV disc of radius DISC_RADIUS around (0.5, 0.5)."""
+    coords = graph.add("TEX_COORD")
+    distance = graph.add("VECT_MATH", settings={"operation": "DISTANCE"}, Vector=Link(coords, "UV"),
+                         Vector_001=(0.5, 0.5, 0.0))
+    return graph.add("MATH", settings={"operation": "LESS_THAN"}, Value=Link(distance, "Value"),
+                     Value_001=DISC_RADIUS)
+
+
+def transparent_mix_graph() -> ShaderGraph:
+    """A Transparent BSDF mixed with a noise-coloured Principled by the disc."""
+    graph = ShaderGraph()
+    fac = _disc_factor(graph)
+    noise = graph.add("TEX_NOISE")
+    surface = graph.add("BSDF_PRINCIPLED", **{"Base Color": Link(noise, "Color")})
+    clear = graph.add("BSDF_TRANSPARENT")
+    mix = graph.add("MIX_SHADER", Fac=Link(fac, "Value"), Shader=Link(clear, "BSDF"),
+                    Shader_001=Link(surface, "BSDF"))
+    graph.surface = Link(mix, "Shader")
+    return graph
+
+
+def test_the_alpha_program_keeps_the_coverages_nodes_and_leaves_the_colours_out():
+    graph = transparent_mix_graph()
+    alpha = closure_alpha_graph(graph)
+    assert alpha is not None
+    kinds = compile_graph(alpha).kinds
+    assert {"MATH", "VECT_MATH", "TEX_COORD", "MIX_SHADER", "BSDF_TRANSPARENT"} <= kinds
+    assert "TEX_NOISE" not in kinds  # the Principled's colour: no part of the coverage
+    assert len(compile_graph(alpha).words) < len(compile_graph(graph).words)
+
+
+def test_a_graph_without_transparency_has_no_alpha_program():
+    graph = ShaderGraph()
+    fac = _disc_factor(graph)
+    a, b = graph.add("BSDF_DIFFUSE"), graph.add("BSDF_GLOSSY")
+    graph.surface = Link(graph.add("MIX_SHADER", Fac=Link(fac, "Value"), Shader=Link(a, "BSDF"),
+                                   Shader_001=Link(b, "BSDF")), "Shader")
+    assert not has_closure_alpha(graph) and closure_alpha_graph(graph) is None
+    principled = ShaderGraph()
+    principled.surface = Link(principled.add("BSDF_PRINCIPLED", Alpha=Link(_disc_factor(principled), "Value")),
+                              "BSDF")
+    assert has_closure_alpha(principled)
+
+
+def card_graph(emits: bool) -> ShaderGraph:
+    """The card's graph: a Transparent BSDF mixed with a white Emission (or a grey Diffuse)
+    by the UV disc."""
+    graph = ShaderGraph()
+    fac = _disc_factor(graph)
+    surface = graph.add("EMISSION", Strength=1.0) if emits else graph.add("BSDF_DIFFUSE")
+    clear = graph.add("BSDF_TRANSPARENT")
+    mix = graph.add("MIX_SHADER", Fac=Link(fac, "Value"), Shader=Link(clear, "BSDF"),
+                    Shader_001=Link(surface, "Emission" if emits else "BSDF"))
+    graph.surface = Link(mix, "Shader")
+    return graph
+
+
+def with_graphs(scene: SceneData, rows: list[dict], graphs: list) -> SceneData:
+    table = MaterialTable.from_rows(rows)
+    table.node_graphs = list(graphs)
+    return SceneData(scene.geometry, table, scene.lights, scene.sky)
+
+
+@pytest.fixture(params=["cpu", "gpu"])
+def kernels(request):
+    """Every kernel in one shape: the CPU driver's (world rows, megakernel) or the GPU's
+    (instanced draws, one multi-draw of the faces, the waves)."""
+    variants.set_override(request.param)
+    yield request.param
+    variants.set_override(None)
+
+
+def test_a_graphs_transparent_mix_cuts_the_card_in_the_primary_view(renderer, kernels):
+    emitting = dict(base_color=(0.0, 0.0, 0.0), emission=(1.0, 1.0, 1.0))
+    scene = with_graphs(card_scene(emitting), [emitting, dict(base_color=(0.0, 0.0, 0.0), emission=(0.25,) * 3)],
+                        [card_graph(True), None])
+    assert scene.materials.has_alpha
+    image = renderer.render(scene, top_camera(), RenderSettings(mode="RASTER", **SMALL)).image
+    covered = image[..., 0] > 0.6
+    assert (covered != disc_mask()).mean() <= 0.02
+
+
+def test_a_graphs_transparent_mix_cuts_the_cards_shadow(renderer, kernels):
+    sun = dict(kind="SUN", direction=(1, 0, -1), color=(3, 3, 3), radius=0.0)
+    grey = dict(base_color=(0.8, 0.8, 0.8))
+    scene = card_scene(grey, lights=[sun], floor_z=-3.0)
+    scene = with_graphs(scene, [grey, dict(base_color=(0.8, 0.8, 0.8), specular=0.0)], [card_graph(False), None])
+    camera = Camera(matrix_world=look_at((3, 0, 5), (3, 0, -3), up=(0, 1, 0)), width=64, height=64,
+                    projection="ORTHO", ortho_scale=2.0)
+    image = renderer.render(scene, camera, RenderSettings(mode="RASTER", **SMALL)).image[..., 0]
+    lit = image > 0.5 * image.max()
+    assert (lit != ~disc_mask()).mean() <= 0.02
+
+
+@pytest.mark.parametrize("near_size", [4.0, 0.2], ids=["bvh", "cube_map"])
+def test_a_graphs_transparent_mix_cuts_the_card_in_a_mirror(renderer, kernels, near_size):
+    """The mirror's rays meet the card in the BVH (its any-hit test runs the alpha program)
+    or in the cube map (whose faces ran it), and see it as they see a card cut by an alpha
+    image."""
+    emitting = dict(base_color=(0.0, 0.0, 0.0), emission=(1.0, 1.0, 1.0))
+    mirror = dict(base_color=(1.0, 1.0, 1.0), reflectivity=1.0, roughness=0.0)
+    scene = with_graphs(card_scene(emitting), [emitting, mirror], [card_graph(True), None])
+    camera = Camera(matrix_world=look_at((0, 0, -0.5), (0, 0, -1), up=(0, 1, 0)), width=64, height=64,
+                    projection="ORTHO", ortho_scale=2.0, clip_start=0.01)
+    settings = RenderSettings(mode="HYBRID", **{**SMALL, "near_size": near_size, "cube_resolution": 256})
+    image = renderer.render(scene, camera, settings).image[..., 0]
+    # As the same card cut by an alpha image shows (test_alpha.py holds that one to the disc).
+    reference = mirror_view(renderer, EMISSIVE_CARD, "HYBRID", near_size)
+    assert 0.2 < (image > 0.5).mean() < 0.6
+    assert ((image > 0.5) != (reference > 0.5)).mean() <= 0.02
+
+
+# -- against Cycles, through Blender's render path ------------------------------------------
+def _graph_card(bpy, scene, card_emits: bool, through: str) -> None:
+    """The card's material made anew: its coverage the UV disc computed by Math nodes, through
+    a Mix Shader with a Transparent BSDF (``through`` "MIX") or a Principled Alpha ("ALPHA")."""
+    material = bpy.data.materials["card"]
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    for node in [n for n in nodes if n.type != "OUTPUT_MATERIAL"]:
+        nodes.remove(node)
+    coords = nodes.new("ShaderNodeTexCoord")
+    distance = nodes.new("ShaderNodeVectorMath")
+    distance.operation = "DISTANCE"
+    distance.inputs[1].default_value = (0.5, 0.5, 0.0)
+    links.new(coords.outputs["UV"], distance.inputs[0])
+    inside = nodes.new("ShaderNodeMath")
+    inside.operation = "LESS_THAN"
+    inside.inputs[1].default_value = DISC_RADIUS
+    links.new(distance.outputs["Value"], inside.inputs[0])
+    bsdf = nodes.new("ShaderNodeBsdfPrincipled")
+    bsdf.inputs["Specular IOR Level"].default_value = 0.0
+    bsdf.inputs["Roughness"].default_value = 1.0
+    if card_emits:
+        bsdf.inputs["Base Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+        bsdf.inputs["Emission Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+        bsdf.inputs["Emission Strength"].default_value = 1.0
+    output = nodes["Material Output"]
+    if through == "ALPHA":
+        links.new(inside.outputs["Value"], bsdf.inputs["Alpha"])
+        links.new(bsdf.outputs["BSDF"], output.inputs["Surface"])
+        return
+    clear = nodes.new("ShaderNodeBsdfTransparent")
+    mix = nodes.new("ShaderNodeMixShader")
+    links.new(inside.outputs["Value"], mix.inputs["Fac"])
+    links.new(clear.outputs["BSDF"], mix.inputs[1])
+    links.new(bsdf.outputs["BSDF"], mix.inputs[2])
+    links.new(mix.outputs["Shader"], output.inputs["Surface"])
+
+
+@pytest.mark.parametrize("through", ["MIX", "ALPHA"])
+def test_a_graph_computed_coverage_matches_cycles_in_the_primary_view(addon, tmp_path, through):
+    import bpy
+
+    scene, camera = _leaf_card_blender(bpy, card_emits=True, floor_z=-1.0, floor_kind="EMIT")
+    _graph_card(bpy, scene, card_emits=True, through=through)
+    camera.location = (0.0, 0.0, 5.0)
+    ours, cycles = _both(bpy, scene, tmp_path, "RASTER", 0)
+    assert 0.2 < (cycles > 0.625).mean() < 0.6  # the disc, with the floor around it
+    assert _coverage_mismatch(ours, cycles, 0.625) <= 0.02
+
+
+def test_a_graph_computed_coverage_casts_cycles_shadow(addon, tmp_path):
+    import bpy
+
+    scene, camera = _leaf_card_blender(bpy, card_emits=False, floor_z=-3.0, floor_kind="DIFFUSE")
+    _graph_card(bpy, scene, card_emits=False, through="MIX")
+    sun = bpy.data.lights.new("sun", "SUN")
+    sun.energy = 3.0
+    sun.angle = 0.0
+    sun_object = bpy.data.objects.new("sun", sun)
+    sun_object.rotation_euler = (0.0, -np.pi / 4, 0.0)  # -Z turned to (1, 0, -1)
+    scene.collection.objects.link(sun_object)
+    camera.location = (3.0, 0.0, 5.0)  # above the shadow, the card out of view
+    ours, cycles = _both(bpy, scene, tmp_path, "RASTER", 0)
+    lit = 0.5 * cycles.max()
+    assert 0.2 < (cycles < lit).mean() < 0.6  # the disc's shadow, lit floor around it
+    assert _coverage_mismatch(ours, cycles, lit) <= 0.02
+
+
+def test_a_graph_computed_coverage_shows_in_a_mirror(addon, tmp_path):
+    """The BVH's any-hit test runs the alpha program (HYBRID: the mirror's rays meet the
+    card in the near cube)."""
+    import bpy
+
+    scene, camera = _leaf_card_blender(bpy, card_emits=True, floor_z=-1.0, floor_kind="MIRROR")
+    _graph_card(bpy, scene, card_emits=True, through="MIX")
+    camera.location = (0.0, 0.0, -0.5)  # between the card and the mirror, looking down
+    ours, cycles = _both(bpy, scene, tmp_path, "HYBRID", 4)
+    assert 0.2 < (cycles > 0.5).mean() < 0.6
+    assert _coverage_mismatch(ours, cycles, 0.5) <= 0.02
+
+
+def test_a_coverage_the_program_computes_is_not_told_as_unread(addon):
+    """The row's reader cannot read a Math chain into the Mix's Factor; the alpha program
+    does, so the artist is not told that the Factor's own value is used."""
+    import bpy
+
+    scene, _ = _leaf_card_blender(bpy, card_emits=True, floor_z=-1.0, floor_kind="EMIT")
+    _graph_card(bpy, scene, card_emits=True, through="MIX")
+    read = addon.blender_adapter.export.materials.material_params
+    with addon.blender_adapter.messages.collecting() as told:
+        row = read(bpy.data.materials["card"])
+    assert row.get("node_graph") is not None and has_closure_alpha(row["node_graph"])
+    assert not [line for line in told if "Factor" in line]

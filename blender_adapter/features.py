@@ -186,12 +186,14 @@ FEATURES: tuple[Feature, ...] = (
     # Materials
     Feature("Shader node graphs", SUPPORTED,
             "Evaluated per shading point on the GPU (G-buffer, cube-map and BVH hits) as GLSL "
-            "written out per graph shape, with one interpreter behind it: Principled, Diffuse, Glossy, Glass, Refraction, Transparent, Emission, "
-            "Mix and Add Shader; Image, Noise, Voronoi, Wave, Checker, Brick, Gradient, Magic and "
-            "White Noise textures; Math, Vector Math, Mix, Color Ramp, curves, colour "
-            "adjustments, Map Range, Clamp, Mapping, Vector Rotate, Separate and Combine; input "
-            "nodes; groups, reroutes and muted nodes as Blender evaluates them. A value edit is "
-            "an upload, never a shader compile; a new link compiles once. Mix Shader mixes the closures' parameters."),
+            "written out per graph shape, with one interpreter behind it: Principled, Diffuse, "
+            "Glossy, Glass, Refraction, Transparent, Emission, Mix and Add Shader; Image, Noise, "
+            "Voronoi, Wave, Checker, Brick, Gradient, Magic and White Noise textures; Math, "
+            "Vector Math, Mix, Color Ramp, curves, colour adjustments, Map Range, Clamp, Mapping,"
+            " Vector Rotate, Separate and Combine; input nodes; groups, reroutes and muted nodes "
+            "as Blender evaluates them. A value edit is an upload, never a shader compile; a new "
+            "link compiles once. A Glossy mixed over a diffuse base is that base's coat, with its"
+            " own roughness and weight; other mixes of shaders mix their parameters."),
     Feature("Bump node", APPROXIMATED,
             "Evaluated as Cycles does (the Height at the shading point and one Filter Width along "
             "the footprint's two axes), in the G-buffer and at BVH hits; at cube-map hits a Bump "

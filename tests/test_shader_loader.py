@@ -74,9 +74,23 @@ def test_include_shared_by_two_files_is_emitted_once(ctx, tree):
         + '#include "shared.glsl"\n#include "user.glsl"\n'
         + "void main() { values[0] = shared_value() + doubled(); }\n",
     )
-    text = shader_loader.assemble("main.comp.glsl").text
-    assert text.count("int shared_value()") == 1
     assert run_compute_int(ctx, "main.comp.glsl") == [21]
+
+
+def test_a_file_first_included_in_a_dropped_block_is_there_where_a_later_include_needs_it(ctx, tree):
+    """The preprocessor, not the loader, decides which paste of a file counts: a file whose
+    first #include sits in an #ifdef block that is dropped is still defined by the next."""
+    tree.write("include/layout.glsl", "int layout_value() { return 5; }\n")
+    tree.write("include/optional.glsl", '#include "layout.glsl"\nint optional_value() { return 1; }\n')
+    tree.write("include/user.glsl", '#include "layout.glsl"\nint used() { return 3 * layout_value(); }\n')
+    tree.write(
+        "main.comp.glsl",
+        COMPUTE_HEADER
+        + '#ifdef WITH_OPTIONAL\n#include "optional.glsl"\n#endif\n#include "user.glsl"\n'
+        + "void main() { values[0] = used(); }\n",
+    )
+    assert run_compute_int(ctx, "main.comp.glsl") == [15]
+    assert run_compute_int(ctx, "main.comp.glsl", defines={"WITH_OPTIONAL": 1}) == [15]
 
 
 def test_include_cycle_raises_naming_the_chain(tree):

@@ -48,8 +48,7 @@ float material_alpha_lod(Material m, vec2 uv, float lod) {
 }
 
 // -- closure alpha
-// The includer includes node_program.glsl before this file: the loader pastes an include
-// once, where it first appears, even inside a block the preprocessor then drops.
+// The includer includes node_program.glsl (under NODE_PROGRAMS) before this file.
 #ifdef NODE_PROGRAMS
 bool material_has_closure_alpha(Material m) { return m.textures2.z <= -2; }
 

@@ -107,18 +107,24 @@ def assemble(name: str | Path, defines: Mapping[str, object] | None = None) -> S
         if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", key):
             raise ShaderError(f"invalid define name {key!r} for {name}")
         out.append(f"#define {key} {_glsl_value(value)}")
-    included: set[Path] = set()
+    string_of: dict[Path, int] = {}
 
     def emit(rel: str | Path, stack: tuple[Path, ...]) -> None:
         path = shader_path(rel)
         if path in stack:
             chain = " -> ".join(_label(p) for p in (*stack, path))
             raise ShaderError(f"include cycle: {chain}")
-        if path in included:
-            return  # include guard: each file once per program
-        included.add(path)
-        string_no = len(src.files)
-        src.files.append(_label(path))
+        # Each file once per program, decided by the preprocessor, not here: a file is
+        # pasted at every #include inside a guard of its own, because the first #include
+        # may sit in a block the preprocessor drops (#ifdef NODE_PROGRAMS ...), and a file
+        # skipped here for that reason would be missing where a later #include needs it.
+        string_no = string_of.get(path)
+        if string_no is None:
+            string_no = string_of[path] = len(src.files)
+            src.files.append(_label(path))
+        guard = f"HYBRID_INCLUDED_{string_no}"
+        out.append(f"#ifndef {guard}")
+        out.append(f"#define {guard}")
         out.append(f"#line {string_no * LINE_STRIDE + 1} {string_no}")
         for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
             if line.lstrip().startswith("#version"):
@@ -137,6 +143,7 @@ def assemble(name: str | Path, defines: Mapping[str, object] | None = None) -> S
                 out.append(f"#line {string_no * LINE_STRIDE + lineno + 1} {string_no}")
                 continue
             out.append(line)
+        out.append("#endif")
 
     def emit_generated(define: str) -> None:
         key = (defines or {}).get(define)

@@ -104,7 +104,7 @@ class NodePrograms:
             self.generated, self.generated_key, self._generated_for = None, None, None
             return
         key = table.words.tobytes() + table.offsets.tobytes()
-        if key != self._generated_for:
+        if key != self._generated_for or self.generated is None:
             self.generated = generate(table)
             self.generated_key = shader_loader.register_source(self.generated.source)
             self._generated_for = key
@@ -123,7 +123,7 @@ class NodePrograms:
         self.closure_alpha = False
         if not graphs or all(g is None for g in graphs):
             self.table = None
-            self.generated, self.generated_key = None, None
+            self.generated, self.generated_key, self._generated_for = None, None, None
             return
         self.table = compile_table(graphs, len(materials), materials.names)
         # The alpha programs follow the surface programs, each after its own dispatch word,

@@ -68,6 +68,12 @@ MIN_LENGTH = 4.0
 # this pixel's tangent plane, with a normal within arccos(NORMAL_COS) (about 25 degrees).
 PLANE_TOLERANCE = 0.02
 NORMAL_COS = 0.9
+# How the reprojection fetches the history between last frame's texels: "catmull_rom" (a
+# sharp cubic over 4x4 texels, held within the inner four's range, bilinear where a tap
+# shows another surface) or "bilinear". A moving camera resamples the history every frame
+# at some sub-pixel shift; the bilinear fetch blurs it a little each time and the blurs add
+# up over the history's length, which softens the light's true gradients (its shadows' edges).
+HISTORY_FILTER = "catmull_rom"
 # The wavelet filter's edge stops: plane offset (share of the camera distance) and standard
 # deviations of the guides; the normal's power is SVGF's 128 (include/denoise.glsl). SVGF's
 # sigma_l is 4, for noise that is roughly symmetric; the paths' light is skewed (a few
@@ -138,7 +144,8 @@ class DenoisePass:
                         for name in ("moments", "surface", "length")}},
              uniforms={**camera, **history.previous_uniforms(), "u_alpha_color": ALPHA_COLOR,
                        "u_alpha_moments": ALPHA_MOMENTS, "u_plane_tolerance": PLANE_TOLERANCE,
-                       "u_normal_cos": NORMAL_COS, "u_max_length": MAX_LENGTH})
+                       "u_normal_cos": NORMAL_COS, "u_max_length": MAX_LENGTH,
+                       "u_history_filter": int(HISTORY_FILTER == "catmull_rom")})
         self._run(self.reproject, groups)
         surface = {"u_surface": history.current("surface")}
         bind(self.variance, textures={**surface, "u_moments": history.current("moments"),

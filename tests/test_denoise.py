@@ -158,6 +158,33 @@ def test_a_sub_pixel_camera_translation_keeps_the_contrast_of_a_sharp_pattern_in
     assert contrast > 0.72, contrast
 
 
+@pytest.mark.parametrize("moving", [True, False], ids=["moving", "still"])
+def test_a_moving_cameras_history_follows_a_change_of_light_faster_than_a_still_ones(renderer, probe, moving):
+    """A floor's irradiance steps from 0.2 to 0.8 after a long history: while the camera
+    moves the blend takes at least ALPHA_COLOR_MOVING of each frame and has come most of the
+    way after four frames (a moving view's converged light shifts as it moves, and a long
+    history lags behind it); a still camera keeps the lower floor and its smoother mean."""
+    floor = SceneData(Geometry.from_objects([(quad((-20, -20, 0), (40, 0, 0), (0, 40, 0)), None, 0)]), grey(),
+                      Lights.empty(), Sky(color=(1.0, 1.0, 1.0)))
+    w, h, step = 48, 32, 0.05 if moving else 0.0
+
+    def camera(k: int) -> Camera:
+        eye = np.array([k * step, -5.0, 4.0])
+        return Camera(matrix_world=look_at(eye, eye + (0.0, 5.0, -4.0)), width=w, height=h)
+
+    stand_in = probe(pattern=1, level=0.2)
+    if renderer.denoiser is not None:
+        renderer.denoiser.forget()
+    for k in range(24):
+        renderer.render(floor, camera(k), RASTER, sample=k, denoise=True)
+    stand_in.level = 0.8
+    for k in range(24, 28):
+        renderer.render(floor, camera(k), RASTER, sample=k, denoise=True)
+    blend = float(renderer.denoiser.history.read("color")[4:-4, 4:-8, 0].mean())
+    come = (blend - 0.2) / 0.6  # the share of the step the history has followed
+    assert (come > 0.6) if moving else (0.25 < come < 0.45), come
+
+
 def test_an_object_that_moved_drops_the_history_where_it_uncovers_the_floor(renderer, probe):
     """Looking straight down at a box standing on a floor, both one material with their top
     faces parallel: only the depth tells them apart. The box slides; the floor it uncovers

@@ -145,7 +145,7 @@ class DenoisePass:
         work, variance = history.pair("work"), history.pair("variance")
         groups = (math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
         camera = view.uniforms()
-        alpha = ALPHA_COLOR_MOVING if self._camera_moved(view) else ALPHA_COLOR
+        alpha = ALPHA_COLOR_MOVING if self._camera_moved(view, film_sample) else ALPHA_COLOR
         bind(self.reproject,
              textures={"u_depth": depth, "u_normal_material": normal_material, "u_ambient": ambient,
                        **{f"u_prev_{name}": history.previous(name) for name in ("color", "moments", "surface", "length")}},
@@ -179,8 +179,14 @@ class DenoisePass:
         history.advance(np.asarray(view.view_proj, np.float64))
         return source
 
-    def _camera_moved(self, view: RasterView) -> bool:
-        """Whether this frame's view-projection differs from the history's (ALPHA_COLOR_MOVING)."""
+    def _camera_moved(self, view: RasterView, film_sample: int | None) -> bool:
+        """Whether the camera moved since the history's frame (ALPHA_COLOR_MOVING): its
+        view-projection differs and the frame does not continue a film's mean. A still view's
+        later samples are jittered by a sub-pixel each (frame/antialias.py, the viewport's
+        redraws) and must keep ALPHA_COLOR, whose first 1 / ALPHA_COLOR blends are the plain
+        mean that the film's share (FILM_SHARE_SAMPLES) relies on."""
+        if film_sample is not None and film_sample > 0:
+            return False
         previous = self.history.prev_view_proj
         return self.history.valid and previous is not None and not np.array_equal(
             previous, np.asarray(view.view_proj, np.float64))

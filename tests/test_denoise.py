@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
-from hybrid_engine.frame.antialias import render_antialiased
+from hybrid_engine.frame.accumulation import sample_offset
+from hybrid_engine.frame.antialias import jittered_camera, render_antialiased
 from hybrid_engine.frame.film import FrameOutputs
 from hybrid_engine.frame.renderer import READBACK_READS, Renderer, frame_steps
 from hybrid_engine.gpu import shader_loader
@@ -128,6 +129,66 @@ def test_the_history_follows_the_surface_while_the_camera_translates(renderer, p
     kept = lengths[:, : w * 3 // 4]
     assert (kept >= frames).mean() > 0.95, np.percentile(kept, [1, 5, 50])
     assert (lengths[:, -2:] <= 2).all()  # the entering edge starts over
+
+
+def test_a_sub_pixel_camera_translation_keeps_the_contrast_of_a_sharp_pattern_in_the_history(renderer, probe):
+    """Stripes with edges sharper than a pixel, on a floor the camera slides over by a
+    fraction of a pixel per frame, without noise: the history reprojected over a dozen
+    frames keeps most of the stripes' contrast (the fetch is a clamped Catmull-Rom cubic),
+    where a bilinear fetch blurs it a little more at every frame's shift."""
+    floor = SceneData(Geometry.from_objects([(quad((-20, -20, 0), (40, 0, 0), (0, 40, 0)), None, 0)]), grey(),
+                      Lights.empty(), Sky(color=(1.0, 1.0, 1.0)))
+    w, h, frames, step = 64, 48, 12, 0.03
+
+    def camera(k: int) -> Camera:
+        eye = np.array([k * step, -5.0, 4.0])
+        return Camera(matrix_world=look_at(eye, eye + (0.0, 5.0, -4.0)), width=w, height=h)
+
+    probe(pattern=2, level=0.3)
+    if renderer.denoiser is not None:
+        renderer.denoiser.forget()
+    renderer.render(floor, camera(frames), RASTER, denoise=True)
+    sharp = renderer.denoiser.history.read("color")[..., 0]  # a first frame: the pattern itself
+    renderer.denoiser.forget()
+    for k in range(frames + 1):
+        renderer.render(floor, camera(k), RASTER, sample=k, denoise=True)
+    carried = renderer.denoiser.history.read("color")[..., 0]
+    assert (history_length(renderer)[4:-4, 4:-8] > frames).all()  # all reprojected, none started over
+    inner = (slice(4, h - 4), slice(4, w - 8))
+    contrast = carried[inner].std() / sharp[inner].std()
+    assert contrast > 0.72, contrast
+
+
+@pytest.mark.parametrize("kind", ["moving", "still", "jittered"])
+def test_a_moving_cameras_history_follows_a_change_of_light_faster_than_a_still_ones(renderer, probe, kind):
+    """A floor's irradiance steps from 0.2 to 0.8 after a long history: while the camera
+    moves the blend takes at least ALPHA_COLOR_MOVING of each frame and has come most of the
+    way after four frames (a moving view's converged light shifts as it moves, and a long
+    history lags behind it); a still camera keeps the lower floor and its smoother mean, also
+    where its film's samples are jittered by sub-pixels (the viewport's redraws of a still view)."""
+    floor = SceneData(Geometry.from_objects([(quad((-20, -20, 0), (40, 0, 0), (0, 40, 0)), None, 0)]), grey(),
+                      Lights.empty(), Sky(color=(1.0, 1.0, 1.0)))
+    w, h, step = 48, 32, 0.05 if kind == "moving" else 0.0
+
+    def camera(k: int) -> Camera:
+        eye = np.array([k * step, -5.0, 4.0])
+        still = Camera(matrix_world=look_at(eye, eye + (0.0, 5.0, -4.0)), width=w, height=h)
+        return jittered_camera(still, *sample_offset(k)) if kind == "jittered" else still
+
+    stand_in = probe(pattern=1, level=0.2)
+    if renderer.denoiser is not None:
+        renderer.denoiser.forget()
+    accumulate = kind == "jittered"  # one film's mean: its samples follow one another
+    for k in range(24):
+        renderer.render(floor, camera(k), RASTER, sample=k, denoise=True, accumulate=accumulate,
+                        reuse_world=accumulate and k > 0)
+    stand_in.level = 0.8
+    for k in range(24, 28):
+        renderer.render(floor, camera(k), RASTER, sample=k, denoise=True, accumulate=accumulate,
+                        reuse_world=accumulate)
+    blend = float(renderer.denoiser.history.read("color")[4:-4, 4:-8, 0].mean())
+    come = (blend - 0.2) / 0.6  # the share of the step the history has followed
+    assert (come > 0.6) if kind == "moving" else (0.25 < come < 0.45), come
 
 
 def test_an_object_that_moved_drops_the_history_where_it_uncovers_the_floor(renderer, probe):

@@ -8,7 +8,13 @@
 // view-projection gives a place between four of last frame's texels. Each of the four is
 // kept (with its bilinear weight) only where it showed the same surface: the same material,
 // a normal within u_normal_cos, and a point on this pixel's tangent plane within
-// u_plane_tolerance of the distance to the camera. A moved object therefore loses its
+// u_plane_tolerance of the distance to the camera. With u_history_filter the colour is
+// fetched instead by a Catmull-Rom cubic over the 4x4 texels around the place, held within
+// the range of the inner four (its negative lobes overshoot at an edge), where all sixteen
+// showed this surface: a camera that moves resamples the history at a sub-pixel shift every
+// frame, and the bilinear fetch's blur, small each time, adds up over the history's length.
+// The moments and the history length stay bilinear (a cubic's overshoot would make a
+// variance negative). A moved object therefore loses its
 // history where it uncovers what lay behind it (the depth jumps there), while a camera that
 // moves keeps the history of everything it still sees. With no tap kept the pixel starts
 // over (history length 1); else its history length n grows by one and it takes
@@ -46,6 +52,19 @@ uniform float u_alpha_moments;
 uniform float u_plane_tolerance;
 uniform float u_normal_cos;
 uniform float u_max_length;
+uniform int u_history_filter;  // 0: bilinear fetch of the history; 1: Catmull-Rom, clamped
+
+// The Catmull-Rom spline's weights of the four texels around a point at fraction t between
+// the middle two: an interpolating cubic, so a history fetched at a half-pixel shift keeps
+// its detail, where the bilinear fetch halves a one-pixel feature's contrast every frame.
+vec4 catmull_rom_weights(float t) {
+    float t2 = t * t, t3 = t2 * t;
+    return 0.5 * vec4(-t3 + 2.0 * t2 - t, 3.0 * t3 - 5.0 * t2 + 2.0, -3.0 * t3 + 4.0 * t2 + t, t3 - t2);
+}
+
+float catmull_rom_abs_sum(vec4 w) {
+    return abs(w.x) + abs(w.y) + abs(w.z) + abs(w.w);
+}
 
 layout(rgba32f) writeonly uniform image2D u_integrated;
 layout(rgba32f) writeonly uniform image2D u_moments;
@@ -83,21 +102,45 @@ void main() {
         vec2 at = (clip.xy / clip.w * 0.5 + 0.5) * vec2(u_size) - 0.5;
         vec2 base = floor(at);
         vec2 f = at - base;
+        vec4 wx = u_history_filter != 0 ? catmull_rom_weights(f.x) : vec4(0.0, 1.0 - f.x, f.x, 0.0);
+        vec4 wy = u_history_filter != 0 ? catmull_rom_weights(f.y) : vec4(0.0, 1.0 - f.y, f.y, 0.0);
+        // The sharp fetch's sum, and the bilinear one over the four inner taps, which also
+        // bounds it: its negative lobes may overshoot the texels it lies between.
+        vec4 sharp = vec4(0.0);
+        float sharp_kept = 0.0;
+        int outer_taps = u_history_filter != 0 ? 16 : 0;
+        vec4 low = vec4(1e30), high = vec4(-1e30);
         // No branch per tap: a tap off the image or of another surface weighs 0.
-        for (int i = 0; i < 4; ++i) {
-            ivec2 offset = ivec2(i & 1, i >> 1);
-            ivec2 want = ivec2(base) + offset;
+        for (int i = 0; i < 16; ++i) {
+            ivec2 offset = ivec2(i & 3, i >> 2);
+            bool inner = all(greaterThanEqual(offset, ivec2(1))) && all(lessThanEqual(offset, ivec2(2)));
+            if (!inner && outer_taps == 0) continue;
+            ivec2 want = ivec2(base) + offset - 1;
             ivec2 q = clamp(want, ivec2(0), u_size - 1);
             vec2 prev_length_id = texelFetch(u_prev_length, q, 0).rg;
             vec4 prev_surface = texelFetch(u_prev_surface, q, 0);
             bool same = want == q && int(prev_length_id.y + 0.5) == id
                         && dot(denoise_surface_normal(prev_surface), n) >= u_normal_cos
                         && denoise_plane_offset(p, n, prev_surface.xyz, scale) <= u_plane_tolerance;
-            float w = same ? (offset.x == 1 ? f.x : 1.0 - f.x) * (offset.y == 1 ? f.y : 1.0 - f.y) : 0.0;
-            prev_color += w * texelFetch(u_prev_color, q, 0);
+            vec4 color = texelFetch(u_prev_color, q, 0);
+            float w_sharp = same ? wx[offset.x] * wy[offset.y] : 0.0;
+            sharp += w_sharp * color;
+            sharp_kept += same ? abs(wx[offset.x] * wy[offset.y]) : 0.0;
+            if (!inner) continue;
+            vec2 fb = vec2(offset - 1) * f + vec2(2 - offset) * (1.0 - f);
+            float w = same ? fb.x * fb.y : 0.0;
+            prev_color += w * color;
             prev_moments += w * texelFetch(u_prev_moments, q, 0);
             prev_length += w * prev_length_id.x;
             kept += w;
+            low = same ? min(low, color) : low;
+            high = same ? max(high, color) : high;
+        }
+        // The sharp fetch counts only where all sixteen taps showed this surface (their
+        // absolute weights sum to the kernel's whole); near an edge of the history the
+        // bilinear fetch over the taps kept is all there is.
+        if (outer_taps != 0 && kept > 1e-3 && sharp_kept >= catmull_rom_abs_sum(wx) * catmull_rom_abs_sum(wy) - 1e-4) {
+            prev_color = clamp(sharp, low, high) * kept;
         }
     }
     vec4 integrated = current;

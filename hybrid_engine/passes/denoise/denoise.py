@@ -59,6 +59,15 @@ ITERATIONS = 4
 # The temporal blend's floor (SVGF: 0.05-0.2): the share of each new frame once the history
 # is long. Lower is smoother and lags more behind a changing light.
 ALPHA_COLOR = 0.1
+# The floor while the camera moves (its view-projection differs from last frame's). The
+# light a moving view converges to changes as it moves: surfaces that enter the view start
+# their fed-back bounces over (DIFFUSE_FEEDBACK) and are dark for a few frames, and the
+# paths that end on them bring less, so the whole view's converged light shifts from frame
+# to frame and a long history lags behind it (the view turns darker than its converged
+# image); a higher floor follows it more closely at the cost of some noise, which the
+# wavelet filter, guided by the blend's variance, then takes more of. A still camera keeps
+# ALPHA_COLOR.
+ALPHA_COLOR_MOVING = 0.25
 ALPHA_MOMENTS = 0.2
 # A history longer than this counts as this long (alpha is at its floor long before).
 MAX_LENGTH = 64.0
@@ -68,6 +77,12 @@ MIN_LENGTH = 4.0
 # this pixel's tangent plane, with a normal within arccos(NORMAL_COS) (about 25 degrees).
 PLANE_TOLERANCE = 0.02
 NORMAL_COS = 0.9
+# How the reprojection fetches the history between last frame's texels: "catmull_rom" (a
+# sharp cubic over 4x4 texels, held within the inner four's range, bilinear where a tap
+# shows another surface) or "bilinear". A moving camera resamples the history every frame
+# at some sub-pixel shift; the bilinear fetch blurs it a little each time and the blurs add
+# up over the history's length, which softens the light's true gradients (its shadows' edges).
+HISTORY_FILTER = "catmull_rom"
 # The wavelet filter's edge stops: plane offset (share of the camera distance) and standard
 # deviations of the guides; the normal's power is SVGF's 128 (include/denoise.glsl). SVGF's
 # sigma_l is 4, for noise that is roughly symmetric; the paths' light is skewed (a few
@@ -130,22 +145,24 @@ class DenoisePass:
         work, variance = history.pair("work"), history.pair("variance")
         groups = (math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
         camera = view.uniforms()
+        alpha = ALPHA_COLOR_MOVING if self._camera_moved(view, film_sample) else ALPHA_COLOR
         bind(self.reproject,
              textures={"u_depth": depth, "u_normal_material": normal_material, "u_ambient": ambient,
                        **{f"u_prev_{name}": history.previous(name) for name in ("color", "moments", "surface", "length")}},
              images={"u_integrated": Image(history.current("color"), read=False, write=True),
                      **{f"u_{name}": Image(history.current(name), read=False, write=True)
                         for name in ("moments", "surface", "length")}},
-             uniforms={**camera, **history.previous_uniforms(), "u_alpha_color": ALPHA_COLOR,
+             uniforms={**camera, **history.previous_uniforms(), "u_alpha_color": alpha,
                        "u_alpha_moments": ALPHA_MOMENTS, "u_plane_tolerance": PLANE_TOLERANCE,
-                       "u_normal_cos": NORMAL_COS, "u_max_length": MAX_LENGTH})
+                       "u_normal_cos": NORMAL_COS, "u_max_length": MAX_LENGTH,
+                       "u_history_filter": int(HISTORY_FILTER == "catmull_rom")})
         self._run(self.reproject, groups)
         surface = {"u_surface": history.current("surface")}
         bind(self.variance, textures={**surface, "u_moments": history.current("moments"),
                                       "u_length": history.current("length")},
              images={"u_variance": Image(variance[0], read=False, write=True)},
              uniforms={**camera, "u_min_length": MIN_LENGTH, "u_plane_sigma": PLANE_SIGMA,
-                       "u_alpha_color": ALPHA_COLOR})
+                       "u_alpha_color": alpha})
         self._run(self.variance, groups)
         source, source_variance = history.current("color"), variance[0]
         for level in range(self.levels):
@@ -161,6 +178,18 @@ class DenoisePass:
         source = self._film_share(source, work[self.levels % 2], view, groups, film_sample)
         history.advance(np.asarray(view.view_proj, np.float64))
         return source
+
+    def _camera_moved(self, view: RasterView, film_sample: int | None) -> bool:
+        """Whether the camera moved since the history's frame (ALPHA_COLOR_MOVING): its
+        view-projection differs and the frame does not continue a film's mean. A still view's
+        later samples are jittered by a sub-pixel each (frame/antialias.py, the viewport's
+        redraws) and must keep ALPHA_COLOR, whose first 1 / ALPHA_COLOR blends are the plain
+        mean that the film's share (FILM_SHARE_SAMPLES) relies on."""
+        if film_sample is not None and film_sample > 0:
+            return False
+        previous = self.history.prev_view_proj
+        return self.history.valid and previous is not None and not np.array_equal(
+            previous, np.asarray(view.view_proj, np.float64))
 
     def _film_share(self, estimate, out, view: RasterView, groups: tuple[int, int, int],
                     film_sample: int | None):

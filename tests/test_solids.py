@@ -76,7 +76,10 @@ def test_culling_back_faces_of_closed_objects_leaves_the_image_unchanged(gl, mod
         finally:
             renderer.release()
     differing = (np.abs(images[0] - images[1]).max(axis=2) > 1e-4).sum()
-    assert differing <= 2  # rasterization rules may move a silhouette texel, nothing more
+    # Rasterization rules may move a silhouette texel; and a traced diffuse ray that leaves a
+    # surface where a closed object stands on it (a piece's base on the board) may meet that
+    # object's back face, culled in one image only: a few texels of 14,400, no more.
+    assert differing <= 8
 
 
 def test_culling_is_active_a_face_turned_away_and_wrongly_marked_closed_disappears(gl):

@@ -18,6 +18,7 @@ reads the artist's values throughout and a crash cannot leave the file changed.
 """
 from __future__ import annotations
 
+import gc
 import os
 import tempfile
 import traceback
@@ -339,6 +340,9 @@ class _FrameRenderer:
         scene = self.context.scene
         self.source.listen()
         scene.frame_set(frame)
+        # A collection of the interpreter's garbage is no part of a frame: take it here, not
+        # at a random point between two of the frame's timed passes.
+        gc.collect()
         return engine.render_depsgraph(self.context.evaluated_depsgraph_get(), report=self.warn,
                                        source=self.source, sizer=self.sizer, settings=self.settings_for_frame(),
                                        timing=True)

@@ -11,7 +11,7 @@ import pytest
 from hybrid_engine import Camera, MaterialTable, RenderSettings, SceneData
 from hybrid_engine.gpu import variants
 from hybrid_engine.scene.camera import look_at
-from hybrid_engine.scene.closure_alpha import closure_alpha_graph, has_closure_alpha
+from hybrid_engine.scene.closure_alpha import closure_alpha_graph, has_closure_alpha, row_reads_coverage
 from hybrid_engine.scene.node_program import compile_graph
 from hybrid_engine.scene.shader_graph import Link, ShaderGraph
 from test_alpha import (DISC_RADIUS, EMISSIVE_CARD, SMALL, _both, _coverage_mismatch, _leaf_card_blender, card_scene,
@@ -62,6 +62,57 @@ def test_a_graph_without_transparency_has_no_alpha_program():
                               "BSDF")
     assert has_closure_alpha(principled)
 
+
+def image_alpha_graph(through: str = "") -> ShaderGraph:
+    """An emitting Principled whose Alpha is image 0's alpha, as importers build cut-out
+    cards: straight (``through`` ""), through glTF's clip (``"CLIP"``), or at a Mapping's
+    coordinates (``"MAPPING"``: no longer what the row's alpha image reads)."""
+    graph = ShaderGraph()
+    vector = {}
+    if through == "MAPPING":
+        coords = graph.add("TEX_COORD")
+        vector = {"Vector": Link(graph.add("MAPPING", Vector=Link(coords, "UV"), Scale=(2.0, 2.0, 1.0)), "Vector")}
+    image = graph.add("TEX_IMAGE", settings={"texture": 0}, **vector)
+    alpha = Link(image, "Alpha")
+    if through == "CLIP":
+        below = graph.add("MATH", settings={"operation": "LESS_THAN"}, Value=alpha, Value_001=0.5)
+        alpha = Link(graph.add("MATH", settings={"operation": "SUBTRACT"}, Value=1.0,
+                               Value_001=Link(below, "Value")), "Value")
+    graph.surface = Link(graph.add("BSDF_PRINCIPLED", Alpha=alpha, **{"Base Color": (0.0, 0.0, 0.0, 1.0),
+                                                                     "Emission Color": (1.0, 1.0, 1.0, 1.0),
+                                                                     "Emission Strength": 1.0}), "BSDF")
+    return graph
+
+
+def test_an_alpha_read_straight_from_an_image_is_the_rows_to_read():
+    assert row_reads_coverage(image_alpha_graph()) and row_reads_coverage(image_alpha_graph("CLIP"))
+    assert not row_reads_coverage(image_alpha_graph("MAPPING"))
+    assert not row_reads_coverage(transparent_mix_graph())
+    assert all(has_closure_alpha(image_alpha_graph(t)) for t in ("", "CLIP", "MAPPING"))
+
+
+@pytest.mark.parametrize("through", ["", "CLIP"])
+def test_a_scene_whose_coverage_the_rows_read_compiles_no_call_into_the_programs(renderer, through):
+    """Cut-out cards as importers build them keep the one-fetch alpha test: the program call
+    weighs on every shader that tests coverage (the traversal above all), so it is compiled
+    only where some coverage needs it. The cut still matches the disc."""
+    card = dict(EMISSIVE_CARD)
+    scene = with_graphs(card_scene(card), [card, dict(base_color=(0.0, 0.0, 0.0), emission=(0.25,) * 3)],
+                        [image_alpha_graph(through), None])
+    image = renderer.render(scene, top_camera(), RenderSettings(mode="RASTER", **SMALL)).image
+    assert "NODE_PROGRAMS" in renderer.gpu_scene.defines
+    assert "NODE_CLOSURE_ALPHA" not in renderer.gpu_scene.defines
+    assert ((image[..., 0] > 0.6) != disc_mask()).mean() <= 0.02
+
+
+def test_an_image_read_at_other_coordinates_keeps_its_alpha_program(renderer):
+    card = dict(EMISSIVE_CARD)
+    scene = with_graphs(card_scene(card), [card, dict(base_color=(0.0, 0.0, 0.0), emission=(0.25,) * 3)],
+                        [image_alpha_graph("MAPPING"), None])
+    image = renderer.render(scene, top_camera(), RenderSettings(mode="RASTER", **SMALL)).image
+    assert "NODE_CLOSURE_ALPHA" in renderer.gpu_scene.defines
+    covered = image[..., 0] > 0.6
+    assert (covered != disc_mask()).mean() > 0.1  # the disc tiled twice over the card, not once
 
 def card_graph(emits: bool) -> ShaderGraph:
     """The card's graph: a Transparent BSDF mixed with a white Emission (or a grey Diffuse)

@@ -109,7 +109,7 @@ void main() {
         float alpha = material_alpha_grad(m, v_uv, duv_dx, duv_dy);
         // -- closure alpha: the material's alpha program (alpha.glsl), seen from the camera
         // (the faces: from the normal's side; no viewer there)
-#ifdef NODE_PROGRAMS
+#ifdef NODE_CLOSURE_ALPHA
         if (material_has_closure_alpha(m)) {
             vec3 facing = node_unit(v_normal, vec3(0.0, 0.0, 1.0));
 #ifdef CUBE_FACE

@@ -48,8 +48,10 @@ float material_alpha_lod(Material m, vec2 uv, float lod) {
 }
 
 // -- closure alpha
-// The includer includes node_program.glsl (under NODE_PROGRAMS) before this file.
-#ifdef NODE_PROGRAMS
+// The includer includes node_program.glsl (under NODE_PROGRAMS) before this file; the
+// code is compiled only where some material's coverage is a program (NODE_CLOSURE_ALPHA,
+// GPUScene.defines), since a call into the programs weighs on every shader it is in.
+#ifdef NODE_CLOSURE_ALPHA
 bool material_has_closure_alpha(Material m) { return m.textures2.z <= -2; }
 
 // The coverage the material's alpha program gives at a point: world position, unit shading

@@ -129,7 +129,7 @@ bool bvh_alpha_kept(int tri, vec2 bary, BVHRay ray, float t) {
     // -- closure alpha: the material's alpha program at the candidate hit (alpha.glsl), a
     // short program of the nodes the coverage reads (scene/closure_alpha.py); t is in units
     // of the ray's direction as bvh_make_ray was given it
-#ifdef NODE_PROGRAMS
+#ifdef NODE_CLOSURE_ALPHA
     if (material_has_closure_alpha(m)) {
         vec3 dir = 1.0 / ray.inv_dir;
         vec3 towards = -node_unit(dir, vec3(0.0, 0.0, 1.0));

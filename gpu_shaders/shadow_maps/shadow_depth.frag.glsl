@@ -46,7 +46,7 @@ void main() {
         float alpha = material_alpha_grad(m, v_uv, duv_dx, duv_dy);
         // -- closure alpha: the alpha program at the texel's point, seen along its plane's
         // normal (no viewer: the lamp's direction is not at hand)
-#ifdef NODE_PROGRAMS
+#ifdef NODE_CLOSURE_ALPHA
         if (material_has_closure_alpha(m)) {
             vec3 n = node_unit(plane, vec3(0.0, 0.0, 1.0));
 #ifdef INSTANCED

@@ -15,7 +15,11 @@ roughnesses and normals, and the program is the alpha's nodes and the shader mix
 them. Its closure's alpha is the full program's (the same transparent weight, node_program.glsl).
 
 A graph whose coverage is a constant 1 (no Transparent BSDF, no Principled Alpha below 1 or
-linked) has no alpha program, and its material keeps the row's alpha (materials.py).
+linked) has no alpha program, and its material keeps the row's alpha (materials.py). Nor has
+a graph whose coverage is a Principled Alpha read straight from an image (its alpha, a
+channel, or a clip of either: ``row_reads_coverage``), as importers build every alpha-cut
+card: the material row's alpha image gives that coverage exactly, for the price of one
+texel fetch, where a program call would weigh on every shader that tests coverage.
 """
 from __future__ import annotations
 
@@ -82,3 +86,67 @@ def _output_of(graph: ShaderGraph, nodes: list[GraphNode]) -> Link:
     if kind == "BSDF_DIFFUSE" and graph.nodes[surface.node].kind != "BSDF_DIFFUSE":
         return Link(surface.node, "BSDF")
     return surface
+
+
+# -- coverage the material row reads: an image's value through these, as the Blender adapter
+# reads it (blender_adapter/export/alpha.py)
+_IMAGE_DEFAULTS = {"projection": "FLAT", "extension": "REPEAT", "interpolation": "Linear"}
+
+
+def _link_node(graph: ShaderGraph, value) -> GraphNode | None:
+    if not isinstance(value, Link) or not 0 <= value.node < len(graph.nodes):
+        return None
+    return graph.nodes[value.node]
+
+
+def _plain_image(graph: ShaderGraph, value) -> bool:
+    """True when ``value`` is an Image Texture's Alpha or Color (or one channel of its Color
+    through a Separate Color in RGB mode) at the mesh's UV, tiled and filtered as the row's
+    alpha image is."""
+    node = _link_node(graph, value)
+    if node is not None and node.kind == "SEPARATE_COLOR":
+        if node.settings.get("mode", "RGB") != "RGB" or value.output not in ("Red", "Green", "Blue"):
+            return False
+        value = node.inputs.get("Color")
+        node = _link_node(graph, value)
+        if node is None or value.output != "Color":
+            return False
+    if node is None or node.kind != "TEX_IMAGE" or int(node.settings.get("texture", -1)) < 0:
+        return False
+    if "Vector" in node.inputs:
+        return False
+    return all(node.settings.get(k, v) == v for k, v in _IMAGE_DEFAULTS.items())
+
+
+def _constant(value) -> bool:
+    return isinstance(value, (int, float))
+
+
+def _image_or_clip(graph: ShaderGraph, value) -> bool:
+    """``_plain_image``, or one through a threshold: ``1 - (x < c)``, ``x > c``, Round."""
+    if _plain_image(graph, value):
+        return True
+    node = _link_node(graph, value)
+    if node is None or node.kind != "MATH" or node.settings.get("use_clamp", 0):
+        return False
+    operation = node.settings.get("operation", "ADD")
+    a, b = node.inputs.get("Value", 0.5), node.inputs.get("Value_001", 0.5)
+    if operation == "SUBTRACT" and _constant(a) and float(a) == 1.0:
+        inner = _link_node(graph, b)
+        return (inner is not None and inner.kind == "MATH" and not inner.settings.get("use_clamp", 0)
+                and inner.settings.get("operation") == "LESS_THAN"
+                and _plain_image(graph, inner.inputs.get("Value")) and _constant(inner.inputs.get("Value_001", 0.5)))
+    if operation == "GREATER_THAN":
+        return _plain_image(graph, a) and _constant(b)
+    return operation == "ROUND" and _plain_image(graph, a)
+
+
+def row_reads_coverage(graph: ShaderGraph | None) -> bool:
+    """True when ``graph``'s coverage is its surface Principled BSDF's Alpha read from an image
+    (``_image_or_clip``), which the material row's alpha image holds as it is: such a graph
+    needs no alpha program (module docstring)."""
+    if graph is None or graph.surface is None or not 0 <= graph.surface.node < len(graph.nodes):
+        return False
+    surface = graph.nodes[graph.surface.node]
+    return surface.kind == "BSDF_PRINCIPLED" and _image_or_clip(graph, surface.inputs.get("Alpha"))
+# -- end of coverage the material row reads

@@ -23,7 +23,7 @@ import numpy as np
 
 from ...gpu import shader_loader
 from ...gpu.dispatch import GrowBuffer
-from ...scene.closure_alpha import closure_alpha_graph
+from ...scene.closure_alpha import closure_alpha_graph, row_reads_coverage
 from ...scene.data import MaterialTable
 from ...scene.geometry import InstancedGeometry
 from ...scene.node_program import DISPATCH_NONE, ProgramTable, compile_graph, compile_table, row_estimate
@@ -173,8 +173,8 @@ class NodePrograms:
         programs: list = []
         for m, graph in enumerate(graphs):
             alpha_graph = closure_alpha_graph(graph)
-            if alpha_graph is None:
-                continue
+            if alpha_graph is None or (rows["textures2"][m, 2] >= 0 and row_reads_coverage(graph)):
+                continue  # opaque, or the row's alpha image holds the coverage (closure_alpha.py)
             name = f"{names[m] if names else f'material {m}'} (alpha)"
             program = compile_graph(alpha_graph, name, attributes=self.table.attributes)
             at += 1  # the dispatch word

@@ -76,11 +76,15 @@ class GPUScene:
         include/node_program.glsl), nothing otherwise, so scenes without graphs run the
         shaders as they were. With it, the family defines its programs' nodes need
         (node_codes.FAMILY_*): each family's cases compile in only where a graph uses it;
-        and the programs' generated GLSL where it runs (NodePrograms.defines)."""
+        the programs' generated GLSL where it runs (NodePrograms.defines); and
+        ``NODE_CLOSURE_ALPHA`` where some material's coverage is an alpha program, so that
+        the alpha tests call into the programs only then (the call weighs on every shader
+        it is compiled into, the traversal's inner loop above all)."""
         if not self.node_programs.active:
             return {}
+        alpha = {"NODE_CLOSURE_ALPHA": 1} if self.node_programs.closure_alpha else {}
         return {"NODE_PROGRAMS": 1, **{family: 1 for family in sorted(self.node_programs.table.families)},
-                **self.node_programs.defines}
+                **alpha, **self.node_programs.defines}
 
     def vertex_content(self, program) -> list[tuple]:
         """moderngl vertex-array content of ``program``: one binding per attribute it reads

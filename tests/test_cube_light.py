@@ -13,6 +13,7 @@ from hybrid_engine.frame.renderer import Renderer, frame_steps
 from hybrid_engine.gpu import variants
 from hybrid_engine.passes.cube_light.cube_light import FADE_FRAMES
 from hybrid_engine.scene.camera import look_at
+from hybrid_engine.scene.shader_graph import Link, ShaderGraph
 from scenes_analytic import box, quad
 from whitted_reference import flip_mean
 
@@ -136,6 +137,49 @@ def test_cube_hits_read_the_light_they_would_be_shaded_with(renderer, both_trace
         save_failure_images(f"cube_light_stored_{tracer}", per_ray=per_ray, stored=stored.image)
     assert np.abs(a - b).mean() <= 0.02 * a.mean(), np.abs(a - b).mean() / a.mean()
     assert error <= 0.02, error
+
+
+def checker_graph() -> ShaderGraph:
+    """A Principled whose Base Color is a red and blue Checker Texture at object coordinates
+    (squares of 5 m, so that the floor's plane lies inside a row of cells, not on the
+    boundary between two): the row's own colour (grey) is nowhere in the picture."""
+    graph = ShaderGraph()
+    coords = graph.add("TEX_COORD")
+    checker = graph.add("TEX_CHECKER", Vector=Link(coords, "Object"), Scale=0.2, Color1=(0.8, 0.05, 0.05, 1.0),
+                        Color2=(0.05, 0.05, 0.8, 1.0))
+    graph.surface = Link(graph.add("BSDF_PRINCIPLED", **{"Base Color": Link(checker, "Color")}), "BSDF")
+    return graph
+
+
+@pytest.mark.parametrize("tracer", ["cpu", "gpu"])
+def test_a_node_graphs_colours_reach_the_stored_light(renderer, both_tracers, tracer):
+    """A floor whose colour is a node graph's looks the same in the mirror whether its cube-map
+    hits run the graph per ray or read the lit cube map: the map's texels run it too."""
+    variants.set_override(f"trace={tracer}")
+    base, camera = shadowed_floor_scene(), camera_at((0, 0, 0), (0, 1, -0.2))
+    materials = MaterialTable.from_rows([dict(name="mirror", base_color=(0.9, 0.9, 0.9), reflectivity=1.0, roughness=0.0),
+                                         dict(name="floor", base_color=(0.5, 0.5, 0.5)),
+                                         dict(name="block", base_color=(0.0, 0.0, 0.0), specular=0.0)])
+    materials.node_graphs = [None, checker_graph(), None]
+    scene = SceneData(base.geometry, materials, base.lights, base.sky)
+    per_ray = render(renderer, scene, camera, lit_cube=False, cube_resolution=256).image
+    stored = render(renderer, scene, camera, lit_cube=True, cube_resolution=256)
+    assert stored.counts["rays_cube_hit"] > 0.5 * W * H
+    centre = (slice(H // 4, 3 * H // 4), slice(W // 4, 3 * W // 4))
+    a, b = per_ray[centre][..., :3], stored.image[centre][..., :3]
+    lit = a.sum(axis=2) > 0.5 * a.sum(axis=2).mean()
+    assert (a[lit, 0] > 2.0 * a[lit, 1]).mean() > 0.2 and (a[lit, 2] > 2.0 * a[lit, 1]).mean() > 0.2, \
+        "the mirror shows red and blue squares"
+    # The squares' edges fall on whole texels of the map in one image and anywhere in the
+    # other: a few pixels along each edge differ, the rest agree (FLIP 0.02 for a floor of
+    # one colour, test_cube_hits_read_the_light_they_would_be_shaded_with).
+    error = flip_mean(per_ray, stored.image)
+    if error > 0.05:
+        save_failure_images(f"cube_light_graph_{tracer}", per_ray=per_ray, stored=stored.image)
+    colour_a, colour_b = a.mean(axis=(0, 1)), b.mean(axis=(0, 1))
+    assert (np.abs(colour_a - colour_b) <= 0.04 * colour_a).all(), (colour_a, colour_b)  # red and blue, not grey
+    assert np.abs(a - b).mean() <= 0.04 * a.mean(), np.abs(a - b).mean() / a.mean()
+    assert error <= 0.05, error
 
 
 # -- the feedback: a light that goes leaves nothing; energy stays bounded -------------------------

@@ -30,6 +30,9 @@ layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 #include "textures.glsl"
 #include "cube_march.glsl"
 #include "cube_light_texels.glsl"
+#ifdef NODE_PROGRAMS
+#include "node_program.glsl"
+#endif
 
 layout(rgba16f) writeonly uniform image2D u_radiance;
 uniform sampler2D u_cube_surface;
@@ -97,10 +100,26 @@ void main() {
     vec4 surface = texelFetch(u_cube_surface, atlas, 0);
     float lod = texture_lod(dist * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res), surface.z);
     Material m = material_at_lod(materials[index], surface.xy, lod);
-    vec3 albedo = material_albedo_lod(m, surface.xy, lod);
-    vec3 light = material_emission_lod(m, surface.xy, lod);
     vec3 n_facing, g_facing;
     cube_texel_normals(atlas, nm, p, n_facing, g_facing);
+#ifdef NODE_PROGRAMS
+    // -- node programs: a material with a graph runs it at the texel, as a ray's cube-map hit
+    // does (trace_ray.glsl hit_material), so the stored light has the graph's colours, not
+    // the row's estimate; the texel's width is the footprint, the faces keep no tangent frame
+    if (material_has_program(materials[index])) {
+        vec3 seen_from = dot(g_facing, view_dir) <= 0.0 ? -view_dir : view_dir;  // the centre's side
+        vec3 g = normalize(g_facing);
+        ShadingPoint sp = node_plain_point(p, normalize(nm.xyz), g, seen_from, surface.xy, lod, 1,
+                                           floatBitsToInt(surface.w), index);
+        node_footprint_axes(sp.geometric, dist * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res), sp.dp_dx, sp.dp_dy);
+        NodeClosure c = node_program_run(materials[index].textures2.w, sp);
+        m = node_closure_material(materials[index], c);
+        n_facing = dot(c.normal, g_facing) >= 0.0 ? c.normal : -c.normal;
+    }
+#endif
+    // -- end of node programs
+    vec3 albedo = material_albedo_lod(m, surface.xy, lod);
+    vec3 light = material_emission_lod(m, surface.xy, lod);
     SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n_facing, g_facing);
     if (split.diffuse_weight > 0.0) {
         DirectLight direct = direct_lighting(p, split.n_facing, -view_dir, vec3(0.0), 0.0, 1.0, true,

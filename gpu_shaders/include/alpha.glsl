@@ -62,25 +62,9 @@ bool material_has_closure_alpha(Material m) { return m.textures2.z <= -2; }
 // tangent-space Normal Maps do not reach a coverage.
 float material_closure_alpha(Material m, vec3 position, vec3 normal, vec3 incoming, vec2 uv, vec2 duv_dx,
                              vec2 duv_dy, float lod, int row, int material, int depth) {
-    ShadingPoint sp;
-    sp.position = position;
-    sp.backfacing = dot(normal, incoming) < 0.0;
-    sp.normal = sp.backfacing ? -normal : normal;
-    sp.geometric = sp.normal;
-    sp.incoming = incoming;
-    sp.uv = uv;
+    ShadingPoint sp = node_plain_point(position, normal, normal, incoming, uv, lod, depth, row, material);
     sp.duv_dx = duv_dx;
     sp.duv_dy = duv_dy;
-    sp.lod = lod;
-    sp.dp_du = vec3(0.0);
-    sp.dp_dv = vec3(0.0);
-    sp.dp_dx = vec3(0.0);
-    sp.dp_dy = vec3(0.0);
-    sp.uv_dx = vec2(0.0);
-    sp.uv_dy = vec2(0.0);
-    sp.ray_depth = depth;
-    sp.row = row;
-    sp.material = material;
     return node_program_run(-2 - m.textures2.z, sp).alpha;
 }
 #endif

@@ -196,6 +196,34 @@ struct ShadingPoint {
     int material;
 };
 
+// A shading point that knows no footprint, no UV derivatives and no tangent frame (the
+// World's direction-only bake, the alpha tests, the lit cube map's texels): `normal` and
+// `geometric` unit and as modelled, `incoming` towards where the point is seen from; both
+// normals are turned to face it, as Cycles' N and Ng are. The caller sets what it knows beyond.
+ShadingPoint node_plain_point(vec3 position, vec3 normal, vec3 geometric, vec3 incoming, vec2 uv, float lod,
+                              int depth, int row, int material) {
+    ShadingPoint sp;
+    sp.position = position;
+    sp.backfacing = dot(normal, incoming) < 0.0;
+    sp.normal = sp.backfacing ? -normal : normal;
+    sp.geometric = dot(geometric, incoming) < 0.0 ? -geometric : geometric;
+    sp.incoming = incoming;
+    sp.uv = uv;
+    sp.duv_dx = vec2(0.0);
+    sp.duv_dy = vec2(0.0);
+    sp.dp_dx = vec3(0.0);
+    sp.dp_dy = vec3(0.0);
+    sp.uv_dx = vec2(0.0);
+    sp.uv_dy = vec2(0.0);
+    sp.lod = lod;
+    sp.dp_du = vec3(0.0);
+    sp.dp_dv = vec3(0.0);
+    sp.ray_depth = depth;
+    sp.row = row;
+    sp.material = material;
+    return sp;
+}
+
 // The closure the program returns (the surface as the engine's shading model holds it).
 struct NodeClosure {
     vec3 base_color;

@@ -26,25 +26,7 @@ void main() {
     float lat = (uv.y - 0.5) * PI;
     vec3 dir = vec3(cos(lat) * cos(phi), cos(lat) * sin(phi), sin(lat));
 
-    ShadingPoint sp;
-    sp.position = dir;
-    sp.normal = -dir;
-    sp.geometric = -dir;
-    sp.incoming = -dir;
-    sp.uv = vec2(0.0);
-    sp.duv_dx = vec2(0.0);
-    sp.duv_dy = vec2(0.0);
-    sp.lod = 0.0;
-    sp.dp_dx = vec3(0.0);
-    sp.dp_dy = vec3(0.0);
-    sp.uv_dx = vec2(0.0);
-    sp.uv_dy = vec2(0.0);
-    sp.dp_du = vec3(0.0);
-    sp.dp_dv = vec3(0.0);
-    sp.backfacing = false;
-    sp.ray_depth = 0;
-    sp.row = -1;
-    sp.material = 0;
+    ShadingPoint sp = node_plain_point(dir, -dir, -dir, -dir, vec2(0.0), 0.0, 0, -1, 0);
     NodeClosure c = node_program_run(0, sp);
     imageStore(u_target, at, vec4(c.emission, 1.0));
 }

@@ -128,8 +128,12 @@ class CubeLightPass:
         history = self._ensure(resolution, rows)
         center = tuple(float(v) for v in frame.center)
         materials = frame.read("scene_buffers").bindings()
+        # The materials' node programs run at the texels they colour (cube_light_shade.comp.glsl),
+        # with the camera their Texture Coordinate Camera and Window read.
+        programs = frame.read("scene_buffers").defines
         lighting = frame.read("lighting").bindings()
         common = {**cube.uniforms, **scene_bound_uniforms(SceneBounds.of(frame.read("scene"))),
+                  **(frame.view.node_camera_uniforms() if programs else {}),
                   "u_cube_radiance_res": self.face_size, "u_cube_radiance_levels": self.levels,
                   "u_gather_res": self.gather_res}
         # AO Distance 0 lights every surface by the whole sky (RenderSettings): then the
@@ -145,7 +149,7 @@ class CubeLightPass:
                 self._gather(cube, materials, common, center, history or k > 0, blend,
                              frame.read("lighting").emitter_links)
             self._shade(cube, materials, lighting, {**common, "u_gathered": int(gathered)},
-                        frame.read("lighting").defines)
+                        {**frame.read("lighting").defines, **programs})
             self._prev_center = center
         self._downsample()
         frame.write("cube_light", self.lit(rows))

@@ -18,13 +18,13 @@ from test_alpha import (DISC_RADIUS, EMISSIVE_CARD, SMALL, _both, _coverage_mism
                         disc_mask, mirror_view, top_camera)
 
 
-def _disc_factor(graph: ShaderGraph) -> int:
-    """A node whose Value is 1 inside the UV disc of radius DISC_RADIUS around (0.5, 0.5)."""
+def _disc_factor(graph: ShaderGraph, radius: float = DISC_RADIUS) -> int:
+    """A node whose Value is 1 inside the UV disc of ``radius`` around (0.5, 0.5)."""
     coords = graph.add("TEX_COORD")
     distance = graph.add("VECT_MATH", settings={"operation": "DISTANCE"}, Vector=Link(coords, "UV"),
                          Vector_001=(0.5, 0.5, 0.0))
     return graph.add("MATH", settings={"operation": "LESS_THAN"}, Value=Link(distance, "Value"),
-                     Value_001=DISC_RADIUS)
+                     Value_001=radius)
 
 
 def transparent_mix_graph() -> ShaderGraph:
@@ -114,11 +114,11 @@ def test_an_image_read_at_other_coordinates_keeps_its_alpha_program(renderer):
     covered = image[..., 0] > 0.6
     assert (covered != disc_mask()).mean() > 0.1  # the disc tiled twice over the card, not once
 
-def card_graph(emits: bool) -> ShaderGraph:
+def card_graph(emits: bool, radius: float = DISC_RADIUS) -> ShaderGraph:
     """The card's graph: a Transparent BSDF mixed with a white Emission (or a grey Diffuse)
     by the UV disc."""
     graph = ShaderGraph()
-    fac = _disc_factor(graph)
+    fac = _disc_factor(graph, radius)
     surface = graph.add("EMISSION", Strength=1.0) if emits else graph.add("BSDF_DIFFUSE")
     clear = graph.add("BSDF_TRANSPARENT")
     mix = graph.add("MIX_SHADER", Fac=Link(fac, "Value"), Shader=Link(clear, "BSDF"),
@@ -162,6 +162,33 @@ def test_a_graphs_transparent_mix_cuts_the_cards_shadow(renderer, kernels):
     image = renderer.render(scene, camera, RenderSettings(mode="RASTER", **SMALL)).image[..., 0]
     lit = image > 0.5 * image.max()
     assert (lit != ~disc_mask()).mean() <= 0.02
+
+
+def test_a_value_edit_of_an_alpha_program_draws_the_cached_shadow_again(gl, renderer):
+    """The shadow maps keep what did not change from frame to frame (shadow_cache.py): an edit
+    of an alpha program's values (the disc's radius, an upload of words) is a change."""
+    from hybrid_engine.frame.renderer import Renderer
+
+    sun = dict(kind="SUN", direction=(1, 0, -1), color=(3, 3, 3), radius=0.0)
+    grey = dict(base_color=(0.8, 0.8, 0.8))
+    camera = Camera(matrix_world=look_at((3, 0, 5), (3, 0, -3), up=(0, 1, 0)), width=64, height=64,
+                    projection="ORTHO", ortho_scale=2.0)
+
+    def shadow(radius: float, on) -> np.ndarray:
+        scene = with_graphs(card_scene(grey, lights=[sun], floor_z=-3.0),
+                            [grey, dict(base_color=(0.8, 0.8, 0.8), specular=0.0)], [card_graph(False, radius), None])
+        image = on.render(scene, camera, RenderSettings(mode="RASTER", **SMALL)).image[..., 0]
+        return image < 0.5 * image.max()
+
+    shadow(DISC_RADIUS, renderer)
+    edited = shadow(0.6 * DISC_RADIUS, renderer)
+    fresh = Renderer(gl)
+    try:
+        expected = shadow(0.6 * DISC_RADIUS, fresh)
+    finally:
+        fresh.release()
+    assert 0.05 < expected.mean() < 0.5
+    assert (edited != expected).mean() <= 0.01, (edited.mean(), expected.mean())
 
 
 @pytest.mark.parametrize("near_size", [4.0, 0.2], ids=["bvh", "cube_map"])

@@ -76,6 +76,9 @@ class NodePrograms:
         self._bounds: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self.word_uploads = 0  # times the words were sent (tests: an unchanged scene sends none)
         self.closure_alpha = False  # some material's coverage is an alpha program (closure alpha)
+        # The alpha programs' words and where they start: what a cache of coverage (the shadow
+        # maps' static layer) must be keyed by, since a value edit changes nothing else.
+        self.alpha_key = b""
         # Run the programs as generated GLSL (node_codegen.py), the default on llvmpipe and on
         # GPUs alike (docs/BENCHMARKS.md "Shader node programs"); False: the interpreter only;
         # None: as MODE_ENVIRONMENT_VARIABLE says.
@@ -121,6 +124,7 @@ class NodePrograms:
         what changed."""
         graphs = materials.node_graphs
         self.closure_alpha = False
+        self.alpha_key = b""
         if not graphs or all(g is None for g in graphs):
             self.table = None
             self.generated, self.generated_key, self._generated_for = None, None, None
@@ -130,6 +134,7 @@ class NodePrograms:
         # so that generated code runs them as it runs the surfaces' (node_generated_run reads
         # the word before a program).
         alpha_words, alpha_offsets, alpha_programs = self._closure_alpha(graphs, materials.names, rows)
+        self.alpha_key = alpha_words.tobytes() + alpha_offsets.tobytes()
         run = ProgramTable(np.concatenate([self.table.words, alpha_words]).astype(np.uint32),
                            np.concatenate([self.table.offsets, alpha_offsets]).astype(np.int32),
                            list(self.table.programs) + alpha_programs, self.table.attributes)

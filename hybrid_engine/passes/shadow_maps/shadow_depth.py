@@ -243,7 +243,12 @@ class ShadowDepthPass:
         layout = frame_shadow_views(scene, camera, int(settings.shadow_cascades), resolution)
         views, cascade = layout.views, layout.cascade
         links = ShadowLinks.of(scene, layout.per_light, len(views))
-        key = (shadow_key(scene.lights), alpha_key(scene.materials), resolution, len(views), cascade.tobytes(),
+        # -- closure alpha: an alpha program's values are coverage too (an edit is an upload of
+        # words, nothing the table shows), and so are the images it may read
+        programs = gpu.node_programs
+        program_alpha = ((programs.alpha_key, tuple(id(t) for t in scene.materials.textures or ()))
+                         if programs.closure_alpha else b"")
+        key = (shadow_key(scene.lights), alpha_key(scene.materials), program_alpha, resolution, len(views), cascade.tobytes(),
                b"".join(np.asarray(v.view_proj, np.float64).tobytes() for v, c in zip(views, cascade) if not c),
                links.key() if links is not None else b"")
         ranges = scene.geometry.object_ranges

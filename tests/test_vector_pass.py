@@ -222,14 +222,23 @@ def test_the_vector_switch_adds_the_render_layers_socket_and_the_passes_panel_of
 
 # -- the core, without Blender ------------------------------------------------------------------
 
-def _box_scene(box_alpha: float = 1.0):
+def _box_scene(box_alpha: float = 1.0, program: bool = False):
+    """A box before a wall; ``program``: the box's alpha is its graph's (a Value node into
+    the Principled's Alpha: an alpha program, closure_alpha.py), not its row's."""
     from hybrid_engine.scene.data import Lights, MaterialTable, SceneData, Sky
     from hybrid_engine.scene.geometry import Geometry, InstancedGeometry
+    from hybrid_engine.scene.shader_graph import Link, ShaderGraph
     from scenes_analytic import box
 
     flat = Geometry.from_objects([(box((-0.3, -0.3, -0.3), (0.3, 0.3, 0.3)), None, 0),
                                   (box((-3.0, 2.0, -3.0), (3.0, 2.2, 3.0)), None, 1)])  # a wall behind
-    materials = MaterialTable.from_rows([{"base_color": (1, 1, 1), "alpha": box_alpha}, {"base_color": (1, 1, 1)}])
+    materials = MaterialTable.from_rows([{"base_color": (1, 1, 1), "alpha": 1.0 if program else box_alpha},
+                                         {"base_color": (1, 1, 1)}])
+    if program:
+        graph = ShaderGraph()
+        value = graph.add("VALUE", Value=box_alpha)
+        graph.surface = Link(graph.add("BSDF_PRINCIPLED", Alpha=Link(value, "Value")), "BSDF")
+        materials.node_graphs = [graph, None]
     return SceneData(geometry=InstancedGeometry.from_world(flat), materials=materials, lights=Lights.empty(),
                      sky=Sky(color=(0, 0, 0)))
 
@@ -300,13 +309,14 @@ def test_a_turning_instance_moves_each_pixel_by_its_own_point_not_its_centre(gl)
         assert np.allclose(vector[16, x], [*(before - here), *(here - after)], atol=0.05), (x, vector[16, x])
 
 
+@pytest.mark.parametrize("program", [False, True], ids=["row", "program"])
 @pytest.mark.parametrize("alpha", [0.0, 0.5])
-def test_a_box_with_alpha_moves_its_pixels_as_often_as_the_g_buffer_sees_it(gl, alpha):
+def test_a_box_with_alpha_moves_its_pixels_as_often_as_the_g_buffer_sees_it(gl, alpha, program):
     """Alpha is coverage (include/alpha.glsl): a sample sees the moving box's front face with
     probability alpha, else its back face with alpha again (further away: it moves fewer
     pixels), else the still wall; the pass is the mean over the samples (Cycles averages
-    over every sample that hits)."""
-    scene = _box_scene(box_alpha=alpha)
+    over every sample that hits). The row's alpha and a graph's alpha program alike."""
+    scene = _box_scene(box_alpha=alpha, program=program)
     camera = Camera(matrix_world=look_at((0.0, -6.0, 0.0), (0.0, 0.0, 0.0)), width=64, height=32)
     current = scene.geometry.instances.matrices.astype(np.float64)
     previous, following = current.copy(), current.copy()

@@ -7,7 +7,19 @@
 // ALPHA_TEST defined (scenes with alpha): a fragment of a material with alpha is kept with
 // the G-buffer's test and numbers (pixel, sample, depth; include/alpha.glsl), so the pixel
 // moves with the surface the sample sees, not with a leaf card's hole in front of it.
+// With NODE_CLOSURE_ALPHA a material's alpha program gives its coverage (alpha.glsl), seen
+// from the camera along the triangle's plane normal.
 #ifdef ALPHA_TEST
+#ifdef NODE_CLOSURE_ALPHA
+#include "scene_layout.glsl"
+#include "textures.glsl"
+#include "node_program.glsl"
+in vec3 v_world;
+flat in int v_row;
+uniform vec3 u_camera_position;
+uniform vec3 u_camera_forward;
+uniform int u_orthographic;
+#endif
 #include "alpha.glsl"
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 uniform int u_alpha_sample;
@@ -32,9 +44,19 @@ void main() {
     vec2 duv_dx = dFdx(v_uv);  // outside any branch (undefined in non-uniform control flow)
     vec2 duv_dy = dFdy(v_uv);
     Material m = materials[v_material];
-    if (material_has_alpha(m) && !alpha_kept(material_alpha_grad(m, v_uv, duv_dx, duv_dy),
-            uvec4(uvec2(gl_FragCoord.xy), uint(u_alpha_sample), floatBitsToUint(gl_FragCoord.z)))) {
-        discard;
+#ifdef NODE_CLOSURE_ALPHA
+    vec3 plane = cross(dFdx(v_world), dFdy(v_world));
+#endif
+    if (material_has_alpha(m)) {
+#ifdef NODE_CLOSURE_ALPHA
+        vec3 seen_from = u_orthographic != 0 ? -normalize(u_camera_forward) : normalize(u_camera_position - v_world);
+        float alpha = material_fragment_alpha(m, v_uv, duv_dx, duv_dy, v_world, plane, seen_from, v_row, v_material, 0);
+#else
+        float alpha = material_alpha_grad(m, v_uv, duv_dx, duv_dy);
+#endif
+        if (!alpha_kept(alpha, uvec4(uvec2(gl_FragCoord.xy), uint(u_alpha_sample), floatBitsToUint(gl_FragCoord.z)))) {
+            discard;
+        }
     }
 #endif
     vec2 center = raster(v_center);

@@ -9,13 +9,18 @@
 // moves it. The fragment stage divides the interpolated clip positions: they are linear in
 // the surface point, so their perspective-correct interpolation is exact.
 // ALPHA_TEST defined (scenes with alpha): the UV and the triangle's material go to the
-// fragment stage, which drops what the G-buffer drops (gbuffer.frag.glsl).
+// fragment stage, which drops what the G-buffer drops (gbuffer.frag.glsl); with
+// NODE_CLOSURE_ALPHA (some material's coverage is an alpha program) the point and its row too.
 in vec3 in_pos;
 #ifdef ALPHA_TEST
 in vec2 in_uv;
 layout(std430) readonly buffer TriangleMaterials { int triangle_materials[]; };
 out vec2 v_uv;
 flat out int v_material;
+#ifdef NODE_CLOSURE_ALPHA
+out vec3 v_world;
+flat out int v_row;
+#endif
 #endif
 
 uniform mat4 u_view_proj;           // this sample's, as drawn
@@ -62,6 +67,10 @@ void main() {
 #ifdef ALPHA_TEST
     v_uv = in_uv;
     v_material = triangle_materials[row];
+#ifdef NODE_CLOSURE_ALPHA
+    v_world = in_pos;
+    v_row = row;
+#endif
 #endif
     gl_Position = u_view_proj * world;
     v_center = gl_Position;

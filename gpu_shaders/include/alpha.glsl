@@ -67,6 +67,19 @@ float material_closure_alpha(Material m, vec3 position, vec3 normal, vec3 incomi
     sp.duv_dy = duv_dy;
     return node_program_run(-2 - m.textures2.z, sp).alpha;
 }
+
+// A fragment's coverage: its alpha image's (or factor's), or its alpha program's where it has
+// one, at `position` whose plane's normal is `plane` (cross(dFdx(p), dFdy(p)), taken outside
+// any branch), seen from `incoming`, or along the plane's normal where that is zero (no
+// viewer at hand: the shadow maps).
+float material_fragment_alpha(Material m, vec2 uv, vec2 duv_dx, vec2 duv_dy, vec3 position, vec3 plane,
+                              vec3 incoming, int row, int material, int depth) {
+    if (!material_has_closure_alpha(m)) return material_alpha_grad(m, uv, duv_dx, duv_dy);
+    bool viewer = dot(incoming, incoming) > 0.0;
+    vec3 n = node_unit(plane, viewer ? incoming : vec3(0.0, 0.0, 1.0));
+    return material_closure_alpha(m, position, n, viewer ? incoming : n, uv, duv_dx, duv_dy, -1.0, row, material,
+                                  depth);
+}
 #endif
 // -- end of closure alpha
 

@@ -43,19 +43,17 @@ void main() {
     vec3 plane = cross(dFdx(v_world), dFdy(v_world));
 #endif
     if (material_has_alpha(m)) {
-        float alpha = material_alpha_grad(m, v_uv, duv_dx, duv_dy);
         // -- closure alpha: the alpha program at the texel's point, seen along its plane's
         // normal (no viewer: the lamp's direction is not at hand)
 #ifdef NODE_CLOSURE_ALPHA
-        if (material_has_closure_alpha(m)) {
-            vec3 n = node_unit(plane, vec3(0.0, 0.0, 1.0));
 #ifdef INSTANCED
-            int row = v_first_row + gl_PrimitiveID;
+        int row = v_first_row + gl_PrimitiveID;
 #else
-            int row = v_row;
+        int row = v_row;
 #endif
-            alpha = material_closure_alpha(m, v_world, n, n, v_uv, duv_dx, duv_dy, -1.0, row, material, 1);
-        }
+        float alpha = material_fragment_alpha(m, v_uv, duv_dx, duv_dy, v_world, plane, vec3(0.0), row, material, 1);
+#else
+        float alpha = material_alpha_grad(m, v_uv, duv_dx, duv_dy);
 #endif
         // -- end of closure alpha
         if (!alpha_kept(alpha, uvec4(uvec2(gl_FragCoord.xy), 0x5bd1e995u, floatBitsToUint(gl_FragCoord.z)))) {

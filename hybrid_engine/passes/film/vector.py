@@ -42,7 +42,7 @@ from ...gpu.render_targets import release_all
 from ...scene.data import SceneData
 from ...scene.geometry import InstancedGeometry
 from ...scene.motion import MotionSteps
-from ...scene.raster_view import gl_matrix
+from ...scene.raster_view import RasterView, gl_matrix
 from ...scene.settings import RenderSettings
 from ..frame_context import FrameContext, PassIO
 from .accumulate import AccumulationError
@@ -168,11 +168,12 @@ class VectorPass:
         self._table_key: tuple | None = None
         self._entries = 0
 
-    def _raster(self, alpha: bool):
+    def _raster(self, alpha: bool, programs: dict | None = None):
         """The raster program, with the alpha test where the scene has alpha (a fragment
-        stage that may discard loses the early depth test: opaque scenes go without)."""
+        stage that may discard loses the early depth test: opaque scenes go without), and
+        the node programs' defines (``programs``) where some coverage is an alpha program."""
         return shader_loader.program(self.ctx, vertex="film/vector.vert.glsl", fragment="film/vector.frag.glsl",
-                                     defines={"ALPHA_TEST": 1} if alpha else None)
+                                     defines={"ALPHA_TEST": 1, **(programs or {})} if alpha else None)
 
     def io(self, settings: RenderSettings) -> PassIO:
         return PassIO(reads=("scene", "world_triangles"), writes=("vector",))
@@ -202,7 +203,9 @@ class VectorPass:
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE)  # both sides of a face, as the G-buffer draws them
         alpha = scene.materials.has_alpha
-        raster = self._raster(alpha)
+        # -- closure alpha: the G-buffer's coverage, an alpha program's where a material has one
+        programs = gpu.defines if alpha and gpu.node_programs.closure_alpha else {}
+        raster = self._raster(alpha, programs)
         # The G-buffer's own matrix: the same depths, so the alpha test draws its numbers.
         bind(raster, *([gpu.bindings()] if alpha else []),
              storage={"MotionRows": self._table["rows"], "MotionMatrices": self._table["matrices"],
@@ -210,7 +213,8 @@ class VectorPass:
              uniforms={"u_view_proj": gl_matrix(camera.view_projection()),
                        "u_previous_view_proj": gl_matrix(projection @ previous),
                        "u_next_view_proj": gl_matrix(projection @ following),
-                       "u_entries": self._entries, "u_size": size, "u_alpha_sample": int(sample)})
+                       "u_entries": self._entries, "u_size": size, "u_alpha_sample": int(sample),
+                       **(self._camera_uniforms(camera) if programs else {})})
         vao = gpu.vertex_array(raster)
         if gpu.triangle_count:
             vao.render(moderngl.TRIANGLES, vertices=3 * int(gpu.triangle_count))
@@ -224,6 +228,15 @@ class VectorPass:
         self.accumulate.run(math.ceil(size[0] / WORKGROUP), math.ceil(size[1] / WORKGROUP), 1)
         ctx.memory_barrier(moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT | moderngl.TEXTURE_UPDATE_BARRIER_BIT)
         self.count = sample + 1
+
+    @staticmethod
+    def _camera_uniforms(camera) -> dict:
+        """Where the alpha programs see the point from (Fresnel, Layer Weight, Incoming), and
+        the camera their Texture Coordinate Camera and Window read, as the G-buffer's."""
+        view = RasterView.from_camera(camera)
+        return {"u_camera_position": tuple(np.asarray(view.position, float)),
+                "u_camera_forward": tuple(np.asarray(view.forward, float)),
+                "u_orthographic": int(view.orthographic), **view.node_camera_uniforms()}
 
     def read(self) -> dict[str, np.ndarray]:
         """{"Vector": (H, W, 4) float32}, row 0 at the bottom: the mean over the samples so far."""

@@ -64,6 +64,7 @@ from . import interior_scenes
 from .scenes import chess as chess_core
 
 log = logging.getLogger(__name__)
+_TOLD_MISSING: set[Path] = set()  # glTF files whose missing textures were told
 
 SCENES = ("chess", "chess_real", "sponza", "large", "room", *interior_scenes.INTERIOR_SCENES)
 DEFAULT_FRAMES = chess_core.CHESS_FRAMES  # the paper's sequences are 200 frames long (§4)
@@ -194,7 +195,8 @@ def check_assets(name: str, assets_dir: str | os.PathLike | None) -> Path | None
                     raise SceneAssetError(f"scene {name!r} needs {uri} (geometry of {relative}): it is "
                                           f"missing from {path.parent}")
             missing = [uri for uri in images if not (path.parent / uri).is_file()]
-            if missing:
+            if missing and path not in _TOLD_MISSING:  # checked before loading and by the loader: told once
+                _TOLD_MISSING.add(path)
                 log.warning("%s: %d texture(s) missing from %s, those materials render untextured: %s",
                             relative, len(missing), path.parent, ", ".join(missing))
     return folder

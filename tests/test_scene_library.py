@@ -402,6 +402,18 @@ def test_a_missing_file_is_named_and_nothing_is_created(addon, lib, tmp_path, sc
     assert data_snapshot() == before
 
 
+@needs_assets
+def test_missing_textures_are_told_once_however_often_the_files_are_checked(addon, lib, caplog, monkeypatch):
+    """The bench checks a scene's files before loading it, and the loader checks them again:
+    the textures the snapshot lacks (Sponza's curtains) are named once."""
+    monkeypatch.setattr(lib, "_TOLD_MISSING", set())
+    with caplog.at_level("WARNING", logger=lib.__name__):
+        for _ in range(2):
+            lib.check_assets("sponza", SHARED_SCENES)
+    told = [r for r in caplog.records if "texture(s) missing" in r.getMessage()]
+    assert len(told) == 1, [r.getMessage() for r in told]
+
+
 def test_no_assets_folder_is_a_clear_error(addon, lib, monkeypatch):
     monkeypatch.delenv(lib.ASSETS_ENV, raising=False)
     with pytest.raises(lib.SceneAssetError, match=lib.ASSETS_ENV):

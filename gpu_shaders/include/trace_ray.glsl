@@ -167,6 +167,29 @@ uniform sampler2D u_emission_scale;
 uniform sampler2D u_surface;         // primary roughness, metallic (gbuffer.frag.glsl)
 uniform sampler2D u_cube_surface;    // xy UV, z UV density (cube_map.CubeFaceTargets)
 uniform sampler2D u_cube_geometric;  // xy octahedral geometric normal
+#if defined(NODE_PROGRAMS) && !defined(TRACE_SHADING_ONLY)
+// -- cube hits' tangent frame (issue 38) --
+uniform sampler2D u_cube_tangent;    // the texels' UV directions (cube_map.CubeFaceTargets)
+#include "cube_tangent.glsl"
+
+// The UV's change from where the face interpolated the UV a cube-hit texel keeps (its centre,
+// at its stored depth) to where the ray o + d t meets the plane through that point (the
+// texel's geometric normal g), by the triangle's UV directions: the program reads the UV at
+// the ray's own point, as a BVH hit does, not at the nearest texel's. None where the ray
+// meets that plane more than a few texels away (grazing), as without the frame.
+vec2 cube_hit_uv_offset(vec3 o, vec3 d, ivec2 texel, vec3 g, vec3 dp_du, vec3 dp_dv) {
+    int face = cube_face_of_column(texel.x, u_cube_res);
+    ivec2 local = ivec2(texel.x, texel.y >= u_cube_res ? texel.y - u_cube_res : texel.y);
+    float z = texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0;
+    vec3 centre = cube_unproject(face, vec3(cube_texel_center(local, face), z));
+    float facing = dot(d, g);
+    if (!(abs(facing) > 1e-6)) return vec2(0.0);
+    vec3 step = d * (dot(centre - o, g) / facing) + (o - centre);
+    float texel_width = cube_linear_depth(z) * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
+    if (!(dot(step, step) <= 16.0 * texel_width * texel_width)) return vec2(0.0);
+    return node_uv_change(step, dp_du, dp_dv);
+}
+#endif
 uniform mat4 u_inv_view_proj;
 uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
@@ -407,9 +430,14 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
                 // The face texel's triangle row (gbuffer.frag.glsl, CUBE_FACE): its bits in w.
                 h.row = floatBitsToInt(texelFetch(u_cube_surface, cm.texel, 0).w);
                 h.footprint = ray_cone_footprint(o, distance(o, cm.position), blur);
-                // No tangent frame: the faces keep no triangle corners (a tangent-space
-                // Normal Map is flat at cube hits).
-                if (material_has_program(materials[h.material])) tex.x = 0;  // a program may read the UV
+                if (material_has_program(materials[h.material])) {
+                    tex.x = 0;  // a program may read the UV
+                    // -- cube hits' tangent frame (issue 38) --
+                    // The triangle's UV directions as the face texel keeps them
+                    // (cube_tangent.glsl), the frame bvh_hit builds from its corners: a
+                    // tangent-space Normal Map and the Bump's UV offsets as at a BVH hit.
+                    cube_tangent_decode(texelFetch(u_cube_tangent, cm.texel, 0), g_oct, h.dp_du, h.dp_dv);
+                }
 #endif
                 if (max(max(tex.x, tex.y), tex.z) >= 0 || material_has_surface_maps(materials[h.material])) {
                     // The face keeps the texel's UV and UV density (gbuffer.frag.glsl,
@@ -418,6 +446,11 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
                     h.uv = surface.xy;
                     h.lod = texture_lod(ray_cone_footprint(o, distance(o, cm.position), blur), surface.z);
                 }
+#ifdef NODE_PROGRAMS
+                // -- cube hits' tangent frame (issue 38): the UV at the ray's point --
+                if (material_has_program(materials[h.material]))
+                    h.uv += cube_hit_uv_offset(o, d, cm.texel, h.geometric, h.dp_du, h.dp_dv);
+#endif
                 break;
             }
             if (cm.kind == CUBE_SKY) break;

@@ -189,6 +189,28 @@ vec2 cube_hit_uv_offset(vec3 o, vec3 d, ivec2 texel, vec3 g, vec3 dp_du, vec3 dp
     if (!(dot(step, step) <= 16.0 * texel_width * texel_width)) return vec2(0.0);
     return node_uv_change(step, dp_du, dp_dv);
 }
+
+#ifdef ALPHA_TEST
+// Whether material m's surface is there at all at uv, the UV a cube hit would move to. The
+// faces kept the texel by its coverage at its own UV (gbuffer.frag.glsl: the alpha image, or
+// the alpha program); the march may meet a texel at a cut edge a few texels from where the
+// ray meets its plane, and that point can lie in the hole. A cube hit cannot pass through
+// it (the march has ended), so the program shading that point would see a Transparent
+// closure: a surface with no colour, where the faces said the card is. Its coverage read as
+// the traversal's any-hit test reads it (the finest level; the alpha program at the hit).
+bool cube_hit_covered_at(Material m, int material, vec2 uv, vec3 position, vec3 normal, int row, vec3 d) {
+    if (!material_has_alpha(m)) return true;
+    float alpha = material_alpha_lod(m, uv, 0.0);
+#ifdef NODE_CLOSURE_ALPHA
+    if (material_has_closure_alpha(m)) {
+        vec3 towards = -node_unit(d, vec3(0.0, 0.0, 1.0));
+        alpha = material_closure_alpha(m, position, node_unit(normal, towards), towards, uv, vec2(0.0), vec2(0.0),
+                                       0.0, row, material, 1);
+    }
+#endif
+    return alpha > 0.0;
+}
+#endif
 #endif
 uniform mat4 u_inv_view_proj;
 uniform vec3 u_camera_position;
@@ -448,8 +470,14 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
                 }
 #ifdef NODE_PROGRAMS
                 // -- cube hits' tangent frame (issue 38): the UV at the ray's point --
-                if (material_has_program(materials[h.material]))
-                    h.uv += cube_hit_uv_offset(o, d, cm.texel, h.geometric, h.dp_du, h.dp_dv);
+                if (material_has_program(materials[h.material])) {
+                    vec2 moved = h.uv + cube_hit_uv_offset(o, d, cm.texel, h.geometric, h.dp_du, h.dp_dv);
+#ifdef ALPHA_TEST
+                    // Not into a cut-out's hole the faces never tested (cube_hit_covered_at).
+                    if (cube_hit_covered_at(materials[h.material], h.material, moved, h.position, h.normal, h.row, d))
+#endif
+                    h.uv = moved;
+                }
 #endif
                 break;
             }

@@ -117,3 +117,101 @@ def test_a_uv_bent_normal_at_a_cube_hit_matches_the_bvh_hit_and_the_direct_view(
         assert mean <= MEAN_BAR and p99 <= P99_BAR, f"{graph}, {name} against the direct view: {mean:.4f}, {p99:.4f}"
     mean, p99 = difference(cube, bvh)
     assert mean <= MEAN_BAR and p99 <= P99_BAR, f"{graph}, cube map against BVH: {mean:.4f}, {p99:.4f}"
+
+
+# -- against Cycles, through Blender's render path ------------------------------------------
+def _blender_graph(bpy, material, graph: str) -> None:
+    """``graph``'s nodes in Blender (GRAPHS): the normal shown as an emission colour."""
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    for node in [n for n in nodes if n.type != "OUTPUT_MATERIAL"]:
+        nodes.remove(node)
+    uv = nodes.new("ShaderNodeTexCoord").outputs["UV"]
+    if graph == "normal map":
+        wave = nodes.new("ShaderNodeTexWave")
+        wave.bands_direction = "DIAGONAL"
+        wave.inputs["Scale"].default_value = 1.0
+        wave.inputs["Distortion"].default_value = 4.0
+        links.new(uv, wave.inputs["Vector"])
+        mix = nodes.new("ShaderNodeMix")
+        mix.data_type = "RGBA"
+        mix.inputs[6].default_value = (0.2, 0.7, 0.8, 1.0)  # A (colour)
+        mix.inputs[7].default_value = (0.8, 0.35, 0.7, 1.0)  # B (colour)
+        links.new(wave.outputs["Fac"], mix.inputs[0])
+        normal_map = nodes.new("ShaderNodeNormalMap")
+        normal_map.space = "TANGENT"
+        links.new(mix.outputs[2], normal_map.inputs["Color"])
+        normal = normal_map.outputs["Normal"]
+    else:
+        noise = nodes.new("ShaderNodeTexNoise")
+        noise.inputs["Scale"].default_value = 6.0
+        noise.inputs["Detail"].default_value = 2.0
+        links.new(uv, noise.inputs["Vector"])
+        bump = nodes.new("ShaderNodeBump")
+        bump.inputs["Distance"].default_value = 0.3
+        links.new(noise.outputs["Fac"], bump.inputs["Height"])
+        normal = bump.outputs["Normal"]
+    shown = nodes.new("ShaderNodeVectorMath")
+    shown.operation = "MULTIPLY_ADD"
+    shown.inputs[1].default_value = (0.5, 0.5, 0.5)
+    shown.inputs[2].default_value = (0.5, 0.5, 0.5)
+    links.new(normal, shown.inputs[0])
+    emission = nodes.new("ShaderNodeEmission")
+    links.new(shown.outputs["Vector"], emission.inputs["Color"])
+    links.new(emission.outputs["Emission"], nodes["Material Output"].inputs["Surface"])
+
+
+@pytest.mark.parametrize("graph", sorted(GRAPHS))
+def test_a_uv_bent_normal_at_a_cube_hit_matches_cycles(addon, tmp_path, graph):
+    """The ceiling as Blender holds it (a 3 m plane turned 60 degrees about Z and flipped to
+    face down: its UVs' directions are no axis, and the tangent is Blender's own), seen in a
+    mirror through the cube map (HYBRID, near size 1) and through the BVH, against Cycles."""
+    import bpy
+
+    from test_engine import render_exr
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    ceiling_material = bpy.data.materials.new("ceiling")
+    ceiling_material.use_nodes = True
+    _blender_graph(bpy, ceiling_material, graph)
+    mirror = bpy.data.materials.new("mirror")
+    mirror.use_nodes = True
+    bsdf = mirror.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    bsdf.inputs["Metallic"].default_value = 1.0
+    bsdf.inputs["Roughness"].default_value = 0.0
+    bpy.ops.mesh.primitive_plane_add(size=3.0, location=(0, 0, CEILING_Z), rotation=(math.pi, 0, UV_TURN))
+    bpy.context.object.data.materials.append(ceiling_material)
+    bpy.ops.mesh.primitive_plane_add(size=8.0)
+    bpy.context.object.data.materials.append(mirror)
+    camera = bpy.data.cameras.new("camera")
+    camera.type = "ORTHO"
+    camera.ortho_scale = 1.6
+    camera_object = bpy.data.objects.new("camera", camera)
+    camera_object.location = (0.0, 0.0, 3.0)
+    scene.collection.objects.link(camera_object)
+    scene.camera = camera_object
+    world = bpy.data.worlds.new("black")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    scene.world = world
+    scene.render.resolution_x = scene.render.resolution_y = SIZE
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 16
+    scene.cycles.use_denoising = False
+    scene.cycles.filter_width = 0.01
+    scene.cycles.max_bounces = 2
+    cycles = render_exr(bpy, scene, tmp_path / "cycles.exr")[..., :3]
+    assert inner(cycles).std(axis=(0, 1)).max() > 0.02, "the graph bends no normal"
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.near_size = 1.0
+    scene.hybrid_rt.cube_resolution = 256
+    scene.hybrid_rt.render_samples = 1  # the pixel's centre, as Cycles' narrow filter sees it
+    for mode in ("HYBRID", "FULL_BVH"):
+        scene.hybrid_rt.mode = mode
+        ours = render_exr(bpy, scene, tmp_path / f"{mode}.exr")[..., :3]
+        mean, p99 = difference(ours, cycles)
+        assert mean <= MEAN_BAR and p99 <= P99_BAR, f"{graph}, {mode} against Cycles: {mean:.4f}, {p99:.4f}"

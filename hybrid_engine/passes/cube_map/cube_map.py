@@ -188,7 +188,7 @@ class CubeMapPass:
         self.hidden_exit = bool(settings.cube_hidden_exit)
         self.sampled = settings.cube_march != "HIERARCHICAL"
         # Node programs: the faces' fragment stage writes each texel's tangent frame too.
-        targets = self._ensure_targets(res, 2 if self.back_layer else 1, bool(gpu.defines))
+        targets = self._ensure_targets(res, 2 if self.back_layer else 1, "NODE_PROGRAMS" in gpu.defines)
         self.faces = CubeFaces.at(center, settings.near_size, settings.cube_far)
         self.resolution = res
         targets.clear()

@@ -196,9 +196,9 @@ FEATURES: tuple[Feature, ...] = (
             " own roughness and weight; other mixes of shaders mix their parameters."),
     Feature("Bump node", APPROXIMATED,
             "Evaluated as Cycles does (the Height at the shading point and one Filter Width along "
-            "the footprint's two axes), in the G-buffer and at BVH hits; at cube-map hits a Bump "
-            "whose Height reads the UV stays flat; a stepped Height (a Checker) at a wide Filter "
-            "Width differs from Cycles."),
+            "the footprint's two axes), in the G-buffer and at BVH and cube-map hits (there from "
+            "the UV directions the cube faces store); a stepped Height (a Checker) at a wide "
+            "Filter Width differs from Cycles."),
     Feature("Color Attribute and Attribute nodes", SUPPORTED,
             "Vertex colours (point or face corner, byte colours converted to linear as Cycles "
             "does) and named float, vector and colour attributes on points, corners and faces, "

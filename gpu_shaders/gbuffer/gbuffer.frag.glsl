@@ -44,7 +44,10 @@
 // emission itself (not a scale: the shading reads it through node_gbuffer_material),
 // location 3 (RGBA16F then) = roughness, metallic, transmission, coat, and the normal the
 // closure's. The faces' variant stores the triangle's world row in location 1's w (its bits:
-// intBitsToFloat), so that a ray's hit in the map can run the program with the object's inputs.
+// intBitsToFloat), so that a ray's hit in the map can run the program with the object's inputs,
+// and location 3 (RGBA16F) the triangle's UV directions (include/cube_tangent.glsl), so that
+// the program's tangent-space Normal Map and UV-reading Bump bend the normal there as at a
+// BVH hit.
 // Uniforms then: u_camera_position, u_camera_forward, u_orthographic (Geometry Incoming).
 // ALPHA_TEST defined (only for scenes with alpha, MaterialTable.has_alpha; both variants):
 // a fragment of a material with alpha is discarded with the probability it is not there
@@ -55,7 +58,9 @@
 #include "octahedral.glsl"
 #ifdef NODE_PROGRAMS
 #include "node_program.glsl"
-#ifndef CUBE_FACE
+#ifdef CUBE_FACE
+#include "cube_tangent.glsl"
+#else
 uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
 uniform int u_orthographic;
@@ -88,6 +93,8 @@ layout(location = 1) out vec4 out_albedo;
 layout(location = 2) out vec4 out_emission_scale;
 #ifndef CUBE_FACE
 layout(location = 3) out vec4 out_surface;
+#elif defined(NODE_PROGRAMS)
+layout(location = 3) out vec4 out_cube_tangent;  // cube hits' tangent frame (cube_tangent.glsl)
 #endif
 
 void main() {
@@ -162,6 +169,10 @@ void main() {
     float density = world_area > 0.0 && !isinf(world_area) ? sqrt(uv_area / world_area) : 0.0;
 #ifdef NODE_PROGRAMS
     float row_bits = intBitsToFloat(v_row);
+    // The frame on the axes of the geometric normal as location 2 keeps it (half floats).
+    vec3 tangent_u, tangent_v;
+    cube_tangent_of_fragment(dp_dx, dp_dy, duv_dx, duv_dy, tangent_u, tangent_v);
+    out_cube_tangent = cube_tangent_encode(tangent_u, tangent_v, unpackHalf2x16(packHalf2x16(g_oct)));
 #else
     float row_bits = 0.0;
 #endif

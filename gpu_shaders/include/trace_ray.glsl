@@ -167,6 +167,51 @@ uniform sampler2D u_emission_scale;
 uniform sampler2D u_surface;         // primary roughness, metallic (gbuffer.frag.glsl)
 uniform sampler2D u_cube_surface;    // xy UV, z UV density (cube_map.CubeFaceTargets)
 uniform sampler2D u_cube_geometric;  // xy octahedral geometric normal
+#if defined(NODE_PROGRAMS) && !defined(TRACE_SHADING_ONLY)
+// -- cube hits' tangent frame (issue 38) --
+uniform sampler2D u_cube_tangent;    // the texels' UV directions (cube_map.CubeFaceTargets)
+#include "cube_tangent.glsl"
+
+// The UV's change from where the face interpolated the UV a cube-hit texel keeps (its centre,
+// at its stored depth) to where the ray o + d t meets the plane through that point (the
+// texel's geometric normal g), by the triangle's UV directions: the program reads the UV at
+// the ray's own point, as a BVH hit does, not at the nearest texel's. None where the ray
+// meets that plane more than a few texels away (grazing), as without the frame.
+vec2 cube_hit_uv_offset(vec3 o, vec3 d, ivec2 texel, vec3 g, vec3 dp_du, vec3 dp_dv) {
+    int face = cube_face_of_column(texel.x, u_cube_res);
+    ivec2 local = ivec2(texel.x, texel.y >= u_cube_res ? texel.y - u_cube_res : texel.y);
+    float z = texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0;
+    vec3 centre = cube_unproject(face, vec3(cube_texel_center(local, face), z));
+    float facing = dot(d, g);
+    if (!(abs(facing) > 1e-6)) return vec2(0.0);
+    vec3 step = d * (dot(centre - o, g) / facing) + (o - centre);
+    float texel_width = cube_linear_depth(z) * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
+    if (!(dot(step, step) <= 16.0 * texel_width * texel_width)) return vec2(0.0);
+    return node_uv_change(step, dp_du, dp_dv);
+}
+
+#ifdef ALPHA_TEST
+// Whether material m's surface is there at all at uv, the UV a cube hit would move to. The
+// faces kept the texel by its coverage at its own UV (gbuffer.frag.glsl: the alpha image, or
+// the alpha program); the march may meet a texel at a cut edge a few texels from where the
+// ray meets its plane, and that point can lie in the hole. A cube hit cannot pass through
+// it (the march has ended), so the program shading that point would see a Transparent
+// closure: a surface with no colour, where the faces said the card is. Its coverage read as
+// the traversal's any-hit test reads it (the finest level; the alpha program at the hit).
+bool cube_hit_covered_at(Material m, int material, vec2 uv, vec3 position, vec3 normal, int row, vec3 d) {
+    if (!material_has_alpha(m)) return true;
+    float alpha = material_alpha_lod(m, uv, 0.0);
+#ifdef NODE_CLOSURE_ALPHA
+    if (material_has_closure_alpha(m)) {
+        vec3 towards = -node_unit(d, vec3(0.0, 0.0, 1.0));
+        alpha = material_closure_alpha(m, position, node_unit(normal, towards), towards, uv, vec2(0.0), vec2(0.0),
+                                       0.0, row, material, 1);
+    }
+#endif
+    return alpha > 0.0;
+}
+#endif
+#endif
 uniform mat4 u_inv_view_proj;
 uniform vec3 u_camera_position;
 uniform vec3 u_camera_forward;
@@ -407,9 +452,14 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
                 // The face texel's triangle row (gbuffer.frag.glsl, CUBE_FACE): its bits in w.
                 h.row = floatBitsToInt(texelFetch(u_cube_surface, cm.texel, 0).w);
                 h.footprint = ray_cone_footprint(o, distance(o, cm.position), blur);
-                // No tangent frame: the faces keep no triangle corners (a tangent-space
-                // Normal Map is flat at cube hits).
-                if (material_has_program(materials[h.material])) tex.x = 0;  // a program may read the UV
+                if (material_has_program(materials[h.material])) {
+                    tex.x = 0;  // a program may read the UV
+                    // -- cube hits' tangent frame (issue 38) --
+                    // The triangle's UV directions as the face texel keeps them
+                    // (cube_tangent.glsl), the frame bvh_hit builds from its corners: a
+                    // tangent-space Normal Map and the Bump's UV offsets as at a BVH hit.
+                    cube_tangent_decode(texelFetch(u_cube_tangent, cm.texel, 0), g_oct, h.dp_du, h.dp_dv);
+                }
 #endif
                 if (max(max(tex.x, tex.y), tex.z) >= 0 || material_has_surface_maps(materials[h.material])) {
                     // The face keeps the texel's UV and UV density (gbuffer.frag.glsl,
@@ -418,6 +468,17 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
                     h.uv = surface.xy;
                     h.lod = texture_lod(ray_cone_footprint(o, distance(o, cm.position), blur), surface.z);
                 }
+#ifdef NODE_PROGRAMS
+                // -- cube hits' tangent frame (issue 38): the UV at the ray's point --
+                if (material_has_program(materials[h.material])) {
+                    vec2 moved = h.uv + cube_hit_uv_offset(o, d, cm.texel, h.geometric, h.dp_du, h.dp_dv);
+#ifdef ALPHA_TEST
+                    // Not into a cut-out's hole the faces never tested (cube_hit_covered_at).
+                    if (cube_hit_covered_at(materials[h.material], h.material, moved, h.position, h.normal, h.row, d))
+#endif
+                    h.uv = moved;
+                }
+#endif
                 break;
             }
             if (cm.kind == CUBE_SKY) break;

@@ -46,21 +46,26 @@ class CubeFaceTargets(RenderTargets):
     """The six faces' G-buffers as one atlas (face i covers texels [i * res, (i + 1) * res)
     in x): ``depth``; ``normal_material`` as the primary G-buffer's (render_targets.GBufferTargets);
     ``surface`` (RGBA32F): UV and UV density (sqrt of UV area per world area); ``geometric``
-    (RG16F): the octahedral geometric normal.
+    (RG16F): the octahedral geometric normal; with ``tangent`` (node programs), ``tangent``
+    (RGBA16F): the triangle's UV directions on axes around that normal
+    (include/cube_tangent.glsl), which a cube hit's tangent-space Normal Map and UV-reading
+    Bump need as a BVH hit does.
 
     The faces keep texture coordinates rather than colours: the tracer samples the
     textures only at the texels its rays hit, with the ray cone's mip level as at BVH
     hits (gbuffer.frag.glsl, CUBE_FACE). Float32 UVs because repeated textures carry
     coordinates far past [0, 1]."""
 
-    def __init__(self, ctx, width: int, height: int) -> None:
+    def __init__(self, ctx, width: int, height: int, tangent: bool = False) -> None:
         # clear() resets depth and ``normal_material`` only. A texel is empty where its
         # material word is 0, and the march reads ``surface`` and ``geometric`` only at texels
         # it hits, so what those two hold elsewhere is never read; clearing them would be more
-        # than half of the 40 bytes per texel written.
-        super().__init__(ctx, width, height,
-                         colour={"normal_material": (4, "f4"), "surface": (4, "f4"), "geometric": (2, "f2")},
-                         cleared=("normal_material",))
+        # than half of the 40 bytes per texel written. ``tangent`` likewise.
+        self.has_tangent = tangent
+        colour = {"normal_material": (4, "f4"), "surface": (4, "f4"), "geometric": (2, "f2")}
+        if tangent:
+            colour["tangent"] = (4, "f2")
+        super().__init__(ctx, width, height, colour=colour, cleared=("normal_material",))
 
 
 @dataclass(frozen=True)
@@ -138,10 +143,10 @@ class CubeMapPass:
         self.hidden_exit = False
         self.sampled = False
 
-    def _ensure_targets(self, resolution: int, layers: int) -> CubeFaceTargets:
+    def _ensure_targets(self, resolution: int, layers: int, tangent: bool) -> CubeFaceTargets:
         size = (6 * resolution, layers * resolution)
-        if self.targets is None or self.targets.size != size:
-            old, self.targets = self.targets, CubeFaceTargets(self.ctx, *size)
+        if self.targets is None or self.targets.size != size or self.targets.has_tangent != tangent:
+            old, self.targets = self.targets, CubeFaceTargets(self.ctx, *size, tangent=tangent)
             if old is not None:
                 old.release()
         return self.targets
@@ -159,11 +164,13 @@ class CubeMapPass:
         frame.write("cube_map", self.marchable(frame.settings))
 
     def marchable(self, settings: RenderSettings) -> MarchableCubeMap:
-        """The last render, as a ray marching it binds it."""
+        """The last render, as a ray marching it binds it (with node programs, the texels'
+        tangent frames as ``u_cube_tangent``)."""
+        tangent = {"u_cube_tangent": self.targets.tangent} if self.targets.has_tangent else {}
         return MarchableCubeMap(
             defines=self.march_defines(),
             textures={**self.march_textures(), "u_cube_surface": self.targets.surface,
-                      "u_cube_geometric": self.targets.geometric},
+                      "u_cube_geometric": self.targets.geometric, **tangent},
             uniforms=self.march_uniforms(settings))
 
     def render(self, gpu: GPUScene, scene: SceneData, center, settings: RenderSettings,
@@ -180,7 +187,8 @@ class CubeMapPass:
         self.back_layer = bool(settings.cube_back_layer)
         self.hidden_exit = bool(settings.cube_hidden_exit)
         self.sampled = settings.cube_march != "HIERARCHICAL"
-        targets = self._ensure_targets(res, 2 if self.back_layer else 1)
+        # Node programs: the faces' fragment stage writes each texel's tangent frame too.
+        targets = self._ensure_targets(res, 2 if self.back_layer else 1, "NODE_PROGRAMS" in gpu.defines)
         self.faces = CubeFaces.at(center, settings.near_size, settings.cube_far)
         self.resolution = res
         targets.clear()

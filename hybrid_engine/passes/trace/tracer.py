@@ -250,6 +250,7 @@ class HybridTracer:
             "u_cube_normal_material": self._dummy_rgba,
             "u_cube_surface": self._dummy_rgba,
             "u_cube_geometric": self._dummy_rg,
+            "u_cube_tangent": self._dummy_rgba,  # node programs' cube hits (trace_ray.glsl)
             "u_cube_hiz": self._dummy_rg,
         }
         if cube is not None:

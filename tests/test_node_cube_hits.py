@@ -1,0 +1,217 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Node programs at cube-map hits (trace_ray.glsl, include/cube_tangent.glsl): a
+tangent-space Normal Map and a Bump whose Height reads the UV bend the normal where a mirror's
+rays meet a ceiling beyond the near cube (HYBRID: a cube hit) as where they meet it in the BVH
+(FULL_BVH) and as the camera sees it directly: the faces keep each texel's UV directions, and
+the hit reads the UV where the ray meets the texel's plane. Each graph shows its normal as an
+emission colour (normal * 0.5 + 0.5), so the images compare the normal itself."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from hybrid_engine.gpu import variants
+from hybrid_engine.scene.camera import Camera, look_at
+from hybrid_engine.scene.settings import RenderSettings
+from hybrid_engine.scene.shader_graph import Link, ShaderGraph
+from test_node_program_render import plane_scene
+from test_textures import textured_quad, top_down_camera
+
+CEILING_Z = 6.0
+SIZE = 48
+UV_TURN = math.radians(60.0)  # the UVs turned on the ceiling: its tangent is not an axis
+MEAN_BAR, P99_BAR = 1e-3, 3e-3
+BORDER = 3
+
+
+def shown_normal(graph: ShaderGraph, normal: Link) -> ShaderGraph:
+    """Emission of ``normal * 0.5 + 0.5``: the normal as a colour."""
+    shown = graph.add("VECT_MATH", settings={"operation": "MULTIPLY_ADD"}, Vector=normal,
+                      Vector_001=(0.5, 0.5, 0.5), Vector_002=(0.5, 0.5, 0.5))
+    graph.surface = Link(graph.add("EMISSION", Color=Link(shown, "Vector"), Strength=1.0), "Emission")
+    return graph
+
+
+def tangent_normal_map() -> ShaderGraph:
+    """A tangent-space Normal Map whose colour varies over the UV (a distorted Wave mixing two
+    tilted normals)."""
+    graph = ShaderGraph()
+    uv = Link(graph.add("TEX_COORD"), "UV")
+    wave = graph.add("TEX_WAVE", settings={"bands_direction": "DIAGONAL"}, Vector=uv, Scale=1.0, Distortion=4.0)
+    mix = graph.add("MIX", settings={"data_type": "RGBA"}, Factor_Float=Link(wave, "Fac"),
+                    A_Color=(0.2, 0.7, 0.8, 1.0), B_Color=(0.8, 0.35, 0.7, 1.0))
+    normal_map = graph.add("NORMAL_MAP", settings={"space": "TANGENT"}, Color=Link(mix, "Result_Color"))
+    return shown_normal(graph, Link(normal_map, "Normal"))
+
+
+def uv_bump() -> ShaderGraph:
+    """A Bump whose Height is a Noise of the UV."""
+    graph = ShaderGraph()
+    uv = Link(graph.add("TEX_COORD"), "UV")
+    noise = graph.add("TEX_NOISE", Vector=uv, Scale=6.0, Detail=2.0)
+    bump = graph.add("BUMP", Distance=0.3, Height=Link(noise, "Fac"))
+    return shown_normal(graph, Link(bump, "Normal"))
+
+
+GRAPHS = {"normal map": tangent_normal_map, "bump": uv_bump}
+
+
+def ceiling() -> tuple[np.ndarray, np.ndarray]:
+    """A 2 m square at CEILING_Z facing down, its UVs turned by UV_TURN about their centre."""
+    tris, uvs = textured_quad((-1, -1, CEILING_Z), (0, 2, 0), (2, 0, 0), (0.0, 0.0), (1.0, 1.0))
+    c, s = math.cos(UV_TURN), math.sin(UV_TURN)
+    centred = uvs - 0.5
+    turned = np.stack([c * centred[..., 0] - s * centred[..., 1], s * centred[..., 0] + c * centred[..., 1]], -1)
+    return tris, (turned + 0.5).astype(np.float32)
+
+
+def mirrored(renderer, graph: ShaderGraph, mode: str) -> np.ndarray:
+    """The ceiling in a mirror floor at z = 0, seen from above at z = 3: with a near cube of
+    half-size 1 the ceiling lies in the cube map in HYBRID."""
+    floor, floor_uvs = textured_quad((-4, -4, 0), (8, 0, 0), (0, 8, 0), (0.0, 0.0), (1.0, 1.0))
+    tris, uvs = ceiling()
+    rows = [dict(base_color=(1.0, 1.0, 1.0), reflectivity=1.0, roughness=0.0), dict()]
+    scene = plane_scene([(floor, floor_uvs, 0), (tris, uvs, 1)], [None, graph], rows)
+    settings = RenderSettings(mode=mode, near_size=1.0, cube_far=20.0, cube_resolution=256, max_depth=1)
+    return renderer.render(scene, top_down_camera(size=SIZE, scale=1.6), settings).image[..., :3]
+
+
+def direct(renderer, graph: ShaderGraph) -> np.ndarray:
+    """The ceiling seen from below by the mirror image of the camera above, flipped to the
+    mirror's view (a camera looking up has x to its left)."""
+    tris, uvs = ceiling()
+    camera = Camera(matrix_world=look_at((0, 0, -3), (0, 0, 0), up=(0, 1, 0)), width=SIZE, height=SIZE,
+                    projection="ORTHO", ortho_scale=1.6, clip_start=0.1, clip_end=20.0)
+    image = renderer.render(plane_scene([(tris, uvs, 0)], [graph]), camera, RenderSettings(mode="RASTER")).image
+    return image[:, ::-1, :3]
+
+
+def inner(image: np.ndarray) -> np.ndarray:
+    return image[BORDER:-BORDER, BORDER:-BORDER].astype(np.float64)
+
+
+def difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
+    d = np.abs(inner(a) - inner(b))
+    return float(d.mean()), float(np.percentile(d, 99))
+
+
+@pytest.fixture
+def trace_variant(request):
+    variants.set_override(f"trace={request.param}")
+    yield request.param
+    variants.set_override(None)
+
+
+@pytest.mark.parametrize("trace_variant", ["cpu", "gpu"], indirect=True)
+@pytest.mark.parametrize("graph", sorted(GRAPHS))
+def test_a_uv_bent_normal_at_a_cube_hit_matches_the_bvh_hit_and_the_direct_view(renderer, trace_variant, graph):
+    """The megakernel ("cpu") and the waves ("gpu", whose hit records carry the frame)."""
+    seen = direct(renderer, GRAPHS[graph]())
+    assert inner(seen).std(axis=(0, 1)).max() > 0.02, "the graph bends no normal"
+    cube = mirrored(renderer, GRAPHS[graph](), "HYBRID")
+    bvh = mirrored(renderer, GRAPHS[graph](), "FULL_BVH")
+    for name, image in (("cube map", cube), ("BVH", bvh)):
+        mean, p99 = difference(image, seen)
+        assert mean <= MEAN_BAR and p99 <= P99_BAR, f"{graph}, {name} against the direct view: {mean:.4f}, {p99:.4f}"
+    mean, p99 = difference(cube, bvh)
+    assert mean <= MEAN_BAR and p99 <= P99_BAR, f"{graph}, cube map against BVH: {mean:.4f}, {p99:.4f}"
+
+
+# -- against Cycles, through Blender's render path ------------------------------------------
+def _blender_graph(bpy, material, graph: str) -> None:
+    """``graph``'s nodes in Blender (GRAPHS): the normal shown as an emission colour."""
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    for node in [n for n in nodes if n.type != "OUTPUT_MATERIAL"]:
+        nodes.remove(node)
+    uv = nodes.new("ShaderNodeTexCoord").outputs["UV"]
+    if graph == "normal map":
+        wave = nodes.new("ShaderNodeTexWave")
+        wave.bands_direction = "DIAGONAL"
+        wave.inputs["Scale"].default_value = 1.0
+        wave.inputs["Distortion"].default_value = 4.0
+        links.new(uv, wave.inputs["Vector"])
+        mix = nodes.new("ShaderNodeMix")
+        mix.data_type = "RGBA"
+        mix.inputs[6].default_value = (0.2, 0.7, 0.8, 1.0)  # A (colour)
+        mix.inputs[7].default_value = (0.8, 0.35, 0.7, 1.0)  # B (colour)
+        links.new(wave.outputs["Fac"], mix.inputs[0])
+        normal_map = nodes.new("ShaderNodeNormalMap")
+        normal_map.space = "TANGENT"
+        links.new(mix.outputs[2], normal_map.inputs["Color"])
+        normal = normal_map.outputs["Normal"]
+    else:
+        noise = nodes.new("ShaderNodeTexNoise")
+        noise.inputs["Scale"].default_value = 6.0
+        noise.inputs["Detail"].default_value = 2.0
+        links.new(uv, noise.inputs["Vector"])
+        bump = nodes.new("ShaderNodeBump")
+        bump.inputs["Distance"].default_value = 0.3
+        links.new(noise.outputs["Fac"], bump.inputs["Height"])
+        normal = bump.outputs["Normal"]
+    shown = nodes.new("ShaderNodeVectorMath")
+    shown.operation = "MULTIPLY_ADD"
+    shown.inputs[1].default_value = (0.5, 0.5, 0.5)
+    shown.inputs[2].default_value = (0.5, 0.5, 0.5)
+    links.new(normal, shown.inputs[0])
+    emission = nodes.new("ShaderNodeEmission")
+    links.new(shown.outputs["Vector"], emission.inputs["Color"])
+    links.new(emission.outputs["Emission"], nodes["Material Output"].inputs["Surface"])
+
+
+@pytest.mark.parametrize("graph", sorted(GRAPHS))
+def test_a_uv_bent_normal_at_a_cube_hit_matches_cycles(addon, tmp_path, graph):
+    """The ceiling as Blender holds it (a 3 m plane turned 60 degrees about Z and flipped to
+    face down: its UVs' directions are no axis, and the tangent is Blender's own), seen in a
+    mirror through the cube map (HYBRID, near size 1) and through the BVH, against Cycles."""
+    import bpy
+
+    from test_engine import render_exr
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    ceiling_material = bpy.data.materials.new("ceiling")
+    ceiling_material.use_nodes = True
+    _blender_graph(bpy, ceiling_material, graph)
+    mirror = bpy.data.materials.new("mirror")
+    mirror.use_nodes = True
+    bsdf = mirror.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    bsdf.inputs["Metallic"].default_value = 1.0
+    bsdf.inputs["Roughness"].default_value = 0.0
+    bpy.ops.mesh.primitive_plane_add(size=3.0, location=(0, 0, CEILING_Z), rotation=(math.pi, 0, UV_TURN))
+    bpy.context.object.data.materials.append(ceiling_material)
+    bpy.ops.mesh.primitive_plane_add(size=8.0)
+    bpy.context.object.data.materials.append(mirror)
+    camera = bpy.data.cameras.new("camera")
+    camera.type = "ORTHO"
+    camera.ortho_scale = 1.6
+    camera_object = bpy.data.objects.new("camera", camera)
+    camera_object.location = (0.0, 0.0, 3.0)
+    scene.collection.objects.link(camera_object)
+    scene.camera = camera_object
+    world = bpy.data.worlds.new("black")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    scene.world = world
+    scene.render.resolution_x = scene.render.resolution_y = SIZE
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    scene.render.engine = "CYCLES"
+    scene.cycles.device = "CPU"
+    scene.cycles.samples = 16
+    scene.cycles.use_denoising = False
+    scene.cycles.filter_width = 0.01
+    scene.cycles.max_bounces = 2
+    cycles = render_exr(bpy, scene, tmp_path / "cycles.exr")[..., :3]
+    assert inner(cycles).std(axis=(0, 1)).max() > 0.02, "the graph bends no normal"
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.near_size = 1.0
+    scene.hybrid_rt.cube_resolution = 256
+    scene.hybrid_rt.render_samples = 1  # the pixel's centre, as Cycles' narrow filter sees it
+    for mode in ("HYBRID", "FULL_BVH"):
+        scene.hybrid_rt.mode = mode
+        ours = render_exr(bpy, scene, tmp_path / f"{mode}.exr")[..., :3]
+        mean, p99 = difference(ours, cycles)
+        assert mean <= MEAN_BAR and p99 <= P99_BAR, f"{graph}, {mode} against Cycles: {mean:.4f}, {p99:.4f}"

@@ -67,14 +67,16 @@ def ceiling() -> tuple[np.ndarray, np.ndarray]:
     return tris, (turned + 0.5).astype(np.float32)
 
 
-def mirrored(renderer, graph: ShaderGraph, mode: str) -> np.ndarray:
+def mirrored(renderer, graph: ShaderGraph, mode: str, lit_cube: bool = False) -> np.ndarray:
     """The ceiling in a mirror floor at z = 0, seen from above at z = 3: with a near cube of
-    half-size 1 the ceiling lies in the cube map in HYBRID."""
+    half-size 1 the ceiling lies in the cube map in HYBRID (``lit_cube``: its hits read the
+    lit cube map's texels)."""
     floor, floor_uvs = textured_quad((-4, -4, 0), (8, 0, 0), (0, 8, 0), (0.0, 0.0), (1.0, 1.0))
     tris, uvs = ceiling()
     rows = [dict(base_color=(1.0, 1.0, 1.0), reflectivity=1.0, roughness=0.0), dict()]
     scene = plane_scene([(floor, floor_uvs, 0), (tris, uvs, 1)], [None, graph], rows)
-    settings = RenderSettings(mode=mode, near_size=1.0, cube_far=20.0, cube_resolution=256, max_depth=1)
+    settings = RenderSettings(mode=mode, near_size=1.0, cube_far=20.0, cube_resolution=256, max_depth=1,
+                              lit_cube=lit_cube)
     return renderer.render(scene, top_down_camera(size=SIZE, scale=1.6), settings).image[..., :3]
 
 
@@ -117,6 +119,21 @@ def test_a_uv_bent_normal_at_a_cube_hit_matches_the_bvh_hit_and_the_direct_view(
         assert mean <= MEAN_BAR and p99 <= P99_BAR, f"{graph}, {name} against the direct view: {mean:.4f}, {p99:.4f}"
     mean, p99 = difference(cube, bvh)
     assert mean <= MEAN_BAR and p99 <= P99_BAR, f"{graph}, cube map against BVH: {mean:.4f}, {p99:.4f}"
+
+
+@pytest.mark.parametrize("graph", sorted(GRAPHS))
+def test_the_lit_cube_maps_texels_bend_the_normal_as_the_cube_hits_do(renderer, graph):
+    """The lit cube map runs a texel's program with the frame the face keeps
+    (cube_light_shade.comp.glsl), so what a mirror reads from it is the normal a cube hit
+    shades: the two differ by where in its texel each takes the UV, and for the Bump by its
+    filter width (the texel's there, the ray cone's at a hit). Without the frame, the texels'
+    normals are flat: 0.15 (Normal Map) and 0.09 (Bump) mean."""
+    per_hit = mirrored(renderer, GRAPHS[graph](), "HYBRID")
+    stored = mirrored(renderer, GRAPHS[graph](), "HYBRID", lit_cube=True)
+    assert inner(per_hit).std(axis=(0, 1)).max() > 0.02, "the graph bends no normal"
+    mean, p99 = difference(stored, per_hit)
+    mean_bar, p99_bar = {"normal map": (0.01, 0.07), "bump": (0.03, 0.15)}[graph]
+    assert mean <= mean_bar and p99 <= p99_bar, f"{graph}, lit cube map against cube hits: {mean:.4f}, {p99:.4f}"
 
 
 # -- against Cycles, through Blender's render path ------------------------------------------

@@ -32,6 +32,8 @@ layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 #include "cube_light_texels.glsl"
 #ifdef NODE_PROGRAMS
 #include "node_program.glsl"
+uniform sampler2D u_cube_tangent;  // the texels' UV directions (cube_map.CubeFaceTargets)
+#include "cube_tangent.glsl"
 #endif
 
 layout(rgba16f) writeonly uniform image2D u_radiance;
@@ -105,13 +107,18 @@ void main() {
 #ifdef NODE_PROGRAMS
     // -- node programs: a material with a graph runs it at the texel, as a ray's cube-map hit
     // does (trace_ray.glsl hit_material), so the stored light has the graph's colours, not
-    // the row's estimate; the texel's width is the footprint, the faces keep no tangent frame
+    // the row's estimate; the texel's width is the footprint, and the UV directions the
+    // faces keep (cube_tangent.glsl) its tangent frame
     if (material_has_program(materials[index])) {
         vec3 seen_from = dot(g_facing, view_dir) <= 0.0 ? -view_dir : view_dir;  // the centre's side
         vec3 g = normalize(g_facing);
         ShadingPoint sp = node_plain_point(p, normalize(nm.xyz), g, seen_from, surface.xy, lod, 1,
                                            floatBitsToInt(surface.w), index);
         node_footprint_axes(sp.geometric, dist * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res), sp.dp_dx, sp.dp_dy);
+        cube_tangent_decode(texelFetch(u_cube_tangent, atlas, 0), texelFetch(u_cube_geometric, atlas, 0).xy,
+                            sp.dp_du, sp.dp_dv);
+        sp.uv_dx = node_uv_change(sp.dp_dx, sp.dp_du, sp.dp_dv);
+        sp.uv_dy = node_uv_change(sp.dp_dy, sp.dp_du, sp.dp_dv);
         NodeClosure c = node_program_run(materials[index].textures2.w, sp);
         m = node_closure_material(materials[index], c);
         n_facing = dot(c.normal, g_facing) >= 0.0 ? c.normal : -c.normal;

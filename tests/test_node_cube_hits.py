@@ -58,21 +58,26 @@ def uv_bump() -> ShaderGraph:
 GRAPHS = {"normal map": tangent_normal_map, "bump": uv_bump}
 
 
-def ceiling() -> tuple[np.ndarray, np.ndarray]:
-    """A 2 m square at CEILING_Z facing down, its UVs turned by UV_TURN about their centre."""
+def ceiling(back: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """A 2 m square at CEILING_Z facing down (``back``: the same square and UVs wound the other
+    way, facing up: the camera and the mirror see its back), its UVs turned by UV_TURN about
+    their centre."""
     tris, uvs = textured_quad((-1, -1, CEILING_Z), (0, 2, 0), (2, 0, 0), (0.0, 0.0), (1.0, 1.0))
     c, s = math.cos(UV_TURN), math.sin(UV_TURN)
     centred = uvs - 0.5
-    turned = np.stack([c * centred[..., 0] - s * centred[..., 1], s * centred[..., 0] + c * centred[..., 1]], -1)
-    return tris, (turned + 0.5).astype(np.float32)
+    turned = (np.stack([c * centred[..., 0] - s * centred[..., 1], s * centred[..., 0] + c * centred[..., 1]], -1)
+              + 0.5).astype(np.float32)
+    if back:
+        return tris[:, [0, 2, 1]].copy(), turned[:, [0, 2, 1]].copy()
+    return tris, turned
 
 
-def mirrored(renderer, graph: ShaderGraph, mode: str, lit_cube: bool = False) -> np.ndarray:
+def mirrored(renderer, graph: ShaderGraph, mode: str, lit_cube: bool = False, back: bool = False) -> np.ndarray:
     """The ceiling in a mirror floor at z = 0, seen from above at z = 3: with a near cube of
     half-size 1 the ceiling lies in the cube map in HYBRID (``lit_cube``: its hits read the
     lit cube map's texels)."""
     floor, floor_uvs = textured_quad((-4, -4, 0), (8, 0, 0), (0, 8, 0), (0.0, 0.0), (1.0, 1.0))
-    tris, uvs = ceiling()
+    tris, uvs = ceiling(back)
     rows = [dict(base_color=(1.0, 1.0, 1.0), reflectivity=1.0, roughness=0.0), dict()]
     scene = plane_scene([(floor, floor_uvs, 0), (tris, uvs, 1)], [None, graph], rows)
     settings = RenderSettings(mode=mode, near_size=1.0, cube_far=20.0, cube_resolution=256, max_depth=1,
@@ -80,10 +85,10 @@ def mirrored(renderer, graph: ShaderGraph, mode: str, lit_cube: bool = False) ->
     return renderer.render(scene, top_down_camera(size=SIZE, scale=1.6), settings).image[..., :3]
 
 
-def direct(renderer, graph: ShaderGraph) -> np.ndarray:
+def direct(renderer, graph: ShaderGraph, back: bool = False) -> np.ndarray:
     """The ceiling seen from below by the mirror image of the camera above, flipped to the
     mirror's view (a camera looking up has x to its left)."""
-    tris, uvs = ceiling()
+    tris, uvs = ceiling(back)
     camera = Camera(matrix_world=look_at((0, 0, -3), (0, 0, 0), up=(0, 1, 0)), width=SIZE, height=SIZE,
                     projection="ORTHO", ortho_scale=1.6, clip_start=0.1, clip_end=20.0)
     image = renderer.render(plane_scene([(tris, uvs, 0)], [graph]), camera, RenderSettings(mode="RASTER")).image
@@ -119,6 +124,18 @@ def test_a_uv_bent_normal_at_a_cube_hit_matches_the_bvh_hit_and_the_direct_view(
         assert mean <= MEAN_BAR and p99 <= P99_BAR, f"{graph}, {name} against the direct view: {mean:.4f}, {p99:.4f}"
     mean, p99 = difference(cube, bvh)
     assert mean <= MEAN_BAR and p99 <= P99_BAR, f"{graph}, cube map against BVH: {mean:.4f}, {p99:.4f}"
+
+
+@pytest.mark.parametrize("trace_variant", ["cpu", "gpu"], indirect=True)
+def test_a_back_faces_tangent_space_normal_map_at_a_hit_matches_the_direct_view(renderer, trace_variant):
+    """Seen from behind, the shading normal is flipped and so is the tangent frame that maps the
+    Normal Map's colour (Cycles negates the whole mapped normal; the G-buffer's cotangent frame
+    flips with the view): at a hit the triangle's UV directions must flip with it."""
+    seen = direct(renderer, tangent_normal_map(), back=True)
+    assert inner(seen).std(axis=(0, 1)).max() > 0.02, "the graph bends no normal"
+    for mode in ("HYBRID", "FULL_BVH"):
+        mean, p99 = difference(mirrored(renderer, tangent_normal_map(), mode, back=True), seen)
+        assert mean <= MEAN_BAR and p99 <= P99_BAR, f"{mode} against the direct view: {mean:.4f}, {p99:.4f}"
 
 
 @pytest.mark.parametrize("graph", sorted(GRAPHS))

@@ -119,6 +119,10 @@ void main() {
                             sp.dp_du, sp.dp_dv);
         sp.uv_dx = node_uv_change(sp.dp_dx, sp.dp_du, sp.dp_dv);
         sp.uv_dy = node_uv_change(sp.dp_dy, sp.dp_du, sp.dp_dv);
+        if (sp.backfacing) {  // the frame flips with the normal (trace_ray.glsl hit_material)
+            sp.dp_du = -sp.dp_du;
+            sp.dp_dv = -sp.dp_dv;
+        }
         NodeClosure c = node_program_run(materials[index].textures2.w, sp);
         m = node_closure_material(materials[index], c);
         n_facing = dot(c.normal, g_facing) >= 0.0 ? c.normal : -c.normal;

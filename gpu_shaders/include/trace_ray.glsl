@@ -634,6 +634,13 @@ Material hit_material(inout Hit h, vec3 d, int depth) {
         node_footprint_axes(sp.geometric, h.footprint, sp.dp_dx, sp.dp_dy);
         sp.uv_dx = node_uv_change(sp.dp_dx, h.dp_du, h.dp_dv);
         sp.uv_dy = node_uv_change(sp.dp_dy, h.dp_du, h.dp_dv);
+        // Seen from behind, the tangent frame flips with the normal, so that a Normal Map's
+        // colour maps to the mapped normal negated, as Cycles gives it (and as the G-buffer's
+        // cotangent frame, which flips with the view); the UV's changes stay the surface's.
+        if (sp.backfacing) {
+            sp.dp_du = -sp.dp_du;
+            sp.dp_dv = -sp.dp_dv;
+        }
         sp.ray_depth = max(depth, 1);
         sp.row = h.row;
         sp.material = h.material;

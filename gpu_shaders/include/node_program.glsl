@@ -445,15 +445,19 @@ vec3 node_normal_map(ShadingPoint sp, int space, float strength, vec3 color) {
 // -- shading normals and bump
 // The shading point one filter width along a differential (Cycles' bump evaluation: the
 // position and the texture coordinates move, the normal stays): axis 1 along dP/dx, 2 along
-// dP/dy, 0 the point itself. Filter Width is in pixels, the differentials span one.
+// dP/dy, 0 the point itself. Filter Width is in pixels, the differentials span one. Seen
+// from behind, the UV steps backwards while the position steps forwards, as in Cycles, which
+// solves the UV's change with dP/du and dP/dv after flipping them with the normal: a Height
+// that reads the UV is bumped the other way on a back face.
 ShadingPoint node_bump_offset(ShadingPoint base, int axis, float width) {
     ShadingPoint sp = base;
+    float uv_width = base.backfacing ? -width : width;
     if (axis == 1) {
         sp.position += width * base.dp_dx;
-        sp.uv += width * base.uv_dx;
+        sp.uv += uv_width * base.uv_dx;
     } else if (axis == 2) {
         sp.position += width * base.dp_dy;
-        sp.uv += width * base.uv_dy;
+        sp.uv += uv_width * base.uv_dy;
     }
     return sp;
 }

@@ -206,7 +206,7 @@ FEATURES: tuple[Feature, ...] = (
             "custom properties and property paths. Only the attributes some material reads are "
             "exported."),
     Feature("Alpha: Principled Alpha, alpha images, Transparent BSDF", SUPPORTED,
-            "Stochastic coverage in the G-buffer, cube map, shadow maps and BVH traversal, "
+            "Stochastic coverage in the G-buffer, cube map, shadow maps, BVH traversal and Vector pass, "
             "converging to Cycles' over the samples; Blended renders the same way, with a message."),
     Feature("Per-material Thickness", SUPPORTED, "The paper's cube-map thickness, in the Material panel."),
     Feature("Missing images", APPROXIMATED, "Magenta, as Blender's engines render them, with a message."),

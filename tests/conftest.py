@@ -49,6 +49,17 @@ def renderer(gl):
 
 
 @pytest.fixture
+def trace_variant(request):
+    """The trace kernel's shape named by the test's indirect parameter ("cpu": the megakernel,
+    "gpu": the waves), put back to the machine's choice after."""
+    from hybrid_engine.gpu import variants
+
+    variants.set_override(f"trace={request.param}")
+    yield request.param
+    variants.set_override(None)
+
+
+@pytest.fixture
 def rng():
     """A fixed-seed generator: random inputs are reproducible."""
     return np.random.default_rng(20140101)

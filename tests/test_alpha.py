@@ -270,20 +270,23 @@ def _coverage_mismatch(ours: np.ndarray, cycles: np.ndarray, threshold: float) -
     return float(((ours > threshold) != (cycles > threshold)).mean())
 
 
-def test_a_leaf_cards_holes_match_cycles_in_the_primary_view(addon, tmp_path):
-    import bpy
-
+def check_primary_view_against_cycles(bpy, tmp_path, recut=None) -> None:
+    """The card's holes in the primary view against Cycles' (RASTER). ``recut(scene)``: makes
+    the card's coverage anew before the renders (test_closure_alpha.py's graphs)."""
     scene, camera = _leaf_card_blender(bpy, card_emits=True, floor_z=-1.0, floor_kind="EMIT")
+    if recut is not None:
+        recut(scene, True)
     camera.location = (0.0, 0.0, 5.0)
     ours, cycles = _both(bpy, scene, tmp_path, "RASTER", 0)
     assert 0.2 < (cycles > 0.625).mean() < 0.6  # the disc, with the floor around it
     assert _coverage_mismatch(ours, cycles, 0.625) <= 0.02
 
 
-def test_a_leaf_cards_shadow_matches_cycles(addon, tmp_path):
-    import bpy
-
+def check_shadow_against_cycles(bpy, tmp_path, recut=None) -> None:
+    """The card's shadow of a sun on a grey floor against Cycles' (RASTER)."""
     scene, camera = _leaf_card_blender(bpy, card_emits=False, floor_z=-3.0, floor_kind="DIFFUSE")
+    if recut is not None:
+        recut(scene, False)
     sun = bpy.data.lights.new("sun", "SUN")
     sun.energy = 3.0
     sun.angle = 0.0
@@ -297,14 +300,34 @@ def test_a_leaf_cards_shadow_matches_cycles(addon, tmp_path):
     assert _coverage_mismatch(ours, cycles, lit) <= 0.02
 
 
-def test_a_leaf_cards_holes_match_cycles_in_a_mirror(addon, tmp_path):
-    import bpy
-
+def check_mirror_against_cycles(bpy, tmp_path, recut=None) -> None:
+    """The card seen in a mirror floor against Cycles' (HYBRID: the mirror's rays meet the card
+    in the near cube, the BVH's any-hit test)."""
     scene, camera = _leaf_card_blender(bpy, card_emits=True, floor_z=-1.0, floor_kind="MIRROR")
+    if recut is not None:
+        recut(scene, True)
     camera.location = (0.0, 0.0, -0.5)  # between the card and the mirror, looking down
     ours, cycles = _both(bpy, scene, tmp_path, "HYBRID", 4)
     assert 0.2 < (cycles > 0.5).mean() < 0.6
     assert _coverage_mismatch(ours, cycles, 0.5) <= 0.02
+
+
+def test_a_leaf_cards_holes_match_cycles_in_the_primary_view(addon, tmp_path):
+    import bpy
+
+    check_primary_view_against_cycles(bpy, tmp_path)
+
+
+def test_a_leaf_cards_shadow_matches_cycles(addon, tmp_path):
+    import bpy
+
+    check_shadow_against_cycles(bpy, tmp_path)
+
+
+def test_a_leaf_cards_holes_match_cycles_in_a_mirror(addon, tmp_path):
+    import bpy
+
+    check_mirror_against_cycles(bpy, tmp_path)
 
 
 # -- reading Blender's alpha (blender_adapter/export/alpha.py) --------------------------------

@@ -14,7 +14,8 @@ from hybrid_engine.scene.camera import look_at
 from hybrid_engine.scene.closure_alpha import closure_alpha_graph, has_closure_alpha, row_reads_coverage
 from hybrid_engine.scene.node_program import compile_graph
 from hybrid_engine.scene.shader_graph import Link, ShaderGraph
-from test_alpha import (DISC_RADIUS, EMISSIVE_CARD, SMALL, _both, _coverage_mismatch, _leaf_card_blender, card_scene,
+from test_alpha import (DISC_RADIUS, EMISSIVE_CARD, SMALL, _leaf_card_blender, card_scene,
+                        check_mirror_against_cycles, check_primary_view_against_cycles, check_shadow_against_cycles,
                         disc_mask, mirror_view, top_camera)
 
 
@@ -152,16 +153,21 @@ def test_a_graphs_transparent_mix_cuts_the_card_in_the_primary_view(renderer, ke
     assert (covered != disc_mask()).mean() <= 0.02
 
 
-def test_a_graphs_transparent_mix_cuts_the_cards_shadow(renderer, kernels):
+def card_shadow(on, radius: float = DISC_RADIUS) -> np.ndarray:
+    """Where the graph card (a disc of ``radius``) shades a grey floor from a sun, seen from
+    above the shadow by renderer ``on`` (RASTER)."""
     sun = dict(kind="SUN", direction=(1, 0, -1), color=(3, 3, 3), radius=0.0)
     grey = dict(base_color=(0.8, 0.8, 0.8))
-    scene = card_scene(grey, lights=[sun], floor_z=-3.0)
-    scene = with_graphs(scene, [grey, dict(base_color=(0.8, 0.8, 0.8), specular=0.0)], [card_graph(False), None])
+    scene = with_graphs(card_scene(grey, lights=[sun], floor_z=-3.0),
+                        [grey, dict(base_color=(0.8, 0.8, 0.8), specular=0.0)], [card_graph(False, radius), None])
     camera = Camera(matrix_world=look_at((3, 0, 5), (3, 0, -3), up=(0, 1, 0)), width=64, height=64,
                     projection="ORTHO", ortho_scale=2.0)
-    image = renderer.render(scene, camera, RenderSettings(mode="RASTER", **SMALL)).image[..., 0]
-    lit = image > 0.5 * image.max()
-    assert (lit != ~disc_mask()).mean() <= 0.02
+    image = on.render(scene, camera, RenderSettings(mode="RASTER", **SMALL)).image[..., 0]
+    return image < 0.5 * image.max()
+
+
+def test_a_graphs_transparent_mix_cuts_the_cards_shadow(renderer, kernels):
+    assert (~card_shadow(renderer) != ~disc_mask()).mean() <= 0.02
 
 
 def test_a_value_edit_of_an_alpha_program_draws_the_cached_shadow_again(gl, renderer):
@@ -169,22 +175,11 @@ def test_a_value_edit_of_an_alpha_program_draws_the_cached_shadow_again(gl, rend
     of an alpha program's values (the disc's radius, an upload of words) is a change."""
     from hybrid_engine.frame.renderer import Renderer
 
-    sun = dict(kind="SUN", direction=(1, 0, -1), color=(3, 3, 3), radius=0.0)
-    grey = dict(base_color=(0.8, 0.8, 0.8))
-    camera = Camera(matrix_world=look_at((3, 0, 5), (3, 0, -3), up=(0, 1, 0)), width=64, height=64,
-                    projection="ORTHO", ortho_scale=2.0)
-
-    def shadow(radius: float, on) -> np.ndarray:
-        scene = with_graphs(card_scene(grey, lights=[sun], floor_z=-3.0),
-                            [grey, dict(base_color=(0.8, 0.8, 0.8), specular=0.0)], [card_graph(False, radius), None])
-        image = on.render(scene, camera, RenderSettings(mode="RASTER", **SMALL)).image[..., 0]
-        return image < 0.5 * image.max()
-
-    shadow(DISC_RADIUS, renderer)
-    edited = shadow(0.6 * DISC_RADIUS, renderer)
+    card_shadow(renderer)
+    edited = card_shadow(renderer, 0.6 * DISC_RADIUS)
     fresh = Renderer(gl)
     try:
-        expected = shadow(0.6 * DISC_RADIUS, fresh)
+        expected = card_shadow(fresh, 0.6 * DISC_RADIUS)
     finally:
         fresh.release()
     assert 0.05 < expected.mean() < 0.5
@@ -250,30 +245,13 @@ def _graph_card(bpy, scene, card_emits: bool, through: str) -> None:
 def test_a_graph_computed_coverage_matches_cycles_in_the_primary_view(addon, tmp_path, through):
     import bpy
 
-    scene, camera = _leaf_card_blender(bpy, card_emits=True, floor_z=-1.0, floor_kind="EMIT")
-    _graph_card(bpy, scene, card_emits=True, through=through)
-    camera.location = (0.0, 0.0, 5.0)
-    ours, cycles = _both(bpy, scene, tmp_path, "RASTER", 0)
-    assert 0.2 < (cycles > 0.625).mean() < 0.6  # the disc, with the floor around it
-    assert _coverage_mismatch(ours, cycles, 0.625) <= 0.02
+    check_primary_view_against_cycles(bpy, tmp_path, lambda scene, emits: _graph_card(bpy, scene, emits, through))
 
 
 def test_a_graph_computed_coverage_casts_cycles_shadow(addon, tmp_path):
     import bpy
 
-    scene, camera = _leaf_card_blender(bpy, card_emits=False, floor_z=-3.0, floor_kind="DIFFUSE")
-    _graph_card(bpy, scene, card_emits=False, through="MIX")
-    sun = bpy.data.lights.new("sun", "SUN")
-    sun.energy = 3.0
-    sun.angle = 0.0
-    sun_object = bpy.data.objects.new("sun", sun)
-    sun_object.rotation_euler = (0.0, -np.pi / 4, 0.0)  # -Z turned to (1, 0, -1)
-    scene.collection.objects.link(sun_object)
-    camera.location = (3.0, 0.0, 5.0)  # above the shadow, the card out of view
-    ours, cycles = _both(bpy, scene, tmp_path, "RASTER", 0)
-    lit = 0.5 * cycles.max()
-    assert 0.2 < (cycles < lit).mean() < 0.6  # the disc's shadow, lit floor around it
-    assert _coverage_mismatch(ours, cycles, lit) <= 0.02
+    check_shadow_against_cycles(bpy, tmp_path, lambda scene, emits: _graph_card(bpy, scene, emits, "MIX"))
 
 
 def test_a_graph_computed_coverage_shows_in_a_mirror(addon, tmp_path):
@@ -281,12 +259,7 @@ def test_a_graph_computed_coverage_shows_in_a_mirror(addon, tmp_path):
     card in the near cube)."""
     import bpy
 
-    scene, camera = _leaf_card_blender(bpy, card_emits=True, floor_z=-1.0, floor_kind="MIRROR")
-    _graph_card(bpy, scene, card_emits=True, through="MIX")
-    camera.location = (0.0, 0.0, -0.5)  # between the card and the mirror, looking down
-    ours, cycles = _both(bpy, scene, tmp_path, "HYBRID", 4)
-    assert 0.2 < (cycles > 0.5).mean() < 0.6
-    assert _coverage_mismatch(ours, cycles, 0.5) <= 0.02
+    check_mirror_against_cycles(bpy, tmp_path, lambda scene, emits: _graph_card(bpy, scene, emits, "MIX"))
 
 
 def test_a_coverage_the_program_computes_is_not_told_as_unread(addon):

@@ -12,10 +12,10 @@ import math
 import numpy as np
 import pytest
 
-from hybrid_engine.gpu import variants
 from hybrid_engine.scene.camera import Camera, look_at
 from hybrid_engine.scene.settings import RenderSettings
 from hybrid_engine.scene.shader_graph import Link, ShaderGraph
+from normal_scenes import black_world
 from test_node_program_render import plane_scene
 from test_textures import textured_quad, top_down_camera
 
@@ -102,13 +102,6 @@ def inner(image: np.ndarray) -> np.ndarray:
 def difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
     d = np.abs(inner(a) - inner(b))
     return float(d.mean()), float(np.percentile(d, 99))
-
-
-@pytest.fixture
-def trace_variant(request):
-    variants.set_override(f"trace={request.param}")
-    yield request.param
-    variants.set_override(None)
 
 
 @pytest.mark.parametrize("trace_variant", ["cpu", "gpu"], indirect=True)
@@ -230,10 +223,7 @@ def test_a_uv_bent_normal_at_a_cube_hit_matches_cycles(addon, tmp_path, graph, f
     camera_object.location = (0.0, 0.0, 3.0)
     scene.collection.objects.link(camera_object)
     scene.camera = camera_object
-    world = bpy.data.worlds.new("black")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
-    scene.world = world
+    black_world(bpy, scene)
     scene.render.resolution_x = scene.render.resolution_y = SIZE
     scene.render.resolution_percentage = 100
     scene.view_settings.view_transform = "Standard"

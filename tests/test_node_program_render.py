@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybrid_engine.gpu import shader_loader, variants
+from hybrid_engine.gpu import shader_loader
 from hybrid_engine.gpu.bindings import layout
 from hybrid_engine.scene.data import Lights, MaterialTable, SceneData, Sky
 from hybrid_engine.scene.geometry import Geometry, InstancedGeometry
@@ -111,13 +111,6 @@ def mirror_scene(ceiling_z: float) -> tuple[SceneData, object]:
     rows = [dict(base_color=(1.0, 1.0, 1.0), reflectivity=1.0, roughness=0.0), dict()]
     scene = plane_scene([(floor, floor_uvs, 0), (ceiling, ceiling_uvs, 1)], [None, uv_emission(1.0)], rows)
     return scene, top_down_camera(size=48, scale=1.6)
-
-
-@pytest.fixture
-def trace_variant(request):
-    variants.set_override(f"trace={request.param}")
-    yield request.param
-    variants.set_override(None)
 
 
 @pytest.mark.parametrize("trace_variant", ["cpu", "gpu"], indirect=True)

@@ -113,24 +113,23 @@ void main() {
     vec2 duv_dy = dFdy(v_uv);
 #ifdef ALPHA_TEST
     if (material_has_alpha(m)) {
-        float alpha = material_alpha_grad(m, v_uv, duv_dx, duv_dy);
-        // -- closure alpha: the material's alpha program (alpha.glsl), seen from the camera
-        // (the faces: from the normal's side; no viewer there)
+        // -- closure alpha: the material's alpha program where it has one (alpha.glsl), at the
+        // shading normal, seen from the camera (the faces: from the normal's side; no viewer there)
 #ifdef NODE_CLOSURE_ALPHA
-        if (material_has_closure_alpha(m)) {
-            vec3 facing = node_unit(v_normal, vec3(0.0, 0.0, 1.0));
 #ifdef CUBE_FACE
-            vec3 seen_from = gl_FrontFacing ? facing : -facing;
+        vec3 facing = node_unit(v_normal, vec3(0.0, 0.0, 1.0));
+        vec3 seen_from = gl_FrontFacing ? facing : -facing;
 #else
-            vec3 seen_from = u_orthographic != 0 ? -normalize(u_camera_forward) : normalize(u_camera_position - v_world);
+        vec3 seen_from = u_orthographic != 0 ? -normalize(u_camera_forward) : normalize(u_camera_position - v_world);
 #endif
 #ifdef INSTANCED
-            int row = v_first_row + gl_PrimitiveID;
+        int row = v_first_row + gl_PrimitiveID;
 #else
-            int row = v_row;
+        int row = v_row;
 #endif
-            alpha = material_closure_alpha(m, v_world, facing, seen_from, v_uv, duv_dx, duv_dy, -1.0, row, material, 0);
-        }
+        float alpha = material_fragment_alpha(m, v_uv, duv_dx, duv_dy, v_world, v_normal, seen_from, row, material, 0);
+#else
+        float alpha = material_alpha_grad(m, v_uv, duv_dx, duv_dy);
 #endif
         // -- end of closure alpha
         if (!alpha_kept(alpha, uvec4(uvec2(gl_FragCoord.xy), uint(u_alpha_sample), floatBitsToUint(gl_FragCoord.z)))) {

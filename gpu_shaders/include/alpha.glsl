@@ -69,9 +69,9 @@ float material_closure_alpha(Material m, vec3 position, vec3 normal, vec3 incomi
 }
 
 // A fragment's coverage: its alpha image's (or factor's), or its alpha program's where it has
-// one, at `position` whose plane's normal is `plane` (cross(dFdx(p), dFdy(p)), taken outside
-// any branch), seen from `incoming`, or along the plane's normal where that is zero (no
-// viewer at hand: the shadow maps).
+// one, at `position` whose normal is `plane` (the shading normal, or the plane's from
+// cross(dFdx(p), dFdy(p)) taken outside any branch; any length), seen from `incoming`, or
+// along that normal where `incoming` is zero (no viewer at hand: the shadow maps).
 float material_fragment_alpha(Material m, vec2 uv, vec2 duv_dx, vec2 duv_dy, vec3 position, vec3 plane,
                               vec3 incoming, int row, int material, int depth) {
     if (!material_has_closure_alpha(m)) return material_alpha_grad(m, uv, duv_dx, duv_dy);

@@ -15,7 +15,7 @@ import pytest
 from hybrid_engine.scene.camera import Camera, look_at
 from hybrid_engine.scene.settings import RenderSettings
 from hybrid_engine.scene.shader_graph import Link, ShaderGraph
-from normal_scenes import black_world
+from normal_scenes import black_world, settings_for_one_sample
 from test_node_program_render import plane_scene
 from test_textures import textured_quad, top_down_camera
 
@@ -226,19 +226,15 @@ def test_a_uv_bent_normal_at_a_cube_hit_matches_cycles(addon, tmp_path, graph, f
     black_world(bpy, scene)
     scene.render.resolution_x = scene.render.resolution_y = SIZE
     scene.render.resolution_percentage = 100
-    scene.view_settings.view_transform = "Standard"
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = 16
-    scene.cycles.use_denoising = False
-    scene.cycles.filter_width = 0.01
+    settings_for_one_sample(scene)  # ours: the pixel's centre, as Cycles' narrow filter sees it
+    scene.cycles.samples = 16  # Cycles: the mirror's bounce, and the Bump's filter, converged
     scene.cycles.max_bounces = 2
+    scene.render.engine = "CYCLES"
     cycles = render_exr(bpy, scene, tmp_path / "cycles.exr")[..., :3]
     assert inner(cycles).std(axis=(0, 1)).max() > 0.02, "the graph bends no normal"
     scene.render.engine = "HYBRID_RT"
     scene.hybrid_rt.near_size = 1.0
     scene.hybrid_rt.cube_resolution = 256
-    scene.hybrid_rt.render_samples = 1  # the pixel's centre, as Cycles' narrow filter sees it
     for mode in ("HYBRID", "FULL_BVH"):
         scene.hybrid_rt.mode = mode
         ours = render_exr(bpy, scene, tmp_path / f"{mode}.exr")[..., :3]

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybrid_engine import Camera, MaterialTable, RenderSettings, SceneData
+from hybrid_engine import Camera, Lights, MaterialTable, RenderSettings, SceneData
 from hybrid_engine.gpu import variants
 from hybrid_engine.scene.camera import look_at
 from hybrid_engine.scene.closure_alpha import closure_alpha_graph, has_closure_alpha, row_reads_coverage
@@ -153,13 +153,15 @@ def test_a_graphs_transparent_mix_cuts_the_card_in_the_primary_view(renderer, ke
     assert (covered != disc_mask()).mean() <= 0.02
 
 
-def card_shadow(on, radius: float = DISC_RADIUS) -> np.ndarray:
-    """Where the graph card (a disc of ``radius``) shades a grey floor from a sun, seen from
-    above the shadow by renderer ``on`` (RASTER)."""
+def card_shadow(on, radius: float = DISC_RADIUS, graph: ShaderGraph | None = None) -> np.ndarray:
+    """Where the graph card (a disc of ``radius``, or ``graph``) shades a grey floor from a sun
+    at 45 degrees, seen from above the shadow by renderer ``on`` (RASTER): the card's point
+    (x, y) casts its shadow where top_camera sees it (disc_mask)."""
     sun = dict(kind="SUN", direction=(1, 0, -1), color=(3, 3, 3), radius=0.0)
     grey = dict(base_color=(0.8, 0.8, 0.8))
     scene = with_graphs(card_scene(grey, lights=[sun], floor_z=-3.0),
-                        [grey, dict(base_color=(0.8, 0.8, 0.8), specular=0.0)], [card_graph(False, radius), None])
+                        [grey, dict(base_color=(0.8, 0.8, 0.8), specular=0.0)],
+                        [graph or card_graph(False, radius), None])
     camera = Camera(matrix_world=look_at((3, 0, 5), (3, 0, -3), up=(0, 1, 0)), width=64, height=64,
                     projection="ORTHO", ortho_scale=2.0)
     image = on.render(scene, camera, RenderSettings(mode="RASTER", **SMALL)).image[..., 0]
@@ -168,6 +170,84 @@ def card_shadow(on, radius: float = DISC_RADIUS) -> np.ndarray:
 
 def test_a_graphs_transparent_mix_cuts_the_cards_shadow(renderer, kernels):
     assert (~card_shadow(renderer) != ~disc_mask()).mean() <= 0.02
+
+
+# -- the shadow ray's view of a coverage: Light Path's Is Shadow Ray, and the lamp's Incoming
+SHADOW_SHARE = 0.8  # the disc's radius, as a share of DISC_RADIUS, that shadow rays see
+
+
+def disc_of(radius: float, size: int = 64) -> np.ndarray:
+    """disc_mask for a disc of ``radius`` (UV units)."""
+    centres = (np.arange(size) + 0.5) / size - 0.5
+    x, y = np.meshgrid(centres, centres)
+    return x * x + y * y <= radius ** 2
+
+
+def _cut(graph: ShaderGraph, inside: int) -> ShaderGraph:
+    """The card's grey Diffuse where ``inside``'s Value is 1, a Transparent BSDF elsewhere."""
+    surface, clear = graph.add("BSDF_DIFFUSE"), graph.add("BSDF_TRANSPARENT")
+    mix = graph.add("MIX_SHADER", Fac=Link(inside, "Value"), Shader=Link(clear, "BSDF"),
+                    Shader_001=Link(surface, "BSDF"))
+    graph.surface = Link(mix, "Shader")
+    return graph
+
+
+def shadow_ray_disc_graph() -> ShaderGraph:
+    """A disc whose radius shadow rays see smaller: DISC_RADIUS less (1 - SHADOW_SHARE) of it
+    times Light Path's Is Shadow Ray."""
+    graph = ShaderGraph()
+    path = graph.add("LIGHT_PATH")
+    radius = graph.add("MATH", settings={"operation": "MULTIPLY_ADD"}, Value=Link(path, "Is Shadow Ray"),
+                       Value_001=-(1.0 - SHADOW_SHARE) * DISC_RADIUS, Value_002=DISC_RADIUS)
+    coords = graph.add("TEX_COORD")
+    distance = graph.add("VECT_MATH", settings={"operation": "DISTANCE"}, Vector=Link(coords, "UV"),
+                         Vector_001=(0.5, 0.5, 0.0))
+    inside = graph.add("MATH", settings={"operation": "LESS_THAN"}, Value=Link(distance, "Value"),
+                       Value_001=Link(radius, "Value"))
+    return _cut(graph, inside)
+
+
+def oblique_disc_graph() -> ShaderGraph:
+    """The disc, there only where it is seen at a slant: Layer Weight's Facing above 0.2 (a
+    sun at 45 degrees gives 1 - cos 45 = 0.29; a view along the normal 0)."""
+    graph = ShaderGraph()
+    weight = graph.add("LAYER_WEIGHT", Blend=0.5)
+    slanted = graph.add("MATH", settings={"operation": "GREATER_THAN"}, Value=Link(weight, "Facing"),
+                        Value_001=0.2)
+    inside = graph.add("MATH", settings={"operation": "MULTIPLY"}, Value=Link(_disc_factor(graph), "Value"),
+                       Value_001=Link(slanted, "Value"))
+    return _cut(graph, inside)
+
+
+def test_shadow_maps_run_a_coverage_as_a_shadow_ray_sees_it(renderer, kernels):
+    """Cycles' shadow rays evaluate a blocker with Is Shadow Ray set (an artist's glass that
+    casts no shadow mixes in a Transparent BSDF by it): the shadow is the smaller disc, while
+    the camera sees the whole one."""
+    shadow = card_shadow(renderer, graph=shadow_ray_disc_graph())
+    assert (shadow != disc_of(SHADOW_SHARE * DISC_RADIUS)).mean() <= 0.02, shadow.mean()
+    grey = dict(base_color=(0.8, 0.8, 0.8))
+    scene = with_graphs(card_scene(grey, floor_emission=0.0), [grey, dict(base_color=(0.0, 0.0, 0.0))],
+                        [shadow_ray_disc_graph(), None])
+    sun = dict(kind="SUN", direction=(0, 0, -1), color=(3, 3, 3), radius=0.0)
+    scene = SceneData(scene.geometry, scene.materials, Lights.from_rows([sun]), scene.sky)
+    seen = renderer.render(scene, top_camera(), RenderSettings(mode="RASTER", **SMALL)).image[..., 0] > 0.1
+    assert (seen != disc_mask()).mean() <= 0.02
+
+
+def test_shadow_maps_see_a_coverage_from_the_lamp(renderer, kernels):
+    """Layer Weight and Fresnel read the angle the shadow ray meets the blocker at (Cycles'
+    Incoming of the shadow ray): a card there only at a slant casts its disc's shadow from a
+    sun at 45 degrees, and none from a sun overhead, which sees it along its normal."""
+    slanted = card_shadow(renderer, graph=oblique_disc_graph())
+    assert (slanted != disc_mask()).mean() <= 0.02, slanted.mean()
+    grey = dict(base_color=(0.8, 0.8, 0.8))
+    overhead = dict(kind="SUN", direction=(0, 0, -1), color=(3, 3, 3), radius=0.0)
+    scene = with_graphs(card_scene(grey, lights=[overhead], floor_z=-3.0),
+                        [grey, dict(base_color=(0.8, 0.8, 0.8), specular=0.0)], [oblique_disc_graph(), None])
+    camera = Camera(matrix_world=look_at((0, 0, -2), (0, 0, -3), up=(0, 1, 0)), width=64, height=64,
+                    projection="ORTHO", ortho_scale=2.0, clip_start=0.01)
+    floor = renderer.render(scene, camera, RenderSettings(mode="RASTER", **SMALL)).image[..., 0]
+    assert floor.min() > 0.5 * floor.max()  # no shadow under the card
 
 
 def test_a_value_edit_of_an_alpha_program_draws_the_cached_shadow_again(gl, renderer):
@@ -274,3 +354,98 @@ def test_a_coverage_the_program_computes_is_not_told_as_unread(addon):
         row = read(bpy.data.materials["card"])
     assert row.get("node_graph") is not None and has_closure_alpha(row["node_graph"])
     assert not [line for line in told if "Factor" in line]
+
+
+def _shadow_view_card(bpy, scene, card_emits: bool, reads: str) -> None:
+    """The card's material made anew as shadow_ray_disc_graph (``reads`` "SHADOW_RAY") or
+    oblique_disc_graph ("FACING") builds it, in Blender's nodes."""
+    material = bpy.data.materials["card"]
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    for node in [n for n in nodes if n.type != "OUTPUT_MATERIAL"]:
+        nodes.remove(node)
+
+    def math(operation: str, a, b, c=None):
+        node = nodes.new("ShaderNodeMath")
+        node.operation = operation
+        for socket, value in zip(node.inputs, (a, b, c)):
+            if isinstance(value, float):
+                socket.default_value = value
+            elif value is not None:
+                links.new(value, socket)
+        return node.outputs["Value"]
+
+    coords = nodes.new("ShaderNodeTexCoord")
+    distance = nodes.new("ShaderNodeVectorMath")
+    distance.operation = "DISTANCE"
+    distance.inputs[1].default_value = (0.5, 0.5, 0.0)
+    links.new(coords.outputs["UV"], distance.inputs[0])
+    if reads == "SHADOW_RAY":
+        path = nodes.new("ShaderNodeLightPath")
+        radius = math("MULTIPLY_ADD", path.outputs["Is Shadow Ray"], -(1.0 - SHADOW_SHARE) * DISC_RADIUS,
+                      DISC_RADIUS)
+        inside = math("LESS_THAN", distance.outputs["Value"], radius)
+    else:
+        weight = nodes.new("ShaderNodeLayerWeight")
+        weight.inputs["Blend"].default_value = 0.5
+        inside = math("MULTIPLY", math("LESS_THAN", distance.outputs["Value"], DISC_RADIUS),
+                      math("GREATER_THAN", weight.outputs["Facing"], 0.2))
+    bsdf = nodes.new("ShaderNodeBsdfPrincipled")
+    bsdf.inputs["Specular IOR Level"].default_value = 0.0
+    bsdf.inputs["Roughness"].default_value = 1.0
+    clear = nodes.new("ShaderNodeBsdfTransparent")
+    mix = nodes.new("ShaderNodeMixShader")
+    links.new(inside, mix.inputs["Fac"])
+    links.new(clear.outputs["BSDF"], mix.inputs[1])
+    links.new(bsdf.outputs["BSDF"], mix.inputs[2])
+    links.new(mix.outputs["Shader"], nodes["Material Output"].inputs["Surface"])
+
+
+@pytest.mark.parametrize("reads", ["SHADOW_RAY", "FACING"])
+def test_a_coverage_casts_the_shadow_cycles_shadow_rays_see(addon, tmp_path, reads):
+    """Is Shadow Ray and the shadow ray's Incoming (Layer Weight's Facing at 45 degrees), as
+    the shadow maps run the alpha program, against Cycles' shadow rays."""
+    import bpy
+
+    check_shadow_against_cycles(bpy, tmp_path, lambda scene, emits: _shadow_view_card(bpy, scene, emits, reads))
+
+
+def panel_light_under(renderer, card: str) -> float:
+    """The mean light on a grey floor lit only by an emissive panel 2 m above it, with a black
+    card at 1 m between (``card``: "none", "opaque", or "shadow_clear": opaque but to shadow
+    rays, by Light Path's Is Shadow Ray), seen from between the card and the floor."""
+    from test_emitter_light import rectangle
+
+    grey, lamp, black = dict(base_color=(0.8, 0.8, 0.8), specular=0.0), dict(emission=(3.0,) * 3), \
+        dict(base_color=(0.0, 0.0, 0.0), specular=0.0)
+    objects = [(rectangle(-0.5, 0.5, -0.5, 0.5, 2.0), None, 1), (rectangle(-6, 6, -6, 6, 0.0), None, 0)]
+    graph = None
+    if card != "none":
+        objects.append((rectangle(-1.0, 1.0, -1.0, 1.0, 1.0), None, 2))
+        if card == "shadow_clear":
+            graph = ShaderGraph()
+            path = graph.add("LIGHT_PATH")
+            mix = graph.add("MIX_SHADER", Fac=Link(path, "Is Shadow Ray"),
+                            Shader=Link(graph.add("BSDF_DIFFUSE", Color=(0.0, 0.0, 0.0, 1.0)), "BSDF"),
+                            Shader_001=Link(graph.add("BSDF_TRANSPARENT"), "BSDF"))
+            graph.surface = Link(mix, "Shader")
+    table = MaterialTable.from_rows([grey, lamp, black])
+    table.node_graphs = [None, None, graph]
+    from hybrid_engine import Geometry, Sky
+
+    scene = SceneData(Geometry.from_objects(objects), table, Lights.from_rows([]), Sky(color=(0.0, 0.0, 0.0)))
+    camera = Camera(matrix_world=look_at((0, 0, 0.5), (0, 0, 0), up=(0, 1, 0)), width=32, height=32,
+                    projection="ORTHO", ortho_scale=0.8, clip_start=0.01)
+    settings = RenderSettings(mode="HYBRID", near_size=8.0, cube_resolution=64, diffuse_bounces=0)
+    total = 0.0
+    for sample in range(8):
+        total += float(renderer.render(scene, camera, settings, sample=sample).image[..., 0].mean())
+    return total / 8
+
+
+def test_an_emitters_shadow_rays_run_a_coverage_as_shadow_rays(renderer):
+    """The emitters' next-event rays are Cycles' shadow rays: a card that is there for every
+    ray but a shadow ray lets the panel's light through, as no card does, where an opaque
+    card hides it."""
+    clear, blocked, shadowed = (panel_light_under(renderer, card) for card in ("none", "shadow_clear", "opaque"))
+    assert shadowed < 0.3 * clear
+    assert abs(blocked - clear) <= 0.05 * clear, (blocked, clear, shadowed)

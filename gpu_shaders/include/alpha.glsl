@@ -55,8 +55,8 @@ float material_alpha_lod(Material m, vec2 uv, float lod) {
 bool material_has_closure_alpha(Material m) { return m.textures2.z <= -2; }
 
 // The coverage the material's alpha program gives at a point: world position, unit shading
-// normal as modelled, unit direction towards where the point is seen from (the camera; the
-// normal where no viewer is known: shadow maps, cube faces), UV with its derivatives
+// normal as modelled, unit direction towards where the point is seen from (the camera, a
+// shadow ray's receiver; the normal where no viewer is known: the cube faces), UV with its derivatives
 // (fragment stages) or a mip level (lod >= 0: traversal), world row and material, and the
 // ray depth (0: the camera's). The footprint and UV directions are left out: Bump and
 // tangent-space Normal Maps do not reach a coverage.
@@ -71,7 +71,7 @@ float material_closure_alpha(Material m, vec3 position, vec3 normal, vec3 incomi
 // A fragment's coverage: its alpha image's (or factor's), or its alpha program's where it has
 // one, at `position` whose normal is `plane` (the shading normal, or the plane's from
 // cross(dFdx(p), dFdy(p)) taken outside any branch; any length), seen from `incoming`, or
-// along that normal where `incoming` is zero (no viewer at hand: the shadow maps).
+// along that normal where `incoming` is zero (no viewer at hand).
 float material_fragment_alpha(Material m, vec2 uv, vec2 duv_dx, vec2 duv_dy, vec3 position, vec3 plane,
                               vec3 incoming, int row, int material, int depth) {
     if (!material_has_closure_alpha(m)) return material_alpha_grad(m, uv, duv_dx, duv_dy);

@@ -137,7 +137,9 @@ vec3 emitter_irradiance(vec3 p, vec3 n_facing, vec3 g_facing, vec3 xi, int recei
         bool itself;
         for (int k = 0; ; ++k) {
             emitter_shadow_rays += 1u;
+            trace_shadow_rays = true;
             h = trace_ray(from, shadow_dir, -1, 1.0, left);
+            trace_shadow_rays = false;
             itself = emitter_hit_is_light(h, q);
             if (!linked || h.kind == HIT_SKY || itself
                 || link_mask_holds(blockers, int(materials[h.material].params2.w + 0.5))) break;
@@ -148,7 +150,9 @@ vec3 emitter_irradiance(vec3 p, vec3 n_facing, vec3 g_facing, vec3 xi, int recei
         }
 #else
         emitter_shadow_rays += 1u;
+        trace_shadow_rays = true;
         Hit h = trace_ray(o, shadow_dir, -1, 1.0, reach);
+        trace_shadow_rays = false;
         bool itself = emitter_hit_is_light(h, q);
 #endif
         if (h.kind != HIT_SKY && !itself) seen = material_transmission(materials[h.material]);

@@ -191,10 +191,20 @@ struct ShadingPoint {
     vec3 dp_du;       // the surface's direction of increasing u and v (Normal Map's tangent
     vec3 dp_dv;       //   frame); zero where the UVs are degenerate
     bool backfacing;
-    int ray_depth;    // 0: the camera ray (Light Path Is Camera Ray, Ray Depth)
+    int ray_depth;    // 0: the camera ray (Light Path Is Camera Ray, Ray Depth); < 0: a shadow
+                      //   ray's, of depth -ray_depth (node_shadow_ray_depth)
     int row;          // world row (triangle) of the surface: finds its instance; -1 unknown
     int material;
 };
+
+// The ray depth a shading point of a shadow ray holds: Cycles' shadow ray tests a blocker's
+// transparency with Light Path's Is Shadow Ray set and its Ray Depth one more than the
+// bounce the ray left from (svm light_path.h), so an artist's "no shadow from this glass"
+// (a Transparent BSDF mixed in by Is Shadow Ray) holds. Negative, so that the one number
+// tells both without a field more in every shading point.
+int node_shadow_ray_depth(int bounce) {
+    return -1 - max(bounce, 0);
+}
 
 // A shading point that knows no footprint, no UV derivatives and no tangent frame (the
 // World's direction-only bake, the alpha tests, the lit cube map's texels): `normal` and
@@ -682,8 +692,8 @@ NodeClosure node_program_interpret(int offset, ShadingPoint sp) {
         }
         case NODE_OP_LIGHT_PATH:
             node_out[0] = vec4(sp.ray_depth == 0 ? 1.0 : 0.0);
-            node_out[1] = vec4(0.0);  // shadow rays test coverage, never run programs
-            node_out[2] = vec4(float(sp.ray_depth));
+            node_out[1] = vec4(sp.ray_depth < 0 ? 1.0 : 0.0);  // node_shadow_ray_depth
+            node_out[2] = vec4(float(abs(sp.ray_depth)));
             break;
         case NODE_OP_SEPARATE_XYZ:
             node_out[0] = node_in[0].xxxx;

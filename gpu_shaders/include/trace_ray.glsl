@@ -102,6 +102,13 @@ vec3 interpolated_normal(int tri, vec2 bary) {
 #ifdef NODE_PROGRAMS
 #include "node_program.glsl"
 #endif
+// Whether the rays being traced are shadow rays: the emitters' next-event rays set it around
+// their trace (emitter_light.glsl); the occlusion kernel's rays (TRACE_ANY_HIT) are shadow
+// rays throughout. A coverage program at their candidate hits then sees Is Shadow Ray, as
+// Cycles' shadow rays test a blocker's transparency (an artist's glass that casts no shadow
+// mixes in a Transparent BSDF by it).
+bool trace_shadow_rays = false;
+
 #ifndef TRACE_SHADING_ONLY
 // struct TriangleUV (GPUScene.uv_rows; scene_upload/instance_transform.comp.glsl)   // total: 32 bytes
 //   vec4 uv01;       xy = UV of corner 0, zw = UV of corner 1
@@ -128,14 +135,20 @@ bool bvh_alpha_kept(int tri, vec2 bary, BVHRay ray, float t) {
     float alpha = material_alpha_lod(m, uv, 0.0);
     // -- closure alpha: the material's alpha program at the candidate hit (alpha.glsl), a
     // short program of the nodes the coverage reads (scene/closure_alpha.py); t is in units
-    // of the ray's direction as bvh_make_ray was given it
+    // of the ray's direction as bvh_make_ray was given it. A shadow ray's candidate is run
+    // as one (trace_shadow_rays).
 #ifdef NODE_CLOSURE_ALPHA
     if (material_has_closure_alpha(m)) {
+#ifdef TRACE_ANY_HIT
+        bool shadow = true;
+#else
+        bool shadow = trace_shadow_rays;
+#endif
         vec3 dir = 1.0 / ray.inv_dir;
         vec3 towards = -node_unit(dir, vec3(0.0, 0.0, 1.0));
         vec3 n = node_unit(interpolated_normal(tri, bary), towards);
         alpha = material_closure_alpha(m, ray.origin + t * dir, n, towards, uv, vec2(0.0), vec2(0.0), 0.0, tri,
-                                       material, 1);
+                                       material, shadow ? node_shadow_ray_depth(1) : 1);
     }
 #endif
     // -- end of closure alpha

@@ -6,7 +6,7 @@
 // (shadow_cache.py), so a partly covering surface casts a fixed dithered shadow that the
 // shadow filter averages. Opaque scenes compile no discard (the early depth test stays).
 // NODE_PROGRAMS with it (GPUScene.defines: some material has a closure alpha): a material's
-// alpha program (alpha.glsl) gives its coverage.
+// alpha program (alpha.glsl) gives its coverage, evaluated as for a shadow ray.
 #ifdef ALPHA_TEST
 #ifdef NODE_PROGRAMS
 #include "node_program.glsl"
@@ -22,6 +22,7 @@ flat in int v_material;
 in vec2 v_uv;
 #ifdef NODE_PROGRAMS
 in vec3 v_world;
+in vec3 v_seen_along;  // away from the lamp: the shadow ray's Incoming (shadow_depth.vert.glsl)
 #ifndef INSTANCED
 flat in int v_row;
 #endif
@@ -43,15 +44,18 @@ void main() {
     vec3 plane = cross(dFdx(v_world), dFdy(v_world));
 #endif
     if (material_has_alpha(m)) {
-        // -- closure alpha: the alpha program at the texel's point, seen along its plane's
-        // normal (no viewer: the lamp's direction is not at hand)
+        // -- closure alpha: the alpha program at the texel's point, as a shadow ray from a
+        // camera ray's point meets it (Incoming along the lamp's view, Is Shadow Ray, Ray
+        // Depth 1)
 #ifdef NODE_CLOSURE_ALPHA
 #ifdef INSTANCED
         int row = v_first_row + gl_PrimitiveID;
 #else
         int row = v_row;
 #endif
-        float alpha = material_fragment_alpha(m, v_uv, duv_dx, duv_dy, v_world, plane, vec3(0.0), row, material, 1);
+        float alpha = material_fragment_alpha(m, v_uv, duv_dx, duv_dy, v_world, plane,
+                                              node_unit(v_seen_along, vec3(0.0)), row, material,
+                                              node_shadow_ray_depth(0));
 #else
         float alpha = material_alpha_grad(m, v_uv, duv_dx, duv_dy);
 #endif

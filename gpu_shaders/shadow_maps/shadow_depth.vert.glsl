@@ -35,8 +35,9 @@ in vec3 in_pos;
 #ifdef ALPHA_TEST
 in vec2 in_uv;
 out vec2 v_uv;
-#ifdef NODE_PROGRAMS  // closure alpha: the point and its world row for the alpha program
+#ifdef NODE_PROGRAMS  // closure alpha: the point, its world row and the lamp's view of it for the alpha program
 out vec3 v_world;
+out vec3 v_seen_along;
 #ifndef INSTANCED
 flat out int v_row;
 #endif
@@ -47,6 +48,22 @@ flat out int v_first_row;
 layout(std430) readonly buffer TriangleMaterials { int triangle_materials[]; };
 flat out int v_material;
 #endif
+#endif
+
+#if defined(ALPHA_TEST) && defined(NODE_PROGRAMS)
+// The direction the slot's view looks along through the point of clip position c under the
+// view-projection m, away from the lamp: the direction along which the point's x / w and
+// y / w stay, as its depth grows (perspective and orthographic slots alike). A shadow ray
+// that meets a blocker there comes from a receiver further along it, so it is the blocker's
+// Incoming, which Fresnel and Layer Weight read (Cycles' I = -D of the shadow ray).
+vec3 shadow_view_ray(mat4 m, vec4 c) {
+    vec3 rx = vec3(m[0].x, m[1].x, m[2].x), ry = vec3(m[0].y, m[1].y, m[2].y);
+    vec3 rz = vec3(m[0].z, m[1].z, m[2].z), rw = vec3(m[0].w, m[1].w, m[2].w);
+    vec3 d = cross(c.w * rx - c.x * rw, c.w * ry - c.y * rw);
+    d = dot(rz, d) * c.w - dot(rw, d) * c.z < 0.0 ? -d : d;
+    float l = dot(d, d);
+    return l > 0.0 ? d * inversesqrt(l) : vec3(0.0);
+}
 #endif
 
 void main() {
@@ -70,9 +87,13 @@ void main() {
 #endif
 #endif
 #ifdef FACE_VIEWPORTS
-    gl_Position = u_face_view_proj[gl_DrawIDARB] * vec4(world, 1.0);
+    mat4 view_proj = u_face_view_proj[gl_DrawIDARB];
     gl_ViewportIndex = gl_DrawIDARB;
 #else
-    gl_Position = u_view_proj * vec4(world, 1.0);
+    mat4 view_proj = u_view_proj;
+#endif
+    gl_Position = view_proj * vec4(world, 1.0);
+#if defined(ALPHA_TEST) && defined(NODE_PROGRAMS)
+    v_seen_along = shadow_view_ray(view_proj, gl_Position);
 #endif
 }

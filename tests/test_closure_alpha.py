@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybrid_engine import Camera, Lights, MaterialTable, RenderSettings, SceneData
+from hybrid_engine import Camera, Geometry, Lights, MaterialTable, RenderSettings, SceneData, Sky
 from hybrid_engine.gpu import variants
 from hybrid_engine.scene.camera import look_at
 from hybrid_engine.scene.closure_alpha import closure_alpha_graph, has_closure_alpha, row_reads_coverage
@@ -17,6 +17,7 @@ from hybrid_engine.scene.shader_graph import Link, ShaderGraph
 from test_alpha import (DISC_RADIUS, EMISSIVE_CARD, SMALL, _leaf_card_blender, card_scene,
                         check_mirror_against_cycles, check_primary_view_against_cycles, check_shadow_against_cycles,
                         disc_mask, mirror_view, top_camera)
+from test_emitter_light import rectangle
 
 
 def _disc_factor(graph: ShaderGraph, radius: float = DISC_RADIUS) -> int:
@@ -413,8 +414,6 @@ def panel_light_under(renderer, card: str) -> float:
     """The mean light on a grey floor lit only by an emissive panel 2 m above it, with a black
     card at 1 m between (``card``: "none", "opaque", or "shadow_clear": opaque but to shadow
     rays, by Light Path's Is Shadow Ray), seen from between the card and the floor."""
-    from test_emitter_light import rectangle
-
     grey, lamp, black = dict(base_color=(0.8, 0.8, 0.8), specular=0.0), dict(emission=(3.0,) * 3), \
         dict(base_color=(0.0, 0.0, 0.0), specular=0.0)
     objects = [(rectangle(-0.5, 0.5, -0.5, 0.5, 2.0), None, 1), (rectangle(-6, 6, -6, 6, 0.0), None, 0)]
@@ -430,8 +429,6 @@ def panel_light_under(renderer, card: str) -> float:
             graph.surface = Link(mix, "Shader")
     table = MaterialTable.from_rows([grey, lamp, black])
     table.node_graphs = [None, None, graph]
-    from hybrid_engine import Geometry, Sky
-
     scene = SceneData(Geometry.from_objects(objects), table, Lights.from_rows([]), Sky(color=(0.0, 0.0, 0.0)))
     camera = Camera(matrix_world=look_at((0, 0, 0.5), (0, 0, 0), up=(0, 1, 0)), width=32, height=32,
                     projection="ORTHO", ortho_scale=0.8, clip_start=0.01)

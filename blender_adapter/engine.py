@@ -220,6 +220,23 @@ def final_vector(engine, depsgraph) -> VectorRequest | None:
     return VectorRequest(frame_motion(engine, depsgraph, _final_cache))
 
 
+def final_render_settings(settings: RenderSettings) -> RenderSettings:
+    """F12's settings: the artist's, with the cube map's back layer (*Back Faces*) on.
+
+    The paper's single layer (§3.4; §4.1: objects with some thickness are not represented)
+    stretches each stored surface behind itself by its material's thickness. Reflections
+    seldom pass there, but the traced World light's paths leave every surface in all
+    directions, and those that pass behind a closed object as the camera sees it meet its
+    visible side, lit as the camera sees it, where the object is not: a sunlit ball lights
+    the wall beside it with its camera-facing side's light. The farther a scene lies from
+    the near cube, the more paths do so (all of them where the near cube holds nothing). The
+    back layer ends a closed object at its far side and gives a ray from behind its hidden
+    side. The setting stays off by default for the viewport, which a CPU driver redraws at
+    every change (README "Cube map"); a final render is drawn once.
+    """
+    return replace(settings, cube_back_layer=True)
+
+
 def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, final=False,
                      source: TrackedScene | None = None, sizer: NearCubeSizer | None = None,
                      settings: RenderSettings | None = None, timing: bool | None = None,
@@ -271,6 +288,7 @@ def render_depsgraph(depsgraph, *, cancel=None, progress=None, report=None, fina
     elif final:
         settings = viewport.budgeted_settings(scene, settings, scene_data)
     if final:
+        settings = final_render_settings(settings)
         camera = final_camera(scene, depsgraph)
         outputs = replace(frame_outputs(scene, depsgraph.view_layer, scene_data), vector=vector)
         samples = settings.render_samples

@@ -740,3 +740,59 @@ def test_a_non_finite_vertex_changes_nothing_but_its_own_triangles(addon, tmp_pa
     broken = render_with(True)
     assert clean[..., :3].std() > 0.01  # the card's shadow and the plane: a picture, not a blank
     np.testing.assert_array_equal(broken, clean)
+
+
+def build_ball_beside_wall_scene(bpy):
+    """A red ball beside a grey wall on a grey floor, lit by a sun from the wall's side of the
+    ball and a grey World, seen from afar through a near cube that holds nothing (Near Size
+    0.5): every traced path meets the scene in the cube map."""
+    from mathutils import Vector
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    bpy.ops.mesh.primitive_plane_add(size=8.0)
+    bpy.context.object.data.materials.append(_diffuse_material(bpy, (0.5, 0.5, 0.5)))
+    bpy.ops.mesh.primitive_plane_add(size=8.0, location=(-3.0, 0.0, 2.0), rotation=(0.0, math.pi / 2, 0.0))
+    bpy.context.object.data.materials.append(_diffuse_material(bpy, (0.7, 0.7, 0.7)))
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.8, location=(0.4, 0.6, 0.8), segments=32, ring_count=16)
+    bpy.ops.object.shade_smooth()
+    bpy.context.object.data.materials.append(_diffuse_material(bpy, (0.8, 0.03, 0.03)))
+    sun = bpy.data.lights.new("sun", "SUN")
+    sun.energy = 3.0
+    sun_obj = bpy.data.objects.new("sun", sun)
+    sun_obj.rotation_mode = "QUATERNION"
+    sun_obj.rotation_quaternion = Vector((0, 0, -1)).rotation_difference(Vector((0.4, 0.6, -0.7)))
+    scene.collection.objects.link(sun_obj)
+    world = bpy.data.worlds.new("grey")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.3, 0.32, 0.36, 1.0)
+    scene.world = world
+    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
+    camera.data.lens = 24.0
+    camera.location = (3.6, -4.6, 2.4)
+    camera.rotation_euler = (Vector((-0.4, 0.6, 0.8)) - camera.location).to_track_quat("-Z", "Y").to_euler()
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.render.resolution_x, scene.render.resolution_y = 96, 54
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    scene.render.engine = "HYBRID_RT"
+    scene.hybrid_rt.near_size = 0.5
+    return scene
+
+
+def test_a_final_render_lights_a_wall_beside_a_sunlit_ball_as_the_full_bvh_does(addon, tmp_path):
+    """The wall's paths that pass behind the ball as the camera sees it must not meet its
+    sunlit, camera-facing side stretched behind it (engine.final_render_settings): the wall
+    takes the ball's red as FULL_BVH's render, which traces the whole scene, gives it."""
+    import bpy
+
+    scene = build_ball_beside_wall_scene(bpy)
+    images = {}
+    for mode in ("FULL_BVH", "HYBRID"):
+        scene.hybrid_rt.mode = mode
+        images[mode] = render_exr(bpy, scene, tmp_path / f"{mode}.exr")[::-1]  # row 0 at the top
+    wall = (slice(3, 25), slice(1, 30))  # the wall's upper left, beside and above the ball
+    red_over_green = {mode: image[wall][..., 0].mean() / image[wall][..., 1].mean() for mode, image in images.items()}
+    assert images["FULL_BVH"][wall][..., 1].mean() > 0.1  # the wall is lit
+    assert abs(red_over_green["HYBRID"] - red_over_green["FULL_BVH"]) < 0.04, red_over_green

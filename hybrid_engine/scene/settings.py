@@ -87,7 +87,7 @@ FIELD_DOCS = {
                 "multiple of the scene's typical object size)",
     "cube_back_layer": "Also store the far side of closed objects in the cube map (a second layer "
     "of back faces): a ray that passes behind a surface meets its hidden side instead of a "
-    "surface stretched by the material's thickness",
+    "surface stretched by the material's thickness. Final renders always store it",
     "cube_hidden_exit": "A ray that leaves the cube map at a point the camera cannot see (under a "
     "floor, behind an object) hits the surface that hides the point instead of seeing the sky, "
     "which the paper gives it",

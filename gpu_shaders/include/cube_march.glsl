@@ -94,6 +94,13 @@
 // and leaves the scene still hidden by it (a camera below the top of the scene, a ray
 // going up past the far side of a tall object): such a ray shows the object, not the sky.
 //
+// Hidden sides (CUBE_HIDDEN_SIDE, compiled into the diffuse light's kernel only; beyond the
+// paper). A hit where the ray entered its texel already past A, without piercing A inside
+// it, is flagged `hidden`: the ray may have passed beside the stored surface's silhouette
+// into the space the camera cannot see behind it, and met the stretch there rather than the
+// surface. trace_ray.glsl decides from the texel's plane whether it did (cube_hidden_side).
+// Only the hierarchical march flags hits.
+//
 // Face switching (paper Figure 3). A ray starts in the FIRST face (order +X, -X, +Y, -Y, +Z,
 // -Z) whose frustum contains its start point, and keeps that face for as long as it stays in
 // the face's frustum (the 90.2-degree faces overlap, and being inside the overlap does not
@@ -138,6 +145,9 @@ uniform int u_cube_hiz_levels;
 #ifndef CUBE_HIDDEN_EXIT
 #define CUBE_HIDDEN_EXIT 0
 #endif
+#ifndef CUBE_HIDDEN_SIDE
+#define CUBE_HIDDEN_SIDE 0
+#endif
 
 #define CUBE_SKY 0
 #define CUBE_HIT 1
@@ -170,6 +180,9 @@ struct CubeMarch {
     int material;    // hit: material index
     float t;         // TO_BVH: world ray parameter of the re-entry point
     int switches;    // face switches taken
+#if CUBE_HIDDEN_SIDE
+    bool hidden;     // hit: entered its texel behind A (see "Hidden sides")
+#endif
 };
 
 // The face of atlas column x for faces `res` texels wide: x / res, in float arithmetic
@@ -181,6 +194,10 @@ struct CubeMarch {
 // march) or samples taken (sampled march; the bisection of a hit not counted). Diagnostics:
 // the tracer's march-step view and counters, the probe's output.
 uint cube_march_steps = 0u;
+#if CUBE_HIDDEN_SIDE
+// The last hierarchical hit entered its texel behind A (see "Hidden sides").
+bool cube_entered_behind = false;
+#endif
 
 int cube_face_of_column(int x, int res) {
     return int((float(x) + 0.5) / float(res));
@@ -369,6 +386,9 @@ bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
             hit_texel = ivec2(face * u_cube_res, 0) + cell;
             hit_xy = a.xy + dm.xy * t_hit;
             hit_from_behind = from_behind;
+#if CUBE_HIDDEN_SIDE
+            cube_entered_behind = z0 > ab.x && !from_behind;
+#endif
             found = true;
             break;
         }
@@ -466,6 +486,9 @@ CubeMarch cube_march_limited(vec3 o, vec3 d, float t_start, float t_limit) {
     res.material = 0;
     res.t = t_start;
     res.switches = 0;
+#if CUBE_HIDDEN_SIDE
+    res.hidden = false;
+#endif
 
     if (!(t_start < t_limit)) return res;  // nothing left to march: the sky
 
@@ -520,6 +543,9 @@ CubeMarch cube_march_limited(vec3 o, vec3 d, float t_start, float t_limit) {
             vec4 nm = texelFetch(u_cube_normal_material, texel, 0);
             float stored_z = texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0;
             cube_set_hit(res, face, texel, nm, vec3(hit_xy, stored_z), o, d);
+#if CUBE_HIDDEN_SIDE
+            res.hidden = cube_entered_behind;
+#endif
             return res;
         }
 #else

@@ -387,6 +387,57 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary, float blur) {
 // passes t_max (then it sees the sky); `blur`: the roughest lobe on its path
 // (ray_cone_footprint). A depth below 0 marks an occlusion ray: it is left out of the ray
 // counts and of the diagnostic views, which show the reflection and refraction rays.
+#if CUBE_HIDDEN_SIDE
+// How far from its texel's centre, across the line of sight and in texel widths, the ray
+// o + d t may meet the plane of the surface a flagged cube hit stored, and still have met
+// that surface. A ray meeting a surface seen at an angle enters the texels beyond the
+// crossing behind A without piercing it there, but meets the plane within a texel or so;
+// one that passed beside the surface's silhouette meets the plane beyond it, or behind its
+// origin. Smaller values take real hits for passes (the closed room of
+// tests/test_diffuse_light.py brightens past FULL_BVH), larger ones keep more passes as
+// hits (it stays dark).
+#define CUBE_HIDDEN_LATERAL 4.0
+
+// Whether the cube hit `cm` (flagged hidden by the march, geometric normal g) is a ray that
+// passed beside the stored surface into the space hidden behind it (cube_march.glsl
+// "Hidden sides").
+bool cube_hidden_side(CubeMarch cm, vec3 o, vec3 d, vec3 g) {
+    if (!cm.hidden) return false;
+    int face = cube_face_of_column(cm.texel.x, u_cube_res);
+    ivec2 local = ivec2(cm.texel.x, cm.texel.y >= u_cube_res ? cm.texel.y - u_cube_res : cm.texel.y);
+    float z = texelFetch(u_cube_depth, cm.texel, 0).r * 2.0 - 1.0;
+    vec3 centre = cube_unproject(face, vec3(cube_texel_center(local, face), z));
+    float facing = dot(d, g);
+    float t_plane = abs(facing) > 1e-6 ? dot(centre - o, g) / facing : -1.0;
+    if (!(t_plane > 0.0)) return true;
+    vec3 sight = normalize(centre - u_cube_center);
+    vec3 across = o + d * t_plane - centre;
+    across -= sight * dot(across, sight);
+    float texel_width = cube_linear_depth(z) * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
+    return dot(across, across) > CUBE_HIDDEN_LATERAL * CUBE_HIDDEN_LATERAL * texel_width * texel_width;
+}
+
+// A ray that passed into the space hidden from the map's centre meets something the map
+// does not hold. The diffuse paths take the point where it leaves the bounds of all
+// geometry instead, facing back into them: in a closed room the wall it really meets, lit
+// by the lamps there, where the stored surface's camera-facing side (often the shadowed
+// one: the partition in front of the lamp) darkened the bounced light. False where the ray
+// leaves the bounds before the hit (a hit past them is the overshoot's).
+bool cube_hidden_exit_point(vec3 o, vec3 d, float t_hit, inout Hit h) {
+    if (u_scene_bounded == 0) return false;
+    vec3 safe = mix(d, vec3(1e-30), lessThan(abs(d), vec3(1e-30)));
+    vec3 t_far = max((u_scene_lo - o) / safe, (u_scene_hi - o) / safe);
+    int axis = t_far.x <= t_far.y ? (t_far.x <= t_far.z ? 0 : 2) : (t_far.y <= t_far.z ? 1 : 2);
+    if (!(t_far[axis] > t_hit)) return false;
+    h.position = o + d * t_far[axis];
+    vec3 n = vec3(0.0);
+    n[axis] = d[axis] > 0.0 ? -1.0 : 1.0;
+    h.normal = n;
+    h.geometric = n;
+    return true;
+}
+#endif
+
 Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
     Hit h;
     h.kind = HIT_SKY;
@@ -446,6 +497,12 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
                 h.normal = safe_normalize(cm.normal, -d);
                 vec2 g_oct = texelFetch(u_cube_geometric, cm.texel, 0).xy;
                 h.geometric = gbuffer_geometric(g_oct.x, g_oct.y, h.normal);
+#if CUBE_HIDDEN_SIDE
+                if (cube_hidden_side(cm, o, d, h.geometric) && cube_hidden_exit_point(o, d, cm.t, h)) {
+                    h.material = cm.material;  // the stored surface's: the map holds no other
+                    break;
+                }
+#endif
                 h.material = cm.material;
                 ivec4 tex = materials[h.material].textures;
 #ifdef NODE_PROGRAMS

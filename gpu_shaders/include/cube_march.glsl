@@ -387,7 +387,7 @@ bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
             hit_xy = a.xy + dm.xy * t_hit;
             hit_from_behind = from_behind;
 #if CUBE_HIDDEN_SIDE
-            cube_entered_behind = z0 > ab.x && !from_behind;
+            cube_entered_behind = z0 > ab.x;
 #endif
             found = true;
             break;
@@ -405,6 +405,10 @@ bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
     }
     // The back layer's choice once, after the loop (out of the loop's registers).
     if (found) hit_texel = cube_layer_hit(hit_texel, hit_from_behind);
+#if CUBE_HIDDEN_SIDE && CUBE_BACK_LAYER
+    // A ray that met the back layer met the far side the map holds: no hidden side.
+    if (found && hit_texel.y >= u_cube_res) cube_entered_behind = false;
+#endif
     return found;
 }
 

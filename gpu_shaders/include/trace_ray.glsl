@@ -390,18 +390,36 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary, float blur) {
 #if CUBE_HIDDEN_SIDE
 // How far from its texel's centre, across the line of sight and in texel widths, the ray
 // o + d t may meet the plane of the surface a flagged cube hit stored, and still have met
-// that surface. A ray meeting a surface seen at an angle enters the texels beyond the
-// crossing behind A without piercing it there, but meets the plane within a texel or so;
-// one that passed beside the surface's silhouette meets the plane beyond it, or behind its
-// origin. Smaller values take real hits for passes (the closed room of
-// tests/test_diffuse_light.py brightens past FULL_BVH), larger ones keep more passes as
-// hits (it stays dark).
+// that surface there, without looking further (cube_stores_point). A ray meeting a surface
+// seen at an angle enters the texels beyond the crossing behind A without piercing it there,
+// but meets the plane within a texel or so: most flagged hits end here, one fetch each.
 #define CUBE_HIDDEN_LATERAL 4.0
 
-// Whether the cube hit `cm` (flagged hidden by the march, geometric normal g) is a ray that
-// passed beside the stored surface into the space hidden behind it (cube_march.glsl
-// "Hidden sides").
-bool cube_hidden_side(CubeMarch cm, vec3 o, vec3 d, vec3 g) {
+// Whether the map stores a surface at world point x: x's depth, from the map's centre, lies
+// within the texel's own depth bias (twice: x is not at the texel's centre) of the depth
+// stored where x projects.
+bool cube_stores_point(vec3 x) {
+    for (int face = 0; face < 6; ++face) {
+        vec4 c = u_face_view_proj[face] * vec4(x, 1.0);
+        if (!cube_face_contains(c)) continue;
+        vec3 ndc = c.xyz / c.w;
+        ivec2 texel = cube_texel(face, ndc.xy);
+        if (texelFetch(u_cube_normal_material, texel, 0).w == 0.0) return false;
+        float surface = cube_linear_depth(texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0);
+        ivec2 local = texel - ivec2(face * u_cube_res, 0);
+        float bias = cube_linear_depth(texelFetch(u_cube_hiz, ivec2(face * u_cube_hiz_res, 0) + local, 0).r) - surface;
+        return abs(cube_linear_depth(ndc.z) - surface) <= 2.0 * bias;
+    }
+    return false;
+}
+
+// A flagged cube hit `cm` (geometric normal g; cube_march.glsl "Hidden sides") as the
+// diffuse paths take it. Where the ray meets the plane of the stored surface near the
+// texel, or where the map stores that plane (a ray from behind a thin surface, e.g. from
+// the lamp's side of a partition, meets it there, far from where its march first met the
+// surface's stretch): a hit on that plane, returned in `h`, and false. Otherwise the ray
+// passed beside the surface into the space hidden behind it: true.
+bool cube_hidden_side(CubeMarch cm, vec3 o, vec3 d, vec3 g, inout Hit h) {
     if (!cm.hidden) return false;
     int face = cube_face_of_column(cm.texel.x, u_cube_res);
     ivec2 local = ivec2(cm.texel.x, cm.texel.y >= u_cube_res ? cm.texel.y - u_cube_res : cm.texel.y);
@@ -410,11 +428,16 @@ bool cube_hidden_side(CubeMarch cm, vec3 o, vec3 d, vec3 g) {
     float facing = dot(d, g);
     float t_plane = abs(facing) > 1e-6 ? dot(centre - o, g) / facing : -1.0;
     if (!(t_plane > 0.0)) return true;
+    vec3 crossing = o + d * t_plane;
     vec3 sight = normalize(centre - u_cube_center);
-    vec3 across = o + d * t_plane - centre;
+    vec3 across = crossing - centre;
     across -= sight * dot(across, sight);
     float texel_width = cube_linear_depth(z) * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
-    return dot(across, across) > CUBE_HIDDEN_LATERAL * CUBE_HIDDEN_LATERAL * texel_width * texel_width;
+    if (dot(across, across) <= CUBE_HIDDEN_LATERAL * CUBE_HIDDEN_LATERAL * texel_width * texel_width)
+        return false;
+    if (!cube_stores_point(crossing)) return true;
+    h.position = crossing;
+    return false;
 }
 
 // A ray that passed into the space hidden from the map's centre meets something the map
@@ -498,7 +521,7 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
                 vec2 g_oct = texelFetch(u_cube_geometric, cm.texel, 0).xy;
                 h.geometric = gbuffer_geometric(g_oct.x, g_oct.y, h.normal);
 #if CUBE_HIDDEN_SIDE
-                if (cube_hidden_side(cm, o, d, h.geometric) && cube_hidden_exit_point(o, d, cm.t, h)) {
+                if (cube_hidden_side(cm, o, d, h.geometric, h) && cube_hidden_exit_point(o, d, cm.t, h)) {
                     h.material = cm.material;  // the stored surface's: the map holds no other
                     break;
                 }

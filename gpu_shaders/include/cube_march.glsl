@@ -94,12 +94,17 @@
 // and leaves the scene still hidden by it (a camera below the top of the scene, a ray
 // going up past the far side of a tall object): such a ray shows the object, not the sky.
 //
-// Hidden sides (CUBE_HIDDEN_SIDE, compiled into the diffuse light's kernel only; beyond the
-// paper). A hit where the ray entered its texel already past A, without piercing A inside
-// it, is flagged `hidden`: the ray may have passed beside the stored surface's silhouette
-// into the space the camera cannot see behind it, and met the stretch there rather than the
-// surface. trace_ray.glsl decides from the texel's plane whether it did (cube_hidden_side).
-// Only the hierarchical march flags hits.
+// Hidden sides (CUBE_HIDDEN_SIDE; beyond the paper). A hit where the ray entered its texel
+// already past A, without piercing A inside it (and not on the back layer), is flagged
+// `hidden`: the ray may have passed beside the stored surface's silhouette into the space
+// the centre cannot see behind it, and met the stretch there rather than the surface; or
+// it met a surface seen at an angle, whose depth steps towards the ray from texel to texel.
+// trace_ray.glsl tells the two apart from where the ray meets the texel's plane
+// (cube_hidden_side). Only the hierarchical march flags hits. The diffuse light's kernel
+// alone is compiled with it (diffuse_light.py, HYBRID): the stretch stands in for what hides
+// behind a surface, right for a mirror's reflection of a solid object, but a diffuse path
+// that passes over a partition to the lamp behind it takes the partition's camera-facing,
+// shadowed side for the lit walls beyond.
 //
 // Face switching (paper Figure 3). A ray starts in the FIRST face (order +X, -X, +Y, -Y, +Z,
 // -Z) whose frustum contains its start point, and keeps that face for as long as it stays in
@@ -118,7 +123,8 @@
 // default 0: the hierarchical one), CUBE_BACK_LAYER (1: the atlas holds the back layer in
 // its second row of faces; default 0); CUBE_HIDDEN_EXIT (1: the hidden-exit rule above;
 // default 0). The march is a define, like the layer, for the same reason: the other march's
-// code, even never run, slows the loops on llvmpipe.
+// code, even never run, slows the loops on llvmpipe. The including shader's define:
+// CUBE_HIDDEN_SIDE (1: flag hidden sides, above; default 0).
 #ifndef HYBRID_CUBE_MARCH_GLSL
 #define HYBRID_CUBE_MARCH_GLSL
 

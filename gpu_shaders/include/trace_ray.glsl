@@ -440,18 +440,41 @@ bool cube_hidden_side(CubeMarch cm, vec3 o, vec3 d, vec3 g, inout Hit h) {
     return false;
 }
 
+// Whether the side of the scene's bounds at `side` along `axis` is a wall the map sees: the
+// map stores a surface at that plane's point nearest the map's centre (within 1 % of its
+// depth, which takes in the bounds' padding). A closed room's six sides are; an open
+// scene's sides and top are the sky.
+bool cube_bounds_side_is_wall(int axis, float side) {
+    vec3 foot = u_cube_center;
+    foot[axis] = side;
+    for (int face = 0; face < 6; ++face) {
+        vec4 c = u_face_view_proj[face] * vec4(foot, 1.0);
+        if (!cube_face_contains(c)) continue;
+        vec3 ndc = c.xyz / c.w;
+        ivec2 texel = cube_texel(face, ndc.xy);
+        if (texelFetch(u_cube_normal_material, texel, 0).w == 0.0) return false;
+        float surface = cube_linear_depth(texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0);
+        float depth = cube_linear_depth(ndc.z);
+        return abs(depth - surface) <= 0.01 * depth;
+    }
+    return false;
+}
+
 // A ray that passed into the space hidden from the map's centre meets something the map
-// does not hold. The diffuse paths take the point where it leaves the bounds of all
-// geometry instead, facing back into them: in a closed room the wall it really meets, lit
-// by the lamps there, where the stored surface's camera-facing side (often the shadowed
-// one: the partition in front of the lamp) darkened the bounced light. False where the ray
-// leaves the bounds before the hit (a hit past them is the overshoot's).
+// does not hold. Where it leaves the bounds of all geometry through a side that is a wall
+// (cube_bounds_side_is_wall), the diffuse paths take that point instead, facing back into
+// the bounds: in a closed room the wall it really meets, lit by the lamps there, where the
+// stored surface's camera-facing side (often the shadowed one: the partition in front of
+// the lamp) darkened the bounced light. False (the stored surface's stretch stays the hit,
+// as in the paper) where the side is open (the ray may reach the sky: the map cannot tell)
+// or the ray leaves the bounds before the hit (a hit past them is the overshoot's).
 bool cube_hidden_exit_point(vec3 o, vec3 d, float t_hit, inout Hit h) {
     if (u_scene_bounded == 0) return false;
     vec3 safe = mix(d, vec3(1e-30), lessThan(abs(d), vec3(1e-30)));
     vec3 t_far = max((u_scene_lo - o) / safe, (u_scene_hi - o) / safe);
     int axis = t_far.x <= t_far.y ? (t_far.x <= t_far.z ? 0 : 2) : (t_far.y <= t_far.z ? 1 : 2);
     if (!(t_far[axis] > t_hit)) return false;
+    if (!cube_bounds_side_is_wall(axis, d[axis] > 0.0 ? u_scene_hi[axis] : u_scene_lo[axis])) return false;
     h.position = o + d * t_far[axis];
     vec3 n = vec3(0.0);
     n[axis] = d[axis] > 0.0 ? -1.0 : 1.0;

@@ -94,6 +94,18 @@
 // and leaves the scene still hidden by it (a camera below the top of the scene, a ray
 // going up past the far side of a tall object): such a ray shows the object, not the sky.
 //
+// Hidden sides (CUBE_HIDDEN_SIDE; beyond the paper). A hit where the ray entered its texel
+// already past A, without piercing A inside it (and not on the back layer), is flagged
+// `hidden`: the ray may have passed beside the stored surface's silhouette into the space
+// the centre cannot see behind it, and met the stretch there rather than the surface; or
+// it met a surface seen at an angle, whose depth steps towards the ray from texel to texel.
+// trace_ray.glsl tells the two apart from where the ray meets the texel's plane
+// (cube_hidden_side). Only the hierarchical march flags hits. The diffuse light's kernel
+// alone is compiled with it (diffuse_light.py, HYBRID): the stretch stands in for what hides
+// behind a surface, right for a mirror's reflection of a solid object, but a diffuse path
+// that passes over a partition to the lamp behind it takes the partition's camera-facing,
+// shadowed side for the lit walls beyond.
+//
 // Face switching (paper Figure 3). A ray starts in the FIRST face (order +X, -X, +Y, -Y, +Z,
 // -Z) whose frustum contains its start point, and keeps that face for as long as it stays in
 // the face's frustum (the 90.2-degree faces overlap, and being inside the overlap does not
@@ -111,7 +123,8 @@
 // default 0: the hierarchical one), CUBE_BACK_LAYER (1: the atlas holds the back layer in
 // its second row of faces; default 0); CUBE_HIDDEN_EXIT (1: the hidden-exit rule above;
 // default 0). The march is a define, like the layer, for the same reason: the other march's
-// code, even never run, slows the loops on llvmpipe.
+// code, even never run, slows the loops on llvmpipe. The including shader's define:
+// CUBE_HIDDEN_SIDE (1: flag hidden sides, above; default 0).
 #ifndef HYBRID_CUBE_MARCH_GLSL
 #define HYBRID_CUBE_MARCH_GLSL
 
@@ -137,6 +150,9 @@ uniform int u_cube_hiz_levels;
 #endif
 #ifndef CUBE_HIDDEN_EXIT
 #define CUBE_HIDDEN_EXIT 0
+#endif
+#ifndef CUBE_HIDDEN_SIDE
+#define CUBE_HIDDEN_SIDE 0
 #endif
 
 #define CUBE_SKY 0
@@ -170,6 +186,9 @@ struct CubeMarch {
     int material;    // hit: material index
     float t;         // TO_BVH: world ray parameter of the re-entry point
     int switches;    // face switches taken
+#if CUBE_HIDDEN_SIDE
+    bool hidden;     // hit: entered its texel behind A (see "Hidden sides")
+#endif
 };
 
 // The face of atlas column x for faces `res` texels wide: x / res, in float arithmetic
@@ -181,6 +200,10 @@ struct CubeMarch {
 // march) or samples taken (sampled march; the bisection of a hit not counted). Diagnostics:
 // the tracer's march-step view and counters, the probe's output.
 uint cube_march_steps = 0u;
+#if CUBE_HIDDEN_SIDE
+// The last hierarchical hit entered its texel behind A (see "Hidden sides").
+bool cube_entered_behind = false;
+#endif
 
 int cube_face_of_column(int x, int res) {
     return int((float(x) + 0.5) / float(res));
@@ -369,6 +392,9 @@ bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
             hit_texel = ivec2(face * u_cube_res, 0) + cell;
             hit_xy = a.xy + dm.xy * t_hit;
             hit_from_behind = from_behind;
+#if CUBE_HIDDEN_SIDE
+            cube_entered_behind = z0 > ab.x;
+#endif
             found = true;
             break;
         }
@@ -385,6 +411,10 @@ bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
     }
     // The back layer's choice once, after the loop (out of the loop's registers).
     if (found) hit_texel = cube_layer_hit(hit_texel, hit_from_behind);
+#if CUBE_HIDDEN_SIDE && CUBE_BACK_LAYER
+    // A ray that met the back layer met the far side the map holds: no hidden side.
+    if (found && hit_texel.y >= u_cube_res) cube_entered_behind = false;
+#endif
     return found;
 }
 
@@ -466,6 +496,9 @@ CubeMarch cube_march_limited(vec3 o, vec3 d, float t_start, float t_limit) {
     res.material = 0;
     res.t = t_start;
     res.switches = 0;
+#if CUBE_HIDDEN_SIDE
+    res.hidden = false;
+#endif
 
     if (!(t_start < t_limit)) return res;  // nothing left to march: the sky
 
@@ -520,6 +553,9 @@ CubeMarch cube_march_limited(vec3 o, vec3 d, float t_start, float t_limit) {
             vec4 nm = texelFetch(u_cube_normal_material, texel, 0);
             float stored_z = texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0;
             cube_set_hit(res, face, texel, nm, vec3(hit_xy, stored_z), o, d);
+#if CUBE_HIDDEN_SIDE
+            res.hidden = cube_entered_behind;
+#endif
             return res;
         }
 #else

@@ -400,6 +400,103 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary, float blur) {
 // passes t_max (then it sees the sky); `blur`: the roughest lobe on its path
 // (ray_cone_footprint). A depth below 0 marks an occlusion ray: it is left out of the ray
 // counts and of the diagnostic views, which show the reflection and refraction rays.
+#if CUBE_HIDDEN_SIDE
+// How far from its texel's centre, across the line of sight and in texel widths, the ray
+// o + d t may meet the plane of the surface a flagged cube hit stored, and still have met
+// that surface there, without looking further (cube_stores_point). A ray meeting a surface
+// seen at an angle enters the texels beyond the crossing behind A without piercing it there,
+// but meets the plane within a texel or so: most flagged hits end here, one fetch each.
+#define CUBE_HIDDEN_LATERAL 4.0
+
+// Whether the map stores a surface at world point x: x's depth, from the map's centre, lies
+// within the texel's own depth bias (twice: x is not at the texel's centre) of the depth
+// stored where x projects.
+bool cube_stores_point(vec3 x) {
+    for (int face = 0; face < 6; ++face) {
+        vec4 c = u_face_view_proj[face] * vec4(x, 1.0);
+        if (!cube_face_contains(c)) continue;
+        vec3 ndc = c.xyz / c.w;
+        ivec2 texel = cube_texel(face, ndc.xy);
+        if (texelFetch(u_cube_normal_material, texel, 0).w == 0.0) return false;
+        float surface = cube_linear_depth(texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0);
+        ivec2 local = texel - ivec2(face * u_cube_res, 0);
+        float bias = cube_linear_depth(texelFetch(u_cube_hiz, ivec2(face * u_cube_hiz_res, 0) + local, 0).r) - surface;
+        return abs(cube_linear_depth(ndc.z) - surface) <= 2.0 * bias;
+    }
+    return false;
+}
+
+// A flagged cube hit `cm` (geometric normal g; cube_march.glsl "Hidden sides") as the
+// diffuse paths take it. Where the ray meets the plane of the stored surface near the
+// texel, or where the map stores that plane (a ray from behind a thin surface, e.g. from
+// the lamp's side of a partition, meets it there, far from where its march first met the
+// surface's stretch): a hit on that plane, returned in `h`, and false. Otherwise the ray
+// passed beside the surface into the space hidden behind it: true.
+bool cube_hidden_side(CubeMarch cm, vec3 o, vec3 d, vec3 g, inout Hit h) {
+    if (!cm.hidden) return false;
+    int face = cube_face_of_column(cm.texel.x, u_cube_res);
+    ivec2 local = ivec2(cm.texel.x, cm.texel.y >= u_cube_res ? cm.texel.y - u_cube_res : cm.texel.y);
+    float z = texelFetch(u_cube_depth, cm.texel, 0).r * 2.0 - 1.0;
+    vec3 centre = cube_unproject(face, vec3(cube_texel_center(local, face), z));
+    float facing = dot(d, g);
+    float t_plane = abs(facing) > 1e-6 ? dot(centre - o, g) / facing : -1.0;
+    if (!(t_plane > 0.0)) return true;
+    vec3 crossing = o + d * t_plane;
+    vec3 sight = normalize(centre - u_cube_center);
+    vec3 across = crossing - centre;
+    across -= sight * dot(across, sight);
+    float texel_width = cube_linear_depth(z) * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
+    if (dot(across, across) <= CUBE_HIDDEN_LATERAL * CUBE_HIDDEN_LATERAL * texel_width * texel_width)
+        return false;
+    if (!cube_stores_point(crossing)) return true;
+    h.position = crossing;
+    return false;
+}
+
+// Whether the side of the scene's bounds at `side` along `axis` is a wall the map sees: the
+// map stores a surface at that plane's point nearest the map's centre (within 1 % of its
+// depth, which takes in the bounds' padding). A closed room's six sides are; an open
+// scene's sides and top are the sky.
+bool cube_bounds_side_is_wall(int axis, float side) {
+    vec3 foot = u_cube_center;
+    foot[axis] = side;
+    for (int face = 0; face < 6; ++face) {
+        vec4 c = u_face_view_proj[face] * vec4(foot, 1.0);
+        if (!cube_face_contains(c)) continue;
+        vec3 ndc = c.xyz / c.w;
+        ivec2 texel = cube_texel(face, ndc.xy);
+        if (texelFetch(u_cube_normal_material, texel, 0).w == 0.0) return false;
+        float surface = cube_linear_depth(texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0);
+        float depth = cube_linear_depth(ndc.z);
+        return abs(depth - surface) <= 0.01 * depth;
+    }
+    return false;
+}
+
+// A ray that passed into the space hidden from the map's centre meets something the map
+// does not hold. Where it leaves the bounds of all geometry through a side that is a wall
+// (cube_bounds_side_is_wall), the diffuse paths take that point instead, facing back into
+// the bounds: in a closed room the wall it really meets, lit by the lamps there, where the
+// stored surface's camera-facing side (often the shadowed one: the partition in front of
+// the lamp) darkened the bounced light. False (the stored surface's stretch stays the hit,
+// as in the paper) where the side is open (the ray may reach the sky: the map cannot tell)
+// or the ray leaves the bounds before the hit (a hit past them is the overshoot's).
+bool cube_hidden_exit_point(vec3 o, vec3 d, float t_hit, inout Hit h) {
+    if (u_scene_bounded == 0) return false;
+    vec3 safe = mix(d, vec3(1e-30), lessThan(abs(d), vec3(1e-30)));
+    vec3 t_far = max((u_scene_lo - o) / safe, (u_scene_hi - o) / safe);
+    int axis = t_far.x <= t_far.y ? (t_far.x <= t_far.z ? 0 : 2) : (t_far.y <= t_far.z ? 1 : 2);
+    if (!(t_far[axis] > t_hit)) return false;
+    if (!cube_bounds_side_is_wall(axis, d[axis] > 0.0 ? u_scene_hi[axis] : u_scene_lo[axis])) return false;
+    h.position = o + d * t_far[axis];
+    vec3 n = vec3(0.0);
+    n[axis] = d[axis] > 0.0 ? -1.0 : 1.0;
+    h.normal = n;
+    h.geometric = n;
+    return true;
+}
+#endif
+
 Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
     Hit h;
     h.kind = HIT_SKY;
@@ -459,6 +556,12 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
                 h.normal = safe_normalize(cm.normal, -d);
                 vec2 g_oct = texelFetch(u_cube_geometric, cm.texel, 0).xy;
                 h.geometric = gbuffer_geometric(g_oct.x, g_oct.y, h.normal);
+#if CUBE_HIDDEN_SIDE
+                if (cube_hidden_side(cm, o, d, h.geometric, h) && cube_hidden_exit_point(o, d, cm.t, h)) {
+                    h.material = cm.material;  // the stored surface's: the map holds no other
+                    break;
+                }
+#endif
                 h.material = cm.material;
                 ivec4 tex = materials[h.material].textures;
 #ifdef NODE_PROGRAMS

@@ -83,6 +83,12 @@ class DiffuseLightPass:
         emitters = frame.read("emitters")
         emitter_parts = (emitters.bindings(),) if emitters.count else ()
         defines = {**inputs.defines, **emitters.defines}
+        if settings.trace_mode == "HYBRID":
+            # A path that passes beside a surface into the space the cube map cannot see
+            # takes the point where it leaves the scene's bounds, not that surface's
+            # camera-facing side (cube_march.glsl "Hidden sides"). The diffuse paths only:
+            # the tracer's mirror and glass rays stay the paper's.
+            defines["CUBE_HIDDEN_SIDE"] = 1
         history = self.feedback() if self.feedback is not None and settings.diffuse_bounces > 0 else None
         if history is not None:
             defines["DIFFUSE_FEEDBACK"] = 1

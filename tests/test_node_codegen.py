@@ -79,6 +79,26 @@ def test_the_generated_code_reads_constants_from_the_words_and_keeps_registers_n
     assert body.count("do {") >= 20  # every node of the graph written out
 
 
+def test_an_output_nobody_reads_is_left_out_of_the_generated_code():
+    """A Noise's Color is two fractal sums more than its Fac, and Generated and Object each
+    search the instance table: the generated code computes an output only where a later node
+    reads it, as Cycles' SVM does (``node_output_read`` becomes a constant of the topology)."""
+    def noise_into_emission(output: str) -> str:
+        graph = ShaderGraph()
+        coords = graph.add("TEX_COORD")
+        noise = graph.add("TEX_NOISE", Vector=Link(coords, "Object"), Scale=4.0)
+        graph.surface = Link(graph.add("EMISSION", Color=Link(noise, output)), "Emission")
+        return cg.generate(compile_table([graph], 1)).source
+
+    fac_only, colour = noise_into_emission("Fac"), noise_into_emission("Color")
+    assert "node_output_read" not in fac_only + colour
+    assert fac_only.count("false ? 3 : 1") == 1 and "true ? 3 : 1" not in fac_only  # Fac alone: one sum
+    assert colour.count("true ? 3 : 1") == 1
+    # Texture Coordinate: only Object (output 3) is read, so Generated's search is dropped.
+    assert "if (false) g_out0 = vec4(node_generated(sp), 0.0);" in fac_only
+    assert "if (true) g_out3 = " in fac_only
+
+
 # -- through the renderer -------------------------------------------------------------------------
 @pytest.fixture
 def nodes_variant(request, renderer):

@@ -21,8 +21,12 @@ hence one compile of each program that runs node programs.
 The code of each node is the interpreter's own case, taken from its switch (so the two
 cannot drift apart): ``node_in[i]`` and ``node_out[o]`` with literal indices become named
 locals, ``set_at`` and ``pc`` constants off the base, and ``break`` leaves a
-``do { } while (false)`` around the case. A case that indexes its operands by a variable
-(Mix Shader's four registers) keeps small local arrays, indexed only by unrolled loops. An
+``do { } while (false)`` around the case, and ``node_output_read(o)`` (whether a later
+instruction reads output o: the interpreter looks at the output's register word) a constant
+of the topology, so that the driver's compiler drops the code of an output nobody reads (a
+Noise's Color is two fractal sums more than its Fac), as Cycles' SVM skips it. A case that
+indexes its operands by a variable (Mix Shader's four registers) keeps small local arrays,
+indexed only by unrolled loops. An
 opcode without a case, or a program the walk cannot follow, gets no function: its material
 runs in the interpreter, which stays compiled in unless every program has a function.
 
@@ -60,6 +64,7 @@ _CASE_RE = re.compile(r"^\s*case\s+NODE_OP_([A-Z0-9_]+)\s*:")
 _LITERAL_IN = re.compile(r"\bnode_in\[(\d+)\]")
 _LITERAL_OUT = re.compile(r"\bnode_out\[(\d+)\]")
 _SET_AT = re.compile(r"\bset_at\b")
+_OUTPUT_READ = re.compile(r"\bnode_output_read\((\d+)\)")
 
 
 @dataclass(frozen=True)
@@ -161,6 +166,17 @@ def _operand(kind: str, value: int, conversion: int, at: int) -> str:
     return expr if conversion == 0 else f"node_convert({expr}, {conversion}u)"
 
 
+def _outputs_read(body: str, outputs: list[int]) -> str:
+    """``body`` with each ``node_output_read(o)`` the constant it is for this instruction: an
+    output is read where its register is one (unread outputs hold ``NO_REGISTER``). Which
+    outputs are read is part of the topology (the registers written), so no value edit
+    changes it."""
+    def read(match: re.Match) -> str:
+        o = int(match.group(1))
+        return "true" if o < len(outputs) and outputs[o] < nc.REGISTERS else "false"
+    return _OUTPUT_READ.sub(read, body)
+
+
 def _instruction(op: int, case_list: tuple[Case, ...], operands: list[str], outputs: list[int],
                  set_at: int, table_at: int) -> list[str]:
     """One instruction as a block: its operands into locals, its case, its outputs into
@@ -184,7 +200,7 @@ def _instruction(op: int, case_list: tuple[Case, ...], operands: list[str], outp
     lines.append(f"        uint set_at = g_at + {set_at}u;")
     lines.append(f"        uint pc = g_at + {table_at}u;")
     for case, (_, named) in zip(case_list, ((p[0], p[1]) for p in prepared)):
-        body = case.body if dynamic else named
+        body = _outputs_read(case.body if dynamic else named, outputs)
         lines += list(case.conditions)
         lines.append("        do {")
         lines += body.splitlines()

@@ -255,6 +255,10 @@ _socket_images: dict[str, np.ndarray] = {}
 def test_generated_code_with_socket_settings_as_literals_renders_what_the_interpreter_renders(
         renderer, nodes_variant):
     image = renderer.render(socket_edited(textured_scene()), CAMERA, SETTINGS).image
+    if nodes_variant == "generated":  # the literals are what ran
+        source = renderer.gpu_scene.node_programs.generated.source
+        assert "node_tex_noise_channels(int(2u), int(3u)," in source
+        assert "node_tex_voronoi(int(2u), int(1u), int(3u)," in source
     _socket_images[nodes_variant] = image
     if len(_socket_images) == 2:
         generated, interpreted = _socket_images["generated"], _socket_images["interpreter"]

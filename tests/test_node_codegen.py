@@ -171,6 +171,19 @@ def test_generated_code_renders_what_the_interpreter_renders(renderer, nodes_var
         assert np.abs(generated - interpreted).mean() < 1e-5
 
 
+def assert_compiled_once(renderer, scene, key: str, compiled: int) -> None:
+    """The edit just rendered made a new topology (not ``key``) and compiled each program that
+    runs node programs once since ``compiled`` compiles, and the next frame compiles nothing."""
+    new_key = renderer.gpu_scene.defines["NODE_GENERATED"]
+    assert new_key != key
+
+    def programs_with(k: str) -> int:
+        return len([c for c in shader_loader._cache if ("NODE_GENERATED", k) in c[2]])
+    assert 0 < shader_loader.compiles - compiled == programs_with(new_key) <= programs_with(key)
+    renderer.render(scene, CAMERA, SETTINGS)
+    assert shader_loader.compiles - compiled == programs_with(new_key)  # once, not every frame
+
+
 @pytest.mark.parametrize("nodes_variant", ["generated"], indirect=True)
 def test_a_value_edit_compiles_nothing_and_a_topology_edit_each_program_once(renderer, nodes_variant):
     graphs = [emission(1.0), emission(2.0)]
@@ -187,15 +200,8 @@ def test_a_value_edit_compiles_nothing_and_a_topology_edit_each_program_once(ren
     # A new link (the UV's mean as the factor): a new topology, the same closure estimate.
     graphs[1].nodes[1].inputs["Factor_Float"] = Link(0, "UV")
     after = renderer.render(scene, CAMERA, SETTINGS).image
-    new_key = renderer.gpu_scene.defines["NODE_GENERATED"]
-    assert new_key != key
-
-    def programs_with(k: str) -> int:
-        return len([c for c in shader_loader._cache if ("NODE_GENERATED", k) in c[2]])
-    assert 0 < shader_loader.compiles - compiled == programs_with(new_key) <= programs_with(key)
     assert np.abs(after - before).max() > 0.01
-    renderer.render(scene, CAMERA, SETTINGS)
-    assert shader_loader.compiles - compiled == programs_with(new_key)  # once, not every frame
+    assert_compiled_once(renderer, scene, key, compiled)
 
 
 # -- settings that change a node's sockets ---------------------------------------------------------
@@ -278,12 +284,5 @@ def test_a_socket_setting_edit_compiles_each_program_once_and_a_wave_enum_edit_n
     assert np.abs(waves - before).max() > 0.01
     scene.materials.node_graphs[1].nodes[0].settings["noise_dimensions"] = "2D"  # W and Vector change
     after = renderer.render(scene, CAMERA, SETTINGS).image
-    new_key = renderer.gpu_scene.defines["NODE_GENERATED"]
-    assert new_key != key
-
-    def programs_with(k: str) -> int:
-        return len([c for c in shader_loader._cache if ("NODE_GENERATED", k) in c[2]])
-    assert 0 < shader_loader.compiles - compiled == programs_with(new_key) <= programs_with(key)
     assert np.abs(after - waves).max() > 0.01
-    renderer.render(scene, CAMERA, SETTINGS)
-    assert shader_loader.compiles - compiled == programs_with(new_key)  # once, not every frame
+    assert_compiled_once(renderer, scene, key, compiled)

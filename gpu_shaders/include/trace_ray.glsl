@@ -411,19 +411,31 @@ Hit bvh_hit(vec3 o, vec3 d, float t, int leaf, vec2 bary, float blur) {
 // Whether the map stores a surface at world point x: x's depth, from the map's centre, lies
 // within the texel's own depth bias (twice: x is not at the texel's centre) of the depth
 // stored where x projects.
-bool cube_stores_point(vec3 x) {
+// The texel of the face that sees world point x, and x's linear depth from the map's
+// centre; false where x lies on no face's side (the map's centre).
+bool cube_point_texel(vec3 x, out ivec2 texel, out float depth) {
+    texel = ivec2(0);
+    depth = 0.0;
     for (int face = 0; face < 6; ++face) {
         vec4 c = u_face_view_proj[face] * vec4(x, 1.0);
         if (!cube_face_contains(c)) continue;
         vec3 ndc = c.xyz / c.w;
-        ivec2 texel = cube_texel(face, ndc.xy);
-        if (texelFetch(u_cube_normal_material, texel, 0).w == 0.0) return false;
-        float surface = cube_linear_depth(texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0);
-        ivec2 local = texel - ivec2(face * u_cube_res, 0);
-        float bias = cube_linear_depth(texelFetch(u_cube_hiz, ivec2(face * u_cube_hiz_res, 0) + local, 0).r) - surface;
-        return abs(cube_linear_depth(ndc.z) - surface) <= 2.0 * bias;
+        texel = cube_texel(face, ndc.xy);
+        depth = cube_linear_depth(ndc.z);
+        return true;
     }
     return false;
+}
+
+bool cube_stores_point(vec3 x) {
+    ivec2 texel;
+    float depth;
+    if (!cube_point_texel(x, texel, depth) || texelFetch(u_cube_normal_material, texel, 0).w == 0.0) return false;
+    float surface = cube_linear_depth(texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0);
+    int face = cube_face_of_column(texel.x, u_cube_res);
+    ivec2 local = texel - ivec2(face * u_cube_res, 0);
+    float bias = cube_linear_depth(texelFetch(u_cube_hiz, ivec2(face * u_cube_hiz_res, 0) + local, 0).r) - surface;
+    return abs(depth - surface) <= 2.0 * bias;
 }
 
 // A flagged cube hit `cm` (geometric normal g; cube_march.glsl "Hidden sides") as the
@@ -460,17 +472,11 @@ bool cube_hidden_side(CubeMarch cm, vec3 o, vec3 d, vec3 g, inout Hit h) {
 bool cube_bounds_side_is_wall(int axis, float side) {
     vec3 foot = u_cube_center;
     foot[axis] = side;
-    for (int face = 0; face < 6; ++face) {
-        vec4 c = u_face_view_proj[face] * vec4(foot, 1.0);
-        if (!cube_face_contains(c)) continue;
-        vec3 ndc = c.xyz / c.w;
-        ivec2 texel = cube_texel(face, ndc.xy);
-        if (texelFetch(u_cube_normal_material, texel, 0).w == 0.0) return false;
-        float surface = cube_linear_depth(texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0);
-        float depth = cube_linear_depth(ndc.z);
-        return abs(depth - surface) <= 0.01 * depth;
-    }
-    return false;
+    ivec2 texel;
+    float depth;
+    if (!cube_point_texel(foot, texel, depth) || texelFetch(u_cube_normal_material, texel, 0).w == 0.0) return false;
+    float surface = cube_linear_depth(texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0);
+    return abs(depth - surface) <= 0.01 * depth;
 }
 
 // A ray that passed into the space hidden from the map's centre meets something the map

@@ -180,6 +180,18 @@ uniform sampler2D u_emission_scale;
 uniform sampler2D u_surface;         // primary roughness, metallic (gbuffer.frag.glsl)
 uniform sampler2D u_cube_surface;    // xy UV, z UV density (cube_map.CubeFaceTargets)
 uniform sampler2D u_cube_geometric;  // xy octahedral geometric normal
+// The point a cube-map texel stores (its centre at its stored depth, either layer), and the
+// texel's width there: where a cube hit's ray is measured against the stored surface.
+#ifndef TRACE_SHADING_ONLY
+vec3 cube_texel_point(ivec2 texel, out float width) {
+    int face = cube_face_of_column(texel.x, u_cube_res);
+    ivec2 local = ivec2(texel.x, texel.y >= u_cube_res ? texel.y - u_cube_res : texel.y);
+    float z = texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0;
+    width = cube_linear_depth(z) * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
+    return cube_unproject(face, vec3(cube_texel_center(local, face), z));
+}
+#endif
+
 #if defined(NODE_PROGRAMS) && !defined(TRACE_SHADING_ONLY)
 // -- cube hits' tangent frame (issue 38) --
 uniform sampler2D u_cube_tangent;    // the texels' UV directions (cube_map.CubeFaceTargets)
@@ -191,14 +203,11 @@ uniform sampler2D u_cube_tangent;    // the texels' UV directions (cube_map.Cube
 // the ray's own point, as a BVH hit does, not at the nearest texel's. None where the ray
 // meets that plane more than a few texels away (grazing), as without the frame.
 vec2 cube_hit_uv_offset(vec3 o, vec3 d, ivec2 texel, vec3 g, vec3 dp_du, vec3 dp_dv) {
-    int face = cube_face_of_column(texel.x, u_cube_res);
-    ivec2 local = ivec2(texel.x, texel.y >= u_cube_res ? texel.y - u_cube_res : texel.y);
-    float z = texelFetch(u_cube_depth, texel, 0).r * 2.0 - 1.0;
-    vec3 centre = cube_unproject(face, vec3(cube_texel_center(local, face), z));
+    float texel_width;
+    vec3 centre = cube_texel_point(texel, texel_width);
     float facing = dot(d, g);
     if (!(abs(facing) > 1e-6)) return vec2(0.0);
     vec3 step = d * (dot(centre - o, g) / facing) + (o - centre);
-    float texel_width = cube_linear_depth(z) * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
     if (!(dot(step, step) <= 16.0 * texel_width * texel_width)) return vec2(0.0);
     return node_uv_change(step, dp_du, dp_dv);
 }
@@ -446,10 +455,8 @@ bool cube_stores_point(vec3 x) {
 // passed beside the surface into the space hidden behind it: true.
 bool cube_hidden_side(CubeMarch cm, vec3 o, vec3 d, vec3 g, inout Hit h) {
     if (!cm.hidden) return false;
-    int face = cube_face_of_column(cm.texel.x, u_cube_res);
-    ivec2 local = ivec2(cm.texel.x, cm.texel.y >= u_cube_res ? cm.texel.y - u_cube_res : cm.texel.y);
-    float z = texelFetch(u_cube_depth, cm.texel, 0).r * 2.0 - 1.0;
-    vec3 centre = cube_unproject(face, vec3(cube_texel_center(local, face), z));
+    float texel_width;
+    vec3 centre = cube_texel_point(cm.texel, texel_width);
     float facing = dot(d, g);
     float t_plane = abs(facing) > 1e-6 ? dot(centre - o, g) / facing : -1.0;
     if (!(t_plane > 0.0)) return true;
@@ -457,7 +464,6 @@ bool cube_hidden_side(CubeMarch cm, vec3 o, vec3 d, vec3 g, inout Hit h) {
     vec3 sight = normalize(centre - u_cube_center);
     vec3 across = crossing - centre;
     across -= sight * dot(across, sight);
-    float texel_width = cube_linear_depth(z) * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
     if (dot(across, across) <= CUBE_HIDDEN_LATERAL * CUBE_HIDDEN_LATERAL * texel_width * texel_width)
         return false;
     if (!cube_stores_point(crossing)) return true;

@@ -18,10 +18,28 @@ The scene is built here, in bpy, from materials an artist makes every day:
 
 It renders through Blender's render path by Cycles (denoised: the reference), EEVEE (the
 peer) and Hybrid RT, then bakes every procedural with Cycles in the same process
-(``bpy.ops.object.bake``: DIFFUSE colour, ROUGHNESS, tangent NORMAL into float images, one
-set per object: the instances are made single-user first, as each has its own colour),
-replaces each material by a Principled of those images, and renders Hybrid RT again. It
-prints FLIP to Cycles for each image (LDR: clamped, sRGB-encoded, as docs/PICTURES.md) and
+(``bpy.ops.object.bake``: the base colour, ROUGHNESS and tangent NORMAL into float images,
+one set per object: the instances are made single-user first, as each has its own colour),
+replaces each material by a Principled of those images, and renders Hybrid RT again. Each
+step is the one that hands the Principled what the procedural gave it (``bake_to_images``):
+
+* the colour is baked as EMIT, from an Emission fed by the socket that gives the material
+  its diffuse colour (``_albedo_input``). Cycles' DIFFUSE COLOR bake is not the base colour:
+  it is the diffuse closure's weight, which Cycles' Principled scales by one minus its
+  specular layer's albedo and a Mix Shader by its factor (here a Fresnel), both seen along
+  the normal (about 0.96 for IOR 1.5). The baked Principled applies its specular layer
+  again, so that bake renders every material a few per cent darker, in Cycles as well;
+* the colour image is float and Linear Rec.709 (the working space: the bake writes
+  scene-linear values, read back as they are), roughness and normal are Non-Color (data);
+* the normal is baked in tangent space and read by a Normal Map node at strength 1, its
+  inverse;
+* the bake anti-aliases with ``BAKE_SAMPLES`` and extends each island by ``BAKE_MARGIN``
+  texels, as an artist's bake does: a filtered read at a seam stays in the island's colour
+  at the finer mip levels, while the coarse levels that wide ray cones read (indirect and
+  glossy hits on the cubes and instances, whose islands leave most of the image empty)
+  average in the black outside the islands, as they would for any such texture.
+
+It prints FLIP to Cycles for each image (LDR: clamped, sRGB-encoded, as docs/PICTURES.md) and
 the bars: Hybrid RT's FLIP at or below EEVEE's, and within ``BAKED_TOLERANCE`` of the baked
 variant's. What Hybrid RT reported while rendering (nodes it does not evaluate) is printed
 with the numbers. ``--references`` keeps the Cycles and EEVEE images for the next run (the
@@ -49,6 +67,7 @@ CYCLES_SAMPLES = 256
 EEVEE_SAMPLES = 32
 BAKE_SIZE = 256
 BAKE_SAMPLES = 4  # anti-aliasing of the baked texels: colour, roughness and normal need no light
+BAKE_MARGIN = 4  # texels each UV island is extended by (seams read by a filtered lookup)
 BAKED_TOLERANCE = 0.03  # the issue's bar: |FLIP(procedural) - FLIP(baked)| <= 0.03
 INSTANCES = 9
 
@@ -276,11 +295,51 @@ def build_scene(width: int, height: int):
 # ---------------------------------------------------------------------------------------------
 # Baking
 # ---------------------------------------------------------------------------------------------
-BAKE_PASSES = (  # (bake type, image name suffix, colour image, what the baked Principled reads)
-    ("DIFFUSE", "colour", True),
+BAKE_PASSES = (  # (bake type, image name suffix, colour image): EMIT bakes the base colour
+    ("EMIT", "colour", True),
     ("ROUGHNESS", "roughness", False),
     ("NORMAL", "normal", False),
 )
+# Shaders that hold a material's diffuse colour, and that socket's name: the Principled's
+# base colour sits under its specular layer, as a Diffuse does under the Glossy that a Mix
+# Shader blends it with by a Fresnel.
+_ALBEDO_SOCKETS = {"BSDF_PRINCIPLED": "Base Color", "BSDF_DIFFUSE": "Color"}
+
+
+def _output(tree):
+    """The material's active Material Output (the one Cycles bakes and renders)."""
+    return next(n for n in tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output)
+
+
+def _albedo_input(tree):
+    """The input socket that gives the material its diffuse colour: the first Principled or
+    Diffuse BSDF reached from the Material Output's Surface through Mix and Add Shaders."""
+    pending = [link.from_node for link in _output(tree).inputs["Surface"].links]
+    while pending:
+        node = pending.pop(0)
+        if node.type in _ALBEDO_SOCKETS:
+            return node.inputs[_ALBEDO_SOCKETS[node.type]]
+        if node.type in ("MIX_SHADER", "ADD_SHADER"):
+            pending += [link.from_node for socket in node.inputs if socket.type == "SHADER"
+                        for link in socket.links]
+    raise LookupError(f"material {tree.name!r}: no Principled or Diffuse BSDF under its output")
+
+
+def _emit_albedo(tree):
+    """Wire an Emission of the material's diffuse colour into its output for the EMIT bake;
+    returns the socket the output's Surface was linked from, to put back after it."""
+    nodes, links = tree.nodes, tree.links
+    albedo = _albedo_input(tree)
+    emission = nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 1.0
+    if albedo.links:
+        links.new(albedo.links[0].from_socket, emission.inputs["Color"])
+    else:
+        emission.inputs["Color"].default_value = albedo.default_value
+    output = _output(tree)
+    surface = output.inputs["Surface"].links[0].from_socket
+    links.new(emission.outputs["Emission"], output.inputs["Surface"])
+    return surface
 
 
 def bake_to_images(scene, size: int) -> dict[str, float]:
@@ -315,17 +374,22 @@ def bake_to_images(scene, size: int) -> dict[str, float]:
     scene.cycles.samples = BAKE_SAMPLES
     try:
         for kind, _suffix, _colour in BAKE_PASSES:
+            surfaces = {}
             for obj in meshes:
                 tree = obj.data.materials[0].node_tree
                 tree.nodes.active = images[obj.name][kind]
+                if kind == "EMIT":
+                    surfaces[obj.name] = _emit_albedo(tree)
             start = time.perf_counter()
-            if kind == "DIFFUSE":
-                bpy.ops.object.bake(type="DIFFUSE", pass_filter={"COLOR"}, margin=4, use_clear=True)
-            elif kind == "NORMAL":
-                bpy.ops.object.bake(type="NORMAL", normal_space="TANGENT", margin=4, use_clear=True)
+            if kind == "NORMAL":
+                bpy.ops.object.bake(type="NORMAL", normal_space="TANGENT", margin=BAKE_MARGIN, use_clear=True)
             else:
-                bpy.ops.object.bake(type=kind, margin=4, use_clear=True)
+                bpy.ops.object.bake(type=kind, margin=BAKE_MARGIN, use_clear=True)
             seconds[kind] = round(time.perf_counter() - start, 2)
+            for obj in meshes:  # the shaders back on the output, for the passes after
+                if obj.name in surfaces:
+                    tree = obj.data.materials[0].node_tree
+                    tree.links.new(surfaces[obj.name], _output(tree).inputs["Surface"])
     finally:
         scene.cycles.samples = previous_samples
     for obj in meshes:
@@ -343,7 +407,7 @@ def _image_material(material, baked: dict[str, object]) -> None:
         nodes.remove(node)
     bsdf = nodes.new("ShaderNodeBsdfPrincipled")
     normal_map = nodes.new("ShaderNodeNormalMap")
-    links.new(baked["DIFFUSE"].outputs["Color"], bsdf.inputs["Base Color"])
+    links.new(baked["EMIT"].outputs["Color"], bsdf.inputs["Base Color"])
     links.new(baked["ROUGHNESS"].outputs["Color"], bsdf.inputs["Roughness"])
     links.new(baked["NORMAL"].outputs["Color"], normal_map.inputs["Color"])
     links.new(normal_map.outputs["Normal"], bsdf.inputs["Normal"])

@@ -226,6 +226,11 @@ def measure(size: tuple[int, int], depth: int, mode: str, rounds: int) -> dict:
                 with timed_compiles(compiles[name]):
                     result = renderers[name].render(scenes[name], cam, settings, sample=0, timing=True)
                 hits[name] = int(result.counts["rays_bvh_hit"])
+                # One line per render as it happens: a run cut short by a time limit (a
+                # lent GPU's) still tells its compiles and the rounds it finished.
+                compiled = sum(w for _, w, _ in compiles[name]) if index == 0 else 0.0
+                print(f"round {index} {name}: trace {result.passes['trace']:.2f} ms, {hits[name]} BVH hits"
+                      + (f", compiles {compiled:.0f} ms" if index == 0 else ""), file=sys.stderr, flush=True)
                 if index > 0:  # the first round compiles and allocates
                     ms = result.passes["trace"]
                     times[name].append(ms)

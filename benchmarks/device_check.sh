@@ -1,0 +1,42 @@
+#!/bin/bash
+# SPDX-License-Identifier: GPL-3.0-or-later
+# One short check on a lent GPU machine (docs/BENCHMARKS.md "GPU figures"): the tests whose
+# shaders llvmpipe forgives and a GPU may not, then the figures the issues hold to a bar.
+#
+#   bash benchmarks/device_check.sh OUT_DIR [SECONDS]
+#
+# Each step has its own time limit within SECONDS (default 480) and writes its report into
+# OUT_DIR as it goes, so that a run cut short still returns what it finished: the tests'
+# failures with their text and the failing comparisons' images (tests/_failures), node_cost's
+# renders line by line, picture_cost --light and the frame section as JSON. Needs numpy,
+# moderngl, glcontext and pytest (no Blender: the tests that need it are not in the list).
+set -o pipefail
+out=${1:?usage: device_check.sh OUT_DIR [SECONDS]}
+budget=${2:-480}
+mkdir -p "$out"
+start=$(date +%s)
+left() { echo $(( budget - ($(date +%s) - start) )); }
+step() {  # step NAME SHARE_OF_WHAT_IS_LEFT_IN_PERCENT COMMAND...
+    local name=$1 share=$2
+    shift 2
+    local limit=$(( $(left) * share / 100 ))
+    if [ "$limit" -lt 20 ]; then echo "== $name: skipped, ${limit} s left"; return; fi
+    echo "== $name (limit ${limit} s)"
+    timeout "$limit" "$@" > "$out/$name.log" 2>&1
+    echo "   rc $? after $(( $(date +%s) - start )) s"
+}
+export PYTHONUNBUFFERED=1 __GL_SHADER_DISK_CACHE=0 MESA_SHADER_CACHE_DISABLE=true
+python3 -c "from hybrid_engine.gpu import gl_context as g; print(g.renderer_name())" || exit 1
+git rev-parse --short HEAD 2>/dev/null
+
+step tests 40 python3 -m pytest -rf -q -n 8 -p no:cacheprovider \
+    tests/test_cube_light.py tests/test_diffuse_light.py tests/test_emitter_light.py \
+    tests/test_node_light_path.py tests/test_cube_march.py tests/test_node_codegen.py tests/test_denoise.py
+grep -E "^FAILED|passed|failed" "$out/tests.log" 2>/dev/null | tail -20
+[ -d tests/_failures ] && tar -czf "$out/failures.tar.gz" -C tests _failures
+step node_cost 40 python3 -m benchmarks.node_cost --rounds 3 --size 640x360 --json "$out/node_cost.json"
+tail -12 "$out/node_cost.log" 2>/dev/null
+step picture_light 60 python3 -m benchmarks.picture_cost --light --rounds 3 --json "$out/picture_light.json"
+tail -4 "$out/picture_light.log" 2>/dev/null
+step frame 100 python3 -m benchmarks.bench --sections frame --variants auto --json "$out/frame.json"
+tail -16 "$out/frame.log" 2>/dev/null

@@ -999,11 +999,17 @@ NodeClosure node_program_interpret(int offset, ShadingPoint sp) {
         case NODE_OP_TEX_NOISE: {
             float fac;
             vec3 color;
-            // The Color's green and blue are two more fractal sums: only where it is read.
+            // The Color's green and blue are two more fractal sums: only where it is read. The
+            // Color's register word is read at run time (Noise has two outputs, before its
+            // settings), not folded into a constant in generated code as other outputs are: with the
+            // dimension count a literal too, a lone fractal sum per Noise sent llvmpipe's LLVM
+            // into a compile without end in a fragment shader holding several Bump copies of
+            // a Noise. The branch is uniform either way.
+            bool color_read = node_words[set_at - 1u] < uint(NODE_REGISTERS);
             node_tex_noise_channels(int(node_words[set_at]), int(node_words[set_at + 1u]), int(node_words[set_at + 2u]),
                                     node_in[0].xyz, node_in[1].x, node_in[2].x, node_in[3].x, node_in[4].x,
                                     node_in[5].x, node_in[6].x, node_in[7].x, node_in[8].x,
-                                    node_output_read(1) ? 3 : 1, fac, color);
+                                    color_read ? 3 : 1, fac, color);
             node_out[0] = vec4(fac);
             node_out[1] = vec4(color, 1.0);
             break;

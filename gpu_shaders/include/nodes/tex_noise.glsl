@@ -217,19 +217,6 @@ float noise_fractal(int type, int dims, vec4 p, float detail, float roughness, f
     return mix(low, high, frac);
 }
 
-// noise_fractal with the dimension count a literal in each of four calls: each octave loop
-// then holds the one noise of its dimensions. A driver that executes both sides of a branch
-// (a CPU's SIMD lanes under a mask) would otherwise run the noises of all four dimension
-// counts at every octave; here the loops of the other three run one masked pass each, and a
-// GPU, whose lanes all take the same branch, runs the one loop as before.
-float noise_fractal_of(int type, int dims, vec4 p, float detail, float roughness, float lacunarity,
-                       float offset, float gain, bool normalize) {
-    if (dims == 1) return noise_fractal(type, 1, p, detail, roughness, lacunarity, offset, gain, normalize);
-    if (dims == 2) return noise_fractal(type, 2, p, detail, roughness, lacunarity, offset, gain, normalize);
-    if (dims == 3) return noise_fractal(type, 3, p, detail, roughness, lacunarity, offset, gain, normalize);
-    return noise_fractal(type, 4, p, detail, roughness, lacunarity, offset, gain, normalize);
-}
-
 // Blender's fixed random offset number `seed` for a `dims`-dimensional point: each component
 // in [100, 200], far enough that the shifted noise is unrelated to the unshifted one.
 vec4 noise_random_offset(int dims, float seed) {
@@ -268,7 +255,7 @@ void node_tex_noise_channels(int dimensions, int type, int normalize, vec3 vecto
     color = vec3(0.0);
     for (int k = 0; k < min(channels, 3); ++k) {
         vec4 q = k == 0 ? p : p + noise_random_offset(dims, float(dims + k - 1));
-        color[k] = noise_fractal_of(type, dims, q, detail, roughness, lacunarity, offset, gain, norm);
+        color[k] = noise_fractal(type, dims, q, detail, roughness, lacunarity, offset, gain, norm);
     }
     fac = color.x;
 }

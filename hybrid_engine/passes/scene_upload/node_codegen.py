@@ -30,7 +30,9 @@ locals, ``set_at`` and ``pc`` constants off the base, and ``break`` leaves a
 ``do { } while (false)`` around the case, and ``node_output_read(o)`` (whether a later
 instruction reads output o: the interpreter looks at the output's register word) a constant
 of the topology, so that the driver's compiler drops the code of an output nobody reads (a
-Noise's Color is two fractal sums more than its Fac), as Cycles' SVM skips it. A case that
+Texture Coordinate's Generated searches the instance table), as Cycles' SVM skips it. The
+Noise asks of its Color's register word at run time instead (a uniform branch; the case in
+node_program.glsl says why). A case that
 indexes its operands by a variable (Mix Shader's four registers) keeps small local arrays,
 indexed only by unrolled loops. An
 opcode without a case, or a program the walk cannot follow, gets no function: its material

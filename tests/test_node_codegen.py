@@ -79,6 +79,28 @@ def test_the_generated_code_reads_constants_from_the_words_and_keeps_registers_n
     assert body.count("do {") >= 20  # every node of the graph written out
 
 
+def test_an_output_nobody_reads_is_left_out_of_the_generated_code():
+    """A Noise's Color is two fractal sums more than its Fac, and Generated and Object each
+    search the instance table: the generated code computes an output only where a later node
+    reads it, as Cycles' SVM does (``node_output_read`` becomes a constant of the topology; the
+    Noise's Color is asked of its register word at run time, node_program.glsl says why)."""
+    def noise_into_emission(output: str) -> str:
+        graph = ShaderGraph()
+        coords = graph.add("TEX_COORD")
+        noise = graph.add("TEX_NOISE", Vector=Link(coords, "Object"), Scale=4.0)
+        graph.surface = Link(graph.add("EMISSION", Color=Link(noise, output)), "Emission")
+        return cg.generate(compile_table([graph], 1)).source
+
+    fac_only, colour = noise_into_emission("Fac"), noise_into_emission("Color")
+    assert "node_output_read" not in fac_only + colour
+    for source in (fac_only, colour):  # the Noise asks whether its Color is read
+        assert source.count("bool color_read = node_words[set_at - 1u] < uint(NODE_REGISTERS);") == 1
+        assert "color_read ? 3 : 1" in source
+    # Texture Coordinate: only Object (output 3) is read, so Generated's search is dropped.
+    assert "if (false) g_out0 = vec4(node_generated(sp), 0.0);" in fac_only
+    assert "if (true) g_out3 = " in fac_only
+
+
 # -- through the renderer -------------------------------------------------------------------------
 @pytest.fixture
 def nodes_variant(request, renderer):
@@ -151,6 +173,19 @@ def test_generated_code_renders_what_the_interpreter_renders(renderer, nodes_var
         assert np.abs(generated - interpreted).mean() < 1e-5
 
 
+def assert_compiled_once(renderer, scene, key: str, compiled: int) -> None:
+    """The edit just rendered made a new topology (not ``key``) and compiled each program that
+    runs node programs once since ``compiled`` compiles, and the next frame compiles nothing."""
+    new_key = renderer.gpu_scene.defines["NODE_GENERATED"]
+    assert new_key != key
+
+    def programs_with(k: str) -> int:
+        return len([c for c in shader_loader._cache if ("NODE_GENERATED", k) in c[2]])
+    assert 0 < shader_loader.compiles - compiled == programs_with(new_key) <= programs_with(key)
+    renderer.render(scene, CAMERA, SETTINGS)
+    assert shader_loader.compiles - compiled == programs_with(new_key)  # once, not every frame
+
+
 @pytest.mark.parametrize("nodes_variant", ["generated"], indirect=True)
 def test_a_value_edit_compiles_nothing_and_a_topology_edit_each_program_once(renderer, nodes_variant):
     graphs = [emission(1.0), emission(2.0)]
@@ -167,12 +202,89 @@ def test_a_value_edit_compiles_nothing_and_a_topology_edit_each_program_once(ren
     # A new link (the UV's mean as the factor): a new topology, the same closure estimate.
     graphs[1].nodes[1].inputs["Factor_Float"] = Link(0, "UV")
     after = renderer.render(scene, CAMERA, SETTINGS).image
-    new_key = renderer.gpu_scene.defines["NODE_GENERATED"]
-    assert new_key != key
-
-    def programs_with(k: str) -> int:
-        return len([c for c in shader_loader._cache if ("NODE_GENERATED", k) in c[2]])
-    assert 0 < shader_loader.compiles - compiled == programs_with(new_key) <= programs_with(key)
     assert np.abs(after - before).max() > 0.01
-    renderer.render(scene, CAMERA, SETTINGS)
-    assert shader_loader.compiles - compiled == programs_with(new_key)  # once, not every frame
+    assert_compiled_once(renderer, scene, key, compiled)
+
+
+# -- settings that change a node's sockets ---------------------------------------------------------
+def textures_with(noise: dict | None = None, voronoi: dict | None = None, white: dict | None = None) -> str:
+    """Generated source of one material: a Noise, a White Noise and a Voronoi summed into an
+    emission, with the given settings."""
+    graph = ShaderGraph()
+    a = graph.add("TEX_NOISE", settings=dict(noise or {}), Scale=4.0)
+    b = graph.add("TEX_WHITE_NOISE", settings=dict(white or {}))
+    c = graph.add("TEX_VORONOI", settings=dict(voronoi or {}), Scale=3.0)
+    ab = graph.add("MATH", settings={"operation": "ADD"}, Value=Link(a, "Fac"), Value_001=Link(b, "Value"))
+    abc = graph.add("MATH", settings={"operation": "ADD"}, Value=Link(ab, "Value"), Value_001=Link(c, "Distance"))
+    graph.surface = Link(graph.add("EMISSION", Strength=Link(abc, "Value")), "Emission")
+    return cg.generate(compile_table([graph], 1)).source
+
+
+def test_a_setting_that_changes_sockets_is_a_literal_of_the_topology_and_others_stay_words():
+    """Noise's and White Noise's dimensions, Noise's type, Voronoi's dimensions, feature and
+    metric show or hide sockets in Blender: each is a literal of the generated code (the
+    driver compiles only its branch), so an edit is a new topology. Noise's normalize and
+    Voronoi's normalize change no socket: read from the words, one topology."""
+    base = textures_with()
+    assert "node_tex_noise_channels(int(3u), int(0u), int(node_words[set_at + 2u])" in base
+    assert "node_tex_white_noise(int(3u)," in base
+    assert "node_tex_voronoi(int(3u), int(0u), int(0u),\n" in base
+    for edit in (dict(noise={"noise_dimensions": "2D"}), dict(noise={"noise_type": "RIDGED_MULTIFRACTAL"}),
+                 dict(white={"noise_dimensions": "4D"}), dict(voronoi={"voronoi_dimensions": "1D"}),
+                 dict(voronoi={"feature": "F2"}), dict(voronoi={"distance": "MINKOWSKI"})):
+        assert textures_with(**edit) != base, edit
+    assert textures_with(noise={"normalize": False}, voronoi={"normalize": True}) == base
+
+
+def test_wave_settings_change_no_socket_and_stay_words():
+    def wave(settings: dict) -> str:
+        graph = ShaderGraph()
+        w = graph.add("TEX_WAVE", settings=settings)
+        graph.surface = Link(graph.add("EMISSION", Color=Link(w, "Color")), "Emission")
+        return cg.generate(compile_table([graph], 1)).source
+    base = wave({})
+    assert "node_tex_wave(int(node_words[set_at]), int(node_words[set_at + 1u])" in base
+    assert wave({"wave_type": "RINGS", "bands_direction": "Y", "wave_profile": "SAW"}) == base
+
+
+def socket_edited(scene: SceneData) -> SceneData:
+    """``scene`` with its Bump's Noise in 2D ridged, its Voronoi 2D F2 under Minkowski."""
+    noise = scene.materials.node_graphs[1].nodes[0]
+    voronoi = scene.materials.node_graphs[2].nodes[1]
+    noise.settings.update(noise_dimensions="2D", noise_type="RIDGED_MULTIFRACTAL")
+    voronoi.settings.update(voronoi_dimensions="2D", feature="F2", distance="MINKOWSKI")
+    return scene
+
+
+_socket_images: dict[str, np.ndarray] = {}
+
+
+@pytest.mark.parametrize("nodes_variant", ["interpreter", "generated"], indirect=True)
+def test_generated_code_with_socket_settings_as_literals_renders_what_the_interpreter_renders(
+        renderer, nodes_variant):
+    image = renderer.render(socket_edited(textured_scene()), CAMERA, SETTINGS).image
+    if nodes_variant == "generated":  # the literals are what ran
+        source = renderer.gpu_scene.node_programs.generated.source
+        assert "node_tex_noise_channels(int(2u), int(3u)," in source
+        assert "node_tex_voronoi(int(2u), int(1u), int(3u)," in source
+    _socket_images[nodes_variant] = image
+    if len(_socket_images) == 2:
+        generated, interpreted = _socket_images["generated"], _socket_images["interpreter"]
+        np.testing.assert_allclose(generated, interpreted, atol=2e-3)
+        assert np.abs(generated - interpreted).mean() < 1e-5
+
+
+@pytest.mark.parametrize("nodes_variant", ["generated"], indirect=True)
+def test_a_socket_setting_edit_compiles_each_program_once_and_a_wave_enum_edit_nothing(renderer, nodes_variant):
+    scene = textured_scene()
+    before = renderer.render(scene, CAMERA, SETTINGS).image
+    key = renderer.gpu_scene.defines["NODE_GENERATED"]
+    compiled = shader_loader.compiles
+    scene.materials.node_graphs[2].nodes[0].settings["wave_type"] = "RINGS"  # no socket changes
+    waves = renderer.render(scene, CAMERA, SETTINGS).image
+    assert shader_loader.compiles == compiled and renderer.gpu_scene.defines["NODE_GENERATED"] == key
+    assert np.abs(waves - before).max() > 0.01
+    scene.materials.node_graphs[1].nodes[0].settings["noise_dimensions"] = "2D"  # W and Vector change
+    after = renderer.render(scene, CAMERA, SETTINGS).image
+    assert np.abs(after - waves).max() > 0.01
+    assert_compiled_once(renderer, scene, key, compiled)

@@ -248,6 +248,12 @@ struct NodeClosure {
 };
 
 #ifndef NODE_GENERATED_ONLY
+// Whether the instruction's output o is read by a later one (its register; NO_REGISTER:
+// nobody reads it). A node computes an output only where it is read, as Cycles' SVM does
+// (stack_valid): the generator writes a constant in its place (node_codegen.py), so the
+// compiler drops an unread output's code; here it is one word, the same for the whole
+// program, so the branch it guards is uniform.
+#define node_output_read(o) (uint(o) < n_out && node_words[out_at + uint(o)] < uint(NODE_REGISTERS))
 vec4 node_reg[NODE_REGISTERS];
 vec4 node_in[NODE_MAX_OPERANDS];
 vec4 node_out[NODE_MAX_OUTPUTS];
@@ -638,14 +644,18 @@ NodeClosure node_program_interpret(int offset, ShadingPoint sp) {
             node_out[0] = node_in[0];
             break;
         case NODE_OP_TEX_COORD: {
-            int k = node_object_of(sp.row);
-            node_out[0] = vec4(node_generated(sp), 0.0);
-            node_out[1] = vec4(node_unit(node_to_object(k, sp.normal, 0.0), sp.normal), 0.0);  // object space
+            // Generated and Object find the instance by a search over the instance table,
+            // which the compiler cannot drop where the output is unread: only what is read.
+            int k = node_output_read(1) || node_output_read(3) ? node_object_of(sp.row) : -1;
+            if (node_output_read(0)) node_out[0] = vec4(node_generated(sp), 0.0);
+            if (node_output_read(1)) node_out[1] = vec4(node_unit(node_to_object(k, sp.normal, 0.0), sp.normal), 0.0);  // object space
             node_out[2] = vec4(sp.uv, 0.0, 0.0);
-            node_out[3] = vec4(node_to_object(k, sp.position, 1.0), 0.0);
-            node_out[4] = vec4((u_node_world_to_camera * vec4(sp.position, 1.0)).xyz, 0.0);
-            vec4 clip = u_node_world_to_clip * vec4(sp.position, 1.0);
-            node_out[5] = clip.w != 0.0 ? vec4(clip.xy / clip.w * 0.5 + 0.5, 0.0, 0.0) : vec4(0.0);
+            if (node_output_read(3)) node_out[3] = vec4(node_to_object(k, sp.position, 1.0), 0.0);
+            if (node_output_read(4)) node_out[4] = vec4((u_node_world_to_camera * vec4(sp.position, 1.0)).xyz, 0.0);
+            if (node_output_read(5)) {
+                vec4 clip = u_node_world_to_clip * vec4(sp.position, 1.0);
+                node_out[5] = clip.w != 0.0 ? vec4(clip.xy / clip.w * 0.5 + 0.5, 0.0, 0.0) : vec4(0.0);
+            }
             node_out[6] = vec4(reflect(-sp.incoming, sp.normal), 0.0);
             break;
         }
@@ -989,9 +999,17 @@ NodeClosure node_program_interpret(int offset, ShadingPoint sp) {
         case NODE_OP_TEX_NOISE: {
             float fac;
             vec3 color;
-            node_tex_noise(int(node_words[set_at]), int(node_words[set_at + 1u]), int(node_words[set_at + 2u]),
-                           node_in[0].xyz, node_in[1].x, node_in[2].x, node_in[3].x, node_in[4].x, node_in[5].x,
-                           node_in[6].x, node_in[7].x, node_in[8].x, fac, color);
+            // The Color's green and blue are two more fractal sums: only where it is read. The
+            // Color's register word is read at run time (Noise has two outputs, before its
+            // settings), not folded into a constant in generated code as other outputs are: with the
+            // dimension count a literal too, a lone fractal sum per Noise sent llvmpipe's LLVM
+            // into a compile without end in a fragment shader holding several Bump copies of
+            // a Noise. The branch is uniform either way.
+            bool color_read = node_words[set_at - 1u] < uint(NODE_REGISTERS);
+            node_tex_noise_channels(int(node_words[set_at]), int(node_words[set_at + 1u]), int(node_words[set_at + 2u]),
+                                    node_in[0].xyz, node_in[1].x, node_in[2].x, node_in[3].x, node_in[4].x,
+                                    node_in[5].x, node_in[6].x, node_in[7].x, node_in[8].x,
+                                    color_read ? 3 : 1, fac, color);
             node_out[0] = vec4(fac);
             node_out[1] = vec4(color, 1.0);
             break;

@@ -228,9 +228,11 @@ vec4 noise_random_offset(int dims, float seed) {
     return o;
 }
 
-void node_tex_noise(int dimensions, int type, int normalize, vec3 vector, float w, float scale,
-                    float detail, float roughness, float lacunarity, float offset, float gain,
-                    float distortion, out float fac, out vec3 color) {
+// `channels`: how many of Fac (the Color's red), green and blue to compute, 1 or 3; each is a
+// fractal sum of its own, so a graph that reads only Fac pays a third (node_output_read).
+void node_tex_noise_channels(int dimensions, int type, int normalize, vec3 vector, float w, float scale,
+                             float detail, float roughness, float lacunarity, float offset, float gain,
+                             float distortion, int channels, out float fac, out vec3 color) {
     int dims = clamp(dimensions, 1, 4);
     // The point's components in the order the dimensions use them: 1D reads W alone.
     vec4 p = dims == 1 ? vec4(w, 0.0, 0.0, 0.0) : vec4(vector, w) * scale;
@@ -250,11 +252,19 @@ void node_tex_noise(int dimensions, int type, int normalize, vec3 vector, float 
     }
     // Fac, then the Color's green and blue: the same fractal at fixed offsets, seeds dims and
     // dims + 1. One call site in a loop keeps the shader small.
-    for (int k = 0; k < 3; ++k) {
+    color = vec3(0.0);
+    for (int k = 0; k < min(channels, 3); ++k) {
         vec4 q = k == 0 ? p : p + noise_random_offset(dims, float(dims + k - 1));
         color[k] = noise_fractal(type, dims, q, detail, roughness, lacunarity, offset, gain, norm);
     }
     fac = color.x;
+}
+
+void node_tex_noise(int dimensions, int type, int normalize, vec3 vector, float w, float scale,
+                    float detail, float roughness, float lacunarity, float offset, float gain,
+                    float distortion, out float fac, out vec3 color) {
+    node_tex_noise_channels(dimensions, type, normalize, vector, w, scale, detail, roughness, lacunarity,
+                            offset, gain, distortion, 3, fac, color);
 }
 
 #endif

@@ -74,18 +74,26 @@ vec3 voronoi_cell_color(int dimensions, ivec4 cell) {
     return hash_ivec4_to_vec4(cell).xyz;
 }
 
-// The length of d in the chosen metric; 1D is always |d|.
-float voronoi_metric(vec4 d, int dimensions, int metric, float exponent) {
+// The length of d in the chosen metric; 1D is always |d|. `minkowski`: whether the metric
+// may be Minkowski. The cell searches below call it with a literal there, from one branch per
+// kind of metric outside their loops (voronoi_octave): Minkowski's four or five powers per cell
+// are then compiled only into the loop that runs them, so a driver that executes both sides of
+// a branch (a CPU's SIMD lanes under a mask) does not pay them at every cell of every search.
+float voronoi_metric_of(vec4 d, int dimensions, int metric, float exponent, bool minkowski) {
     if (dimensions == 1) return abs(d.x);
     if (metric == VORONOI_EUCLIDEAN) return length(d);
     vec4 a = abs(d);
     if (metric == VORONOI_MANHATTAN) return a.x + a.y + a.z + a.w;
-    if (metric == VORONOI_CHEBYCHEV) return max(max(a.x, a.y), max(a.z, a.w));
+    if (metric == VORONOI_CHEBYCHEV || !minkowski) return max(max(a.x, a.y), max(a.z, a.w));
     // Minkowski: pow(0, e) is undefined in GLSL for e <= 0, so unused axes are left out.
     float sum = pow(a.x, exponent) + pow(a.y, exponent);
     if (dimensions >= 3) sum += pow(a.z, exponent);
     if (dimensions >= 4) sum += pow(a.w, exponent);
     return pow(sum, 1.0 / exponent);
+}
+
+float voronoi_metric(vec4 d, int dimensions, int metric, float exponent) {
+    return voronoi_metric_of(d, dimensions, metric, exponent, true);
 }
 
 // Zero on the unused axes (Smooth F1's blend drifts them otherwise).
@@ -103,7 +111,7 @@ struct VoronoiOctave {
 // F1 (nearest point) or F2 (second nearest) over the 3^n cells around the point: with one
 // point per unit cell, no nearer point can lie farther out (Worley 1996, section 3).
 VoronoiOctave voronoi_f1_f2(int dimensions, int metric, float exponent, float randomness,
-                            bool second, vec4 coord) {
+                            bool second, vec4 coord, bool minkowski) {
     vec4 cell_f = floor(coord);
     vec4 local = coord - cell_f;
     ivec4 cell = ivec4(cell_f);
@@ -117,7 +125,7 @@ VoronoiOctave voronoi_f1_f2(int dimensions, int metric, float exponent, float ra
     for (int i = -r.x; i <= r.x; ++i) {
         ivec4 offset = ivec4(i, j, k, u);
         vec4 point = vec4(offset) + voronoi_cell_point(dimensions, cell + offset) * randomness;
-        float d = voronoi_metric(point - local, dimensions, metric, exponent);
+        float d = voronoi_metric_of(point - local, dimensions, metric, exponent, minkowski);
         if (d < d1) {
             d2 = d1; o2 = o1; p2 = p1;
             d1 = d; o1 = offset; p1 = point;
@@ -137,7 +145,7 @@ VoronoiOctave voronoi_f1_f2(int dimensions, int metric, float exponent, float ra
 // window is needed because the smooth minimum feels points beyond the nearest ring.
 // `smoothness` is already the node's Smoothness / 2, clamped to [0, 0.5].
 VoronoiOctave voronoi_smooth_f1(int dimensions, int metric, float exponent, float randomness,
-                                float smoothness, vec4 coord) {
+                                float smoothness, vec4 coord, bool minkowski) {
     vec4 cell_f = floor(coord);
     vec4 local = coord - cell_f;
     ivec4 cell = ivec4(cell_f);
@@ -152,7 +160,7 @@ VoronoiOctave voronoi_smooth_f1(int dimensions, int metric, float exponent, floa
     for (int i = -r.x; i <= r.x; ++i) {
         ivec4 offset = ivec4(i, j, k, u);
         vec4 point = vec4(offset) + voronoi_cell_point(dimensions, cell + offset) * randomness;
-        float d = voronoi_metric(point - local, dimensions, metric, exponent);
+        float d = voronoi_metric_of(point - local, dimensions, metric, exponent, minkowski);
         h = h == -1.0 ? 1.0
                       : smoothstep(0.0, 1.0, 0.5 + 0.5 * (smooth_distance - d) / smoothness);
         float correction = smoothness * h * (1.0 - h);
@@ -240,10 +248,14 @@ float voronoi_n_sphere_radius(int dimensions, float randomness, vec4 coord) {
 
 VoronoiOctave voronoi_octave(int dimensions, int feature, int metric, float exponent,
                              float randomness, float smoothness, vec4 coord) {
+    // Minkowski in a search of its own, every other metric in another (voronoi_metric_of).
+    bool minkowski = metric == VORONOI_MINKOWSKI && dimensions != 1;
     if (feature == VORONOI_SMOOTH_F1 && smoothness != 0.0) {
-        return voronoi_smooth_f1(dimensions, metric, exponent, randomness, smoothness, coord);
+        if (minkowski) return voronoi_smooth_f1(dimensions, metric, exponent, randomness, smoothness, coord, true);
+        return voronoi_smooth_f1(dimensions, metric, exponent, randomness, smoothness, coord, false);
     }
-    return voronoi_f1_f2(dimensions, metric, exponent, randomness, feature == VORONOI_F2, coord);
+    if (minkowski) return voronoi_f1_f2(dimensions, metric, exponent, randomness, feature == VORONOI_F2, coord, true);
+    return voronoi_f1_f2(dimensions, metric, exponent, randomness, feature == VORONOI_F2, coord, false);
 }
 
 // The octave sum of F1, F2 and Smooth F1 (Blender 4's fractal Voronoi): distances and colours

@@ -11,18 +11,30 @@ local, and the driver sees the whole graph as straight-line code.
 
 What makes a topology: the opcodes in order, each operand's kind (register and conversion,
 inline constant and its width, shading-point value), the registers written, and where each
-word sits relative to the program's first word. What does not: the constants' bits, the
-settings, the Color Ramp and curve tables. The generated code reads those from the
-``NodeProgram`` words at the program's base, so one function serves every material of its
-topology, and a value edit (even an enum: the node functions switch on it at run time, as
-the interpreter's do) is an upload of words and no compile. A new topology is new source,
-hence one compile of each program that runs node programs.
+word sits relative to the program's first word, and the settings that change a node's
+sockets in Blender (``SOCKET_SETTINGS``: Noise's dimensions and type, White Noise's
+dimensions, Voronoi's dimensions, feature and metric), written as literals so that the driver
+compiles only the chosen branch: llvmpipe runs both sides of an ``if`` under a mask, so a
+Noise that switched on its dimensions at run time paid for all four. Such an edit changes the
+node's sockets, a topology edit in Blender's sense too. What does not make a topology: the
+constants' bits, the other settings, the Color Ramp and curve tables. The generated code reads
+those from the ``NodeProgram`` words at the program's base, so one function serves every
+material of its topology, and a value edit (even an enum such as Mix's blend type: the node
+functions switch on it at run time, as the interpreter's do) is an upload of words and no
+compile. A new topology is new source, hence one compile of each program that runs node
+programs. The interpreter reads every setting from the words, literal here or not.
 
 The code of each node is the interpreter's own case, taken from its switch (so the two
 cannot drift apart): ``node_in[i]`` and ``node_out[o]`` with literal indices become named
 locals, ``set_at`` and ``pc`` constants off the base, and ``break`` leaves a
-``do { } while (false)`` around the case. A case that indexes its operands by a variable
-(Mix Shader's four registers) keeps small local arrays, indexed only by unrolled loops. An
+``do { } while (false)`` around the case, and ``node_output_read(o)`` (whether a later
+instruction reads output o: the interpreter looks at the output's register word) a constant
+of the topology, so that the driver's compiler drops the code of an output nobody reads (a
+Texture Coordinate's Generated searches the instance table), as Cycles' SVM skips it. The
+Noise asks of its Color's register word at run time instead (a uniform branch; the case in
+node_program.glsl says why). A case that
+indexes its operands by a variable (Mix Shader's four registers) keeps small local arrays,
+indexed only by unrolled loops. An
 opcode without a case, or a program the walk cannot follow, gets no function: its material
 runs in the interpreter, which stays compiled in unless every program has a function.
 
@@ -60,6 +72,18 @@ _CASE_RE = re.compile(r"^\s*case\s+NODE_OP_([A-Z0-9_]+)\s*:")
 _LITERAL_IN = re.compile(r"\bnode_in\[(\d+)\]")
 _LITERAL_OUT = re.compile(r"\bnode_out\[(\d+)\]")
 _SET_AT = re.compile(r"\bset_at\b")
+_OUTPUT_READ = re.compile(r"\bnode_output_read\((\d+)\)")
+_SETTING = re.compile(r"\bnode_words\[set_at(?:\s*\+\s*(\d+)u)?\]")
+# Settings that change a node's sockets in Blender (its update hides or shows inputs or
+# outputs), by opcode: the indices of their words. Such an edit is a topology edit in
+# Blender's own sense, so the generator writes the value as a literal and the driver compiles
+# only the chosen branch (llvmpipe runs both sides of an ``if`` under a mask; only loops exit
+# early). Noise: ``noise_dimensions`` (W, Vector) and ``noise_type`` (Offset, Gain);
+# White Noise: ``noise_dimensions``; Voronoi: ``voronoi_dimensions``, ``feature`` (its
+# outputs) and ``distance`` (Minkowski's Exponent). Wave's enums and the ``normalize`` flags
+# change no socket: they stay words, read at run time.
+SOCKET_SETTINGS: dict[int, tuple[int, ...]] = {
+    nc.OP_TEX_NOISE: (0, 1), nc.OP_TEX_WHITE_NOISE: (0,), nc.OP_TEX_VORONOI: (0, 1, 2)}
 
 
 @dataclass(frozen=True)
@@ -161,8 +185,30 @@ def _operand(kind: str, value: int, conversion: int, at: int) -> str:
     return expr if conversion == 0 else f"node_convert({expr}, {conversion}u)"
 
 
+def _outputs_read(body: str, outputs: list[int]) -> str:
+    """``body`` with each ``node_output_read(o)`` the constant it is for this instruction: an
+    output is read where its register is one (unread outputs hold ``NO_REGISTER``). Which
+    outputs are read is part of the topology (the registers written), so no value edit
+    changes it."""
+    def read(match: re.Match) -> str:
+        o = int(match.group(1))
+        return "true" if o < len(outputs) and outputs[o] < nc.REGISTERS else "false"
+    return _OUTPUT_READ.sub(read, body)
+
+
+def _socket_settings(body: str, op: int, settings: list[int]) -> str:
+    """``body`` with each read of a socket-changing setting (``SOCKET_SETTINGS``) the literal
+    it holds in this program, so that the setting is part of the topology."""
+    literal = SOCKET_SETTINGS.get(op, ())
+
+    def read(match: re.Match) -> str:
+        i = int(match.group(1) or 0)
+        return f"{settings[i]}u" if i in literal and i < len(settings) else match.group(0)
+    return _SETTING.sub(read, body) if literal else body
+
+
 def _instruction(op: int, case_list: tuple[Case, ...], operands: list[str], outputs: list[int],
-                 set_at: int, table_at: int) -> list[str]:
+                 set_at: int, table_at: int, settings: list[int] | None = None) -> list[str]:
     """One instruction as a block: its operands into locals, its case, its outputs into
     the registers that receive them."""
     lines = ["    {"]
@@ -184,7 +230,7 @@ def _instruction(op: int, case_list: tuple[Case, ...], operands: list[str], outp
     lines.append(f"        uint set_at = g_at + {set_at}u;")
     lines.append(f"        uint pc = g_at + {table_at}u;")
     for case, (_, named) in zip(case_list, ((p[0], p[1]) for p in prepared)):
-        body = case.body if dynamic else named
+        body = _socket_settings(_outputs_read(case.body if dynamic else named, outputs), op, settings or [])
         lines += list(case.conditions)
         lines.append("        do {")
         lines += body.splitlines()
@@ -242,7 +288,8 @@ def topology_body(words: np.ndarray | list[int], offset: int, cases: dict[int, t
                 return None
             outputs = [words[out_at + o] for o in range(min(n_out, MAX_OUTPUTS))]
             registers.update(r for r in outputs if r < nc.REGISTERS)
-            body += _instruction(op, case_list, operands, outputs, set_at - offset, pc - offset)
+            settings = words[set_at:set_at + n_set]
+            body += _instruction(op, case_list, operands, outputs, set_at - offset, pc - offset, settings)
             pc += TABLE_WORDS.get(op, 0)
         else:
             return None

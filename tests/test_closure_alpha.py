@@ -411,12 +411,17 @@ def test_a_coverage_casts_the_shadow_cycles_shadow_rays_see(addon, tmp_path, rea
     check_shadow_against_cycles(bpy, tmp_path, lambda scene, emits: _shadow_view_card(bpy, scene, emits, reads))
 
 
-def shadow_clear_graph() -> ShaderGraph:
+def shadow_clear_graph(ray_depth: int | None = None) -> ShaderGraph:
     """A black Diffuse that shadow rays see as a Transparent BSDF (Light Path's Is Shadow
-    Ray): there for every ray but a shadow ray."""
+    Ray): there for every ray but a shadow ray. With ``ray_depth``, a Transparent BSDF where
+    Light Path's Ray Depth is that instead."""
     graph = ShaderGraph()
     path = graph.add("LIGHT_PATH")
-    mix = graph.add("MIX_SHADER", Fac=Link(path, "Is Shadow Ray"),
+    fac = Link(path, "Is Shadow Ray")
+    if ray_depth is not None:
+        fac = Link(graph.add("MATH", settings={"operation": "COMPARE"}, Value=Link(path, "Ray Depth"),
+                             Value_001=float(ray_depth), Value_002=0.5), "Value")
+    mix = graph.add("MIX_SHADER", Fac=fac,
                     Shader=Link(graph.add("BSDF_DIFFUSE", Color=(0.0, 0.0, 0.0, 1.0)), "BSDF"),
                     Shader_001=Link(graph.add("BSDF_TRANSPARENT"), "BSDF"))
     graph.surface = Link(mix, "Shader")
@@ -460,7 +465,8 @@ def mirrored_ceiling_light(renderer, walls: str) -> float:
     """The mean light of a grey ceiling 4 m over a mirror floor, lit by a white World only,
     as the mirror shows it straight up (World Light Screen: the reflections' first hits hide
     the World by one occlusion ray within AO Distance, trace_ray.glsl shade_hit). Around the
-    view a square tube of black walls (``walls``: "none", "opaque", or "shadow_clear") hangs
+    view a square tube of black walls (``walls``: "none", "opaque", "shadow_clear", or
+    "depth_2_clear": a Transparent BSDF where Ray Depth is 2) hangs
     from the ceiling: edge-on to the camera's and the mirror's rays, across most of the
     occlusion rays' cosine hemisphere, and nearer than AO Distance, where the floor is not."""
     grey, mirror, black = dict(base_color=(0.8, 0.8, 0.8), specular=0.0), \
@@ -474,7 +480,8 @@ def mirrored_ceiling_light(renderer, walls: str) -> float:
             quad, _ = textured_quad((x, y, 4.0), (dx, dy, 0.0), (0.0, 0.0, -TUBE_DROP), (0.0, 0.0), (1.0, 1.0))
             objects.append((quad, None, 2))
     table = MaterialTable.from_rows([grey, mirror, black])
-    table.node_graphs = [None, None, shadow_clear_graph() if walls == "shadow_clear" else None]
+    graphs = {"shadow_clear": shadow_clear_graph(), "depth_2_clear": shadow_clear_graph(ray_depth=2)}
+    table.node_graphs = [None, None, graphs.get(walls)]
     scene = SceneData(Geometry.from_objects(objects), table, Lights.from_rows([]), Sky(color=(1.0, 1.0, 1.0)))
     camera = Camera(matrix_world=look_at((0, 0, 3), (0, 0, 0), up=(0, 1, 0)), width=16, height=16,
                     projection="ORTHO", ortho_scale=0.6, clip_start=0.01)
@@ -495,3 +502,11 @@ def test_the_occlusion_rays_run_a_coverage_as_shadow_rays(renderer, kernels):
                                      for walls in ("none", "shadow_clear", "opaque"))
     assert darkened < 0.6 * clear, (darkened, clear)
     assert abs(seen_through - clear) <= 0.02 * clear, (seen_through, clear, darkened)
+
+
+def test_the_occlusion_rays_of_a_reflections_hit_have_ray_depth_2(renderer, kernels):
+    """Cycles' shadow ray has Ray Depth one more than the bounce it leaves from (svm
+    light_path.h): 2 from the surface a mirror shows. Walls transparent only at Ray Depth 2
+    hide none of the World's light there, as no walls do."""
+    clear, seen_through = (mirrored_ceiling_light(renderer, walls) for walls in ("none", "depth_2_clear"))
+    assert abs(seen_through - clear) <= 0.02 * clear, (seen_through, clear)

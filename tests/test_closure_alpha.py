@@ -18,6 +18,7 @@ from test_alpha import (DISC_RADIUS, EMISSIVE_CARD, SMALL, _leaf_card_blender, c
                         check_mirror_against_cycles, check_primary_view_against_cycles, check_shadow_against_cycles,
                         disc_mask, mirror_view, top_camera)
 from test_emitter_light import rectangle
+from test_textures import textured_quad
 
 
 def _disc_factor(graph: ShaderGraph, radius: float = DISC_RADIUS) -> int:
@@ -410,6 +411,23 @@ def test_a_coverage_casts_the_shadow_cycles_shadow_rays_see(addon, tmp_path, rea
     check_shadow_against_cycles(bpy, tmp_path, lambda scene, emits: _shadow_view_card(bpy, scene, emits, reads))
 
 
+def shadow_clear_graph(ray_depth: int | None = None) -> ShaderGraph:
+    """A black Diffuse that shadow rays see as a Transparent BSDF (Light Path's Is Shadow
+    Ray): there for every ray but a shadow ray. With ``ray_depth``, a Transparent BSDF where
+    Light Path's Ray Depth is that instead."""
+    graph = ShaderGraph()
+    path = graph.add("LIGHT_PATH")
+    fac = Link(path, "Is Shadow Ray")
+    if ray_depth is not None:
+        fac = Link(graph.add("MATH", settings={"operation": "COMPARE"}, Value=Link(path, "Ray Depth"),
+                             Value_001=float(ray_depth), Value_002=0.5), "Value")
+    mix = graph.add("MIX_SHADER", Fac=fac,
+                    Shader=Link(graph.add("BSDF_DIFFUSE", Color=(0.0, 0.0, 0.0, 1.0)), "BSDF"),
+                    Shader_001=Link(graph.add("BSDF_TRANSPARENT"), "BSDF"))
+    graph.surface = Link(mix, "Shader")
+    return graph
+
+
 def panel_light_under(renderer, card: str) -> float:
     """The mean light on a grey floor lit only by an emissive panel 2 m above it, with a black
     card at 1 m between (``card``: "none", "opaque", or "shadow_clear": opaque but to shadow
@@ -417,18 +435,10 @@ def panel_light_under(renderer, card: str) -> float:
     grey, lamp, black = dict(base_color=(0.8, 0.8, 0.8), specular=0.0), dict(emission=(3.0,) * 3), \
         dict(base_color=(0.0, 0.0, 0.0), specular=0.0)
     objects = [(rectangle(-0.5, 0.5, -0.5, 0.5, 2.0), None, 1), (rectangle(-6, 6, -6, 6, 0.0), None, 0)]
-    graph = None
     if card != "none":
         objects.append((rectangle(-1.0, 1.0, -1.0, 1.0, 1.0), None, 2))
-        if card == "shadow_clear":
-            graph = ShaderGraph()
-            path = graph.add("LIGHT_PATH")
-            mix = graph.add("MIX_SHADER", Fac=Link(path, "Is Shadow Ray"),
-                            Shader=Link(graph.add("BSDF_DIFFUSE", Color=(0.0, 0.0, 0.0, 1.0)), "BSDF"),
-                            Shader_001=Link(graph.add("BSDF_TRANSPARENT"), "BSDF"))
-            graph.surface = Link(mix, "Shader")
     table = MaterialTable.from_rows([grey, lamp, black])
-    table.node_graphs = [None, None, graph]
+    table.node_graphs = [None, None, shadow_clear_graph() if card == "shadow_clear" else None]
     scene = SceneData(Geometry.from_objects(objects), table, Lights.from_rows([]), Sky(color=(0.0, 0.0, 0.0)))
     camera = Camera(matrix_world=look_at((0, 0, 0.5), (0, 0, 0), up=(0, 1, 0)), width=32, height=32,
                     projection="ORTHO", ortho_scale=0.8, clip_start=0.01)
@@ -446,3 +456,57 @@ def test_an_emitters_shadow_rays_run_a_coverage_as_shadow_rays(renderer):
     clear, blocked, shadowed = (panel_light_under(renderer, card) for card in ("none", "shadow_clear", "opaque"))
     assert shadowed < 0.3 * clear
     assert abs(blocked - clear) <= 0.05 * clear, (blocked, clear, shadowed)
+
+
+TUBE_HALF, TUBE_DROP = 0.5, 0.8  # the walls' square around the view, and how far they hang
+
+
+def mirrored_ceiling_light(renderer, walls: str) -> float:
+    """The mean light of a grey ceiling 4 m over a mirror floor, lit by a white World only,
+    as the mirror shows it straight up (World Light Screen: the reflections' first hits hide
+    the World by one occlusion ray within AO Distance, trace_ray.glsl shade_hit). Around the
+    view a square tube of black walls (``walls``: "none", "opaque", "shadow_clear", or
+    "depth_2_clear": a Transparent BSDF where Ray Depth is 2) hangs
+    from the ceiling: edge-on to the camera's and the mirror's rays, across most of the
+    occlusion rays' cosine hemisphere, and nearer than AO Distance, where the floor is not."""
+    grey, mirror, black = dict(base_color=(0.8, 0.8, 0.8), specular=0.0), \
+        dict(base_color=(1.0, 1.0, 1.0), reflectivity=1.0, roughness=0.0), \
+        dict(base_color=(0.0, 0.0, 0.0), specular=0.0)
+    objects = [(rectangle(-2, 2, -2, 2, 4.0), None, 0), (rectangle(-4, 4, -4, 4, 0.0), None, 1)]
+    if walls != "none":
+        h = TUBE_HALF
+        for (x, y), (dx, dy) in [((-h, -h), (2 * h, 0)), ((h, -h), (0, 2 * h)), ((h, h), (-2 * h, 0)),
+                                 ((-h, h), (0, -2 * h))]:
+            quad, _ = textured_quad((x, y, 4.0), (dx, dy, 0.0), (0.0, 0.0, -TUBE_DROP), (0.0, 0.0), (1.0, 1.0))
+            objects.append((quad, None, 2))
+    table = MaterialTable.from_rows([grey, mirror, black])
+    graphs = {"shadow_clear": shadow_clear_graph(), "depth_2_clear": shadow_clear_graph(ray_depth=2)}
+    table.node_graphs = [None, None, graphs.get(walls)]
+    scene = SceneData(Geometry.from_objects(objects), table, Lights.from_rows([]), Sky(color=(1.0, 1.0, 1.0)))
+    camera = Camera(matrix_world=look_at((0, 0, 3), (0, 0, 0), up=(0, 1, 0)), width=16, height=16,
+                    projection="ORTHO", ortho_scale=0.6, clip_start=0.01)
+    settings = RenderSettings(mode="HYBRID", near_size=8.0, cube_resolution=64, max_depth=1,
+                              world_light="SCREEN", ao_distance=1.0)
+    total = 0.0
+    for sample in range(4):
+        total += float(renderer.render(scene, camera, settings, sample=sample).image[..., 0].mean())
+    return total / 4
+
+
+def test_the_occlusion_rays_run_a_coverage_as_shadow_rays(renderer, kernels):
+    """AO Distance's occlusion rays ask only whether a blocker hides the World, as Cycles'
+    shadow rays do (Is Shadow Ray set; the waves' any-hit kernel and the megakernel alike):
+    walls there for every ray but a shadow ray hide none of it, as no walls do, where opaque
+    walls darken the ceiling."""
+    clear, seen_through, darkened = (mirrored_ceiling_light(renderer, walls)
+                                     for walls in ("none", "shadow_clear", "opaque"))
+    assert darkened < 0.6 * clear, (darkened, clear)
+    assert abs(seen_through - clear) <= 0.02 * clear, (seen_through, clear, darkened)
+
+
+def test_the_occlusion_rays_of_a_reflections_hit_have_ray_depth_2(renderer, kernels):
+    """Cycles' shadow ray has Ray Depth one more than the bounce it leaves from (svm
+    light_path.h): 2 from the surface a mirror shows. Walls transparent only at Ray Depth 2
+    hide none of the World's light there, as no walls do."""
+    clear, seen_through = (mirrored_ceiling_light(renderer, walls) for walls in ("none", "depth_2_clear"))
+    assert abs(seen_through - clear) <= 0.02 * clear, (seen_through, clear)

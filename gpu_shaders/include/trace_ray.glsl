@@ -104,9 +104,10 @@ vec3 interpolated_normal(int tri, vec2 bary) {
 #endif
 // Whether the rays being traced are shadow rays: the emitters' next-event rays set it around
 // their trace (emitter_light.glsl); the occlusion kernel's rays (TRACE_ANY_HIT) are shadow
-// rays throughout. A coverage program at their candidate hits then sees Is Shadow Ray, as
-// Cycles' shadow rays test a blocker's transparency (an artist's glass that casts no shadow
-// mixes in a Transparent BSDF by it).
+// rays throughout, and the megakernel sets it around its occlusion rays of AO Distance
+// (trace/hybrid_trace.comp.glsl trace_stack). A coverage program at their candidate hits
+// then sees Is Shadow Ray, as Cycles' shadow rays test a blocker's transparency (an
+// artist's glass that casts no shadow mixes in a Transparent BSDF by it).
 bool trace_shadow_rays = false;
 
 #ifndef TRACE_SHADING_ONLY

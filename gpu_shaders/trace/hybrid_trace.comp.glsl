@@ -136,7 +136,15 @@ void trace_stack(inout vec3 traced) {
     while (stack_size > 0) {
         stack_size -= 1;
         PendingRay ray = stack[stack_size];
+#ifndef DIFFUSE_GATHER
+        // An occlusion ray (depth < 0, push_occlusion) asks only whether a blocker hides the
+        // World within AO Distance: a shadow ray, whose candidate hits run a coverage with Is
+        // Shadow Ray set, as the waves' any-hit kernel runs them (trace_ray.glsl TRACE_ANY_HIT).
+        // With DIFFUSE_GATHER it is a gather ray that brings light back: no shadow ray.
+        trace_shadow_rays = ray.depth < 0;
+#endif
         Hit h = trace_ray(ray.origin, ray.dir, ray.depth, ray.blur, ray.reach);
+        trace_shadow_rays = false;
         if (ray.depth < 0) {
             traced += ray.weight * occlusion_result(h, ray.dir);
             continue;

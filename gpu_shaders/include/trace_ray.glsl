@@ -336,6 +336,14 @@ void count_amount(int kind, int depth, uint amount) {
 }
 #endif
 
+// The `blur` a diffuse path's rays (and the diffuse gather's) are traced with: none, so that
+// what they meet is textured at the camera's footprint there, as pbrt-v4 approximates the
+// differentials of rays past the camera's (Pharr, Jakob and Humphreys 2023, Approximate_dp_dxy),
+// not at the cone of the whole cosine lobe. The path's samples over frames already integrate
+// the lobe; its cone read levels so coarse that they averaged the empty texels outside a
+// mesh's UV islands into the light bounced off it (Cycles filters no texture).
+const float PATH_TEXTURE_BLUR = 0.0;
+
 // Width in metres of a pixel's ray cone at distance t along a ray from o: the camera-to-
 // origin distance plus t is a lower bound of the path length (textures.py). A ray drawn from
 // a glossy lobe of roughness `blur` (the roughest on its path) stands for the lobe's spread
@@ -681,7 +689,11 @@ void push_occlusion(vec3 origin, vec3 dir, vec3 weight, float reach) {
 #endif
         return;
     }
+#ifdef DIFFUSE_GATHER
+    store_ray(origin, dir, weight, -1, PATH_TEXTURE_BLUR, reach);  // a gather ray brings light
+#else
     store_ray(origin, dir, weight, -1, 1.0, reach);
+#endif
 }
 
 // Spawn the reflected and refracted rays of a hit at p (offset off the surface). Outside the

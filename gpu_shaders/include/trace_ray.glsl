@@ -27,6 +27,15 @@
 #include "shading.glsl"
 #include "octahedral.glsl"
 #include "float_order.glsl"
+
+// The `blur` a diffuse path's rays (and the diffuse gather's) are traced with: none, so that
+// what they meet is textured at the camera's footprint there, as pbrt-v4 approximates the
+// differentials of rays past the camera's (Pharr, Jakob and Humphreys 2023, Approximate_dp_dxy),
+// not at the cone of the whole cosine lobe. The path's samples over frames already integrate
+// the lobe; its cone read levels so coarse that they averaged the empty texels outside a
+// mesh's UV islands into the light bounced off it (Cycles filters no texture).
+const float PATH_TEXTURE_BLUR = 0.0;
+
 #ifndef TRACE_SHADING_ONLY
 #ifdef ALPHA_TEST
 #define BVH_ALPHA_TEST  // the traversal's any-hit alpha test: bvh_alpha_kept below
@@ -335,14 +344,6 @@ void count_amount(int kind, int depth, uint amount) {
     atomicAdd(counters[kind * COUNTER_DEPTHS + clamp(depth, 0, COUNTER_DEPTHS - 1)], amount);
 }
 #endif
-
-// The `blur` a diffuse path's rays (and the diffuse gather's) are traced with: none, so that
-// what they meet is textured at the camera's footprint there, as pbrt-v4 approximates the
-// differentials of rays past the camera's (Pharr, Jakob and Humphreys 2023, Approximate_dp_dxy),
-// not at the cone of the whole cosine lobe. The path's samples over frames already integrate
-// the lobe; its cone read levels so coarse that they averaged the empty texels outside a
-// mesh's UV islands into the light bounced off it (Cycles filters no texture).
-const float PATH_TEXTURE_BLUR = 0.0;
 
 // Width in metres of a pixel's ray cone at distance t along a ray from o: the camera-to-
 // origin distance plus t is a lower bound of the path length (textures.py). A ray drawn from

@@ -344,6 +344,52 @@ def test_a_wall_beside_a_floor_gains_the_floors_bounce_as_a_path_tracer_does(ren
         assert value == pytest.approx(reference_wall_radiance(bounces), rel=0.04), (bounces, measured)
 
 
+def tiled_island_floor(albedo: float, tiles: int = 24) -> tuple[SceneData, SceneData]:
+    """The wall and floor of ``wall_and_floor`` (a 24 m wide strip of floor, the width the
+    paths from the wall's band reach), the floor made of 1 m squares each mapped onto one
+    UV island: the image's left half, of ``albedo``, the right half black, as a baked or
+    painted texture leaves the space between its islands. Returns the scene with
+    that texture and the same scene with the floor's albedo a plain value."""
+    xs = np.arange(tiles) - tiles / 2.0 + 0.5
+    squares = np.concatenate([quad((x, -y - 0.5, 0.0), (0.5, 0, 0), (0, 0.5, 0)) for x in xs for y in range(tiles // 2)])
+    corners = squares.reshape(-1, 3, 3)
+    local = corners[..., :2] - np.floor(corners[..., :2].mean(axis=1, keepdims=True))  # each square's own [0, 1]^2
+    uvs = (0.05 + 0.4 * local).astype(np.float32)  # inside the island u < 0.5, clear of its edge
+    wall = quad((0.0, 0.0, 6.0), (tiles / 2.0, 0, 0), (0, 0, 6.0))  # facing -y
+    image = np.zeros((16, 16, 4), np.float32)
+    image[..., 3] = 1.0
+    image[:, :8, :3] = 1.0  # the texture's factor: the row's base colour times it
+    floor_row = dict(base_color=(albedo,) * 3, specular=0.0, roughness=1.0)
+    rows = [dict(base_color=(ALBEDO,) * 3, specular=0.0, roughness=1.0), floor_row,
+            {**floor_row, "base_color_texture": 0}]
+    scenes = []
+    for floor_material in (2, 1):
+        geo = Geometry.from_objects([(corners, None, floor_material), (wall, None, 0)])
+        geo = Geometry(geo.triangles, geo.normals, geo.material_ids, geo.object_ranges, geo.object_bounds,
+                       geo.object_names, uvs=np.concatenate([uvs, np.zeros((len(wall), 3, 2), np.float32)]))
+        scenes.append(SceneData(geo, MaterialTable.from_rows(rows, textures=[image]), sky=Sky(color=(1.0, 1.0, 1.0))))
+    return scenes[0], scenes[1]
+
+
+@pytest.mark.parametrize("mode", ["HYBRID", "FULL_BVH"])
+def test_light_bounced_off_a_texture_takes_its_islands_colour_not_the_empty_space_around_them(renderer, mode):
+    """A path's bounce off a textured floor reads the texture where the path meets it, not
+    averaged over its whole cosine lobe: the lobe's cone read levels so coarse that they
+    blended the black between the UV islands into the bounced light (Cycles filters no
+    texture). The wall above the floor takes the same light whether the floor's albedo is
+    the island's texture or the same plain value."""
+    textured, plain = tiled_island_floor(albedo=0.8)
+    camera = Camera(matrix_world=look_at((0.0, -4.0, 0.8), (0.0, 0.0, 0.8)), width=W, height=H)
+    origins, dirs = camera.pixel_rays()
+    hit = origins + dirs * (-origins[..., 1:2] / dirs[..., 1:2])
+    band = (hit[..., 2] > 0.1) & (hit[..., 2] < 0.6) & (np.abs(hit[..., 0]) < 1.0)
+    assert band.sum() > 100
+    settings = RenderSettings(mode=mode, near_size=5.0, shadow_resolution=256, diffuse_bounces=1)
+    with_texture = float(mean_image(renderer, textured, camera, settings, samples=16)[band].mean())
+    with_value = float(mean_image(renderer, plain, camera, settings, samples=16)[band].mean())
+    assert with_texture == pytest.approx(with_value, rel=0.03), (with_texture, with_value)
+
+
 # -- emissive meshes as lights ---------------------------------------------------------------------
 @pytest.mark.parametrize("mode", ["HYBRID", "FULL_BVH"])
 def test_a_wall_beside_a_mirror_floor_sees_the_sky_in_it(renderer, mode):

@@ -145,7 +145,7 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, out flo
     bool emission_counts = first_emission;
     sky = 0.0;
     for (int step = 0; step <= MAX_DIFFUSE_BOUNCES + MAX_GLASS_CROSSINGS; ++step) {
-        Hit h = trace_ray(o, d, vertex, 1.0, FLOAT_MAX);
+        Hit h = trace_ray(o, d, vertex, PATH_TEXTURE_BLUR, FLOAT_MAX);
         if (h.kind == HIT_SKY) {
             radiance += throughput * sky_radiance(d);
             if (vertex == 1) sky = throughput.g;

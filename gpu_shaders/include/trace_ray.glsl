@@ -27,6 +27,15 @@
 #include "shading.glsl"
 #include "octahedral.glsl"
 #include "float_order.glsl"
+
+// The `blur` a diffuse path's rays (and the diffuse gather's) are traced with: none, so that
+// what they meet is textured at the camera's footprint there, as pbrt-v4 approximates the
+// differentials of rays past the camera's (Pharr, Jakob and Humphreys 2023, Approximate_dp_dxy),
+// not at the cone of the whole cosine lobe. The path's samples over frames already integrate
+// the lobe; its cone read levels so coarse that they averaged the empty texels outside a
+// mesh's UV islands into the light bounced off it (Cycles filters no texture).
+const float PATH_TEXTURE_BLUR = 0.0;
+
 #ifndef TRACE_SHADING_ONLY
 #ifdef ALPHA_TEST
 #define BVH_ALPHA_TEST  // the traversal's any-hit alpha test: bvh_alpha_kept below
@@ -681,7 +690,11 @@ void push_occlusion(vec3 origin, vec3 dir, vec3 weight, float reach) {
 #endif
         return;
     }
+#ifdef DIFFUSE_GATHER
+    store_ray(origin, dir, weight, -1, PATH_TEXTURE_BLUR, reach);  // a gather ray brings light
+#else
     store_ray(origin, dir, weight, -1, 1.0, reach);
+#endif
 }
 
 // Spawn the reflected and refracted rays of a hit at p (offset off the surface). Outside the

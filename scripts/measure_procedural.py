@@ -35,9 +35,11 @@ step is the one that hands the Principled what the procedural gave it (``bake_to
   inverse;
 * the bake anti-aliases with ``BAKE_SAMPLES`` and extends each island by ``BAKE_MARGIN``
   texels, as an artist's bake does: a filtered read at a seam stays in the island's colour
-  at the finer mip levels, while the coarse levels that wide ray cones read (indirect and
-  glossy hits on the cubes and instances, whose islands leave most of the image empty)
-  average in the black outside the islands, as they would for any such texture.
+  at the finer mip levels, while the coarse levels that a rough glossy ray's wide cone
+  reads (on the cubes and instances, whose islands leave most of the image empty) average
+  in the black outside the islands, as they would for any such texture. Diffuse paths read
+  at the camera's footprint (trace_ray.glsl ``PATH_TEXTURE_BLUR``), so their bounced light
+  keeps the islands' colour.
 
 It prints FLIP to Cycles for each image (LDR: clamped, sRGB-encoded, as docs/PICTURES.md) and
 the bars: Hybrid RT's FLIP at or below EEVEE's, and within ``BAKED_TOLERANCE`` of the baked

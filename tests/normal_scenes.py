@@ -150,6 +150,17 @@ def add_camera(bpy, scene, ortho_scale: float):
     return camera_object
 
 
+def mirror_material(bpy):
+    """A new perfect white mirror: a Principled BSDF, metallic, roughness 0."""
+    mirror = bpy.data.materials.new("mirror")
+    mirror.use_nodes = True
+    bsdf = mirror.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    bsdf.inputs["Metallic"].default_value = 1.0
+    bsdf.inputs["Roughness"].default_value = 0.0
+    return mirror
+
+
 def mirror_scene(bpy, build, lit: bool = False, uv_turn: float = 0.0):
     """One tile under a 45-degree mirror (module header); returns the scene and its camera."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -158,13 +169,7 @@ def mirror_scene(bpy, build, lit: bool = False, uv_turn: float = 0.0):
     if lit:
         add_sun(bpy, scene)
     bpy.ops.mesh.primitive_plane_add(size=4.0, location=(0.0, 0.0, 2.0), rotation=(math.radians(-45.0), 0.0, 0.0))
-    mirror = bpy.data.materials.new("mirror")
-    mirror.use_nodes = True
-    bsdf = mirror.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    bsdf.inputs["Metallic"].default_value = 1.0
-    bsdf.inputs["Roughness"].default_value = 0.0
-    bpy.context.object.data.materials.append(mirror)
+    bpy.context.object.data.materials.append(mirror_material(bpy))
     camera = add_camera(bpy, scene, 0.7)
     black_world(bpy, scene)
     scene.render.resolution_x = scene.render.resolution_y = TILE

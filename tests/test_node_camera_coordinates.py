@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from normal_scenes import black_world, difference, inner, settings_for_one_sample
+from normal_scenes import black_world, difference, inner, mirror_material, settings_for_one_sample
 
 MEAN_BAR, P99_BAR = 0.01, 0.02
 SIZE = 64
@@ -52,13 +52,7 @@ def _scene(bpy, output: str, mirrored: bool):
     if mirrored:
         # The plane faces a 45-degree mirror above it; the camera looks into the mirror.
         bpy.ops.mesh.primitive_plane_add(size=8.0, location=(0.0, 0.0, 2.5), rotation=(math.radians(-45.0), 0.0, 0.0))
-        mirror = bpy.data.materials.new("mirror")
-        mirror.use_nodes = True
-        bsdf = mirror.node_tree.nodes["Principled BSDF"]
-        bsdf.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-        bsdf.inputs["Metallic"].default_value = 1.0
-        bsdf.inputs["Roughness"].default_value = 0.0
-        bpy.context.object.data.materials.append(mirror)
+        bpy.context.object.data.materials.append(mirror_material(bpy))
         camera_object.location = (0.2, -4.0, 2.6)
         camera_object.rotation_euler = (math.radians(88.0), math.radians(3.0), math.radians(2.0))
     else:

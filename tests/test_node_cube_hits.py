@@ -15,7 +15,7 @@ import pytest
 from hybrid_engine.scene.camera import Camera, look_at
 from hybrid_engine.scene.settings import RenderSettings
 from hybrid_engine.scene.shader_graph import Link, ShaderGraph
-from normal_scenes import black_world, settings_for_one_sample
+from normal_scenes import black_world, mirror_material, settings_for_one_sample
 from test_node_program_render import plane_scene
 from test_textures import textured_quad, top_down_camera
 
@@ -187,6 +187,38 @@ def _blender_graph(bpy, material, graph: str) -> None:
     links.new(emission.outputs["Emission"], nodes["Material Output"].inputs["Surface"])
 
 
+def _ceiling_over_a_mirror(bpy, build_graph, add_ceiling, facing: str):
+    """A new scene: the ceiling ``add_ceiling(rotation)`` adds at CEILING_Z (turned 60 degrees
+    about Z, and flipped to face down for ``facing`` front) with the material ``build_graph``
+    fills, an 8 m mirror floor, an orthographic camera at z = 3 looking down, a black World,
+    SIZE pixels; one sample at each pixel's centre in ours (as Cycles' narrow filter sees it),
+    16 in Cycles (the mirror's bounce and the Bump's filter converged). Returns the scene and
+    the camera."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    material = bpy.data.materials.new("ceiling")
+    material.use_nodes = True
+    build_graph(material)
+    add_ceiling((math.pi if facing == "front" else 0.0, 0, UV_TURN))
+    bpy.context.object.data.materials.append(material)
+    bpy.ops.mesh.primitive_plane_add(size=8.0)
+    bpy.context.object.data.materials.append(mirror_material(bpy))
+    camera = bpy.data.cameras.new("camera")
+    camera.type = "ORTHO"
+    camera.ortho_scale = 1.6
+    camera_object = bpy.data.objects.new("camera", camera)
+    camera_object.location = (0.0, 0.0, 3.0)
+    scene.collection.objects.link(camera_object)
+    scene.camera = camera_object
+    black_world(bpy, scene)
+    scene.render.resolution_x = scene.render.resolution_y = SIZE
+    scene.render.resolution_percentage = 100
+    settings_for_one_sample(scene)
+    scene.cycles.samples = 16
+    scene.cycles.max_bounces = 2
+    return scene, camera_object
+
+
 @pytest.mark.parametrize("facing", ["front", "back"])
 @pytest.mark.parametrize("graph", sorted(GRAPHS))
 def test_a_uv_bent_normal_at_a_cube_hit_matches_cycles(addon, tmp_path, graph, facing):
@@ -200,35 +232,10 @@ def test_a_uv_bent_normal_at_a_cube_hit_matches_cycles(addon, tmp_path, graph, f
 
     from test_engine import render_exr
 
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    ceiling_material = bpy.data.materials.new("ceiling")
-    ceiling_material.use_nodes = True
-    _blender_graph(bpy, ceiling_material, graph)
-    mirror = bpy.data.materials.new("mirror")
-    mirror.use_nodes = True
-    bsdf = mirror.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    bsdf.inputs["Metallic"].default_value = 1.0
-    bsdf.inputs["Roughness"].default_value = 0.0
-    bpy.ops.mesh.primitive_plane_add(size=3.0, location=(0, 0, CEILING_Z),
-                                     rotation=(math.pi if facing == "front" else 0.0, 0, UV_TURN))
-    bpy.context.object.data.materials.append(ceiling_material)
-    bpy.ops.mesh.primitive_plane_add(size=8.0)
-    bpy.context.object.data.materials.append(mirror)
-    camera = bpy.data.cameras.new("camera")
-    camera.type = "ORTHO"
-    camera.ortho_scale = 1.6
-    camera_object = bpy.data.objects.new("camera", camera)
-    camera_object.location = (0.0, 0.0, 3.0)
-    scene.collection.objects.link(camera_object)
-    scene.camera = camera_object
-    black_world(bpy, scene)
-    scene.render.resolution_x = scene.render.resolution_y = SIZE
-    scene.render.resolution_percentage = 100
-    settings_for_one_sample(scene)  # ours: the pixel's centre, as Cycles' narrow filter sees it
-    scene.cycles.samples = 16  # Cycles: the mirror's bounce, and the Bump's filter, converged
-    scene.cycles.max_bounces = 2
+    scene, _camera = _ceiling_over_a_mirror(
+        bpy, lambda material: _blender_graph(bpy, material, graph),
+        lambda rotation: bpy.ops.mesh.primitive_plane_add(size=3.0, location=(0, 0, CEILING_Z), rotation=rotation),
+        facing)
     scene.render.engine = "CYCLES"
     cycles = render_exr(bpy, scene, tmp_path / "cycles.exr")[..., :3]
     assert inner(cycles).std(axis=(0, 1)).max() > 0.02, "the graph bends no normal"
@@ -240,3 +247,91 @@ def test_a_uv_bent_normal_at_a_cube_hit_matches_cycles(addon, tmp_path, graph, f
         ours = render_exr(bpy, scene, tmp_path / f"{mode}.exr")[..., :3]
         mean, p99 = difference(ours, cycles)
         assert mean <= MEAN_BAR and p99 <= P99_BAR, f"{graph}, {facing}, {mode} against Cycles: {mean:.4f}, {p99:.4f}"
+
+
+# -- a Bump's Generated and Color Attribute heights, either face, against Cycles ------------
+GRID_CUTS = 24
+HEIGHT_SOURCES = ("generated", "attribute")
+# A cube hit takes its triangle from the texel it meets, and a Color Attribute's gradient is
+# the triangle's own (faceted): where a texel straddles two triangles, some pixels show the
+# neighbour's slope. Far below a back face stepped the wrong way (0.19 mean).
+CUBE_HIT_ATTRIBUTE_BARS = (0.006, 0.1)
+
+
+def _paint(mesh) -> None:
+    """A Color Attribute "Paint" on the points, a smooth grey pattern over the grid."""
+    attribute = mesh.color_attributes.new("Paint", "FLOAT_COLOR", "POINT")
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("co", co)
+    x, y = co[0::3], co[1::3]
+    grey = 0.5 + 0.4 * np.sin(2.1 * x + 0.3) * np.cos(1.7 * y - 0.2)
+    attribute.data.foreach_set("color", np.stack([grey, grey, grey, np.ones_like(grey)], -1).ravel())
+
+
+def _height_bump_graph(material, height: str) -> None:
+    """A Bump whose Height is a Noise of the implicit Generated coordinates, or the Color
+    Attribute's Fac; the bent normal shown as an emission colour."""
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    for node in [n for n in nodes if n.type != "OUTPUT_MATERIAL"]:
+        nodes.remove(node)
+    if height == "generated":
+        source = nodes.new("ShaderNodeTexNoise")
+        source.inputs["Scale"].default_value = 6.0
+        source.inputs["Detail"].default_value = 2.0
+        fac, distance = source.outputs["Fac"], 0.3
+    else:
+        source = nodes.new("ShaderNodeVertexColor")
+        source.layer_name = "Paint"
+        fac, distance = source.outputs["Color"], 1.0
+    bump = nodes.new("ShaderNodeBump")
+    bump.inputs["Distance"].default_value = distance
+    links.new(fac, bump.inputs["Height"])
+    shown = nodes.new("ShaderNodeVectorMath")
+    shown.operation = "MULTIPLY_ADD"
+    shown.inputs[1].default_value = (0.5, 0.5, 0.5)
+    shown.inputs[2].default_value = (0.5, 0.5, 0.5)
+    links.new(bump.outputs["Normal"], shown.inputs[0])
+    emission = nodes.new("ShaderNodeEmission")
+    links.new(shown.outputs["Vector"], emission.inputs["Color"])
+    links.new(emission.outputs["Emission"], nodes["Material Output"].inputs["Surface"])
+
+
+@pytest.mark.parametrize("facing", ["front", "back"])
+@pytest.mark.parametrize("height", HEIGHT_SOURCES)
+def test_a_bumps_generated_and_attribute_heights_step_as_in_cycles_on_either_face(addon, tmp_path, height, facing):
+    """Cycles reads a mesh's interpolated attributes (the Generated coordinates and Color
+    Attributes) at the Bump's shifted points through the barycentrics' change, which it solves
+    with dP/du and dP/dv flipped with the normal: seen from behind they step backwards while
+    the position steps forwards, as the UV does. A gridded ceiling, painted, seen directly from
+    below (the G-buffer), and in a mirror through the cube map (HYBRID) and the BVH. The grid's
+    flat axis is rounding noise in Blender's texture space, which Generated must not amplify
+    (node_programs.texture_space)."""
+    import bpy
+
+    from test_engine import render_exr
+
+    def painted_grid(rotation):
+        bpy.ops.mesh.primitive_grid_add(x_subdivisions=GRID_CUTS, y_subdivisions=GRID_CUTS, size=3.0,
+                                        location=(0, 0, CEILING_Z), rotation=rotation)
+        _paint(bpy.context.object.data)
+
+    scene, camera_object = _ceiling_over_a_mirror(bpy, lambda material: _height_bump_graph(material, height),
+                                                  painted_grid, facing)
+    scene.hybrid_rt.near_size = 1.0
+    scene.hybrid_rt.cube_resolution = 256
+    views = {"mirror": ((0.0, 0.0, 3.0), (0.0, 0.0, 0.0), ("HYBRID", "FULL_BVH")),
+             "direct": ((0.0, 0.0, 3.0), (math.pi, 0.0, 0.0), ("HYBRID",))}
+    for view, (location, rotation, modes) in views.items():
+        camera_object.location, camera_object.rotation_euler = location, rotation
+        scene.render.engine = "CYCLES"
+        cycles = render_exr(bpy, scene, tmp_path / f"cycles_{view}.exr")[..., :3]
+        assert inner(cycles).std(axis=(0, 1)).max() > 0.02, f"{view}: the height bends no normal"
+        scene.render.engine = "HYBRID_RT"
+        for mode in modes:
+            scene.hybrid_rt.mode = mode
+            ours = render_exr(bpy, scene, tmp_path / f"{view}_{mode}.exr")[..., :3]
+            mean, p99 = difference(ours, cycles)
+            mean_bar, p99_bar = CUBE_HIT_ATTRIBUTE_BARS if (height, mode) == ("attribute", "HYBRID") \
+                else (MEAN_BAR, P99_BAR)
+            assert mean <= mean_bar and p99 <= p99_bar, \
+                f"{height}, {facing}, {view}, {mode} against Cycles: {mean:.4f}, {p99:.4f}"

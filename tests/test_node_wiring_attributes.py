@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from normal_scenes import mirror_material
 from test_node_wiring_colour import MEAN_BAR, P99_BAR, cells, difference, render_both
 
 QUADS = 4  # per side of a plane
@@ -156,14 +157,8 @@ def test_a_vertex_colour_seen_in_a_hybrid_mirror_matches_its_primary_view(addon,
     cases = {name: CASES[name] for name in ("byte colour, corner, render default", "float, point, Fac",
                                             "vector, corner", "float colour, corner")}
     scene = attribute_scene(bpy, cases, pixels_per_cell=40)
-    mirror = bpy.data.materials.new("mirror")
-    mirror.use_nodes = True
-    bsdf = mirror.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    bsdf.inputs["Metallic"].default_value = 1.0
-    bsdf.inputs["Roughness"].default_value = 0.0
     floor = _plane_mesh(bpy, "floor")
-    floor.materials.append(mirror)
+    floor.materials.append(mirror_material(bpy))
     floor_object = bpy.data.objects.new("floor", floor)
     floor_object.location, floor_object.scale = (CELL, CELL, -1.0), (4 * CELL,) * 3
     scene.collection.objects.link(floor_object)

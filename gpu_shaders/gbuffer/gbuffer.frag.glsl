@@ -181,7 +181,7 @@ void main() {
 #ifdef NODE_PROGRAMS
     if (material_has_program(m)) {
         ShadingPoint sp;
-        sp.position = v_world;
+        sp.position = sp.surface = v_world;
         sp.incoming = u_orthographic != 0 ? -normalize(u_camera_forward) : normalize(u_camera_position - v_world);
         sp.backfacing = !gl_FrontFacing;
         sp.normal = sp.backfacing ? -n : n;

@@ -177,6 +177,9 @@ uniform mat4 u_node_world_to_clip;
 // What the input nodes read at a shading point; the caller fills every field.
 struct ShadingPoint {
     vec3 position;    // world space
+    vec3 surface;     // where the mesh's interpolated attributes are read (Generated, Color
+                      //   Attribute): the position, but for a back face's Bump step, which
+                      //   runs backwards there as the UV's does (node_bump_offset)
     vec3 normal;      // unit shading normal facing the incoming ray (Cycles' N: flipped on backfaces)
     vec3 geometric;   // unit true normal, facing alike
     vec3 incoming;    // unit vector from the point towards where the ray came from (Geometry Incoming)
@@ -213,7 +216,7 @@ int node_shadow_ray_depth(int bounce) {
 ShadingPoint node_plain_point(vec3 position, vec3 normal, vec3 geometric, vec3 incoming, vec2 uv, float lod,
                               int depth, int row, int material) {
     ShadingPoint sp;
-    sp.position = position;
+    sp.position = sp.surface = position;
     sp.backfacing = dot(normal, incoming) < 0.0;
     sp.normal = sp.backfacing ? -normal : normal;
     sp.geometric = dot(geometric, incoming) < 0.0 ? -geometric : geometric;
@@ -286,11 +289,13 @@ vec3 node_to_object(int k, vec3 p, float w) {
 #endif
 // -- end of attributes
 
+// Texture Coordinate Generated: the point in its mesh's texture space (scene_upload/
+// node_programs.py texture_space), 0.5 across an axis the mesh is flat along.
 vec3 node_generated(ShadingPoint sp) {
     int k = node_object_of(sp.row);
-    if (k < 0) return sp.position;
+    if (k < 0) return sp.surface;
     vec3 size = node_objects[k].space_size.xyz;
-    vec3 p = node_to_object(k, sp.position, 1.0) - node_objects[k].space_min.xyz;
+    vec3 p = node_to_object(k, sp.surface, 1.0) - node_objects[k].space_min.xyz;
     return vec3(size.x > 0.0 ? p.x / size.x : 0.5, size.y > 0.0 ? p.y / size.y : 0.5,
                 size.z > 0.0 ? p.z / size.z : 0.5);
 }
@@ -462,18 +467,21 @@ vec3 node_normal_map(ShadingPoint sp, int space, float strength, vec3 color) {
 // The shading point one filter width along a differential (Cycles' bump evaluation: the
 // position and the texture coordinates move, the normal stays): axis 1 along dP/dx, 2 along
 // dP/dy, 0 the point itself. Filter Width is in pixels, the differentials span one. Seen
-// from behind, the UV steps backwards while the position steps forwards, as in Cycles, which
-// solves the UV's change with dP/du and dP/dv after flipping them with the normal: a Height
-// that reads the UV is bumped the other way on a back face.
+// from behind, the UV and the mesh's other interpolated attributes (Generated, Color
+// Attributes: sp.surface) step backwards while the position steps forwards, as in Cycles,
+// which solves the barycentrics' change with dP/du and dP/dv after flipping them with the
+// normal: a Height that reads any of them is bumped the other way on a back face.
 ShadingPoint node_bump_offset(ShadingPoint base, int axis, float width) {
     ShadingPoint sp = base;
-    float uv_width = base.backfacing ? -width : width;
+    float surface_width = base.backfacing ? -width : width;
     if (axis == 1) {
         sp.position += width * base.dp_dx;
-        sp.uv += uv_width * base.uv_dx;
+        sp.surface += surface_width * base.dp_dx;
+        sp.uv += surface_width * base.uv_dx;
     } else if (axis == 2) {
         sp.position += width * base.dp_dy;
-        sp.uv += uv_width * base.uv_dy;
+        sp.surface += surface_width * base.dp_dy;
+        sp.uv += surface_width * base.uv_dy;
     }
     return sp;
 }
@@ -1084,7 +1092,7 @@ NodeClosure node_program_interpret(int offset, ShadingPoint sp) {
 #ifdef NODE_ATTRIBUTES
         case NODE_OP_ATTRIBUTE: {
             vec4 a = node_attribute(int(node_words[set_at]), int(node_words[set_at + 1u]),
-                                    node_object_of(sp.row), sp.row, sp.position);
+                                    node_object_of(sp.row), sp.row, sp.surface);
             node_out[0] = vec4(a.rgb, 1.0);
             node_out[1] = vec4(a.rgb, 0.0);
             node_out[2] = vec4((a.r + a.g + a.b) * (1.0 / 3.0));

@@ -760,7 +760,7 @@ Material hit_material(inout Hit h, vec3 d, int depth) {
     Material m = materials[h.material];
     if (material_has_program(m)) {
         ShadingPoint sp;
-        sp.position = h.position;
+        sp.position = sp.surface = h.position;
         sp.incoming = -d;
         // BVH hits know the triangle's winding; cube hits only the stored shading normal.
         sp.backfacing = dot(d, h.kind == HIT_BVH ? h.geometric : h.normal) > 0.0;

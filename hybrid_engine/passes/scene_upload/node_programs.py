@@ -13,7 +13,7 @@ Generated, Normal Map in object space), the origin (Object Info Location), Objec
 Random (a hash of the instance's index: stable from frame to frame, different between
 instances; Blender's own hashes the object's name, which the instance table does not
 carry), the object colour (white: the table carries none) and the texture space of
-Generated (the mesh's object-space bounds, Blender's automatic texture space).
+Generated (the mesh's object-space bounds, Blender's automatic texture space: ``texture_space``).
 """
 from __future__ import annotations
 
@@ -35,6 +35,31 @@ NODE_OBJECT_DTYPE = np.dtype([("to_object", np.float32, (3, 4)), ("location", np
                               ("color", np.float32, 4), ("space_min", np.float32, 4),
                               ("space_size", np.float32, 4), ("rows", np.int32, 4)])
 assert NODE_OBJECT_DTYPE.itemsize == 128
+
+
+# Blender's automatic texture space (BKE_mesh_texspace_calc) widens an axis thinner than this
+# half-size to it. Such an axis is a flat mesh's rounding noise (a grid primitive, a plane
+# whose rotation was applied): Blender's Generated there is 0.5 to a few parts in 1e10,
+# interpolated from the corners. Taken from a shading point's position, which carries the
+# float error of its world coordinates, the noise would be blown up to a visible fraction of
+# 0..1, so such an axis is taken as flat (size 0: Generated reads 0.5 across it).
+TEXTURE_SPACE_MIN_HALF_SIZE = 1e-5
+
+
+def texture_space(positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The corner and size of Generated's box over a mesh's object-space ``positions``
+    (Generated = (p - corner) / size; include/node_program.glsl ``node_generated``), as
+    Blender's automatic texture space makes it: the bounds of the finite points, an axis
+    thinner than ``TEXTURE_SPACE_MIN_HALF_SIZE`` flat (size 0, its corner the centre). No
+    finite point: flat at the origin."""
+    p = np.asarray(positions, np.float32).reshape(-1, 3)
+    p = p[np.isfinite(p).all(axis=1)]
+    if not len(p):
+        return np.zeros(3, np.float32), np.zeros(3, np.float32)
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    flat = (hi - lo) * np.float32(0.5) < TEXTURE_SPACE_MIN_HALF_SIZE
+    centre = (lo + hi) * np.float32(0.5)
+    return np.where(flat, centre, lo), np.where(flat, np.float32(0.0), hi - lo)
 
 
 def instance_random(count: int) -> np.ndarray:
@@ -198,8 +223,7 @@ class NodePrograms:
         key = (mesh.mesh_id, mesh.version, id(mesh.positions))
         found = self._bounds.get(key)
         if found is None:
-            p = mesh.positions[np.isfinite(mesh.positions).all(axis=1)]
-            found = (p.min(axis=0), p.max(axis=0) - p.min(axis=0)) if len(p) else (np.zeros(3), np.zeros(3))
+            found = texture_space(mesh.positions)
             if len(self._bounds) > 4096:
                 self._bounds.clear()
             self._bounds[key] = found

@@ -180,6 +180,34 @@ def test_the_automatic_near_size_is_a_multiple_of_the_typical_object_size():
         assert resolve(RenderSettings(near_size=2.0), scene, camera.position, *SIZE)[0].near_size == 2.0
 
 
+def test_many_instances_of_one_small_mesh_count_once_in_the_automatic_near_size():
+    """A room (floor and walls), a ball and nine linked duplicates of a pebble: by object, the
+    pebbles are the median and the near cube would shrink to a pebble's; by mesh, each
+    distinct shape counts once (the scene's distinct sizes: the room's three planes, the
+    ball, the pebble)."""
+    from hybrid_engine.scene.geometry import InstancedGeometry
+    from hybrid_engine.scene.meshes import Instances
+    from scenes_instanced import grid_mesh, placed, sphere_mesh
+
+    sphere, plane = sphere_mesh(), grid_mesh()
+    rotate_x = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]])
+    rooms = [placed(np.eye(3) * 4, (0, 0, 0)), placed(rotate_x * 4, (0, 4, 2)), placed(rotate_x.T * 4, (0, -4, 2))]
+    pebbles = [placed(np.eye(3) * 0.1, (0.5 * k - 2.0, -1.0, 0.1)) for k in range(9)]
+    matrices = rooms + [placed(np.eye(3) * 0.8, (0.5, 0.5, 0.8))] + pebbles
+    mesh = np.array([1, 1, 1, 0] + [2] * 9)
+    instances = Instances(meshes=[sphere, plane, sphere_mesh()], mesh=mesh,
+                          matrices=np.array(matrices, np.float32), slot_materials=[np.int32([0, 0])] * len(mesh))
+    scene = SceneData(geometry=InstancedGeometry(instances), materials=MaterialTable.from_rows([{}]))
+    diagonals = np.linalg.norm(np.diff(scene.geometry.object_bounds, axis=1)[:, 0], axis=1)
+    room, ball, pebble = diagonals[0], diagonals[3], diagonals[4]
+    assert np.median(diagonals) == pytest.approx(pebble)  # by object, a pebble's
+    eye = (0.0, -3.0, 1.5)
+    settings, _values = resolve(RenderSettings(), scene, eye, *SIZE)
+    # Three distinct meshes: the planes (one mesh, three instances), the ball, the pebbles.
+    assert settings.near_size == pytest.approx(NEAR_SIZE_PER_OBJECT * ball, rel=1e-5)
+    assert pebble < ball < room
+
+
 def test_frame_budget_limits_follow_the_scene_scale_and_fixed_ones_win():
     budget = RenderSettings(near_cube_mode="BUDGET")
     limits = {}

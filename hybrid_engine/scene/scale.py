@@ -10,15 +10,16 @@ finite bounds (``SceneBounds``: a non-finite vertex cannot move them) and the ca
   scene's bounds seen from the eye, so no object is ever clipped out of the reflections,
   and no farther, so the map's depth precision is spent on the scene;
 * *Near Size* (the near cube's half-size, paper §3.3) is a multiple of the scene's typical
-  object size, the median diagonal of its objects' bounds: a floor or a sky dome a hundred
-  times larger than the rest does not swell the near cube, which would make the BVH hold
-  most of the scene;
+  object size, the median size of its distinct meshes (each the median diagonal of its
+  instances' bounds): a floor or a sky dome a hundred times larger than the rest does not
+  swell the near cube, which would make the BVH hold most of the scene, and many instances
+  of one small mesh do not shrink it;
 * *Frame Budget*'s limits on the near size are a fraction and a multiple of that Automatic
   near size, so the budget controller searches the sizes that matter at the scene's scale;
 * the cube map's face resolution is a ratio of the output's longer side: a face texel keeps
   to the size of a pixel, so a small output does not pay for a large cube map.
 
-Everything here reads the per-object bounds the scene already holds (one median over the
+Everything here reads the per-object bounds the scene already holds (medians over the
 objects per frame), never the triangles, and nothing from the GPU.
 """
 from __future__ import annotations
@@ -70,15 +71,26 @@ class EffectiveValues:
 
 
 def typical_object_size(scene: SceneData) -> float:
-    """The median diagonal of the scene's objects with finite, non-degenerate bounds
-    (``EMPTY_SCENE_SCALE`` when none has)."""
+    """The median size of the scene's distinct shapes: each mesh's size is the mean
+    diagonal of its instances with finite, non-degenerate bounds, and the scene's the median
+    of those (``EMPTY_SCENE_SCALE`` when none has). A mesh counts once however often it is
+    instanced: nine linked duplicates of a pebble, or a thousand scattered blades of grass, do
+    not make the room they lie in a scene of pebbles and shrink the near cube to nothing."""
     b = np.asarray(scene.geometry.object_bounds, np.float64)
     if not len(b):
         return EMPTY_SCENE_SCALE
     finite = np.isfinite(b).all(axis=(1, 2)) & (b[:, 0] <= b[:, 1]).all(axis=1)
-    diag = np.linalg.norm(b[finite, 1] - b[finite, 0], axis=1)
-    diag = diag[diag > 0.0]
-    return float(np.median(diag)) if len(diag) else EMPTY_SCENE_SCALE
+    diag = np.linalg.norm(b[:, 1] - b[:, 0], axis=1)
+    kept = finite & (diag > 0.0)
+    if not kept.any():
+        return EMPTY_SCENE_SCALE
+    instances = getattr(scene.geometry, "instances", None)
+    if instances is None or len(instances) != len(b):
+        return float(np.median(diag[kept]))
+    mesh = np.asarray(instances.mesh)[kept]
+    count = np.bincount(mesh)
+    shown = count > 0
+    return float(np.median(np.bincount(mesh, weights=diag[kept])[shown] / count[shown]))
 
 
 def farthest_corner(bounds: SceneBounds, eye: np.ndarray) -> float:

@@ -430,15 +430,19 @@ def shadow_clear_graph(ray_depth: int | None = None) -> ShaderGraph:
 
 def panel_light_under(renderer, card: str) -> float:
     """The mean light on a grey floor lit only by an emissive panel 2 m above it, with a black
-    card at 1 m between (``card``: "none", "opaque", or "shadow_clear": opaque but to shadow
-    rays, by Light Path's Is Shadow Ray), seen from between the card and the floor."""
+    card at 1 m between (``card``: "none", "opaque", "shadow_clear": opaque but to shadow
+    rays, by Light Path's Is Shadow Ray, or "depth_N_clear": a Transparent BSDF where Ray Depth
+    is N), seen from between the card and the floor; no bounces, so the floor's light is the
+    next-event estimate at the point the camera sees."""
     grey, lamp, black = dict(base_color=(0.8, 0.8, 0.8), specular=0.0), dict(emission=(3.0,) * 3), \
         dict(base_color=(0.0, 0.0, 0.0), specular=0.0)
     objects = [(rectangle(-0.5, 0.5, -0.5, 0.5, 2.0), None, 1), (rectangle(-6, 6, -6, 6, 0.0), None, 0)]
     if card != "none":
         objects.append((rectangle(-1.0, 1.0, -1.0, 1.0, 1.0), None, 2))
     table = MaterialTable.from_rows([grey, lamp, black])
-    table.node_graphs = [None, None, shadow_clear_graph() if card == "shadow_clear" else None]
+    graphs = {"shadow_clear": shadow_clear_graph(), "depth_1_clear": shadow_clear_graph(ray_depth=1),
+              "depth_2_clear": shadow_clear_graph(ray_depth=2)}
+    table.node_graphs = [None, None, graphs.get(card)]
     scene = SceneData(Geometry.from_objects(objects), table, Lights.from_rows([]), Sky(color=(0.0, 0.0, 0.0)))
     camera = Camera(matrix_world=look_at((0, 0, 0.5), (0, 0, 0), up=(0, 1, 0)), width=32, height=32,
                     projection="ORTHO", ortho_scale=0.8, clip_start=0.01)
@@ -456,6 +460,16 @@ def test_an_emitters_shadow_rays_run_a_coverage_as_shadow_rays(renderer):
     clear, blocked, shadowed = (panel_light_under(renderer, card) for card in ("none", "shadow_clear", "opaque"))
     assert shadowed < 0.3 * clear
     assert abs(blocked - clear) <= 0.05 * clear, (blocked, clear, shadowed)
+
+
+def test_an_emitters_shadow_rays_from_the_point_the_camera_sees_have_ray_depth_1(renderer):
+    """Cycles' shadow ray has Ray Depth one more than the bounce it leaves from (svm
+    light_path.h): 1 from the floor the camera sees. A card transparent only at Ray Depth 1
+    lets the panel's light through, as no card does; one transparent only at Ray Depth 2
+    hides it, as an opaque card does."""
+    clear, depth_1, depth_2 = (panel_light_under(renderer, card) for card in ("none", "depth_1_clear", "depth_2_clear"))
+    assert abs(depth_1 - clear) <= 0.05 * clear, (depth_1, clear)
+    assert depth_2 < 0.3 * clear, (depth_2, clear)
 
 
 TUBE_HALF, TUBE_DROP = 0.5, 0.8  # the walls' square around the view, and how far they hang

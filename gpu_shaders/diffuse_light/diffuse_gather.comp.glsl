@@ -221,7 +221,7 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, out flo
 #ifdef EMITTER_LIGHT
         radiance += throughput / PI * emitter_irradiance(h.position, hs.n_facing, hs.g_facing,
                                                          random3(EMITTER_SALT + 32 * path + vertex),
-                                                         material_light_set(materials[h.material]));
+                                                         material_light_set(materials[h.material]), vertex);
 #endif
         d = cosine_direction(hs.n_facing, hs.g_facing, gather_random(salt + vertex));
         o = offset_origin(h.position, hs.g_facing);
@@ -268,7 +268,7 @@ void main() {
             // The emitters' next-event estimate is the diffuse layer's (cosine-weighted).
             if (!glossy)
                 irradiance += emitter_irradiance(p, n_facing, g_facing, random3(EMITTER_SALT + 32 * i),
-                                                 material_light_set(materials[int(abs(nm.w) + 0.5) - 1]));
+                                                 material_light_set(materials[int(abs(nm.w) + 0.5) - 1]), 0);
 #endif
         }
         ambient = vec4(irradiance, sky) / float(paths);

@@ -76,8 +76,9 @@ int emitter_pick(float u, out float probability) {
 // lets through its transmission, as occlusion_seen (trace_ray.glsl) has glass do. Not
 // divided by pi, not multiplied by albedo: an irradiance, as sky_irradiance's.
 // `receiver_set`: the surface's light-linking set (its material's, light_linking.py), read
-// only with EMITTER_LINKING.
-vec3 emitter_irradiance(vec3 p, vec3 n_facing, vec3 g_facing, vec3 xi, int receiver_set) {
+// only with EMITTER_LINKING. `bounce`: the path vertex p is (0: the point the camera sees),
+// whose shadow ray a blocker's Light Path sees at Ray Depth bounce + 1.
+vec3 emitter_irradiance(vec3 p, vec3 n_facing, vec3 g_facing, vec3 xi, int receiver_set, int bounce) {
     float probability;
     int picked = emitter_pick(xi.x, probability);
     if (picked < 0 || !(probability > 0.0)) return vec3(0.0);
@@ -138,8 +139,10 @@ vec3 emitter_irradiance(vec3 p, vec3 n_facing, vec3 g_facing, vec3 xi, int recei
         for (int k = 0; ; ++k) {
             emitter_shadow_rays += 1u;
             trace_shadow_rays = true;
+            trace_shadow_bounce = bounce;
             h = trace_ray(from, shadow_dir, -1, 1.0, left);
             trace_shadow_rays = false;
+            trace_shadow_bounce = 1;
             itself = emitter_hit_is_light(h, q);
             if (!linked || h.kind == HIT_SKY || itself
                 || link_mask_holds(blockers, int(materials[h.material].params2.w + 0.5))) break;
@@ -151,8 +154,10 @@ vec3 emitter_irradiance(vec3 p, vec3 n_facing, vec3 g_facing, vec3 xi, int recei
 #else
         emitter_shadow_rays += 1u;
         trace_shadow_rays = true;
+        trace_shadow_bounce = bounce;
         Hit h = trace_ray(o, shadow_dir, -1, 1.0, reach);
         trace_shadow_rays = false;
+        trace_shadow_bounce = 1;
         bool itself = emitter_hit_is_light(h, q);
 #endif
         if (h.kind != HIT_SKY && !itself) seen = material_transmission(materials[h.material]);

@@ -118,6 +118,10 @@ vec3 interpolated_normal(int tri, vec2 bary) {
 // then sees Is Shadow Ray, as Cycles' shadow rays test a blocker's transparency (an
 // artist's glass that casts no shadow mixes in a Transparent BSDF by it).
 bool trace_shadow_rays = false;
+// The bounce a shadow ray leaves from (Light Path's Ray Depth is one more there, as Cycles
+// counts it: 1 from a point the camera sees): the emitters' next-event rays set it per path
+// vertex; the occlusion rays of a reflection's hit leave from bounce 1.
+int trace_shadow_bounce = 1;
 
 #ifndef TRACE_SHADING_ONLY
 // struct TriangleUV (GPUScene.uv_rows; scene_upload/instance_transform.comp.glsl)   // total: 32 bytes
@@ -158,7 +162,7 @@ bool bvh_alpha_kept(int tri, vec2 bary, BVHRay ray, float t) {
         vec3 towards = -node_unit(dir, vec3(0.0, 0.0, 1.0));
         vec3 n = node_unit(interpolated_normal(tri, bary), towards);
         alpha = material_closure_alpha(m, ray.origin + t * dir, n, towards, uv, vec2(0.0), vec2(0.0), 0.0, tri,
-                                       material, shadow ? node_shadow_ray_depth(1) : 1);
+                                       material, shadow ? node_shadow_ray_depth(trace_shadow_bounce) : 1);
     }
 #endif
     // -- end of closure alpha

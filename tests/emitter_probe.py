@@ -12,6 +12,7 @@ import numpy as np
 
 from hybrid_engine.gpu import shader_loader
 from hybrid_engine.gpu.bindings import bind, split_storage
+from hybrid_engine.gpu.render_targets import sampled_depth_texture
 from hybrid_engine.gpu.dispatch import dispatch, split_blocks, storage_barrier
 from hybrid_engine.passes.emitters.emitter_links import EmitterLinks
 from hybrid_engine.passes.emitters.emitter_table import EmitterTable
@@ -43,7 +44,7 @@ class EmitterProbe:
         self._counters = ctx.buffer(reserve=COUNTER_WORDS * 4)
         # The lamps' and the sky's blocks the shared code declares; the estimate reads none.
         self._unused = ctx.buffer(reserve=1 << 16)
-        self._dummies = [ctx.depth_texture((1, 1)), ctx.texture((1, 1), 4, dtype="f4"),
+        self._dummies = [sampled_depth_texture(ctx, (1, 1)), ctx.texture((1, 1), 4, dtype="f4"),
                          ctx.texture((1, 1), 2, dtype="f4")]
 
     def _bind(self, defines: dict, storage: dict, uniforms: dict) -> object:

@@ -12,6 +12,21 @@ import numpy as np
 from . import gl_context
 
 
+def sampled_depth_texture(ctx, size: tuple[int, int]):
+    """A depth texture that shaders read as plain depth values (``texelFetch`` through a
+    ``sampler2D``): depth comparison off.
+
+    moderngl turns comparison on for every depth texture it makes (TEXTURE_COMPARE_MODE
+    COMPARE_REF_TO_TEXTURE, function "<="), and a non-shadow lookup of a depth texture
+    with comparison on has undefined results (GLSL 4.60 §8.9, Texture Functions): a driver
+    may hand back the comparison's 0 or 1 instead of the depth. Every depth texture the
+    passes sample is read through plain samplers (the G-buffers' and the cube map's depth,
+    the shadow atlas), none through a shadow sampler."""
+    tex = ctx.depth_texture(size)
+    tex.compare_func = ""
+    return tex
+
+
 def release_all(objects) -> None:
     """Release GL objects (None skipped), never deleting the bound framebuffer."""
     gl_context.park_framebuffer()
@@ -29,7 +44,7 @@ class RenderTargets:
                  extra: dict[str, tuple[int, str]] | None = None,
                  cleared: tuple[str, ...] | None = None) -> None:
         self.size = (int(width), int(height))
-        self.depth = ctx.depth_texture(self.size)
+        self.depth = sampled_depth_texture(ctx, self.size)
         self._textures = {"depth": self.depth}
         for name, (components, dtype) in {**colour, **(extra or {})}.items():
             self._textures[name] = ctx.texture(self.size, components, dtype=dtype)

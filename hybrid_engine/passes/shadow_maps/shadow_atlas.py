@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...gpu.dispatch import SceneLimitError
+from ...gpu.render_targets import sampled_depth_texture
 
 # struct ShadowSlot (gpu_shaders/include/scene_layout.glsl)           // total: 96 bytes
 SHADOW_SLOT_DTYPE = np.dtype([("view_proj", np.float32, (4, 4)), ("rect", np.int32, 4), ("texel", np.float32, 4)])
@@ -66,9 +67,8 @@ class ShadowAtlas:
             self._release_layers()
             layers = []
             for _ in range(2):
-                tex = self.ctx.depth_texture(size)
+                tex = sampled_depth_texture(self.ctx, size)
                 tex.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
-                tex.compare_func = ""
                 fbo = self.ctx.framebuffer(depth_attachment=tex)
                 fbo.use()
                 fbo.viewport = (0, 0, *size)

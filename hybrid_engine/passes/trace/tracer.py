@@ -34,6 +34,7 @@ import numpy as np
 from ...gpu import gl_context, shader_loader
 from ...gpu.bindings import Image, bind, split_storage
 from ...gpu.dispatch import split_blocks, storage_barrier
+from ...gpu.render_targets import sampled_depth_texture
 from ...scene.bounds import SceneBounds
 from ...scene.raster_view import RasterView
 from ...scene.settings import FIELD_LIMITS, RenderSettings
@@ -130,7 +131,7 @@ class HybridTracer:
         self._counters = ctx.buffer(reserve=len(COUNTER_KINDS) * COUNTER_DEPTHS * 4)
         self._zero_counters = bytes(self._counters.size)
         self._dummy_ssbo = ctx.buffer(reserve=256)
-        self._dummy_depth = ctx.depth_texture((1, 1))
+        self._dummy_depth = sampled_depth_texture(ctx, (1, 1))
         self._dummy_rgba = ctx.texture((1, 1), 4, dtype="f4")
         self._dummy_rg = ctx.texture((1, 1), 2, dtype="f4")
         self.diagnostic = None  # the diagnostic views' per-pixel counts (diagnostic_views.py)

@@ -9,7 +9,8 @@
 # OUT_DIR as it goes, so that a run cut short still returns what it finished: the tests'
 # failures with their text and the failing comparisons' images (tests/_failures), node_cost's
 # renders line by line, picture_cost --light and the frame section as JSON. Needs numpy,
-# moderngl, glcontext and pytest (no Blender: the tests that need it are not in the list).
+# moderngl, glcontext, flip_evaluator (the tests' FLIP: without it those tests fail as if
+# their images differed) and pytest (no Blender: the tests that need it are not in the list).
 set -o pipefail
 out=${1:?usage: device_check.sh OUT_DIR [SECONDS]}
 budget=${2:-480}
@@ -27,6 +28,7 @@ step() {  # step NAME SHARE_OF_WHAT_IS_LEFT_IN_PERCENT COMMAND...
 }
 export PYTHONUNBUFFERED=1 __GL_SHADER_DISK_CACHE=0 MESA_SHADER_CACHE_DISABLE=true
 python3 -c "from hybrid_engine.gpu import gl_context as g; print(g.renderer_name())" || exit 1
+python3 -c "import flip_evaluator" || { echo "flip_evaluator is missing: install its wheel first"; exit 1; }
 git rev-parse --short HEAD 2>/dev/null
 
 step tests 40 python3 -m pytest -rf -q -n 8 -p no:cacheprovider \

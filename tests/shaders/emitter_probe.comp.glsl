@@ -53,7 +53,7 @@ void main() {
         uint s = (i % u_chunks) * u_samples + k;
         vec2 a = random2(uvec4(point, s, u_seed, 1u));
         vec2 b = random2(uvec4(point, s, u_seed, 2u));
-        sum += emitter_irradiance(p, n, n, vec3(a, b.x), u_receiver_set);
+        sum += emitter_irradiance(p, n, n, vec3(a, b.x), u_receiver_set, 0);
     }
     results[i] = vec4(sum, float(emitter_shadow_rays));
 }

@@ -70,22 +70,35 @@ class EffectiveValues:
                 "near_min": self.near_min, "near_max": self.near_max}
 
 
+def _diagonals(scene: SceneData) -> tuple[np.ndarray, np.ndarray]:
+    """The diagonal of each object's bounds, and which are finite and non-degenerate."""
+    b = np.asarray(scene.geometry.object_bounds, np.float64).reshape(-1, 2, 3)
+    finite = np.isfinite(b).all(axis=(1, 2)) & (b[:, 0] <= b[:, 1]).all(axis=1)
+    diag = np.linalg.norm(b[:, 1] - b[:, 0], axis=1)
+    return diag, finite & (diag > 0.0)
+
+
 def typical_object_size(scene: SceneData) -> float:
+    """The median diagonal of the scene's objects with finite, non-degenerate bounds
+    (``EMPTY_SCENE_SCALE`` when none has): a length that scales with the scene and reads
+    only what every description of it holds, so an instanced scene and its triangles
+    flattened to world space get one unit (the random numbers' cells, random.glsl)."""
+    diag, kept = _diagonals(scene)
+    return float(np.median(diag[kept])) if kept.any() else EMPTY_SCENE_SCALE
+
+
+def typical_mesh_size(scene: SceneData) -> float:
     """The median size of the scene's distinct shapes: each mesh's size is the mean
     diagonal of its instances with finite, non-degenerate bounds, and the scene's the median
     of those (``EMPTY_SCENE_SCALE`` when none has). A mesh counts once however often it is
     instanced: nine linked duplicates of a pebble, or a thousand scattered blades of grass, do
-    not make the room they lie in a scene of pebbles and shrink the near cube to nothing."""
-    b = np.asarray(scene.geometry.object_bounds, np.float64)
-    if not len(b):
-        return EMPTY_SCENE_SCALE
-    finite = np.isfinite(b).all(axis=(1, 2)) & (b[:, 0] <= b[:, 1]).all(axis=1)
-    diag = np.linalg.norm(b[:, 1] - b[:, 0], axis=1)
-    kept = finite & (diag > 0.0)
+    not make the room they lie in a scene of pebbles and shrink the near cube to nothing.
+    Geometry without an instance table counts each object as its own mesh."""
+    diag, kept = _diagonals(scene)
     if not kept.any():
         return EMPTY_SCENE_SCALE
     instances = getattr(scene.geometry, "instances", None)
-    if instances is None or len(instances) != len(b):
+    if instances is None or len(instances) != len(diag):
         return float(np.median(diag[kept]))
     mesh = np.asarray(instances.mesh)[kept]
     count = np.bincount(mesh)
@@ -102,9 +115,9 @@ def farthest_corner(bounds: SceneBounds, eye: np.ndarray) -> float:
 
 
 def auto_near_size(scene: SceneData | None) -> float:
-    """The Automatic near size: ``NEAR_SIZE_PER_OBJECT`` times the typical object size
+    """The Automatic near size: ``NEAR_SIZE_PER_OBJECT`` times the typical mesh size
     (``EMPTY_SCENE_SCALE``'s when no scene is at hand)."""
-    return NEAR_SIZE_PER_OBJECT * (typical_object_size(scene) if scene is not None else EMPTY_SCENE_SCALE)
+    return NEAR_SIZE_PER_OBJECT * (typical_mesh_size(scene) if scene is not None else EMPTY_SCENE_SCALE)
 
 
 def near_limits(settings: RenderSettings, scene: SceneData | None, auto: float | None = None
@@ -132,7 +145,7 @@ def effective_values(settings: RenderSettings, scene: SceneData, eye, width: int
     at ``width`` x ``height`` renders with."""
     automatic = [name for name in ("near_min", "near_max") if getattr(settings, name) <= 0.0]
     near = float(settings.near_size)
-    # The typical object size (a median over the objects) once per frame, for every
+    # The typical mesh size (a median over the meshes) once per frame, for every
     # Automatic near value that needs it.
     auto = auto_near_size(scene) if automatic or near <= 0.0 else 0.0
     near_min, near_max = near_limits(settings, scene, auto)

@@ -113,7 +113,7 @@ void main() {
         vec3 seen_from = dot(g_facing, view_dir) <= 0.0 ? -view_dir : view_dir;  // the centre's side
         vec3 g = normalize(g_facing);
         ShadingPoint sp = node_plain_point(p, normalize(nm.xyz), g, seen_from, surface.xy, lod, 1,
-                                           floatBitsToInt(surface.w), index);
+                                           cube_row_decode(surface.w), index);
         node_footprint_axes(sp.geometric, dist * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res), sp.dp_dx, sp.dp_dy);
         cube_tangent_decode(texelFetch(u_cube_tangent, atlas, 0), texelFetch(u_cube_geometric, atlas, 0).xy,
                             sp.dp_du, sp.dp_dv);

@@ -44,7 +44,7 @@
 // emission itself (not a scale: the shading reads it through node_gbuffer_material),
 // location 3 (RGBA16F then) = roughness, metallic, transmission, coat, and the normal the
 // closure's. The faces' variant stores the triangle's world row in location 1's w (its bits:
-// intBitsToFloat), so that a ray's hit in the map can run the program with the object's inputs,
+// cube_tangent.glsl cube_row_encode), so that a ray's hit in the map can run the program with the object's inputs,
 // and location 3 (RGBA16F) the triangle's UV directions (include/cube_tangent.glsl), so that
 // the program's tangent-space Normal Map and UV-reading Bump bend the normal there as at a
 // BVH hit.
@@ -167,7 +167,7 @@ void main() {
     float world_area = sqrt(geometric_len2);
     float density = world_area > 0.0 && !isinf(world_area) ? sqrt(uv_area / world_area) : 0.0;
 #ifdef NODE_PROGRAMS
-    float row_bits = intBitsToFloat(v_row);
+    float row_bits = cube_row_encode(v_row);
     // The frame on the axes of the geometric normal as location 2 keeps it (half floats).
     vec3 tangent_u, tangent_v;
     cube_tangent_of_fragment(dp_dx, dp_dy, duv_dx, duv_dy, tangent_u, tangent_v);

@@ -16,6 +16,18 @@
 
 #include "octahedral.glsl"
 
+// A triangle's world row in a float channel of the faces (location 1's w): its bits with bit
+// 30 set, so that the float is a normal number (no denormal, which GLSL lets a driver flush
+// to zero on the way to a float target, and no NaN or infinity), for rows below 2^30. A
+// stored 0.0 (no row written) reads as row 0.
+float cube_row_encode(int row) {
+    return intBitsToFloat(row | 0x40000000);
+}
+
+int cube_row_decode(float stored) {
+    return floatBitsToInt(stored) & 0x3FFFFFFF;
+}
+
 // Largest magnitude a coordinate keeps (a half float's range; a near-degenerate UV mapping
 // would otherwise store infinities).
 const float CUBE_TANGENT_MAX = 65000.0;

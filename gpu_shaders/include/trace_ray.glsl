@@ -591,8 +591,8 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
                 h.material = cm.material;
                 ivec4 tex = materials[h.material].textures;
 #ifdef NODE_PROGRAMS
-                // The face texel's triangle row (gbuffer.frag.glsl, CUBE_FACE): its bits in w.
-                h.row = floatBitsToInt(texelFetch(u_cube_surface, cm.texel, 0).w);
+                // The face texel's triangle row (gbuffer.frag.glsl, CUBE_FACE; cube_row_encode).
+                h.row = cube_row_decode(texelFetch(u_cube_surface, cm.texel, 0).w);
                 h.footprint = ray_cone_footprint(o, distance(o, cm.position), blur);
                 if (material_has_program(materials[h.material])) {
                     tex.x = 0;  // a program may read the UV

@@ -106,11 +106,11 @@ void main() {
     if (cm.kind == CUBE_HIT) {
         vec3 seen = previous_radiance(cm.position, cm.texel.y >= u_cube_res ? 1 : 0);
 #ifdef EMITTER_LINKING
-        // A linked emitter's light bounces only onto its receivers (the block's texel's set):
-        // elsewhere its emission, at the material's factor, leaves what the ray brings.
-        if (all(greaterThanEqual(seen, vec3(0.0))) && cm.material >= 0
-            && !emission_lights_set(cm.material, row_light_set(int(abs(nm.w) + 0.5) - 1)))
-            seen = max(seen - max(materials[cm.material].emission_trans.rgb, vec3(0.0)), vec3(0.0));
+        // A linked emitter's texels hold no emission (cube_light_shade.comp.glsl): its light,
+        // at the material's factor, bounces only onto its receivers (the block's texel's set).
+        if (all(greaterThanEqual(seen, vec3(0.0))) && cm.material >= 0 && !emission_lights_every_set(cm.material)
+            && emission_lights_set(cm.material, row_light_set(int(abs(nm.w) + 0.5) - 1)))
+            seen += max(materials[cm.material].emission_trans.rgb, vec3(0.0));
 #endif
         sample_value = vec4(PI * clamp(seen, vec3(0.0), vec3(CUBE_LIGHT_MAX)), 0.0);
     }

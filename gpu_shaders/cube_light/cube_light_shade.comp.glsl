@@ -13,9 +13,18 @@
 // the map's centre, the camera, sees. a = the texel's distance from the centre (0: none).
 // Texels of the padding up to the power-of-two face size, and empty ones, are cleared.
 //
-// Storage block MaterialBuffer; uniform blocks LightBuffer, ShadowSlotBuffer; storage block
-// SkyIrradiance. Samplers: the cube map's (cube_march.glsl, u_cube_surface, u_cube_geometric),
-// u_gather (this frame's gather), u_textures, u_shadow_atlas, u_shadow_dynamic, u_sky_env.
+// A linked emitter's texels (EMITTER_LINKING: its light mask leaves some receiver set out)
+// hold no emission, only the light it reflects; whoever reads the map adds the emission as
+// it adds that of a surface it meets in the BVH (cube_light_gather.comp.glsl: onto its
+// receivers' texels only; trace_ray.glsl, diffuse_gather.comp.glsl). Stored, it would have
+// to be taken off again for the surfaces it does not light, and what a float16 texel keeps
+// of a bright emission plus a dim reflection leaves that reflection to the texel's rounding
+// (a step of 1/64 at an emission of 20); a filtered read would also spill it beside its edge.
+//
+// Storage block MaterialBuffer; uniform blocks LightBuffer, ShadowSlotBuffer; storage blocks
+// SkyIrradiance and, with EMITTER_LINKING, EmitterLinks (bound with the lighting). Samplers:
+// the cube map's (cube_march.glsl, u_cube_surface, u_cube_geometric), u_gather (this frame's
+// gather), u_textures, u_shadow_atlas, u_shadow_dynamic, u_sky_env.
 // Image u_radiance (rgba16f, level 0, written). Uniforms: cube_march.glsl's,
 // u_cube_radiance_res, u_gather_res, u_gathered (0: V = 1 and no bounce, without reading
 // u_gather), the lighting's (FrameResources.bindings).
@@ -25,6 +34,7 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
+#include "emitter_links.glsl"
 
 #include "shading.glsl"
 #include "textures.glsl"
@@ -131,6 +141,9 @@ void main() {
     // -- end of node programs
     vec3 albedo = material_albedo_lod(m, surface.xy, lod);
     vec3 light = material_emission_lod(m, surface.xy, lod);
+#ifdef EMITTER_LINKING
+    if (!emission_lights_every_set(index)) light = vec3(0.0);  // the readers add it (header)
+#endif
     SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n_facing, g_facing);
     if (split.diffuse_weight > 0.0) {
         DirectLight direct = direct_lighting(p, split.n_facing, -view_dir, vec3(0.0), 0.0, 1.0, true,

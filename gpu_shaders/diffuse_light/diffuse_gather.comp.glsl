@@ -160,11 +160,23 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, out flo
         // emission and the bounces fed back from earlier frames): the path ends there.
         if (bounces_left && h.kind == HIT_CUBE) {
             vec3 stored = cube_stored_radiance(h, 0.0);
+#ifdef EMITTER_LINKING
+            // A linked emitter's texels hold no emission (cube_light_shade.comp.glsl): the
+            // path adds it as it adds a surface's the BVH finds (below).
+            bool held = emission_lights_every_set(h.material);
+#else
+            const bool held = true;
+#endif
 #ifdef EMITTER_LIGHT
             // The emitters' light reached the last vertex by its next-event estimate.
-            if (!emission_counts)
-                stored = max(stored - material_emission_lod(hm, h.uv, h.lod), vec3(0.0));
+            bool counts = emission_counts;
+#else
+            const bool counts = true;
 #endif
+            if (held && !counts)
+                stored = max(stored - material_emission_lod(hm, h.uv, h.lod), vec3(0.0));
+            else if (!held && counts)
+                stored += material_emission_lod(hm, h.uv, h.lod);
             radiance += throughput * stored;
             break;
         }

@@ -812,7 +812,16 @@ float occlusion_seen(Hit h) {
 vec3 gather_light(Hit h, vec3 d) {
     if (h.kind == HIT_SKY) return sky_radiance(d);
 #ifdef LIT_CUBE
-    if (h.kind == HIT_CUBE) return cube_stored_radiance(h, 0.0);  // the lit cube map's light
+    if (h.kind == HIT_CUBE) {
+        vec3 stored = cube_stored_radiance(h, 0.0);  // the lit cube map's light
+#ifdef EMITTER_LINKING
+        // A linked emitter's texels hold no emission (cube_light_shade.comp.glsl); the
+        // surfaces the BVH finds give theirs below whatever their linking, and so does this.
+        if (!emission_lights_every_set(h.material))
+            stored += material_emission_lod(hit_material(h, d, 1), h.uv, h.lod);
+#endif
+        return stored;
+    }
 #endif
     Material hm = hit_material(h, d, 1);
     vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
@@ -857,7 +866,10 @@ void shade_hit(PendingRay ray, Hit h, inout vec3 traced) {
     // A cube-map hit's diffuse light (lamps, emission, World) is the lit cube map's (lit_cube.glsl).
     bool stored = h.kind == HIT_CUBE;
 #ifdef EMITTER_LINKING
-    if (stored) traced += ray.weight * max(cube_hit_light(hm, h, ray.dir, hs, ray.blur) - unlinked_emission, vec3(0.0));
+    // A linked emitter's texels hold no emission (cube_light_shade.comp.glsl): the ray adds
+    // what of it lights the surface it left (h_emission, the rest taken off above).
+    if (stored) traced += ray.weight * (cube_hit_light(hm, h, ray.dir, hs, ray.blur)
+                                        + (emission_lights_every_set(h.material) ? vec3(0.0) : h_emission));
 #else
     if (stored) traced += ray.weight * cube_hit_light(hm, h, ray.dir, hs, ray.blur);
 #endif

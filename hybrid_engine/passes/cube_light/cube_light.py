@@ -118,8 +118,11 @@ class CubeLightPass:
         return False
 
     def forget(self) -> None:
-        """Drop the history: the next frame starts its feedback over (tests, a new scene)."""
+        """Drop the history: the next frame starts its feedback over (tests, a new scene),
+        and its gather's random numbers with it, so that it renders as a new pass's first
+        frame would, whatever this one rendered before."""
         self._key = None
+        self._frame = 0
 
     def run(self, frame: FrameContext) -> None:
         cube = frame.read("cube_map")

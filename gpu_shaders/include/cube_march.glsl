@@ -127,10 +127,11 @@
 // leaving a curved surface starts behind its neighbours' tangent planes and would stop on
 // its own surface, whereas one from the floor beside a frame passes under the frame's top,
 // which the centre sees from above, without crossing its plane in sight. The march walks a
-// second pyramid (u_cube_footprint, built with the first: level 0 holds the least A(x, y)
-// over each texel's square, and B), so that no cell whose plane comes nearer than A is
-// skipped; u_cube_planes holds each texel's plane as (P + e at its centre, dP/dx, dP/dy,
-// material) in NDC. The slope of P is capped at CUBE_FOOTPRINT_MAX_SLOPE (the depth change
+// second pyramid (u_cube_footprint, built with the first: the least A(x, y) over each
+// texel's square, and B), so that no cell whose plane comes nearer than A is skipped;
+// u_cube_planes (float16) holds each texel's NDC slopes of P and A less the least A(x, y)
+// (P + e at the centre is the least A(x, y) plus what the slopes reach over half a texel).
+// The slope of P is capped at CUBE_FOOTPRINT_MAX_SLOPE (the depth change
 // across a texel, in texel angles at its depth): a surface exactly edge-on has no finite
 // plane in the map. Only the hierarchical march follows the planes. The diffuse light's
 // kernel alone is compiled with it (diffuse_light.py, HYBRID): a false stop on a nearby
@@ -194,10 +195,6 @@ uniform sampler2D u_cube_footprint;
 uniform sampler2D u_cube_planes;
 // The material of the surface the ray being traced leaves (-1: none), which its caller sets.
 int cube_origin_material = -1;
-
-#define CUBE_MARCH_PYRAMID u_cube_footprint
-#else
-#define CUBE_MARCH_PYRAMID u_cube_hiz
 #endif
 #if CUBE_FOOTPRINT || defined(CUBE_FOOTPRINT_BUILD)
 // The share of the depth bias that the footprints keep in front of the plane, and the
@@ -207,6 +204,12 @@ int cube_origin_material = -1;
 // curved pieces; a quarter measured best, an eighth or a half worse.
 const float CUBE_FOOTPRINT_BIAS = 0.25;
 const float CUBE_FOOTPRINT_MAX_SLOPE = 8.0;
+
+// How far a plane of NDC slopes `slope` comes nearer than at its texel's centre, over the
+// texel's square (half a texel is 1 / u_cube_res in NDC).
+float cube_footprint_reach(vec2 slope) {
+    return (abs(slope.x) + abs(slope.y)) / float(u_cube_res);
+}
 #endif
 
 #define CUBE_SKY 0
@@ -403,13 +406,16 @@ ivec2 cube_layer_hit(ivec2 front_texel, bool from_behind) {
 
 #if CUBE_FOOTPRINT
 // The level-0 test of the surface footprints (see the header) on texel `cell` of `face`, for
-// the map ray a + dm t over [t0, t1] inside it, whose hit interval ends at `b_far` (B, NDC):
-// whether the ray enters (A(x, y), B] there, `t_hit` where it does and `from_behind` whether
-// it comes from behind B (the back layer's side). g: the ray's depth less P + e, h: less A.
-bool cube_footprint_hit(int face, ivec2 cell, vec3 a, vec3 dm, float t0, float t1, float b_far,
+// the map ray a + dm t over [t0, t1] inside it, whose level-0 footprint is `footprint` (the
+// least A(x, y), B): whether the ray enters (A(x, y), B] there, `t_hit` where it does and
+// `from_behind` whether it comes from behind B (the back layer's side). g: the ray's depth
+// less P + e, h: less A.
+bool cube_footprint_hit(int face, ivec2 cell, vec3 a, vec3 dm, float t0, float t1, vec2 footprint,
                         out float t_hit, out bool from_behind) {
-    vec4 plane = texelFetch(u_cube_planes, ivec2(face * u_cube_res, 0) + cell, 0);
-    float a_const = texelFetch(u_cube_hiz, ivec2(face * u_cube_hiz_res, 0) + cell, 0).r;
+    float b_far = footprint.y;
+    vec3 stored = texelFetch(u_cube_planes, ivec2(face * u_cube_hiz_res, 0) + cell, 0).rgb;
+    vec3 plane = vec3(footprint.x + cube_footprint_reach(stored.xy), stored.xy);
+    float a_const = footprint.x + stored.z;
     vec2 centre = (vec2(cell) + 0.5) / float(u_cube_res) * 2.0 - 1.0;
     vec3 p0 = a + dm * t0;
     vec3 p1 = a + dm * t1;
@@ -422,11 +428,16 @@ bool cube_footprint_hit(int face, ivec2 cell, vec3 a, vec3 dm, float t0, float t
     // a ray leaving a curved surface starts behind its neighbours' tangent planes, whereas
     // one from the floor beside a board's frame passes under the frame's top, seen from
     // above, without crossing the plane in sight.
-    float ga = a.z - (plane.x + dot(plane.yz, a.xy - centre));
-    bool own = int(plane.w) == cube_origin_material;
-    bool behind = h0 > 0.0 || (g0 > 0.0 && (ga <= 0.0 || !own));
+    bool behind = h0 > 0.0;
+    if (!behind && g0 > 0.0) {
+        float ga = a.z - (plane.x + dot(plane.yz, a.xy - centre));
+        float material = texelFetch(u_cube_normal_material, ivec2(face * u_cube_res, 0) + cell, 0).w;
+        behind = ga <= 0.0 || int(abs(material) + 0.5) - 1 != cube_origin_material;
+    }
     t_hit = t0;
-    from_behind = behind && p0.z - min(a_const, p0.z - g0) > b_far - p0.z;
+    // Entering nearer B than A(x, y): the ray meets the far side (the back layer) first.
+    float a0 = min(a_const, p0.z - g0);
+    from_behind = behind && p0.z - a0 > b_far - p0.z;
 #if CUBE_HIDDEN_SIDE
     cube_entered_behind = behind;
 #endif
@@ -472,7 +483,11 @@ bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
         ivec2 c = cell >> level;
         vec2 t_bound = mix(vec2(1e30), (vec2((c + positive) * size) - u0) * inv_du, moving);
         float t_end = min(min(t_bound.x, t_bound.y), t_exit);
-        vec2 ab = texelFetch(CUBE_MARCH_PYRAMID, ivec2(face * (u_cube_hiz_res >> level), 0) + c, level).rg;
+#if CUBE_FOOTPRINT
+        vec2 ab = texelFetch(u_cube_footprint, ivec2(face * (u_cube_hiz_res >> level), 0) + c, level).rg;
+#else
+        vec2 ab = texelFetch(u_cube_hiz, ivec2(face * (u_cube_hiz_res >> level), 0) + c, level).rg;
+#endif
         float z0 = a.z + dm.z * t;
         float z1 = a.z + dm.z * t_end;
 #if CUBE_FOOTPRINT
@@ -483,7 +498,7 @@ bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
         }
         float t_hit;
         bool from_behind;
-        if (may_hit && cube_footprint_hit(face, cell, a, dm, t, t_end, ab.y, t_hit, from_behind)) {
+        if (may_hit && cube_footprint_hit(face, cell, a, dm, t, t_end, ab, t_hit, from_behind)) {
             hit_texel = ivec2(face * u_cube_res, 0) + cell;
             hit_xy = a.xy + dm.xy * t_hit;
             hit_from_behind = from_behind;

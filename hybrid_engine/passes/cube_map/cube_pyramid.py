@@ -14,11 +14,11 @@ Built every frame after the cube-map raster: one pass for level 0 and one small 
 coarser level, all on the GPU.
 
 With ``footprint``, the same passes also build the surface footprints
-(gpu_shaders/include/cube_march.glsl, "Surface footprints") that the diffuse paths march:
-each texel's plane (``planes``, rgba32f, the atlas's size) and a second pyramid
-(``footprint``) of the intervals those planes reach over each texel's square, so that a
-thin wall seen edge-on, whose depth changes across a texel by more than the bias allows,
-is not stepped over. Mirror and glass rays keep walking ``texture``.
+(gpu_shaders/include/cube_march.glsl, "Surface footprints") that the diffuse paths march: a
+second pyramid (``footprint``) of the intervals each texel's surface plane reaches over its
+square, and the planes themselves (``planes``, rgba16f: slopes and offsets, level 0's size),
+so that a thin wall seen edge-on, whose depth changes across a texel by more than the bias
+allows, is not stepped over. Mirror and glass rays keep walking ``texture``.
 """
 from __future__ import annotations
 
@@ -40,7 +40,7 @@ def face_size(resolution: int) -> int:
 
 class CubeHitPyramid:
     """GPU texture (rg32f, 6 * face_size x face_size, full mip chain) and its build passes;
-    with the footprints (``build(footprint=True)``) ``footprint`` alike and ``planes``."""
+    with the footprints (``build(geometric=...)``) ``footprint`` alike and ``planes``."""
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
@@ -51,27 +51,25 @@ class CubeHitPyramid:
         self.planes: moderngl.Texture | None = None
         self.face_size = 0
         self.levels = 0
-        self.resolution = 0
 
-    def _pyramid_texture(self, size: int) -> moderngl.Texture:
-        texture = self.ctx.texture((6 * size, size), 2, dtype="f4")
+    def _pyramid_texture(self, size: int, components: int = 2) -> moderngl.Texture:
+        texture = self.ctx.texture((6 * size, size), components, dtype="f4")
         texture.build_mipmaps()  # allocates every level; the passes overwrite them
         texture.filter = (moderngl.NEAREST_MIPMAP_NEAREST, moderngl.NEAREST)
         return texture
 
-    def _ensure_footprint(self, resolution: int) -> None:
-        """The footprints' pyramid and planes for faces of ``resolution`` texels (after
-        ``_ensure_texture``), made when first asked for or when the faces change size."""
+    def _ensure_footprint(self) -> None:
+        """The footprints' pyramid and planes (after ``_ensure_texture``), made when first
+        asked for or when the faces change size."""
         if self.footprint is None or self.footprint.size != self.texture.size:
             if self.footprint is not None:
                 self.footprint.release()
             self.footprint = self._pyramid_texture(self.face_size)
-        if self.planes is None or self.resolution != resolution:
+        if self.planes is None or self.planes.size != self.texture.size:
             if self.planes is not None:
                 self.planes.release()
-            self.planes = self.ctx.texture((6 * resolution, resolution), 4, dtype="f4")
+            self.planes = self.ctx.texture(self.texture.size, 4, dtype="f2")
             self.planes.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            self.resolution = resolution
 
     def _ensure_texture(self, resolution: int) -> moderngl.Texture:
         size = face_size(resolution)
@@ -95,7 +93,7 @@ class CubeHitPyramid:
         defines = dict(layer_defines or {})
         images = {"u_level0": Image(texture, read=False, write=True, level=0)}
         if geometric is not None:
-            self._ensure_footprint(resolution)
+            self._ensure_footprint()
             defines["CUBE_FOOTPRINT_BUILD"] = 1
             images["u_footprint0"] = Image(self.footprint, read=False, write=True, level=0)
             images["u_planes"] = Image(self.planes, read=False, write=True)

@@ -30,8 +30,15 @@ measures both, per variant of the settings (``VARIANTS``), in one process:
   (``flip_diffuse_only``: what the primary pixels' diffuse light alone parts).
 
 The scene is the bench's (benchmarks/scenes/chess.py) at frame 2 with the bench's settings
-(near size 3.5, four bounces, the back layer, the hierarchical march). docs/BENCHMARKS.md
-holds the figures.
+(near size 3.5, four bounces, the back layer, the hierarchical march). The variant
+``no_footprints`` marches HYBRID's diffuse paths as the tracer's rays, by one depth per
+cube-map texel (passes/cube_map/cube_map.py ``CubeMapPass.footprints``).
+
+``--escapes SAMPLES`` counts instead, ray by ray, where the first gather rays of the two
+modes disagree (``gather_escapes``): without bounces and reflections, both modes drawing the
+same directions, the rays that escape to the sky in HYBRID where FULL_BVH's meet a surface
+and those that stop where FULL_BVH's escape, by the surface they leave (its Diffuse Color),
+with the footprints and without. docs/BENCHMARKS.md holds the figures.
 """
 from __future__ import annotations
 
@@ -44,8 +51,10 @@ import numpy as np
 
 from benchmarks.bench import flip_mean, parse_resolution, to_srgb_ldr
 from benchmarks.scenes.chess import CHESS_CUBE_FAR, build_chess
+from hybrid_engine.passes.cube_map.cube_map import CubeMapPass
 
 FRAME = 2
+FOOTPRINTS = "footprints"  # a variant's key for CubeMapPass.footprints, not a setting
 VARIANTS = {
     "default": {},
     "screen": {"world_light": "SCREEN"},  # the screen-space light of before the traced light
@@ -55,7 +64,11 @@ VARIANTS = {
     "cube_x2": {"cube_resolution": "x2"},
     "no_hidden_exit": {"cube_hidden_exit": False},
     "no_back_layer": {"cube_back_layer": False},
+    "no_footprints": {FOOTPRINTS: False},
 }
+# Chess's diffuse colours as the light passes give them (the albedo less the reflected share).
+SURFACES = {"floor": (0.45, 0.45, 0.45), "board frames": (0.35, 0.18, 0.08), "light squares": (0.68, 0.64, 0.56),
+            "dark squares": (0.07, 0.06, 0.05), "white pieces": (0.19, 0.19, 0.18), "black pieces": (0.09, 0.09, 0.1)}
 LIGHT_FLAGS = ("use_pass_diffuse_indirect", "use_pass_diffuse_color", "use_pass_glossy_indirect",
                "use_pass_glossy_color", "use_pass_transmission_indirect", "use_pass_transmission_color")
 
@@ -153,6 +166,7 @@ def run(detail: float, size: tuple[int, int], cube: int, half: int, variants: li
     try:
         for name in variants:
             changes = {k: (2 * cube if v == "x2" else v) for k, v in VARIANTS[name].items()}
+            CubeMapPass.footprints = changes.pop(FOOTPRINTS, True)
             start = time.perf_counter()
             modes = {mode: render_samples(r, scene, camera,
                                           RenderSettings(**{**base_settings(cube), **changes, "mode": mode}), 2 * half)
@@ -167,8 +181,59 @@ def run(detail: float, size: tuple[int, int], cube: int, half: int, variants: li
                                         "seconds": round(time.perf_counter() - start, 1)}
             print(name, json.dumps(report["variants"][name]), file=sys.stderr, flush=True)
     finally:
+        CubeMapPass.footprints = True
         for r in renderers.values():
             r.release()
+    return report
+
+
+def escapes_and_stops(hybrid: np.ndarray, full: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per ray (first gather rays' sky visibility, 1 or 0 each, same shape in both modes):
+    where HYBRID's escapes and FULL_BVH's meets a surface, and the other way round."""
+    return (hybrid > 0.5) & (full < 0.5), (hybrid < 0.5) & (full > 0.5)
+
+
+def gather_escapes(detail: float, size: tuple[int, int], cube: int, samples: int) -> dict:
+    """The first gather rays' disagreements (module docstring), with the footprints and
+    without: counts per surface the rays leave, in all, and each mode's mean sky share."""
+    from hybrid_engine.frame.film import FrameOutputs
+    from hybrid_engine.frame.renderer import Renderer
+    from hybrid_engine.gpu import gl_context
+    from hybrid_engine.passes.film.light_passes import LightPassRequest
+    from hybrid_engine.scene.settings import RenderSettings
+
+    scene, camera = build_chess(detail, FRAME, *size)
+    outputs = FrameOutputs(light=LightPassRequest(flags=("use_pass_ambient_occlusion", "use_pass_diffuse_color")))
+    renderer = Renderer(gl_context.get_context())
+    report: dict = {"detail": detail, "size": f"{size[0]}x{size[1]}", "cube": cube, "samples": samples}
+    try:
+        sky, colour = {}, None
+        for footprints in (False, True):
+            CubeMapPass.footprints = footprints
+            for mode in ("HYBRID", "FULL_BVH"):
+                if mode == "FULL_BVH" and mode in sky:
+                    continue
+                settings = RenderSettings(**{**base_settings(cube), "mode": mode, "diffuse_bounces": 0, "max_depth": 0})
+                rays = []
+                for k in range(samples):
+                    result = renderer.render(scene, camera, settings, sample=k, reuse_world=k > 0, outputs=outputs)
+                    rays.append(result.data_passes["Ambient Occlusion"][..., 0])
+                    colour = result.data_passes["Diffuse Color"][..., :3]
+                sky[mode if mode == "FULL_BVH" else footprints] = np.array(rays, np.float64)
+        full = sky["FULL_BVH"]
+        report["rays"] = int(full.size)
+        report["sky_full_bvh"] = round(float(full.mean()), 4)
+        for footprints in (False, True):
+            escape, stop = escapes_and_stops(sky[footprints], full)
+            by_surface = {name: [int(escape[:, mask].sum()), int(stop[:, mask].sum())]
+                          for name, rgb in SURFACES.items()
+                          for mask in [np.abs(colour - np.array(rgb)).max(axis=-1) < 0.006]}
+            report["footprints" if footprints else "without"] = {
+                "escapes": int(escape.sum()), "stops": int(stop.sum()), "sky_hybrid": round(float(sky[footprints].mean()), 4),
+                "by_surface": by_surface}
+    finally:
+        CubeMapPass.footprints = True
+        renderer.release()
     return report
 
 
@@ -181,13 +246,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--half", type=int, default=8, help="samples per half (2x this per mode)")
     parser.add_argument("--variants", default="default,screen",
                         help=f"comma-separated, of {', '.join(VARIANTS)}")
+    parser.add_argument("--escapes", type=int, metavar="SAMPLES",
+                        help="count the first gather rays' disagreements over SAMPLES samples instead")
     parser.add_argument("--json", metavar="PATH")
     args = parser.parse_args(argv)
-    variants = [v for v in args.variants.split(",") if v]
-    unknown = [v for v in variants if v not in VARIANTS]
-    if unknown:
-        parser.error(f"unknown variants: {', '.join(unknown)}")
-    report = run(args.detail, args.size, args.cube, max(1, args.half), variants)
+    if args.escapes:
+        report = gather_escapes(args.detail, args.size, args.cube, args.escapes)
+    else:
+        variants = [v for v in args.variants.split(",") if v]
+        unknown = [v for v in variants if v not in VARIANTS]
+        if unknown:
+            parser.error(f"unknown variants: {', '.join(unknown)}")
+        report = run(args.detail, args.size, args.cube, max(1, args.half), variants)
     text = json.dumps(report, indent=2)
     print(text)
     if args.json:

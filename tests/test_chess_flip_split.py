@@ -3,6 +3,8 @@
 noise and bias, and into the light that makes it."""
 from __future__ import annotations
 
+import numpy as np
+
 from benchmarks import chess_flip_split
 
 
@@ -22,3 +24,22 @@ def test_without_reflections_the_whole_difference_is_the_primary_diffuse_light(g
     assert report["flip_diffuse_only"] > 0.0
     assert abs(report["flip_diffuse_only"] - report["same_all"]) < 1e-3
     assert report["samples"] == 4 and 0.0 <= report["noise_h"] <= 1.0 and 0.0 <= report["denoised_1"] <= 1.0
+
+
+def test_escapes_and_stops_are_the_rays_on_which_the_modes_disagree_about_the_sky():
+    hybrid = np.array([1.0, 1.0, 0.0, 0.0, 1.0])
+    full = np.array([0.0, 1.0, 1.0, 0.0, 0.0])
+    escape, stop = chess_flip_split.escapes_and_stops(hybrid, full)
+    assert escape.tolist() == [True, False, False, False, True]
+    assert stop.tolist() == [False, False, True, False, False]
+
+
+def test_the_gather_escapes_count_each_disagreeing_ray_once_with_the_footprints_and_without(gl):
+    report = chess_flip_split.gather_escapes(0.02, (64, 36), 64, 1)
+    assert report["rays"] == 64 * 36
+    for key in ("without", "footprints"):
+        counts = report[key]
+        assert counts["escapes"] + counts["stops"] <= report["rays"]
+        assert sum(e for e, _ in counts["by_surface"].values()) <= counts["escapes"]
+        assert sum(s for _, s in counts["by_surface"].values()) <= counts["stops"]
+        assert 0.0 < counts["sky_hybrid"] <= 1.0

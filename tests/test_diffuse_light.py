@@ -553,3 +553,50 @@ def test_hybrids_bounced_light_behind_a_partition_matches_full_bvh(renderer):
     hybrid, full = (luminance(mean_image(renderer, scene, camera, room_settings(mode, diffuse_bounces=4),
                                          samples=8)).mean() for mode in ("HYBRID", "FULL_BVH"))
     assert abs(hybrid / full - 1.0) < 0.05, (hybrid, full, hybrid / full)
+
+
+def floor_with_low_walls() -> SceneData:
+    """A floor under a white World with two low walls (0.24 high, 0.25 thick, as Chess's board
+    frames) running away from the camera on either side of it."""
+    floor = quad((0.0, 10.0, 0.0), (20.0, 0, 0), (0, 20.0, 0))
+    walls = np.concatenate([box((x, 0.0, 0.0), (x + 0.25, 14.0, 0.24)) for x in LOW_WALLS_X])
+    rows = [dict(base_color=(0.5, 0.5, 0.5), thickness=0.0), dict(base_color=(0.5, 0.5, 0.5), thickness=0.002)]
+    return SceneData(Geometry.from_objects([(floor, None, 0), (walls, None, 1)]), MaterialTable.from_rows(rows),
+                     Lights.from_rows([]), Sky(color=(1.0, 1.0, 1.0)))
+
+
+LOW_WALLS_X = (-1.5, 1.25)  # the walls' sides at lowest x; the camera-facing sides at |x| = 1.25
+
+
+def test_hybrids_paths_from_the_floor_meet_a_low_wall_seen_edge_on_as_full_bvhs_do(renderer):
+    # Seen from the cube map's centre the walls recede nearly edge-on, a texel or so wide,
+    # and their depth changes across a texel by more than the depth bias: a path from the
+    # floor beside them that crosses a wall away from its texel's centre passed in front of
+    # the stored depth in every texel and saw the sky (sky share 0.98 where FULL_BVH's is
+    # 0.78). Following each texel's plane (cube_march.glsl "Surface footprints") finds the
+    # wall there.
+    from hybrid_engine.frame.film import FrameOutputs
+    from hybrid_engine.passes.film.light_passes import LightPassRequest
+    from scenes_analytic import ray_box, ray_plane_z
+
+    scene = floor_with_low_walls()
+    eye = np.array([0.0, -1.0, 2.0])
+    camera = Camera(matrix_world=look_at(eye, (0.0, 6.0, 0.0)), width=64, height=48)
+    outputs = FrameOutputs(light=LightPassRequest(flags=("use_pass_ambient_occlusion",)))
+    sky = {}
+    for mode in ("HYBRID", "FULL_BVH"):
+        settings = RenderSettings(mode=mode, near_size=1.0, cube_resolution=64, cube_back_layer=True,
+                                  diffuse_bounces=0, max_depth=0, diffuse_rays=4)
+        sky[mode] = np.mean([renderer.render(scene, camera, settings, sample=k, outputs=outputs, timing=False)
+                             .data_passes["Ambient Occlusion"][..., 0] for k in range(4)], axis=0)
+    # The floor's pixels within 0.4 of a wall's camera-facing side, beyond the near cube.
+    origins, dirs = camera.pixel_rays()
+    t_floor = ray_plane_z(origins, dirs, 0.0)
+    t_walls = np.minimum(*[ray_box(origins, dirs, (x, 0.0, 0.0), (x + 0.25, 14.0, 0.24)) for x in LOW_WALLS_X])
+    p = origins + dirs * np.where(np.isfinite(t_floor), t_floor, 0.0)[..., None]
+    beside = (np.isfinite(t_floor) & (t_floor < t_walls) & (np.abs(p - eye).max(axis=-1) > 1.1)
+              & (np.abs(p[..., 0]) > 0.85) & (np.abs(p[..., 0]) < 1.25) & (p[..., 1] > 0.5) & (p[..., 1] < 13.0))
+    assert beside.sum() > 200
+    hybrid, full = sky["HYBRID"][beside].mean(), sky["FULL_BVH"][beside].mean()
+    assert full < 0.9, full  # the walls hide a good part of these points' sky
+    assert abs(hybrid - full) < 0.05, (hybrid, full)

@@ -133,7 +133,8 @@ vec3 random3(int salt) {
 // irradiance), and `sky` the share of the first ray that escaped (through glass by its
 // transmission). `first_emission`: the first surface's emission counts even with
 // EMITTER_LIGHT (a glossy lobe's paths, which take no next-event estimate of the emitters).
-vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, out float sky) {
+// `material`: the primary point's.
+vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, int material, out float sky) {
     vec3 radiance = vec3(0.0);
     vec3 throughput = vec3(1.0);
     int salt = PATH_SALT + 32 * path;
@@ -145,7 +146,14 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, out flo
     bool emission_counts = first_emission;
     sky = 0.0;
     for (int step = 0; step <= MAX_DIFFUSE_BOUNCES + MAX_GLASS_CROSSINGS; ++step) {
+#if CUBE_FOOTPRINT
+        // The surface the ray leaves (cube_march.glsl "Surface footprints").
+        cube_origin_material = material;
+#endif
         Hit h = trace_ray(o, d, vertex, PATH_TEXTURE_BLUR, FLOAT_MAX);
+#if CUBE_FOOTPRINT
+        material = h.material;
+#endif
         if (h.kind == HIT_SKY) {
             radiance += throughput * sky_radiance(d);
             if (vertex == 1) sky = throughput.g;
@@ -274,7 +282,7 @@ void main() {
             // tracer samples the traced ones (weight 1: split.glossy_local is the lobe's albedo).
             vec3 d = glossy ? specular_split_sampled(m, albedo_g.rgb, view_dir, n, g, xi).reflect_dir
                             : cosine_direction(n_facing, g_facing, xi);
-            irradiance += PI * diffuse_path(p, g_facing, d, i, glossy, seen);
+            irradiance += PI * diffuse_path(p, g_facing, d, i, glossy, int(abs(nm.w) + 0.5) - 1, seen);
             sky += seen;
 #ifdef EMITTER_LIGHT
             // The emitters' next-event estimate is the diffuse layer's (cosine-weighted).

@@ -106,6 +106,38 @@
 // that passes over a partition to the lamp behind it takes the partition's camera-facing,
 // shadowed side for the lit walls beyond.
 //
+// Surface footprints (CUBE_FOOTPRINT; beyond the paper). A texel stores one depth, that of
+// the surface at its centre, and the hit rule holds it over the whole texel, within the
+// bias. A surface seen edge-on -- a board frame's side wall receding from the centre --
+// changes its depth across one texel by more than the bias, so a ray crossing it away from
+// the texel's centre passes in front of A in every texel it crosses, and sees the sky
+// through a wall one or two texels wide. With this rule the level-0 test follows the plane
+// of the stored surface (its geometric normal, u_cube_geometric) across the texel: the hit
+// interval at NDC point (x, y) of texel T is (A(x, y), B] with
+//   A(x, y) = min(P(x, y) + e, A)
+// where P is the plane through the stored point and e = S CUBE_BIAS_RELATIVE +
+// CUBE_FOOTPRINT_BIAS (b - S CUBE_BIAS_RELATIVE), a share of the bias. Planes map to planes
+// in NDC, so P is affine in (x, y); the ray's depth being linear in its parameter, where it
+// gets behind P or A inside T is the first root of two linear functions. A(x, y) never lies
+// past A: the plane only brings the surface nearer where it comes towards the ray (extended
+// behind A, the tangent plane at a piece's outline would be a sheet stopping the rays that
+// pass behind the piece). A ray that enters T already behind P but in front of A hits only
+// if it was in front of P where it entered the face (its origin, in the first face) or
+// leaves a surface of another material (cube_origin_material, which the caller sets): a ray
+// leaving a curved surface starts behind its neighbours' tangent planes and would stop on
+// its own surface, whereas one from the floor beside a frame passes under the frame's top,
+// which the centre sees from above, without crossing its plane in sight. The march walks a
+// second pyramid (u_cube_footprint, built with the first: the least A(x, y) over each
+// texel's square, and B), so that no cell whose plane comes nearer than A is skipped;
+// u_cube_planes (float16) holds each texel's NDC slopes of P and A less the least A(x, y)
+// (P + e at the centre is the least A(x, y) plus what the slopes reach over half a texel).
+// The slope of P is capped at CUBE_FOOTPRINT_MAX_SLOPE (the depth change
+// across a texel, in texel angles at its depth): a surface exactly edge-on has no finite
+// plane in the map. Only the hierarchical march follows the planes. The diffuse light's
+// kernel alone is compiled with it (diffuse_light.py, HYBRID): a false stop on a nearby
+// surface costs a diffuse path little (it takes that surface's light) where an escape
+// through a wall takes the sky; the mirror and glass rays keep the paper's rule.
+//
 // Face switching (paper Figure 3). A ray starts in the FIRST face (order +X, -X, +Y, -Y, +Z,
 // -Z) whose frustum contains its start point, and keeps that face for as long as it stays in
 // the face's frustum (the 90.2-degree faces overlap, and being inside the overlap does not
@@ -124,7 +156,8 @@
 // its second row of faces; default 0); CUBE_HIDDEN_EXIT (1: the hidden-exit rule above;
 // default 0). The march is a define, like the layer, for the same reason: the other march's
 // code, even never run, slows the loops on llvmpipe. The including shader's define:
-// CUBE_HIDDEN_SIDE (1: flag hidden sides, above; default 0).
+// CUBE_HIDDEN_SIDE (1: flag hidden sides, above; default 0); CUBE_FOOTPRINT (1: the surface
+// footprints, above, with the samplers u_cube_footprint and u_cube_planes; default 0).
 #ifndef HYBRID_CUBE_MARCH_GLSL
 #define HYBRID_CUBE_MARCH_GLSL
 
@@ -153,6 +186,30 @@ uniform int u_cube_hiz_levels;
 #endif
 #ifndef CUBE_HIDDEN_SIDE
 #define CUBE_HIDDEN_SIDE 0
+#endif
+#ifndef CUBE_FOOTPRINT
+#define CUBE_FOOTPRINT 0
+#endif
+#if CUBE_FOOTPRINT
+uniform sampler2D u_cube_footprint;
+uniform sampler2D u_cube_planes;
+// The material of the surface the ray being traced leaves (-1: none), which its caller sets.
+int cube_origin_material = -1;
+#endif
+#if CUBE_FOOTPRINT || defined(CUBE_FOOTPRINT_BUILD)
+// The share of the depth bias that the footprints keep in front of the plane, and the
+// steepest plane they follow (see "Surface footprints"). Chess, one sample against
+// FULL_BVH (docs/BENCHMARKS.md, Chess with the traced light): the smaller the share, the
+// fewer paths escape through edge-on walls and the more stop short on the outlines of
+// curved pieces; a quarter measured best, an eighth or a half worse.
+const float CUBE_FOOTPRINT_BIAS = 0.25;
+const float CUBE_FOOTPRINT_MAX_SLOPE = 8.0;
+
+// How far a plane of NDC slopes `slope` comes nearer than at its texel's centre, over the
+// texel's square (half a texel is 1 / u_cube_res in NDC).
+float cube_footprint_reach(vec2 slope) {
+    return (abs(slope.x) + abs(slope.y)) / float(u_cube_res);
+}
 #endif
 
 #define CUBE_SKY 0
@@ -347,6 +404,59 @@ ivec2 cube_layer_hit(ivec2 front_texel, bool from_behind) {
 #endif
 }
 
+#if CUBE_FOOTPRINT
+// The level-0 test of the surface footprints (see the header) on texel `cell` of `face`, for
+// the map ray a + dm t over [t0, t1] inside it, whose level-0 footprint is `footprint` (the
+// least A(x, y), B): whether the ray enters (A(x, y), B] there, `t_hit` where it does and
+// `from_behind` whether it comes from behind B (the back layer's side). g: the ray's depth
+// less P + e, h: less A.
+bool cube_footprint_hit(int face, ivec2 cell, vec3 a, vec3 dm, float t0, float t1, vec2 footprint,
+                        out float t_hit, out bool from_behind) {
+    float b_far = footprint.y;
+    vec3 stored = texelFetch(u_cube_planes, ivec2(face * u_cube_hiz_res, 0) + cell, 0).rgb;
+    vec3 plane = vec3(footprint.x + cube_footprint_reach(stored.xy), stored.xy);
+    float a_const = footprint.x + stored.z;
+    vec2 centre = (vec2(cell) + 0.5) / float(u_cube_res) * 2.0 - 1.0;
+    vec3 p0 = a + dm * t0;
+    vec3 p1 = a + dm * t1;
+    float g0 = p0.z - (plane.x + dot(plane.yz, p0.xy - centre));
+    float g1 = p1.z - (plane.x + dot(plane.yz, p1.xy - centre));
+    float h0 = p0.z - a_const;
+    float h1 = p1.z - a_const;
+    // Behind the plane at entry counts only for a ray that was in front of it where it
+    // entered this face (its origin, in the first face), or that leaves another material:
+    // a ray leaving a curved surface starts behind its neighbours' tangent planes, whereas
+    // one from the floor beside a board's frame passes under the frame's top, seen from
+    // above, without crossing the plane in sight.
+    bool behind = h0 > 0.0;
+    if (!behind && g0 > 0.0) {
+        float ga = a.z - (plane.x + dot(plane.yz, a.xy - centre));
+        float material = texelFetch(u_cube_normal_material, ivec2(face * u_cube_res, 0) + cell, 0).w;
+        behind = ga <= 0.0 || int(abs(material) + 0.5) - 1 != cube_origin_material;
+    }
+    t_hit = t0;
+    // Entering nearer B than A(x, y): the ray meets the far side (the back layer) first.
+    float a0 = min(a_const, p0.z - g0);
+    from_behind = behind && p0.z - a0 > b_far - p0.z;
+#if CUBE_HIDDEN_SIDE
+    cube_entered_behind = behind;
+#endif
+    if (behind) {
+        if (p0.z <= b_far) return true;  // entered inside the interval
+        // Entered behind B: a hit where the falling depth reaches B (B >= A(x, y)).
+        if (!(p1.z <= b_far)) return false;
+        t_hit = clamp(t0 + (b_far - p0.z) / dm.z, t0, t1);
+        return true;
+    }
+    // In front of A at entry: where the ray crosses the plane or A.
+    float t_root = t1 + 1.0;
+    if (g0 <= 0.0 && g1 > 0.0) t_root = t0 + (t1 - t0) * (g0 / (g0 - g1));
+    if (h1 > 0.0) t_root = min(t_root, t0 + (t1 - t0) * (h0 / (h0 - h1)));
+    t_hit = min(t_root, t1);
+    return t_root <= t1;
+}
+#endif
+
 // The hierarchical march of one face (see the header) along the map ray a + dm t,
 // t in [0, t_exit]. On a hit returns true with the atlas texel and the NDC xy where the ray
 // enters the texel's hit interval.
@@ -373,9 +483,29 @@ bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
         ivec2 c = cell >> level;
         vec2 t_bound = mix(vec2(1e30), (vec2((c + positive) * size) - u0) * inv_du, moving);
         float t_end = min(min(t_bound.x, t_bound.y), t_exit);
+#if CUBE_FOOTPRINT
+        vec2 ab = texelFetch(u_cube_footprint, ivec2(face * (u_cube_hiz_res >> level), 0) + c, level).rg;
+#else
         vec2 ab = texelFetch(u_cube_hiz, ivec2(face * (u_cube_hiz_res >> level), 0) + c, level).rg;
+#endif
         float z0 = a.z + dm.z * t;
         float z1 = a.z + dm.z * t_end;
+#if CUBE_FOOTPRINT
+        bool may_hit = max(z0, z1) > ab.x && min(z0, z1) <= ab.y;
+        if (may_hit && level > 0) {
+            level -= 1;  // the cell may hold a hit: look at its children
+            continue;
+        }
+        float t_hit;
+        bool from_behind;
+        if (may_hit && cube_footprint_hit(face, cell, a, dm, t, t_end, ab, t_hit, from_behind)) {
+            hit_texel = ivec2(face * u_cube_res, 0) + cell;
+            hit_xy = a.xy + dm.xy * t_hit;
+            hit_from_behind = from_behind;
+            found = true;
+            break;
+        }
+#else
         if (max(z0, z1) > ab.x && min(z0, z1) <= ab.y) {
             if (level > 0) {
                 level -= 1;  // the cell may hold a hit: look at its children
@@ -398,6 +528,7 @@ bool cube_march_face_hierarchical(int face, vec3 a, vec3 dm, float t_exit,
             found = true;
             break;
         }
+#endif
         if (t_end >= t_exit) return false;
         // Step into the neighbouring cell of this level; the coordinate that does not step
         // follows the ray, kept inside the cell's span.

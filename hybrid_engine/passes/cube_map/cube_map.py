@@ -127,6 +127,9 @@ class CubeMapPass:
     """
 
     name = "cube_map_raster"
+    # Whether the pyramid pass builds the surface footprints where the diffuse paths march
+    # the map (``marches_footprints``); off only to measure the march without them.
+    footprints = True
 
     def __init__(self, ctx, gbuffer: GBufferPass) -> None:
         self.ctx = ctx
@@ -142,6 +145,7 @@ class CubeMapPass:
         self.back_layer = False
         self.hidden_exit = False
         self.sampled = False
+        self.footprint = False  # the last render built the surface footprints
 
     def _ensure_targets(self, resolution: int, layers: int, tangent: bool) -> CubeFaceTargets:
         size = (6 * resolution, layers * resolution)
@@ -212,10 +216,19 @@ class CubeMapPass:
                                                geo.object_ranges, geo.object_bounds, closed)
         submitted = self.gbuffer.render_cube_faces(gpu, scene, views, targets, self.culled, self.culled_back,
                                                    back_layer=draw_back)
+        self.footprint = self.marches_footprints(settings)
         if settings.cube_march == "HIERARCHICAL":
             self.pyramid.build(targets.depth, targets.normal_material, gpu.materials.buffer,
-                               self.march_uniforms(settings), res, self.layer_defines())
+                               self.march_uniforms(settings), res, self.layer_defines(),
+                               geometric=targets.geometric if self.footprint else None)
         return submitted
+
+    def marches_footprints(self, settings: RenderSettings) -> bool:
+        """Whether the diffuse paths march this map by its surface footprints
+        (cube_march.glsl "Surface footprints", passes/diffuse_light/): HYBRID's traced
+        diffuse light, with the hierarchical march, which alone follows them."""
+        return (self.footprints and settings.trace_mode == "HYBRID" and settings.traces_diffuse
+                and settings.cube_march == "HIERARCHICAL")
 
     def march_uniforms(self, settings: RenderSettings) -> dict:
         """Values of cube_march.glsl's uniforms (samplers excluded) for the last render."""
@@ -253,6 +266,9 @@ class CubeMapPass:
                     "u_cube_normal_material": self.targets.normal_material}
         if self.pyramid.texture is not None:
             textures["u_cube_hiz"] = self.pyramid.texture
+        if self.footprint:
+            textures["u_cube_footprint"] = self.pyramid.footprint
+            textures["u_cube_planes"] = self.pyramid.planes
         return textures
 
     def release(self) -> None:

@@ -253,6 +253,9 @@ class HybridTracer:
             "u_cube_geometric": self._dummy_rg,
             "u_cube_tangent": self._dummy_rgba,  # node programs' cube hits (trace_ray.glsl)
             "u_cube_hiz": self._dummy_rg,
+            # the diffuse paths' surface footprints (cube_march.glsl, CUBE_FOOTPRINT)
+            "u_cube_footprint": self._dummy_rg,
+            "u_cube_planes": self._dummy_rgba,
         }
         if cube is not None:
             textures.update(cube.textures)

@@ -246,3 +246,50 @@ def test_the_lit_cube_map_is_a_step_of_its_own_after_the_cube_map(renderer):
     result = renderer.render(scene, camera, RenderSettings(**BASE), timing=True)
     assert tuple(result.passes) == frame_steps("HYBRID", lit_cube=True)
     assert frame_steps("HYBRID", lit_cube=True).index("cube_light") == frame_steps("HYBRID").index("cube_map_raster") + 1
+
+
+# -- the texels hold no emission: a bright emitter's reflected light is not left to float16 ------
+PANEL_EMISSION = 20.0  # float16 steps by 1/64 between 16 and 32
+
+
+def sunlit_panel_over_floor(emission: float, sun: bool) -> SceneData:
+    """A matte floor round the camera (inside the near cube: a primary surface, not in the
+    map) under a square panel beyond the near cube (in the map) facing it; a sun from below,
+    casting no shadow, lights the panel's underside and nothing of the floor's top, and the
+    World is black. The panel reflects the sun's light (a few hundredths, not a multiple of
+    float16's step at the emission), the floor's diffuse paths find it in the cube map."""
+    mats = MaterialTable.from_rows([
+        dict(name="floor", base_color=(0.8, 0.8, 0.8), specular=0.0, roughness=1.0),
+        dict(name="panel", base_color=(0.8, 0.8, 0.8), specular=0.0, roughness=1.0,
+             emission=(emission,) * 3),
+    ])
+    objects = [(quad((0.0, 0.0, 0.0), (0.9, 0, 0), (0, 0.9, 0)), None, 0),
+               (quad((0.0, 0.0, 3.0), (1.5, 0, 0), (0, -1.5, 0)), None, 1)]
+    lights = [dict(kind="SUN", direction=(0.0, 0.0, 1.0), color=(0.15, 0.15, 0.15), cast_shadow=False)] if sun else []
+    return SceneData(Geometry.from_objects(objects), mats, Lights.from_rows(lights), Sky(color=(0.0, 0.0, 0.0)))
+
+
+def test_the_light_a_bright_emitter_reflects_reaches_diffuse_paths_through_the_map_unrounded(renderer):
+    """The floor's diffuse paths take the panel's emission by their next-event estimate and
+    end on its texels in the lit cube map, where they take only the light it reflects. Light
+    adds up: the sun's share of the floor's light (sun on minus sun off) is the same with the
+    panel emitting 20 as with it dark. A texel holding the emission as well, taken off again
+    by the path, would leave that share to float16's step at 20 (1/64), a good part of it."""
+    camera = camera_at((0.0, -1.0, 1.0), (0.0, 0.0, 0.0))
+    settings = dict(near_size=2.0, cube_resolution=64, ao_distance=10.0, diffuse_bounces=1,
+                    denoise_viewport=False, denoise_render=False)
+
+    def fresh(scene: SceneData) -> np.ndarray:
+        """A render whose lit cube map starts over, drawing the same numbers as the others."""
+        if renderer.cube_light is not None:
+            renderer.cube_light.forget()
+        return render(renderer, scene, camera, **settings).image[..., :3]
+
+    emitting = fresh(sunlit_panel_over_floor(PANEL_EMISSION, True)) - fresh(sunlit_panel_over_floor(PANEL_EMISSION, False))
+    dark = fresh(sunlit_panel_over_floor(0.0, True))
+    floor = dark.sum(axis=-1) > 0.0
+    assert floor.sum() > 0.5 * W * H, "the floor fills most of the view, lit by the panel's reflection"
+    error = np.abs(emitting[floor] - dark[floor]).mean() / dark[floor].mean()
+    if not error < 0.01:
+        save_failure_images("cube_light_bright_emitter", emitting=emitting, dark=dark)
+    assert error < 0.01, (error, emitting[floor].mean(), dark[floor].mean())

@@ -7,12 +7,14 @@ the hit reads the UV where the ray meets the texel's plane. Each graph shows its
 emission colour (normal * 0.5 + 0.5), so the images compare the normal itself."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
 from hybrid_engine.scene.camera import Camera, look_at
+from hybrid_engine.scene.data import Lights
 from hybrid_engine.scene.settings import RenderSettings
 from hybrid_engine.scene.shader_graph import Link, ShaderGraph
 from normal_scenes import black_world, mirror_material, settings_for_one_sample
@@ -34,28 +36,42 @@ def shown_normal(graph: ShaderGraph, normal: Link) -> ShaderGraph:
     return graph
 
 
-def tangent_normal_map() -> ShaderGraph:
+def tangent_normal_map(show=shown_normal) -> ShaderGraph:
     """A tangent-space Normal Map whose colour varies over the UV (a distorted Wave mixing two
-    tilted normals)."""
+    tilted normals), shown by ``show``."""
     graph = ShaderGraph()
     uv = Link(graph.add("TEX_COORD"), "UV")
     wave = graph.add("TEX_WAVE", settings={"bands_direction": "DIAGONAL"}, Vector=uv, Scale=1.0, Distortion=4.0)
     mix = graph.add("MIX", settings={"data_type": "RGBA"}, Factor_Float=Link(wave, "Fac"),
                     A_Color=(0.2, 0.7, 0.8, 1.0), B_Color=(0.8, 0.35, 0.7, 1.0))
     normal_map = graph.add("NORMAL_MAP", settings={"space": "TANGENT"}, Color=Link(mix, "Result_Color"))
-    return shown_normal(graph, Link(normal_map, "Normal"))
+    return show(graph, Link(normal_map, "Normal"))
 
 
-def uv_bump() -> ShaderGraph:
-    """A Bump whose Height is a Noise of the UV."""
+def uv_bump(show=shown_normal) -> ShaderGraph:
+    """A Bump whose Height is a Noise of the UV, shown by ``show``."""
     graph = ShaderGraph()
     uv = Link(graph.add("TEX_COORD"), "UV")
     noise = graph.add("TEX_NOISE", Vector=uv, Scale=6.0, Detail=2.0)
     bump = graph.add("BUMP", Distance=0.3, Height=Link(noise, "Fac"))
-    return shown_normal(graph, Link(bump, "Normal"))
+    return show(graph, Link(bump, "Normal"))
 
 
 GRAPHS = {"normal map": tangent_normal_map, "bump": uv_bump}
+
+
+def lit_normal(graph: ShaderGraph, normal: Link) -> ShaderGraph:
+    """A white Diffuse BSDF with ``normal``: under SUNS_BELOW each colour channel is the
+    normal's cosine to one sun, so the light it reflects shows the normal."""
+    graph.surface = Link(graph.add("BSDF_DIFFUSE", Color=(1.0, 1.0, 1.0, 1.0), Normal=normal), "BSDF")
+    return graph
+
+
+# Three suns from below, red, green and blue, each towards another side of the ceiling's
+# normal (travelling up to it), casting no shadow (the mirror floor would hide the ceiling).
+SUNS_BELOW = [dict(kind="SUN", direction=direction, color=color, cast_shadow=False)
+              for direction, color in (((-1.0, 0.0, 1.2), (2.0, 0.0, 0.0)), ((0.0, -1.0, 1.2), (0.0, 2.0, 0.0)),
+                                       ((0.0, 0.0, 1.0), (0.0, 0.0, 2.0)))]
 
 
 def ceiling(back: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -72,14 +88,16 @@ def ceiling(back: bool = False) -> tuple[np.ndarray, np.ndarray]:
     return tris, turned
 
 
-def mirrored(renderer, graph: ShaderGraph, mode: str, lit_cube: bool = False, back: bool = False) -> np.ndarray:
+def mirrored(renderer, graph: ShaderGraph, mode: str, lit_cube: bool = False, back: bool = False,
+             lamps: tuple = ()) -> np.ndarray:
     """The ceiling in a mirror floor at z = 0, seen from above at z = 3: with a near cube of
     half-size 1 the ceiling lies in the cube map in HYBRID (``lit_cube``: its hits read the
-    lit cube map's texels)."""
+    lit cube map's texels), lit by ``lamps`` (rows)."""
     floor, floor_uvs = textured_quad((-4, -4, 0), (8, 0, 0), (0, 8, 0), (0.0, 0.0), (1.0, 1.0))
     tris, uvs = ceiling(back)
     rows = [dict(base_color=(1.0, 1.0, 1.0), reflectivity=1.0, roughness=0.0), dict()]
     scene = plane_scene([(floor, floor_uvs, 0), (tris, uvs, 1)], [None, graph], rows)
+    scene = dataclasses.replace(scene, lights=Lights.from_rows(list(lamps)))
     settings = RenderSettings(mode=mode, near_size=1.0, cube_far=20.0, cube_resolution=256, max_depth=1,
                               lit_cube=lit_cube)
     return renderer.render(scene, top_down_camera(size=SIZE, scale=1.6), settings).image[..., :3]
@@ -137,9 +155,11 @@ def test_the_lit_cube_maps_texels_bend_the_normal_as_the_cube_hits_do(renderer, 
     (cube_light_shade.comp.glsl), so what a mirror reads from it is the normal a cube hit
     shades: the two differ by where in its texel each takes the UV, and for the Bump by its
     filter width (the texel's there, the ray cone's at a hit). Without the frame the texels'
-    normals are flat, several times the bars off."""
-    per_hit = mirrored(renderer, GRAPHS[graph](), "HYBRID")
-    stored = mirrored(renderer, GRAPHS[graph](), "HYBRID", lit_cube=True)
+    normals are flat, several times the bars off. The normal shows in the suns' light the
+    texels store (lit_normal), not in an emission: the texels hold none, the reader adds the
+    hit's own."""
+    per_hit = mirrored(renderer, GRAPHS[graph](show=lit_normal), "HYBRID", lamps=SUNS_BELOW)
+    stored = mirrored(renderer, GRAPHS[graph](show=lit_normal), "HYBRID", lit_cube=True, lamps=SUNS_BELOW)
     assert inner(per_hit).std(axis=(0, 1)).max() > 0.02, "the graph bends no normal"
     mean, p99 = difference(stored, per_hit)
     mean_bar, p99_bar = {"normal map": (0.01, 0.07), "bump": (0.03, 0.15)}[graph]

@@ -15,7 +15,8 @@
 // cube's contents are clipped from the faces, paper §3.2), so they neither hide the sky nor
 // bounce light here.
 //
-// Storage block MaterialBuffer (and EmitterLinks with EMITTER_LINKING). Samplers: the cube map's (cube_march.glsl, u_cube_geometric),
+// Storage block MaterialBuffer (and EmitterLinks with EMITTER_LINKING). Samplers: the cube
+// map's (cube_march.glsl, u_cube_surface, u_cube_geometric), u_textures (the emission images),
 // u_cube_radiance (the previous frame's lit cube map, level 0), u_gather_prev (the previous
 // frame's gather). Image u_gather (rgba16f, written). Uniforms: cube_march.glsl's,
 // cube_radiance.glsl's, u_prev_center (the previous map's centre), u_history (1: the
@@ -30,6 +31,7 @@ layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 // EMITTER_LINKING (some emissive object is linked): EmitterLinks, bound with it.
 #include "emitter_links.glsl"
 
+#include "textures.glsl"
 #include "cube_march.glsl"
 #include "scene_bounds.glsl"
 #include "cube_radiance.glsl"
@@ -37,6 +39,7 @@ layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
 #include "random.glsl"
 
 layout(rgba16f) writeonly uniform image2D u_gather;
+uniform sampler2D u_cube_surface;  // the texels' UV and texture scale (cube_map.CubeFaceTargets)
 uniform sampler2D u_gather_prev;
 uniform vec3 u_prev_center;
 uniform int u_history;
@@ -105,13 +108,20 @@ void main() {
     vec4 sample_value = vec4(0.0, 0.0, 0.0, 1.0);
     if (cm.kind == CUBE_HIT) {
         vec3 seen = previous_radiance(cm.position, cm.texel.y >= u_cube_res ? 1 : 0);
+        // The map's texels hold no emission (cube_light_shade.comp.glsl): the ray adds the
+        // hit's, its row's factor times its emission image at the texel's UV and footprint
+        // (a node program's at the host's estimate of its row), where it lights the block's
+        // surface (a linked emitter: only onto its receivers' texels).
+        bool lights = all(greaterThanEqual(seen, vec3(0.0))) && cm.material >= 0;
 #ifdef EMITTER_LINKING
-        // A linked emitter's texels hold no emission (cube_light_shade.comp.glsl): its light,
-        // at the material's factor, bounces only onto its receivers (the block's texel's set).
-        if (all(greaterThanEqual(seen, vec3(0.0))) && cm.material >= 0 && !emission_lights_every_set(cm.material)
-            && emission_lights_set(cm.material, row_light_set(int(abs(nm.w) + 0.5) - 1)))
-            seen += max(materials[cm.material].emission_trans.rgb, vec3(0.0));
+        lights = lights && emission_lights_set(cm.material, row_light_set(int(abs(nm.w) + 0.5) - 1));
 #endif
+        if (lights) {
+            vec4 surface = texelFetch(u_cube_surface, cm.texel, 0);
+            float dist = distance(cm.position, u_cube_center);
+            float lod = texture_lod(dist * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res), surface.z);
+            seen += max(material_emission_lod(materials[cm.material], surface.xy, lod), vec3(0.0));
+        }
         sample_value = vec4(PI * clamp(seen, vec3(0.0), vec3(CUBE_LIGHT_MAX)), 0.0);
     }
 

@@ -2,7 +2,7 @@
 // Level 0 of the lit cube map (hybrid_engine/passes/cube_light/, layout in
 // include/cube_radiance.glsl): each texel of the cube map's faces (paper §3.2) shaded with
 // its diffuse, view-independent light,
-//   emission + diffuse_weight * albedo / pi * (E_lamps + E_sky * V + E_bounce)
+//   diffuse_weight * albedo / pi * (E_lamps + E_sky * V + E_bounce)
 // where E_lamps is the lamps' irradiance through their shadow maps (lighting.glsl, hard
 // shadows as the tracer's hits take them), E_sky the World's irradiance (world_light.glsl),
 // and V and E_bounce the sky's visibility and the bounced irradiance of the gather
@@ -13,18 +13,19 @@
 // the map's centre, the camera, sees. a = the texel's distance from the centre (0: none).
 // Texels of the padding up to the power-of-two face size, and empty ones, are cleared.
 //
-// A linked emitter's texels (EMITTER_LINKING: its light mask leaves some receiver set out)
-// hold no emission, only the light it reflects; whoever reads the map adds the emission as
-// it adds that of a surface it meets in the BVH (cube_light_gather.comp.glsl: onto its
-// receivers' texels only; trace_ray.glsl, diffuse_gather.comp.glsl). Stored, it would have
-// to be taken off again for the surfaces it does not light, and what a float16 texel keeps
-// of a bright emission plus a dim reflection leaves that reflection to the texel's rounding
-// (a step of 1/64 at an emission of 20); a filtered read would also spill it beside its edge.
+// The texels hold no emission, only the light their surface reflects; whoever reads the map
+// adds the hit material's emission where it counts, as it adds that of a surface it meets in
+// the BVH (cube_light_gather.comp.glsl; trace_ray.glsl shade_hit and gather_light;
+// diffuse_gather.comp.glsl, only where the path's last vertex took no next-event estimate of
+// the emitters). Stored, it would have to be taken off again wherever it does not count (a
+// linked emitter's non-receivers, a path that took the emitters' estimate), and what a float16
+// texel keeps of a bright emission plus a dim reflection leaves that reflection to the texel's
+// rounding (a step of 1/64 at an emission of 20); a filtered read would also spill the
+// emission beside the emitter's edge.
 //
-// Storage block MaterialBuffer; uniform blocks LightBuffer, ShadowSlotBuffer; storage blocks
-// SkyIrradiance and, with EMITTER_LINKING, EmitterLinks (bound with the lighting). Samplers:
-// the cube map's (cube_march.glsl, u_cube_surface, u_cube_geometric), u_gather (this frame's
-// gather), u_textures, u_shadow_atlas, u_shadow_dynamic, u_sky_env.
+// Storage block MaterialBuffer; uniform blocks LightBuffer, ShadowSlotBuffer; storage block
+// SkyIrradiance. Samplers: the cube map's (cube_march.glsl, u_cube_surface, u_cube_geometric),
+// u_gather (this frame's gather), u_textures, u_shadow_atlas, u_shadow_dynamic, u_sky_env.
 // Image u_radiance (rgba16f, level 0, written). Uniforms: cube_march.glsl's,
 // u_cube_radiance_res, u_gather_res, u_gathered (0: V = 1 and no bounce, without reading
 // u_gather), the lighting's (FrameResources.bindings).
@@ -34,7 +35,6 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(std430) readonly buffer MaterialBuffer { Material materials[]; };
-#include "emitter_links.glsl"
 
 #include "shading.glsl"
 #include "textures.glsl"
@@ -140,10 +140,7 @@ void main() {
 #endif
     // -- end of node programs
     vec3 albedo = material_albedo_lod(m, surface.xy, lod);
-    vec3 light = material_emission_lod(m, surface.xy, lod);
-#ifdef EMITTER_LINKING
-    if (!emission_lights_every_set(index)) light = vec3(0.0);  // the readers add it (header)
-#endif
+    vec3 light = vec3(0.0);  // no emission: the readers add it (header)
     SpecularSplit split = specular_split_geometric(m, albedo, view_dir, n_facing, g_facing);
     if (split.diffuse_weight > 0.0) {
         DirectLight direct = direct_lighting(p, split.n_facing, -view_dir, vec3(0.0), 0.0, 1.0, true,

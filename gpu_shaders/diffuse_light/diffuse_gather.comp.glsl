@@ -164,27 +164,18 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, int mat
         SpecularSplit hs = specular_split_geometric(hm, h_albedo, d, h.normal, h.geometric);
         bool bounces_left = vertex <= u_diffuse_bounces;
 #ifdef LIT_CUBE
-        // A surface in the cube map holds its light already (the lit cube map: lamps, World,
-        // emission and the bounces fed back from earlier frames): the path ends there.
+        // A surface in the cube map holds its light already (the lit cube map: lamps, World
+        // and the bounces fed back from earlier frames): the path ends there. Its texels hold
+        // no emission (cube_light_shade.comp.glsl): the path adds it as it adds a surface's
+        // the BVH finds (below), only where the last vertex took no next-event estimate of
+        // the emitters.
         if (bounces_left && h.kind == HIT_CUBE) {
             vec3 stored = cube_stored_radiance(h, 0.0);
-#ifdef EMITTER_LINKING
-            // A linked emitter's texels hold no emission (cube_light_shade.comp.glsl): the
-            // path adds it as it adds a surface's the BVH finds (below).
-            bool held = emission_lights_every_set(h.material);
+#ifndef EMITTER_LIGHT
+            stored += material_emission_lod(hm, h.uv, h.lod);
 #else
-            const bool held = true;
+            if (emission_counts) stored += material_emission_lod(hm, h.uv, h.lod);
 #endif
-#ifdef EMITTER_LIGHT
-            // The emitters' light reached the last vertex by its next-event estimate.
-            bool counts = emission_counts;
-#else
-            const bool counts = true;
-#endif
-            if (held && !counts)
-                stored = max(stored - material_emission_lod(hm, h.uv, h.lod), vec3(0.0));
-            else if (!held && counts)
-                stored += material_emission_lod(hm, h.uv, h.lod);
             radiance += throughput * stored;
             break;
         }

@@ -24,13 +24,6 @@ bool emission_lights_set(int emitter, int set) {
     return link_mask_holds(emitter_links[emitter].xy, set);
 }
 
-// Whether material row `emitter` lights every receiver set (its light mask holds them all).
-// The lit cube map stores only such rows' emission in their texels (cube_light_shade.comp.glsl);
-// its readers add a linked row's emission where it lights them.
-bool emission_lights_every_set(int emitter) {
-    return all(equal(emitter_links[emitter].xy, uvec2(0xFFFFFFFFu)));
-}
-
 // The receiver set of the surfaces of material row `m` (params2.z, light_linking.py).
 int row_light_set(int m) {
     return int(materials[m].params2.z + 0.5);

@@ -1,12 +1,14 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // A traced ray's hit in the cube map, lit from the lit cube map (LIT_CUBE;
 // hybrid_engine/passes/cube_light/, cube_radiance.glsl) instead of shaded per ray: the
-// diffuse, view-independent light the cube_light pass stored at the texel (emission, the
-// lamps through their shadow maps, the World's light times the sky the texel sees, and the
-// light bounced from the other texels), read at the mip level whose texels span the ray's
-// cone, so that a rough reflection of the cube map reads it prefiltered to its roughness.
-// What depends on the view stays per ray: the lamps' highlights (here) and the reflected and
-// refracted rays (trace_ray.glsl shade_hit).
+// diffuse, view-independent light the cube_light pass stored at the texel (the lamps through
+// their shadow maps, the World's light times the sky the texel sees, and the light bounced
+// from the other texels), read at the mip level whose texels span the ray's cone, so that a
+// rough reflection of the cube map reads it prefiltered to its roughness. What depends on the
+// view stays per ray: the lamps' highlights (here) and the reflected and refracted rays
+// (trace_ray.glsl shade_hit), and so does the hit's emission, which the texels do not hold
+// (cube_light_shade.comp.glsl): a rough reflection takes it at the point its sampled ray
+// meets, as it does a surface in the BVH, and the film's samples average it.
 //
 // Included by trace_ray.glsl after its Hit struct and u_pixel_spread; needs shading.glsl.
 #ifndef HYBRID_LIT_CUBE_GLSL

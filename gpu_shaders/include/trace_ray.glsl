@@ -813,14 +813,9 @@ vec3 gather_light(Hit h, vec3 d) {
     if (h.kind == HIT_SKY) return sky_radiance(d);
 #ifdef LIT_CUBE
     if (h.kind == HIT_CUBE) {
-        vec3 stored = cube_stored_radiance(h, 0.0);  // the lit cube map's light
-#ifdef EMITTER_LINKING
-        // A linked emitter's texels hold no emission (cube_light_shade.comp.glsl); the
-        // surfaces the BVH finds give theirs below whatever their linking, and so does this.
-        if (!emission_lights_every_set(h.material))
-            stored += material_emission_lod(hit_material(h, d, 1), h.uv, h.lod);
-#endif
-        return stored;
+        // The lit cube map's light; its texels hold no emission (cube_light_shade.comp.glsl),
+        // which the hit adds as the surfaces the BVH finds do below, whatever their linking.
+        return cube_stored_radiance(h, 0.0) + material_emission_lod(hit_material(h, d, 1), h.uv, h.lod);
     }
 #endif
     Material hm = hit_material(h, d, 1);
@@ -863,16 +858,11 @@ void shade_hit(PendingRay ray, Hit h, inout vec3 traced) {
     // Seen through a rough lobe, a sharp lamp highlight is a firefly: widen it to that
     // lobe's roughness (Cycles' Filter Glossy does the same).
 #ifdef LIT_CUBE
-    // A cube-map hit's diffuse light (lamps, emission, World) is the lit cube map's (lit_cube.glsl).
+    // A cube-map hit's diffuse light (lamps, World, bounces) is the lit cube map's
+    // (lit_cube.glsl); its texels hold no emission (cube_light_shade.comp.glsl), so the ray
+    // adds h_emission, with a linked emitter's already taken off above where it does not light.
     bool stored = h.kind == HIT_CUBE;
-#ifdef EMITTER_LINKING
-    // A linked emitter's texels hold no emission (cube_light_shade.comp.glsl): the ray adds
-    // what of it lights the surface it left (h_emission, the rest taken off above).
-    if (stored) traced += ray.weight * (cube_hit_light(hm, h, ray.dir, hs, ray.blur)
-                                        + (emission_lights_every_set(h.material) ? vec3(0.0) : h_emission));
-#else
-    if (stored) traced += ray.weight * cube_hit_light(hm, h, ray.dir, hs, ray.blur);
-#endif
+    if (stored) traced += ray.weight * (cube_hit_light(hm, h, ray.dir, hs, ray.blur) + h_emission);
     else traced += ray.weight * lamp_light_response(hm, h_albedo, h_emission, h.position, ray.dir, hs, ray.blur);
 #else
     const bool stored = false;

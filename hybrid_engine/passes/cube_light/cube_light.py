@@ -6,9 +6,11 @@ again (§3.4, §3.5): the lamps' shadow lookups and the World's light per ray, a
 reflection of the map can only be sampled, never read prefiltered. This pass shades each
 texel's diffuse, view-independent light once (``gpu_shaders/cube_light/``):
 
-* **shade** (``cube_light_shade.comp.glsl``): emission, the lamps through their shadow maps,
-  and the World's irradiance times the sky the texel sees plus the light bounced onto it,
-  into level 0 of a radiance atlas laid out as the cube map (``include/cube_radiance.glsl``);
+* **shade** (``cube_light_shade.comp.glsl``): the lamps through their shadow maps, and the
+  World's irradiance times the sky the texel sees plus the light bounced onto it, into level 0
+  of a radiance atlas laid out as the cube map (``include/cube_radiance.glsl``); no emission,
+  which every reader adds from the hit's material where it counts (a float16 texel holding a
+  bright emission would leave the light the emitter reflects to its rounding);
 * **gather** (``cube_light_gather.comp.glsl``), before it, at a quarter of the resolution per
   side: one cosine ray per block of texels per frame, marched through the cube map, bringing
   the sky (escaped) or the light the previous frame stored where it hits (one bounce more
@@ -17,8 +19,8 @@ texel's diffuse, view-independent light once (``gpu_shaders/cube_light/``):
   rough reflection reads the map at the level its ray cone spans.
 
 The tracer, given the ``cube_light`` resource, returns the stored light at its cube-map hits
-(``include/lit_cube.glsl``, define ``LIT_CUBE``) and adds only the lamps' highlights and the
-traced reflections there, the parts that depend on the view.
+(``include/lit_cube.glsl``, define ``LIT_CUBE``) and adds the hit's emission, the lamps'
+highlights and the traced reflections there, the parts the map does not hold.
 
 Stability of the feedback. Each frame the gather blends a new sample into its running average
 with weight ``BLEND`` (an exponential average). Light enters the loop only through emission,

@@ -118,8 +118,7 @@ void main() {
 #endif
         if (lights) {
             vec4 surface = texelFetch(u_cube_surface, cm.texel, 0);
-            float dist = distance(cm.position, u_cube_center);
-            float lod = texture_lod(dist * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res), surface.z);
+            float lod = texture_lod(cube_texel_footprint(cm.position), surface.z);
             seen += max(material_emission_lod(materials[cm.material], surface.xy, lod), vec3(0.0));
         }
         sample_value = vec4(PI * clamp(seen, vec3(0.0), vec3(CUBE_LIGHT_MAX)), 0.0);

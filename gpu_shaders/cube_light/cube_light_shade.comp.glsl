@@ -61,7 +61,7 @@ vec4 gathered_light(int face, int row, ivec2 local, vec3 p, vec3 n) {
     vec2 at = (vec2(local) + 0.5) / float(CUBE_GATHER_BLOCK) - 0.5;
     ivec2 c = ivec2(floor(at));
     vec2 f = at - vec2(c);
-    float texel_world = distance(p, u_cube_center) * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
+    float texel_world = cube_texel_footprint(p);
     vec4 sum = vec4(0.0);
     float total = 0.0;
     for (int j = 0; j < 2; ++j) {
@@ -110,7 +110,7 @@ void main() {
     int index = int(abs(nm.w) + 0.5) - 1;
     // The texel's textures at the level of its own footprint, as the face's raster would.
     vec4 surface = texelFetch(u_cube_surface, atlas, 0);
-    float lod = texture_lod(dist * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res), surface.z);
+    float lod = texture_lod(cube_texel_footprint(p), surface.z);
     Material m = material_at_lod(materials[index], surface.xy, lod);
     vec3 n_facing, g_facing;
     cube_texel_normals(atlas, nm, p, n_facing, g_facing);
@@ -124,7 +124,7 @@ void main() {
         vec3 g = normalize(g_facing);
         ShadingPoint sp = node_plain_point(p, normalize(nm.xyz), g, seen_from, surface.xy, lod, 1,
                                            cube_row_decode(surface.w), index);
-        node_footprint_axes(sp.geometric, dist * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res), sp.dp_dx, sp.dp_dy);
+        node_footprint_axes(sp.geometric, cube_texel_footprint(p), sp.dp_dx, sp.dp_dy);
         cube_tangent_decode(texelFetch(u_cube_tangent, atlas, 0), texelFetch(u_cube_geometric, atlas, 0).xy,
                             sp.dp_du, sp.dp_dv);
         sp.uv_dx = node_uv_change(sp.dp_dx, sp.dp_du, sp.dp_dv);

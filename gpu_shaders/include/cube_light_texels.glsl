@@ -14,6 +14,12 @@
 
 uniform sampler2D u_cube_geometric;
 
+// The width one texel of the map spans at point p: the footprint at which the faces' raster
+// textures the surface there, and a node program's dP.
+float cube_texel_footprint(vec3 p) {
+    return distance(p, u_cube_center) * 2.0 * CUBE_TAN_HALF_FOV / float(u_cube_res);
+}
+
 // The map's texel at the centre of gather block `block` of a face (clamped into the face).
 ivec2 cube_gather_texel(ivec2 block) {
     return min(block * CUBE_GATHER_BLOCK + CUBE_GATHER_BLOCK / 2, ivec2(u_cube_res - 1));

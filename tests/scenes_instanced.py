@@ -62,9 +62,9 @@ def materials() -> MaterialTable:
     return MaterialTable.from_rows([
         dict(base_color=(0.8, 0.8, 0.8)),
         dict(base_color=(0.9, 0.2, 0.1), roughness=0.3),
-        dict(base_color=(0.1, 0.7, 0.2), metallic=1.0, roughness=0.1),
-        dict(base_color=(0.2, 0.3, 0.9), emission=(1.0, 0.5, 0.2), emission_strength=2.0),
-        dict(base_color=(0.7, 0.6, 0.1), roughness=0.8, metallic=0.4),
+        dict(base_color=(0.1, 0.7, 0.2), reflectivity=1.0, roughness=0.1),
+        dict(base_color=(0.2, 0.3, 0.9), emission=(2.0, 1.0, 0.4)),
+        dict(base_color=(0.7, 0.6, 0.1), roughness=0.8, reflectivity=0.4),
         dict(base_color=(0.3, 0.3, 0.3), roughness=0.05),
     ])
 

@@ -187,19 +187,45 @@ def mirror_and_panel(*, emit: bool = True, linked: bool = False, floor_receives:
                          ids=["bvh_hit", "cube_map_hit", "lit_cube_map"])
 def test_a_mirror_outside_the_receivers_does_not_show_the_linked_panel(renderer, kernels, near_size, lit_cube):
     # As Cycles: a reflection ray finds a linked emitter's emission only where it lights the
-    # surface the ray left. The camera looks down at the mirror, the panel's reflection in view.
+    # surface the ray left. The lit cube map is read filtered: a linked panel's emission kept
+    # in its texels would spill into the texels beside its edge, which no material's emission
+    # takes away.
+    assert_the_floor_reflects_the_linked_panel_only_as_its_receiver(renderer, mirror_and_panel,
+                                                                    near_size=near_size, lit_cube=lit_cube)
+
+
+def assert_the_floor_reflects_the_linked_panel_only_as_its_receiver(renderer, scene_of, **settings) -> None:
+    """The camera looks down at the floor of ``scene_of`` (mirror_and_panel's arguments), the
+    panel's reflection in view: linked, the floor shows it only when it is a receiver."""
     camera = looking_at((0.0, 0.0, -1.5), eye=(0.0, -6.0, 1.2))
-    settings = dict(near_size=near_size, lit_cube=lit_cube)
-    on = render(renderer, mirror_and_panel(), camera, **settings)
-    off = render(renderer, mirror_and_panel(emit=False), camera, **settings)
+    on = render(renderer, scene_of(), camera, **settings)
+    off = render(renderer, scene_of(emit=False), camera, **settings)
     seen = np.abs(on - off).sum(axis=-1) > 0.05
     assert seen.sum() > 100 and relative(on, off, seen) > 0.5
-    # The lit cube map is read filtered: a linked panel's emission kept in its texels would
-    # spill into the texels beside its edge, which no material's emission takes away.
-    linked = render(renderer, mirror_and_panel(linked=True), camera, **settings)
+    linked = render(renderer, scene_of(linked=True), camera, **settings)
     assert relative(linked, off, seen) < WITHIN
-    receiving = render(renderer, mirror_and_panel(linked=True, floor_receives=True), camera, **settings)
+    receiving = render(renderer, scene_of(linked=True, floor_receives=True), camera, **settings)
     assert relative(receiving, on, seen) < WITHIN
+
+
+def rough_metal_and_panel(*, emit: bool = True, linked: bool = False, floor_receives: bool = False) -> SceneData:
+    """mirror_and_panel with a rough metal floor, too rough for the tracer: what it reflects
+    comes from the diffuse-light pass's paths along its lobe (diffuse_gather.comp.glsl)."""
+    scene = mirror_and_panel(emit=emit, linked=linked, floor_receives=floor_receives)
+    rows = [dict(name="metal", base_color=(0.9, 0.9, 0.9), reflectivity=1.0, roughness=0.7,
+                 light_set=1 if floor_receives else 0),
+            dict(name="panel", emission=(5.0,) * 3 if emit else (0.0,) * 3,
+                 emitter_light_mask=(1 << 1) if linked else ALL),
+            dict(name="receiver", light_set=1)]
+    return SceneData(scene.geometry, MaterialTable.from_rows(rows), scene.lights, scene.sky)
+
+
+@pytest.mark.parametrize("near_size", [30.0, 1.0], ids=["bvh_hit", "cube_map_hit"])
+def test_a_rough_metal_outside_the_receivers_does_not_show_the_linked_panel(renderer, kernels, near_size):
+    # The diffuse-light pass's paths along a rough metal's lobe meet the panel: its emission
+    # counts only where it lights the surface the path left, as a reflection ray's does.
+    assert_the_floor_reflects_the_linked_panel_only_as_its_receiver(renderer, rough_metal_and_panel,
+                                                                    near_size=near_size)
 
 
 def walled_panel(*, emit: bool = True, linked: bool = False) -> SceneData:
@@ -218,6 +244,30 @@ def walled_panel(*, emit: bool = True, linked: bool = False) -> SceneData:
     return SceneData(geometry, MaterialTable.from_rows(rows), Lights.from_rows(lamps), Sky(color=(0.02, 0.02, 0.02)))
 
 
+def walled_panel_itself(renderer, camera) -> np.ndarray:
+    """The pixels of walled_panel's panel, which the camera sees whatever its linking (RASTER
+    draws no light from emitters, only their emission), and its edges' anti-aliasing."""
+    panel = np.abs(render(renderer, walled_panel(), camera, mode="RASTER")
+                   - render(renderer, walled_panel(emit=False), camera, mode="RASTER")).sum(axis=-1) > 1e-3
+    panel = np.pad(panel, 1)
+    return panel[1:-1, 1:-1] | panel[:-2, 1:-1] | panel[2:, 1:-1] | panel[1:-1, :-2] | panel[1:-1, 2:]
+
+
+@pytest.mark.parametrize("near_size", [30.0, 1.0], ids=["bvh_hit", "cube_map_hit"])
+def test_the_gather_rays_of_a_reflected_wall_find_a_linked_panel_only_for_its_receivers(renderer, kernels,
+                                                                                         near_size):
+    # The mirror floor reflects the wall; the wall's diffuse light in the reflection is one
+    # gather ray per sample (the tracer's first bounce, trace_ray.glsl gather_light), which
+    # meets the panel in front of it: its emission counts only for the receivers.
+    camera = looking_at((0.0, 3.0, -1.0), eye=(0.0, -4.0, 0.6))
+    settings = dict(near_size=near_size, lit_cube=False, ao_distance=10.0)
+    on, off, linked = (render(renderer, walled_panel(**kw), camera, samples=6, **settings)
+                       for kw in (dict(), dict(emit=False), dict(linked=True)))
+    lit = (np.abs(on - off).sum(axis=-1) > 0.05) & ~walled_panel_itself(renderer, camera)
+    assert lit.sum() > 100 and on[lit].mean() > 2 * off[lit].mean()
+    assert relative(linked, off, lit) < WITHIN, (linked[lit].mean(), off[lit].mean())
+
+
 def test_the_lit_cube_maps_bounces_carry_a_linked_panels_light_only_to_its_receivers(renderer, kernels):
     # Everything lies in the cube map (near cube 1 m); the camera sees the wall's reflection
     # in the mirror floor, lit by the panel only through the lit cube map's gathered bounces,
@@ -233,13 +283,7 @@ def test_the_lit_cube_maps_bounces_carry_a_linked_panels_light_only_to_its_recei
         return render(renderer, scene, camera, samples=6, **settings)
 
     on, off, linked = fresh(walled_panel()), fresh(walled_panel(emit=False)), fresh(walled_panel(linked=True))
-    # The panel itself, which the camera sees whatever its linking (RASTER draws no light
-    # from emitters, only their emission), and its edges' anti-aliasing.
-    panel = np.abs(render(renderer, walled_panel(), camera, mode="RASTER")
-                   - render(renderer, walled_panel(emit=False), camera, mode="RASTER")).sum(axis=-1) > 1e-3
-    panel = np.pad(panel, 1)
-    panel = panel[1:-1, 1:-1] | panel[:-2, 1:-1] | panel[2:, 1:-1] | panel[1:-1, :-2] | panel[1:-1, 2:]
-    lit = (np.abs(on - off).sum(axis=-1) > 0.05) & ~panel
+    lit = (np.abs(on - off).sum(axis=-1) > 0.05) & ~walled_panel_itself(renderer, camera)
     assert lit.sum() > 100 and on[lit].mean() > 2 * off[lit].mean()
     # The same gathered rays as with the panel off: the panel lights set 1 only, so what the
     # wall and the panel reflect is what they reflect with it off (a linked emission kept in

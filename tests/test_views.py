@@ -46,8 +46,8 @@ def _scene() -> SceneData:
     """A lit coloured box on a floor: enough structure that a wrong matrix shows."""
     floor, cube = quad((0, 0, 0), (4, 0, 0), (0, 4, 0)), box((-1, -1, 0), (1, 1, 1.5))
     geometry = Geometry.from_objects([(floor, None, 1), (cube, None, 2)], ["floor", "box"])
-    materials = MaterialTable.from_rows([dict(name="fallback"), dict(name="floor", albedo=(0.8, 0.8, 0.8)),
-                                         dict(name="box", albedo=(0.9, 0.2, 0.1))])
+    materials = MaterialTable.from_rows([dict(name="fallback"), dict(name="floor", base_color=(0.8, 0.8, 0.8)),
+                                         dict(name="box", base_color=(0.9, 0.2, 0.1))])
     lights = Lights.from_rows([dict(kind="SUN", direction=(-0.3, 0.2, -1.0), color=(3, 3, 3))])
     return SceneData(geometry, materials, lights, Sky(color=(0.1, 0.2, 0.4)))
 

@@ -128,6 +128,18 @@ vec3 random3(int salt) {
 }
 #endif
 
+// Whether the emission of the surface h a path meets counts for the surface it left
+// (material row `left`): with EMITTER_LINKING only where that emitter lights the left
+// surface's receiver set, as Cycles links the emitters its indirect rays find. The
+// next-event estimates ask the same of the surface they start from (emitter_irradiance).
+bool emission_reaches(Hit h, int left) {
+#ifdef EMITTER_LINKING
+    return emission_lights_set(h.material, row_light_set(left));
+#else
+    return true;
+#endif
+}
+
 // One path from the primary point p (facing geometric normal g) along its first direction
 // d: the radiance it brings back (for a cosine-distributed d, pi times it estimates the
 // irradiance), and `sky` the share of the first ray that escaped (through glass by its
@@ -144,6 +156,9 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, int mat
     // Whether the surface this ray meets adds its emission with EMITTER_LIGHT: only where the
     // vertex it left took no next-event estimate of the emitters (a glossy lobe's).
     bool emission_counts = first_emission;
+    // The surface the ray left (its light-linking receiver set: emission_reaches); a glass
+    // surface passed straight through is not one.
+    int left = material;
     sky = 0.0;
     for (int step = 0; step <= MAX_DIFFUSE_BOUNCES + MAX_GLASS_CROSSINGS; ++step) {
 #if CUBE_FOOTPRINT
@@ -174,7 +189,7 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, int mat
 #ifndef EMITTER_LIGHT
             stored += material_emission_lod(hm, h.uv, h.lod);
 #else
-            if (emission_counts) stored += material_emission_lod(hm, h.uv, h.lod);
+            if (emission_counts && emission_reaches(h, left)) stored += material_emission_lod(hm, h.uv, h.lod);
 #endif
             radiance += throughput * stored;
             break;
@@ -183,7 +198,7 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, int mat
 #ifndef EMITTER_LIGHT
         radiance += throughput * material_emission_lod(hm, h.uv, h.lod);
 #else
-        if (emission_counts) radiance += throughput * material_emission_lod(hm, h.uv, h.lod);
+        if (emission_counts && emission_reaches(h, left)) radiance += throughput * material_emission_lod(hm, h.uv, h.lod);
 #endif
         if (bounces_left) {
             // The lamps' light off this surface (its emission counted above); the ray
@@ -223,6 +238,7 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, int mat
             d = gs.reflect_dir;
             o = offset_origin(h.position, gs.g_facing);
             emission_counts = true;  // no next-event estimate of the emitters along a specular lobe
+            left = h.material;
             vertex += 1;
             continue;
         }
@@ -236,6 +252,7 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, int mat
 #endif
         d = cosine_direction(hs.n_facing, hs.g_facing, gather_random(salt + vertex));
         o = offset_origin(h.position, hs.g_facing);
+        left = h.material;
         vertex += 1;
     }
     return radiance;

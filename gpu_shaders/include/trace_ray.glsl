@@ -808,20 +808,26 @@ float occlusion_seen(Hit h) {
 // sky, or the surface's emission and lamp light (shadow maps; highlights filtered as the
 // roughest lobe, the ray stands for a whole hemisphere), plus the sky through it by its
 // transmission (as occlusion_seen). No further bounce: the one-ray gather of the first
-// bounce's hits (DIFFUSE_GATHER, shade_hit) and the last vertex of a diffuse path.
+// bounce's hits (DIFFUSE_GATHER, shade_hit). A linked emitter's emission counts only where it
+// lights ray_receiver_set, as in shade_hit (the pixel's set stands for the surface the ray
+// left, as it does for every ray of the pixel).
 vec3 gather_light(Hit h, vec3 d) {
     if (h.kind == HIT_SKY) return sky_radiance(d);
+    Material hm = hit_material(h, d, 1);
+    vec3 h_emission = material_emission_lod(hm, h.uv, h.lod);
+#ifdef EMITTER_LINKING
+    if (!emission_lights_set(h.material, ray_receiver_set)) h_emission = vec3(0.0);
+#endif
 #ifdef LIT_CUBE
     if (h.kind == HIT_CUBE) {
         // The lit cube map's light; its texels hold no emission (cube_light_shade.comp.glsl),
-        // which the hit adds as the surfaces the BVH finds do below, whatever their linking.
-        return cube_stored_radiance(h, 0.0) + material_emission_lod(hit_material(h, d, 1), h.uv, h.lod);
+        // which the hit adds as the surfaces the BVH finds do below.
+        return cube_stored_radiance(h, 0.0) + h_emission;
     }
 #endif
-    Material hm = hit_material(h, d, 1);
     vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
     SpecularSplit hs = specular_split_geometric(hm, h_albedo, d, h.normal, h.geometric);
-    return lamp_light_response(hm, h_albedo, material_emission_lod(hm, h.uv, h.lod), h.position, d, hs, 1.0)
+    return lamp_light_response(hm, h_albedo, h_emission, h.position, d, hs, 1.0)
            + material_transmission(hm) * sky_radiance(d);
 }
 

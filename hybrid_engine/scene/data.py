@@ -26,6 +26,14 @@ LIGHT_KINDS = {"POINT": LIGHT_POINT, "SUN": LIGHT_SUN, "SPOT": LIGHT_SPOT, "AREA
 # masks hold one bit per set, all of them when the lamp is not linked.
 MAX_LINK_SETS = 64
 ALL_LINK_SETS = np.uint64(0xFFFF_FFFF_FFFF_FFFF)
+# The keys MaterialTable.from_rows reads, and those it leaves to the node graphs' table
+# (the adapter's graph_rows.table_with_graphs).
+_MATERIAL_ROW_KEYS = frozenset((
+    "base_color", "emission", "reflectivity", "transmission", "ior", "thickness", "roughness", "specular",
+    "name", "base_color_texture", "emission_texture", "normal_texture", "normal_strength", "roughness_texture",
+    "roughness_channel", "metallic_texture", "metallic_channel", "alpha", "alpha_texture", "alpha_channel",
+    "alpha_clip", "light_set", "shadow_set", "emitter_light_mask", "emitter_shadow_mask",
+    "node_graph", "node_graph_textures"))
 
 
 @dataclass
@@ -211,12 +219,19 @@ class MaterialTable:
         thickness, roughness, specular, name, base_color_texture, emission_texture,
         normal_texture, normal_strength, roughness_texture, roughness_channel,
         metallic_texture, metallic_channel, alpha, alpha_texture, alpha_channel, alpha_clip,
-        light_set, shadow_set, emitter_light_mask, emitter_shadow_mask (all optional).
+        light_set, shadow_set, emitter_light_mask, emitter_shadow_mask (all optional); any
+        other key is a ValueError.
 
         A texture key holds an index into ``textures``, None (no texture) or the image
         array itself; arrays are appended to the texture list once per array object, so
         materials sharing an image share one texture.
         """
+        for row in rows:
+            unknown = sorted(set(row) - _MATERIAL_ROW_KEYS)
+            if unknown:
+                # A misspelt or unsupported key (``metallic`` rather than ``reflectivity``)
+                # would otherwise fall back to its default without a word.
+                raise ValueError(f"material row {row.get('name', '?')!r}: unknown keys {', '.join(unknown)}")
         get = lambda key, default: [r.get(key, default) for r in rows]  # noqa: E731
         texture_list = list(textures or [])
         slot_of = {id(t): i for i, t in enumerate(texture_list)}

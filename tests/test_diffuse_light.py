@@ -134,12 +134,16 @@ def test_bounces_build_up_over_frames_through_last_frames_light(renderer):
     # one held, so the shadowed half brightens over frames and settles; an undenoised frame
     # (no history) stays at the first frame's light. The first denoised frame holds that
     # light (the filter keeps the energy, below), so the gain is only what the surfaces the
-    # camera sees (the shadowed half, dim) give back.
+    # camera sees (the shadowed half, dim) give back. The light without it is the mean of
+    # undenoised frames: the first denoised frame, one estimate of it, traces more paths than
+    # the others (a short history's) and its own noise would move the baseline.
     scene = closed_room(SHADOWED_LAMP, partition=True)
     camera = Camera(matrix_world=look_at(SHADOWED_CAMERA["eye"], SHADOWED_CAMERA["target"]), width=W, height=H)
     settings = room_settings("FULL_BVH", diffuse_bounces=1)
+    unfed = float(np.mean([luminance(renderer.render(scene, camera, settings, sample=i).image).mean()
+                           for i in range(16)]))
     frames = denoised_frames(renderer, scene, camera, settings, 12)
-    assert frames[6] > 1.07 * frames[0], frames
+    assert frames[6] > 1.07 * unfed, (unfed, frames)
     assert abs(frames[11] - frames[9]) < 0.03 * frames[11], frames  # settled: the albedo damps it
 
 
@@ -511,6 +515,67 @@ def test_redraws_that_restart_the_views_samples_still_blend_fresh_paths(renderer
     restarted = error(temporal_blend(renderer, scene, camera, settings, [0] * 12))
     single = error(temporal_blend(renderer, scene, camera, settings, [0]))
     assert restarted < 1.25 * counted and restarted < 0.6 * single, (restarted, counted, single)
+
+
+def first_paths(renderer, scene, camera, settings, sample: int) -> int:
+    """The diffuse paths one denoised frame started (its first rays, the gather's counters)."""
+    result = renderer.render(scene, camera, settings, sample=sample, reuse_world=sample > 0, denoise=True)
+    return int(dict(result.counts)["gather_rays_traced_bounce_1"])
+
+
+def shadowed_camera(shift: float = 0.0) -> Camera:
+    eye, target = (np.array(SHADOWED_CAMERA[k]) + (shift, 0.0, 0.0) for k in ("eye", "target"))
+    return Camera(matrix_world=look_at(eye, target), width=W, height=H)
+
+
+def test_a_denoised_view_traces_more_paths_until_its_history_holds_a_few_frames(renderer):
+    # Every pixel sees a wall of the closed room. The denoiser's first frame has no history:
+    # SHORT_HISTORY_PATHS times Diffuse Rays paths everywhere, then ceil(that / (frames + 1))
+    # as each pixel's history grows, down to Diffuse Rays.
+    from hybrid_engine.passes.diffuse_light.diffuse_light import SHORT_HISTORY_PATHS
+
+    scene, camera = closed_room(SHADOWED_LAMP, partition=True), shadowed_camera()
+    settings = room_settings("HYBRID", diffuse_rays=2)
+    renderer.render(scene, camera, settings)  # an undenoised frame: the history starts over
+    counts = [first_paths(renderer, scene, camera, settings, i) for i in range(6)]
+    most = SHORT_HISTORY_PATHS
+    assert most > 1
+    assert counts == [W * H * 2 * max(1, -(-most // (n + 1))) for n in range(6)], counts
+
+
+def test_a_moving_camera_traces_more_paths_only_where_it_uncovers_surfaces(renderer):
+    # A camera that moves keeps the history of what it still sees (the denoiser's
+    # reprojection): only the columns that enter the view, and what the partition uncovers,
+    # start over and trace more paths. Starting the history over traces them everywhere.
+    from hybrid_engine.passes.diffuse_light.diffuse_light import SHORT_HISTORY_PATHS
+
+    scene, settings = closed_room(SHADOWED_LAMP, partition=True), room_settings("HYBRID")
+    renderer.render(scene, shadowed_camera(), settings)
+    for i in range(SHORT_HISTORY_PATHS + 1):
+        first_paths(renderer, scene, shadowed_camera(), settings, i)
+    moved = first_paths(renderer, scene, shadowed_camera(0.1), settings, 0)
+    uncovered = (moved - W * H) / (SHORT_HISTORY_PATHS - 1)  # pixels that started over
+    assert 0 < uncovered < 0.15 * W * H, (moved, uncovered)
+    renderer.render(scene, shadowed_camera(0.1), settings)  # an undenoised frame: the history starts over
+    assert first_paths(renderer, scene, shadowed_camera(0.1), settings, 0) == SHORT_HISTORY_PATHS * W * H
+
+
+def test_the_first_denoised_frames_are_cleaner_with_more_paths_where_the_history_is_short(renderer, monkeypatch):
+    # Against a long blend of the view, the temporal blend after one, two and four frames
+    # from a fresh history: more paths while the history is short is closer, frame by frame.
+    import hybrid_engine.passes.diffuse_light.diffuse_light as diffuse_light
+
+    scene, camera = closed_room(SHADOWED_LAMP, partition=True), shadowed_camera()
+    settings = room_settings("FULL_BVH", diffuse_bounces=1)
+    truth = temporal_blend(renderer, scene, camera, settings, range(100, 164))
+    error = lambda blend: float(np.sqrt(np.mean((blend - truth) ** 2)))  # noqa: E731
+    errors = {}
+    for most in (1, diffuse_light.SHORT_HISTORY_PATHS):
+        monkeypatch.setattr(diffuse_light, "SHORT_HISTORY_PATHS", most)
+        errors[most] = [error(temporal_blend(renderer, scene, camera, settings, range(n))) for n in (1, 2, 4)]
+    boosted, plain = errors[diffuse_light.SHORT_HISTORY_PATHS], errors[1]
+    # The extra paths fall with the history's length, and so does their gain.
+    assert all(b < bound * p for b, p, bound in zip(boosted, plain, (0.65, 0.75, 0.9))), errors
 
 
 def test_a_still_views_mean_of_eight_samples_beats_independent_paths(renderer):

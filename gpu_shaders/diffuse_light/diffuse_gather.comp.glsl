@@ -40,6 +40,10 @@
 #include "emitter_light.glsl"
 #include "denoise.glsl"
 
+// Paths a pixel without the denoiser's history traces, as a multiple of u_diffuse_rays
+// (history_paths; DIFFUSE_NO_HISTORY: a denoised frame with no history at all, every pixel).
+uniform int u_short_history_paths;
+
 #ifdef DIFFUSE_FEEDBACK
 // Last frame's diffuse light where the camera saw it (DenoisePass.feedback): the temporal
 // blend of the irradiance, the surface point and normal of each texel, that frame's
@@ -50,6 +54,29 @@ uniform mat4 u_feedback_view_proj;
 uniform ivec2 u_feedback_size;
 // Frames the denoiser's history holds: this frame's index in it (gather_index).
 uniform int u_feedback_frames;
+// Last frame's history length per texel (DenoiseHistory "length": x frames, 0 background).
+uniform sampler2D u_feedback_length;
+
+// How many times u_diffuse_rays paths the primary point p (facing normal n) traces: more
+// where the denoiser's history holds few frames of it. A surface the camera just uncovered,
+// or a view that has just stopped, is otherwise shown from one or two samples, filtered hard
+// and blotchy; u_short_history_paths times the paths for a point last frame did not see,
+// falling as 1 / (frames + 1) to 1 by the time the temporal blend has a few frames. Only
+// those pixels pay: a camera that moves keeps the history of what it still sees.
+int history_paths(vec3 p, vec3 n) {
+    int most = max(u_short_history_paths, 1);
+    vec4 clip = u_feedback_view_proj * vec4(p, 1.0);
+    if (!(clip.w > 0.0)) return most;
+    vec2 ndc = clip.xy / clip.w;
+    if (any(greaterThanEqual(abs(ndc), vec2(1.0)))) return most;
+    ivec2 q = clamp(ivec2((ndc * 0.5 + 0.5) * vec2(u_feedback_size)), ivec2(0), u_feedback_size - 1);
+    vec4 surface = texelFetch(u_feedback_surface, q, 0);
+    float scale = u_orthographic != 0 ? 1.0 : distance(p, u_camera_position);
+    if (denoise_is_background(surface) || abs(dot(denoise_surface_normal(surface), n)) < 0.9
+        || denoise_plane_offset(p, n, surface.xyz, scale) > 0.02) return most;
+    float frames = texelFetch(u_feedback_length, q, 0).x;
+    return clamp(int(ceil(float(most) / (frames + 1.0))), 1, most);
+}
 
 // The diffuse light (lamps and last frame's irradiance) leaving the surface a path ends on,
 // if last frame's camera saw that very point; else nothing (as without feedback). Each frame
@@ -82,6 +109,7 @@ uniform int u_diffuse_rays;     // paths per pixel
 #define PATH_SALT 0x5ca1         // random numbers of path i, vertex k: gather_random(PATH_SALT + 32 i + k)
 #define EMITTER_SALT 0x6ca1
 #define GLOSSY_SALT 0x7ca1       // the specular lobe's direction and the lobe's pick at a path's vertex
+#define EXTRA_FIRST_SALT 0x8ca1  // the first direction of path i >= u_diffuse_rays (history_paths)
 
 // Whose numbers this frame's paths draw. Without a history, the view's sample (a final
 // render's samples, a still view's redraws). With the denoiser's history, the frame's index
@@ -282,10 +310,20 @@ void main() {
         pixel_key = position_key(p);
         vec3 irradiance = vec3(0.0);
         float sky = 0.0;
-        int paths = max(u_diffuse_rays, 1);
+        int rays = max(u_diffuse_rays, 1);
+        int paths = rays;
+#ifdef DIFFUSE_FEEDBACK
+        paths *= history_paths(p, n_facing);
+#elif defined(DIFFUSE_NO_HISTORY)
+        paths *= max(u_short_history_paths, 1);
+#endif
         for (int i = 0; i < paths; ++i) {
             float seen;
-            vec2 xi = first_random(i, paths);
+            // Diffuse Rays' paths follow the frames' low-discrepancy sequence (first_random);
+            // the extra paths of a short history draw independent numbers, so that the
+            // sequence, which a pixel follows for as long as it stays in view, is the same
+            // whether or not its first frames traced more.
+            vec2 xi = i < rays ? first_random(i, rays) : gather_random(EXTRA_FIRST_SALT + i);
             // The glossy lobe's direction: a visible-normal sample of its GGX lobe, as the
             // tracer samples the traced ones (weight 1: split.glossy_local is the lobe's albedo).
             vec3 d = glossy ? specular_split_sampled(m, albedo_g.rgb, view_dir, n, g, xi).reflect_dir

@@ -220,7 +220,8 @@ class DenoisePass:
         if not history.valid:
             return None
         return Bindings(textures={"u_feedback_color": history.previous("color"),
-                                  "u_feedback_surface": history.previous("surface")},
+                                  "u_feedback_surface": history.previous("surface"),
+                                  "u_feedback_length": history.previous("length")},
                         uniforms={"u_feedback_view_proj": history.previous_uniforms()["u_prev_view_proj"],
                                   "u_feedback_size": tuple(int(v) for v in history.size),
                                   "u_feedback_frames": int(history.frames)})

@@ -40,6 +40,10 @@ from ..trace.tracer import (COUNTER_DEPTHS, COUNTER_KINDS, COUNTER_WORDS, Hybrid
                             traced_resources)
 
 WORKGROUP = 8  # the kernel's local size in x and y
+# The paths per pixel, as a multiple of Diffuse Rays, where the denoiser's history holds
+# nothing of the pixel's surface (diffuse_gather.comp.glsl history_paths): what the camera
+# just uncovered, and the first frame after a view stops.
+SHORT_HISTORY_PATHS = 4
 SHADER = "diffuse_light/diffuse_gather.comp.glsl"
 
 
@@ -99,6 +103,9 @@ class DiffuseLightPass:
         if history is not None:
             defines["DIFFUSE_FEEDBACK"] = 1
             emitter_parts = (*emitter_parts, history)
+        elif frame.denoise:
+            # The denoiser's first frame: no pixel has a history (history_paths).
+            defines["DIFFUSE_NO_HISTORY"] = 1
         prog = shader_loader.compute(self.ctx, SHADER, defines)
         self._counters.write(self._zero_counters)
         bounces = int(settings.diffuse_bounces)
@@ -106,7 +113,8 @@ class DiffuseLightPass:
         bind(prog, *inputs.parts, *emitter_parts, storage={**inputs.storage, "CounterBuffer": self._counters},
              textures=inputs.textures, images={"u_ambient": Image(targets.ambient, read=False, write=True)},
              uniforms={**inputs.uniforms, "u_diffuse_bounces": bounces,
-                       "u_diffuse_rays": int(settings.diffuse_rays)})
+                       "u_diffuse_rays": int(settings.diffuse_rays),
+                       "u_short_history_paths": SHORT_HISTORY_PATHS})
         width, height = inputs.size
         prog.run(math.ceil(width / WORKGROUP), math.ceil(height / WORKGROUP), 1)
         storage_barrier(self.ctx)

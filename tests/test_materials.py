@@ -96,11 +96,3 @@ def test_rows_build_a_material_table():
     table = MaterialTable.from_rows(rows)
     np.testing.assert_array_equal(table.reflectivity, [1.0, 0.0])
     np.testing.assert_array_equal(table.transmission, [0.0, 1.0])
-
-
-def test_a_row_key_the_table_does_not_read_is_rejected_with_the_rows_name():
-    # Principled's names (metallic) are not the table's (reflectivity): taken silently, the
-    # row would be the default grey diffuse.
-    with pytest.raises(ValueError, match=r"'floor'.*metallic"):
-        MaterialTable.from_rows([dict(name="floor", base_color=(0.5, 0.5, 0.5), metallic=1.0)])
-    assert len(MaterialTable.from_rows([principled_to_params(metallic=m) | {"name": "ok"} for m in (0.0, 1.0)]).names) == 2

@@ -34,6 +34,20 @@ _MATERIAL_ROW_KEYS = frozenset((
     "roughness_channel", "metallic_texture", "metallic_channel", "alpha", "alpha_texture", "alpha_channel",
     "alpha_clip", "light_set", "shadow_set", "emitter_light_mask", "emitter_shadow_mask",
     "node_graph", "node_graph_textures"))
+# The keys Lights.from_rows reads.
+_LIGHT_ROW_KEYS = frozenset((
+    "kind", "position", "direction", "color", "radius", "spot_size", "spot_blend", "cast_shadow", "name",
+    "area_axis", "area_size_y", "area_elliptic", "light_mask", "shadow_mask"))
+
+
+def check_row_keys(rows, known: frozenset, what: str) -> None:
+    """A row key the table does not read (``energy`` rather than ``color``, ``metallic``
+    rather than ``reflectivity``) would fall back to its default without a word: an error
+    naming the row and the key instead."""
+    for row in rows:
+        unknown = sorted(set(row) - known)
+        if unknown:
+            raise ValueError(f"{what} row {row.get('name', '?')!r}: unknown keys {', '.join(unknown)}")
 
 
 @dataclass
@@ -226,12 +240,7 @@ class MaterialTable:
         array itself; arrays are appended to the texture list once per array object, so
         materials sharing an image share one texture.
         """
-        for row in rows:
-            unknown = sorted(set(row) - _MATERIAL_ROW_KEYS)
-            if unknown:
-                # A misspelt or unsupported key (``metallic`` rather than ``reflectivity``)
-                # would otherwise fall back to its default without a word.
-                raise ValueError(f"material row {row.get('name', '?')!r}: unknown keys {', '.join(unknown)}")
+        check_row_keys(rows, _MATERIAL_ROW_KEYS, "material")
         get = lambda key, default: [r.get(key, default) for r in rows]  # noqa: E731
         texture_list = list(textures or [])
         slot_of = {id(t): i for i, t in enumerate(texture_list)}
@@ -455,7 +464,10 @@ class Lights:
         """Build from dicts: kind ('POINT'|'SUN'|'SPOT'|'AREA' or int), position, direction,
         color (already times power), radius, spot_size, spot_blend, cast_shadow, name, for
         area lamps area_axis, area_size_y and area_elliptic (defaults: a square), and the
-        linking masks light_mask and shadow_mask (default: every set)."""
+        linking masks light_mask and shadow_mask (default: every set); any other key is a
+        ValueError."""
+        check_row_keys(rows, _LIGHT_ROW_KEYS, "light")
+
         def kind_of(value):
             return LIGHT_KINDS[value] if isinstance(value, str) else int(value)
 

@@ -57,23 +57,33 @@ uniform int u_feedback_frames;
 // Last frame's history length per texel (DenoiseHistory "length": x frames, 0 background).
 uniform sampler2D u_feedback_length;
 
-// How many times u_diffuse_rays paths the primary point p (facing normal n) traces: more
-// where the denoiser's history holds few frames of it. A surface the camera just uncovered,
-// or a view that has just stopped, is otherwise shown from one or two samples, filtered hard
-// and blotchy; u_short_history_paths times the paths for a point last frame did not see,
-// falling as 1 / (frames + 1) to 1 by the time the temporal blend has a few frames. Only
-// those pixels pay: a camera that moves keeps the history of what it still sees.
-int history_paths(vec3 p, vec3 n) {
-    int most = max(u_short_history_paths, 1);
+// The texel q of last frame's image that showed the point p (facing normal n): false where
+// last frame's camera did not see that very point (off its image, the background, another
+// surface there).
+bool feedback_texel(vec3 p, vec3 n, out ivec2 q) {
+    q = ivec2(0);
     vec4 clip = u_feedback_view_proj * vec4(p, 1.0);
-    if (!(clip.w > 0.0)) return most;
+    if (!(clip.w > 0.0)) return false;
     vec2 ndc = clip.xy / clip.w;
-    if (any(greaterThanEqual(abs(ndc), vec2(1.0)))) return most;
-    ivec2 q = clamp(ivec2((ndc * 0.5 + 0.5) * vec2(u_feedback_size)), ivec2(0), u_feedback_size - 1);
+    if (any(greaterThanEqual(abs(ndc), vec2(1.0)))) return false;
+    q = clamp(ivec2((ndc * 0.5 + 0.5) * vec2(u_feedback_size)), ivec2(0), u_feedback_size - 1);
     vec4 surface = texelFetch(u_feedback_surface, q, 0);
     float scale = u_orthographic != 0 ? 1.0 : distance(p, u_camera_position);
-    if (denoise_is_background(surface) || abs(dot(denoise_surface_normal(surface), n)) < 0.9
-        || denoise_plane_offset(p, n, surface.xyz, scale) > 0.02) return most;
+    return !(denoise_is_background(surface) || abs(dot(denoise_surface_normal(surface), n)) < 0.9
+             || denoise_plane_offset(p, n, surface.xyz, scale) > 0.02);
+}
+
+// How many times u_diffuse_rays paths the primary point p (facing normal n) traces: more
+// where the denoiser's history holds few frames of it. What the camera just uncovered, or a
+// moving object (the history follows the camera's motion only), is otherwise shown from one
+// or two samples, filtered hard and blotchy: u_short_history_paths times the paths for a
+// point last frame did not see, falling as 1 / (frames + 1) to 1 by the time the temporal
+// blend has a few frames. Only those pixels pay: a camera that moves keeps the history of
+// what it still sees.
+int history_paths(vec3 p, vec3 n) {
+    int most = max(u_short_history_paths, 1);
+    ivec2 q;
+    if (!feedback_texel(p, n, q)) return most;
     float frames = texelFetch(u_feedback_length, q, 0).x;
     return clamp(int(ceil(float(most) / (frames + 1.0))), 1, most);
 }
@@ -84,15 +94,8 @@ int history_paths(vec3 p, vec3 n) {
 // frames, and die away as they do in a room (by the albedo, below 1), so a light switched off
 // leaves nothing after a few frames.
 vec3 feedback_light(Hit h, Material hm, vec3 albedo, vec3 d, SpecularSplit hs) {
-    vec4 clip = u_feedback_view_proj * vec4(h.position, 1.0);
-    if (!(clip.w > 0.0)) return vec3(0.0);
-    vec2 ndc = clip.xy / clip.w;
-    if (any(greaterThanEqual(abs(ndc), vec2(1.0)))) return vec3(0.0);
-    ivec2 q = clamp(ivec2((ndc * 0.5 + 0.5) * vec2(u_feedback_size)), ivec2(0), u_feedback_size - 1);
-    vec4 surface = texelFetch(u_feedback_surface, q, 0);
-    float scale = u_orthographic != 0 ? 1.0 : distance(h.position, u_camera_position);
-    if (denoise_is_background(surface) || abs(dot(denoise_surface_normal(surface), hs.n_facing)) < 0.9
-        || denoise_plane_offset(h.position, hs.n_facing, surface.xyz, scale) > 0.02) return vec3(0.0);
+    ivec2 q;
+    if (!feedback_texel(h.position, hs.n_facing, q)) return vec3(0.0);
     vec3 irradiance = texelFetch(u_feedback_color, q, 0).rgb;
     return hs.diffuse_weight * albedo / PI * irradiance
            + lamp_light_response(hm, albedo, vec3(0.0), h.position, d, hs, 1.0);

@@ -42,7 +42,7 @@ from ..trace.tracer import (COUNTER_DEPTHS, COUNTER_KINDS, COUNTER_WORDS, Hybrid
 WORKGROUP = 8  # the kernel's local size in x and y
 # The paths per pixel, as a multiple of Diffuse Rays, where the denoiser's history holds
 # nothing of the pixel's surface (diffuse_gather.comp.glsl history_paths): what the camera
-# just uncovered, and the first frame after a view stops.
+# just uncovered, a moving object, the denoiser's first frame (a setting changed).
 SHORT_HISTORY_PATHS = 4
 SHADER = "diffuse_light/diffuse_gather.comp.glsl"
 

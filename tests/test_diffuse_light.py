@@ -543,6 +543,15 @@ def test_a_denoised_view_traces_more_paths_until_its_history_holds_a_few_frames(
     assert counts == [W * H * 2 * max(1, -(-most // (n + 1))) for n in range(6)], counts
 
 
+@pytest.mark.parametrize("rays,most", [(4, 4), (8, 2), (16, 1)])
+def test_no_frame_traces_more_paths_per_pixel_than_the_most_diffuse_rays(renderer, rays, most):
+    # Diffuse Rays' highest setting (16) bounds the paths of a short history too.
+    scene, camera = closed_room(SHADOWED_LAMP, partition=True), shadowed_camera()
+    settings = room_settings("HYBRID", diffuse_rays=rays, diffuse_bounces=1)
+    renderer.render(scene, camera, settings)  # an undenoised frame: the history starts over
+    assert first_paths(renderer, scene, camera, settings, 0) == W * H * rays * most
+
+
 def test_a_moving_camera_traces_more_paths_only_where_it_uncovers_surfaces(renderer):
     # A camera that moves keeps the history of what it still sees (the denoiser's
     # reprojection): only the columns that enter the view, and what the partition uncovers,

@@ -44,6 +44,14 @@ WORKGROUP = 8  # the kernel's local size in x and y
 # nothing of the pixel's surface (diffuse_gather.comp.glsl history_paths): what the camera
 # just uncovered, a moving object, the denoiser's first frame (a setting changed).
 SHORT_HISTORY_PATHS = 4
+
+
+def short_history_paths(rays: int) -> int:
+    """SHORT_HISTORY_PATHS for ``rays`` Diffuse Rays, lowered so that no pixel traces more
+    paths in a frame than the setting's highest value would (16): a view set to many rays
+    already converges fast, and four times its paths would stall its first frame."""
+    most_rays = FIELD_LIMITS["diffuse_rays"][1]
+    return max(1, min(SHORT_HISTORY_PATHS, most_rays // max(int(rays), 1)))
 SHADER = "diffuse_light/diffuse_gather.comp.glsl"
 
 
@@ -114,7 +122,7 @@ class DiffuseLightPass:
              textures=inputs.textures, images={"u_ambient": Image(targets.ambient, read=False, write=True)},
              uniforms={**inputs.uniforms, "u_diffuse_bounces": bounces,
                        "u_diffuse_rays": int(settings.diffuse_rays),
-                       "u_short_history_paths": SHORT_HISTORY_PATHS})
+                       "u_short_history_paths": short_history_paths(settings.diffuse_rays)})
         width, height = inputs.size
         prog.run(math.ceil(width / WORKGROUP), math.ceil(height / WORKGROUP), 1)
         storage_barrier(self.ctx)

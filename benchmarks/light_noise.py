@@ -4,6 +4,9 @@
 ``python -m benchmarks.light_noise [--size 96x72] [--reference 256] [--frames 10] [--settle 48]
 [--check] [--cache PATH] [--json PATH]``
 
+``--frames 0`` measures the still view alone (a reference of many frames, ``--reference 2048``,
+then costs one view's frames only).
+
 The scene is an interior lit only by bounced light: a closed room whose lamp stands behind a
 partition, so that half of what the camera sees is lit by the walls alone (the room of
 tests/test_diffuse_light.py, built here from the core's types). Two measurements, each
@@ -164,6 +167,7 @@ def still_figures(width: int, height: int, truth: np.ndarray, scene: SceneData,
 
 def measure(width: int, height: int, reference: int, frames: int, settle: int = 48, check: bool = False,
             cache: str | None = None) -> dict:
+    """Every figure of the module docstring; ``frames`` 0 measures the still view alone."""
     scene = room()
     settings = _viewport_settings()
     references = ReferenceCache(cache)
@@ -180,7 +184,7 @@ def measure(width: int, height: int, reference: int, frames: int, settle: int = 
         moving_truth = [references.get(f"moving{f}_{size}_{reference}_{settle}",
                                        lambda f=f: maker.image(camera_at(f * SLIDE_PER_FRAME, width, height),
                                                                reference))
-                        for f in range(min(5, frames), frames)]
+                        for f in range(min(5, frames), frames)] if frames > 0 else []
     finally:
         maker.release()
     still, undenoised, viewport = still_figures(width, height, truth, scene, settings)
@@ -192,7 +196,7 @@ def measure(width: int, height: int, reference: int, frames: int, settle: int = 
             again, _, other = still_figures(width, height, doubled, scene, settings)
             other.release()
             report["reference_check"]["still_denoised_against_doubled"] = again
-        moving = []
+        moving: list[float] = []
         for f in range(frames):
             camera = camera_at(f * SLIDE_PER_FRAME, width, height)
             image = viewport.render(scene, camera, settings, sample=0, accumulate=True, denoise=True).image

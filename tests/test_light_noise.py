@@ -29,6 +29,13 @@ def test_a_small_run_reports_still_moving_and_stopped_flip_and_denoising_lowers_
     assert light_noise.main(args) == report
 
 
+def test_no_frames_measures_the_still_view_alone(gl):
+    report = light_noise.main(["--size", "32x24", "--reference", "4", "--settle", "2", "--frames", "0"])
+    assert set(report["still_denoised"]) == set(light_noise.STILL_SAMPLES)
+    assert report["moving_denoised_after_five"] == [] and report["stopped_denoised"] == {}
+    assert report["moving_after_five_max"] is None
+
+
 def test_the_reference_is_the_fed_back_light_settled_and_unfiltered(gl):
     # A renderer without the denoiser has no fed-back bounces and is darker; the reference
     # (temporal step only, settled) holds them.

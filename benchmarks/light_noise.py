@@ -5,7 +5,8 @@
 [--check] [--cache PATH] [--json PATH]``
 
 ``--frames 0`` measures the still view alone (a reference of many frames, ``--reference 2048``,
-then costs one view's frames only).
+then costs one view's frames only). ``--scene window_room`` measures a daylit interior instead
+(``window_room``: the sun and the sky through a window, no lamp, no partition).
 
 The scene is an interior lit only by bounced light: a closed room whose lamp stands behind a
 partition, so that half of what the camera sees is lit by the walls alone (the room of
@@ -81,9 +82,39 @@ def room() -> SceneData:
                      Lights.from_rows([lamp]), Sky(color=(0.0, 0.0, 0.0)))
 
 
-def camera_at(offset: float, width: int, height: int) -> Camera:
-    eye = np.array([-2.0 + offset, -2.5, 0.5])
-    return Camera(matrix_world=look_at(eye, eye + np.array([1.0, 3.0, -0.6])), width=width, height=height)
+def _quad(a, b, c, d) -> np.ndarray:
+    return np.array([(a, b, c), (a, c, d)], np.float32)
+
+
+def window_room() -> SceneData:
+    """The same room with a window in its left wall (x = -ROOM_HALF) instead of the lamp and
+    the partition: a sun through it onto the floor, and a pale sky, as a daylit interior."""
+    h = ROOM_HALF
+    walls = _box((-h,) * 3, (h,) * 3)
+    left_wall = np.all(np.isclose(walls[:, :, 0], -h), axis=1)
+    y0, y1, z0, z1 = -1.0, 1.0, -0.5, 1.5  # the opening
+    x = -h
+    frame = [_quad((x, -h, -h), (x, -h, h), (x, y0, h), (x, y0, -h)),
+             _quad((x, y1, -h), (x, y1, h), (x, h, h), (x, h, -h)),
+             _quad((x, y0, -h), (x, y0, z0), (x, y1, z0), (x, y1, -h)),
+             _quad((x, y0, z1), (x, y0, h), (x, y1, h), (x, y1, z1))]
+    triangles = np.concatenate([walls[~left_wall], *frame])
+    sun = dict(kind="SUN", direction=(0.6, 0.2, -0.8), color=(3.0, 2.9, 2.7), radius=0.01)
+    return SceneData(Geometry.from_objects([(triangles, None, 0)]),
+                     MaterialTable.from_rows([dict(base_color=(0.8, 0.8, 0.8), specular=0.0, roughness=1.0)]),
+                     Lights.from_rows([sun]), Sky(color=(0.6, 0.75, 1.0)))
+
+
+SCENES = {"room": room, "window_room": window_room}
+# Each scene's view: the eye and the direction it looks in. The room's sees the partition and
+# the walls beside it; the window room's the sunlit patch of floor and the window's wall.
+VIEWS = {"room": ((-2.0, -2.5, 0.5), (1.0, 3.0, -0.6)), "window_room": ((2.5, -2.5, 1.0), (-1.2, 1.0, -1.0))}
+
+
+def camera_at(offset: float, width: int, height: int, scene_name: str = "room") -> Camera:
+    eye, direction = (np.array(v, np.float64) for v in VIEWS[scene_name])
+    eye = eye + (offset, 0.0, 0.0)
+    return Camera(matrix_world=look_at(eye, eye + direction), width=width, height=height)
 
 
 def _viewport_settings() -> RenderSettings:
@@ -144,12 +175,12 @@ class ReferenceCache:
 
 
 def still_figures(width: int, height: int, truth: np.ndarray, scene: SceneData,
-                  settings: RenderSettings) -> tuple[dict, dict, "object"]:
+                  settings: RenderSettings, scene_name: str = "room") -> tuple[dict, dict, "object"]:
     """FLIP of the still view's viewport mean (denoised, and not) at STILL_SAMPLES; returns
     the denoised viewport's renderer, its history warm, for the moving run."""
     from hybrid_engine.frame.renderer import Renderer
 
-    camera = camera_at(0.0, width, height)
+    camera = camera_at(0.0, width, height, scene_name)
     viewport, plain = Renderer(), Renderer()
     still, undenoised = {}, {}
     try:
@@ -166,15 +197,16 @@ def still_figures(width: int, height: int, truth: np.ndarray, scene: SceneData,
 
 
 def measure(width: int, height: int, reference: int, frames: int, settle: int = 48, check: bool = False,
-            cache: str | None = None) -> dict:
+            cache: str | None = None, scene_name: str = "room") -> dict:
     """Every figure of the module docstring; ``frames`` 0 measures the still view alone."""
-    scene = room()
+    scene = SCENES[scene_name]()
     settings = _viewport_settings()
     references = ReferenceCache(cache)
     maker = Reference(scene, settings, settle)
-    size = f"{width}x{height}"
+    # The room's references keep their keys of before the scenes had names.
+    size = f"{width}x{height}" + ("" if scene_name == "room" else f"_{scene_name}")
     try:
-        still_camera = camera_at(0.0, width, height)
+        still_camera = camera_at(0.0, width, height, scene_name)
         truth = references.get(f"still_{size}_{reference}_{settle}",
                                lambda: maker.image(still_camera, reference, settle))
         doubled = None
@@ -182,23 +214,24 @@ def measure(width: int, height: int, reference: int, frames: int, settle: int = 
             doubled = references.get(f"still_{size}_{2 * reference}_{settle}",
                                      lambda: maker.image(still_camera, 2 * reference, settle, first=settle + reference))
         moving_truth = [references.get(f"moving{f}_{size}_{reference}_{settle}",
-                                       lambda f=f: maker.image(camera_at(f * SLIDE_PER_FRAME, width, height),
+                                       lambda f=f: maker.image(camera_at(f * SLIDE_PER_FRAME, width, height, scene_name),
                                                                reference))
                         for f in range(min(5, frames), frames)] if frames > 0 else []
     finally:
         maker.release()
-    still, undenoised, viewport = still_figures(width, height, truth, scene, settings)
-    report = {"size": size, "reference_samples": reference, "settle_frames": settle,
+    still, undenoised, viewport = still_figures(width, height, truth, scene, settings, scene_name)
+    report = {"scene": scene_name, "size": f"{width}x{height}", "reference_samples": reference,
+              "settle_frames": settle,
               "still_denoised": still, "still_undenoised": undenoised}
     try:
         if doubled is not None:
             report["reference_check"] = {"flip_reference_to_doubled": round(flip_mean(doubled, truth), 4)}
-            again, _, other = still_figures(width, height, doubled, scene, settings)
+            again, _, other = still_figures(width, height, doubled, scene, settings, scene_name)
             other.release()
             report["reference_check"]["still_denoised_against_doubled"] = again
         moving: list[float] = []
         for f in range(frames):
-            camera = camera_at(f * SLIDE_PER_FRAME, width, height)
+            camera = camera_at(f * SLIDE_PER_FRAME, width, height, scene_name)
             image = viewport.render(scene, camera, settings, sample=0, accumulate=True, denoise=True).image
             if f >= 5:
                 moving.append(round(flip_mean(moving_truth[f - 5], image[..., :3]), 4))
@@ -226,9 +259,10 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--check", action="store_true")
     parser.add_argument("--cache")
     parser.add_argument("--json")
+    parser.add_argument("--scene", choices=sorted(SCENES), default="room")
     args = parser.parse_args(argv)
     width, height = (int(v) for v in args.size.split("x"))
-    report = measure(width, height, args.reference, args.frames, args.settle, args.check, args.cache)
+    report = measure(width, height, args.reference, args.frames, args.settle, args.check, args.cache, args.scene)
     print(json.dumps(report, indent=2))
     bench.write_json(report, args.json)
     return report

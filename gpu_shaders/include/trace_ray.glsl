@@ -575,7 +575,26 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
             in_bvh = false;
         } else {
             reached_cube = true;
-            CubeMarch cm = cube_march_limited(o, d, t_cur, min(scene_exit(o, d), t_max));
+            float t_limit = min(scene_exit(o, d), t_max);
+#if BVH_WHOLE_RAY && !defined(TRACE_ANY_HIT)
+            // (Beyond the paper; the diffuse paths only, diffuse_light.py.) The BVH holds the
+            // whole triangles that reach into the near cube. A wall the camera stands close
+            // to is one: the cube map's faces, whose near planes lie beyond it, see past it,
+            // and elsewhere it is a sliver of texels seen edge-on that a march slips through.
+            // Its triangles are met wherever the ray crosses them, the march ending there.
+            float t_beyond;
+            int leaf_beyond;
+            vec2 bary_beyond;
+            bool beyond = t_limit > t_cur && bvh_closest_leaf(o, d, t_cur, t_limit, t_beyond, leaf_beyond, bary_beyond);
+            if (beyond) t_limit = t_beyond;
+#endif
+            CubeMarch cm = cube_march_limited(o, d, t_cur, t_limit);
+#if BVH_WHOLE_RAY && !defined(TRACE_ANY_HIT)
+            if (beyond && cm.kind != CUBE_HIT && !(cm.kind != CUBE_SKY && cm.t < t_beyond)) {
+                h = bvh_hit(o, d, t_beyond, leaf_beyond, bary_beyond, blur);
+                break;
+            }
+#endif
             if (cm.kind == CUBE_HIT) {
                 h.kind = HIT_CUBE;
                 h.position = cm.position;

@@ -44,6 +44,10 @@ WORKGROUP = 8  # the kernel's local size in x and y
 # nothing of the pixel's surface (diffuse_gather.comp.glsl history_paths): what the camera
 # just uncovered, a moving object, the denoiser's first frame (a setting changed).
 SHORT_HISTORY_PATHS = 4
+# HYBRID's diffuse paths test the near cube's BVH along the whole ray, not only inside the
+# near cube (trace_ray.glsl BVH_WHOLE_RAY): a camera against a wall otherwise lets the sky in
+# through it. A switch for benchmarks.
+BVH_WHOLE_RAY = True
 
 
 def short_history_paths(rays: int) -> int:
@@ -107,6 +111,10 @@ class DiffuseLightPass:
             # depth per texel lets them through to the sky.
             if "u_cube_footprint" in frame.read("cube_map").textures:
                 defines["CUBE_FOOTPRINT"] = 1
+            # The near cube's triangles reach beyond it: a path that leaves from outside
+            # the near cube meets them too, wherever it crosses them (trace_ray.glsl).
+            if BVH_WHOLE_RAY:
+                defines["BVH_WHOLE_RAY"] = 1
         history = self.feedback() if self.feedback is not None and settings.diffuse_bounces > 0 else None
         if history is not None:
             defines["DIFFUSE_FEEDBACK"] = 1

@@ -159,16 +159,20 @@ vec3 random3(int salt) {
 }
 #endif
 
-// Whether the emission of the surface h a path meets counts for the surface it left
-// (material row `left`): with EMITTER_LINKING only where that emitter lights the left
-// surface's receiver set, as Cycles links the emitters its indirect rays find. The
-// next-event estimates ask the same of the surface they start from (emitter_irradiance).
-bool emission_reaches(Hit h, int left) {
+// The emission of the surface h (material hm) a path meets, where it counts: without
+// EMITTER_LIGHT always; with it only where the vertex the ray left took no next-event estimate
+// of the emitters (`counts`), and with EMITTER_LINKING only where that emitter lights the
+// receiver set of the surface the ray left (material row `left`), as Cycles links the
+// emitters its indirect rays find. The next-event estimates ask the same of the surface they
+// start from (emitter_irradiance).
+vec3 path_emission(Hit h, Material hm, bool counts, int left) {
+#ifdef EMITTER_LIGHT
+    if (!counts) return vec3(0.0);
 #ifdef EMITTER_LINKING
-    return emission_lights_set(h.material, row_light_set(left));
-#else
-    return true;
+    if (!emission_lights_set(h.material, row_light_set(left))) return vec3(0.0);
 #endif
+#endif
+    return material_emission_lod(hm, h.uv, h.lod);
 }
 
 // One path from the primary point p (facing geometric normal g) along its first direction
@@ -187,7 +191,7 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, int mat
     // Whether the surface this ray meets adds its emission with EMITTER_LIGHT: only where the
     // vertex it left took no next-event estimate of the emitters (a glossy lobe's).
     bool emission_counts = first_emission;
-    // The surface the ray left (its light-linking receiver set: emission_reaches); a glass
+    // The surface the ray left (its light-linking receiver set: path_emission); a glass
     // surface passed straight through is not one.
     int left = material;
     sky = 0.0;
@@ -216,21 +220,11 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, int mat
         // the BVH finds (below), only where the last vertex took no next-event estimate of
         // the emitters.
         if (bounces_left && h.kind == HIT_CUBE) {
-            vec3 stored = cube_stored_radiance(h, 0.0);
-#ifndef EMITTER_LIGHT
-            stored += material_emission_lod(hm, h.uv, h.lod);
-#else
-            if (emission_counts && emission_reaches(h, left)) stored += material_emission_lod(hm, h.uv, h.lod);
-#endif
-            radiance += throughput * stored;
+            radiance += throughput * (cube_stored_radiance(h, 0.0) + path_emission(h, hm, emission_counts, left));
             break;
         }
 #endif
-#ifndef EMITTER_LIGHT
-        radiance += throughput * material_emission_lod(hm, h.uv, h.lod);
-#else
-        if (emission_counts && emission_reaches(h, left)) radiance += throughput * material_emission_lod(hm, h.uv, h.lod);
-#endif
+        radiance += throughput * path_emission(h, hm, emission_counts, left);
         if (bounces_left) {
             // The lamps' light off this surface (its emission counted above); the ray
             // stands for a whole hemisphere, so highlights are filtered as the roughest lobe.

@@ -590,7 +590,9 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
 #endif
             CubeMarch cm = cube_march_limited(o, d, t_cur, t_limit);
 #if BVH_WHOLE_RAY && !defined(TRACE_ANY_HIT)
-            if (beyond && cm.kind != CUBE_HIT && !(cm.kind != CUBE_SKY && cm.t < t_beyond)) {
+            // Nothing in the map before the triangle: the march ran to it, or leaves into
+            // the near cube no nearer.
+            if (beyond && (cm.kind == CUBE_SKY || (cm.kind == CUBE_TO_BVH && cm.t >= t_beyond))) {
                 h = bvh_hit(o, d, t_beyond, leaf_beyond, bary_beyond, blur);
                 break;
             }

@@ -523,6 +523,28 @@ bool cube_hidden_exit_point(vec3 o, vec3 d, float t_hit, inout Hit h) {
 }
 #endif
 
+#if BVH_WHOLE_RAY && !defined(TRACE_ANY_HIT)
+#include "grazing_leaves.glsl"
+// The nearest of the near cube's grazing triangles (grazing_leaves.glsl) that the ray meets
+// in (tmin, tmax]: the triangles beyond the near cube that the cube map sees edge-on. Every
+// invocation reads the same short list, a few broadcast loads per ray. No traversal of the
+// BVH: trace_ray keeps one (the segment inside the near cube), since a second in the diffuse
+// kernel slowed a GPU's whole kernel several times over for the same work.
+bool grazing_closest_leaf(vec3 o, vec3 d, float tmin, float tmax, out float t, out int leaf, out vec2 bary) {
+    t = tmax;
+    leaf = -1;
+    bary = vec2(0.0);
+    uint listed = grazing_listed();
+    if (listed == 0u || !(all_finite(o) && all_finite(d))) return false;
+    BVHRay ray = bvh_make_ray(o, d);
+    for (uint i = 0u; i < listed; ++i) {
+        int candidate = int(grazing_leaves[i]);
+        if (bvh_intersect_leaf(ray, candidate, tmin, t, bary)) leaf = candidate;
+    }
+    return leaf >= 0;
+}
+#endif
+
 Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
     Hit h;
     h.kind = HIT_SKY;
@@ -545,6 +567,9 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
     float t;
     int leaf;
     vec2 bary;
+    // Whether the ray ended on the BVH leaf (t, leaf, bary): its hit is built once, after the
+    // loop, so that the kernel holds one copy of that code however many ways reach it.
+    bool met_leaf = false;
     // One traversal serves both modes: FULL_BVH is a single BVH segment over the whole
     // scene whose miss is the sky.
     bool full = u_mode == MODE_FULL_BVH;
@@ -565,7 +590,7 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
             }
 #else
             if (t0 <= t1 && bvh_closest_leaf(o, d, t0, t1, t, leaf, bary)) {
-                h = bvh_hit(o, d, t, leaf, bary, blur);
+                met_leaf = true;  // shaded once, below the loop
                 break;
             }
 #endif
@@ -579,13 +604,13 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
 #if BVH_WHOLE_RAY && !defined(TRACE_ANY_HIT)
             // (Beyond the paper; the diffuse paths only, diffuse_light.py.) The BVH holds the
             // whole triangles that reach into the near cube. A wall the camera stands close
-            // to is one: the cube map's faces, whose near planes lie beyond it, see past it,
-            // and elsewhere it is a sliver of texels seen edge-on that a march slips through.
-            // Its triangles are met wherever the ray crosses them, the march ending there.
+            // to is one: beyond the near cube's faces the cube map sees it edge-on, a sliver
+            // of texels that a march slips through. Such triangles (grazing_closest_leaf)
+            // are met wherever the ray crosses them, the march ending there.
             float t_beyond;
             int leaf_beyond;
             vec2 bary_beyond;
-            bool beyond = t_limit > t_cur && bvh_closest_leaf(o, d, t_cur, t_limit, t_beyond, leaf_beyond, bary_beyond);
+            bool beyond = t_limit > t_cur && grazing_closest_leaf(o, d, t_cur, t_limit, t_beyond, leaf_beyond, bary_beyond);
             if (beyond) t_limit = t_beyond;
 #endif
             CubeMarch cm = cube_march_limited(o, d, t_cur, t_limit);
@@ -593,7 +618,10 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
             // Nothing in the map before the triangle: the march ran to it, or leaves into
             // the near cube no nearer.
             if (beyond && (cm.kind == CUBE_SKY || (cm.kind == CUBE_TO_BVH && cm.t >= t_beyond))) {
-                h = bvh_hit(o, d, t_beyond, leaf_beyond, bary_beyond, blur);
+                t = t_beyond;
+                leaf = leaf_beyond;
+                bary = bary_beyond;
+                met_leaf = true;
                 break;
             }
 #endif
@@ -652,6 +680,9 @@ Hit trace_ray(vec3 o, vec3 d, int depth, float blur, float t_max) {
             in_bvh = true;
         }
     }
+#ifndef TRACE_ANY_HIT
+    if (met_leaf) h = bvh_hit(o, d, t, leaf, bary, blur);
+#endif
     if (depth < 0) {
         bvh_nodes_visited = nodes_before;
         cube_march_steps = steps_before;

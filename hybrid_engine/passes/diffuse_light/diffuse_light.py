@@ -38,22 +38,25 @@ from ...scene.settings import FIELD_LIMITS, RenderSettings
 from ..frame_context import FrameContext, PassIO
 from ..trace.tracer import (COUNTER_DEPTHS, COUNTER_KINDS, COUNTER_WORDS, HybridTracer, TraceStats,
                             traced_resources)
+from .grazing import GrazingTriangles, grazing_defines
 
 WORKGROUP = 8  # the kernel's local size in x and y
 # The paths per pixel, as a multiple of Diffuse Rays, where the denoiser's history holds
 # nothing of the pixel's surface (diffuse_gather.comp.glsl history_paths): what the camera
-# just uncovered, a moving object, the denoiser's first frame (a setting changed).
-SHORT_HISTORY_PATHS = 4
-# HYBRID's diffuse paths test the near cube's BVH along the whole ray, not only inside the
-# near cube (trace_ray.glsl BVH_WHOLE_RAY): a camera against a wall otherwise lets the sky in
-# through it. A switch for benchmarks.
+# just uncovered, a moving object, the denoiser's first frame (a setting changed). Twice: on
+# a GPU four times cost the Chess frame several times what twice does, for a small gain
+# (docs/BENCHMARKS.md).
+SHORT_HISTORY_PATHS = 2
+# HYBRID's diffuse paths test the near cube's grazing triangles along the whole ray, not only
+# inside the near cube (trace_ray.glsl BVH_WHOLE_RAY, grazing.py): a camera against a wall
+# otherwise lets the sky in through it. A switch for benchmarks.
 BVH_WHOLE_RAY = True
 
 
 def short_history_paths(rays: int) -> int:
     """SHORT_HISTORY_PATHS for ``rays`` Diffuse Rays, lowered so that no pixel traces more
     paths in a frame than the setting's highest value would (16): a view set to many rays
-    already converges fast, and four times its paths would stall its first frame."""
+    already converges fast, and more of its paths would stall its first frame."""
     most_rays = FIELD_LIMITS["diffuse_rays"][1]
     return max(1, min(SHORT_HISTORY_PATHS, most_rays // max(int(rays), 1)))
 SHADER = "diffuse_light/diffuse_gather.comp.glsl"
@@ -67,6 +70,12 @@ def gather_counts(bounces: int, words: np.ndarray) -> dict[str, int]:
     counts = TraceStats({kind: [int(raw[k, d]) for d in vertices]
                          for k, kind in enumerate(COUNTER_KINDS)}).as_counts()
     return {f"gather_{name}": value for name, value in counts.items()}
+
+
+def grazing_counts(words: np.ndarray) -> dict[str, int]:
+    """The near cube's grazing triangles (grazing.py) as ``grazing_triangles``: past
+    GRAZING_CAPACITY the paths traversed the BVH instead."""
+    return {"grazing_triangles": int(np.asarray(words, np.uint32)[0])}
 
 
 class DiffuseLightPass:
@@ -84,6 +93,7 @@ class DiffuseLightPass:
         self.ctx = tracer.ctx
         self._counters = self.ctx.buffer(reserve=COUNTER_WORDS * 4)
         self._zero_counters = bytes(self._counters.size)
+        self.grazing = GrazingTriangles(self.ctx)
 
     def io(self, settings: RenderSettings) -> PassIO:
         return PassIO(reads=("scene", "scene_buffers", "world_triangles", "gbuffer", "lighting", "emitters",
@@ -99,6 +109,7 @@ class DiffuseLightPass:
         emitters = frame.read("emitters")
         emitter_parts = (emitters.bindings(),) if emitters.count else ()
         defines = {**inputs.defines, **emitters.defines}
+        storage = {**inputs.storage, "CounterBuffer": self._counters}
         if settings.trace_mode == "HYBRID":
             # A path that passes beside a surface into the space the cube map cannot see
             # takes the point where it leaves the scene's bounds, not that surface's
@@ -112,9 +123,12 @@ class DiffuseLightPass:
             if "u_cube_footprint" in frame.read("cube_map").textures:
                 defines["CUBE_FOOTPRINT"] = 1
             # The near cube's triangles reach beyond it: a path that leaves from outside
-            # the near cube meets them too, wherever it crosses them (trace_ray.glsl).
+            # the near cube meets those the cube map sees edge-on (grazing.py), wherever it
+            # crosses them (trace_ray.glsl).
             if BVH_WHOLE_RAY:
-                defines["BVH_WHOLE_RAY"] = 1
+                defines.update(BVH_WHOLE_RAY=1, **grazing_defines())
+                storage.update(self.grazing.collect(frame.read("bvh"), frame.center, settings.near_size))
+                frame.statistics.deposit(self.grazing.buffer, 1, grazing_counts)
         history = self.feedback() if self.feedback is not None and settings.diffuse_bounces > 0 else None
         if history is not None:
             defines["DIFFUSE_FEEDBACK"] = 1
@@ -126,7 +140,7 @@ class DiffuseLightPass:
         self._counters.write(self._zero_counters)
         bounces = int(settings.diffuse_bounces)
         assert bounces <= FIELD_LIMITS["diffuse_bounces"][1]
-        bind(prog, *inputs.parts, *emitter_parts, storage={**inputs.storage, "CounterBuffer": self._counters},
+        bind(prog, *inputs.parts, *emitter_parts, storage=storage,
              textures=inputs.textures, images={"u_ambient": Image(targets.ambient, read=False, write=True)},
              uniforms={**inputs.uniforms, "u_diffuse_bounces": bounces,
                        "u_diffuse_rays": int(settings.diffuse_rays),
@@ -141,3 +155,4 @@ class DiffuseLightPass:
 
     def release(self) -> None:
         self._counters.release()
+        self.grazing.release()

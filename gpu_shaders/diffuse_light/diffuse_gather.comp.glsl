@@ -88,17 +88,16 @@ int history_paths(vec3 p, vec3 n) {
     return clamp(int(ceil(float(most) / (frames + 1.0))), 1, most);
 }
 
-// The diffuse light (lamps and last frame's irradiance) leaving the surface a path ends on,
-// if last frame's camera saw that very point; else nothing (as without feedback). Each frame
-// adds the bounces its paths trace to those the last frame held: bounces build up over
-// frames, and die away as they do in a room (by the albedo, below 1), so a light switched off
-// leaves nothing after a few frames.
-vec3 feedback_light(Hit h, Material hm, vec3 albedo, vec3 d, SpecularSplit hs) {
+// Last frame's irradiance at the surface h a path ends on, if last frame's camera saw that
+// very point (the texel found: `seen`); else nothing (as without feedback). The path takes
+// it, and the lamps' light there, instead of none: each frame adds the bounces its paths
+// trace to those the last frame held, so bounces build up over frames, and die away as they
+// do in a room (by the albedo, below 1): a light switched off leaves nothing after a few
+// frames.
+vec3 feedback_irradiance(Hit h, SpecularSplit hs, out bool seen) {
     ivec2 q;
-    if (!feedback_texel(h.position, hs.n_facing, q)) return vec3(0.0);
-    vec3 irradiance = texelFetch(u_feedback_color, q, 0).rgb;
-    return hs.diffuse_weight * albedo / PI * irradiance
-           + lamp_light_response(hm, albedo, vec3(0.0), h.position, d, hs, 1.0);
+    seen = feedback_texel(h.position, hs.n_facing, q);
+    return seen ? texelFetch(u_feedback_color, q, 0).rgb : vec3(0.0);
 }
 #endif
 
@@ -181,12 +180,29 @@ vec3 path_emission(Hit h, Material hm, bool counts, int left) {
 // transmission). `first_emission`: the first surface's emission counts even with
 // EMITTER_LIGHT (a glossy lobe's paths, which take no next-event estimate of the emitters).
 // `material`: the primary point's.
-vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, int material, out float sky) {
+// `n`: the primary point's facing shading normal, where the emitters' next-event estimate of
+// the diffuse layer starts (not for a glossy lobe's paths, first_emission), in radiance:
+// pi times it is the estimate of the irradiance.
+//
+// Each heavy step has one call site in the loop, as the tracer's kernels keep theirs: a GPU
+// compiler inlines every call, and a second copy of the emitters' estimate (a whole
+// trace_ray) or of the lamps' shading makes the kernel larger and slower however rarely it
+// runs (docs/BENCHMARKS.md, GPU figures). The estimate of a vertex therefore waits for the
+// top of the next step.
+vec3 diffuse_path(vec3 p, vec3 g, vec3 n, vec3 d, int path, bool first_emission, int material, out float sky) {
     vec3 radiance = vec3(0.0);
     vec3 throughput = vec3(1.0);
     int salt = PATH_SALT + 32 * path;
     vec3 o = offset_origin(p, g);
     int vertex = 1;
+#ifdef EMITTER_LIGHT
+    // The vertex whose next-event estimate is due: its point, facing normals, weight (0: none
+    // due), material and index (0 the primary point).
+    vec3 nee_point = p, nee_n = n, nee_g = g;
+    vec3 nee_weight = first_emission ? vec3(0.0) : vec3(1.0 / PI);
+    int nee_material = material;
+    int nee_vertex = 0;
+#endif
     int crossings = 0;
     // Whether the surface this ray meets adds its emission with EMITTER_LIGHT: only where the
     // vertex it left took no next-event estimate of the emitters (a glossy lobe's).
@@ -195,7 +211,19 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, int mat
     // surface passed straight through is not one.
     int left = material;
     sky = 0.0;
-    for (int step = 0; step <= MAX_DIFFUSE_BOUNCES + MAX_GLASS_CROSSINGS; ++step) {
+    for (int step = 0; ; ++step) {
+#ifdef EMITTER_LIGHT
+        if (max(max(nee_weight.r, nee_weight.g), nee_weight.b) > 0.0) {
+#if CUBE_FOOTPRINT
+            cube_origin_material = nee_material;  // the shadow ray leaves that vertex's surface
+#endif
+            radiance += nee_weight * emitter_irradiance(nee_point, nee_n, nee_g,
+                                                        random3(EMITTER_SALT + 32 * path + nee_vertex),
+                                                        material_light_set(materials[nee_material]), nee_vertex);
+            nee_weight = vec3(0.0);
+        }
+#endif
+        if (step > MAX_DIFFUSE_BOUNCES + MAX_GLASS_CROSSINGS) break;
 #if CUBE_FOOTPRINT
         // The surface the ray leaves (cube_march.glsl "Surface footprints").
         cube_origin_material = material;
@@ -225,24 +253,28 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, int mat
         }
 #endif
         radiance += throughput * path_emission(h, hm, emission_counts, left);
-        if (bounces_left) {
-            // The lamps' light off this surface (its emission counted above); the ray
-            // stands for a whole hemisphere, so highlights are filtered as the roughest lobe.
-            radiance += throughput * lamp_light_response(hm, h_albedo, vec3(0.0), h.position, d, hs, 1.0);
-        }
         float through = material_transmission(hm);
+        // The lamps' light off this surface (its emission counted above), where the path goes
+        // on from it, or ends on it with last frame's light; the ray stands for a whole
+        // hemisphere, so highlights are filtered as the roughest lobe.
+        bool lamps = bounces_left;
+#ifdef DIFFUSE_FEEDBACK
+        bool ends_on_feedback = false;
+        if (!bounces_left && hs.diffuse_weight > 0.0 && through <= 0.0) {
+            radiance += throughput * (hs.diffuse_weight * h_albedo / PI) * feedback_irradiance(h, hs, ends_on_feedback);
+            lamps = ends_on_feedback;
+        }
+#endif
+        if (lamps) radiance += throughput * lamp_light_response(hm, h_albedo, vec3(0.0), h.position, d, hs, 1.0);
+#ifdef DIFFUSE_FEEDBACK
+        if (ends_on_feedback) break;
+#endif
         if (through > 0.0 && crossings < MAX_GLASS_CROSSINGS) {
             throughput *= through;
             o = offset_origin(h.position, -hs.g_facing);
             crossings += 1;
             continue;
         }
-#ifdef DIFFUSE_FEEDBACK
-        if (!bounces_left && hs.diffuse_weight > 0.0 && through <= 0.0) {
-            radiance += throughput * feedback_light(h, hm, h_albedo, d, hs);
-            break;
-        }
-#endif
         if (!bounces_left) break;
         // The path goes on along one of the surface's lobes, picked by its share of what the
         // surface reflects: the diffuse layer (a cosine direction) or the specular layers
@@ -271,9 +303,12 @@ vec3 diffuse_path(vec3 p, vec3 g, vec3 d, int path, bool first_emission, int mat
         throughput *= diffuse_w * ((p_diffuse + p_specular) / p_diffuse);
         if (!(max(max(throughput.r, throughput.g), throughput.b) > 0.0)) break;
 #ifdef EMITTER_LIGHT
-        radiance += throughput / PI * emitter_irradiance(h.position, hs.n_facing, hs.g_facing,
-                                                         random3(EMITTER_SALT + 32 * path + vertex),
-                                                         material_light_set(materials[h.material]), vertex);
+        nee_point = h.position;
+        nee_n = hs.n_facing;
+        nee_g = hs.g_facing;
+        nee_weight = throughput / PI;
+        nee_material = h.material;
+        nee_vertex = vertex;
 #endif
         d = cosine_direction(hs.n_facing, hs.g_facing, gather_random(salt + vertex));
         o = offset_origin(h.position, hs.g_facing);
@@ -325,14 +360,9 @@ void main() {
             // tracer samples the traced ones (weight 1: split.glossy_local is the lobe's albedo).
             vec3 d = glossy ? specular_split_sampled(m, albedo_g.rgb, view_dir, n, g, xi).reflect_dir
                             : cosine_direction(n_facing, g_facing, xi);
-            irradiance += PI * diffuse_path(p, g_facing, d, i, glossy, int(abs(nm.w) + 0.5) - 1, seen);
+            // With the emitters' next-event estimate of the diffuse layer (cosine-weighted).
+            irradiance += PI * diffuse_path(p, g_facing, n_facing, d, i, glossy, int(abs(nm.w) + 0.5) - 1, seen);
             sky += seen;
-#ifdef EMITTER_LIGHT
-            // The emitters' next-event estimate is the diffuse layer's (cosine-weighted).
-            if (!glossy)
-                irradiance += emitter_irradiance(p, n_facing, g_facing, random3(EMITTER_SALT + 32 * i),
-                                                 material_light_set(materials[int(abs(nm.w) + 0.5) - 1]), 0);
-#endif
         }
         ambient = vec4(irradiance, sky) / float(paths);
         if (any(isnan(ambient)) || any(isinf(ambient))) ambient = vec4(0.0, 0.0, 0.0, 1.0);

@@ -8,9 +8,10 @@
 # Each step has its own time limit within SECONDS (default 480) and writes its report into
 # OUT_DIR as it goes, so that a run cut short still returns what it finished: the tests'
 # failures with their text and the failing comparisons' images (tests/_failures), node_cost's
-# renders line by line, picture_cost --light and the frame section as JSON. Needs numpy,
-# moderngl, glcontext, flip_evaluator (the tests' FLIP: without it those tests fail as if
-# their images differed) and pytest (no Blender: the tests that need it are not in the list).
+# renders line by line, picture_cost --light (with and without the diffuse light's extras)
+# and the frame section as JSON. Needs numpy, moderngl, glcontext, flip_evaluator (the
+# tests' FLIP: without it those tests fail as if their images differed) and pytest (no
+# Blender: the tests that need it are not in the list).
 set -o pipefail
 out=${1:?usage: device_check.sh OUT_DIR [SECONDS]}
 budget=${2:-480}
@@ -34,12 +35,24 @@ git rev-parse --short HEAD 2>/dev/null
 step tests 40 python3 -m pytest -rf -q -n 8 -p no:cacheprovider \
     tests/test_cube_light.py tests/test_diffuse_light.py tests/test_emitter_light.py \
     tests/test_node_light_path.py tests/test_cube_march.py tests/test_node_codegen.py tests/test_denoise.py \
-    tests/test_emitter_links.py -k "not renders_as_cycles"  # those two need bpy, which the device lacks
+    tests/test_emitter_links.py tests/test_grazing_triangles.py \
+    -k "not renders_as_cycles"  # those two need bpy, which the device lacks
 grep -E "^FAILED|passed|failed" "$out/tests.log" 2>/dev/null | tail -20
 [ -d tests/_failures ] && tar -czf "$out/failures.tar.gz" -C tests _failures
 step node_cost 40 python3 -m benchmarks.node_cost --rounds 3 --size 640x360 --json "$out/node_cost.json"
 tail -12 "$out/node_cost.log" 2>/dev/null
-step picture_light 60 python3 -m benchmarks.picture_cost --light --rounds 3 --json "$out/picture_light.json"
+step picture_light 40 python3 -m benchmarks.picture_cost --light --rounds 3 --json "$out/picture_light.json"
 tail -4 "$out/picture_light.log" 2>/dev/null
+# The same with the diffuse light's two costliest extras switched off (the grazing triangles'
+# whole-ray test and the extra paths of a short history): what they cost on this GPU.
+step picture_light_plain 40 python3 -c "
+import sys
+from hybrid_engine.passes.diffuse_light import diffuse_light
+diffuse_light.BVH_WHOLE_RAY = False
+diffuse_light.SHORT_HISTORY_PATHS = 1
+from benchmarks import picture_cost
+picture_cost.main(['--light', '--rounds', '3', '--json', sys.argv[1]])
+" "$out/picture_light_plain.json"
+tail -4 "$out/picture_light_plain.log" 2>/dev/null
 step frame 100 python3 -m benchmarks.bench --sections frame --variants auto --json "$out/frame.json"
 tail -16 "$out/frame.log" 2>/dev/null

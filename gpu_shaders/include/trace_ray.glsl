@@ -529,7 +529,7 @@ bool cube_hidden_exit_point(vec3 o, vec3 d, float t_hit, inout Hit h) {
 // in (tmin, tmax]: the triangles beyond the near cube that the cube map sees edge-on. Every
 // invocation reads the same short list, a few broadcast loads per ray. No traversal of the
 // BVH: trace_ray keeps one (the segment inside the near cube), since a second in the diffuse
-// kernel slowed a GPU's whole kernel several times over for the same work.
+// kernel made a GPU's diffuse pass two to three times slower for the same work.
 bool grazing_closest_leaf(vec3 o, vec3 d, float tmin, float tmax, out float t, out int leaf, out vec2 bary) {
     t = tmax;
     leaf = -1;

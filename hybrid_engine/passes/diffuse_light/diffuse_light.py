@@ -43,9 +43,9 @@ from .grazing import GrazingTriangles, grazing_defines
 WORKGROUP = 8  # the kernel's local size in x and y
 # The paths per pixel, as a multiple of Diffuse Rays, where the denoiser's history holds
 # nothing of the pixel's surface (diffuse_gather.comp.glsl history_paths): what the camera
-# just uncovered, a moving object, the denoiser's first frame (a setting changed). Twice: on
-# a GPU four times cost the Chess frame several times what twice does, for a small gain
-# (docs/BENCHMARKS.md).
+# just uncovered, a moving object, the denoiser's first frame (a setting changed). Twice: four
+# times cost a GPU's Chess frame five times what twice does (5 ms against 1 on an H200), for
+# a small gain in the noise (docs/BENCHMARKS.md).
 SHORT_HISTORY_PATHS = 2
 # HYBRID's diffuse paths test the near cube's grazing triangles along the whole ray, not only
 # inside the near cube (trace_ray.glsl BVH_WHOLE_RAY, grazing.py): a camera against a wall

@@ -6,18 +6,18 @@ The cube map is rasterized from the near cube's centre beyond the near planes (p
 A surface whose plane passes close to that centre, a wall the camera stands against, is seen
 there edge-on: a sliver of texels that the diffuse paths' march slips through, so a room
 takes the sky through its wall. The BVH holds the whole triangles that reach into the near
-cube, and such a wall's are among them, so a path meets them wherever it crosses them. But
-traversing the whole BVH from outside the near cube is costly on a GPU: every large
-triangle that straddles the near cube stretches its ancestors' boxes, and the paths that
-pass through those boxes descend towards it. Only the triangles that reach well beyond the
-near cube in a plane close to its centre are seen edge-on, and they are few (none or a
-handful in most views): their list, collected each frame on the GPU
+cube, and such a wall's are among them, so a path meets them wherever it crosses them. A
+traversal of the whole BVH from outside the near cube found them, but visited 2.8 times the
+nodes in Chess (every large triangle that straddles the near cube stretches its ancestors'
+boxes, and the paths through those boxes descend towards it), and a second traversal in the
+diffuse kernel made a GPU's shading pass two to three times slower, by the kernel's size
+more than by the work (docs/BENCHMARKS.md, GPU figures). Only the triangles that reach well
+beyond the near cube in a plane close to its centre are seen edge-on, and they are few (none
+or a few dozen in most views): their list, collected each frame on the GPU
 (``gpu_shaders/diffuse_light/grazing_triangles.comp.glsl``), is what the paths test, every
 invocation reading the same few triangles. Where more graze than :data:`GRAZING_CAPACITY`,
 the list keeps those whose planes pass nearest the centre (binned in :data:`GRAZING_BINS`
-steps), the surfaces seen most nearly edge-on. The whole-ray test never traverses the BVH:
-a second traversal in the diffuse kernel made the GPU's shading pass several times slower,
-for the same work (docs/BENCHMARKS.md).
+steps), the surfaces seen most nearly edge-on.
 """
 from __future__ import annotations
 

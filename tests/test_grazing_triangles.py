@@ -123,3 +123,24 @@ def test_a_list_past_its_capacity_keeps_the_leaves_whose_planes_pass_nearest_the
     assert bins[left_out].min() >= bins[listed].max()
     whole = bins[listed] < bins[listed].max()
     assert np.sum(whole) == np.sum(bins[grazing_leaves] < bins[listed].max())
+
+
+def test_the_list_reads_a_bvh_split_over_storage_blocks(gl, lists):
+    # 200 KiB blocks hold 4224 BVH triangles (tests/test_lbvh.py): 10,000 take three, as a
+    # 128 MiB block's past 2.8M triangles.
+    from hybrid_engine.gpu import dispatch as gpu_dispatch
+
+    rng = np.random.default_rng(5)
+    filler = CENTER + rng.uniform(-1.5, 1.5, (10_000, 1, 3)) + 0.01 * rng.standard_normal((10_000, 3, 3))
+    scene = np.concatenate([mixed_scene(rng, 30), filler.astype(np.float32)])
+    with gpu_dispatch.forced_limits(max_block=200 * 1024):
+        builder = LBVHBuilder(gl)
+        try:
+            built = builder.build_from_array(scene)
+            assert built.triangle_split.blocks == 3
+            lists.collect(built, CENTER, HALF)
+            expected = oracle(leaf_corners(built))
+            assert 5 <= len(expected) <= grazing.GRAZING_CAPACITY
+            assert set(lists.read().tolist()) == expected
+        finally:
+            builder.release()

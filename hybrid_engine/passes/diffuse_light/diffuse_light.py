@@ -73,8 +73,8 @@ def gather_counts(bounces: int, words: np.ndarray) -> dict[str, int]:
 
 
 def grazing_counts(words: np.ndarray) -> dict[str, int]:
-    """The near cube's grazing triangles (grazing.py) as ``grazing_triangles``: past
-    GRAZING_CAPACITY the paths traversed the BVH instead."""
+    """The near cube's grazing triangles (grazing.py) as ``grazing_triangles``, all of them:
+    past GRAZING_CAPACITY the list held those whose planes pass nearest the centre."""
     return {"grazing_triangles": int(np.asarray(words, np.uint32)[0])}
 
 

@@ -35,15 +35,21 @@ def plane_reach(tris: np.ndarray) -> np.ndarray:
     return np.abs(np.einsum("ij,ij->i", n, tris[:, 0] - CENTER)) / np.linalg.norm(n, axis=1)
 
 
-def grazing_bins(leaves: np.ndarray) -> np.ndarray:
-    """grazing.py's rule in float64 over the leaves (rows of (3, 3) corners, leaf order): each
-    leaf's bin of its plane's distance from the centre, -1 where it does not graze."""
-    tris = leaves.astype(np.float64)
+def outside_and_steps(tris: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How far each triangle reaches outside the near cube, and its plane's distance from the
+    centre in the list's bin steps (GRAZING_BINS steps make PLANE_REACH), in float64."""
+    tris = tris.astype(np.float64)
     lo, hi = tris.min(axis=1) - CENTER, tris.max(axis=1) - CENTER
     outside = np.maximum(hi - HALF, -HALF - lo).max(axis=1)
-    reach = plane_reach(tris) / (grazing.PLANE_REACH * HALF)
-    bins = np.minimum((reach * grazing.GRAZING_BINS).astype(int), grazing.GRAZING_BINS - 1)
-    return np.where((outside > grazing.BEYOND * HALF) & (reach <= 1.0), bins, -1)
+    return outside, plane_reach(tris) / (grazing.PLANE_REACH * HALF) * grazing.GRAZING_BINS
+
+
+def grazing_bins(leaves: np.ndarray) -> np.ndarray:
+    """grazing.py's rule over the leaves (rows of (3, 3) corners, leaf order): each leaf's bin
+    of its plane's distance from the centre, -1 where it does not graze."""
+    outside, steps = outside_and_steps(leaves)
+    bins = np.minimum(steps.astype(int), grazing.GRAZING_BINS - 1)
+    return np.where((outside > grazing.BEYOND * HALF) & (steps <= grazing.GRAZING_BINS), bins, -1)
 
 
 def oracle(leaves: np.ndarray) -> set[int]:
@@ -75,9 +81,7 @@ def mixed_scene(rng, grazing_count: int) -> np.ndarray:
     tris += [plane_triangle(rng, rng.uniform(0.8, 1.8), rng.uniform(3.0, 8.0)) for _ in range(40)]
     tris += [plane_triangle(rng, rng.uniform(0.0, 0.4), rng.uniform(2.0, 8.0)) for _ in range(grazing_count)]
     scene = np.array(tris)
-    lo, hi = scene.min(axis=1) - CENTER, scene.max(axis=1) - CENTER
-    outside = np.maximum(hi - HALF, -HALF - lo).max(axis=1)
-    steps = plane_reach(scene) / (grazing.PLANE_REACH * HALF) * grazing.GRAZING_BINS
+    outside, steps = outside_and_steps(scene)
     clear = (np.abs(outside - grazing.BEYOND * HALF) > 1e-3) & (np.abs(steps - np.round(steps)) > 1e-3)
     return scene[clear].astype(np.float32)
 

@@ -72,12 +72,6 @@ def gather_counts(bounces: int, words: np.ndarray) -> dict[str, int]:
     return {f"gather_{name}": value for name, value in counts.items()}
 
 
-def grazing_counts(words: np.ndarray) -> dict[str, int]:
-    """The near cube's grazing triangles (grazing.py) as ``grazing_triangles``, all of them:
-    past GRAZING_CAPACITY the list held those whose planes pass nearest the centre."""
-    return {"grazing_triangles": int(np.asarray(words, np.uint32)[0])}
-
-
 class DiffuseLightPass:
     """The diffuse-light kernel and its counters (the frame's ``shade`` step, before the
     deferred shading)."""
@@ -128,7 +122,7 @@ class DiffuseLightPass:
             if BVH_WHOLE_RAY:
                 defines.update(BVH_WHOLE_RAY=1, **grazing_defines())
                 storage.update(self.grazing.collect(frame.read("bvh"), frame.center, settings.near_size))
-                frame.statistics.deposit(self.grazing.buffer, 1, grazing_counts)
+                self.grazing.deposit(frame.statistics)
         history = self.feedback() if self.feedback is not None and settings.diffuse_bounces > 0 else None
         if history is not None:
             defines["DIFFUSE_FEEDBACK"] = 1

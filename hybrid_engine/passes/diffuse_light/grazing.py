@@ -74,6 +74,12 @@ class GrazingTriangles:
             storage_barrier(self.ctx)
         return {"GrazingLeaves": self.buffer}
 
+    def deposit(self, statistics) -> None:
+        """Add the count of grazing leaves to the frame's statistics (``grazing_triangles``, all
+        of them: past GRAZING_CAPACITY the list held those whose planes pass nearest the
+        centre), copied with the frame's other counters rather than read back."""
+        statistics.deposit(self.buffer, 1, _grazing_counts)
+
     def _words(self) -> np.ndarray:
         return np.frombuffer(self.buffer.read(), np.uint32)
 
@@ -89,3 +95,7 @@ class GrazingTriangles:
 
     def release(self) -> None:
         self.buffer.release()
+
+
+def _grazing_counts(words: np.ndarray) -> dict[str, int]:
+    return {"grazing_triangles": int(np.asarray(words, np.uint32)[0])}

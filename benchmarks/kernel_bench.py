@@ -181,6 +181,24 @@ def trace_probe(quick: bool, repeats: int) -> dict[str, float]:
     return {"trace_pass_ms": statistics.median(times)}
 
 
+def gather_probe(quick: bool, repeats: int) -> dict[str, float]:
+    """The ``shade`` pass of a denoised HYBRID Chess frame (the diffuse light's paths, per
+    pixel or by persistent invocations), timed by the renderer's pass timer, with a fresh
+    renderer; the frame's denoiser history is that of one still view."""
+    from hybrid_engine.frame.renderer import Renderer
+
+    (scene, camera), params = _chess(quick)
+    renderer = Renderer(gl_context.get_context())
+    try:
+        settings = _frame_settings(params)
+        renderer.render(scene, camera, settings, denoise=True)  # uploads and compiles everything
+        times = [renderer.render(scene, camera, settings, timing=True, denoise=True, sample=k + 1).passes["shade"]
+                 for k in range(repeats)]
+    finally:
+        renderer.release()
+    return {"shade_pass_ms": statistics.median(times)}
+
+
 def readback_probe(quick: bool, repeats: int) -> dict[str, float]:
     """One viewport image (RGBA32F, 1920x1080; 192x108 quick) brought to the host by a fresh
     reader: synchronous, or through a pixel buffer and a fence (waited for here)."""
@@ -231,7 +249,8 @@ def frame_probe(quick: bool, repeats: int) -> dict[str, float]:
 
 # What each kernel's variants change (module doc); a kernel not named here: whole frames.
 KERNEL_PROBES: dict[str, Probe] = {"faces": faces_probe, "sort": lbvh_probe, "scan": lbvh_probe,
-                                   "trace": trace_probe, "readback": readback_probe, "vertices": primary_probe}
+                                   "trace": trace_probe, "readback": readback_probe, "vertices": primary_probe,
+                                   "gather": gather_probe}
 
 
 def kernel_section(mode: str, quick: bool, rounds: int) -> dict:

@@ -694,3 +694,47 @@ def test_hybrids_paths_from_the_floor_meet_a_low_wall_seen_edge_on_as_full_bvhs_
     hybrid, full = sky["HYBRID"][beside].mean(), sky["FULL_BVH"][beside].mean()
     assert full < 0.9, full  # the walls hide a good part of these points' sky
     assert abs(hybrid - full) < 0.05, (hybrid, full)
+
+
+@pytest.fixture
+def gather_override():
+    yield
+    variants.set_override(None)
+
+
+def frames_of(renderer, scene, camera, settings, frames: int) -> list:
+    """Consecutive denoised frames of one view: the first without history (every pixel its
+    short history's paths), then with last frame's light fed back."""
+    return [renderer.render(scene, camera, settings, sample=i, denoise=True) for i in range(frames)]
+
+
+@pytest.mark.parametrize("mode", ["HYBRID", "FULL_BVH"])
+@pytest.mark.parametrize("lit_by", ["lamp", "panel"])
+def test_the_persistent_gather_kernel_traces_each_pixels_paths_as_the_per_pixel_kernel_does(
+        renderer, gather_override, mode, lit_by):
+    from hybrid_engine.frame.renderer import Renderer
+
+    # The GPU's shape of the gather (persistent invocations taking pixels from a counter,
+    # diffuse_gather.comp.glsl PERSISTENT_PATHS) keys every number by the pixel's surface, so
+    # it must give the per-pixel shape's image exactly: several paths per pixel (Diffuse Rays
+    # 2, twice that without history), pixels without paths (the background, the mirror),
+    # glass-free rooms lit by a lamp and bounces, and an emitter's next-event estimate.
+    if lit_by == "lamp":
+        scene = closed_room(SHADOWED_LAMP, partition=True, rough_metal=True)
+        camera = Camera(matrix_world=look_at(SHADOWED_CAMERA["eye"], SHADOWED_CAMERA["target"]), width=W, height=H)
+    else:
+        scene = panel_over_floor()
+        camera = Camera(matrix_world=look_at((0.0, -4.0, 1.5), (0.0, 0.0, 0.3)), width=W, height=H)
+    settings = room_settings(mode, diffuse_rays=2, diffuse_bounces=3)
+    results = {}
+    for shape in ("cpu", "gpu"):
+        variants.set_override(f"gather={shape}")
+        fresh = Renderer(renderer.ctx)  # each shape's own history from its first frame
+        try:
+            results[shape] = frames_of(fresh, scene, camera, settings, 3)
+        finally:
+            fresh.release()
+    for per_pixel, persistent in zip(results["cpu"], results["gpu"]):
+        assert per_pixel.counts["gather_rays_traced"] == persistent.counts["gather_rays_traced"]
+        np.testing.assert_allclose(persistent.image, per_pixel.image, rtol=0, atol=1e-5)
+    assert luminance(results["gpu"][-1].image).mean() > 0.01

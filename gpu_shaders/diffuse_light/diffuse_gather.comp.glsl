@@ -101,7 +101,11 @@ vec3 feedback_irradiance(Hit h, SpecularSplit hs, out bool seen) {
 }
 #endif
 
+#ifdef PERSISTENT_PATHS
+layout(local_size_x = 64) in;
+#else
 layout(local_size_x = 8, local_size_y = 8) in;
+#endif
 layout(rgba32f) writeonly uniform image2D u_ambient;
 uniform int u_diffuse_bounces;  // 0..MAX_DIFFUSE_BOUNCES
 uniform int u_diffuse_rays;     // paths per pixel
@@ -174,198 +178,313 @@ vec3 path_emission(Hit h, Material hm, bool counts, int left) {
     return material_emission_lod(hm, h.uv, h.lod);
 }
 
-// One path from the primary point p (facing geometric normal g) along its first direction
-// d: the radiance it brings back (for a cosine-distributed d, pi times it estimates the
-// irradiance), and `sky` the share of the first ray that escaped (through glass by its
-// transmission). `first_emission`: the first surface's emission counts even with
-// EMITTER_LIGHT (a glossy lobe's paths, which take no next-event estimate of the emitters).
-// `material`: the primary point's.
-// `n`: the primary point's facing shading normal, where the emitters' next-event estimate of
-// the diffuse layer starts (not for a glossy lobe's paths, first_emission), in radiance:
-// pi times it is the estimate of the irradiance.
-//
-// Each heavy step has one call site in the loop, as the tracer's kernels keep theirs: a GPU
-// compiler inlines every call, and a second copy of the emitters' estimate (a whole
-// trace_ray) or of the lamps' shading makes the kernel larger and slower however rarely it
-// runs (docs/BENCHMARKS.md, GPU figures). The estimate of a vertex therefore waits for the
-// top of the next step.
-vec3 diffuse_path(vec3 p, vec3 g, vec3 n, vec3 d, int path, bool first_emission, int material, out float sky) {
-    vec3 radiance = vec3(0.0);
-    vec3 throughput = vec3(1.0);
-    int salt = PATH_SALT + 32 * path;
-    vec3 o = offset_origin(p, g);
-    int vertex = 1;
+// A path on its way: where its next ray leaves from and goes, what it carries and has
+// gathered. diffuse_path_step traces one ray of it; the two shapes of main (below) run the
+// steps.
+struct DiffusePath {
+    vec3 o, d;
+    vec3 throughput;
+    vec3 radiance;  // gathered so far: in the end, the radiance the path brings back
+    float sky;      // the share of the first ray that escaped (through glass by its transmission)
+    int vertex;     // the ray's vertex: 1 the primary point's ray
+    int step;       // rays traced, glass crossings included
+    int crossings;
+    int path;       // the path's index at its pixel (its random numbers)
+    // Whether the surface this ray meets adds its emission with EMITTER_LIGHT: only where the
+    // vertex it left took no next-event estimate of the emitters (a glossy lobe's).
+    bool emission_counts;
+    // The surface the ray left (its light-linking receiver set: path_emission); a glass
+    // surface passed straight through is not one.
+    int left;
+    int material;   // the surface the ray leaves (CUBE_FOOTPRINT)
 #ifdef EMITTER_LIGHT
     // The vertex whose next-event estimate is due: its point, facing normals, weight (0: none
     // due), material and index (0 the primary point).
-    vec3 nee_point = p, nee_n = n, nee_g = g;
-    vec3 nee_weight = first_emission ? vec3(0.0) : vec3(1.0 / PI);
-    int nee_material = material;
-    int nee_vertex = 0;
+    vec3 nee_point, nee_n, nee_g, nee_weight;
+    int nee_material, nee_vertex;
 #endif
-    int crossings = 0;
-    // Whether the surface this ray meets adds its emission with EMITTER_LIGHT: only where the
-    // vertex it left took no next-event estimate of the emitters (a glossy lobe's).
-    bool emission_counts = first_emission;
-    // The surface the ray left (its light-linking receiver set: path_emission); a glass
-    // surface passed straight through is not one.
-    int left = material;
-    sky = 0.0;
-    for (int step = 0; ; ++step) {
+};
+
+// A path from the primary point p (facing geometric normal g) along its first direction d,
+// before its first ray. `first_emission`: the first surface's emission counts even with
+// EMITTER_LIGHT (a glossy lobe's paths, which take no next-event estimate of the emitters).
+// `n`: the primary point's facing shading normal, where the emitters' next-event estimate of
+// the diffuse layer starts (not for a glossy lobe's paths, first_emission). `material`: the
+// primary point's.
+DiffusePath diffuse_path_start(vec3 p, vec3 g, vec3 n, vec3 d, int path, bool first_emission, int material) {
+    DiffusePath s;
+    s.o = offset_origin(p, g);
+    s.d = d;
+    s.throughput = vec3(1.0);
+    s.radiance = vec3(0.0);
+    s.sky = 0.0;
+    s.vertex = 1;
+    s.step = 0;
+    s.crossings = 0;
+    s.path = path;
+    s.emission_counts = first_emission;
+    s.left = material;
+    s.material = material;
 #ifdef EMITTER_LIGHT
-        if (max(max(nee_weight.r, nee_weight.g), nee_weight.b) > 0.0) {
-#if CUBE_FOOTPRINT
-            cube_origin_material = nee_material;  // the shadow ray leaves that vertex's surface
+    s.nee_point = p;
+    s.nee_n = n;
+    s.nee_g = g;
+    s.nee_weight = first_emission ? vec3(0.0) : vec3(1.0 / PI);
+    s.nee_material = material;
+    s.nee_vertex = 0;
 #endif
-            radiance += nee_weight * emitter_irradiance(nee_point, nee_n, nee_g,
-                                                        random3(EMITTER_SALT + 32 * path + nee_vertex),
-                                                        material_light_set(materials[nee_material]), nee_vertex);
-            nee_weight = vec3(0.0);
-        }
-#endif
-        if (step > MAX_DIFFUSE_BOUNCES + MAX_GLASS_CROSSINGS) break;
-#if CUBE_FOOTPRINT
-        // The surface the ray leaves (cube_march.glsl "Surface footprints").
-        cube_origin_material = material;
-#endif
-        Hit h = trace_ray(o, d, vertex, PATH_TEXTURE_BLUR, FLOAT_MAX);
-#if CUBE_FOOTPRINT
-        material = h.material;
-#endif
-        if (h.kind == HIT_SKY) {
-            radiance += throughput * sky_radiance(d);
-            if (vertex == 1) sky = throughput.g;
-            break;
-        }
-        Material hm = hit_material(h, d, vertex);
-        vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
-        SpecularSplit hs = specular_split_geometric(hm, h_albedo, d, h.normal, h.geometric);
-        bool bounces_left = vertex <= u_diffuse_bounces;
-#ifdef LIT_CUBE
-        // A surface in the cube map holds its light already (the lit cube map: lamps, World
-        // and the bounces fed back from earlier frames): the path ends there. Its texels hold
-        // no emission (cube_light_shade.comp.glsl): the path adds it as it adds a surface's
-        // the BVH finds (below), only where the last vertex took no next-event estimate of
-        // the emitters.
-        if (bounces_left && h.kind == HIT_CUBE) {
-            radiance += throughput * (cube_stored_radiance(h, 0.0) + path_emission(h, hm, emission_counts, left));
-            break;
-        }
-#endif
-        radiance += throughput * path_emission(h, hm, emission_counts, left);
-        float through = material_transmission(hm);
-        // The lamps' light off this surface (its emission counted above), where the path goes
-        // on from it, or ends on it with last frame's light; the ray stands for a whole
-        // hemisphere, so highlights are filtered as the roughest lobe.
-        bool lamps = bounces_left;
-#ifdef DIFFUSE_FEEDBACK
-        bool ends_on_feedback = false;
-        if (!bounces_left && hs.diffuse_weight > 0.0 && through <= 0.0) {
-            radiance += throughput * (hs.diffuse_weight * h_albedo / PI) * feedback_irradiance(h, hs, ends_on_feedback);
-            lamps = ends_on_feedback;
-        }
-#endif
-        if (lamps) radiance += throughput * lamp_light_response(hm, h_albedo, vec3(0.0), h.position, d, hs, 1.0);
-#ifdef DIFFUSE_FEEDBACK
-        if (ends_on_feedback) break;
-#endif
-        if (through > 0.0 && crossings < MAX_GLASS_CROSSINGS) {
-            throughput *= through;
-            o = offset_origin(h.position, -hs.g_facing);
-            crossings += 1;
-            continue;
-        }
-        if (!bounces_left) break;
-        // The path goes on along one of the surface's lobes, picked by its share of what the
-        // surface reflects: the diffuse layer (a cosine direction) or the specular layers
-        // (a visible-normal sample of their GGX lobe, traced or too rough to trace alike;
-        // a rough metal has nothing else). A wall sees the sky and the sunlit floor in a
-        // glossy floor's reflection, and a rough metal passes on what it reflects, as in a
-        // path tracer; ending the path at the specular layers drops that light.
-        vec3 diffuse_w = hs.diffuse_weight * h_albedo;
-        SpecularSplit gs = specular_split_sampled(hm, h_albedo, d, h.normal, h.geometric,
-                                                  gather_random(GLOSSY_SALT + 32 * path + vertex));
-        vec3 specular_w = gs.reflect_weight + gs.glossy_local;
-        float p_diffuse = dot(diffuse_w, vec3(1.0));
-        float p_specular = dot(specular_w, vec3(1.0));
-        if (!(p_diffuse + p_specular > 0.0)) break;
-        if (gather_random(GLOSSY_SALT + 32 * path + vertex + 16).x * (p_diffuse + p_specular) < p_specular) {
-            throughput *= specular_w * ((p_diffuse + p_specular) / p_specular);
-            if (!(max(max(throughput.r, throughput.g), throughput.b) > 0.0)) break;
-            d = gs.reflect_dir;
-            o = offset_origin(h.position, gs.g_facing);
-            emission_counts = true;  // no next-event estimate of the emitters along a specular lobe
-            left = h.material;
-            vertex += 1;
-            continue;
-        }
-        emission_counts = false;
-        throughput *= diffuse_w * ((p_diffuse + p_specular) / p_diffuse);
-        if (!(max(max(throughput.r, throughput.g), throughput.b) > 0.0)) break;
+    return s;
+}
+
+// One ray of the path s, and what the surface it meets gives: false once the path has ended
+// (s.radiance is then what it brings back; for a cosine-distributed first direction, pi
+// times it estimates the irradiance).
+//
+// Each heavy step has one call site, as the tracer's kernels keep theirs: a GPU compiler
+// inlines every call, and a second copy of the emitters' estimate (a whole trace_ray) or of
+// the lamps' shading makes the kernel larger and slower however rarely it runs
+// (docs/BENCHMARKS.md, GPU figures). The estimate of a vertex therefore waits for the next
+// step, and both shapes of main call this function once.
+bool diffuse_path_step(inout DiffusePath s) {
 #ifdef EMITTER_LIGHT
-        nee_point = h.position;
-        nee_n = hs.n_facing;
-        nee_g = hs.g_facing;
-        nee_weight = throughput / PI;
-        nee_material = h.material;
-        nee_vertex = vertex;
+    if (max(max(s.nee_weight.r, s.nee_weight.g), s.nee_weight.b) > 0.0) {
+#if CUBE_FOOTPRINT
+        cube_origin_material = s.nee_material;  // the shadow ray leaves that vertex's surface
 #endif
-        d = cosine_direction(hs.n_facing, hs.g_facing, gather_random(salt + vertex));
-        o = offset_origin(h.position, hs.g_facing);
-        left = h.material;
-        vertex += 1;
+        s.radiance += s.nee_weight * emitter_irradiance(s.nee_point, s.nee_n, s.nee_g,
+                                                        random3(EMITTER_SALT + 32 * s.path + s.nee_vertex),
+                                                        material_light_set(materials[s.nee_material]), s.nee_vertex);
+        s.nee_weight = vec3(0.0);
     }
-    return radiance;
+#endif
+    if (s.step > MAX_DIFFUSE_BOUNCES + MAX_GLASS_CROSSINGS) return false;
+    s.step += 1;
+#if CUBE_FOOTPRINT
+    // The surface the ray leaves (cube_march.glsl "Surface footprints").
+    cube_origin_material = s.material;
+#endif
+    vec3 d = s.d;
+    Hit h = trace_ray(s.o, d, s.vertex, PATH_TEXTURE_BLUR, FLOAT_MAX);
+#if CUBE_FOOTPRINT
+    s.material = h.material;
+#endif
+    if (h.kind == HIT_SKY) {
+        s.radiance += s.throughput * sky_radiance(d);
+        if (s.vertex == 1) s.sky = s.throughput.g;
+        return false;
+    }
+    Material hm = hit_material(h, d, s.vertex);
+    vec3 h_albedo = material_albedo_lod(hm, h.uv, h.lod);
+    SpecularSplit hs = specular_split_geometric(hm, h_albedo, d, h.normal, h.geometric);
+    bool bounces_left = s.vertex <= u_diffuse_bounces;
+#ifdef LIT_CUBE
+    // A surface in the cube map holds its light already (the lit cube map: lamps, World
+    // and the bounces fed back from earlier frames): the path ends there. Its texels hold
+    // no emission (cube_light_shade.comp.glsl): the path adds it as it adds a surface's
+    // the BVH finds (below), only where the last vertex took no next-event estimate of
+    // the emitters.
+    if (bounces_left && h.kind == HIT_CUBE) {
+        s.radiance += s.throughput * (cube_stored_radiance(h, 0.0) + path_emission(h, hm, s.emission_counts, s.left));
+        return false;
+    }
+#endif
+    s.radiance += s.throughput * path_emission(h, hm, s.emission_counts, s.left);
+    float through = material_transmission(hm);
+    // The lamps' light off this surface (its emission counted above), where the path goes
+    // on from it, or ends on it with last frame's light; the ray stands for a whole
+    // hemisphere, so highlights are filtered as the roughest lobe.
+    bool lamps = bounces_left;
+#ifdef DIFFUSE_FEEDBACK
+    bool ends_on_feedback = false;
+    if (!bounces_left && hs.diffuse_weight > 0.0 && through <= 0.0) {
+        s.radiance += s.throughput * (hs.diffuse_weight * h_albedo / PI) * feedback_irradiance(h, hs, ends_on_feedback);
+        lamps = ends_on_feedback;
+    }
+#endif
+    if (lamps) s.radiance += s.throughput * lamp_light_response(hm, h_albedo, vec3(0.0), h.position, d, hs, 1.0);
+#ifdef DIFFUSE_FEEDBACK
+    if (ends_on_feedback) return false;
+#endif
+    if (through > 0.0 && s.crossings < MAX_GLASS_CROSSINGS) {
+        s.throughput *= through;
+        s.o = offset_origin(h.position, -hs.g_facing);
+        s.crossings += 1;
+        return true;
+    }
+    if (!bounces_left) return false;
+    // The path goes on along one of the surface's lobes, picked by its share of what the
+    // surface reflects: the diffuse layer (a cosine direction) or the specular layers
+    // (a visible-normal sample of their GGX lobe, traced or too rough to trace alike;
+    // a rough metal has nothing else). A wall sees the sky and the sunlit floor in a
+    // glossy floor's reflection, and a rough metal passes on what it reflects, as in a
+    // path tracer; ending the path at the specular layers drops that light.
+    vec3 diffuse_w = hs.diffuse_weight * h_albedo;
+    SpecularSplit gs = specular_split_sampled(hm, h_albedo, d, h.normal, h.geometric,
+                                              gather_random(GLOSSY_SALT + 32 * s.path + s.vertex));
+    vec3 specular_w = gs.reflect_weight + gs.glossy_local;
+    float p_diffuse = dot(diffuse_w, vec3(1.0));
+    float p_specular = dot(specular_w, vec3(1.0));
+    if (!(p_diffuse + p_specular > 0.0)) return false;
+    if (gather_random(GLOSSY_SALT + 32 * s.path + s.vertex + 16).x * (p_diffuse + p_specular) < p_specular) {
+        s.throughput *= specular_w * ((p_diffuse + p_specular) / p_specular);
+        if (!(max(max(s.throughput.r, s.throughput.g), s.throughput.b) > 0.0)) return false;
+        s.d = gs.reflect_dir;
+        s.o = offset_origin(h.position, gs.g_facing);
+        s.emission_counts = true;  // no next-event estimate of the emitters along a specular lobe
+        s.left = h.material;
+        s.vertex += 1;
+        return true;
+    }
+    s.emission_counts = false;
+    s.throughput *= diffuse_w * ((p_diffuse + p_specular) / p_diffuse);
+    if (!(max(max(s.throughput.r, s.throughput.g), s.throughput.b) > 0.0)) return false;
+#ifdef EMITTER_LIGHT
+    s.nee_point = h.position;
+    s.nee_n = hs.n_facing;
+    s.nee_g = hs.g_facing;
+    s.nee_weight = s.throughput / PI;
+    s.nee_material = h.material;
+    s.nee_vertex = s.vertex;
+#endif
+    s.d = cosine_direction(hs.n_facing, hs.g_facing, gather_random(PATH_SALT + 32 * s.path + s.vertex));
+    s.o = offset_origin(h.position, hs.g_facing);
+    s.left = h.material;
+    s.vertex += 1;
+    return true;
+}
+
+// How many paths the pixel traces: 0 where it is background or neither diffuse nor a rough
+// metal (its ambient is then (0, 0, 0, 1)). Sets pixel_key, whose numbers its paths draw.
+int pixel_paths(ivec2 pixel) {
+    vec4 nm = texelFetch(u_normal_material, pixel, 0);
+    if (nm.w == 0.0) return 0;
+    Material m = primary_material(int(abs(nm.w) + 0.5) - 1, pixel);
+    if (!(material_glossy_gathered(m) || material_diffuse(m) > 0.0)) return 0;
+    vec3 p, view_dir, n;
+    primary_surface(pixel, nm, p, view_dir, n);
+    pixel_key = position_key(p);
+    int paths = max(u_diffuse_rays, 1);
+#ifdef DIFFUSE_FEEDBACK
+    vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
+    vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
+    vec3 g_facing = dot(g, view_dir) < 0.0 ? g : -g;
+    paths *= history_paths(p, dot(n, g_facing) >= 0.0 ? n : -n);
+#elif defined(DIFFUSE_NO_HISTORY)
+    paths *= max(u_short_history_paths, 1);
+#endif
+    return paths;
+}
+
+// Path i of the pixel, before its first ray (the pixel's surface read again from the
+// G-buffer: a pixel's state is then its index and sums alone, what the persistent shape
+// keeps while other pixels' paths run).
+DiffusePath pixel_path(ivec2 pixel, int i) {
+    vec4 nm = texelFetch(u_normal_material, pixel, 0);
+    int material = int(abs(nm.w) + 0.5) - 1;
+    Material m = primary_material(material, pixel);
+    // A rough metal gathers along its glossy lobe (shading.glsl material_glossy_gathered):
+    // pi times the radiance its lobe's samples bring back, which the deferred shading
+    // takes in place of the prefiltered sky.
+    bool glossy = material_glossy_gathered(m);
+    vec3 p, view_dir, n;
+    primary_surface(pixel, nm, p, view_dir, n);
+    vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
+    vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
+    vec3 g_facing = dot(g, view_dir) < 0.0 ? g : -g;
+    vec3 n_facing = dot(n, g_facing) >= 0.0 ? n : -n;
+    int rays = max(u_diffuse_rays, 1);
+    // Diffuse Rays' paths follow the frames' low-discrepancy sequence (first_random);
+    // the extra paths of a short history draw independent numbers, so that the
+    // sequence, which a pixel follows for as long as it stays in view, is the same
+    // whether or not its first frames traced more.
+    vec2 xi = i < rays ? first_random(i, rays) : gather_random(EXTRA_FIRST_SALT + i);
+    // The glossy lobe's direction: a visible-normal sample of its GGX lobe, as the
+    // tracer samples the traced ones (weight 1: split.glossy_local is the lobe's albedo).
+    vec3 d = glossy ? specular_split_sampled(m, albedo_g.rgb, view_dir, n, g, xi).reflect_dir
+                    : cosine_direction(n_facing, g_facing, xi);
+    // With the emitters' next-event estimate of the diffuse layer (cosine-weighted).
+    return diffuse_path_start(p, g_facing, n_facing, d, i, glossy, material);
+}
+
+// The pixel's ambient from the sums of its `paths` paths' radiance and sky.
+void store_ambient(ivec2 pixel, vec3 radiance, float sky, int paths) {
+    vec4 ambient = paths > 0 ? vec4(PI * radiance, sky) / float(paths) : vec4(0.0, 0.0, 0.0, 1.0);
+    if (any(isnan(ambient)) || any(isinf(ambient))) ambient = vec4(0.0, 0.0, 0.0, 1.0);
+    imageStore(u_ambient, pixel, ambient);
+}
+
+#ifdef PERSISTENT_PATHS
+// The GPU's shape: persistent threads with path regeneration (Aila & Laine 2009; Novak et
+// al. 2010). A path's length varies from one ray (most escape to the sky or end in the lit
+// cube map) to several bounces, and a warp runs as long as its longest path: per pixel,
+// most of its lanes would idle through the few long paths' bounces. Here each invocation
+// traces one ray per turn, and one whose path ended starts the next path of its pixel, or
+// takes the next pixel from a shared counter, so the lanes stay busy until the work runs
+// out. Items are the pixels in 8x8 tiles, so a warp's paths start close together as the
+// per-pixel shape's do. The images are the same as that shape's: a pixel's numbers are keyed
+// by its surface (pixel_key), never by the invocation that traces it.
+layout(std430) buffer PathWork { uint next_item; };  // zeroed before the dispatch
+uniform int u_invocations;  // invocations launched: each starts with item gl_GlobalInvocationID.x
+
+ivec2 item_pixel(uint item) {
+    uint tiles_x = (uint(u_size.x) + 7u) / 8u;
+    uint tile = item / 64u, within = item % 64u;
+    return ivec2(int((tile % tiles_x) * 8u + within % 8u), int((tile / tiles_x) * 8u + within / 8u));
 }
 
 void main() {
+    uint items = ((uint(u_size.x) + 7u) / 8u) * ((uint(u_size.y) + 7u) / 8u) * 64u;
+    uint item = gl_GlobalInvocationID.x;
+    ivec2 pixel = ivec2(0);
+    int paths = 0, i = 0;
+    vec3 radiance = vec3(0.0);
+    float sky = 0.0;
+    bool live = false;
+    DiffusePath s;
+    for (;;) {
+        if (!live) {
+            if (i >= paths) {
+                // The next pixel with paths to trace (others store their ambient at once).
+                paths = 0;
+                while (paths == 0) {
+                    if (item >= items) break;
+                    pixel = item_pixel(item);
+                    item = atomicAdd(next_item, 1u) + uint(u_invocations);
+                    if (any(greaterThanEqual(pixel, u_size))) continue;
+                    paths = pixel_paths(pixel);
+                    if (paths == 0) store_ambient(pixel, vec3(0.0), 0.0, 0);
+                }
+                if (paths == 0) break;
+                i = 0;
+                radiance = vec3(0.0);
+                sky = 0.0;
+            }
+            s = pixel_path(pixel, i);
+        }
+        live = diffuse_path_step(s);
+        if (!live) {
+            radiance += s.radiance;
+            sky += s.sky;
+            i += 1;
+            if (i >= paths) store_ambient(pixel, radiance, sky, paths);
+        }
+    }
+}
+#else
+// llvmpipe's shape: one pixel per invocation, its paths one after another (8-wide SIMD on a
+// CPU core idles less over long paths than a GPU's warp, and pays for the shared counter).
+void main() {
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(pixel, u_size))) return;
-    vec4 nm = texelFetch(u_normal_material, pixel, 0);
-    vec4 ambient = vec4(0.0, 0.0, 0.0, 1.0);
-    Material m;
-    bool glossy = false;
-    if (nm.w != 0.0) {
-        m = primary_material(int(abs(nm.w) + 0.5) - 1, pixel);
-        // A rough metal gathers along its glossy lobe (shading.glsl material_glossy_gathered):
-        // pi times the radiance its lobe's samples bring back, which the deferred shading
-        // takes in place of the prefiltered sky.
-        glossy = material_glossy_gathered(m);
+    int paths = pixel_paths(pixel);
+    vec3 radiance = vec3(0.0);
+    float sky = 0.0;
+    for (int i = 0; i < paths; ++i) {
+        DiffusePath s = pixel_path(pixel, i);
+        while (diffuse_path_step(s)) {}
+        radiance += s.radiance;
+        sky += s.sky;
     }
-    if (nm.w != 0.0 && (glossy || material_diffuse(m) > 0.0)) {
-        vec3 p, view_dir, n;
-        primary_surface(pixel, nm, p, view_dir, n);
-        vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
-        vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
-        vec3 g_facing = dot(g, view_dir) < 0.0 ? g : -g;
-        vec3 n_facing = dot(n, g_facing) >= 0.0 ? n : -n;
-        pixel_key = position_key(p);
-        vec3 irradiance = vec3(0.0);
-        float sky = 0.0;
-        int rays = max(u_diffuse_rays, 1);
-        int paths = rays;
-#ifdef DIFFUSE_FEEDBACK
-        paths *= history_paths(p, n_facing);
-#elif defined(DIFFUSE_NO_HISTORY)
-        paths *= max(u_short_history_paths, 1);
-#endif
-        for (int i = 0; i < paths; ++i) {
-            float seen;
-            // Diffuse Rays' paths follow the frames' low-discrepancy sequence (first_random);
-            // the extra paths of a short history draw independent numbers, so that the
-            // sequence, which a pixel follows for as long as it stays in view, is the same
-            // whether or not its first frames traced more.
-            vec2 xi = i < rays ? first_random(i, rays) : gather_random(EXTRA_FIRST_SALT + i);
-            // The glossy lobe's direction: a visible-normal sample of its GGX lobe, as the
-            // tracer samples the traced ones (weight 1: split.glossy_local is the lobe's albedo).
-            vec3 d = glossy ? specular_split_sampled(m, albedo_g.rgb, view_dir, n, g, xi).reflect_dir
-                            : cosine_direction(n_facing, g_facing, xi);
-            // With the emitters' next-event estimate of the diffuse layer (cosine-weighted).
-            irradiance += PI * diffuse_path(p, g_facing, n_facing, d, i, glossy, int(abs(nm.w) + 0.5) - 1, seen);
-            sky += seen;
-        }
-        ambient = vec4(irradiance, sky) / float(paths);
-        if (any(isnan(ambient)) || any(isinf(ambient))) ambient = vec4(0.0, 0.0, 0.0, 1.0);
-    }
-    imageStore(u_ambient, pixel, ambient);
+    store_ambient(pixel, radiance, sky, paths);
 }
+#endif

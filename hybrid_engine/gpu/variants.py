@@ -24,7 +24,7 @@ FAMILIES = ("gpu", "cpu")
 AUTO = "auto"
 ENVIRONMENT_VARIABLE = "HYBRID_RT_KERNELS"
 # The kernels that come in both shapes.
-KERNELS = ("sort", "scan", "trace", "readback", "faces", "vertices")
+KERNELS = ("sort", "scan", "trace", "readback", "faces", "vertices", "gather")
 
 _SOFTWARE_WORDS = ("llvmpipe", "softpipe", "swrast", "lavapipe")
 _override: str | None = None

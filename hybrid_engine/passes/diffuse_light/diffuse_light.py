@@ -31,7 +31,7 @@ from typing import Callable
 
 import numpy as np
 
-from ...gpu import gl_context, shader_loader
+from ...gpu import gl_context, shader_loader, variants
 from ...gpu.bindings import Bindings, Image, bind
 from ...gpu.dispatch import storage_barrier
 from ...scene.settings import FIELD_LIMITS, RenderSettings
@@ -40,7 +40,13 @@ from ..trace.tracer import (COUNTER_DEPTHS, COUNTER_KINDS, COUNTER_WORDS, Hybrid
                             traced_resources)
 from .grazing import GrazingTriangles, grazing_defines
 
-WORKGROUP = 8  # the kernel's local size in x and y
+WORKGROUP = 8  # the per-pixel kernel's local size in x and y
+# The persistent kernel (the "gather" kernel's GPU shape, diffuse_gather.comp.glsl
+# PERSISTENT_PATHS): its local size, and how many invocations it launches at most. Each
+# takes pixels from a shared counter until none are left, so more than the GPU holds at once
+# only adds invocations that find the work gone; fewer would leave cores idle.
+PERSISTENT_WORKGROUP = 64
+PERSISTENT_INVOCATIONS = 1 << 17
 # The paths per pixel, as a multiple of Diffuse Rays, where the denoiser's history holds
 # nothing of the pixel's surface (diffuse_gather.comp.glsl history_paths): what the camera
 # just uncovered, a moving object, the denoiser's first frame (a setting changed). Twice: four
@@ -60,6 +66,13 @@ def short_history_paths(rays: int) -> int:
     most_rays = FIELD_LIMITS["diffuse_rays"][1]
     return max(1, min(SHORT_HISTORY_PATHS, most_rays // max(int(rays), 1)))
 SHADER = "diffuse_light/diffuse_gather.comp.glsl"
+
+
+def persistent_groups(width: int, height: int) -> int:
+    """Workgroups of the persistent kernel for a width x height image: one invocation per
+    pixel of its 8x8 tiles, at most PERSISTENT_INVOCATIONS."""
+    items = math.ceil(width / 8) * math.ceil(height / 8) * 64
+    return max(1, math.ceil(min(items, PERSISTENT_INVOCATIONS) / PERSISTENT_WORKGROUP))
 
 
 def gather_counts(bounces: int, words: np.ndarray) -> dict[str, int]:
@@ -87,6 +100,7 @@ class DiffuseLightPass:
         self.ctx = tracer.ctx
         self._counters = self.ctx.buffer(reserve=COUNTER_WORDS * 4)
         self._zero_counters = bytes(self._counters.size)
+        self._work = self.ctx.buffer(reserve=4)  # the persistent kernel's next pixel
         self.grazing = GrazingTriangles(self.ctx)
 
     def io(self, settings: RenderSettings) -> PassIO:
@@ -130,17 +144,28 @@ class DiffuseLightPass:
         elif frame.denoise:
             # The denoiser's first frame: no pixel has a history (history_paths).
             defines["DIFFUSE_NO_HISTORY"] = 1
+        width, height = inputs.size
+        uniforms = {**inputs.uniforms, "u_diffuse_bounces": int(settings.diffuse_bounces),
+                    "u_diffuse_rays": int(settings.diffuse_rays),
+                    "u_short_history_paths": short_history_paths(settings.diffuse_rays)}
+        persistent = variants.choose("gather", renderer=str(self.ctx.info.get("GL_RENDERER", ""))) == "gpu"
+        if persistent:
+            groups = persistent_groups(width, height)
+            defines["PERSISTENT_PATHS"] = 1
+            storage["PathWork"] = self._work
+            uniforms["u_invocations"] = groups * PERSISTENT_WORKGROUP
+            self._work.write(bytes(4))
         prog = shader_loader.compute(self.ctx, SHADER, defines)
         self._counters.write(self._zero_counters)
         bounces = int(settings.diffuse_bounces)
         assert bounces <= FIELD_LIMITS["diffuse_bounces"][1]
         bind(prog, *inputs.parts, *emitter_parts, storage=storage,
              textures=inputs.textures, images={"u_ambient": Image(targets.ambient, read=False, write=True)},
-             uniforms={**inputs.uniforms, "u_diffuse_bounces": bounces,
-                       "u_diffuse_rays": int(settings.diffuse_rays),
-                       "u_short_history_paths": short_history_paths(settings.diffuse_rays)})
-        width, height = inputs.size
-        prog.run(math.ceil(width / WORKGROUP), math.ceil(height / WORKGROUP), 1)
+             uniforms=uniforms)
+        if persistent:
+            prog.run(groups, 1, 1)
+        else:
+            prog.run(math.ceil(width / WORKGROUP), math.ceil(height / WORKGROUP), 1)
         storage_barrier(self.ctx)
         if gl_context.debug_checks_enabled():
             gl_context.check_error(f"{settings.trace_mode} diffuse light")
@@ -149,4 +174,5 @@ class DiffuseLightPass:
 
     def release(self) -> None:
         self._counters.release()
+        self._work.release()
         self.grazing.release()

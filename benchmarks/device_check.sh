@@ -8,8 +8,8 @@
 # Each step has its own time limit within SECONDS (default 480) and writes its report into
 # OUT_DIR as it goes, so that a run cut short still returns what it finished: the tests'
 # failures with their text and the failing comparisons' images (tests/_failures), node_cost's
-# renders line by line, picture_cost --light (with and without the diffuse light's extras)
-# and the frame section as JSON. Needs numpy, moderngl, glcontext, flip_evaluator (the
+# renders line by line, picture_cost --light (with and without the diffuse light's extras,
+# and with the gather's two shapes) and the frame section as JSON. Needs numpy, moderngl, glcontext, flip_evaluator (the
 # tests' FLIP: without it those tests fail as if their images differed) and pytest (no
 # Blender: the tests that need it are not in the list).
 set -o pipefail
@@ -54,5 +54,20 @@ from benchmarks import picture_cost
 picture_cost.main(['--light', '--rounds', '3', '--json', sys.argv[1]])
 " "$out/picture_light_plain.json"
 tail -4 "$out/picture_light_plain.log" 2>/dev/null
+# The diffuse gather's two shapes side by side in one process (persistent invocations, the
+# GPU's; one pixel per invocation, llvmpipe's), alternating call by call.
+step gather_shapes 40 python3 -c "
+import sys, json
+from hybrid_engine.gpu import variants
+from benchmarks import picture_cost
+out = {}
+for k, shape in enumerate(['gpu', 'cpu', 'gpu', 'cpu']):
+    variants.set_override('gather=' + shape)
+    r = out[f'{k}_{shape}'] = picture_cost.measure(rounds=2, light=True)
+    print(shape, 'on', r['on']['median_ms'], 'shade', r['on']['passes'].get('shade'), 'off', r['off']['median_ms'],
+          'ratio', r['ratio_median'], r['ratio_mean'], flush=True)
+    json.dump(out, open(sys.argv[1], 'w'), indent=1)
+" "$out/gather_shapes.json"
+tail -4 "$out/gather_shapes.log" 2>/dev/null
 step frame 100 python3 -m benchmarks.bench --sections frame --variants auto --json "$out/frame.json"
 tail -16 "$out/frame.log" 2>/dev/null

@@ -9,9 +9,9 @@
 # OUT_DIR as it goes, so that a run cut short still returns what it finished: the tests'
 # failures with their text and the failing comparisons' images (tests/_failures), node_cost's
 # renders line by line, picture_cost --light (with and without the diffuse light's extras,
-# and with the gather's two shapes) and the frame section as JSON. Needs numpy, moderngl, glcontext, flip_evaluator (the
-# tests' FLIP: without it those tests fail as if their images differed) and pytest (no
-# Blender: the tests that need it are not in the list).
+# and with the gather's two shapes) and the frame section as JSON. Needs numpy, moderngl,
+# glcontext, flip_evaluator (the tests' FLIP: without it those tests fail as if their images
+# differed) and pytest (no Blender: the tests that need it are not in the list).
 set -o pipefail
 out=${1:?usage: device_check.sh OUT_DIR [SECONDS]}
 budget=${2:-480}

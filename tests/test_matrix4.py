@@ -24,3 +24,13 @@ def test_a_view_projection_inverts_back_to_the_identity():
 def test_a_singular_matrix_is_refused():
     with pytest.raises(matrix4.SingularMatrixError, match="no inverse"):
         matrix4.inverse(np.diag([1.0, 1.0, 0.0, 1.0]))
+
+
+def test_affine_inverses_equal_lapacks_and_a_zero_scale_maps_to_the_origin(rng):
+    m = np.zeros((64, 4, 4))
+    m[:, :3, :] = rng.normal(size=(64, 3, 4))
+    m[:, 3, 3] = 1.0
+    np.testing.assert_allclose(matrix4.affine_inverses(m), np.linalg.inv(m), rtol=1e-9, atol=1e-9)
+    flat = np.diag([2.0, 0.0, 1.0, 1.0])
+    flat[:3, 3] = (1.0, 2.0, 3.0)
+    np.testing.assert_array_equal(matrix4.affine_inverses(flat[None])[0], np.diag([0.0, 0.0, 0.0, 1.0]))

@@ -60,3 +60,21 @@ def inverse(matrix) -> np.ndarray:
     out[3][2] = (-a[3][0] * s[3] + a[3][1] * s[1] - a[3][2] * s[0]) * r
     out[3][3] = (a[2][0] * s[3] - a[2][1] * s[1] + a[2][2] * s[0]) * r
     return np.array(out)
+
+
+def affine_inverses(matrices) -> np.ndarray:
+    """Inverses of (n, 4, 4) affine matrices (object-to-world, world-to-world moves) by the 3x3
+    adjugate, float64, the same plain arithmetic as above. A singular one (a zero scale) gives
+    zeros, which map every point to the origin: its instance draws nothing anyway."""
+    m = np.asarray(matrices, np.float64)
+    a = m[:, :3, :3]
+    cofactors = np.stack([np.cross(a[:, 1], a[:, 2]), np.cross(a[:, 2], a[:, 0]), np.cross(a[:, 0], a[:, 1])],
+                         axis=1)  # rows: the adjugate's columns
+    det = np.einsum("ij,ij->i", a[:, 0], cofactors[:, 0])
+    scale = np.where(np.abs(det) > 0.0, 1.0 / np.where(det == 0.0, 1.0, det), 0.0)
+    inverse3 = np.transpose(cofactors, (0, 2, 1)) * scale[:, None, None]
+    out = np.zeros_like(m)
+    out[:, :3, :3] = inverse3
+    out[:, :3, 3] = -np.einsum("nij,nj->ni", inverse3, m[:, :3, 3])
+    out[:, 3, 3] = 1.0
+    return out

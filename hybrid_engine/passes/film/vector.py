@@ -41,6 +41,7 @@ from ...gpu.bindings import Image, bind
 from ...gpu.render_targets import release_all
 from ...scene.data import SceneData
 from ...scene.geometry import InstancedGeometry
+from ...scene.matrix4 import affine_inverses
 from ...scene.motion import MotionSteps
 from ...scene.raster_view import RasterView, gl_matrix
 from ...scene.settings import RenderSettings
@@ -65,23 +66,6 @@ class VectorRequest:
         self.motion = motion
 
 
-def _affine_inverse(matrices: np.ndarray) -> np.ndarray:
-    """Inverses of (n, 4, 4) affine matrices by the 3x3 adjugate: plain arithmetic, without
-    LAPACK's threads (scene/matrix4.py says why). A singular one (a zero scale) gives zeros:
-    its instance draws nothing anyway."""
-    a = matrices[:, :3, :3]
-    cofactors = np.stack([np.cross(a[:, 1], a[:, 2]), np.cross(a[:, 2], a[:, 0]), np.cross(a[:, 0], a[:, 1])],
-                         axis=1)  # rows: the adjugate's columns
-    det = np.einsum("ij,ij->i", a[:, 0], cofactors[:, 0])
-    scale = np.where(np.abs(det) > 0.0, 1.0 / np.where(det == 0.0, 1.0, det), 0.0)
-    inverse3 = np.transpose(cofactors, (0, 2, 1)) * scale[:, None, None]
-    out = np.zeros_like(matrices)
-    out[:, :3, :3] = inverse3
-    out[:, :3, 3] = -np.einsum("nij,nj->ni", inverse3, matrices[:, :3, 3])
-    out[:, 3, 3] = 1.0
-    return out
-
-
 def camera_motion(view: np.ndarray, cameras: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The views of the frames before and after, for a sample drawn with ``view`` at the
     frame: the camera's rigid move between the frames (``cameras``: its world matrices at
@@ -95,7 +79,7 @@ def camera_motion(view: np.ndarray, cameras: np.ndarray) -> tuple[np.ndarray, np
         if np.array_equal(other, rigid[1]):
             out.append(np.asarray(view, np.float64))
         else:  # view_other = view . world_current . world_other^-1
-            out.append(np.asarray(view, np.float64) @ rigid[1] @ _affine_inverse(other[None])[0])
+            out.append(np.asarray(view, np.float64) @ rigid[1] @ affine_inverses(other[None])[0])
     return out[0], out[1]
 
 
@@ -142,7 +126,7 @@ def motion_table(scene: SceneData, request: VectorRequest) -> tuple[np.ndarray, 
             corners.append(pair.reshape(-1, 4))
             corner_count += len(at)
         else:
-            to_object = _affine_inverse(current[k:k + 1])[0]
+            to_object = affine_inverses(current[k:k + 1])[0]
             rows[slot, 2] = len(matrices)
             matrices += [previous @ to_object, following @ to_object]
     order = np.argsort(rows[:, 0], kind="stable")

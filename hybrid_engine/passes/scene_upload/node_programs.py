@@ -26,6 +26,7 @@ from ...gpu.dispatch import GrowBuffer
 from ...scene.closure_alpha import closure_alpha_graph, row_reads_coverage
 from ...scene.data import MaterialTable
 from ...scene.geometry import InstancedGeometry
+from ...scene.matrix4 import affine_inverses
 from ...scene.node_program import DISPATCH_NONE, ProgramTable, compile_graph, compile_table, row_estimate
 from .node_codegen import GeneratedPrograms, generate
 
@@ -71,22 +72,6 @@ def instance_random(count: int) -> np.ndarray:
     x = (x ^ (x >> np.uint64(15))) * np.uint64(0x846CA68B) & mask
     x = x ^ (x >> np.uint64(16))
     return (x.astype(np.float64) / 4294967296.0).astype(np.float32)
-
-
-def _affine_inverse(matrices: np.ndarray) -> np.ndarray:
-    """World-to-object rows (K, 3, 4) of object-to-world matrices (K, 4, 4), by the adjugate
-    (no LAPACK); a singular matrix maps everything to its origin."""
-    m = matrices.astype(np.float64)
-    a, t = m[:, :3, :3], m[:, :3, 3]
-    c0, c1, c2 = a[:, :, 0], a[:, :, 1], a[:, :, 2]
-    rows = np.stack([np.cross(c1, c2), np.cross(c2, c0), np.cross(c0, c1)], axis=1)
-    det = np.einsum("ij,ij->i", c0, rows[:, 0])
-    safe = np.where(np.abs(det) > 1e-30, det, np.inf)
-    inv = rows / safe[:, None, None]
-    out = np.zeros((len(m), 3, 4))
-    out[:, :, :3] = inv
-    out[:, :, 3] = -np.einsum("kij,kj->ki", inv, t)
-    return out.astype(np.float32)
 
 
 class NodePrograms:
@@ -238,7 +223,8 @@ class NodePrograms:
         if k == 0:
             return out
         body = out[1:]
-        body["to_object"] = _affine_inverse(instances.matrices)
+        # World-to-object rows (K, 3, 4).
+        body["to_object"] = affine_inverses(instances.matrices)[:, :3, :].astype(np.float32)
         body["location"][:, :3] = instances.matrices[:, :3, 3]
         body["location"][:, 3] = (instance_random(k) if instances.random_ids is None
                                   else (instances.random_ids.astype(np.float64) / 4294967295.0).astype(np.float32))

@@ -59,6 +59,7 @@ def test_the_hybrid_table_is_every_pass_in_order_with_its_declarations(passes_of
     ("Depth, Normal or Denoising", RenderSettings(mode="HYBRID"), "DataPassesPass"),
     ("*Lit Cube Map*", RenderSettings(mode="HYBRID", lit_cube=True), "CubeLightPass"),
     ("*Lit Cube Map*", RenderSettings(mode="HYBRID", lit_cube=True), "HybridTracer"),
+    ("*Denoise*", RenderSettings(mode="HYBRID"), "SurfaceMotionPass"),
     ("*Denoise*", RenderSettings(mode="HYBRID"), "DenoisePass"),
 ])
 def test_the_variants_table_gives_each_changed_declaration(passes_of, label, settings, cls):

@@ -96,7 +96,8 @@ def test_a_denoised_frame_filters_the_estimate_between_its_pass_and_the_shading(
     check_order(passes, settings, final_reads=READBACK_READS + ("film",))
     names = [type(p).__name__ for p in passes]
     at = names.index("DenoisePass")
-    assert names[at - 1] in ("ScreenSpaceOcclusion", "DiffuseLightPass") and names[at + 1] == "DeferredShadePass"
+    assert names[at - 2] in ("ScreenSpaceOcclusion", "DiffuseLightPass") and names[at + 1] == "DeferredShadePass"
+    assert names[at - 1] == "SurfaceMotionPass"  # the instances' moves, which its reprojection follows
     assert list(dict.fromkeys(p.name for p in passes)) + ["readback"] == list(
         frame_steps(settings.mode, accumulate=True, denoise=True))
     assert "DenoisePass" not in [type(p).__name__ for p in renderer.passes(settings, accumulate=True)]
@@ -159,16 +160,24 @@ def test_a_sub_pixel_camera_translation_keeps_the_contrast_of_a_sharp_pattern_in
     assert contrast > 0.72, contrast
 
 
-@pytest.mark.parametrize("kind", ["moving", "still", "jittered"])
+@pytest.mark.parametrize("kind", ["moving", "object moves", "still", "jittered"])
 def test_a_moving_cameras_history_follows_a_change_of_light_faster_than_a_still_ones(renderer, probe, kind):
     """A floor's irradiance steps from 0.2 to 0.8 after a long history: while the camera
     moves the blend takes at least ALPHA_COLOR_MOVING of each frame and has come most of the
     way after four frames (a moving view's converged light shifts as it moves, and a long
-    history lags behind it); a still camera keeps the lower floor and its smoother mean, also
-    where its film's samples are jittered by sub-pixels (the viewport's redraws of a still view)."""
+    history lags behind it), and so it does while an object moves (the room's light shifts
+    with it), though the camera stands still; a still camera over a still scene keeps the
+    lower floor and its smoother mean, also where its film's samples are jittered by
+    sub-pixels (the viewport's redraws of a still view)."""
     floor = SceneData(Geometry.from_objects([(quad((-20, -20, 0), (40, 0, 0), (0, 40, 0)), None, 0)]), grey(),
                       Lights.empty(), Sky(color=(1.0, 1.0, 1.0)))
     w, h, step = 48, 32, 0.05 if kind == "moving" else 0.0
+
+    def scene(k: int) -> SceneData:
+        if kind != "object moves":
+            return floor
+        # The floor and a box behind the camera, an instance sliding by 5 cm a frame.
+        return moving_box_scene((k * 0.05, -12.0, 0.0), 0.0)
 
     def camera(k: int) -> Camera:
         eye = np.array([k * step, -5.0, 4.0])
@@ -180,15 +189,15 @@ def test_a_moving_cameras_history_follows_a_change_of_light_faster_than_a_still_
         renderer.denoiser.forget()
     accumulate = kind == "jittered"  # one film's mean: its samples follow one another
     for k in range(24):
-        renderer.render(floor, camera(k), RASTER, sample=k, denoise=True, accumulate=accumulate,
+        renderer.render(scene(k), camera(k), RASTER, sample=k, denoise=True, accumulate=accumulate,
                         reuse_world=accumulate and k > 0)
     stand_in.level = 0.8
     for k in range(24, 28):
-        renderer.render(floor, camera(k), RASTER, sample=k, denoise=True, accumulate=accumulate,
+        renderer.render(scene(k), camera(k), RASTER, sample=k, denoise=True, accumulate=accumulate,
                         reuse_world=accumulate)
     blend = float(renderer.denoiser.history.read("color")[4:-4, 4:-8, 0].mean())
     come = (blend - 0.2) / 0.6  # the share of the step the history has followed
-    assert (come > 0.6) if kind == "moving" else (0.25 < come < 0.45), come
+    assert (come > 0.6) if kind in ("moving", "object moves") else (0.25 < come < 0.45), come
 
 
 def test_an_object_that_moved_drops_the_history_where_it_uncovers_the_floor(renderer, probe):
@@ -214,6 +223,60 @@ def test_an_object_that_moved_drops_the_history_where_it_uncovers_the_floor(rend
     assert uncovered.sum() > 50
     assert (lengths[uncovered] == 1).all(), np.unique(lengths[uncovered])
     assert (lengths[never_covered] == 5).mean() > 0.98
+
+
+def moving_box_scene(offset, degrees: float) -> SceneData:
+    """A floor (material 0) and a box (material 1, both grey) as instances of their meshes,
+    the box placed at ``offset`` turned by ``degrees`` about the vertical."""
+    from hybrid_engine.scene.geometry import InstancedGeometry
+    from hybrid_engine.scene.meshes import Instances
+    from scenes_instanced import indexed, placed, rotation_z
+
+    def mesh(triangles):
+        triangles = np.asarray(triangles, np.float32)
+        normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+        normals = np.repeat((normals / np.linalg.norm(normals, axis=1, keepdims=True))[:, None], 3, axis=1)
+        return indexed(triangles, normals.astype(np.float32), triangles[..., :2], np.zeros(len(triangles), np.int32),
+                       closed=False)
+
+    floor, block = mesh(quad((0, 0, 0), (20, 0, 0), (0, 20, 0))), mesh(box((-0.6, -0.6, 0), (0.6, 0.6, 0.8)))
+    instances = Instances(meshes=[floor, block], mesh=np.array([0, 1]),
+                          matrices=np.array([np.eye(4), placed(rotation_z(degrees), offset)], np.float32),
+                          slot_materials=[np.int32([0]), np.int32([1])])
+    return SceneData(InstancedGeometry(instances), grey([dict(base_color=(0.8, 0.8, 0.8))] * 2), Lights.empty(),
+                     Sky(color=(1.0, 1.0, 1.0)))
+
+
+@pytest.mark.parametrize("vertices", ["cpu", "gpu"])
+def test_a_moving_object_keeps_its_history_and_what_it_uncovers_starts_over(renderer, probe, monkeypatch, vertices):
+    """A box slides past its own width and turns by 40 degrees under a still camera: the
+    pixels of its faces the camera saw before (the top, and the side that turned by more
+    than the normal test's 25 degrees) find last frame's point through its move and keep
+    their frames; the side it turned into view, and the floor it uncovers, start over. Both
+    shapes of the primary raster (world rows, instanced draws) give the depth the move is
+    matched at."""
+    monkeypatch.setenv("HYBRID_RT_KERNELS", f"vertices={vertices}")
+    camera = Camera(matrix_world=look_at((3.0, -6.0, 5.0), (0, 0, 0)), width=64, height=64)
+    probe(pattern=1, noise=0.3)
+    for k in range(4):
+        renderer.render(moving_box_scene((-0.9, 0, 0), 0.0), camera, RASTER, sample=k, denoise=True)
+    ids_before = renderer.denoiser.history.read("length")[..., 1]
+    after = renderer.render(moving_box_scene((0.9, 0.3, 0), 40.0), camera, RASTER, sample=4, denoise=True,
+                            outputs=FrameOutputs(normal=True))
+    lengths, ids = renderer.denoiser.history.read("length")[..., 0], renderer.denoiser.history.read("length")[..., 1]
+    normal = after.data_passes["normal"]
+    on_box, was_box = ids == 2, ids_before == 2
+    assert not (on_box & was_box).any()  # the box moved clear of where it stood
+    turn = np.radians(40.0)
+    faces = {"top": (0.0, 0.0, 1.0), "front": (np.sin(turn), -np.cos(turn), 0.0),  # the -y side, turned
+             "into view": (-np.cos(turn), -np.sin(turn), 0.0)}  # the -x side, hidden before
+    seen = {name: on_box & (normal @ np.array(n) > 0.99) for name, n in faces.items()}
+    assert all(mask.sum() > 20 for mask in seen.values()), {k: int(v.sum()) for k, v in seen.items()}
+    for name in ("top", "front"):
+        assert (lengths[seen[name]] == 5).mean() > 0.95, (name, np.unique(lengths[seen[name]], return_counts=True))
+    assert (lengths[seen["into view"]] == 1).all()
+    uncovered = was_box & (ids == 1)
+    assert uncovered.sum() > 100 and (lengths[uncovered] == 1).all(), np.unique(lengths[uncovered])
 
 
 # -- spatial: the filter ---------------------------------------------------------------------

@@ -649,3 +649,28 @@ def test_the_viewport_denoises_as_its_setting_says(addon, viewport):
     frame = session.frame(_region(bpy), settings)
     assert frame.error is None, frame.error
     assert session.renderer.denoiser is not None and session.renderer.denoiser.history.valid
+
+
+def test_a_grabbed_object_keeps_its_denoiser_history_where_it_moved_off_its_old_place(addon, viewport):
+    """Grabbing the cube past its own width between two redraws: the viewport's denoiser
+    finds its pixels' history through the object's move (passes/surface_motion/), where the
+    camera's reprojection alone lands on the floor it left."""
+    import bpy
+
+    _module, session, _reports = viewport
+    _scene, cube, _material = _two_object_scene(bpy)
+    _sync(bpy)
+    settings = addon.blender_adapter.properties.settings_from_scene(bpy.context.scene)
+    assert settings.denoise_viewport
+    for _ in range(3):
+        frame = session.frame(_region(bpy), settings)
+        assert frame.error is None, frame.error
+    cube.location.x += 2.5
+    _sync(bpy)
+    frame = session.frame(_region(bpy), settings)
+    assert frame.error is None, frame.error
+    renderer = session.renderer
+    moved = renderer.surface_motion.read() > 0  # the cube's pixels, marked with its move
+    lengths = renderer.denoiser.history.read("length")[..., 0]
+    assert moved.sum() > 30
+    assert (lengths[moved] > 1).mean() > 0.8, np.unique(lengths[moved], return_counts=True)

@@ -3,9 +3,14 @@
 // Filtering", §4.1): each pixel of this frame's ambient estimate (rgb diffuse irradiance,
 // a sky visibility) is blended with what the same surface point held last frame.
 //
-// The point is found through the camera's motion only: this pixel's world position (its
-// depth through this frame's inverse view-projection) projected by last frame's
-// view-projection gives a place between four of last frame's texels. Each of the four is
+// The point is found through the camera's motion: this pixel's world position (its depth
+// through this frame's inverse view-projection) projected by last frame's view-projection
+// gives a place between four of last frame's texels. Where none of them showed this surface
+// and the pixel's instance moved since last frame, the point and normal are taken back by
+// its move (u_motion, passes/surface_motion/: the entry of its world-to-world matrix in
+// MotionMatrices, the normal by its inverse transpose) and looked up again. The camera's
+// lookup goes first: a moving object's light is mostly the room's light where it now stands,
+// so a face sliding along its own plane is best served by the history of that place. Each of the four is
 // kept (with its bilinear weight) only where it showed the same surface: the same material,
 // a normal within u_normal_cos, and a point on this pixel's tangent plane within
 // u_plane_tolerance of the distance to the camera. With u_history_filter the colour is
@@ -14,9 +19,9 @@
 // showed this surface: a camera that moves resamples the history at a sub-pixel shift every
 // frame, and the bilinear fetch's blur, small each time, adds up over the history's length.
 // The moments and the history length stay bilinear (a cubic's overshoot would make a
-// variance negative). A moved object therefore loses its
-// history where it uncovers what lay behind it (the depth jumps there), while a camera that
-// moves keeps the history of everything it still sees. With no tap kept the pixel starts
+// variance negative). A moved object therefore keeps its history, and what it uncovers
+// loses its own (last frame showed the object there, at another depth), while a camera
+// that moves keeps the history of everything it still sees. With no tap kept the pixel starts
 // over (history length 1); else its history length n grows by one and it takes
 // alpha = max(1 / n, u_alpha_color) of this frame (the mean of the frames so far, then an
 // exponential average), its moments alpha = max(1 / n, u_alpha_moments).
@@ -28,7 +33,7 @@
 //   (RGBA32F), u_prev_color (RGBA32F), u_prev_moments (RGBA32F: guide means and means of
 //   squares), u_prev_surface (RGBA32F), u_prev_length (RG32F: history length, surface id)
 //   read; images u_integrated (RGBA32F), u_moments (RGBA32F), u_surface (RGBA32F), u_length
-//   (RG32F) written.
+//   (RG32F) written; with u_moving, u_motion (R32F) and MotionMatrices read.
 // Workgroup 8x8: square tiles keep the four taps of neighbouring pixels together.
 #include "denoise.glsl"
 
@@ -53,6 +58,9 @@ uniform float u_plane_tolerance;
 uniform float u_normal_cos;
 uniform float u_max_length;
 uniform int u_history_filter;  // 0: bilinear fetch of the history; 1: Catmull-Rom, clamped
+uniform int u_moving;  // 0: no instance moved since last frame (u_motion is not read)
+uniform sampler2D u_motion;
+layout(std430) readonly buffer MotionMatrices { mat4 motion_matrices[]; };
 
 // The Catmull-Rom spline's weights of the four texels around a point at fraction t between
 // the middle two: an interpolating cubic, so a history fetched at a half-pixel shift keeps
@@ -71,6 +79,64 @@ layout(rgba32f) writeonly uniform image2D u_moments;
 layout(rgba32f) writeonly uniform image2D u_surface;
 layout(rg32f) writeonly uniform image2D u_length;
 
+// Last frame's history of the surface point p (normal n, surface id, camera distance scale):
+// returns the weight kept (0: last frame did not see it), with the colour, moments and
+// length summed times their weights.
+float history_at(vec3 p, vec3 n, int id, float scale, out vec4 prev_color, out vec4 prev_moments,
+                 out float prev_length) {
+    prev_color = vec4(0.0);
+    prev_moments = vec4(0.0);
+    prev_length = 0.0;
+    float kept = 0.0;
+    vec4 clip = u_prev_view_proj * vec4(p, 1.0);
+    if (u_history_valid == 0 || !(clip.w > 0.0)) return 0.0;
+    // Last frame's texel coordinates of p (texel centres at integers).
+    vec2 at = (clip.xy / clip.w * 0.5 + 0.5) * vec2(u_size) - 0.5;
+    vec2 base = floor(at);
+    vec2 f = at - base;
+    vec4 wx = u_history_filter != 0 ? catmull_rom_weights(f.x) : vec4(0.0, 1.0 - f.x, f.x, 0.0);
+    vec4 wy = u_history_filter != 0 ? catmull_rom_weights(f.y) : vec4(0.0, 1.0 - f.y, f.y, 0.0);
+    // The sharp fetch's sum, and the bilinear one over the four inner taps, which also
+    // bounds it: its negative lobes may overshoot the texels it lies between.
+    vec4 sharp = vec4(0.0);
+    float sharp_kept = 0.0;
+    int outer_taps = u_history_filter != 0 ? 16 : 0;
+    vec4 low = vec4(1e30), high = vec4(-1e30);
+    // No branch per tap: a tap off the image or of another surface weighs 0.
+    for (int i = 0; i < 16; ++i) {
+        ivec2 offset = ivec2(i & 3, i >> 2);
+        bool inner = all(greaterThanEqual(offset, ivec2(1))) && all(lessThanEqual(offset, ivec2(2)));
+        if (!inner && outer_taps == 0) continue;
+        ivec2 want = ivec2(base) + offset - 1;
+        ivec2 q = clamp(want, ivec2(0), u_size - 1);
+        vec2 prev_length_id = texelFetch(u_prev_length, q, 0).rg;
+        vec4 prev_surface = texelFetch(u_prev_surface, q, 0);
+        bool same = want == q && int(prev_length_id.y + 0.5) == id
+                    && dot(denoise_surface_normal(prev_surface), n) >= u_normal_cos
+                    && denoise_plane_offset(p, n, prev_surface.xyz, scale) <= u_plane_tolerance;
+        vec4 color = texelFetch(u_prev_color, q, 0);
+        float w_sharp = same ? wx[offset.x] * wy[offset.y] : 0.0;
+        sharp += w_sharp * color;
+        sharp_kept += same ? abs(wx[offset.x] * wy[offset.y]) : 0.0;
+        if (!inner) continue;
+        vec2 fb = vec2(offset - 1) * f + vec2(2 - offset) * (1.0 - f);
+        float w = same ? fb.x * fb.y : 0.0;
+        prev_color += w * color;
+        prev_moments += w * texelFetch(u_prev_moments, q, 0);
+        prev_length += w * prev_length_id.x;
+        kept += w;
+        low = same ? min(low, color) : low;
+        high = same ? max(high, color) : high;
+    }
+    // The sharp fetch counts only where all sixteen taps showed this surface (their
+    // absolute weights sum to the kernel's whole); near an edge of the history the
+    // bilinear fetch over the taps kept is all there is.
+    if (outer_taps != 0 && kept > 1e-3 && sharp_kept >= catmull_rom_abs_sum(wx) * catmull_rom_abs_sum(wy) - 1e-4) {
+        prev_color = clamp(sharp, low, high) * kept;
+    }
+    return kept;
+}
+
 void main() {
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(pixel, u_size))) return;
@@ -88,59 +154,24 @@ void main() {
         return;
     }
 
-    vec3 p = denoise_unproject(u_inv_view_proj, pixel, u_size, depth);
-    vec3 n = nm.xyz;
-    imageStore(u_surface, pixel, denoise_pack_surface(p, n));
-    float scale = u_orthographic != 0 ? 1.0 : distance(p, u_camera_position);
-    vec4 prev_color = vec4(0.0);
-    vec4 prev_moments = vec4(0.0);
-    float prev_length = 0.0;
-    float kept = 0.0;
-    vec4 clip = u_prev_view_proj * vec4(p, 1.0);
-    if (u_history_valid != 0 && clip.w > 0.0) {
-        // Last frame's texel coordinates of p (texel centres at integers).
-        vec2 at = (clip.xy / clip.w * 0.5 + 0.5) * vec2(u_size) - 0.5;
-        vec2 base = floor(at);
-        vec2 f = at - base;
-        vec4 wx = u_history_filter != 0 ? catmull_rom_weights(f.x) : vec4(0.0, 1.0 - f.x, f.x, 0.0);
-        vec4 wy = u_history_filter != 0 ? catmull_rom_weights(f.y) : vec4(0.0, 1.0 - f.y, f.y, 0.0);
-        // The sharp fetch's sum, and the bilinear one over the four inner taps, which also
-        // bounds it: its negative lobes may overshoot the texels it lies between.
-        vec4 sharp = vec4(0.0);
-        float sharp_kept = 0.0;
-        int outer_taps = u_history_filter != 0 ? 16 : 0;
-        vec4 low = vec4(1e30), high = vec4(-1e30);
-        // No branch per tap: a tap off the image or of another surface weighs 0.
-        for (int i = 0; i < 16; ++i) {
-            ivec2 offset = ivec2(i & 3, i >> 2);
-            bool inner = all(greaterThanEqual(offset, ivec2(1))) && all(lessThanEqual(offset, ivec2(2)));
-            if (!inner && outer_taps == 0) continue;
-            ivec2 want = ivec2(base) + offset - 1;
-            ivec2 q = clamp(want, ivec2(0), u_size - 1);
-            vec2 prev_length_id = texelFetch(u_prev_length, q, 0).rg;
-            vec4 prev_surface = texelFetch(u_prev_surface, q, 0);
-            bool same = want == q && int(prev_length_id.y + 0.5) == id
-                        && dot(denoise_surface_normal(prev_surface), n) >= u_normal_cos
-                        && denoise_plane_offset(p, n, prev_surface.xyz, scale) <= u_plane_tolerance;
-            vec4 color = texelFetch(u_prev_color, q, 0);
-            float w_sharp = same ? wx[offset.x] * wy[offset.y] : 0.0;
-            sharp += w_sharp * color;
-            sharp_kept += same ? abs(wx[offset.x] * wy[offset.y]) : 0.0;
-            if (!inner) continue;
-            vec2 fb = vec2(offset - 1) * f + vec2(2 - offset) * (1.0 - f);
-            float w = same ? fb.x * fb.y : 0.0;
-            prev_color += w * color;
-            prev_moments += w * texelFetch(u_prev_moments, q, 0);
-            prev_length += w * prev_length_id.x;
-            kept += w;
-            low = same ? min(low, color) : low;
-            high = same ? max(high, color) : high;
-        }
-        // The sharp fetch counts only where all sixteen taps showed this surface (their
-        // absolute weights sum to the kernel's whole); near an edge of the history the
-        // bilinear fetch over the taps kept is all there is.
-        if (outer_taps != 0 && kept > 1e-3 && sharp_kept >= catmull_rom_abs_sum(wx) * catmull_rom_abs_sum(wy) - 1e-4) {
-            prev_color = clamp(sharp, low, high) * kept;
+    vec3 p_now = denoise_unproject(u_inv_view_proj, pixel, u_size, depth);
+    vec3 n_now = nm.xyz;
+    imageStore(u_surface, pixel, denoise_pack_surface(p_now, n_now));
+    float scale = u_orthographic != 0 ? 1.0 : distance(p_now, u_camera_position);
+    vec4 prev_color, prev_moments;
+    float prev_length;
+    // The surface that stood at this point last frame (the camera's motion alone): a moving
+    // object's light is mostly the room's light where it now stands, so while its surface
+    // still lies there (a face sliding along its own plane) that history fits best.
+    float kept = history_at(p_now, n_now, id, scale, prev_color, prev_moments, prev_length);
+    if (kept <= 1e-3 && u_moving != 0) {
+        // Else, where this very point of a moved instance was last frame, and its normal then.
+        int entry = int(texelFetch(u_motion, pixel, 0).r + 0.5) - 1;
+        if (entry >= 0) {
+            mat4 move = motion_matrices[entry];
+            vec3 p = (move * vec4(p_now, 1.0)).xyz;
+            vec3 n = normalize(transpose(inverse(mat3(move))) * n_now);
+            kept = history_at(p, n, id, scale, prev_color, prev_moments, prev_length);
         }
     }
     vec4 integrated = current;

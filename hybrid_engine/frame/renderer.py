@@ -59,6 +59,7 @@ from ..passes.film.cryptomatte import CryptomattePass
 from ..passes.film.data_passes import DataPassesPass, read_data_passes
 from ..passes.film.light_passes import LightPassesPass, read_light_passes
 from ..passes.film.vector import VectorPass
+from ..passes.surface_motion.surface_motion import SurfaceMotionPass
 from ..passes.cube_light.cube_light import CubeLightPass
 from ..passes.cube_map.cube_map import CubeMapPass
 from ..passes.emitters.emitter_pass import EmitterTablePass
@@ -183,6 +184,7 @@ class Renderer:
         self.occlusion = ScreenSpaceOcclusion(self.ctx)
         self.deferred_shade = DeferredShadePass(self.ctx)
         self.denoiser: DenoisePass | None = None  # made on the first frame that denoises
+        self.surface_motion: SurfaceMotionPass | None = None  # the instances' moves, for it
         # The running mean of a view's samples (render(accumulate=True)), and the data
         # passes a final render asks for (FrameOutputs).
         self.accumulate = AccumulatePass(self.ctx)
@@ -236,7 +238,8 @@ class Renderer:
         if denoise:
             if self.denoiser is None:
                 self.denoiser = DenoisePass(self.ctx)
-            plan.append(self.denoiser)
+                self.surface_motion = SurfaceMotionPass(self.ctx)
+            plan += [self.surface_motion, self.denoiser]
         self.deferred_shade.light_passes = light
         plan.append(self.deferred_shade)
         if traced:
@@ -356,6 +359,7 @@ class Renderer:
         plan = self._checked_passes(settings, accumulate, data, denoise, crypto, light, vector)
         if not denoise and self.denoiser is not None:
             self.denoiser.forget()  # its history would miss this frame
+            self.surface_motion.forget()
         timer = PassTimer(self.ctx, enabled=timing)
         start = time.perf_counter()
         frame = FrameContext(self.ctx, scene_data=scene, camera=camera, settings=settings,
@@ -466,7 +470,8 @@ class Renderer:
         self.deferred_shade.light_targets.release()
         if self.denoiser is not None:
             self.denoiser.release()
-            self.denoiser = None
+            self.surface_motion.release()
+            self.denoiser = self.surface_motion = None
         for owner in (self.cube_map, self.cube_light, self.culler, self.tracer, self.diffuse_light, self.emitters):
             if owner is not None:
                 owner.release()

@@ -9,9 +9,9 @@ deferred shading multiplies it by the albedo. Three compute steps filter it, eve
 the GPU (gpu_shaders/denoise/):
 
 1. ``reproject``: each pixel finds where its surface point was in last frame's image through
-   the camera's motion (there are no motion vectors: a moving object keeps no history where
-   it moved, and loses it where it uncovers what lay behind) and blends with it; a pixel
-   whose point was not seen (another depth, normal or material there) starts over. A still
+   the camera's motion and its instance's (passes/surface_motion/: a moving object keeps
+   its history, what it uncovers starts over) and blends with it; a pixel whose point was
+   not seen (another depth, normal or material there) starts over. A still
    or moving camera thus gathers frames for every surface it keeps seeing, where the film
    (passes/film/) starts over at any change.
 2. ``variance``: how noisy each pixel is, from the temporal moments, or from its
@@ -51,6 +51,7 @@ from ...gpu.bindings import Image, bind
 from ...scene.raster_view import RasterView
 from ...scene.settings import RenderSettings
 from ..frame_context import FrameContext, PassIO
+from ..surface_motion.surface_motion import SurfaceMotion
 from .history import DenoiseHistory
 
 WORKGROUP = 8
@@ -65,8 +66,9 @@ ALPHA_COLOR = 0.1
 # paths that end on them bring less, so the whole view's converged light shifts from frame
 # to frame and a long history lags behind it (the view turns darker than its converged
 # image); a higher floor follows it more closely at the cost of some noise, which the
-# wavelet filter, guided by the blend's variance, then takes more of. A still camera keeps
-# ALPHA_COLOR.
+# wavelet filter, guided by the blend's variance, then takes more of. An object that moves
+# shifts the room's light likewise (its shadow, the light it passes on), and takes the same
+# floor. A still camera over a still scene keeps ALPHA_COLOR.
 ALPHA_COLOR_MOVING = 0.25
 ALPHA_MOMENTS = 0.2
 # A history longer than this counts as this long (alpha is at its floor long before).
@@ -108,6 +110,7 @@ class DenoisePass:
         self.atrous = shader_loader.compute(ctx, "denoise/atrous.comp.glsl")
         self.share = shader_loader.compute(ctx, "denoise/film_share.comp.glsl")
         self.history = DenoiseHistory(ctx)
+        self._no_motion = ctx.buffer(reserve=64)  # MotionMatrices of a frame where nothing moved (unread)
         # The wavelet filter's levels (ITERATIONS); 0 keeps the temporal step alone, whose
         # mean over a still view's samples is unbiased: what a converged reference is made of
         # (benchmarks/light_noise.py), with the fed-back light the denoiser's history carries.
@@ -119,7 +122,7 @@ class DenoisePass:
         self._film_next: int | None = None
 
     def io(self, settings: RenderSettings) -> PassIO:
-        return PassIO(reads=("gbuffer", "ambient", "lighting"), writes=("ambient",))
+        return PassIO(reads=("gbuffer", "ambient", "lighting", "surface_motion"), writes=("ambient",))
 
     def run(self, frame: FrameContext) -> None:
         if not frame.read("lighting").occludes:
@@ -133,21 +136,28 @@ class DenoisePass:
             self._estimate = estimate
         targets = frame.read("gbuffer")
         frame.write("ambient", self.filter(frame.read("ambient"), targets.depth, targets.normal_material, frame.view,
-                                           frame.sample if frame.accumulate else None))
+                                           frame.sample if frame.accumulate else None,
+                                           frame.read("surface_motion")))
 
-    def filter(self, ambient, depth, normal_material, view: RasterView, film_sample: int | None = None):
+    def filter(self, ambient, depth, normal_material, view: RasterView, film_sample: int | None = None,
+               motion: SurfaceMotion | None = None):
         """The filtered ``ambient`` of the G-buffer (``depth``, ``normal_material``) of
         ``view``: a texture of this pass, valid until its next frame. ``film_sample``: the
         frame is that sample of the film's mean of a still view (module docstring); None: it
-        is shown alone."""
+        is shown alone. ``motion``: the instances that moved since last frame, per pixel
+        (passes/surface_motion/)."""
         history = self.history
         history.ensure((view.width, view.height))
         work, variance = history.pair("work"), history.pair("variance")
         groups = (math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
         camera = view.uniforms()
-        alpha = ALPHA_COLOR_MOVING if self._camera_moved(view, film_sample) else ALPHA_COLOR
+        alpha = ALPHA_COLOR_MOVING if self._camera_moved(view, film_sample) or (motion is not None and motion.moving) else ALPHA_COLOR
+        moving = motion is not None and motion.moving
         bind(self.reproject,
+             storage={"MotionMatrices": motion.matrices if moving else self._no_motion},
              textures={"u_depth": depth, "u_normal_material": normal_material, "u_ambient": ambient,
+                       # Unread without motion (u_moving 0): any texture will do.
+                       "u_motion": motion.texture if moving else depth,
                        **{f"u_prev_{name}": history.previous(name) for name in ("color", "moments", "surface", "length")}},
              images={"u_integrated": Image(history.current("color"), read=False, write=True),
                      **{f"u_{name}": Image(history.current(name), read=False, write=True)
@@ -155,7 +165,7 @@ class DenoisePass:
              uniforms={**camera, **history.previous_uniforms(), "u_alpha_color": alpha,
                        "u_alpha_moments": ALPHA_MOMENTS, "u_plane_tolerance": PLANE_TOLERANCE,
                        "u_normal_cos": NORMAL_COS, "u_max_length": MAX_LENGTH,
-                       "u_history_filter": int(HISTORY_FILTER == "catmull_rom")})
+                       "u_history_filter": int(HISTORY_FILTER == "catmull_rom"), "u_moving": int(moving)})
         self._run(self.reproject, groups)
         surface = {"u_surface": history.current("surface")}
         bind(self.variance, textures={**surface, "u_moments": history.current("moments"),
@@ -239,3 +249,4 @@ class DenoisePass:
 
     def release(self) -> None:
         self.history.release()
+        self._no_motion.release()

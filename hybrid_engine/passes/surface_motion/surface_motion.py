@@ -1,0 +1,203 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The ``surface_motion`` pass: where each primary pixel's surface was on the last frame, for
+the instances that moved since.
+
+The denoiser's temporal step (passes/denoise/) finds a pixel's history by taking its surface
+point to last frame's image. Through the camera's motion alone, an object that moves (an
+animation played, an object grabbed in the viewport) lands on another surface there, and
+every pixel of it starts over each frame: the moving object is shown from one or two
+samples, filtered hard and blotchy. SVGF and EEVEE follow it by motion vectors.
+
+Here the host compares the instance table's matrices with the last frame's, where the
+upload found some instance changed, and lists the instances that moved with their
+world-to-world move ``previous matrix x current matrix^-1``, the transform Cycles' motion
+pass takes (passes/film/vector.py makes the Vector pass with the same). Only those instances' world rows are drawn, in one indirect multi-draw of their row
+ranges with the primary view's matrix, and a fragment that lies on the primary depth buffer's
+surface writes its instance's entry into the ``surface_motion`` image (0: no move there).
+Where the camera's motion alone finds no history for a pixel (the object moved off that
+point), the temporal step moves the pixel's point and normal by the entry's matrix and looks
+for them again in last frame's image. A frame where nothing changed costs nothing on either
+side.
+
+Left out: a deforming mesh (armature, shape keys) keeps the depth and normal tests' verdict:
+its pixels start over where the surface moved.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from ...gpu import gl_context, shader_loader
+from ...gpu.bindings import bind
+from ...gpu.render_targets import release_all
+from ...scene.geometry import InstancedGeometry
+from ...scene.matrix4 import affine_inverses
+from ...scene.raster_view import gl_matrix
+from ...scene.settings import RenderSettings
+from ..frame_context import FrameContext, PassIO
+
+# One DrawArraysIndirectCommand (count, instance count, first vertex, base instance), padded
+# to the 20 bytes of moderngl's stride: its render_indirect steps through the buffer by
+# DrawElementsIndirectCommand's size whether or not the vertex array is indexed.
+COMMAND_WORDS = 5
+
+
+# Follow the instances' moves; False finds nothing moved, the denoiser's reprojection before
+# this pass (a switch for benchmarks/moving_object_noise.py).
+FOLLOW_MOVES = True
+
+
+@dataclass
+class SurfaceMotion:
+    """What the pass leaves for the denoiser: ``texture`` (R32F, the primary view's size: the
+    moved instance's entry + 1 per pixel, 0 where nothing moved) and ``matrices`` (a storage
+    buffer of one world-to-world mat4 per entry), or ``moving`` False with neither valid."""
+
+    moving: bool
+    texture: object = None
+    matrices: object = None
+
+
+class InstanceMoves:
+    """The host's side: which instances moved since the last frame it saw, and how."""
+
+    def __init__(self) -> None:
+        self._matrices: np.ndarray | None = None
+        self._meshes: np.ndarray | None = None
+
+    def moves(self, geometry, unchanged: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """(instances that moved, sorted; their world-to-world matrices previous x current^-1,
+        float64 (n, 4, 4)) since the last call; none on a first call, or where the instance
+        table's layout (count, meshes) changed. ``unchanged``: the upload found no instance
+        changed since the last frame, which was this call's last: nothing is compared."""
+        none = (np.zeros(0, np.int64), np.zeros((0, 4, 4)))
+        if not isinstance(geometry, InstancedGeometry):
+            self._matrices = None
+            return none
+        if unchanged and self._matrices is not None:
+            return none
+        instances = geometry.instances
+        current = np.asarray(instances.matrices)
+        meshes = np.asarray(instances.mesh)
+        previous = self._matrices
+        if previous is None or previous.shape != current.shape or not np.array_equal(self._meshes, meshes):
+            self._matrices, self._meshes = current.astype(np.float64), meshes.copy()
+            return none
+        moved = np.flatnonzero(np.any(previous != current, axis=(1, 2)))
+        if not len(moved):
+            return none
+        before = previous[moved].copy()
+        previous[moved] = current[moved]
+        return moved, before @ affine_inverses(previous[moved])
+
+    def forget(self) -> None:
+        self._matrices = None
+        self._meshes = None
+
+
+def row_ranges(object_ranges: np.ndarray, moved: np.ndarray) -> np.ndarray:
+    """(first row, end row, entry) of each moved instance (entry: its index in ``moved``),
+    sorted by first row: what the vertex stage looks a row up in."""
+    ranges = np.asarray(object_ranges, np.int64)[moved]
+    table = np.stack([ranges[:, 0], ranges[:, 0] + ranges[:, 1], np.arange(len(moved))], axis=1)
+    return table[np.argsort(table[:, 0], kind="stable")]
+
+
+def draw_commands(table: np.ndarray) -> np.ndarray:
+    """One DrawArraysIndirectCommand per run of adjacent ranges in ``table`` (row_ranges),
+    uint32 (n, COMMAND_WORDS): the vertices 3 * row + corner of their rows."""
+    starts, ends = table[:, 0], table[:, 1]
+    breaks = np.flatnonzero(starts[1:] != ends[:-1]) + 1
+    first = starts[np.concatenate([[0], breaks])]
+    last = ends[np.concatenate([breaks - 1, [len(table) - 1]])]
+    commands = np.zeros((len(first), COMMAND_WORDS), np.uint32)
+    commands[:, 0] = 3 * (last - first)
+    commands[:, 1] = 1
+    commands[:, 2] = 3 * first
+    return commands[commands[:, 0] > 0]
+
+
+class SurfaceMotionPass:
+    """The moved instances' entries per primary pixel (module docstring). Its rows in timing
+    reports are the denoiser's, whose history it serves."""
+
+    name = "denoise"
+
+    def __init__(self, ctx) -> None:
+        self.ctx = ctx
+        self.program = shader_loader.program(ctx, vertex="surface_motion/surface_motion.vert.glsl",
+                                             fragment="surface_motion/surface_motion.frag.glsl")
+        self.moves = InstanceMoves()
+        self._texture = None
+        self._fbo = None
+        self._buffers: dict[str, moderngl.Buffer] = {}
+
+    def io(self, settings: RenderSettings) -> PassIO:
+        return PassIO(reads=("scene", "delta", "world_triangles", "gbuffer"), writes=("surface_motion",))
+
+    def run(self, frame: FrameContext) -> None:
+        scene = frame.read("scene")
+        moved, matrices = self.moves.moves(scene.geometry, frame.read("delta").unchanged)
+        gpu = frame.read("world_triangles")
+        if not len(moved) or not gpu.triangle_count or not FOLLOW_MOVES:
+            frame.write("surface_motion", SurfaceMotion(False))
+            return
+        targets = frame.read("gbuffer")
+        view = frame.view
+        self._ensure((view.width, view.height))
+        table = row_ranges(scene.geometry.object_ranges, moved)
+        commands = draw_commands(table)
+        rows = self._buffer("rows", np.pad(table, ((0, 0), (0, 1))).astype(np.int32))  # ivec4 rows
+        motion = self._buffer("matrices", np.ascontiguousarray(np.transpose(matrices, (0, 2, 1)), np.float32))
+        indirect = self._buffer("commands", commands)
+        ctx = self.ctx
+        self._fbo.use()
+        self._fbo.viewport = (0, 0, view.width, view.height)
+        self._fbo.clear(0.0, 0.0, 0.0, 0.0)
+        ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
+        bind(self.program, storage={"MotionRows": rows}, textures={"u_depth": targets.depth},
+             uniforms={"u_view_proj": gl_matrix(view.view_proj), "u_entries": len(table)})
+        vao = gpu.vertex_array(self.program)
+        vao.render_indirect(indirect, mode=moderngl.TRIANGLES, count=len(commands))
+        if gl_context.debug_checks_enabled():
+            gl_context.check_error("surface motion")
+        ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT | moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)
+        frame.write("surface_motion", SurfaceMotion(True, self._texture, motion))
+
+    def read(self) -> np.ndarray:
+        """The last frame's motion image as (H, W) float32 (entry + 1, 0 where nothing moved),
+        row 0 at the bottom; zeros before any frame moved something (tests, diagnostics)."""
+        if self._texture is None:
+            return np.zeros((0, 0), np.float32)
+        width, height = self._texture.size
+        return np.frombuffer(self._texture.read(), np.float32).reshape(height, width).copy()
+
+    def forget(self) -> None:
+        """The next frame moves nothing (its last frame is not the denoiser's history)."""
+        self.moves.forget()
+
+    def _buffer(self, name: str, data: np.ndarray) -> moderngl.Buffer:
+        """The storage buffer ``name`` holding ``data``, grown (never shrunk) as needed."""
+        raw = data.tobytes()
+        buffer = self._buffers.get(name)
+        if buffer is None or buffer.size < len(raw):
+            if buffer is not None:
+                buffer.release()
+            buffer = self._buffers[name] = self.ctx.buffer(reserve=max(len(raw), 256))
+        buffer.write(raw)
+        return buffer
+
+    def _ensure(self, size: tuple[int, int]) -> None:
+        if self._texture is not None and self._texture.size == size:
+            return
+        release_all([part for part in (self._fbo, self._texture) if part is not None])
+        self._texture = self.ctx.texture(size, 1, dtype="f4")
+        self._texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self._fbo = self.ctx.framebuffer(color_attachments=[self._texture])
+
+    def release(self) -> None:
+        release_all([part for part in (self._fbo, self._texture, *self._buffers.values()) if part is not None])
+        self._fbo = self._texture = None
+        self._buffers = {}

@@ -1,0 +1,104 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The instances' moves between frames (hybrid_engine/passes/surface_motion/): the host finds
+the instances whose matrix changed and their world-to-world move; the GPU marks the primary
+pixels that show them, and no pixel where something else stands in front."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hybrid_engine import Camera, Lights, MaterialTable, RenderSettings, SceneData, Sky
+from hybrid_engine.passes.surface_motion.surface_motion import InstanceMoves, draw_commands, row_ranges
+from hybrid_engine.scene.camera import look_at
+from hybrid_engine.scene.geometry import InstancedGeometry
+from hybrid_engine.scene.meshes import Instances
+from scenes_analytic import box, quad
+from scenes_instanced import indexed, placed, rotation_z
+
+
+def flat_mesh(triangles):
+    triangles = np.asarray(triangles, np.float32)
+    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    normals = np.repeat((normals / np.linalg.norm(normals, axis=1, keepdims=True))[:, None], 3, axis=1)
+    return indexed(triangles, normals.astype(np.float32), triangles[..., :2], np.zeros(len(triangles), np.int32),
+                   closed=False)
+
+
+def geometry(matrices, meshes=(0, 1, 1, 1)) -> InstancedGeometry:
+    """A floor, then boxes: instance k uses mesh ``meshes[k]`` (0 the floor, 1 the box) under
+    ``matrices[k]``."""
+    floor, block = flat_mesh(quad((0, 0, 0), (20, 0, 0), (0, 20, 0))), flat_mesh(box((-0.5, -0.5, 0), (0.5, 0.5, 1)))
+    return InstancedGeometry(Instances(meshes=[floor, block], mesh=np.array(meshes),
+                                       matrices=np.array(matrices, np.float32),
+                                       slot_materials=[np.int32([0])] * len(meshes)))
+
+
+def test_only_the_instances_whose_matrix_changed_move_by_previous_times_current_inverse():
+    moves = InstanceMoves()
+    still, left = np.eye(4), placed(np.eye(3), (-2, 0, 0))
+    first = [still, left, placed(np.eye(3), (2, 0, 0))]
+    geometry_of = lambda matrices: geometry(matrices, meshes=(0, 1, 1))  # noqa: E731
+    assert len(moves.moves(geometry_of(first))[0]) == 0  # a first frame has nothing to move from
+    assert len(moves.moves(geometry_of(first))[0]) == 0
+    turned = placed(rotation_z(30) * 1.5, (-1, 1, 0))
+    moved, matrices = moves.moves(geometry_of([still, turned, first[2]]))
+    assert moved.tolist() == [1]
+    point = np.array([0.3, -0.2, 0.7, 1.0])  # a point of the box's mesh
+    np.testing.assert_allclose(matrices[0] @ (turned @ point), left @ point, atol=1e-5)
+
+
+def test_a_changed_instance_table_moves_nothing():
+    moves = InstanceMoves()
+    moves.moves(geometry([np.eye(4), np.eye(4), np.eye(4)], meshes=(0, 1, 1)))
+    assert len(moves.moves(geometry([np.eye(4), placed(np.eye(3), (1, 0, 0))], meshes=(0, 1)))[0]) == 0
+    assert len(moves.moves(geometry([np.eye(4), placed(np.eye(3), (2, 0, 0))], meshes=(1, 1)))[0]) == 0
+
+
+def test_adjacent_moved_instances_are_drawn_in_one_command():
+    object_ranges = np.array([[0, 2], [2, 12], [14, 12], [26, 12]])
+    table = row_ranges(object_ranges, np.array([3, 1, 2]))
+    assert table.tolist() == [[2, 14, 1], [14, 26, 2], [26, 38, 0]]
+    assert draw_commands(table).tolist() == [[3 * 36, 1, 3 * 2, 0, 0]]
+    apart = row_ranges(object_ranges, np.array([1, 3]))
+    assert draw_commands(apart).tolist() == [[36, 1, 6, 0, 0], [36, 1, 78, 0, 0]]
+
+
+@pytest.mark.parametrize("vertices", ["cpu", "gpu"])
+def test_the_pixels_of_a_moved_instance_get_its_entry_and_none_where_a_still_one_hides_it(gl, monkeypatch, vertices):
+    from hybrid_engine.frame.renderer import Renderer
+
+    monkeypatch.setenv("HYBRID_RT_KERNELS", f"vertices={vertices}")
+    camera = Camera(matrix_world=look_at((0.0, -8.0, 3.0), (0, 0, 0.5)), width=96, height=72)
+    materials = MaterialTable.from_rows([dict(base_color=(0.8, 0.8, 0.8))])
+    pillar = placed(np.diag([0.6, 0.2, 3.0]), (0.0, -2.0, 0.0))  # still, before the box's middle
+
+    def scene(x: float) -> SceneData:
+        # A second box, after the still pillar in the table: the moved rows are two draws.
+        return SceneData(geometry([np.eye(4), placed(np.eye(3), (x, 0, 0)), pillar, placed(np.eye(3), (-2 - x, 0, 0))]),
+                         materials, Lights.empty(), Sky(color=(1.0, 1.0, 1.0)))
+
+    renderer = Renderer(gl)
+    settings = RenderSettings(mode="RASTER", shadow_resolution=256)
+    try:
+        renderer.render(scene(0.0), camera, settings, denoise=True)
+        renderer.render(scene(0.2), camera, settings, denoise=True)
+        marked = renderer.surface_motion.read()
+    finally:
+        renderer.release()
+    origins, dirs = camera.pixel_rays()
+    # The box at x = 0.2 spans [-0.3, 0.7] x [-0.5, 0.5] x [0, 1]; the pillar [-0.3, 0.3] x
+    # [-2.1, -1.9] x [0, 3] stands between it and the camera over part of it.
+    t_front = (-0.5 - origins[..., 1]) / dirs[..., 1]
+    front = origins + dirs * t_front[..., None]
+    on_box_face = (front[..., 0] > -0.25) & (front[..., 0] < 0.65) & (front[..., 2] > 0.05) & (front[..., 2] < 0.95)
+    t_pillar = (-2.1 - origins[..., 1]) / dirs[..., 1]
+    at_pillar = origins + dirs * t_pillar[..., None]
+    behind_pillar = (np.abs(at_pillar[..., 0]) < 0.27) & (at_pillar[..., 2] > 0.03) & (at_pillar[..., 2] < 2.97)
+    beside_pillar = np.abs(at_pillar[..., 0]) > 0.33
+    visible = on_box_face & beside_pillar
+    hidden = on_box_face & behind_pillar
+    assert visible.sum() > 20 and hidden.sum() > 20
+    assert (marked[visible] == 1.0).all()
+    second = (front[..., 0] > -2.65) & (front[..., 0] < -1.75) & (front[..., 2] > 0.05) & (front[..., 2] < 0.95)
+    assert second.sum() > 20 and (marked[second] == 2.0).all()
+    assert (marked[hidden] == 0.0).all() and (marked[behind_pillar] == 0.0).all()

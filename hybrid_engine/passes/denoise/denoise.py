@@ -41,6 +41,7 @@ which the deferred shading then takes as it is, without its own 3x3 smoothing.
 from __future__ import annotations
 
 import math
+from dataclasses import fields
 
 import moderngl
 import numpy as np
@@ -48,6 +49,7 @@ import numpy as np
 from ...gpu import shader_loader
 from ...gpu.bindings import Bindings
 from ...gpu.bindings import Image, bind
+from ...scene.data import Lights
 from ...scene.raster_view import RasterView
 from ...scene.settings import RenderSettings
 from ..frame_context import FrameContext, PassIO
@@ -58,18 +60,20 @@ WORKGROUP = 8
 # The wavelet filter's levels: steps 1, 2, 4, 8 reach 16 pixels either side.
 ITERATIONS = 4
 # The temporal blend's floor (SVGF: 0.05-0.2): the share of each new frame once the history
-# is long. Lower is smoother and lags more behind a changing light.
-ALPHA_COLOR = 0.1
-# The floor while the camera moves (its view-projection differs from last frame's). The
-# light a moving view converges to changes as it moves: surfaces that enter the view start
-# their fed-back bounces over (DIFFUSE_FEEDBACK) and are dark for a few frames, and the
-# paths that end on them bring less, so the whole view's converged light shifts from frame
-# to frame and a long history lags behind it (the view turns darker than its converged
-# image); a higher floor follows it more closely at the cost of some noise, which the
-# wavelet filter, guided by the blend's variance, then takes more of. An object that moves
-# shifts the room's light likewise (its shadow, the light it passes on), and takes the same
-# floor. A still camera over a still scene keeps ALPHA_COLOR.
-ALPHA_COLOR_MOVING = 0.25
+# is long. Lower is smoother and lags more behind a changing light (which takes
+# ALPHA_COLOR_CHANGING while it changes).
+ALPHA_COLOR = 0.07
+# The floor while the scene's light changes: an instance moves (passes/surface_motion/: its
+# shadow, the light it passes on move with it) or a lamp changes (an artist's edit, a lamp
+# switched off). A long history lags behind such a change. A camera that moves over a
+# still scene keeps ALPHA_COLOR: its view shows the same room's light. (It once took this
+# floor too, while the surfaces entering a moving view stayed dark for frames; since a short
+# history traces more paths, the lower floor gives the cleaner moving frames, in the
+# bounce-lit room and the daylit one alike: docs/BENCHMARKS.md.)
+ALPHA_COLOR_CHANGING = 0.25
+# Frames that keep ALPHA_COLOR_CHANGING after the last change, so that the old light is gone
+# (0.75^8: a tenth of it left) before the lower floor smooths again.
+CHANGE_FRAMES = 8
 ALPHA_MOMENTS = 0.2
 # A history longer than this counts as this long (alpha is at its floor long before).
 MAX_LENGTH = 64.0
@@ -98,6 +102,12 @@ SIGMA_GUIDE = 16.0
 FILM_SHARE_SAMPLES = round(1.0 / ALPHA_COLOR)
 
 
+def lamps_key(lights: Lights) -> bytes:
+    """The lamps as bytes, compared from frame to frame (a few dozen numbers per lamp)."""
+    return b"".join(np.ascontiguousarray(getattr(lights, f.name)).tobytes() for f in fields(lights)
+                    if isinstance(getattr(lights, f.name), np.ndarray))
+
+
 class DenoisePass:
     """Filters the frame's ``ambient`` (module docstring); keeps its history across frames."""
 
@@ -118,11 +128,15 @@ class DenoisePass:
         # What the ambient estimate meant last frame: a history of another kind of estimate
         # (screen-space occlusion's visibility, rays' irradiance) is not blended with.
         self._estimate: tuple | None = None
+        # The lamps of the last frame (lamps_key), to tell when they change, and how many more
+        # frames take ALPHA_COLOR_CHANGING (CHANGE_FRAMES after the last change).
+        self._lamps: bytes | None = None
+        self._changing = 0
         # The film's sample whose share the last frame's estimate leads to (film_share), or None.
         self._film_next: int | None = None
 
     def io(self, settings: RenderSettings) -> PassIO:
-        return PassIO(reads=("gbuffer", "ambient", "lighting", "surface_motion"), writes=("ambient",))
+        return PassIO(reads=("scene", "gbuffer", "ambient", "lighting", "surface_motion"), writes=("ambient",))
 
     def run(self, frame: FrameContext) -> None:
         if not frame.read("lighting").occludes:
@@ -134,25 +148,34 @@ class DenoisePass:
         if estimate != self._estimate:
             self.forget()
             self._estimate = estimate
+        lamps = lamps_key(frame.read("scene").lights)
+        lamps_changed = self._lamps is not None and lamps != self._lamps
+        self._lamps = lamps
         targets = frame.read("gbuffer")
         frame.write("ambient", self.filter(frame.read("ambient"), targets.depth, targets.normal_material, frame.view,
                                            frame.sample if frame.accumulate else None,
-                                           frame.read("surface_motion")))
+                                           frame.read("surface_motion"), lamps_changed))
 
     def filter(self, ambient, depth, normal_material, view: RasterView, film_sample: int | None = None,
-               motion: SurfaceMotion | None = None):
+               motion: SurfaceMotion | None = None, lamps_changed: bool = False):
         """The filtered ``ambient`` of the G-buffer (``depth``, ``normal_material``) of
         ``view``: a texture of this pass, valid until its next frame. ``film_sample``: the
         frame is that sample of the film's mean of a still view (module docstring); None: it
         is shown alone. ``motion``: the instances that moved since last frame, per pixel
-        (passes/surface_motion/)."""
+        (passes/surface_motion/); ``lamps_changed``: a lamp changed since last frame (both
+        take ALPHA_COLOR_CHANGING, for CHANGE_FRAMES more frames)."""
         history = self.history
         history.ensure((view.width, view.height))
         work, variance = history.pair("work"), history.pair("variance")
         groups = (math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
         camera = view.uniforms()
-        alpha = ALPHA_COLOR_MOVING if self._camera_moved(view, film_sample) or (motion is not None and motion.moving) else ALPHA_COLOR
         moving = motion is not None and motion.moving
+        # A frame that continues a film's mean keeps ALPHA_COLOR, whose first 1 / ALPHA_COLOR
+        # blends are the plain mean that the film's share (FILM_SHARE_SAMPLES) relies on.
+        if moving or lamps_changed:
+            self._changing = CHANGE_FRAMES
+        alpha = ALPHA_COLOR_CHANGING if self._changing > 0 and not film_sample else ALPHA_COLOR
+        self._changing = max(self._changing - 1, 0)
         bind(self.reproject,
              storage={"MotionMatrices": motion.matrices if moving else self._no_motion},
              textures={"u_depth": depth, "u_normal_material": normal_material, "u_ambient": ambient,
@@ -188,18 +211,6 @@ class DenoisePass:
         source = self._film_share(source, work[self.levels % 2], view, groups, film_sample)
         history.advance(np.asarray(view.view_proj, np.float64))
         return source
-
-    def _camera_moved(self, view: RasterView, film_sample: int | None) -> bool:
-        """Whether the camera moved since the history's frame (ALPHA_COLOR_MOVING): its
-        view-projection differs and the frame does not continue a film's mean. A still view's
-        later samples are jittered by a sub-pixel each (frame/antialias.py, the viewport's
-        redraws) and must keep ALPHA_COLOR, whose first 1 / ALPHA_COLOR blends are the plain
-        mean that the film's share (FILM_SHARE_SAMPLES) relies on."""
-        if film_sample is not None and film_sample > 0:
-            return False
-        previous = self.history.prev_view_proj
-        return self.history.valid and previous is not None and not np.array_equal(
-            previous, np.asarray(view.view_proj, np.float64))
 
     def _film_share(self, estimate, out, view: RasterView, groups: tuple[int, int, int],
                     film_sample: int | None):
@@ -241,6 +252,7 @@ class DenoisePass:
         render's first sample)."""
         self.history.forget()
         self._film_next = None
+        self._changing = 0
 
     def _run(self, program, groups: tuple[int, int, int]) -> None:
         program.run(*groups)

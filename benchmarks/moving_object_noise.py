@@ -83,7 +83,8 @@ def measure(width: int, height: int, reference: int, frames: int, settle: int,
         whole, on_box = [], []
         try:
             for f in range(frames):
-                image = viewport.render(scene_at(f, slide), camera, settings, sample=0, accumulate=True, denoise=True).image
+                image = viewport.render(scene_at(f, slide), camera, settings, sample=0, accumulate=True,
+                                        denoise=True).image
                 if f < 5:
                     continue
                 ids = viewport.denoiser.history.read("length")[..., 1]

@@ -160,10 +160,10 @@ def test_a_sub_pixel_camera_translation_keeps_the_contrast_of_a_sharp_pattern_in
     assert contrast > 0.72, contrast
 
 
-@pytest.mark.parametrize("kind", ["object moves", "lamp changes", "camera moves", "still", "jittered"])
+@pytest.mark.parametrize("kind", ["object moves", "lamp changes", "World changes", "camera moves", "still", "jittered"])
 def test_the_history_follows_a_change_of_light_faster_while_an_object_moves_or_a_lamp_changes(renderer, probe, kind):
     """A floor's irradiance steps from 0.2 to 0.8 after a long history: while an object
-    moves, and for CHANGE_FRAMES after a lamp changed, the blend takes at least
+    moves, and for CHANGE_FRAMES after a lamp or the World changed, the blend takes at least
     ALPHA_COLOR_CHANGING of each frame and has come most of the way after four frames (the
     room's light shifts with them, and a long history lags behind it), though the camera
     stands still; a camera that moves over a still scene keeps the lower floor and its
@@ -177,6 +177,9 @@ def test_the_history_follows_a_change_of_light_faster_while_an_object_moves_or_a
         if kind == "lamp changes":  # a point lamp turned up once, as the light steps (the probe ignores it)
             lamp = dict(kind="POINT", position=(0.0, 0.0, 3.0), color=(10.0 if k < 24 else 20.0,) * 3, radius=0.1)
             return SceneData(floor.geometry, floor.materials, Lights.from_rows([lamp]), floor.sky)
+        if kind == "World changes":  # the World turned up once, likewise
+            world = Sky(color=(1.0, 1.0, 1.0), strength=1.0 if k < 24 else 2.0)
+            return SceneData(floor.geometry, floor.materials, floor.lights, world)
         if kind != "object moves":
             return floor
         # The floor and a box behind the camera, an instance sliding by 5 cm a frame.
@@ -200,7 +203,7 @@ def test_the_history_follows_a_change_of_light_faster_while_an_object_moves_or_a
                         reuse_world=accumulate)
     blend = float(renderer.denoiser.history.read("color")[4:-4, 4:-8, 0].mean())
     come = (blend - 0.2) / 0.6  # the share of the step the history has followed
-    assert (come > 0.6) if kind in ("object moves", "lamp changes") else (0.15 < come < 0.35), come
+    assert (come > 0.6) if kind in ("object moves", "lamp changes", "World changes") else (0.15 < come < 0.35), come
 
 
 def test_an_object_that_moved_drops_the_history_where_it_uncovers_the_floor(renderer, probe):

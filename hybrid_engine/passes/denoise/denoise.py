@@ -64,8 +64,8 @@ ITERATIONS = 4
 # ALPHA_COLOR_CHANGING while it changes).
 ALPHA_COLOR = 0.07
 # The floor while the scene's light changes: an instance moves (passes/surface_motion/: its
-# shadow, the light it passes on move with it) or a lamp changes (an artist's edit, a lamp
-# switched off). A long history lags behind such a change. A camera that moves over a
+# shadow, the light it passes on move with it), a lamp or the World changes (an artist's
+# edit, a lamp switched off). A long history lags behind such a change. A camera that moves over a
 # still scene keeps ALPHA_COLOR: its view shows the same room's light. (It once took this
 # floor too, while the surfaces entering a moving view stayed dark for frames; since a short
 # history traces more paths, the lower floor gives the cleaner moving frames, in the
@@ -128,9 +128,9 @@ class DenoisePass:
         # What the ambient estimate meant last frame: a history of another kind of estimate
         # (screen-space occlusion's visibility, rays' irradiance) is not blended with.
         self._estimate: tuple | None = None
-        # The lamps of the last frame (lamps_key), to tell when they change, and how many more
+        # The lamps and World of the last frame, to tell when they change, and how many more
         # frames take ALPHA_COLOR_CHANGING (CHANGE_FRAMES after the last change).
-        self._lamps: bytes | None = None
+        self._lamps: tuple | None = None
         self._changing = 0
         # The film's sample whose share the last frame's estimate leads to (film_share), or None.
         self._film_next: int | None = None
@@ -148,7 +148,8 @@ class DenoisePass:
         if estimate != self._estimate:
             self.forget()
             self._estimate = estimate
-        lamps = lamps_key(frame.read("scene").lights)
+        # The lamps, and the World's light (how often the lighting recomputed it).
+        lamps = (lamps_key(frame.read("scene").lights), frame.read("lighting").sky.updates)
         lamps_changed = self._lamps is not None and lamps != self._lamps
         self._lamps = lamps
         targets = frame.read("gbuffer")
@@ -162,8 +163,8 @@ class DenoisePass:
         ``view``: a texture of this pass, valid until its next frame. ``film_sample``: the
         frame is that sample of the film's mean of a still view (module docstring); None: it
         is shown alone. ``motion``: the instances that moved since last frame, per pixel
-        (passes/surface_motion/); ``lamps_changed``: a lamp changed since last frame (both
-        take ALPHA_COLOR_CHANGING, for CHANGE_FRAMES more frames)."""
+        (passes/surface_motion/); ``lamps_changed``: a lamp or the World changed since last
+        frame (both take ALPHA_COLOR_CHANGING, for CHANGE_FRAMES more frames)."""
         history = self.history
         history.ensure((view.width, view.height))
         work, variance = history.pair("work"), history.pair("variance")

@@ -11,9 +11,10 @@ samples, filtered hard and blotchy. SVGF and EEVEE follow it by motion vectors.
 Here the host compares the instance table's matrices with the last frame's, where the
 upload found some instance changed, and lists the instances that moved with their
 world-to-world move ``previous matrix x current matrix^-1``, the transform Cycles' motion
-pass takes (passes/film/vector.py makes the Vector pass with the same). Only those instances' world rows are drawn, in one indirect multi-draw of their row
-ranges with the primary view's matrix, and a fragment that lies on the primary depth buffer's
-surface writes its instance's entry into the ``surface_motion`` image (0: no move there).
+pass takes (passes/film/vector.py makes the Vector pass with the same). Only those
+instances' world rows are drawn, in one indirect multi-draw of their row ranges with the
+primary view's matrix, and a fragment that lies on the primary depth buffer's surface
+writes its instance's entry into the ``surface_motion`` image (0: no move there).
 Where the camera's motion alone finds no history for a pixel (the object moved off that
 point), the temporal step moves the pixel's point and normal by the entry's matrix and looks
 for them again in last frame's image. A frame where nothing changed costs nothing on either

@@ -65,10 +65,10 @@ ITERATIONS = 4
 ALPHA_COLOR = 0.07
 # The floor while the scene's light changes: an instance moves (passes/surface_motion/: its
 # shadow, the light it passes on move with it), a lamp or the World changes (an artist's
-# edit, a lamp switched off). A long history lags behind such a change. A camera that moves over a
-# still scene keeps ALPHA_COLOR: its view shows the same room's light. (It once took this
-# floor too, while the surfaces entering a moving view stayed dark for frames; since a short
-# history traces more paths, the lower floor gives the cleaner moving frames, in the
+# edit, a lamp switched off). A long history lags behind such a change. A camera that moves
+# over a still scene keeps ALPHA_COLOR: its view shows the same room's light. (It once took
+# this floor too, while the surfaces entering a moving view stayed dark for frames; since a
+# short history traces more paths, the lower floor gives the cleaner moving frames, in the
 # bounce-lit room and the daylit one alike: docs/BENCHMARKS.md.)
 ALPHA_COLOR_CHANGING = 0.25
 # Frames that keep ALPHA_COLOR_CHANGING after the last change, so that the old light is gone
@@ -120,7 +120,7 @@ class DenoisePass:
         self.atrous = shader_loader.compute(ctx, "denoise/atrous.comp.glsl")
         self.share = shader_loader.compute(ctx, "denoise/film_share.comp.glsl")
         self.history = DenoiseHistory(ctx)
-        self._no_motion = ctx.buffer(reserve=64)  # MotionMatrices of a frame where nothing moved (unread)
+        self._no_motion = ctx.buffer(reserve=64)  # MotionMatrices where nothing moved (unread)
         # The wavelet filter's levels (ITERATIONS); 0 keeps the temporal step alone, whose
         # mean over a still view's samples is unbiased: what a converged reference is made of
         # (benchmarks/light_noise.py), with the fed-back light the denoiser's history carries.

@@ -96,8 +96,10 @@ def test_a_denoised_frame_filters_the_estimate_between_its_pass_and_the_shading(
     check_order(passes, settings, final_reads=READBACK_READS + ("film",))
     names = [type(p).__name__ for p in passes]
     at = names.index("DenoisePass")
-    assert names[at - 2] in ("ScreenSpaceOcclusion", "DiffuseLightPass") and names[at + 1] == "DeferredShadePass"
-    assert names[at - 1] == "SurfaceMotionPass"  # the instances' moves, which its reprojection follows
+    assert names[at - 1] in ("ScreenSpaceOcclusion", "DiffuseLightPass") and names[at + 1] == "DeferredShadePass"
+    # The instances' moves, which its reprojection and the diffuse gather follow: right after
+    # the primary G-buffer, in its step.
+    assert names[names.index("GBufferPass") + 1] == "SurfaceMotionPass"
     assert list(dict.fromkeys(p.name for p in passes)) + ["readback"] == list(
         frame_steps(settings.mode, accumulate=True, denoise=True))
     assert "DenoisePass" not in [type(p).__name__ for p in renderer.passes(settings, accumulate=True)]

@@ -738,3 +738,35 @@ def test_the_persistent_gather_kernel_traces_each_pixels_paths_as_the_per_pixel_
         assert per_pixel.counts["gather_rays_traced"] == persistent.counts["gather_rays_traced"]
         np.testing.assert_allclose(persistent.image, per_pixel.image, rtol=0, atol=1e-5)
     assert luminance(results["gpu"][-1].image).mean() > 0.01
+
+
+def test_a_moved_objects_pixels_trace_more_paths_exactly_where_the_denoiser_starts_them_over(gl, monkeypatch):
+    # A pillar in the bounce-lit room jumps past its own width under a still camera. The
+    # denoiser finds its pixels' history where the pillar stood (passes/surface_motion/), and
+    # the gather's count of paths follows the same lookup: only the pixels the denoiser
+    # starts over (what the pillar uncovered, what of it was out of view) trace more paths.
+    # Without the move followed, every pixel of the pillar starts over in both.
+    from benchmarks.light_noise import _viewport_settings, camera_at
+    from benchmarks.moving_object_noise import BOX_MATERIAL, scene_at
+    from hybrid_engine.frame.renderer import Renderer
+    from hybrid_engine.passes.diffuse_light.diffuse_light import SHORT_HISTORY_PATHS
+    from hybrid_engine.passes.surface_motion import surface_motion
+
+    camera, settings = camera_at(0.0, W, H), _viewport_settings()
+    started_over = {}
+    for follow in (True, False):
+        monkeypatch.setattr(surface_motion, "FOLLOW_MOVES", follow)
+        renderer = Renderer(gl)
+        try:
+            for i in range(SHORT_HISTORY_PATHS + 2):
+                assert first_paths(renderer, scene_at(0), camera, settings, i) == W * H or i < SHORT_HISTORY_PATHS
+            moved = first_paths(renderer, scene_at(1, slide=0.8), camera, settings, 0)
+            lengths = renderer.denoiser.history.read("length")
+        finally:
+            renderer.release()
+        pillar = int((lengths[..., 1] == BOX_MATERIAL + 1).sum())
+        denoiser_over = int((lengths[..., 0] == 1).sum())
+        started_over[follow] = (moved - W * H) / (SHORT_HISTORY_PATHS - 1)
+        assert abs(started_over[follow] - denoiser_over) <= 3, (follow, started_over[follow], denoiser_over)
+    assert pillar > 60
+    assert started_over[False] - started_over[True] > 0.4 * pillar, (started_over, pillar)

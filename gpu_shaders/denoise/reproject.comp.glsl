@@ -7,8 +7,7 @@
 // through this frame's inverse view-projection) projected by last frame's view-projection
 // gives a place between four of last frame's texels. Where none of them showed this surface
 // and the pixel's instance moved since last frame, the point and normal are taken back by
-// its move (u_motion, passes/surface_motion/: the entry of its world-to-world matrix in
-// MotionMatrices, the normal by its inverse transpose) and looked up again. The camera's
+// its move (include/surface_motion.glsl, passes/surface_motion/) and looked up again. The camera's
 // lookup goes first: a moving object's light is mostly the room's light where it now stands,
 // so a face sliding along its own plane is best served by the history of that place. Each of the four is
 // kept (with its bilinear weight) only where it showed the same surface: the same material,
@@ -33,9 +32,10 @@
 //   (RGBA32F), u_prev_color (RGBA32F), u_prev_moments (RGBA32F: guide means and means of
 //   squares), u_prev_surface (RGBA32F), u_prev_length (RG32F: history length, surface id)
 //   read; images u_integrated (RGBA32F), u_moments (RGBA32F), u_surface (RGBA32F), u_length
-//   (RG32F) written; with u_moving, u_motion (R32F) and MotionMatrices read.
+//   (RG32F) written; with u_moving, surface_motion.glsl's u_motion and u_motion_matrices read.
 // Workgroup 8x8: square tiles keep the four taps of neighbouring pixels together.
 #include "denoise.glsl"
+#include "surface_motion.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -58,9 +58,7 @@ uniform float u_plane_tolerance;
 uniform float u_normal_cos;
 uniform float u_max_length;
 uniform int u_history_filter;  // 0: bilinear fetch of the history; 1: Catmull-Rom, clamped
-uniform int u_moving;  // 0: no instance moved since last frame (u_motion is not read)
-uniform sampler2D u_motion;
-layout(std430) readonly buffer MotionMatrices { mat4 motion_matrices[]; };
+uniform int u_moving;  // 0: no instance moved since last frame (surface_motion.glsl's images are not read)
 
 // The Catmull-Rom spline's weights of the four texels around a point at fraction t between
 // the middle two: an interpolating cubic, so a history fetched at a half-pixel shift keeps
@@ -164,15 +162,10 @@ void main() {
     // object's light is mostly the room's light where it now stands, so while its surface
     // still lies there (a face sliding along its own plane) that history fits best.
     float kept = history_at(p_now, n_now, id, scale, prev_color, prev_moments, prev_length);
-    if (kept <= 1e-3 && u_moving != 0) {
+    vec3 p = p_now, n = n_now;
+    if (kept <= 1e-3 && u_moving != 0 && surface_moved_back(pixel, p, n)) {
         // Else, where this very point of a moved instance was last frame, and its normal then.
-        int entry = int(texelFetch(u_motion, pixel, 0).r + 0.5) - 1;
-        if (entry >= 0) {
-            mat4 move = motion_matrices[entry];
-            vec3 p = (move * vec4(p_now, 1.0)).xyz;
-            vec3 n = normalize(transpose(inverse(mat3(move))) * n_now);
-            kept = history_at(p, n, id, scale, prev_color, prev_moments, prev_length);
-        }
+        kept = history_at(p, n, id, scale, prev_color, prev_moments, prev_length);
     }
     vec4 integrated = current;
     float length_now = 1.0;

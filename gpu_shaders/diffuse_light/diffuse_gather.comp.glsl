@@ -30,7 +30,8 @@
 // takes times the lobe's albedo. Pixels that are background or neither: (0, 0, 0, 1).
 //
 // Host defines: those of trace/hybrid_trace.comp.glsl (tracer.HybridTracer.inputs), and
-//   EMITTER_LIGHT (the emissive triangles' table, include/emitter_light.glsl).
+//   EMITTER_LIGHT (the emissive triangles' table, include/emitter_light.glsl), SURFACE_MOTION
+//   (with DIFFUSE_FEEDBACK: the instances moved since last frame, include/surface_motion.glsl).
 // Storage blocks, uniform blocks, samplers: as trace/hybrid_trace.comp.glsl's contract lists
 //   them; CounterBuffer counts this kernel's rays per path vertex (tracer.COUNTER_KINDS).
 // Uniforms: trace_ray.glsl's, u_diffuse_bounces, u_diffuse_rays.
@@ -43,6 +44,10 @@
 // Paths a pixel without the denoiser's history traces, as a multiple of u_diffuse_rays
 // (history_paths; DIFFUSE_NO_HISTORY: a denoised frame with no history at all, every pixel).
 uniform int u_short_history_paths;
+
+#ifdef SURFACE_MOTION
+#include "surface_motion.glsl"
+#endif
 
 #ifdef DIFFUSE_FEEDBACK
 // Last frame's diffuse light where the camera saw it (DenoisePass.feedback): the temporal
@@ -73,17 +78,23 @@ bool feedback_texel(vec3 p, vec3 n, out ivec2 q) {
              || denoise_plane_offset(p, n, surface.xyz, scale) > 0.02);
 }
 
-// How many times u_diffuse_rays paths the primary point p (facing normal n) traces: more
-// where the denoiser's history holds few frames of it. What the camera just uncovered, or a
-// moving object (the history follows the camera's motion only), is otherwise shown from one
+// How many times u_diffuse_rays paths the primary point p (facing normal n) of `pixel`
+// traces: more where the denoiser's history holds few frames of it. What the camera just
+// uncovered, or what a moving object uncovers, is otherwise shown from one
 // or two samples, filtered hard and blotchy: u_short_history_paths times the paths for a
 // point last frame did not see, falling as 1 / (frames + 1) to 1 by the time the temporal
 // blend has a few frames. Only those pixels pay: a camera that moves keeps the history of
 // what it still sees.
-int history_paths(vec3 p, vec3 n) {
+int history_paths(ivec2 pixel, vec3 p, vec3 n) {
     int most = max(u_short_history_paths, 1);
     ivec2 q;
-    if (!feedback_texel(p, n, q)) return most;
+    bool seen = feedback_texel(p, n, q);
+#ifdef SURFACE_MOTION
+    // A moved instance's pixel: where its point stood last frame, as the denoiser's
+    // reprojection looks it up when the camera's motion alone finds nothing.
+    if (!seen && surface_moved_back(pixel, p, n)) seen = feedback_texel(p, n, q);
+#endif
+    if (!seen) return most;
     float frames = texelFetch(u_feedback_length, q, 0).x;
     return clamp(int(ceil(float(most) / (frames + 1.0))), 1, most);
 }
@@ -368,7 +379,7 @@ int pixel_paths(ivec2 pixel) {
     vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
     vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
     vec3 g_facing = dot(g, view_dir) < 0.0 ? g : -g;
-    paths *= history_paths(p, dot(n, g_facing) >= 0.0 ? n : -n);
+    paths *= history_paths(pixel, p, dot(n, g_facing) >= 0.0 ? n : -n);
 #elif defined(DIFFUSE_NO_HISTORY)
     paths *= max(u_short_history_paths, 1);
 #endif

@@ -225,6 +225,12 @@ class Renderer:
         ambient = self.diffuse_light if settings.traces_diffuse else self.occlusion
         plan: list[FramePass] = [self.upload, self.instance_transform, *([self.emitters] if traced else []),
                                  self.shadow_maps, self.lighting, self.gbuffer]
+        if denoise:
+            if self.denoiser is None:
+                self.denoiser = DenoisePass(self.ctx)
+                self.surface_motion = SurfaceMotionPass(self.ctx)
+            # The instances' moves, for the denoiser and the diffuse gather's history lookups.
+            plan.append(self.surface_motion)
         steps = MODE_STEPS[mode]
         if "cube_map_raster" in steps:
             plan.append(self.cube_map)
@@ -236,10 +242,7 @@ class Renderer:
             plan.append(self.lbvh)
         plan.append(ambient)
         if denoise:
-            if self.denoiser is None:
-                self.denoiser = DenoisePass(self.ctx)
-                self.surface_motion = SurfaceMotionPass(self.ctx)
-            plan += [self.surface_motion, self.denoiser]
+            plan.append(self.denoiser)
         self.deferred_shade.light_passes = light
         plan.append(self.deferred_shade)
         if traced:

@@ -38,10 +38,13 @@ class PassGraphError(RuntimeError):
 
 @dataclass(frozen=True)
 class PassIO:
-    """The named resources a pass reads and writes in one configuration."""
+    """The named resources a pass reads and writes in one configuration. ``optional``: what
+    it reads where an earlier pass wrote it and goes without otherwise (``read_optional``:
+    the denoiser's motion, which only a denoised frame makes)."""
 
     reads: tuple[str, ...] = ()
     writes: tuple[str, ...] = ()
+    optional: tuple[str, ...] = ()
 
 
 class FramePass(Protocol):
@@ -113,6 +116,14 @@ class FrameContext:
         if name not in self._resources:
             raise PassGraphError(f"{self._who()} reads {name!r} before any pass wrote it")
         return self._resources[name]
+
+    def read_optional(self, name: str):
+        """The resource ``name`` if an earlier pass wrote it, else None; the running pass must
+        declare it among its optional reads."""
+        if self._running is not None and name not in self._running[1].optional:
+            raise PassGraphError(f"{self._who()} reads {name!r} as optional, which it does not declare "
+                                 f"(optional {list(self._running[1].optional)})")
+        return self._resources.get(name)
 
     def write(self, name: str, value) -> None:
         """Set the resource ``name``, which the running pass must have declared it writes."""

@@ -120,7 +120,6 @@ class DenoisePass:
         self.atrous = shader_loader.compute(ctx, "denoise/atrous.comp.glsl")
         self.share = shader_loader.compute(ctx, "denoise/film_share.comp.glsl")
         self.history = DenoiseHistory(ctx)
-        self._no_motion = ctx.buffer(reserve=64)  # MotionMatrices where nothing moved (unread)
         # The wavelet filter's levels (ITERATIONS); 0 keeps the temporal step alone, whose
         # mean over a still view's samples is unbiased: what a converged reference is made of
         # (benchmarks/light_noise.py), with the fed-back light the denoiser's history carries.
@@ -178,10 +177,10 @@ class DenoisePass:
         alpha = ALPHA_COLOR_CHANGING if self._changing > 0 and not film_sample else ALPHA_COLOR
         self._changing = max(self._changing - 1, 0)
         bind(self.reproject,
-             storage={"MotionMatrices": motion.matrices if moving else self._no_motion},
              textures={"u_depth": depth, "u_normal_material": normal_material, "u_ambient": ambient,
                        # Unread without motion (u_moving 0): any texture will do.
                        "u_motion": motion.texture if moving else depth,
+                       "u_motion_matrices": motion.matrices if moving else depth,
                        **{f"u_prev_{name}": history.previous(name) for name in ("color", "moments", "surface", "length")}},
              images={"u_integrated": Image(history.current("color"), read=False, write=True),
                      **{f"u_{name}": Image(history.current(name), read=False, write=True)
@@ -262,4 +261,3 @@ class DenoisePass:
 
     def release(self) -> None:
         self.history.release()
-        self._no_motion.release()

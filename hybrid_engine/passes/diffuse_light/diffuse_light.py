@@ -106,7 +106,7 @@ class DiffuseLightPass:
     def io(self, settings: RenderSettings) -> PassIO:
         return PassIO(reads=("scene", "scene_buffers", "world_triangles", "gbuffer", "lighting", "emitters",
                              *traced_resources(settings)),
-                      writes=("ambient",))
+                      writes=("ambient",), optional=("surface_motion",))
 
     def run(self, frame: FrameContext) -> None:
         settings = frame.settings
@@ -141,6 +141,13 @@ class DiffuseLightPass:
         if history is not None:
             defines["DIFFUSE_FEEDBACK"] = 1
             emitter_parts = (*emitter_parts, history)
+            # A moved instance's pixels find their history where they stood last frame, as
+            # the denoiser finds it (passes/surface_motion/; a denoised frame's).
+            motion = frame.read_optional("surface_motion")
+            if motion is not None and motion.moving:
+                defines["SURFACE_MOTION"] = 1
+                emitter_parts = (*emitter_parts, Bindings(textures={"u_motion": motion.texture,
+                                                                     "u_motion_matrices": motion.matrices}))
         elif frame.denoise:
             # The denoiser's first frame: no pixel has a history (history_paths).
             defines["DIFFUSE_NO_HISTORY"] = 1

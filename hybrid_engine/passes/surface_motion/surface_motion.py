@@ -17,7 +17,8 @@ primary view's matrix, and a fragment that lies on the primary depth buffer's su
 writes its instance's entry into the ``surface_motion`` image (0: no move there).
 Where the camera's motion alone finds no history for a pixel (the object moved off that
 point), the temporal step moves the pixel's point and normal by the entry's matrix and looks
-for them again in last frame's image. A frame where nothing changed costs nothing on either
+for them again in last frame's image; so does the diffuse gather, which traces more paths
+where a pixel has no history (include/surface_motion.glsl). A frame where nothing changed costs nothing on either
 side.
 
 Left out: a deforming mesh (armature, shape keys) keeps the depth and normal tests' verdict:
@@ -52,9 +53,11 @@ FOLLOW_MOVES = True
 
 @dataclass
 class SurfaceMotion:
-    """What the pass leaves for the denoiser: ``texture`` (R32F, the primary view's size: the
-    moved instance's entry + 1 per pixel, 0 where nothing moved) and ``matrices`` (a storage
-    buffer of one world-to-world mat4 per entry), or ``moving`` False with neither valid."""
+    """What the pass leaves for the denoiser and the diffuse gather: ``texture`` (R32F, the
+    primary view's size: the moved instance's entry + 1 per pixel, 0 where nothing moved) and
+    ``matrices`` (RGBA32F, 4 x entries: row e the columns of entry e's world-to-world matrix;
+    a texture, since the gather's kernel is short of storage blocks), or ``moving`` False
+    with neither valid (include/surface_motion.glsl reads them)."""
 
     moving: bool
     texture: object = None
@@ -121,10 +124,10 @@ def draw_commands(table: np.ndarray) -> np.ndarray:
 
 
 class SurfaceMotionPass:
-    """The moved instances' entries per primary pixel (module docstring). Its rows in timing
-    reports are the denoiser's, whose history it serves."""
+    """The moved instances' entries per primary pixel (module docstring): a raster of the
+    primary view, in its step, right after the G-buffer."""
 
-    name = "denoise"
+    name = "primary_raster"
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
@@ -133,6 +136,7 @@ class SurfaceMotionPass:
         self.moves = InstanceMoves()
         self._texture = None
         self._fbo = None
+        self._matrices = None
         self._buffers: dict[str, moderngl.Buffer] = {}
 
     def io(self, settings: RenderSettings) -> PassIO:
@@ -151,7 +155,7 @@ class SurfaceMotionPass:
         table = row_ranges(scene.geometry.object_ranges, moved)
         commands = draw_commands(table)
         rows = self._buffer("rows", np.pad(table, ((0, 0), (0, 1))).astype(np.int32))  # ivec4 rows
-        motion = self._buffer("matrices", np.ascontiguousarray(np.transpose(matrices, (0, 2, 1)), np.float32))
+        motion = self._matrix_texture(matrices)
         indirect = self._buffer("commands", commands)
         ctx = self.ctx
         self._fbo.use()
@@ -190,6 +194,19 @@ class SurfaceMotionPass:
         buffer.write(raw)
         return buffer
 
+    def _matrix_texture(self, matrices: np.ndarray):
+        """``matrices`` (n, 4, 4) in the RGBA32F texture of SurfaceMotion.matrices, grown (never
+        shrunk) to n rows."""
+        columns = np.ascontiguousarray(np.transpose(matrices, (0, 2, 1)), np.float32)  # row e: 4 columns
+        texture = self._matrices
+        if texture is None or texture.size[1] < len(matrices):
+            if texture is not None:
+                texture.release()
+            texture = self._matrices = self.ctx.texture((4, max(len(matrices), 16)), 4, dtype="f4")
+            texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        texture.write(columns.tobytes(), viewport=(0, 0, 4, len(matrices)))
+        return texture
+
     def _ensure(self, size: tuple[int, int]) -> None:
         if self._texture is not None and self._texture.size == size:
             return
@@ -199,6 +216,7 @@ class SurfaceMotionPass:
         self._fbo = self.ctx.framebuffer(color_attachments=[self._texture])
 
     def release(self) -> None:
-        release_all([part for part in (self._fbo, self._texture, *self._buffers.values()) if part is not None])
-        self._fbo = self._texture = None
+        release_all([part for part in (self._fbo, self._texture, self._matrices, *self._buffers.values())
+                     if part is not None])
+        self._fbo = self._texture = self._matrices = None
         self._buffers = {}

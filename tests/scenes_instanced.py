@@ -25,6 +25,16 @@ def indexed(triangles: np.ndarray, normals: np.ndarray, uvs: np.ndarray, slots: 
                       slots=slots, uvs=uvs.reshape(-1, 2), closed=closed)
 
 
+def flat_mesh(triangles) -> ObjectMesh:
+    """A triangle list as a mesh with flat normals by its winding, UVs its x and y, one slot
+    (the moving-object tests' floors and boxes)."""
+    triangles = np.asarray(triangles, np.float32)
+    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    normals = np.repeat((normals / np.linalg.norm(normals, axis=1, keepdims=True))[:, None], 3, axis=1)
+    return indexed(triangles, normals.astype(np.float32), triangles[..., :2], np.zeros(len(triangles), np.int32),
+                   closed=False)
+
+
 def sphere_mesh() -> ObjectMesh:
     """A smooth closed sphere with UVs from its positions and two material slots in bands."""
     tris, normals = uv_sphere((0, 0, 0), 1.0, segments=20, rings=10)

@@ -238,16 +238,10 @@ def moving_box_scene(offset, degrees: float) -> SceneData:
     the box placed at ``offset`` turned by ``degrees`` about the vertical."""
     from hybrid_engine.scene.geometry import InstancedGeometry
     from hybrid_engine.scene.meshes import Instances
-    from scenes_instanced import indexed, placed, rotation_z
+    from scenes_instanced import flat_mesh, placed, rotation_z
 
-    def mesh(triangles):
-        triangles = np.asarray(triangles, np.float32)
-        normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-        normals = np.repeat((normals / np.linalg.norm(normals, axis=1, keepdims=True))[:, None], 3, axis=1)
-        return indexed(triangles, normals.astype(np.float32), triangles[..., :2], np.zeros(len(triangles), np.int32),
-                       closed=False)
-
-    floor, block = mesh(quad((0, 0, 0), (20, 0, 0), (0, 20, 0))), mesh(box((-0.6, -0.6, 0), (0.6, 0.6, 0.8)))
+    floor = flat_mesh(quad((0, 0, 0), (20, 0, 0), (0, 20, 0)))
+    block = flat_mesh(box((-0.6, -0.6, 0), (0.6, 0.6, 0.8)))
     instances = Instances(meshes=[floor, block], mesh=np.array([0, 1]),
                           matrices=np.array([np.eye(4), placed(rotation_z(degrees), offset)], np.float32),
                           slot_materials=[np.int32([0]), np.int32([1])])

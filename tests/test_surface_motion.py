@@ -13,15 +13,7 @@ from hybrid_engine.scene.camera import look_at
 from hybrid_engine.scene.geometry import InstancedGeometry
 from hybrid_engine.scene.meshes import Instances
 from scenes_analytic import box, quad
-from scenes_instanced import indexed, placed, rotation_z
-
-
-def flat_mesh(triangles):
-    triangles = np.asarray(triangles, np.float32)
-    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    normals = np.repeat((normals / np.linalg.norm(normals, axis=1, keepdims=True))[:, None], 3, axis=1)
-    return indexed(triangles, normals.astype(np.float32), triangles[..., :2], np.zeros(len(triangles), np.int32),
-                   closed=False)
+from scenes_instanced import flat_mesh, placed, rotation_z
 
 
 def geometry(matrices, meshes=(0, 1, 1, 1)) -> InstancedGeometry:

@@ -26,26 +26,14 @@ flat out int v_row;
 uniform mat4 u_view_proj;           // this sample's, as drawn
 uniform mat4 u_previous_view_proj;  // the sample's camera moved to the frame before
 uniform mat4 u_next_view_proj;      // ... and to the frame after
-uniform int u_entries;              // MotionRows' length
 
-layout(std430) readonly buffer MotionRows { ivec4 motion_rows[]; };
+#include "motion_rows.glsl"
 layout(std430) readonly buffer MotionMatrices { mat4 motion_matrices[]; };  // previous, next
 layout(std430) readonly buffer MotionCorners { vec4 motion_corners[]; };    // previous, next
 
 out vec4 v_center;
 out vec4 v_previous;
 out vec4 v_next;
-
-// The MotionRows entry whose rows hold `row`, or -1.
-int motion_entry(int row) {
-    int lo = 0, hi = u_entries - 1;
-    while (lo < hi) {
-        int mid = (lo + hi + 1) >> 1;
-        if (motion_rows[mid].x <= row) lo = mid; else hi = mid - 1;
-    }
-    ivec4 entry = motion_rows[max(lo, 0)];
-    return u_entries > 0 && row >= entry.x && row < entry.y ? lo : -1;
-}
 
 void main() {
     int row = gl_VertexID / 3;

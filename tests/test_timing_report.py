@@ -33,6 +33,9 @@ from hybrid_engine.reports.timing_report import (
 # Pass times are wall-clock intervals bracketed by ctx.finish(); the frame total also covers
 # the small host work between passes (callbacks, view set-up, GL error checks in tests).
 PASS_SUM_RTOL = 0.10
+# ... and, for frames of a few milliseconds, a scheduler's pause between two passes on a loaded
+# machine (the gap is real host time, but not the passes').
+PASS_SUM_ATOL_MS = 2.0
 # Keyframed x-location per frame of the animated scene (each frame keyed: exact at every frame).
 CUBE_X_PER_FRAME = 2.0
 # Float32 vertex positions of a unit cube moved by a few units.
@@ -356,7 +359,7 @@ def test_operator_writes_a_row_per_frame_whose_passes_sum_to_the_total(addon, ex
     assert [f["frame"] for f in frames] == [1, 2, 3, 4, 5]
     for frame in frames:
         assert {"extract", "shade"} <= set(frame["passes"])
-        assert sum(frame["passes"].values()) == pytest.approx(frame["total_ms"], rel=PASS_SUM_RTOL)
+        assert sum(frame["passes"].values()) == pytest.approx(frame["total_ms"], rel=PASS_SUM_RTOL, abs=PASS_SUM_ATOL_MS)
         assert frame["triangles_total"] == 12 and frame["triangles_bvh"] == 0
     assert data["timing_source"] == TIMING_SOURCE_WALL
     assert data["requested_mode"] == "RASTER" and data["rendered_modes"] == ["RASTER"]

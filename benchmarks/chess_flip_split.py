@@ -31,8 +31,10 @@ measures both, per variant of the settings (``VARIANTS``), in one process:
 
 The scene is the bench's (benchmarks/scenes/chess.py) at frame 2 with the bench's settings
 (near size 3.5, four bounces, the back layer, the hierarchical march). The variant
-``no_footprints`` marches HYBRID's diffuse paths as the tracer's rays, by one depth per
-cube-map texel (passes/cube_map/cube_map.py ``CubeMapPass.footprints``).
+``no_footprints`` marches the cube map by one depth per texel, the paper's rule, for every
+ray (passes/cube_map/cube_map.py ``CubeMapPass.footprints``); ``paper_mirrors`` for the
+mirror and glass rays alone (passes/trace/tracer.py ``MIRROR_FOOTPRINTS``), the diffuse
+paths following the surface footprints.
 
 ``--escapes SAMPLES`` counts instead, ray by ray, where the first gather rays of the two
 modes disagree (``gather_escapes``): without bounces and reflections, both modes drawing the
@@ -52,9 +54,11 @@ import numpy as np
 from benchmarks.bench import flip_mean, parse_resolution, to_srgb_ldr
 from benchmarks.scenes.chess import CHESS_CUBE_FAR, build_chess
 from hybrid_engine.passes.cube_map.cube_map import CubeMapPass
+from hybrid_engine.passes.trace import tracer
 
 FRAME = 2
 FOOTPRINTS = "footprints"  # a variant's key for CubeMapPass.footprints, not a setting
+MIRROR_FOOTPRINTS = "mirror_footprints"  # a variant's key for tracer.MIRROR_FOOTPRINTS, not a setting
 VARIANTS = {
     "default": {},
     "screen": {"world_light": "SCREEN"},  # the screen-space light of before the traced light
@@ -65,6 +69,7 @@ VARIANTS = {
     "no_hidden_exit": {"cube_hidden_exit": False},
     "no_back_layer": {"cube_back_layer": False},
     "no_footprints": {FOOTPRINTS: False},
+    "paper_mirrors": {MIRROR_FOOTPRINTS: False},  # the mirror and glass rays by the paper's rule
 }
 # Chess's diffuse colours as the light passes give them (the albedo less the reflected share).
 SURFACES = {"floor": (0.45, 0.45, 0.45), "board frames": (0.35, 0.18, 0.08), "light squares": (0.68, 0.64, 0.56),
@@ -167,6 +172,7 @@ def run(detail: float, size: tuple[int, int], cube: int, half: int, variants: li
         for name in variants:
             changes = {k: (2 * cube if v == "x2" else v) for k, v in VARIANTS[name].items()}
             CubeMapPass.footprints = changes.pop(FOOTPRINTS, True)
+            tracer.MIRROR_FOOTPRINTS = changes.pop(MIRROR_FOOTPRINTS, True)
             start = time.perf_counter()
             modes = {mode: render_samples(r, scene, camera,
                                           RenderSettings(**{**base_settings(cube), **changes, "mode": mode}), 2 * half)
@@ -182,6 +188,7 @@ def run(detail: float, size: tuple[int, int], cube: int, half: int, variants: li
             print(name, json.dumps(report["variants"][name]), file=sys.stderr, flush=True)
     finally:
         CubeMapPass.footprints = True
+        tracer.MIRROR_FOOTPRINTS = True
         for r in renderers.values():
             r.release()
     return report

@@ -17,6 +17,7 @@ import pytest
 
 from hybrid_engine import RenderSettings
 from hybrid_engine.frame.renderer import Renderer
+from hybrid_engine.passes.cube_map.cube_map import CubeMapPass
 from hybrid_engine.scene.geometry import finite_bounds, flat_normals
 from benchmarks.scenes import CHESS_CUBE_FAR, CHESS_FRAMES, build_chess, chess_triangle_count
 from benchmarks.scenes import chess
@@ -259,19 +260,26 @@ def test_hybrid_stays_close_to_full_bvh_on_a_reduced_chess_scene(renderer, near_
     assert error <= bound, f"near size {near_size}: FLIP {error:.4f}"
 
 
-def test_the_hidden_exit_rule_brings_hybrid_closer_to_full_bvh_on_chess(renderer):
+def test_the_hidden_exit_rule_brings_hybrid_closer_to_full_bvh_on_chess(renderer, monkeypatch):
     """Distant mirror spheres and pieces reflect the board beneath and behind them, which
     they hide from the camera: those rays pass under the board and leave the scene hidden.
     The paper's rule gives them the sky; the hidden-exit rule (cube_march.glsl) the board
-    that hides them. Reduced chess, frame 3, near size 3.5, FLIP against FULL_BVH (measured:
-    one layer 0.061 -> 0.058, back layer 0.061 -> 0.051)."""
+    that hides them. Reduced chess, frame 3, near size 3.5, FLIP against FULL_BVH, with the
+    paper's march (measured: one layer 0.0640 -> 0.0591, back layer 0.0638 -> 0.0529). The
+    surface footprints (on by default) stop some of those rays at the board's frames before
+    they leave: there the rule gains less with one layer (0.0536 -> 0.0519) and as much
+    with the back layer (0.0504 -> 0.0455)."""
     scene, camera = build_chess(0.05, 3, 160, 90)
     full = renderer.render(scene, camera, settings("FULL_BVH", 3.5, 256)).image
     flip = {}
-    for back in (False, True):
-        for hidden_exit in (False, True):
-            s = dataclasses.replace(settings("HYBRID", 3.5, 256), cube_back_layer=back,
-                                    cube_hidden_exit=hidden_exit)
-            flip[back, hidden_exit] = flip_mean(full, renderer.render(scene, camera, s).image)
-    assert flip[False, True] < 0.95 * flip[False, False], flip
-    assert flip[True, True] < 0.9 * flip[True, False], flip
+    for footprints in (False, True):
+        monkeypatch.setattr(CubeMapPass, "footprints", footprints)
+        for back in (False, True):
+            for hidden_exit in (False, True):
+                s = dataclasses.replace(settings("HYBRID", 3.5, 256), cube_back_layer=back,
+                                        cube_hidden_exit=hidden_exit)
+                flip[footprints, back, hidden_exit] = flip_mean(full, renderer.render(scene, camera, s).image)
+    assert flip[False, False, True] < 0.95 * flip[False, False, False], flip
+    assert flip[False, True, True] < 0.9 * flip[False, True, False], flip
+    assert flip[True, False, True] < flip[True, False, False], flip
+    assert flip[True, True, True] < 0.95 * flip[True, True, False], flip

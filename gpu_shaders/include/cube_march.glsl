@@ -122,11 +122,16 @@
 // past A: the plane only brings the surface nearer where it comes towards the ray (extended
 // behind A, the tangent plane at a piece's outline would be a sheet stopping the rays that
 // pass behind the piece). A ray that enters T already behind P but in front of A hits only
-// if it was in front of P where it entered the face (its origin, in the first face) or
-// leaves a surface of another material (cube_origin_material, which the caller sets): a ray
-// leaving a curved surface starts behind its neighbours' tangent planes and would stop on
-// its own surface, whereas one from the floor beside a frame passes under the frame's top,
-// which the centre sees from above, without crossing its plane in sight. The march walks a
+// if it was in front of P where it entered the face (its origin, in the first face) or, for
+// the diffuse paths (CUBE_FOOTPRINT_OTHER_MATERIAL), leaves a surface of another material
+// (cube_origin_material, which the caller sets): a ray leaving a curved surface starts
+// behind its neighbours' tangent planes and would stop on its own surface, whereas one from
+// the floor beside a frame passes under the frame's top, which the centre sees from above,
+// without crossing its plane in sight. The mirror and glass rays keep the first condition
+// alone: a reflection that leaves a piece beside another of its material passes behind the
+// other's outline, where the tangent plane seen nearly edge-on would stop it short, and in
+// Chess they part from FULL_BVH's least so (docs/BENCHMARKS.md, "Surface footprints for the
+// mirror and glass rays"). The march walks a
 // second pyramid (u_cube_footprint, built with the first: the least A(x, y) over each
 // texel's square, and B), so that no cell whose plane comes nearer than A is skipped;
 // u_cube_planes (float16) holds each texel's NDC slopes of P and A less the least A(x, y)
@@ -134,9 +139,9 @@
 // The slope of P is capped at CUBE_FOOTPRINT_MAX_SLOPE (the depth change
 // across a texel, in texel angles at its depth): a surface exactly edge-on has no finite
 // plane in the map. Only the hierarchical march follows the planes. The diffuse light's
-// kernel alone is compiled with it (diffuse_light.py, HYBRID): a false stop on a nearby
-// surface costs a diffuse path little (it takes that surface's light) where an escape
-// through a wall takes the sky; the mirror and glass rays keep the paper's rule.
+// kernel (diffuse_light.py) and the tracer's (trace/tracer.py) are compiled with it in
+// HYBRID: a diffuse path that escapes through a wall takes the sky, and a mirror shows the
+// sky through the walls of a board frame it reflects.
 //
 // Face switching (paper Figure 3). A ray starts in the FIRST face (order +X, -X, +Y, -Y, +Z,
 // -Z) whose frustum contains its start point, and keeps that face for as long as it stays in
@@ -157,7 +162,10 @@
 // default 0). The march is a define, like the layer, for the same reason: the other march's
 // code, even never run, slows the loops on llvmpipe. The including shader's define:
 // CUBE_HIDDEN_SIDE (1: flag hidden sides, above; default 0); CUBE_FOOTPRINT (1: the surface
-// footprints, above, with the samplers u_cube_footprint and u_cube_planes; default 0).
+// footprints, above, with the samplers u_cube_footprint and u_cube_planes; default 0);
+// CUBE_FOOTPRINT_OTHER_MATERIAL (with CUBE_FOOTPRINT; 1, the default: a ray entering behind a
+// plane also hits where it leaves another material, cube_origin_material; 0: the tracer's
+// rays, which do not carry the surface they leave).
 #ifndef HYBRID_CUBE_MARCH_GLSL
 #define HYBRID_CUBE_MARCH_GLSL
 
@@ -190,11 +198,16 @@ uniform int u_cube_hiz_levels;
 #ifndef CUBE_FOOTPRINT
 #define CUBE_FOOTPRINT 0
 #endif
+#ifndef CUBE_FOOTPRINT_OTHER_MATERIAL
+#define CUBE_FOOTPRINT_OTHER_MATERIAL 1
+#endif
 #if CUBE_FOOTPRINT
 uniform sampler2D u_cube_footprint;
 uniform sampler2D u_cube_planes;
+#if CUBE_FOOTPRINT_OTHER_MATERIAL
 // The material of the surface the ray being traced leaves (-1: none), which its caller sets.
 int cube_origin_material = -1;
+#endif
 #endif
 #if CUBE_FOOTPRINT || defined(CUBE_FOOTPRINT_BUILD)
 // The share of the depth bias that the footprints keep in front of the plane, and the
@@ -424,15 +437,18 @@ bool cube_footprint_hit(int face, ivec2 cell, vec3 a, vec3 dm, float t0, float t
     float h0 = p0.z - a_const;
     float h1 = p1.z - a_const;
     // Behind the plane at entry counts only for a ray that was in front of it where it
-    // entered this face (its origin, in the first face), or that leaves another material:
-    // a ray leaving a curved surface starts behind its neighbours' tangent planes, whereas
-    // one from the floor beside a board's frame passes under the frame's top, seen from
-    // above, without crossing the plane in sight.
+    // entered this face (its origin, in the first face), or (the diffuse paths) that leaves
+    // another material: a ray leaving a curved surface starts behind its neighbours' tangent
+    // planes, whereas one from the floor beside a board's frame passes under the frame's
+    // top, seen from above, without crossing the plane in sight.
     bool behind = h0 > 0.0;
     if (!behind && g0 > 0.0) {
         float ga = a.z - (plane.x + dot(plane.yz, a.xy - centre));
+        behind = ga <= 0.0;
+#if CUBE_FOOTPRINT_OTHER_MATERIAL
         float material = texelFetch(u_cube_normal_material, ivec2(face * u_cube_res, 0) + cell, 0).w;
-        behind = ga <= 0.0 || int(abs(material) + 0.5) - 1 != cube_origin_material;
+        behind = behind || int(abs(material) + 0.5) - 1 != cube_origin_material;
+#endif
     }
     t_hit = t0;
     // Entering nearer B than A(x, y): the ray meets the far side (the back layer) first.

@@ -127,8 +127,8 @@ class CubeMapPass:
     """
 
     name = "cube_map_raster"
-    # Whether the pyramid pass builds the surface footprints where the diffuse paths march
-    # the map (``marches_footprints``); off only to measure the march without them.
+    # Whether the pyramid pass builds the surface footprints where the rays march the map
+    # (``marches_footprints``); off only to measure the march without them.
     footprints = True
 
     def __init__(self, ctx, gbuffer: GBufferPass) -> None:
@@ -224,11 +224,10 @@ class CubeMapPass:
         return submitted
 
     def marches_footprints(self, settings: RenderSettings) -> bool:
-        """Whether the diffuse paths march this map by its surface footprints
-        (cube_march.glsl "Surface footprints", passes/diffuse_light/): HYBRID's traced
-        diffuse light, with the hierarchical march, which alone follows them."""
-        return (self.footprints and settings.trace_mode == "HYBRID" and settings.traces_diffuse
-                and settings.cube_march == "HIERARCHICAL")
+        """Whether the rays march this map by its surface footprints (cube_march.glsl
+        "Surface footprints"): the tracer's and the diffuse paths' in HYBRID, with the
+        hierarchical march, which alone follows them."""
+        return self.footprints and settings.trace_mode == "HYBRID" and settings.cube_march == "HIERARCHICAL"
 
     def march_uniforms(self, settings: RenderSettings) -> dict:
         """Values of cube_march.glsl's uniforms (samplers excluded) for the last render."""

@@ -124,12 +124,6 @@ class DiffuseLightPass:
             # camera-facing side (cube_march.glsl "Hidden sides"). The diffuse paths only:
             # the tracer's mirror and glass rays stay the paper's.
             defines["CUBE_HIDDEN_SIDE"] = 1
-            # Its march follows the stored surfaces' planes across their texels, so that a
-            # thin wall seen edge-on, a texel or two wide in the map, stops the paths that
-            # cross it (cube_march.glsl "Surface footprints"), where the paper's constant
-            # depth per texel lets them through to the sky.
-            if "u_cube_footprint" in frame.read("cube_map").textures:
-                defines["CUBE_FOOTPRINT"] = 1
             # The near cube's triangles reach beyond it: a path that leaves from outside
             # the near cube meets those the cube map sees edge-on (grazing.py), wherever it
             # crosses them (trace_ray.glsl).

@@ -69,6 +69,11 @@ WORKGROUP = 8  # the kernel's local size in x and y
 NORMAL_BYTES = 36  # three float32 vec3 per triangle: Geometry.normals as uploaded
 
 
+# Whether the tracer's mirror and glass rays march the cube map by its surface footprints
+# where it has them (cube_march.glsl "Surface footprints"); False keeps the paper's rule for
+# them (a switch for benchmarks/chess_flip_split.py and the cost measurements).
+MIRROR_FOOTPRINTS = True
+
 # Padding of the scene bounds the tracer clips rays to (relative to their extent, so at any
 # scale): float rounding of the box slabs must not cut a surface on the boundary.
 SCENE_BOUNDS_PADDING = 1e-3
@@ -238,6 +243,15 @@ class HybridTracer:
                    # The traversal's any-hit alpha test (trace_ray.glsl), only where some
                    # surface is not wholly there: opaque scenes trace as without it.
                    **({"ALPHA_TEST": 1} if scene.materials.has_alpha else {})}
+        if cube is not None and "u_cube_footprint" in cube.textures and (gather or MIRROR_FOOTPRINTS):
+            # The march follows the stored surfaces' planes across their texels, so that a
+            # thin wall seen edge-on, a texel or two wide in the map, stops the rays that
+            # cross it (cube_march.glsl "Surface footprints"), where the paper's constant
+            # depth per texel lets them through to the sky. The tracer's rays do not carry
+            # the surface they leave, which only the diffuse paths' rule asks for.
+            defines["CUBE_FOOTPRINT"] = 1
+            if not gather:
+                defines["CUBE_FOOTPRINT_OTHER_MATERIAL"] = 0
         self._counters.write(self._zero_counters)
 
         bvh = built.storage() if built is not None else dict.fromkeys(BVH_BLOCKS, self._dummy_ssbo)

@@ -2,7 +2,7 @@
 """How clean a moving object stays in the viewport: an object slides across a still view.
 
 ``python -m benchmarks.moving_object_noise [--size 96x72] [--reference 128] [--frames 10]
-[--settle 48] [--slide 0.04] [--json PATH]``
+[--settle 48] [--slide 0.04] [--deform] [--json PATH]``
 
 The room of benchmarks/light_noise.py (a closed grey room, its lamp behind a partition) with
 a grey pillar, an instance of its own mesh, sliding across the floor in front of the camera by
@@ -13,7 +13,9 @@ frame is compared (LDR FLIP) with the converged image of its own scene (light_no
 frames after the history settled), over the whole image and over the box's pixels, for the
 frames after the first five. Twice in one process: the denoiser following the box's move
 (passes/surface_motion/), and not (``FOLLOW_MOVES`` off: the reprojection by the camera
-alone, where every pixel of the box starts over each frame).
+alone, where every pixel of the box starts over each frame). ``--deform`` slides the pillar
+by deforming its mesh instead (its vertices moved, its matrix kept, as an armature or shape
+keys move a mesh; scene_upload/previous_rows.py).
 """
 from __future__ import annotations
 
@@ -48,42 +50,58 @@ def soup_mesh(triangles: np.ndarray) -> ObjectMesh:
                       slots=np.zeros(len(triangles), np.int32), uvs=np.zeros((3 * len(triangles), 2), np.float32))
 
 
-def scene_at(frame: int, slide: float = SLIDE_PER_FRAME) -> SceneData:
-    """The room, its walls and partition one instance, the box another at ``frame``'s place."""
-    base = room()
-    walls = soup_mesh(base.geometry.triangles)
-    block = soup_mesh(_box((-BOX_HALF, -BOX_HALF, 0.0), (BOX_HALF, BOX_HALF, BOX_HEIGHT))[:, ::-1])  # facing out
-    place = np.eye(4)
-    place[:3, 3] = (BOX_START[0] + frame * slide, BOX_START[1], -ROOM_HALF)
-    instances = Instances(meshes=[walls, block], mesh=np.array([0, 1]), matrices=np.array([np.eye(4), place]),
-                          slot_materials=[np.int32([0]), np.int32([BOX_MATERIAL])])
-    materials = MaterialTable.from_rows([dict(base_color=(0.8, 0.8, 0.8), specular=0.0, roughness=1.0)] * 2)
-    return SceneData(InstancedGeometry(instances), materials, base.lights, base.sky)
+class SlidingPillar:
+    """The room, its walls and partition one instance, the box another, frame by frame: the
+    same meshes throughout (as a scene sync keeps them), the box placed by its matrix, or
+    with ``deform`` by its vertices (each frame a new version of its mesh, the matrix the
+    identity)."""
+
+    def __init__(self, slide: float = SLIDE_PER_FRAME, deform: bool = False) -> None:
+        self.base = room()
+        self.walls = soup_mesh(self.base.geometry.triangles)
+        self.block = soup_mesh(_box((-BOX_HALF, -BOX_HALF, 0.0), (BOX_HALF, BOX_HALF, BOX_HEIGHT))[:, ::-1])  # facing out
+        self.slide, self.deform = slide, deform
+        self._deformed = self.block
+
+    def scene(self, frame: int) -> SceneData:
+        offset = np.array([BOX_START[0] + frame * self.slide, BOX_START[1], -ROOM_HALF])
+        place = np.eye(4)
+        if self.deform:
+            self._deformed = block = self._deformed.deformed(self.block.positions + offset, self.block.normals)
+        else:
+            place[:3, 3] = offset
+            block = self.block
+        instances = Instances(meshes=[self.walls, block], mesh=np.array([0, 1]), matrices=np.array([np.eye(4), place]),
+                              slot_materials=[np.int32([0]), np.int32([BOX_MATERIAL])])
+        materials = MaterialTable.from_rows([dict(base_color=(0.8, 0.8, 0.8), specular=0.0, roughness=1.0)] * 2)
+        return SceneData(InstancedGeometry(instances), materials, self.base.lights, self.base.sky)
 
 
 def measure(width: int, height: int, reference: int, frames: int, settle: int,
-            slide: float = SLIDE_PER_FRAME) -> dict:
+            slide: float = SLIDE_PER_FRAME, deform: bool = False) -> dict:
     from hybrid_engine.frame.renderer import Renderer
 
     settings = _viewport_settings()
     camera = camera_at(0.0, width, height)
-    maker = Reference(scene_at(0, slide), settings, settle)
+    pillar = SlidingPillar(slide, deform)
+    maker = Reference(pillar.scene(0), settings, settle)
     try:
         truths = []
         for f in range(frames):
-            maker.scene = scene_at(f, slide)
+            maker.scene = pillar.scene(f)
             truths.append(maker.image(camera, reference) if f >= 5 else None)
     finally:
         maker.release()
     report: dict = {"size": f"{width}x{height}", "reference_samples": reference, "settle_frames": settle,
-                    "slide_per_frame": slide}
+                    "slide_per_frame": slide, "deform": deform}
     for follow in (True, False):
         surface_motion.FOLLOW_MOVES = follow
         viewport = Renderer()
+        pillar = SlidingPillar(slide, deform)
         whole, on_box = [], []
         try:
             for f in range(frames):
-                image = viewport.render(scene_at(f, slide), camera, settings, sample=0, accumulate=True,
+                image = viewport.render(pillar.scene(f), camera, settings, sample=0, accumulate=True,
                                         denoise=True).image
                 if f < 5:
                     continue
@@ -113,10 +131,11 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--frames", type=int, default=10)
     parser.add_argument("--settle", type=int, default=48)
     parser.add_argument("--slide", type=float, default=SLIDE_PER_FRAME, help="scene units per redraw")
+    parser.add_argument("--deform", action="store_true", help="move the pillar by deforming its mesh")
     parser.add_argument("--json")
     args = parser.parse_args(argv)
     width, height = bench.parse_resolution(args.size)
-    report = measure(width, height, args.reference, args.frames, args.settle, args.slide)
+    report = measure(width, height, args.reference, args.frames, args.settle, args.slide, args.deform)
     for key in ("following", "camera_only"):
         figures = report[key]
         print(f"{key:12s} whole image {figures['whole']} (max {figures['whole_max']}); "

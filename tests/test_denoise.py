@@ -281,6 +281,60 @@ def test_a_moving_object_keeps_its_history_and_what_it_uncovers_starts_over(rend
     assert uncovered.sum() > 100 and (lengths[uncovered] == 1).all(), np.unique(lengths[uncovered])
 
 
+def deforming_box_scene(floor, block, offset, degrees: float, version: int) -> SceneData:
+    """moving_box_scene's box moved by deforming its mesh ``block`` (its vertices placed at
+    ``offset`` turned by ``degrees``, version ``version``) under the identity matrix, as an
+    armature or shape keys move a mesh; the meshes are the same from frame to frame."""
+    from hybrid_engine.scene.geometry import InstancedGeometry
+    from hybrid_engine.scene.meshes import Instances
+    from scenes_instanced import placed, rotation_z
+    from test_surface_motion import deformed
+
+    instances = Instances(meshes=[floor, deformed(block, placed(rotation_z(degrees), offset), version)],
+                          mesh=np.array([0, 1]), matrices=np.array([np.eye(4)] * 2, np.float32),
+                          slot_materials=[np.int32([0]), np.int32([1])])
+    return SceneData(InstancedGeometry(instances), grey([dict(base_color=(0.8, 0.8, 0.8))] * 2), Lights.empty(),
+                     Sky(color=(1.0, 1.0, 1.0)))
+
+
+@pytest.mark.parametrize("follow", [True, False])
+def test_a_deforming_object_keeps_its_history_where_its_surface_moved(renderer, probe, monkeypatch, follow):
+    """The moving box of the test above, moved by deforming its mesh under a still matrix (an
+    armature, shape keys): the instance transform keeps last frame's rows of the deformed
+    mesh, so its top and the side that turned keep their frames as a rigid move's do, and
+    what turned into view or was uncovered starts over. Without those rows (``follow``
+    False) every pixel of the box starts over."""
+    from hybrid_engine.passes.scene_upload.previous_rows import PreviousRows
+    from scenes_analytic import box as box_triangles
+    from scenes_instanced import flat_mesh
+
+    if not follow:
+        monkeypatch.setattr(PreviousRows, "capture", lambda self, *args: self.clear())
+    floor, block = flat_mesh(quad((0, 0, 0), (20, 0, 0), (0, 20, 0))), flat_mesh(box_triangles((-0.6, -0.6, 0), (0.6, 0.6, 0.8)))
+    camera = Camera(matrix_world=look_at((3.0, -6.0, 5.0), (0, 0, 0)), width=64, height=64)
+    probe(pattern=1, noise=0.3)
+    for k in range(4):
+        renderer.render(deforming_box_scene(floor, block, (-0.9, 0, 0), 0.0, 1), camera, RASTER, sample=k, denoise=True)
+    ids_before = renderer.denoiser.history.read("length")[..., 1]
+    after = renderer.render(deforming_box_scene(floor, block, (0.9, 0.3, 0), 40.0, 2), camera, RASTER, sample=4,
+                            denoise=True, outputs=FrameOutputs(normal=True))
+    lengths, ids = renderer.denoiser.history.read("length")[..., 0], renderer.denoiser.history.read("length")[..., 1]
+    normal = after.data_passes["normal"]
+    on_box, was_box = ids == 2, ids_before == 2
+    assert not (on_box & was_box).any()
+    turn = np.radians(40.0)
+    faces = {"top": (0.0, 0.0, 1.0), "front": (np.sin(turn), -np.cos(turn), 0.0),
+             "into view": (-np.cos(turn), -np.sin(turn), 0.0)}
+    seen = {name: on_box & (normal @ np.array(n) > 0.99) for name, n in faces.items()}
+    assert all(mask.sum() > 20 for mask in seen.values()), {k: int(v.sum()) for k, v in seen.items()}
+    for name in ("top", "front"):
+        kept = (lengths[seen[name]] == 5).mean()
+        assert kept > 0.95 if follow else kept == 0.0, (name, np.unique(lengths[seen[name]], return_counts=True))
+    assert (lengths[seen["into view"]] == 1).all()
+    uncovered = was_box & (ids == 1)
+    assert uncovered.sum() > 100 and (lengths[uncovered] == 1).all(), np.unique(lengths[uncovered])
+
+
 # -- spatial: the filter ---------------------------------------------------------------------
 def checker(cells: int, texels: int) -> np.ndarray:
     """``cells`` x ``cells`` squares of ``texels`` texels each, albedo 0.9 and 0.2."""

@@ -740,14 +740,16 @@ def test_the_persistent_gather_kernel_traces_each_pixels_paths_as_the_per_pixel_
     assert luminance(results["gpu"][-1].image).mean() > 0.01
 
 
-def test_a_moved_objects_pixels_trace_more_paths_exactly_where_the_denoiser_starts_them_over(gl, monkeypatch):
-    # A pillar in the bounce-lit room jumps past its own width under a still camera. The
+@pytest.mark.parametrize("deform", [False, True])
+def test_a_moved_objects_pixels_trace_more_paths_exactly_where_the_denoiser_starts_them_over(gl, monkeypatch, deform):
+    # A pillar in the bounce-lit room jumps past its own width under a still camera, moved by
+    # its matrix or by deforming its mesh (its rows of last frame kept). The
     # denoiser finds its pixels' history where the pillar stood (passes/surface_motion/), and
     # the gather's count of paths follows the same lookup: only the pixels the denoiser
     # starts over (what the pillar uncovered, what of it was out of view) trace more paths.
     # Without the move followed, every pixel of the pillar starts over in both.
     from benchmarks.light_noise import _viewport_settings, camera_at
-    from benchmarks.moving_object_noise import BOX_MATERIAL, scene_at
+    from benchmarks.moving_object_noise import BOX_MATERIAL, SlidingPillar
     from hybrid_engine.frame.renderer import Renderer
     from hybrid_engine.passes.diffuse_light.diffuse_light import SHORT_HISTORY_PATHS
     from hybrid_engine.passes.surface_motion import surface_motion
@@ -757,10 +759,11 @@ def test_a_moved_objects_pixels_trace_more_paths_exactly_where_the_denoiser_star
     for follow in (True, False):
         monkeypatch.setattr(surface_motion, "FOLLOW_MOVES", follow)
         renderer = Renderer(gl)
+        sliding = SlidingPillar(slide=0.8, deform=deform)
         try:
             for i in range(SHORT_HISTORY_PATHS + 2):
-                assert first_paths(renderer, scene_at(0), camera, settings, i) == W * H or i < SHORT_HISTORY_PATHS
-            moved = first_paths(renderer, scene_at(1, slide=0.8), camera, settings, 0)
+                assert first_paths(renderer, sliding.scene(0), camera, settings, i) == W * H or i < SHORT_HISTORY_PATHS
+            moved = first_paths(renderer, sliding.scene(1), camera, settings, 0)
             lengths = renderer.denoiser.history.read("length")
         finally:
             renderer.release()

@@ -147,24 +147,63 @@ def test_instances_of_one_mesh_share_its_upload_and_moving_one_writes_one_row(ct
         gpu.release()
 
 
-def test_a_deformed_mesh_re_sends_its_vertices_into_place_and_transforms_its_instances(ctx):
-    still, wobbly = _box_mesh(), _box_mesh()
-    instances = Instances([still, wobbly], np.array([0, 1, 1]),
+def _still_and_wobbly() -> tuple[InstancedGeometry, SceneData]:
+    """A box mesh under instance 0 and another under instances 1 and 2."""
+    instances = Instances([_box_mesh(), _box_mesh()], np.array([0, 1, 1]),
                           np.array([_matrix((k * 3, 0, 0)) for k in range(3)]), [np.array([1])] * 3)
     geometry = InstancedGeometry(instances)
-    scene = SceneData(geometry=geometry, materials=_materials())
+    return geometry, SceneData(geometry=geometry, materials=_materials())
+
+
+def _deform_wobbly(geometry: InstancedGeometry) -> None:
+    """Deform the second mesh (its vertices scaled by 1.5) and tell its instances."""
+    meshes = geometry.instances.meshes
+    meshes[1] = meshes[1].deformed(meshes[1].positions * 1.5, meshes[1].normals)
+    geometry.refresh([1, 2])
+
+
+def test_a_deformed_mesh_re_sends_its_vertices_into_place_and_transforms_its_instances(ctx):
+    geometry, scene = _still_and_wobbly()
     gpu = GPUScene(ctx)
     try:
         gpu.upload(scene)
         gpu.transform()
-        instances.meshes[1] = wobbly.deformed(wobbly.positions * 1.5, wobbly.normals)
-        geometry.refresh([1, 2])
+        _deform_wobbly(geometry)
         gpu.upload(scene)
         gpu.transform()
         stats = gpu.instance_transform.stats
         assert not stats.store_rebuilt and stats.meshes_uploaded == 1
         assert (stats.instances_written, stats.triangles_transformed) == (2, 24)
         _assert_positions(gpu, geometry)
+    finally:
+        gpu.release()
+
+
+def test_a_deformed_meshs_instances_keep_last_frames_world_rows_before_the_transform_rewrites_them(ctx):
+    # The surface-motion pass needs where a deformed surface stood last frame: its instances'
+    # world rows are copied, packed in instance order, before the transform writes the new
+    # ones; the still mesh's instance is not, and a frame that deforms nothing keeps none.
+    geometry, scene = _still_and_wobbly()
+    gpu = GPUScene(ctx)
+    try:
+        gpu.upload(scene)
+        gpu.transform()
+        assert not len(gpu.previous_rows.instances)  # a first frame has no rows to keep
+        before = _read(gpu.positions.buffer, geometry.triangle_count, np.float32, 9)
+        _deform_wobbly(geometry)
+        gpu.upload(scene)
+        gpu.transform()
+        kept = gpu.previous_rows
+        assert kept.instances.tolist() == [1, 2] and kept.offsets.tolist() == [0, 12] and kept.rows == 24
+        first, count = geometry.object_ranges[1]
+        np.testing.assert_array_equal(_read(kept.positions.buffer, 24, np.float32, 9),
+                                      before[first:first + 2 * count])
+        assert kept.offsets_of(np.array([0, 2, 1])).tolist() == [-1, 12, 0]
+        _assert_positions(gpu, geometry)
+        geometry.refresh([0])
+        gpu.upload(scene)
+        gpu.transform()
+        assert not len(gpu.previous_rows.instances)
     finally:
         gpu.release()
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from hybrid_engine import Camera, Lights, MaterialTable, RenderSettings, SceneData, Sky
+from hybrid_engine.frame.film import FrameOutputs
 from hybrid_engine.passes.surface_motion.surface_motion import InstanceMoves, draw_commands, row_ranges
 from hybrid_engine.scene.camera import look_at
 from hybrid_engine.scene.geometry import InstancedGeometry
@@ -49,7 +50,7 @@ def test_a_changed_instance_table_moves_nothing():
 def test_adjacent_moved_instances_are_drawn_in_one_command():
     object_ranges = np.array([[0, 2], [2, 12], [14, 12], [26, 12]])
     table = row_ranges(object_ranges, np.array([3, 1, 2]))
-    assert table.tolist() == [[2, 14, 1], [14, 26, 2], [26, 38, 0]]
+    assert table.tolist() == [[2, 14, 1, -1], [14, 26, 2, -1], [26, 38, 0, -1]]
     assert draw_commands(table).tolist() == [[3 * 36, 1, 3 * 2, 0, 0]]
     apart = row_ranges(object_ranges, np.array([1, 3]))
     assert draw_commands(apart).tolist() == [[36, 1, 6, 0, 0], [36, 1, 78, 0, 0]]
@@ -74,7 +75,7 @@ def test_the_pixels_of_a_moved_instance_get_its_entry_and_none_where_a_still_one
     try:
         renderer.render(scene(0.0), camera, settings, denoise=True)
         renderer.render(scene(0.2), camera, settings, denoise=True)
-        marked = renderer.surface_motion.read()
+        marked = renderer.surface_motion.read()[..., 3]
     finally:
         renderer.release()
     origins, dirs = camera.pixel_rays()
@@ -94,3 +95,56 @@ def test_the_pixels_of_a_moved_instance_get_its_entry_and_none_where_a_still_one
     second = (front[..., 0] > -2.65) & (front[..., 0] < -1.75) & (front[..., 2] > 0.05) & (front[..., 2] < 0.95)
     assert second.sum() > 20 and (marked[second] == 2.0).all()
     assert (marked[hidden] == 0.0).all() and (marked[behind_pillar] == 0.0).all()
+
+
+def deformed(mesh, matrix: np.ndarray, version: int):
+    """``mesh`` with its vertices and normals moved by ``matrix`` in object space: the same
+    triangles (its id), a new version, as a deformed mesh comes from Blender."""
+    from dataclasses import replace
+
+    positions = mesh.positions @ matrix[:3, :3].T + matrix[:3, 3]
+    normals = mesh.normals @ np.linalg.inv(matrix[:3, :3])  # the inverse transpose, row vectors
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    return replace(mesh, positions=positions.astype(np.float32), normals=normals.astype(np.float32), version=version)
+
+
+def test_a_deformed_meshs_pixels_get_the_points_and_normals_its_surface_had_last_frame(gl):
+    from hybrid_engine.frame.renderer import Renderer
+
+    # The box's mesh deforms (its vertices move and turn; its instance's matrix stays the
+    # identity): the instance transform keeps its world rows of last frame, and each pixel
+    # of the box gets the point of the surface there, and the rotation of its normal.
+    camera = Camera(matrix_world=look_at((3.0, -6.0, 5.0), (0, 0, 0)), width=64, height=64)
+    floor, block = flat_mesh(quad((0, 0, 0), (20, 0, 0), (0, 20, 0))), flat_mesh(box((-0.6, -0.6, 0), (0.6, 0.6, 0.8)))
+    before, after = placed(np.eye(3), (-0.9, 0.0, 0.0)), placed(rotation_z(40), (0.9, 0.3, 0.0))
+
+    def scene(matrix, version: int) -> SceneData:
+        meshes = [floor, deformed(block, matrix, version)]
+        instances = Instances(meshes=meshes, mesh=np.array([0, 1]), matrices=np.array([np.eye(4)] * 2, np.float32),
+                              slot_materials=[np.int32([0])] * 2)
+        return SceneData(InstancedGeometry(instances), MaterialTable.from_rows([dict(base_color=(0.8, 0.8, 0.8))]),
+                         Lights.empty(), Sky(color=(1.0, 1.0, 1.0)))
+
+    renderer = Renderer(gl)
+    settings = RenderSettings(mode="RASTER", shadow_resolution=256)
+    try:
+        renderer.render(scene(before, 1), camera, settings, denoise=True)
+        result = renderer.render(scene(after, 2), camera, settings, denoise=True,
+                                 outputs=FrameOutputs(normal=True, depth=True))
+        motion, turn = renderer.surface_motion.read(), renderer.surface_motion.read_turn()
+    finally:
+        renderer.release()
+    on_box = motion[..., 3] == 1.0  # entry 0: the box (the floor did not move)
+    assert on_box.sum() > 200 and not (motion[~on_box, 3] > 0).any()
+    # Last frame's point: the current one taken back by the deformation.
+    back = before @ np.linalg.inv(after)
+    origins, dirs = camera.pixel_rays()
+    forward = -np.asarray(camera.matrix_world)[:3, 2]
+    position = origins + dirs * (result.data_passes["depth"] / (dirs @ forward))[..., None]
+    expected = position @ back[:3, :3].T + back[:3, 3]
+    np.testing.assert_allclose(motion[on_box, :3], expected[on_box], atol=2e-3)
+    # The normal turned by -40 degrees about z.
+    normal = result.data_passes["normal"][..., :3][on_box]
+    q = turn[on_box]
+    turned = normal + 2.0 * np.cross(q[:, :3], np.cross(q[:, :3], normal) + q[:, 3:] * normal)
+    np.testing.assert_allclose(turned, normal @ rotation_z(-40).T, atol=2e-3)

@@ -670,7 +670,37 @@ def test_a_grabbed_object_keeps_its_denoiser_history_where_it_moved_off_its_old_
     frame = session.frame(_region(bpy), settings)
     assert frame.error is None, frame.error
     renderer = session.renderer
-    moved = renderer.surface_motion.read() > 0  # the cube's pixels, marked with its move
+    moved = renderer.surface_motion.read()[..., 3] > 0  # the cube's pixels, marked with its move
+    lengths = renderer.denoiser.history.read("length")[..., 0]
+    assert moved.sum() > 30
+    assert (lengths[moved] > 1).mean() > 0.8, np.unique(lengths[moved], return_counts=True)
+
+
+def test_a_shape_key_moving_the_cube_keeps_its_denoiser_history_where_it_moved_off_its_old_place(addon, viewport):
+    """A shape key moves the cube's vertices past its width between two redraws (its matrix
+    stays): the scene sync sends the deformed mesh as a new version of the same one, the
+    instance transform keeps its rows of the redraw before, and the viewport's denoiser finds
+    the cube's pixels' history there."""
+    import bpy
+
+    _module, session, _reports = viewport
+    _scene, cube, _material = _two_object_scene(bpy)
+    cube.shape_key_add(name="Basis")
+    slide = cube.shape_key_add(name="Slide")
+    for point in slide.data:
+        point.co.x += 2.5
+    slide.value = 0.0
+    _sync(bpy)
+    settings = addon.blender_adapter.properties.settings_from_scene(bpy.context.scene)
+    for _ in range(3):
+        frame = session.frame(_region(bpy), settings)
+        assert frame.error is None, frame.error
+    slide.value = 1.0
+    _sync(bpy)
+    frame = session.frame(_region(bpy), settings)
+    assert frame.error is None, frame.error
+    renderer = session.renderer
+    moved = renderer.surface_motion.read()[..., 3] > 0
     lengths = renderer.denoiser.history.read("length")[..., 0]
     assert moved.sum() > 30
     assert (lengths[moved] > 1).mean() > 0.8, np.unique(lengths[moved], return_counts=True)

@@ -32,7 +32,7 @@
 //   (RGBA32F), u_prev_color (RGBA32F), u_prev_moments (RGBA32F: guide means and means of
 //   squares), u_prev_surface (RGBA32F), u_prev_length (RG32F: history length, surface id)
 //   read; images u_integrated (RGBA32F), u_moments (RGBA32F), u_surface (RGBA32F), u_length
-//   (RG32F) written; with u_moving, surface_motion.glsl's u_motion and u_motion_matrices read.
+//   (RG32F) written; with u_moving, surface_motion.glsl's u_motion and u_motion_turn read.
 // Workgroup 8x8: square tiles keep the four taps of neighbouring pixels together.
 #include "denoise.glsl"
 #include "surface_motion.glsl"

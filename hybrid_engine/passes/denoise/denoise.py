@@ -180,7 +180,7 @@ class DenoisePass:
              textures={"u_depth": depth, "u_normal_material": normal_material, "u_ambient": ambient,
                        # Unread without motion (u_moving 0): any texture will do.
                        "u_motion": motion.texture if moving else depth,
-                       "u_motion_matrices": motion.matrices if moving else depth,
+                       "u_motion_turn": motion.turn if moving else depth,
                        **{f"u_prev_{name}": history.previous(name) for name in ("color", "moments", "surface", "length")}},
              images={"u_integrated": Image(history.current("color"), read=False, write=True),
                      **{f"u_{name}": Image(history.current(name), read=False, write=True)

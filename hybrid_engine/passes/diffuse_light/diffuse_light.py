@@ -141,7 +141,7 @@ class DiffuseLightPass:
             if motion is not None and motion.moving:
                 defines["SURFACE_MOTION"] = 1
                 emitter_parts = (*emitter_parts, Bindings(textures={"u_motion": motion.texture,
-                                                                     "u_motion_matrices": motion.matrices}))
+                                                                     "u_motion_turn": motion.turn}))
         elif frame.denoise:
             # The denoiser's first frame: no pixel has a history (history_paths).
             defines["DIFFUSE_NO_HISTORY"] = 1

@@ -33,6 +33,7 @@ from ...gpu.bindings import Storage, bind
 from ...gpu.dispatch import BLOCK_ITEM_GRANULE, GrowBuffer, SceneLimitError, dispatch, max_block_bytes
 from ...scene.geometry import InstancedGeometry
 from ...scene.meshes import ObjectMesh, normal_matrices
+from .previous_rows import PreviousRows
 
 LOCAL_SIZE = 64
 
@@ -84,6 +85,8 @@ class TransformStats:
     instances_written: int = 0  # table rows that changed
     # The instances whose rows the transform (re)writes, sorted, and their triangles.
     changed: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    # Those of them whose mesh was deformed (the same triangles, new vertices), sorted.
+    deformed: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     triangles_transformed: int = 0
     dispatches: int = 0
     # Milliseconds inside the dispatch calls: a GPU queues them and returns, a software
@@ -126,6 +129,10 @@ class InstanceTransformer:
         self._slot_materials: np.ndarray | None = None
         self._seen: tuple | None = None  # (geometry id, edit) of the last update
         self.stats = TransformStats()
+        # Last frame's rows of the instances this frame deformed (previous_rows.py), copied
+        # only while the world buffers hold what the last transform wrote.
+        self.previous = PreviousRows(ctx)
+        self._outputs_hold_rows = False
 
     @property
     def instance_table(self):
@@ -142,6 +149,7 @@ class InstanceTransformer:
         """The outputs were written by someone else: the next update transforms everything."""
         self._rows = None
         self._seen = None
+        self._outputs_hold_rows = False
 
     def update(self, geometry: InstancedGeometry, outputs: dict[str, object]) -> TransformStats:
         """Bring the store and the table up to ``geometry`` and plan the world rows of every
@@ -153,6 +161,7 @@ class InstanceTransformer:
         costs the rows it lists (packed, compared, written); anything else packs and compares
         every row (a geometry without edits may have been changed in place)."""
         stats = self.stats = TransformStats()
+        self.previous.clear()
         edit = geometry.edit
         seen = (id(geometry), edit.source, edit.generation) if edit is not None else None
         if seen is not None and seen == self._seen and self._rows is not None:
@@ -192,17 +201,24 @@ class InstanceTransformer:
         self._pending = (geometry, changed, outputs) if len(changed) else None
         stats.instances_written = int(len(changed))
         stats.changed = changed
+        stats.deformed = changed[of_deformed[changed]] if len(changed) else changed
         stats.triangles_transformed = int(geometry.object_ranges[changed, 1].astype(np.int64).sum())
         self._seen = seen
         return stats
 
-    def transform(self) -> None:
-        """Write the world rows the last ``update`` planned (the GPU's part of the step)."""
+    def transform(self, keep_previous: bool = True) -> None:
+        """Write the world rows the last ``update`` planned (the GPU's part of the step);
+        ``keep_previous``: first copy the rows of the instances whose mesh deformed into
+        ``previous`` (while the outputs hold what the last transform wrote)."""
         if self._pending is None:
             return
         geometry, changed, outputs = self._pending
         self._pending = None
+        deformed = self.stats.deformed
+        if keep_previous and len(deformed) and self._outputs_hold_rows and not self.stats.store_rebuilt:
+            self.previous.capture(deformed, geometry.object_ranges[deformed], outputs)
         self._transform(geometry, changed, outputs, self.stats)
+        self._outputs_hold_rows = True
 
     def _write_rows(self, changed: np.ndarray) -> None:
         """Write the table rows ``changed`` (sorted) to the GPU: row by row when few, whole
@@ -379,6 +395,7 @@ class InstanceTransformer:
             stats.dispatches += 1
 
     def release(self) -> None:
+        self.previous.release()
         for buf in self._store.values():
             buf.release()
         for page in self._pages:

@@ -86,6 +86,12 @@ class GPUScene:
         return {"NODE_PROGRAMS": 1, **{family: 1 for family in sorted(self.node_programs.table.families)},
                 **alpha, **self.node_programs.defines}
 
+    @property
+    def previous_rows(self):
+        """Last frame's world rows of the instances this frame's upload found deformed
+        (previous_rows.PreviousRows): valid in the frame whose transform captured them."""
+        return self.instance_transform.previous
+
     def vertex_content(self, program) -> list[tuple]:
         """moderngl vertex-array content of ``program``: one binding per attribute it reads
         (the GLSL compiler drops unused inputs)."""
@@ -146,9 +152,11 @@ class GPUScene:
         return (scene if geometry is scene.geometry else SceneData(geometry=geometry, materials=scene.materials,
                                                                    lights=scene.lights, sky=scene.sky)), delta
 
-    def transform(self) -> None:
-        """The GPU's part: the world rows of the instances the last upload found changed."""
-        self.instance_transform.transform()
+    def transform(self, keep_previous: bool = True) -> None:
+        """The GPU's part: the world rows of the instances the last upload found changed;
+        ``keep_previous``: first copy the deformed ones' rows of last frame
+        (``previous_rows``)."""
+        self.instance_transform.transform(keep_previous)
 
     def _delta(self, geometry: InstancedGeometry, changed: np.ndarray, whole: bool) -> GeometryDelta:
         """The frame's delta: everything on a first upload or a rebuilt store, else the

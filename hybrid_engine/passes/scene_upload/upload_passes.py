@@ -48,5 +48,7 @@ class InstanceTransformPass:
         return PassIO(reads=("scene_buffers",), writes=("world_triangles",))
 
     def run(self, frame: FrameContext) -> None:
-        self.buffers.transform()
+        # Only a denoised frame follows a deformed surface back to last frame
+        # (passes/surface_motion/): others need not copy its rows first.
+        self.buffers.transform(keep_previous=frame.denoise)
         frame.write("world_triangles", frame.read("scene_buffers"))

@@ -11,18 +11,19 @@ samples, filtered hard and blotchy. SVGF and EEVEE follow it by motion vectors.
 Here the host compares the instance table's matrices with the last frame's, where the
 upload found some instance changed, and lists the instances that moved with their
 world-to-world move ``previous matrix x current matrix^-1``, the transform Cycles' motion
-pass takes (passes/film/vector.py makes the Vector pass with the same). Only those
+pass takes (passes/film/vector.py makes the Vector pass with the same). A deformed mesh
+(an armature, shape keys: the same triangles, new vertices) moves its surface under an
+unchanged matrix; the instance transform kept its instances' rows of last frame
+(scene_upload/previous_rows.py), and they join the list with those rows. Only the listed
 instances' world rows are drawn, in one indirect multi-draw of their row ranges with the
 primary view's matrix, and a fragment that lies on the primary depth buffer's surface
-writes its instance's entry into the ``surface_motion`` image (0: no move there).
+writes where that surface point stood last frame, with its entry, into the
+``surface_motion`` image (0: no move there), and the rotation of its normal into a second.
 Where the camera's motion alone finds no history for a pixel (the object moved off that
-point), the temporal step moves the pixel's point and normal by the entry's matrix and looks
-for them again in last frame's image; so does the diffuse gather, which traces more paths
-where a pixel has no history (include/surface_motion.glsl). A frame where nothing changed costs nothing on either
-side.
-
-Left out: a deforming mesh (armature, shape keys) keeps the depth and normal tests' verdict:
-its pixels start over where the surface moved.
+point), the temporal step takes the pixel's point and normal back and looks for them again
+in last frame's image; so does the diffuse gather, which traces more paths where a pixel
+has no history (include/surface_motion.glsl). A frame where nothing changed costs nothing
+on either side.
 """
 from __future__ import annotations
 
@@ -53,15 +54,16 @@ FOLLOW_MOVES = True
 
 @dataclass
 class SurfaceMotion:
-    """What the pass leaves for the denoiser and the diffuse gather: ``texture`` (R32F, the
-    primary view's size: the moved instance's entry + 1 per pixel, 0 where nothing moved) and
-    ``matrices`` (RGBA32F, 4 x entries: row e the columns of entry e's world-to-world matrix;
-    a texture, since the gather's kernel is short of storage blocks), or ``moving`` False
-    with neither valid (include/surface_motion.glsl reads them)."""
+    """What the pass leaves for the denoiser and the diffuse gather, textures of the primary
+    view's size (textures, since the gather's kernel is short of storage blocks):
+    ``texture`` (RGBA32F: the surface's world point of last frame and the moved instance's
+    entry + 1 per pixel, 0 where nothing moved) and ``turn`` (RGBA16F: the quaternion taking
+    the surface's normal now to its normal then), or ``moving`` False with neither valid
+    (include/surface_motion.glsl reads them)."""
 
     moving: bool
     texture: object = None
-    matrices: object = None
+    turn: object = None
 
 
 class InstanceMoves:
@@ -101,12 +103,27 @@ class InstanceMoves:
         self._meshes = None
 
 
-def row_ranges(object_ranges: np.ndarray, moved: np.ndarray) -> np.ndarray:
-    """(first row, end row, entry) of each moved instance (entry: its index in ``moved``),
-    sorted by first row: what the vertex stage looks a row up in."""
+def row_ranges(object_ranges: np.ndarray, moved: np.ndarray, previous: np.ndarray | None = None) -> np.ndarray:
+    """(first row, end row, entry, previous) of each moved instance (entry: its index in
+    ``moved``; previous: its first row among last frame's captured rows, ``previous``, or -1
+    where its move is its matrix's), sorted by first row: what the vertex stage looks a row
+    up in."""
     ranges = np.asarray(object_ranges, np.int64)[moved]
-    table = np.stack([ranges[:, 0], ranges[:, 0] + ranges[:, 1], np.arange(len(moved))], axis=1)
+    previous = np.full(len(moved), -1, np.int64) if previous is None else np.asarray(previous, np.int64)
+    table = np.stack([ranges[:, 0], ranges[:, 0] + ranges[:, 1], np.arange(len(moved)), previous], axis=1)
     return table[np.argsort(table[:, 0], kind="stable")]
+
+
+def with_deformed(moved: np.ndarray, matrices: np.ndarray, captured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The moved instances and the ``captured`` deformed ones (previous_rows.PreviousRows:
+    their rows of last frame hold their move, matrix and all), sorted, with their matrices
+    (the identity for a deformed instance that did not move)."""
+    if not len(captured):
+        return moved, matrices
+    entries = np.union1d(moved, captured)
+    all_matrices = np.broadcast_to(np.eye(4), (len(entries), 4, 4)).copy()
+    all_matrices[np.searchsorted(entries, moved)] = matrices
+    return entries, all_matrices
 
 
 def draw_commands(table: np.ndarray) -> np.ndarray:
@@ -135,6 +152,7 @@ class SurfaceMotionPass:
                                              fragment="surface_motion/surface_motion.frag.glsl")
         self.moves = InstanceMoves()
         self._texture = None
+        self._turn = None
         self._fbo = None
         self._matrices = None
         self._buffers: dict[str, moderngl.Buffer] = {}
@@ -146,15 +164,17 @@ class SurfaceMotionPass:
         scene = frame.read("scene")
         moved, matrices = self.moves.moves(scene.geometry, frame.read("delta").unchanged)
         gpu = frame.read("world_triangles")
+        previous = gpu.previous_rows
+        moved, matrices = with_deformed(moved, matrices, previous.instances)
         if not len(moved) or not gpu.triangle_count or not FOLLOW_MOVES:
             frame.write("surface_motion", SurfaceMotion(False))
             return
         targets = frame.read("gbuffer")
         view = frame.view
         self._ensure((view.width, view.height))
-        table = row_ranges(scene.geometry.object_ranges, moved)
+        table = row_ranges(scene.geometry.object_ranges, moved, previous.offsets_of(moved))
         commands = draw_commands(table)
-        rows = self._buffer("rows", np.pad(table, ((0, 0), (0, 1))).astype(np.int32))  # ivec4 rows
+        rows = self._buffer("rows", table.astype(np.int32))  # ivec4 rows
         motion = self._matrix_texture(matrices)
         indirect = self._buffer("commands", commands)
         ctx = self.ctx
@@ -162,22 +182,34 @@ class SurfaceMotionPass:
         self._fbo.viewport = (0, 0, view.width, view.height)
         self._fbo.clear(0.0, 0.0, 0.0, 0.0)
         ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
-        bind(self.program, storage={"MotionRows": rows}, textures={"u_depth": targets.depth},
+        captured = previous.rows > 0
+        bind(self.program,
+             storage={"MotionRows": rows,
+                      # unread unless a row of them is listed: any buffer stands in
+                      "PreviousPositions": previous.positions.buffer if captured else rows,
+                      "PreviousNormals": previous.normals.buffer if captured else rows},
+             textures={"u_depth": targets.depth, "u_motion_matrices": motion},
              uniforms={"u_view_proj": gl_matrix(view.view_proj), "u_entries": len(table)})
         vao = gpu.vertex_array(self.program)
         vao.render_indirect(indirect, mode=moderngl.TRIANGLES, count=len(commands))
         if gl_context.debug_checks_enabled():
             gl_context.check_error("surface motion")
         ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT | moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)
-        frame.write("surface_motion", SurfaceMotion(True, self._texture, motion))
+        frame.write("surface_motion", SurfaceMotion(True, self._texture, self._turn))
 
     def read(self) -> np.ndarray:
-        """The last frame's motion image as (H, W) float32 (entry + 1, 0 where nothing moved),
-        row 0 at the bottom; zeros before any frame moved something (tests, diagnostics)."""
+        """The last frame's motion image as (H, W, 4) float32 (last frame's point, entry + 1;
+        zeros where nothing moved), row 0 at the bottom; empty before any frame moved
+        something (tests, diagnostics)."""
         if self._texture is None:
-            return np.zeros((0, 0), np.float32)
+            return np.zeros((0, 0, 4), np.float32)
         width, height = self._texture.size
-        return np.frombuffer(self._texture.read(), np.float32).reshape(height, width).copy()
+        return np.frombuffer(self._texture.read(), np.float32).reshape(height, width, 4).copy()
+
+    def read_turn(self) -> np.ndarray:
+        """The last frame's normal rotations as (H, W, 4) float32 quaternions (tests)."""
+        width, height = self._turn.size
+        return np.frombuffer(self._turn.read(), np.float16).reshape(height, width, 4).astype(np.float32)
 
     def forget(self) -> None:
         """The next frame moves nothing (its last frame is not the denoiser's history)."""
@@ -210,13 +242,15 @@ class SurfaceMotionPass:
     def _ensure(self, size: tuple[int, int]) -> None:
         if self._texture is not None and self._texture.size == size:
             return
-        release_all([part for part in (self._fbo, self._texture) if part is not None])
-        self._texture = self.ctx.texture(size, 1, dtype="f4")
-        self._texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self._fbo = self.ctx.framebuffer(color_attachments=[self._texture])
+        release_all([part for part in (self._fbo, self._texture, self._turn) if part is not None])
+        self._texture = self.ctx.texture(size, 4, dtype="f4")
+        self._turn = self.ctx.texture(size, 4, dtype="f2")
+        for texture in (self._texture, self._turn):
+            texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self._fbo = self.ctx.framebuffer(color_attachments=[self._texture, self._turn])
 
     def release(self) -> None:
-        release_all([part for part in (self._fbo, self._texture, self._matrices, *self._buffers.values())
+        release_all([part for part in (self._fbo, self._texture, self._turn, self._matrices, *self._buffers.values())
                      if part is not None])
-        self._fbo = self._texture = self._matrices = None
+        self._fbo = self._texture = self._turn = self._matrices = None
         self._buffers = {}

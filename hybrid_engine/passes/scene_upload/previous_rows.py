@@ -1,0 +1,80 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Last frame's world rows of the instances whose mesh deformed this frame.
+
+A deformed mesh (an armature, shape keys, a mesh edited in place) keeps its triangles and
+rewrites its vertices, so its instances' world rows are transformed again while the
+instance table's matrix may stay the same: nothing in the table says where a surface point
+stood last frame. The world rows still hold it until the transform overwrites them, so
+``InstanceTransformer.transform`` copies those instances' rows (positions and normals) here
+first, packed one instance after another, a copy on the GPU and no read-back. The
+surface-motion pass (passes/surface_motion/) draws the instances with both and gives the
+denoiser each pixel's point of last frame. Only the frame that captured them may read them.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ...gpu.dispatch import GrowBuffer
+
+# Bytes of one world row (a triangle's three corners, float32 vec3 each) of positions and of
+# normals: instance_transform.OUTPUT_ROW_BYTES.
+ROW_BYTES = 36
+
+
+class PreviousRows:
+    """The captured rows: ``instances`` (sorted) and ``offsets``, each instance's first row
+    in the packed ``positions`` and ``normals`` buffers (ROW_BYTES per row); empty when this
+    frame deformed nothing, or its rows could not be trusted (the world buffers were
+    replaced)."""
+
+    def __init__(self, ctx) -> None:
+        self.ctx = ctx
+        self.positions = GrowBuffer(ctx, "previous world positions")
+        self.normals = GrowBuffer(ctx, "previous world normals")
+        self.instances = np.zeros(0, np.int64)
+        self.offsets = np.zeros(0, np.int64)
+        self.rows = 0
+
+    def clear(self) -> None:
+        self.instances = np.zeros(0, np.int64)
+        self.offsets = np.zeros(0, np.int64)
+        self.rows = 0
+
+    def capture(self, instances: np.ndarray, ranges: np.ndarray, outputs: dict[str, object]) -> None:
+        """Copy the world rows ``ranges`` ((first row, count) per instance of ``instances``,
+        sorted) of ``outputs`` (GPUScene's buffers by name) into the packed buffers, before
+        the transform overwrites them."""
+        ranges = np.asarray(ranges, np.int64).reshape(-1, 2)
+        keep = ranges[:, 1] > 0
+        instances, ranges = np.asarray(instances, np.int64)[keep], ranges[keep]
+        offsets = np.concatenate([[0], np.cumsum(ranges[:, 1])]).astype(np.int64)
+        total = int(offsets[-1])
+        self.clear()
+        if total == 0:
+            return
+        # Instances whose rows follow one another (a crowd of one deforming mesh) are one copy.
+        starts, ends = ranges[:, 0], ranges[:, 0] + ranges[:, 1]
+        runs = np.flatnonzero(np.r_[True, starts[1:] != ends[:-1]])
+        run_ends = np.r_[runs[1:], len(ranges)]
+        for name, target in (("positions", self.positions), ("normals", self.normals)):
+            target.ensure(total * ROW_BYTES)
+            source = outputs[name].buffer
+            for first_index, end_index in zip(runs, run_ends):
+                rows = int(offsets[end_index] - offsets[first_index])
+                self.ctx.copy_buffer(target.buffer, source, rows * ROW_BYTES,
+                                     read_offset=int(starts[first_index]) * ROW_BYTES,
+                                     write_offset=int(offsets[first_index]) * ROW_BYTES)
+        self.instances, self.offsets, self.rows = instances, offsets[:-1], total
+
+    def offsets_of(self, instances: np.ndarray) -> np.ndarray:
+        """Each of ``instances``' first row in the packed buffers, -1 for those not captured."""
+        instances = np.asarray(instances, np.int64)
+        if not len(self.instances):
+            return np.full(len(instances), -1, np.int64)
+        at = np.clip(np.searchsorted(self.instances, instances), 0, len(self.instances) - 1)
+        return np.where(self.instances[at] == instances, self.offsets[at], -1)
+
+    def release(self) -> None:
+        self.positions.release()
+        self.normals.release()
+        self.clear()

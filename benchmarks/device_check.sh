@@ -36,6 +36,7 @@ step tests 40 python3 -m pytest -rf -q -n 8 -p no:cacheprovider \
     tests/test_cube_light.py tests/test_diffuse_light.py tests/test_emitter_light.py \
     tests/test_node_light_path.py tests/test_cube_march.py tests/test_node_codegen.py tests/test_denoise.py \
     tests/test_emitter_links.py tests/test_grazing_triangles.py tests/test_surface_motion.py \
+    tests/test_cube_map.py tests/test_instance_transform.py \
     -k "not renders_as_cycles"  # those two need bpy, which the device lacks
 grep -E "^FAILED|passed|failed" "$out/tests.log" 2>/dev/null | tail -20
 [ -d tests/_failures ] && tar -czf "$out/failures.tar.gz" -C tests _failures

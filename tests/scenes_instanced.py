@@ -5,6 +5,8 @@ test_shadow_depth.py): several materials per mesh mapped per instance, rotated, 
 mirrored (uniformly and not) instances, smooth normals and UVs."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from hybrid_engine import Camera, MaterialTable, SceneData
@@ -54,6 +56,16 @@ def grid_mesh(cells: int = 6) -> ObjectMesh:
     normals = np.broadcast_to(np.float32([0, 0, 1]), tris.shape).copy()
     slots = np.repeat((np.add.outer(np.arange(cells), np.arange(cells)) % 2).reshape(-1), 2).astype(np.int32)
     return indexed(tris, normals, tris[..., :2] * 0.5 + 0.5, slots, closed=False)
+
+
+def deformed(mesh: ObjectMesh, matrix: np.ndarray, version: int) -> ObjectMesh:
+    """``mesh`` with its vertices and normals moved by ``matrix`` in object space: the same
+    triangles (its id), version ``version``, as a deformed mesh comes from Blender (the
+    moving-object tests' deforming boxes)."""
+    positions = mesh.positions @ matrix[:3, :3].T + matrix[:3, 3]
+    normals = mesh.normals @ np.linalg.inv(matrix[:3, :3])  # the inverse transpose, row vectors
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    return replace(mesh, positions=positions.astype(np.float32), normals=normals.astype(np.float32), version=version)
 
 
 def placed(linear, offset) -> np.ndarray:

@@ -287,8 +287,7 @@ def deforming_box_scene(floor, block, offset, degrees: float, version: int) -> S
     armature or shape keys move a mesh; the meshes are the same from frame to frame."""
     from hybrid_engine.scene.geometry import InstancedGeometry
     from hybrid_engine.scene.meshes import Instances
-    from scenes_instanced import placed, rotation_z
-    from test_surface_motion import deformed
+    from scenes_instanced import deformed, placed, rotation_z
 
     instances = Instances(meshes=[floor, deformed(block, placed(rotation_z(degrees), offset), version)],
                           mesh=np.array([0, 1]), matrices=np.array([np.eye(4)] * 2, np.float32),

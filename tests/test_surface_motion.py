@@ -14,7 +14,7 @@ from hybrid_engine.scene.camera import look_at
 from hybrid_engine.scene.geometry import InstancedGeometry
 from hybrid_engine.scene.meshes import Instances
 from scenes_analytic import box, quad
-from scenes_instanced import flat_mesh, placed, rotation_z
+from scenes_instanced import deformed, flat_mesh, placed, rotation_z
 
 
 def geometry(matrices, meshes=(0, 1, 1, 1)) -> InstancedGeometry:
@@ -95,17 +95,6 @@ def test_the_pixels_of_a_moved_instance_get_its_entry_and_none_where_a_still_one
     second = (front[..., 0] > -2.65) & (front[..., 0] < -1.75) & (front[..., 2] > 0.05) & (front[..., 2] < 0.95)
     assert second.sum() > 20 and (marked[second] == 2.0).all()
     assert (marked[hidden] == 0.0).all() and (marked[behind_pillar] == 0.0).all()
-
-
-def deformed(mesh, matrix: np.ndarray, version: int):
-    """``mesh`` with its vertices and normals moved by ``matrix`` in object space: the same
-    triangles (its id), a new version, as a deformed mesh comes from Blender."""
-    from dataclasses import replace
-
-    positions = mesh.positions @ matrix[:3, :3].T + matrix[:3, 3]
-    normals = mesh.normals @ np.linalg.inv(matrix[:3, :3])  # the inverse transpose, row vectors
-    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    return replace(mesh, positions=positions.astype(np.float32), normals=normals.astype(np.float32), version=version)
 
 
 def test_a_deformed_meshs_pixels_get_the_points_and_normals_its_surface_had_last_frame(gl):

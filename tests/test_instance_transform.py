@@ -12,6 +12,7 @@ from hybrid_engine import RenderSettings
 from hybrid_engine.gpu import dispatch as gpu_dispatch
 from hybrid_engine.gpu.dispatch import SceneLimitError
 from hybrid_engine.scene.camera import Camera, look_at
+from hybrid_engine.passes.scene_upload import previous_rows
 from hybrid_engine.passes.scene_upload.scene_buffers import GPUScene
 from hybrid_engine.scene.geometry import InstancedGeometry
 from hybrid_engine.scene.meshes import Instances, ObjectMesh
@@ -179,7 +180,7 @@ def test_a_deformed_mesh_re_sends_its_vertices_into_place_and_transforms_its_ins
         gpu.release()
 
 
-def test_a_deformed_meshs_instances_keep_last_frames_world_rows_before_the_transform_rewrites_them(ctx):
+def test_a_deformed_meshs_instances_keep_last_frames_world_rows_before_the_transform_rewrites_them(ctx, monkeypatch):
     # The surface-motion pass needs where a deformed surface stood last frame: its instances'
     # world rows are copied, packed in instance order, before the transform writes the new
     # ones; the still mesh's instance is not, and a frame that deforms nothing keeps none.
@@ -204,6 +205,13 @@ def test_a_deformed_meshs_instances_keep_last_frames_world_rows_before_the_trans
         gpu.upload(scene)
         gpu.transform()
         assert not len(gpu.previous_rows.instances)
+        # More deformed rows than one storage block holds (the pass binds them as one): none.
+        monkeypatch.setattr(previous_rows, "max_block_bytes", lambda: 23 * 36)
+        _deform_wobbly(geometry)
+        gpu.upload(scene)
+        gpu.transform()
+        assert not len(gpu.previous_rows.instances)
+        _assert_positions(gpu, geometry)
     finally:
         gpu.release()
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...gpu.dispatch import GrowBuffer
+from ...gpu.dispatch import GrowBuffer, max_block_bytes
 
 # Bytes of one world row (a triangle's three corners, float32 vec3 each) of positions and of
 # normals: instance_transform.OUTPUT_ROW_BYTES.
@@ -50,7 +50,9 @@ class PreviousRows:
         offsets = np.concatenate([[0], np.cumsum(ranges[:, 1])]).astype(np.int64)
         total = int(offsets[-1])
         self.clear()
-        if total == 0:
+        # The surface-motion pass reads them as one storage block each: past the driver's
+        # block size (millions of deformed triangles) those pixels start over instead.
+        if total == 0 or total * ROW_BYTES > max_block_bytes():
             return
         # Instances whose rows follow one another (a crowd of one deforming mesh) are one copy.
         starts, ends = ranges[:, 0], ranges[:, 0] + ranges[:, 1]

@@ -43,3 +43,15 @@ def test_the_gather_escapes_count_each_disagreeing_ray_once_with_the_footprints_
         assert sum(e for e, _ in counts["by_surface"].values()) <= counts["escapes"]
         assert sum(s for _, s in counts["by_surface"].values()) <= counts["stops"]
         assert 0.0 < counts["sky_hybrid"] <= 1.0
+
+
+def test_the_paper_mirrors_variant_parts_the_reflections_from_full_bvh_more_and_switches_back(gl):
+    # The variant marches the tracer's rays by the paper's one depth per texel
+    # (tracer.MIRROR_FOOTPRINTS off), the diffuse paths keeping their footprints: only the
+    # reflections' part may change, and the switch is back on after the run.
+    from hybrid_engine.passes.trace import tracer
+
+    report = chess_flip_split.run(0.02, (64, 36), 64, 1, ["default", "paper_mirrors"])["variants"]
+    assert tracer.MIRROR_FOOTPRINTS
+    assert report["paper_mirrors"]["flip_diffuse_only"] == report["default"]["flip_diffuse_only"]
+    assert report["paper_mirrors"]["flip_glossy_only"] != report["default"]["flip_glossy_only"]

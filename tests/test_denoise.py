@@ -36,7 +36,8 @@ RASTER = RenderSettings(mode="RASTER", shadow_resolution=256)
 
 class ProbeAmbient:
     """The frame's ambient estimate, replaced by the probe kernel's known irradiance:
-    ``pattern`` 0 a smooth function of the world position, 1 the constant ``level``; each
+    ``pattern`` 0 a smooth function of the world position, 1 the constant ``level``, 3 a
+    linear ramp across x (tests/shaders/ambient_probe.comp.glsl); each
     pixel times 1 + ``noise`` * xi, xi uniform in [-1, 1] per pixel and sample."""
 
     name = "shade"
@@ -375,6 +376,38 @@ def test_the_filter_removes_the_irradiances_noise_and_keeps_a_textures_edges(ren
     assert contrast(denoised) == pytest.approx(contrast(clean), rel=0.03), (contrast(denoised), contrast(clean))
     residual = lambda image: np.var((image / clean)[inner])  # noqa: E731
     assert residual(denoised) < residual(noisy) / 20, (residual(denoised), residual(noisy))
+
+
+def test_the_coarsest_level_keeps_a_gradient_of_light_where_an_edge_cuts_its_kernel_off(renderer, probe, monkeypatch):
+    """Light that rises steadily across a floor, up to a step to a raised floor: beside the
+    step the plane stop cuts the kernel off on one side, and the mean of the taps left is the
+    (dimmer) light of a place farther from it, which the pixels beside the step take: a dark
+    band as wide as the kernel. The coarsest level's plane through its taps, taken at the
+    pixel itself, keeps the ramp there."""
+    floor = quad((-0.75, 0, 0), (2.25, 0, 0), (0, 3, 0))  # x from -3 to 1.5
+    step = quad((2.25, 0, 0.5), (0.75, 0, 0), (0, 3, 0))  # a raised floor beyond x = 1.5
+    scene = SceneData(Geometry.from_objects([(floor, None, 0), (step, None, 0)]), grey(), Lights.empty(),
+                      Sky(color=(1.0, 1.0, 1.0)))
+    size = 96
+    camera = Camera(matrix_world=look_at((0, 0, 5.0), (0, 0, 0), up=(0, 1, 0)), width=size, height=size,
+                    projection="ORTHO", ortho_scale=4.0)
+    probe(pattern=3, level=0.5, noise=0.0)
+    clean = renderer.render(scene, camera, RASTER).image[..., 0]
+    xs = (np.arange(size) + 0.5) / size * 4.0 - 2.0
+    beside = (slice(size // 4, 3 * size // 4), (xs > 1.1) & (xs < 1.45))  # 8 columns of the floor
+    probe(pattern=3, level=0.5, noise=0.4)
+
+    def bias_beside_the_step(linear: bool) -> float:
+        """The mean relative error of the pixels beside the step (their noise averages out)."""
+        monkeypatch.setattr("hybrid_engine.passes.denoise.denoise.LINEAR_FIT", linear)
+        renderer.render(scene, camera, RASTER)  # undenoised: the history starts over
+        for k in range(8):  # a history past MIN_LENGTH: the plane is fitted
+            image = renderer.render(scene, camera, RASTER, sample=k, denoise=True).image[..., 0]
+        return float((image - clean)[beside[0]][:, beside[1]].mean() / clean[beside[0]][:, beside[1]].mean())
+
+    with_plane, with_mean = bias_beside_the_step(True), bias_beside_the_step(False)
+    assert with_mean < -0.0015, with_mean  # darker: the taps left lie down the ramp
+    assert abs(with_plane) < abs(with_mean) / 4, (with_plane, with_mean)
 
 
 # -- end to end ------------------------------------------------------------------------------

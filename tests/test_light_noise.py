@@ -56,3 +56,19 @@ def test_the_reference_is_the_fed_back_light_settled_and_unfiltered(gl):
     finally:
         plain.release()
     assert reference.mean() > 1.03 * undenoised.mean(), (reference.mean(), undenoised.mean())
+
+
+def test_references_of_more_diffuse_rays_are_kept_apart_and_reported(gl, tmp_path):
+    cache = tmp_path / "references.npz"
+    args = ["--size", "32x24", "--reference", "2", "--settle", "2", "--frames", "0", "--cache", str(cache)]
+    plain = light_noise.main(args)
+    more = light_noise.main([*args, "--reference-rays", "4"])
+    assert (plain["reference_rays"], more["reference_rays"]) == (1, 4)
+    import numpy as np
+
+    with np.load(cache) as kept:
+        keys = set(kept.files)
+        assert keys == {"still_32x24_2_2", "still_32x24_rays4_2_2"}
+        # Four paths a frame: a reference of as many frames is less grainy than one path's.
+        grain = lambda image: float(np.abs(np.diff(image[..., 1], axis=1)).mean())  # noqa: E731
+        assert grain(kept["still_32x24_rays4_2_2"]) < 0.8 * grain(kept["still_32x24_2_2"])

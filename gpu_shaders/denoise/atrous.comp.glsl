@@ -20,7 +20,22 @@
 // and glass are not in it at all (the tracer adds them to the colour).
 // The variance is filtered with the squared weights, as the variance of a weighted mean.
 //
-// Bindings: u_color_in (RGBA32F), u_variance_in (RG32F), u_surface (RGBA32F) read; images u_color_out (RGBA32F), u_variance_out (RG32F)
+// With u_linear (the coarsest level, where the taps lie 8 pixels apart) the pixel takes the
+// value at its own place of the weighted least-squares plane through its taps, instead of
+// their weighted mean: local linear regression (as kernel regression corrects a kernel's
+// bias at a boundary; the first-order case of Koskela et al. 2019's blockwise regression).
+// Where the stops cut the kernel off on one side (a wall beside a partition, the image's
+// border, a shadow's gradient the guides have found), the mean of the taps that remain lies
+// off the pixel, and on a gradient of the light it is the light of another place: a band of
+// too bright or too dark pixels along every edge, as wide as the kernel. The plane's slope
+// is itself an estimate; it is taken by its Wiener gain, slope^2 / (slope^2 + its variance),
+// from the propagated variances, so that where the taps are noisy (a short history, a dim
+// wall) the level stays the plain mean and adds no noise. The result is held within the
+// taps' range widened by its width on either side (at a border the plane's value lies beyond
+// the taps it was fitted to, but not far), and is never negative. A pixel whose history is
+// shorter than u_min_length fits no plane: its noise would be mistaken for slope.
+//
+// Bindings: u_color_in (RGBA32F), u_variance_in (RG32F), u_surface (RGBA32F), u_length (RG32F) read; images u_color_out (RGBA32F), u_variance_out (RG32F)
 //   written.
 // Workgroup 8x8.
 #include "denoise.glsl"
@@ -36,10 +51,16 @@ uniform ivec2 u_size;
 uniform int u_step;
 uniform float u_plane_sigma;
 uniform float u_sigma_guide;
+uniform int u_linear;          // fit a plane (header)
+uniform sampler2D u_length;    // the history's length per pixel (frames, in r)
+uniform float u_min_length;    // ... below which no plane is fitted
 
 layout(rgba32f) writeonly uniform image2D u_color_out;
 layout(rg32f) writeonly uniform image2D u_variance_out;
 
+// The plane's ridge: a share of the taps' weight added to the slope's normal equations, so
+// that taps along one line (a strip of surface one tap wide) fit their mean across it.
+const float LINEAR_RIDGE = 0.01;
 const float B3[3] = float[3](3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
 
 // The variance blurred over 3x3 pixels (a Gaussian's 1-2-1 weights): one pixel's estimate
@@ -76,6 +97,13 @@ void main() {
     vec2 guide = denoise_guides(center);
     vec2 variance_p = blurred_variance(pixel);
 
+    // Moments of the plane's fit, over the taps' offsets o (in taps): sums of w o, w o o^T,
+    // w o c, and of w^2 o var, w^2 o o^T var for its variance; and the taps' range.
+    vec2 s_o = vec2(0.0);
+    vec3 s_oo = vec3(0.0);  // xx, yy, xy
+    vec4 c_x = vec4(0.0), c_y = vec4(0.0);
+    vec2 v_x = vec2(0.0), v_y = vec2(0.0), v_xx = vec2(0.0), v_yy = vec2(0.0), v_xy = vec2(0.0);
+    vec4 lo = center, hi = center;
     vec4 sum = center * (B3[0] * B3[0]);
     vec2 sum_variance = center_variance * (B3[0] * B3[0]) * (B3[0] * B3[0]);
     float weight = B3[0] * B3[0];
@@ -97,8 +125,42 @@ void main() {
             sum += w * color_q;
             sum_variance += w * w * variance_q;
             weight += w;
+            if (u_linear != 0) {
+                vec2 o = vec2(dx, dy);
+                s_o += w * o;
+                s_oo += w * vec3(o.x * o.x, o.y * o.y, o.x * o.y);
+                c_x += (w * o.x) * color_q;
+                c_y += (w * o.y) * color_q;
+                vec2 wv = (w * w) * variance_q;
+                v_x += wv * o.x; v_y += wv * o.y;
+                v_xx += wv * (o.x * o.x); v_yy += wv * (o.y * o.y); v_xy += wv * (o.x * o.y);
+                // The range of the taps that count (a tap the stops all but removed does not).
+                if (w > 1e-3 * B3[abs(dx)] * B3[abs(dy)]) { lo = min(lo, color_q); hi = max(hi, color_q); }
+            }
         }
     }
-    imageStore(u_color_out, pixel, sum / weight);
-    imageStore(u_variance_out, pixel, vec4(sum_variance / (weight * weight), 0.0, 0.0));
+    vec4 mean = sum / weight;
+    vec2 mean_variance = sum_variance / (weight * weight);
+    if (u_linear != 0 && texelFetch(u_length, pixel, 0).r >= u_min_length) {
+        // The plane's value at o = 0: the first row of the inverse of the normal equations'
+        // matrix [[W, Sx, Sy], [Sx, Sxx, Sxy], [Sy, Sxy, Syy]] times the sums (W a, Sx c, Sy c).
+        float xx = s_oo.x + LINEAR_RIDGE * weight, yy = s_oo.y + LINEAR_RIDGE * weight, xy = s_oo.z;
+        float m00 = xx * yy - xy * xy, m01 = s_o.y * xy - s_o.x * yy, m02 = s_o.x * xy - s_o.y * xx;
+        float det = weight * m00 + s_o.x * m01 + s_o.y * m02;
+        vec3 row = vec3(m00, m01, m02) / det;
+        vec4 fit = row.x * sum + row.y * c_x + row.z * c_y;
+        vec2 fit_variance = row.x * row.x * sum_variance + 2.0 * row.x * row.y * v_x + 2.0 * row.x * row.z * v_y
+                            + row.y * row.y * v_xx + 2.0 * row.y * row.z * v_xy + row.z * row.z * v_yy;
+        // The correction the slope makes, taken by its Wiener gain: the fit is the mean plus
+        // a term uncorrelated with it, whose variance is the difference of theirs.
+        vec2 delta = denoise_guides(fit) - denoise_guides(mean);
+        vec2 delta_variance = max(fit_variance - mean_variance, vec2(0.0));
+        vec2 gain = delta * delta / (delta * delta + delta_variance + 1e-20);
+        if (det > 0.0 && !any(isnan(gain))) {
+            mean = max(clamp(mean + (fit - mean) * vec4(gain.xxx, gain.y), lo - (hi - lo), hi + (hi - lo)), vec4(0.0));
+            mean_variance += gain * gain * delta_variance;
+        }
+    }
+    imageStore(u_color_out, pixel, mean);
+    imageStore(u_variance_out, pixel, vec4(mean_variance, 0.0, 0.0));
 }

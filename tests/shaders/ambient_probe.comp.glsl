@@ -3,7 +3,8 @@
 // G-buffer's ambient target, for every surface pixel, a known irradiance that belongs to the
 // surface point (u_pattern 0: a smooth function of the world position, the same wherever the
 // camera is; 1: the constant u_level; 2: stripes across x, u_level wide, alternately 0.2
-// and 0.8, edges sharper than a pixel), times 1 + u_noise * xi with xi uniform in [-1, 1],
+// and 0.8, edges sharper than a pixel; 3: a linear ramp across x, u_level at x = 0, rising a tenth of it
+// per unit), times 1 + u_noise * xi with xi uniform in [-1, 1],
 // fresh per pixel and per u_sample: noise whose mean is the irradiance. rgb and a (the sky's
 // visibility) get the same value.
 #include "random.glsl"
@@ -33,7 +34,8 @@ void main() {
     vec2 ndc = (vec2(pixel) + 0.5) / vec2(u_size) * 2.0 - 1.0;
     vec4 world = u_inv_view_proj * vec4(ndc, texelFetch(u_depth, pixel, 0).r * 2.0 - 1.0, 1.0);
     vec3 p = world.xyz / world.w;
-    float value = u_pattern == 0 ? pattern(p) : u_pattern == 1 ? u_level : fract(p.x / (2.0 * u_level)) < 0.5 ? 0.2 : 0.8;
+    float value = u_pattern == 0 ? pattern(p) : u_pattern == 1 ? u_level
+                  : u_pattern == 3 ? u_level * (1.0 + 0.1 * p.x) : fract(p.x / (2.0 * u_level)) < 0.5 ? 0.2 : 0.8;
     float xi = random2(uvec4(uvec2(pixel), uint(u_sample), 7u)).x * 2.0 - 1.0;
     value *= 1.0 + u_noise * xi;
     imageStore(u_ambient, pixel, vec4(vec3(value), value));

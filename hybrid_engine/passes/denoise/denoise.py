@@ -17,9 +17,11 @@ the GPU (gpu_shaders/denoise/):
 2. ``variance``: how noisy each pixel is, from the temporal moments, or from its
    neighbours' where its history is short.
 3. ``atrous`` (``ITERATIONS`` levels): an edge-avoiding wavelet filter guided by depth,
-   normal and that variance. Blurring irradiance rather than colour keeps textures sharp
-   (the albedo multiplies after), and reflections and refractions, which the tracer adds to
-   the colour, are never touched.
+   normal and that variance; its coarsest level fits a plane through its taps
+   (``LINEAR_FIT``), so that where the edges cut its kernel off on one side the light's
+   gradient is not shifted by the kernel's width. Blurring irradiance rather than colour
+   keeps textures sharp (the albedo multiplies after), and reflections and refractions,
+   which the tracer adds to the colour, are never touched.
 
 What the next frame reprojects is the temporal blend, not a filtered level as in SVGF (whose
 history, filtered again every frame, keeps blurring a still view); instead the variance that
@@ -97,6 +99,10 @@ HISTORY_FILTER = "catmull_rom"
 # geometry's stops (plane, normal) and to the albedo, which the filter never sees.
 PLANE_SIGMA = 0.01
 SIGMA_GUIDE = 16.0
+# The coarsest level fits a plane through its taps instead of taking their mean
+# (atrous.comp.glsl): its kernel reaches farthest, and where the stops cut it off on one
+# side, the mean is the light of a place up to 16 pixels away. A switch for benchmarks.
+LINEAR_FIT = True
 # The film's samples of a still view during which the temporal blend is their plain mean
 # (1 / n >= ALPHA_COLOR): the pass writes its share of the film's mean (module docstring).
 FILM_SHARE_SAMPLES = round(1.0 / ALPHA_COLOR)
@@ -201,11 +207,13 @@ class DenoisePass:
         for level in range(self.levels):
             target = work[level % 2]
             target_variance = variance[(level + 1) % 2]
-            bind(self.atrous, textures={**surface, "u_color_in": source, "u_variance_in": source_variance},
+            bind(self.atrous, textures={**surface, "u_color_in": source, "u_variance_in": source_variance,
+                                        "u_length": history.current("length")},
                  images={"u_color_out": Image(target, read=False, write=True),
                          "u_variance_out": Image(target_variance, read=False, write=True)},
                  uniforms={**camera, "u_step": 1 << level, "u_plane_sigma": PLANE_SIGMA,
-                           "u_sigma_guide": SIGMA_GUIDE})
+                           "u_sigma_guide": SIGMA_GUIDE, "u_min_length": MIN_LENGTH,
+                           "u_linear": int(LINEAR_FIT and level == self.levels - 1)})
             self._run(self.atrous, groups)
             source, source_variance = target, target_variance
         source = self._film_share(source, work[self.levels % 2], view, groups, film_sample)

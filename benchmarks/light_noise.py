@@ -37,9 +37,9 @@ reference is converged when that is below 0.005. ``--reference-rays N`` makes th
 with *Diffuse Rays* N: N times the paths per frame, the same converged image (the paths are
 the same estimate, averaged N at a time), so that a reference of a few hundred frames holds
 thousands of paths per pixel. A 2048-frame reference of one path per frame still carries
-grain of about 2 % per pixel, which alone scores FLIP 0.015-0.02 against a perfect image. ``--cache`` keeps the references in an npz
-file (keyed by size and sample counts), so that two versions of the renderer are measured
-against the very same images.
+grain of about 2 % per pixel, which alone scores FLIP 0.015-0.02 against a perfect image.
+``--cache`` keeps the references in an npz file (keyed by size, rays and sample counts), so
+that two versions of the renderer are measured against the very same images.
 
 FLIP is the LDR one of docs/PICTURES.md (benchmarks/bench.py ``flip_mean``). Seeds are fixed: a
 sample's numbers depend on its index and the pixel's surface point only.

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
+
 from benchmarks import light_noise
 
 
@@ -64,8 +66,6 @@ def test_references_of_more_diffuse_rays_are_kept_apart_and_reported(gl, tmp_pat
     plain = light_noise.main(args)
     more = light_noise.main([*args, "--reference-rays", "4"])
     assert (plain["reference_rays"], more["reference_rays"]) == (1, 4)
-    import numpy as np
-
     with np.load(cache) as kept:
         keys = set(kept.files)
         assert keys == {"still_32x24_2_2", "still_32x24_rays4_2_2"}

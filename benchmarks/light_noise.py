@@ -208,11 +208,12 @@ def measure(width: int, height: int, reference: int, frames: int, settle: int = 
     scene = SCENES[scene_name]()
     settings = _viewport_settings()
     references = ReferenceCache(cache)
-    maker = Reference(scene, replace(settings, diffuse_rays=int(reference_rays)), settle)
+    reference_rays = int(reference_rays)
+    maker = Reference(scene, replace(settings, diffuse_rays=reference_rays), settle)
     # The room's references keep their keys of before the scenes had names, and of before
     # they had rays.
     size = (f"{width}x{height}" + ("" if scene_name == "room" else f"_{scene_name}")
-            + ("" if reference_rays == 1 else f"_rays{int(reference_rays)}"))
+            + ("" if reference_rays == 1 else f"_rays{reference_rays}"))
     try:
         still_camera = camera_at(0.0, width, height, scene_name)
         truth = references.get(f"still_{size}_{reference}_{settle}",
@@ -229,7 +230,7 @@ def measure(width: int, height: int, reference: int, frames: int, settle: int = 
         maker.release()
     still, undenoised, viewport = still_figures(width, height, truth, scene, settings, scene_name)
     report = {"scene": scene_name, "size": f"{width}x{height}", "reference_samples": reference,
-              "reference_rays": int(reference_rays), "settle_frames": settle,
+              "reference_rays": reference_rays, "settle_frames": settle,
               "still_denoised": still, "still_undenoised": undenoised}
     try:
         if doubled is not None:

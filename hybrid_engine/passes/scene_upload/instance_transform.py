@@ -131,7 +131,7 @@ class InstanceTransformer:
         self.stats = TransformStats()
         # Last frame's rows of the instances this frame deformed (previous_rows.py), copied
         # only while the world buffers hold what the last transform wrote.
-        self.previous = PreviousRows(ctx)
+        self.previous = PreviousRows(ctx, OUTPUT_ROW_BYTES)
         self._outputs_hold_rows = False
 
     @property

@@ -16,19 +16,16 @@ import numpy as np
 
 from ...gpu.dispatch import GrowBuffer, max_block_bytes
 
-# Bytes of one world row (a triangle's three corners, float32 vec3 each) of positions and of
-# normals: instance_transform.OUTPUT_ROW_BYTES.
-ROW_BYTES = 36
-
 
 class PreviousRows:
     """The captured rows: ``instances`` (sorted) and ``offsets``, each instance's first row
-    in the packed ``positions`` and ``normals`` buffers (ROW_BYTES per row); empty when this
-    frame deformed nothing, or its rows could not be trusted (the world buffers were
-    replaced)."""
+    in the packed ``positions`` and ``normals`` buffers (``row_bytes`` per row: the world
+    rows' own, instance_transform.OUTPUT_ROW_BYTES); empty when this frame deformed nothing,
+    or its rows could not be trusted (the world buffers were replaced)."""
 
-    def __init__(self, ctx) -> None:
+    def __init__(self, ctx, row_bytes: dict[str, int]) -> None:
         self.ctx = ctx
+        self.row_bytes = {name: int(row_bytes[name]) for name in ("positions", "normals")}
         self.positions = GrowBuffer(ctx, "previous world positions")
         self.normals = GrowBuffer(ctx, "previous world normals")
         self.instances = np.zeros(0, np.int64)
@@ -52,20 +49,21 @@ class PreviousRows:
         self.clear()
         # The surface-motion pass reads them as one storage block each: past the driver's
         # block size (millions of deformed triangles) those pixels start over instead.
-        if total == 0 or total * ROW_BYTES > max_block_bytes():
+        if total == 0 or total * max(self.row_bytes.values()) > max_block_bytes():
             return
         # Instances whose rows follow one another (a crowd of one deforming mesh) are one copy.
         starts, ends = ranges[:, 0], ranges[:, 0] + ranges[:, 1]
         runs = np.flatnonzero(np.r_[True, starts[1:] != ends[:-1]])
         run_ends = np.r_[runs[1:], len(ranges)]
         for name, target in (("positions", self.positions), ("normals", self.normals)):
-            target.ensure(total * ROW_BYTES)
+            row = self.row_bytes[name]
+            target.ensure(total * row)
             source = outputs[name].buffer
             for first_index, end_index in zip(runs, run_ends):
                 rows = int(offsets[end_index] - offsets[first_index])
-                self.ctx.copy_buffer(target.buffer, source, rows * ROW_BYTES,
-                                     read_offset=int(starts[first_index]) * ROW_BYTES,
-                                     write_offset=int(offsets[first_index]) * ROW_BYTES)
+                self.ctx.copy_buffer(target.buffer, source, rows * row,
+                                     read_offset=int(starts[first_index]) * row,
+                                     write_offset=int(offsets[first_index]) * row)
         self.instances, self.offsets, self.rows = instances, offsets[:-1], total
 
     def offsets_of(self, instances: np.ndarray) -> np.ndarray:

@@ -1,17 +1,19 @@
 #!/bin/bash
 # SPDX-License-Identifier: GPL-3.0-or-later
-# One short check on a lent GPU machine (docs/BENCHMARKS.md "GPU figures"): the tests whose
-# shaders llvmpipe forgives and a GPU may not, then the figures the issues hold to a bar.
+# One short check on a lent GPU machine (docs/BENCHMARKS.md "GPU figures"): the figures the
+# issues hold to a bar first, then the tests whose shaders llvmpipe forgives and a GPU may not.
 #
 #   bash benchmarks/device_check.sh OUT_DIR [SECONDS]
 #
 # Each step has its own time limit within SECONDS (default 480) and writes its report into
-# OUT_DIR as it goes, so that a run cut short still returns what it finished: the tests'
-# failures with their text and the failing comparisons' images (tests/_failures), node_cost's
-# renders line by line, picture_cost --light (with and without the diffuse light's extras,
-# and with the gather's two shapes) and the frame section as JSON. Needs numpy, moderngl,
+# OUT_DIR as it goes, so that a run cut short still returns what it finished: picture_cost
+# --light and the frame section as JSON, the tests (verbose, so that a cut run still says
+# which passed) with the failing comparisons' images (tests/_failures), picture_cost --light
+# without the diffuse light's extras and with the gather's two shapes, and node_cost last
+# (its four renderers' compiles take minutes on NVIDIA). The logs end up in one archive,
+# logs.tar.gz: a lent machine returns only a handful of files. Needs numpy, moderngl,
 # glcontext, flip_evaluator (the tests' FLIP: without it those tests fail as if their images
-# differed) and pytest (no Blender: the tests that need it are not in the list).
+# differed) and pytest with xdist (no Blender: the tests that need it are not in the list).
 set -o pipefail
 out=${1:?usage: device_check.sh OUT_DIR [SECONDS]}
 budget=${2:-480}
@@ -32,18 +34,19 @@ python3 -c "from hybrid_engine.gpu import gl_context as g; print(g.renderer_name
 python3 -c "import flip_evaluator" || { echo "flip_evaluator is missing: install its wheel first"; exit 1; }
 git rev-parse --short HEAD 2>/dev/null
 
-step tests 40 python3 -m pytest -rf -q -n 8 -p no:cacheprovider \
+step picture_light 40 python3 -m benchmarks.picture_cost --light --rounds 3 --json "$out/picture_light.json"
+tail -4 "$out/picture_light.log" 2>/dev/null
+step frame 30 python3 -m benchmarks.bench --sections frame --variants auto --json "$out/frame.json"
+tail -16 "$out/frame.log" 2>/dev/null
+step tests 50 python3 -m pytest -rf -v -n 8 -p no:cacheprovider \
     tests/test_cube_light.py tests/test_diffuse_light.py tests/test_emitter_light.py \
     tests/test_node_light_path.py tests/test_cube_march.py tests/test_node_codegen.py tests/test_denoise.py \
     tests/test_emitter_links.py tests/test_grazing_triangles.py tests/test_surface_motion.py \
-    tests/test_cube_map.py tests/test_instance_transform.py \
+    tests/test_cube_map.py tests/test_instance_transform.py tests/test_gbuffer.py \
     -k "not renders_as_cycles"  # those two need bpy, which the device lacks
-grep -E "^FAILED|passed|failed" "$out/tests.log" 2>/dev/null | tail -20
+grep -cE " PASSED" "$out/tests.log" 2>/dev/null | sed "s/^/   passed so far: /"
+grep -E "^FAILED| FAILED|passed|failed" "$out/tests.log" 2>/dev/null | tail -20
 [ -d tests/_failures ] && tar -czf "$out/failures.tar.gz" -C tests _failures
-step node_cost 40 python3 -m benchmarks.node_cost --rounds 3 --size 640x360 --json "$out/node_cost.json"
-tail -12 "$out/node_cost.log" 2>/dev/null
-step picture_light 40 python3 -m benchmarks.picture_cost --light --rounds 3 --json "$out/picture_light.json"
-tail -4 "$out/picture_light.log" 2>/dev/null
 # The same with the diffuse light's two costliest extras switched off (the grazing triangles'
 # whole-ray test and the extra paths of a short history): what they cost on this GPU.
 step picture_light_plain 40 python3 -c "
@@ -70,5 +73,7 @@ for k, shape in enumerate(['gpu', 'cpu', 'gpu', 'cpu']):
     json.dump(out, open(sys.argv[1], 'w'), indent=1)
 " "$out/gather_shapes.json"
 tail -4 "$out/gather_shapes.log" 2>/dev/null
-step frame 100 python3 -m benchmarks.bench --sections frame --variants auto --json "$out/frame.json"
-tail -16 "$out/frame.log" 2>/dev/null
+step node_cost 100 python3 -m benchmarks.node_cost --rounds 3 --size 640x360 --json "$out/node_cost.json"
+tail -12 "$out/node_cost.log" 2>/dev/null
+# One archive of the logs: a lent machine returns a handful of files.
+tar -czf "$out/logs.tar.gz" -C "$out" $(cd "$out" && ls *.log) && rm -f "$out"/*.log

@@ -20,7 +20,7 @@ from hybrid_engine.scene.raster_view import RasterView
 from scenes_analytic import quad
 from scenes_instanced import camera, instanced_scene, materials, placed, sphere_mesh
 
-TARGETS = ("depth", "normal_material", "albedo", "emission_scale", "surface")
+TARGETS = ("depth", "normal_material", "albedo", "emission_scale", "surface", "row")
 
 
 @pytest.fixture
@@ -44,8 +44,10 @@ def render(gpu: GPUScene, gbuffer: GBufferPass, scene: SceneData, cam: Camera, f
 
 
 def assert_same_gbuffer(rows: dict, instanced: dict) -> None:
+    # The row target is not cleared: only pixels that show a surface hold a row.
+    covered = rows["depth"][..., 0] != np.float32(1.0).view(np.uint32)
     for name in TARGETS:
-        differ = (rows[name] != instanced[name]).any(axis=-1)
+        differ = (rows[name] != instanced[name]).any(axis=-1) & (covered if name == "row" else True)
         assert not differ.any(), f"{name}: {int(differ.sum())} pixels differ, first at {np.argwhere(differ)[:3].tolist()}"
 
 

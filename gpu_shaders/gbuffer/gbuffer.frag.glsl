@@ -49,6 +49,8 @@
 // the program's tangent-space Normal Map and UV-reading Bump bend the normal there as at a
 // BVH hit.
 // Uniforms then: u_camera_position, u_camera_forward, u_orthographic (Geometry Incoming).
+// The primary view's location 4 (R32I) holds the triangle's world row (passes/surface_motion/
+// finds the pixel's instance by it).
 // ALPHA_TEST defined (only for scenes with alpha, MaterialTable.has_alpha; both variants):
 // a fragment of a material with alpha is discarded with the probability it is not there
 // (alpha.glsl), drawn per pixel, sample (u_alpha_sample) and depth. Opaque scenes compile
@@ -84,7 +86,7 @@ flat in int v_first_row;
 #else
 flat in int v_material;
 #endif
-#if defined(NODE_PROGRAMS) && !defined(INSTANCED)
+#if !defined(INSTANCED) && (defined(NODE_PROGRAMS) || !defined(CUBE_FACE))
 flat in int v_row;
 #endif
 
@@ -93,6 +95,7 @@ layout(location = 1) out vec4 out_albedo;
 layout(location = 2) out vec4 out_emission_scale;
 #ifndef CUBE_FACE
 layout(location = 3) out vec4 out_surface;
+layout(location = 4) out int out_row;  // the world row (GBufferTargets.row)
 #elif defined(NODE_PROGRAMS)
 layout(location = 3) out vec4 out_cube_tangent;  // cube hits' tangent frame (cube_tangent.glsl)
 #endif
@@ -104,6 +107,13 @@ void main() {
     int material = v_material;
 #endif
     Material m = materials[material];
+#ifndef CUBE_FACE
+#ifdef INSTANCED
+    out_row = v_first_row + gl_PrimitiveID;
+#else
+    out_row = v_row;
+#endif
+#endif
     // Derivatives outside any branch (they are undefined in non-uniform control flow).
     vec3 dp_dx = dFdx(v_world);
     vec3 dp_dy = dFdy(v_world);

@@ -25,8 +25,10 @@
 // triangles, so it cannot carry a triangle's material: it passes the instance's first world
 // row, and the fragment stage reads the material of row + gl_PrimitiveID (the draw draws
 // the mesh's triangles in order). No CUBE_FACE or FACE_VIEWPORTS variant of it.
-// NODE_PROGRAMS defined (some material has a node graph): the triangle's world row goes to
-// the fragment stage as v_row (include/node_program.glsl finds the instance by it).
+// The triangle's world row goes to the fragment stage as v_row (INSTANCED: its instance's
+// first row, v_first_row, plus gl_PrimitiveID there): the primary view stores it per pixel
+// (passes/surface_motion/ finds a pixel's instance by it), node programs find the instance
+// by it (include/node_program.glsl), and the cube-map faces keep it with node programs.
 #if defined(INSTANCED) && (defined(CUBE_FACE) || defined(FACE_VIEWPORTS))
 #error "INSTANCED draws the primary view only"
 #endif
@@ -70,8 +72,8 @@ flat out int v_first_row;
 #else
 flat out int v_material;
 #endif
-#if defined(NODE_PROGRAMS) && !defined(INSTANCED)
-flat out int v_row;  // the triangle's world row: node programs find its instance by it
+#if !defined(INSTANCED) && (defined(NODE_PROGRAMS) || !defined(CUBE_FACE))
+flat out int v_row;  // the triangle's world row
 #endif
 
 void main() {
@@ -84,7 +86,7 @@ void main() {
     vec3 world = in_pos;
     v_normal = in_normal;
     v_material = triangle_materials[gl_VertexID / 3];
-#ifdef NODE_PROGRAMS
+#if defined(NODE_PROGRAMS) || !defined(CUBE_FACE)
     v_row = gl_VertexID / 3;
 #endif
 #endif

@@ -65,7 +65,7 @@ class RenderTargets:
         """Texture ``name`` as (H, W, C) float32, row 0 at the bottom (tests, diagnostics)."""
         tex = self._textures[name]
         w, h = self.size
-        dtype = np.float16 if tex.dtype == "f2" else np.float32
+        dtype = {"f2": np.float16, "i4": np.int32}.get(tex.dtype, np.float32)
         return np.frombuffer(tex.read(), dtype).reshape(h, w, -1).astype(np.float32)
 
     def release(self) -> None:
@@ -75,7 +75,8 @@ class RenderTargets:
 
 class GBufferTargets(RenderTargets):
     """The primary camera's G-buffer (depth, normal + material, albedo, emission scale,
-    surface: the roughness and metallic its images give; gbuffer.frag.glsl), its ambient
+    surface: the roughness and metallic its images give, row: the world row each pixel
+    shows; gbuffer.frag.glsl), its ambient
     estimate (the World's light: alpha the sky's visibility from screen_ao.py, or rgb the
     light the tracer's sky rays gathered as well) and its shaded colour, W x H texels.
     ``emission_scale`` holds the colour of the material's emission texture (1 without
@@ -85,10 +86,13 @@ class GBufferTargets(RenderTargets):
         # Four surface channels where node programs run (roughness, metallic, transmission,
         # coat: include/node_program.glsl node_gbuffer_material).
         self.surface_channels = surface_channels
-        super().__init__(ctx, width, height,
-                         colour={"normal_material": (4, "f4"), "albedo": (4, "f2"), "emission_scale": (4, "f2"),
-                                 "surface": (surface_channels, "f2")},
-                         extra={"color": (4, "f4"), "ambient": (4, "f4")})
+        # ``row``: each pixel's world row (an integer target), which passes/surface_motion/
+        # finds the pixel's instance by. Never cleared: where the depth says no surface, it
+        # is not read (a float clear of an integer target is undefined).
+        colour = {"normal_material": (4, "f4"), "albedo": (4, "f2"), "emission_scale": (4, "f2"),
+                  "surface": (surface_channels, "f2"), "row": (1, "i4")}
+        super().__init__(ctx, width, height, colour=colour, extra={"color": (4, "f4"), "ambient": (4, "f4")},
+                         cleared=tuple(name for name in colour if name != "row"))
 
     def read_color(self) -> np.ndarray:
         """The shaded colour as (H, W, 4) float32, row 0 at the bottom."""

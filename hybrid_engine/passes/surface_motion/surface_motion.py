@@ -14,37 +14,39 @@ world-to-world move ``previous matrix x current matrix^-1``, the transform Cycle
 pass takes (passes/film/vector.py makes the Vector pass with the same). A deformed mesh
 (an armature, shape keys: the same triangles, new vertices) moves its surface under an
 unchanged matrix; the instance transform kept its instances' rows of last frame
-(scene_upload/previous_rows.py), and they join the list with those rows. Only the listed
-instances' world rows are drawn, in one indirect multi-draw of their row ranges with the
-primary view's matrix, and a fragment that lies on the primary depth buffer's surface
-writes where that surface point stood last frame, with its entry, into the
-``surface_motion`` image (0: no move there), and the rotation of its normal into a second.
-Where the camera's motion alone finds no history for a pixel (the object moved off that
-point), the temporal step takes the pixel's point and normal back and looks for them again
-in last frame's image; so does the diffuse gather, which traces more paths where a pixel
-has no history (include/surface_motion.glsl). A frame where nothing changed costs nothing
-on either side.
+(scene_upload/previous_rows.py), and they join the list with those rows. The GPU then runs
+one invocation per primary pixel (surface_motion/surface_motion.comp.glsl): the G-buffer
+keeps each pixel's world row, and a pixel whose row lies in a listed instance gets where
+its surface point stood last frame, with its entry, in the ``surface_motion`` image (0: no
+move there), and the rotation of its normal in a second. Nothing is drawn again, so the
+cost follows the image's pixels, however many triangles moved, and a pixel is its own
+surface's by its row: no depth comparison decides it. Where the camera's motion alone
+finds no history for a pixel (the object moved off that point), the temporal step takes
+the pixel's point and normal back and looks for them again in last frame's image; so does
+the diffuse gather, which traces more paths where a pixel has no history
+(include/surface_motion.glsl). A frame where nothing changed costs nothing on either side.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import moderngl
 import numpy as np
 
 from ...gpu import gl_context, shader_loader
-from ...gpu.bindings import bind
+from ...gpu.bindings import Image, bind
 from ...gpu.render_targets import release_all
+from ...gpu.triangle_input import input_defines, input_split, input_storage
+from ...scene import matrix4
 from ...scene.geometry import InstancedGeometry
 from ...scene.matrix4 import affine_inverses
 from ...scene.raster_view import gl_matrix
 from ...scene.settings import RenderSettings
 from ..frame_context import FrameContext, PassIO
 
-# One DrawArraysIndirectCommand (count, instance count, first vertex, base instance), padded
-# to the 20 bytes of moderngl's stride: its render_indirect steps through the buffer by
-# DrawElementsIndirectCommand's size whether or not the vertex array is indexed.
-COMMAND_WORDS = 5
+# The compute kernel's workgroup: 8 x 8 pixels.
+WORKGROUP = 8
 
 
 # Follow the instances' moves; False finds nothing moved, the denoiser's reprojection before
@@ -126,34 +128,17 @@ def with_deformed(moved: np.ndarray, matrices: np.ndarray, captured: np.ndarray)
     return entries, all_matrices
 
 
-def draw_commands(table: np.ndarray) -> np.ndarray:
-    """One DrawArraysIndirectCommand per run of adjacent ranges in ``table`` (row_ranges),
-    uint32 (n, COMMAND_WORDS): the vertices 3 * row + corner of their rows."""
-    starts, ends = table[:, 0], table[:, 1]
-    breaks = np.flatnonzero(starts[1:] != ends[:-1]) + 1
-    first = starts[np.concatenate([[0], breaks])]
-    last = ends[np.concatenate([breaks - 1, [len(table) - 1]])]
-    commands = np.zeros((len(first), COMMAND_WORDS), np.uint32)
-    commands[:, 0] = 3 * (last - first)
-    commands[:, 1] = 1
-    commands[:, 2] = 3 * first
-    return commands[commands[:, 0] > 0]
-
-
 class SurfaceMotionPass:
-    """The moved instances' entries per primary pixel (module docstring): a raster of the
-    primary view, in its step, right after the G-buffer."""
+    """The moved instances' entries per primary pixel (module docstring): a compute pass over
+    the primary view, in its step, right after the G-buffer."""
 
     name = "primary_raster"
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
-        self.program = shader_loader.program(ctx, vertex="surface_motion/surface_motion.vert.glsl",
-                                             fragment="surface_motion/surface_motion.frag.glsl")
         self.moves = InstanceMoves()
         self._texture = None
         self._turn = None
-        self._fbo = None
         self._matrices = None
         self._buffers: dict[str, moderngl.Buffer] = {}
 
@@ -173,28 +158,24 @@ class SurfaceMotionPass:
         view = frame.view
         self._ensure((view.width, view.height))
         table = row_ranges(scene.geometry.object_ranges, moved, previous.offsets_of(moved))
-        commands = draw_commands(table)
         rows = self._buffer("rows", table.astype(np.int32))  # ivec4 rows
-        motion = self._matrix_texture(matrices)
-        indirect = self._buffer("commands", commands)
-        ctx = self.ctx
-        self._fbo.use()
-        self._fbo.viewport = (0, 0, view.width, view.height)
-        self._fbo.clear(0.0, 0.0, 0.0, 0.0)
-        ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
-        captured = previous.rows > 0
-        bind(self.program,
-             storage={"MotionRows": rows,
-                      # unread unless a row of them is listed: any buffer stands in
-                      "PreviousPositions": previous.positions.buffer if captured else rows,
-                      "PreviousNormals": previous.normals.buffer if captured else rows},
-             textures={"u_depth": targets.depth, "u_motion_matrices": motion},
-             uniforms={"u_view_proj": gl_matrix(view.view_proj), "u_entries": len(table)})
-        vao = gpu.vertex_array(self.program)
-        vao.render_indirect(indirect, mode=moderngl.TRIANGLES, count=len(commands))
+        split = input_split(gpu.triangle_count)
+        program = shader_loader.compute(self.ctx, "surface_motion/surface_motion.comp.glsl",
+                                        input_defines(split) or None)
+        bind(program,
+             storage={"MotionRows": rows, **input_storage(gpu.positions.buffer, split),
+                      # unread unless a deformed instance is listed: any buffer stands in
+                      "PreviousPositions": previous.positions.buffer if previous.rows > 0 else rows},
+             textures={"u_depth": targets.depth, "u_normal_material": targets.normal_material,
+                       "u_row": targets.row, "u_motion_matrices": self._matrix_texture(matrices)},
+             images={"u_previous": Image(self._texture, read=False, write=True),
+                     "u_turn": Image(self._turn, read=False, write=True)},
+             uniforms={"u_inv_view_proj": gl_matrix(matrix4.inverse(view.view_proj)),
+                       "u_size": (view.width, view.height), "u_entries": len(table), "u_use_indices": 0})
+        program.run(math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
         if gl_context.debug_checks_enabled():
             gl_context.check_error("surface motion")
-        ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT | moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)
+        self.ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT | moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)
         frame.write("surface_motion", SurfaceMotion(True, self._texture, self._turn))
 
     def read(self) -> np.ndarray:
@@ -242,15 +223,14 @@ class SurfaceMotionPass:
     def _ensure(self, size: tuple[int, int]) -> None:
         if self._texture is not None and self._texture.size == size:
             return
-        release_all([part for part in (self._fbo, self._texture, self._turn) if part is not None])
+        release_all([part for part in (self._texture, self._turn) if part is not None])
         self._texture = self.ctx.texture(size, 4, dtype="f4")
         self._turn = self.ctx.texture(size, 4, dtype="f2")
         for texture in (self._texture, self._turn):
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self._fbo = self.ctx.framebuffer(color_attachments=[self._texture, self._turn])
 
     def release(self) -> None:
-        release_all([part for part in (self._fbo, self._texture, self._turn, self._matrices, *self._buffers.values())
+        release_all([part for part in (self._texture, self._turn, self._matrices, *self._buffers.values())
                      if part is not None])
-        self._fbo = self._texture = self._turn = self._matrices = None
+        self._texture = self._turn = self._matrices = None
         self._buffers = {}

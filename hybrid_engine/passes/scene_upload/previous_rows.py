@@ -5,10 +5,11 @@ A deformed mesh (an armature, shape keys, a mesh edited in place) keeps its tria
 rewrites its vertices, so its instances' world rows are transformed again while the
 instance table's matrix may stay the same: nothing in the table says where a surface point
 stood last frame. The world rows still hold it until the transform overwrites them, so
-``InstanceTransformer.transform`` copies those instances' rows (positions and normals) here
-first, packed one instance after another, a copy on the GPU and no read-back. The
-surface-motion pass (passes/surface_motion/) draws the instances with both and gives the
-denoiser each pixel's point of last frame. Only the frame that captured them may read them.
+``InstanceTransformer.transform`` copies those instances' position rows here first, packed
+one instance after another, a copy on the GPU and no read-back. The surface-motion pass
+(passes/surface_motion/) places each pixel's point on its triangle of last frame, and turns
+its normal as that triangle turned, from them. Only the frame that captured them may read
+them.
 """
 from __future__ import annotations
 
@@ -19,15 +20,14 @@ from ...gpu.dispatch import GrowBuffer, max_block_bytes
 
 class PreviousRows:
     """The captured rows: ``instances`` (sorted) and ``offsets``, each instance's first row
-    in the packed ``positions`` and ``normals`` buffers (``row_bytes`` per row: the world
-    rows' own, instance_transform.OUTPUT_ROW_BYTES); empty when this frame deformed nothing,
-    or its rows could not be trusted (the world buffers were replaced)."""
+    in the packed ``positions`` buffer (``row_bytes`` per row: the world rows' own,
+    instance_transform.OUTPUT_ROW_BYTES["positions"]); empty when this frame deformed
+    nothing, or its rows could not be trusted (the world buffers were replaced)."""
 
     def __init__(self, ctx, row_bytes: dict[str, int]) -> None:
         self.ctx = ctx
-        self.row_bytes = {name: int(row_bytes[name]) for name in ("positions", "normals")}
+        self.row_bytes = int(row_bytes["positions"])
         self.positions = GrowBuffer(ctx, "previous world positions")
-        self.normals = GrowBuffer(ctx, "previous world normals")
         self.instances = np.zeros(0, np.int64)
         self.offsets = np.zeros(0, np.int64)
         self.rows = 0
@@ -47,23 +47,22 @@ class PreviousRows:
         offsets = np.concatenate([[0], np.cumsum(ranges[:, 1])]).astype(np.int64)
         total = int(offsets[-1])
         self.clear()
-        # The surface-motion pass reads them as one storage block each: past the driver's
-        # block size (millions of deformed triangles) those pixels start over instead.
-        if total == 0 or total * max(self.row_bytes.values()) > max_block_bytes():
+        # The surface-motion pass reads them as one storage block: past the driver's block
+        # size (millions of deformed triangles) those pixels start over instead.
+        if total == 0 or total * self.row_bytes > max_block_bytes():
             return
         # Instances whose rows follow one another (a crowd of one deforming mesh) are one copy.
         starts, ends = ranges[:, 0], ranges[:, 0] + ranges[:, 1]
         runs = np.flatnonzero(np.r_[True, starts[1:] != ends[:-1]])
         run_ends = np.r_[runs[1:], len(ranges)]
-        for name, target in (("positions", self.positions), ("normals", self.normals)):
-            row = self.row_bytes[name]
-            target.ensure(total * row)
-            source = outputs[name].buffer
-            for first_index, end_index in zip(runs, run_ends):
-                rows = int(offsets[end_index] - offsets[first_index])
-                self.ctx.copy_buffer(target.buffer, source, rows * row,
-                                     read_offset=int(starts[first_index]) * row,
-                                     write_offset=int(offsets[first_index]) * row)
+        row = self.row_bytes
+        self.positions.ensure(total * row)
+        source = outputs["positions"].buffer
+        for first_index, end_index in zip(runs, run_ends):
+            rows = int(offsets[end_index] - offsets[first_index])
+            self.ctx.copy_buffer(self.positions.buffer, source, rows * row,
+                                 read_offset=int(starts[first_index]) * row,
+                                 write_offset=int(offsets[first_index]) * row)
         self.instances, self.offsets, self.rows = instances, offsets[:-1], total
 
     def offsets_of(self, instances: np.ndarray) -> np.ndarray:
@@ -76,5 +75,4 @@ class PreviousRows:
 
     def release(self) -> None:
         self.positions.release()
-        self.normals.release()
         self.clear()

@@ -106,6 +106,29 @@ def test_one_sample_gives_whole_pixels_and_the_levels_set_the_passes(renderer):
     assert set(np.unique(coverage)) <= {0.0, 1.0}
 
 
+def test_a_card_of_alpha_0_3_gives_seven_tenths_of_its_coverage_to_the_floor_it_shows(renderer):
+    # The passes count what each sample's G-buffer shows, so a surface the alpha test lets
+    # through gives its samples to what lies behind it: Cryptomatte's mattes take
+    # transparency into account (the standard, and Blender's manual of its node).
+    mats = MaterialTable.from_rows([dict(name="grey", base_color=(0.8, 0.8, 0.8)),
+                                    dict(name="veil", base_color=(0.8, 0.1, 0.1), alpha=0.3)])
+    card = quad((0.0, 0.0, 0.5), (0.8, 0, 0), (0, 0.8, 0))
+    scene = SceneData(Geometry.from_objects([(quad((0, 0, 0), (3, 0, 0), (0, 3, 0)), None, 0), (card, None, 1)],
+                                            names=["Floor", "Card"]), mats,
+                      Lights.from_rows([dict(kind="SUN", direction=(0.2, 0.3, -1), color=(2, 2, 2))]),
+                      Sky(color=(0.2, 0.3, 0.5)))
+    request = CryptomatteRequest(("object",), 6)
+    passes = render_antialiased(renderer, scene, CAMERA, RenderSettings(mode="RASTER", **SMALL), 64,
+                                outputs=FrameOutputs(cryptomatte=request)).data_passes
+    card_matte = coverage_of(passes, "CryptoObject", name_id("Card"))
+    floor_matte = coverage_of(passes, "CryptoObject", name_id("Floor"))
+    seen = card_matte > 0.0
+    interior = seen & (card_matte + floor_matte > 0.999)
+    assert interior.sum() > 30
+    assert abs(float(card_matte[interior].mean()) - 0.3) < 0.05
+    assert abs(float(floor_matte[interior].mean()) - 0.7) < 0.05
+
+
 def test_a_sample_that_does_not_follow_the_last_is_refused(renderer):
     request = CryptomatteRequest(("object",))
     settings = RenderSettings(mode="RASTER", **SMALL)

@@ -5,8 +5,9 @@
 // u_slots is an RGBA32F image array whose layers are the passes themselves: kind k's pass p
 // is layer k * u_passes + p, its texel two (id, coverage) pairs, so the last step leaves
 // exactly what Blender's CryptoObject00, 01, ... passes hold and nothing is converted on
-// the host. Without FINALIZE (every sample): the id of the triangle the sample's raster saw
-// (u_rows: world row + 1, 0 = background, which adds nothing) for each kind, and one more
+// the host. Without FINALIZE (every sample): the id of the triangle the sample's G-buffer
+// shows (u_row, its world row; none where u_normal_material's id is 0, the background,
+// which adds nothing) for each kind, and one more
 // count for that id in the pixel's ranks: the rank that holds it, else the first empty one
 // (an id past the last rank is dropped, as Cycles drops it). u_sample 0 clears the ranks
 // first. A count per sample is the box of the samples' jittered positions (antialias.py):
@@ -30,7 +31,8 @@ uniform ivec3 u_kinds;
 #ifdef FINALIZE
 uniform float u_samples;
 #else
-uniform sampler2D u_rows;  // R32F: world row + 1 (crypto_id.frag.glsl)
+uniform isampler2D u_row;             // the primary G-buffer's world row per pixel
+uniform sampler2D u_normal_material;  // its signed material id in w: 0 where no surface
 uniform int u_sample;
 uniform int u_objects;
 
@@ -101,10 +103,10 @@ void main() {
             imageStore(u_slots, ivec3(texel, layer), vec4(0.0));
         }
     }
-    int row = int(texelFetch(u_rows, texel, 0).x + 0.5) - 1;
-    if (row < 0) {
+    if (!(abs(texelFetch(u_normal_material, texel, 0).w) > 0.5)) {
         return;
     }
+    int row = texelFetch(u_row, texel, 0).r;
     int object = object_of(row);
     for (int k = 0; k < u_kind_count; ++k) {
         int kind = u_kinds[k];

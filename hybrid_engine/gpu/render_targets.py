@@ -86,9 +86,10 @@ class GBufferTargets(RenderTargets):
         # Four surface channels where node programs run (roughness, metallic, transmission,
         # coat: include/node_program.glsl node_gbuffer_material).
         self.surface_channels = surface_channels
-        # ``row``: each pixel's world row (an integer target), which passes/surface_motion/
-        # finds the pixel's instance by. Never cleared: where the depth says no surface, it
-        # is not read (a float clear of an integer target is undefined).
+        # ``row``: each pixel's world row (an integer target), by which passes/surface_motion/
+        # finds the pixel's instance and passes/film/cryptomatte.py its ids. Never cleared:
+        # where the G-buffer shows no surface it is not read (a float clear of an integer
+        # target is undefined).
         colour = {"normal_material": (4, "f4"), "albedo": (4, "f2"), "emission_scale": (4, "f2"),
                   "surface": (surface_channels, "f2"), "row": (1, "i4")}
         super().__init__(ctx, width, height, colour=colour, extra={"color": (4, "f4"), "ambient": (4, "f4")},

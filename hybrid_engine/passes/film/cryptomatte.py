@@ -6,12 +6,13 @@ A compositor picks an object by name and gets its matte from these passes: per p
 ids that cover it, ranked by coverage (scene/cryptomatte.py makes the ids, Blender's way).
 The coverage must be anti-aliased, or an extracted matte has jagged edges, so it is counted
 per sample at the sample's jittered position, as the colour is averaged (antialias.py):
-each sample rasterizes the world rows' triangle ids with its own view-projection
-(``gpu_shaders/film/crypto_id.*.glsl``: a depth-tested draw of the rows, as the G-buffer
-draws them, without its shading), and a compute stage adds one count to the id each kind
-maps the row to (``cryptomatte.comp.glsl``). The counts stay on the GPU in an image array
-laid out as the passes themselves; the frame that reads its image sorts and scales them
-there and reads them back once.
+each sample's G-buffer keeps the world row of the triangle each pixel shows there (its
+``row`` target), and a compute stage adds one count to the id each kind maps the row to
+(``cryptomatte.comp.glsl``): no geometry is drawn for the passes, and a surface the
+G-buffer's alpha test drops (a leaf's cut-out) gives its sample to what shows through it,
+as the shading does. The counts stay on the GPU in an image array laid out as the passes
+themselves; the frame that reads its image sorts and scales them there and reads them back
+once.
 """
 from __future__ import annotations
 
@@ -21,11 +22,10 @@ import moderngl
 import numpy as np
 
 from ...gpu import shader_loader
-from ...gpu.bindings import Image, bind, set_uniforms
+from ...gpu.bindings import Image, bind
 from ...gpu.render_targets import release_all
 from ...scene.cryptomatte import KINDS, CryptomatteRequest, name_id, object_name, pass_names
 from ...scene.data import SceneData
-from ...scene.raster_view import gl_matrix
 from ...scene.settings import RenderSettings
 from ..frame_context import FrameContext, PassIO
 from .accumulate import AccumulationError
@@ -42,8 +42,6 @@ class CryptomattePass:
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
-        self.raster = shader_loader.program(ctx, vertex="film/crypto_id.vert.glsl",
-                                            fragment="film/crypto_id.frag.glsl")
         self.accumulate = shader_loader.compute(ctx, "film/cryptomatte.comp.glsl")
         self.finalize = shader_loader.compute(ctx, "film/cryptomatte.comp.glsl", defines={"FINALIZE": 1})
         self.size: tuple[int, int] | None = None
@@ -54,16 +52,17 @@ class CryptomattePass:
         self._ids_key: tuple | None = None
 
     def io(self, settings: RenderSettings) -> PassIO:
-        return PassIO(reads=("scene", "world_triangles"), writes=("cryptomatte",))
+        return PassIO(reads=("scene", "world_triangles", "gbuffer"), writes=("cryptomatte",))
 
     def run(self, frame: FrameContext) -> None:
-        self.add(frame.read("scene"), frame.read("world_triangles"), frame.view, frame.outputs.cryptomatte,
-                 frame.sample)
+        self.add(frame.read("scene"), frame.read("world_triangles"), frame.read("gbuffer"), frame.view,
+                 frame.outputs.cryptomatte, frame.sample)
         frame.write("cryptomatte", self)
 
-    def add(self, scene: SceneData, gpu, view, request: CryptomatteRequest, sample: int) -> None:
-        """Count sample ``sample`` of ``view`` (0 starts the counts over; any other must
-        follow the last, of the same size and request, else AccumulationError)."""
+    def add(self, scene: SceneData, gpu, targets, view, request: CryptomatteRequest, sample: int) -> None:
+        """Count sample ``sample`` of ``view``, whose primary G-buffer is ``targets`` (0
+        starts the counts over; any other must follow the last, of the same size and
+        request, else AccumulationError)."""
         size = (int(view.width), int(view.height))
         if sample != 0 and (sample != self.count or size != self.size or request != self.request):
             raise AccumulationError(
@@ -72,23 +71,12 @@ class CryptomattePass:
         self._ensure(size, request)
         self._upload_ids(scene, request)
         ctx = self.ctx
-        fbo = self._targets["fbo"]
-        fbo.use()
-        fbo.viewport = (0, 0, *size)
-        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        ctx.enable(ctx.DEPTH_TEST)
-        ctx.disable(ctx.CULL_FACE)  # both sides of a face, as the G-buffer draws them
-        set_uniforms(self.raster, {"u_view_proj": gl_matrix(view.view_proj)})
-        vao = gpu.vertex_array(self.raster)
-        if gpu.triangle_count:
-            vao.render(moderngl.TRIANGLES, vertices=3 * int(gpu.triangle_count))
-        ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT | moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)
         kinds = [KIND_CODES[kind] for kind in request.kinds]
         bind(self.accumulate, gpu.bindings(),
              storage={"ObjectRows": self._ids["rows"], "ObjectIds": self._ids["objects"],
                       "MaterialIds": self._ids["materials"]},
              images={"u_slots": Image(self._targets["slots"], read=True, write=True)},
-             textures={"u_rows": self._targets["rows"]},
+             textures={"u_row": targets.row, "u_normal_material": targets.normal_material},
              uniforms={"u_size": size, "u_passes": request.slots // 2, "u_kind_count": len(kinds),
                        "u_kinds": tuple(kinds + [0] * (3 - len(kinds))), "u_sample": int(sample),
                        "u_objects": int(self._ids_key[1])})
@@ -148,12 +136,7 @@ class CryptomattePass:
             self.request = request
             return
         release_all(self._targets.values())
-        rows = self.ctx.texture(size, 1, dtype="f4")
-        rows.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        depth = self.ctx.depth_renderbuffer(size)
-        self._targets = {"rows": rows, "depth": depth,
-                         "fbo": self.ctx.framebuffer(color_attachments=[rows], depth_attachment=depth),
-                         "slots": self.ctx.texture_array((*size, layers), 4, dtype="f4")}
+        self._targets = {"slots": self.ctx.texture_array((*size, layers), 4, dtype="f4")}
         self.size, self.request, self.count = size, request, 0
 
     def release(self) -> None:

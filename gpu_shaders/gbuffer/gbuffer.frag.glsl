@@ -50,7 +50,8 @@
 // BVH hit.
 // Uniforms then: u_camera_position, u_camera_forward, u_orthographic (Geometry Incoming).
 // The primary view's location 4 (R32I) holds the triangle's world row (passes/surface_motion/
-// finds the pixel's instance by it, passes/film/cryptomatte.py its ids).
+// and passes/film/vector.py find the pixel's instance by it, passes/film/cryptomatte.py its
+// ids).
 // ALPHA_TEST defined (only for scenes with alpha, MaterialTable.has_alpha; both variants):
 // a fragment of a material with alpha is discarded with the probability it is not there
 // (alpha.glsl), drawn per pixel, sample (u_alpha_sample) and depth. Opaque scenes compile

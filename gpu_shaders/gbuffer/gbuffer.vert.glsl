@@ -27,7 +27,7 @@
 // the mesh's triangles in order). No CUBE_FACE or FACE_VIEWPORTS variant of it.
 // The triangle's world row goes to the fragment stage as v_row (INSTANCED: its instance's
 // first row, v_first_row, plus gl_PrimitiveID there): the primary view stores it per pixel
-// (passes/surface_motion/ and passes/film/cryptomatte.py read it), node programs find the instance
+// (passes/surface_motion/ and passes/film/ read it), node programs find the instance
 // by it (include/node_program.glsl), and the cube-map faces keep it with node programs.
 #if defined(INSTANCED) && (defined(CUBE_FACE) || defined(FACE_VIEWPORTS))
 #error "INSTANCED draws the primary view only"

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // The table of moving instances' world rows that the passes of motion read
-// (film/vector.vert.glsl, surface_motion/surface_motion.comp.glsl): MotionRows lists, sorted
+// (film/vector.comp.glsl, surface_motion/surface_motion.comp.glsl): MotionRows lists, sorted
 // by first row, one ivec4 per instance (first row, end row, and two indices of the pass's
 // own), u_entries its length.
 #ifndef HYBRID_MOTION_ROWS_GLSL

@@ -25,6 +25,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 #include "triangle_input.glsl"
 #include "motion_rows.glsl"
+#include "triangle_weights.glsl"
 
 layout(std430) readonly buffer PreviousPositions { float previous_positions[]; };
 
@@ -51,19 +52,6 @@ vec3 previous_corner(int row, int corner) {
     return vec3(previous_positions[at], previous_positions[at + 1], previous_positions[at + 2]);
 }
 
-// The weights of p's projection onto the plane of triangle (a, b, c), by its corners (a's
-// first); a's alone where the triangle has no area.
-vec3 barycentric(vec3 p, vec3 a, vec3 b, vec3 c) {
-    vec3 e1 = b - a, e2 = c - a, v = p - a;
-    float d00 = dot(e1, e1), d01 = dot(e1, e2), d11 = dot(e2, e2);
-    float d20 = dot(v, e1), d21 = dot(v, e2);
-    float det = d00 * d11 - d01 * d01;
-    if (!(abs(det) > 1e-30 * max(d00 * d11, 1e-30))) return vec3(1.0, 0.0, 0.0);
-    float wb = (d11 * d20 - d01 * d21) / det;
-    float wc = (d00 * d21 - d01 * d20) / det;
-    return vec3(1.0 - wb - wc, wb, wc);
-}
-
 void main() {
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(pixel, u_size))) return;
@@ -86,7 +74,7 @@ void main() {
         vec3 a = input_vertex(uint(row), 0u), b = input_vertex(uint(row), 1u), c = input_vertex(uint(row), 2u);
         int before = entry.w + row - entry.x;
         vec3 a0 = previous_corner(before, 0), b0 = previous_corner(before, 1), c0 = previous_corner(before, 2);
-        vec3 w = barycentric(p, a, b, c);
+        vec3 w = triangle_weights(p, a, b, c);
         p_then = w.x * a0 + w.y * b0 + w.z * c0;
         vec3 g = cross(b - a, c - a), g0 = cross(b0 - a0, c0 - a0);
         turn = dot(g, g) > 0.0 && dot(g0, g0) > 0.0 ? turn_between(normalize(g), normalize(g0))

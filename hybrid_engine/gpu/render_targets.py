@@ -87,7 +87,7 @@ class GBufferTargets(RenderTargets):
         # coat: include/node_program.glsl node_gbuffer_material).
         self.surface_channels = surface_channels
         # ``row``: each pixel's world row (an integer target), by which passes/surface_motion/
-        # finds the pixel's instance and passes/film/cryptomatte.py its ids. Never cleared:
+        # and the Vector pass find the pixel's instance and Cryptomatte its ids. Never cleared:
         # where the G-buffer shows no surface it is not read (a float clear of an integer
         # target is undefined).
         colour = {"normal_material": (4, "f4"), "albedo": (4, "f2"), "emission_scale": (4, "f2"),

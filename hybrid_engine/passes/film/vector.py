@@ -12,18 +12,17 @@ by the count of those samples: the background, which no sample hits, is 0). Only
 Motion Blur is off: with it the scene is evaluated across the shutter instead of at the
 frames around it, and Cycles leaves the pass at 0; so does the Blender adapter.
 
-How it is made: every sample draws the world rows as the G-buffer draws them, with the
-sample's view-projection, and the vertex stage (``gpu_shaders/film/vector.vert.glsl``) takes
-each corner back to the previous and on to the next frame: a rigid instance through its
-world-to-world motion (``previous matrix x current matrix^-1``, Cycles' ``motion_pass``
-transforms), a deforming mesh through its corners' positions at those frames, and both
-through the camera of that frame; in a scene with alpha the fragment stage drops what the
-G-buffer drops (its alpha test, with its numbers). The rasterizer interpolates the three clip positions
-perspective-correctly, so each fragment divides the exact images of its surface point (no
-G-buffer read-back, no per-pixel host work), and a compute stage adds the sample's vectors
-and hits into sums on the GPU (``vector.comp.glsl``) and writes their mean, which the frame
-that reads its image reads back once. Instances that do not move and the background cost
-nothing but the draw: the motion table lists only what moves.
+How it is made: one compute invocation per pixel and sample (``gpu_shaders/film/
+vector.comp.glsl``) takes the surface point the sample's G-buffer shows there (its depth
+through the sample's view-projection) back to the previous and on to the next frame: a
+rigid instance through its world-to-world motion (``previous matrix x current matrix^-1``,
+Cycles' ``motion_pass`` transforms), a deforming mesh through its triangle's corners at
+those frames, the point keeping its weights in the triangle, and both through the camera of
+that frame. The pixel's instance is the one whose world rows hold the row the G-buffer keeps
+for it, so nothing is drawn again, and what the G-buffer's alpha test dropped is not there
+(no G-buffer read-back, no per-pixel host work). The same invocation adds the sample's
+vector into sums on the GPU and writes their mean, which the frame that reads its image
+reads back once. The motion table lists only what moves.
 
 What differs from Cycles: the camera of the other frames keeps this frame's lens (an
 animated focal length or shift is not followed), and a mesh whose vertex count changes
@@ -39,11 +38,13 @@ import numpy as np
 from ...gpu import shader_loader
 from ...gpu.bindings import Image, bind
 from ...gpu.render_targets import release_all
+from ...gpu.triangle_input import input_defines, input_split, input_storage
+from ...scene import matrix4
 from ...scene.data import SceneData
 from ...scene.geometry import InstancedGeometry
 from ...scene.matrix4 import affine_inverses
 from ...scene.motion import MotionSteps
-from ...scene.raster_view import RasterView, gl_matrix
+from ...scene.raster_view import gl_matrix
 from ...scene.settings import RenderSettings
 from ..frame_context import FrameContext, PassIO
 from .accumulate import AccumulationError
@@ -84,7 +85,7 @@ def camera_motion(view: np.ndarray, cameras: np.ndarray) -> tuple[np.ndarray, np
 
 
 def motion_table(scene: SceneData, request: VectorRequest) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """What the vertex stage reads (vector.vert.glsl): per instance that moves or deforms,
+    """What the kernel reads (vector.comp.glsl): per instance that moves or deforms,
     ``rows`` (first world row, end row, index into ``matrices`` or -1, index into
     ``corners`` or -1), sorted by row; ``matrices`` (2 per rigid instance: world to the
     previous and to the next frame's world, float32 (n, 4, 4)); ``corners`` (a deforming
@@ -143,8 +144,6 @@ class VectorPass:
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
-        self._raster(alpha=False)  # compiled with the pass, as the other film passes compile theirs
-        self.accumulate = shader_loader.compute(ctx, "film/vector.comp.glsl")
         self.size: tuple[int, int] | None = None
         self.count = 0  # samples in the sums
         self._targets: dict[str, object] = {}
@@ -152,24 +151,18 @@ class VectorPass:
         self._table_key: tuple | None = None
         self._entries = 0
 
-    def _raster(self, alpha: bool, programs: dict | None = None):
-        """The raster program, with the alpha test where the scene has alpha (a fragment
-        stage that may discard loses the early depth test: opaque scenes go without), and
-        the node programs' defines (``programs``) where some coverage is an alpha program."""
-        return shader_loader.program(self.ctx, vertex="film/vector.vert.glsl", fragment="film/vector.frag.glsl",
-                                     defines={"ALPHA_TEST": 1, **(programs or {})} if alpha else None)
-
     def io(self, settings: RenderSettings) -> PassIO:
-        return PassIO(reads=("scene", "world_triangles"), writes=("vector",))
+        return PassIO(reads=("scene", "world_triangles", "gbuffer"), writes=("vector",))
 
     def run(self, frame: FrameContext) -> None:
-        self.add(frame.read("scene"), frame.read("world_triangles"), frame.camera, frame.outputs.vector,
-                 frame.sample)
+        self.add(frame.read("scene"), frame.read("world_triangles"), frame.read("gbuffer"), frame.camera,
+                 frame.outputs.vector, frame.sample)
         frame.write("vector", self)
 
-    def add(self, scene: SceneData, gpu, camera, request: VectorRequest, sample: int) -> None:
-        """Add sample ``sample`` of ``camera``'s view (0 starts the sums over; any other must
-        follow the last, of the same size, else AccumulationError)."""
+    def add(self, scene: SceneData, gpu, targets, camera, request: VectorRequest, sample: int) -> None:
+        """Add sample ``sample`` of ``camera``'s view, whose primary G-buffer is ``targets``
+        (0 starts the sums over; any other must follow the last, of the same size, else
+        AccumulationError)."""
         size = (int(camera.width), int(camera.height))
         if sample != 0 and (sample != self.count or size != self.size):
             raise AccumulationError(f"Vector sample {sample} of a {size[0]}x{size[1]} view does not follow the "
@@ -179,48 +172,25 @@ class VectorPass:
         projection = np.asarray(camera.projection_matrix(), np.float64)
         view = np.asarray(camera.view_matrix(), np.float64)
         previous, following = camera_motion(view, request.motion.camera)
-        ctx = self.ctx
-        fbo = self._targets["fbo"]
-        fbo.use()
-        fbo.viewport = (0, 0, *size)
-        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        ctx.enable(ctx.DEPTH_TEST)
-        ctx.disable(ctx.CULL_FACE)  # both sides of a face, as the G-buffer draws them
-        alpha = scene.materials.has_alpha
-        # -- closure alpha: the G-buffer's coverage, an alpha program's where a material has one
-        programs = gpu.defines if alpha and gpu.node_programs.closure_alpha else {}
-        raster = self._raster(alpha, programs)
-        # The G-buffer's own matrix: the same depths, so the alpha test draws its numbers.
-        bind(raster, *([gpu.bindings()] if alpha else []),
+        view_proj = np.asarray(camera.view_projection(), np.float64)
+        split = input_split(max(int(gpu.triangle_count), 1))
+        program = shader_loader.compute(self.ctx, "film/vector.comp.glsl", input_defines(split) or None)
+        bind(program,
              storage={"MotionRows": self._table["rows"], "MotionMatrices": self._table["matrices"],
-                      "MotionCorners": self._table["corners"]},
-             uniforms={"u_view_proj": gl_matrix(camera.view_projection()),
-                       "u_previous_view_proj": gl_matrix(projection @ previous),
-                       "u_next_view_proj": gl_matrix(projection @ following),
-                       "u_entries": self._entries, "u_size": size, "u_alpha_sample": int(sample),
-                       **(self._camera_uniforms(camera) if programs else {})})
-        vao = gpu.vertex_array(raster)
-        if gpu.triangle_count:
-            vao.render(moderngl.TRIANGLES, vertices=3 * int(gpu.triangle_count))
-        ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT | moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)
-        bind(self.accumulate, textures={"u_sample_vector": self._targets["vector"],
-                                        "u_sample_hit": self._targets["hit"]},
+                      "MotionCorners": self._table["corners"], **input_storage(gpu.positions.buffer, split)},
+             textures={"u_depth": targets.depth, "u_normal_material": targets.normal_material, "u_row": targets.row},
              images={"u_sums": Image(self._targets["sums"], read=True, write=True),
                      "u_hits": Image(self._targets["hits"], read=True, write=True),
                      "u_vector_pass": Image(self._targets["mean"], read=False, write=True)},
-             uniforms={"u_size": size, "u_restart": int(sample == 0)})
-        self.accumulate.run(math.ceil(size[0] / WORKGROUP), math.ceil(size[1] / WORKGROUP), 1)
-        ctx.memory_barrier(moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT | moderngl.TEXTURE_UPDATE_BARRIER_BIT)
+             # The G-buffer's own matrix: the points are the ones it drew.
+             uniforms={"u_view_proj": gl_matrix(view_proj), "u_inv_view_proj": gl_matrix(matrix4.inverse(view_proj)),
+                       "u_previous_view_proj": gl_matrix(projection @ previous),
+                       "u_next_view_proj": gl_matrix(projection @ following),
+                       "u_entries": self._entries, "u_size": size, "u_restart": int(sample == 0),
+                       "u_use_indices": 0})
+        program.run(math.ceil(size[0] / WORKGROUP), math.ceil(size[1] / WORKGROUP), 1)
+        self.ctx.memory_barrier(moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT | moderngl.TEXTURE_UPDATE_BARRIER_BIT)
         self.count = sample + 1
-
-    @staticmethod
-    def _camera_uniforms(camera) -> dict:
-        """Where the alpha programs see the point from (Fresnel, Layer Weight, Incoming), and
-        the camera their Texture Coordinate Camera and Window read, as the G-buffer's."""
-        view = RasterView.from_camera(camera)
-        return {"u_camera_position": tuple(np.asarray(view.position, float)),
-                "u_camera_forward": tuple(np.asarray(view.forward, float)),
-                "u_orthographic": int(view.orthographic), **view.node_camera_uniforms()}
 
     def read(self) -> dict[str, np.ndarray]:
         """{"Vector": (H, W, 4) float32}, row 0 at the bottom: the mean over the samples so far."""
@@ -250,14 +220,7 @@ class VectorPass:
         if size == self.size:
             return
         release_all(self._targets.values())
-        vector = self.ctx.texture(size, 4, dtype="f4")
-        hit = self.ctx.texture(size, 1, dtype="f4")
-        for texture in (vector, hit):
-            texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        depth = self.ctx.depth_renderbuffer(size)
-        self._targets = {"vector": vector, "hit": hit, "depth": depth,
-                         "fbo": self.ctx.framebuffer(color_attachments=[vector, hit], depth_attachment=depth),
-                         "sums": self.ctx.texture(size, 4, dtype="f4"), "hits": self.ctx.texture(size, 1, dtype="f4"),
+        self._targets = {"sums": self.ctx.texture(size, 4, dtype="f4"), "hits": self.ctx.texture(size, 1, dtype="f4"),
                          "mean": self.ctx.texture(size, 4, dtype="f4")}
         self.size, self.count = size, 0
 

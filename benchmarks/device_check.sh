@@ -7,9 +7,10 @@
 #
 # Each step has its own time limit within SECONDS (default 480) and writes its report into
 # OUT_DIR as it goes, so that a run cut short still returns what it finished: picture_cost
-# --light and the frame section as JSON, the tests (verbose, so that a cut run still says
-# which passed) with the failing comparisons' images (tests/_failures), picture_cost --light
-# without the diffuse light's extras and with the gather's two shapes, and node_cost last
+# --light, the frame section and the row passes' cost as JSON, the tests (verbose, so that
+# a cut run still says which passed) with the failing comparisons' images (tests/_failures),
+# picture_cost --light without the diffuse light's extras and with the gather's two
+# shapes, and node_cost last
 # (its four renderers' compiles take minutes on NVIDIA). The logs end up in one archive,
 # logs.tar.gz: a lent machine returns only a handful of files. Needs numpy, moderngl,
 # glcontext, flip_evaluator (the tests' FLIP: without it those tests fail as if their images
@@ -38,6 +39,9 @@ step picture_light 40 python3 -m benchmarks.picture_cost --light --rounds 3 --js
 tail -4 "$out/picture_light.log" 2>/dev/null
 step frame 30 python3 -m benchmarks.bench --sections frame --variants auto --json "$out/frame.json"
 tail -16 "$out/frame.log" 2>/dev/null
+# The passes that read the G-buffer's rows (moved surfaces, Cryptomatte, Vector) per frame.
+step row_passes 15 python3 -m benchmarks.row_passes_cost --detail 1 --size 1280x720 --json "$out/row_passes.json"
+tail -4 "$out/row_passes.log" 2>/dev/null
 step tests 50 python3 -m pytest -rf -v -n 8 -p no:cacheprovider \
     tests/test_cube_light.py tests/test_diffuse_light.py tests/test_emitter_light.py \
     tests/test_node_light_path.py tests/test_cube_march.py tests/test_node_codegen.py tests/test_denoise.py \

@@ -144,6 +144,9 @@ class VectorPass:
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
+        # Compiled with the pass, as the other film passes compile theirs (an input split over
+        # several storage blocks compiles its own variant when it first comes).
+        shader_loader.compute(ctx, "film/vector.comp.glsl")
         self.size: tuple[int, int] | None = None
         self.count = 0  # samples in the sums
         self._targets: dict[str, object] = {}

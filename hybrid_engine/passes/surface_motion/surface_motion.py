@@ -135,6 +135,9 @@ class SurfaceMotionPass:
 
     def __init__(self, ctx) -> None:
         self.ctx = ctx
+        # Compiled with the pass, not in the first frame that moves something (an input split
+        # over several storage blocks compiles its own variant when it first comes).
+        shader_loader.compute(ctx, "surface_motion/surface_motion.comp.glsl")
         self.moves = InstanceMoves()
         self._texture = None
         self._turn = None

@@ -23,6 +23,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 #include "triangle_input.glsl"
 #include "motion_rows.glsl"
 #include "triangle_weights.glsl"
+#include "denoise.glsl"
 
 layout(std430) readonly buffer MotionMatrices { mat4 motion_matrices[]; };  // previous, next
 layout(std430) readonly buffer MotionCorners { vec4 motion_corners[]; };    // previous, next
@@ -50,12 +51,9 @@ void main() {
     if (any(greaterThanEqual(texel, u_size))) return;
     vec4 value = vec4(0.0);
     float hit = 0.0;
-    if (abs(texelFetch(u_normal_material, texel, 0).w) > 0.5) {
+    if (denoise_surface_id(texelFetch(u_normal_material, texel, 0).w) != 0) {
         hit = 1.0;
-        vec2 center = vec2(texel) + 0.5;
-        vec4 world = u_inv_view_proj * vec4(center / vec2(u_size) * 2.0 - 1.0,
-                                            texelFetch(u_depth, texel, 0).r * 2.0 - 1.0, 1.0);
-        vec4 point = vec4(world.xyz / world.w, 1.0);
+        vec4 point = vec4(denoise_unproject(u_inv_view_proj, texel, u_size, texelFetch(u_depth, texel, 0).r), 1.0);
         vec4 previous = point, next = point;
         int row = texelFetch(u_row, texel, 0).r;
         int k = motion_entry(row);

@@ -26,6 +26,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 #include "triangle_input.glsl"
 #include "motion_rows.glsl"
 #include "triangle_weights.glsl"
+#include "denoise.glsl"
 
 layout(std430) readonly buffer PreviousPositions { float previous_positions[]; };
 
@@ -57,16 +58,14 @@ void main() {
     if (any(greaterThanEqual(pixel, u_size))) return;
     vec4 nm = texelFetch(u_normal_material, pixel, 0);
     int row = texelFetch(u_row, pixel, 0).r;
-    int k = abs(nm.w) > 0.5 ? motion_entry(row) : -1;
+    int k = denoise_surface_id(nm.w) != 0 ? motion_entry(row) : -1;
     if (k < 0) {
         imageStore(u_previous, pixel, vec4(0.0));
         imageStore(u_turn, pixel, vec4(0.0, 0.0, 0.0, 1.0));
         return;
     }
     ivec4 entry = motion_rows[k];
-    vec2 ndc = (vec2(pixel) + 0.5) / vec2(u_size) * 2.0 - 1.0;
-    vec4 world = u_inv_view_proj * vec4(ndc, texelFetch(u_depth, pixel, 0).r * 2.0 - 1.0, 1.0);
-    vec3 p = world.xyz / world.w;
+    vec3 p = denoise_unproject(u_inv_view_proj, pixel, u_size, texelFetch(u_depth, pixel, 0).r);
     vec3 n = normalize(nm.xyz);
     vec3 p_then;
     vec4 turn;

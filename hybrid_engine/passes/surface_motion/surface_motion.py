@@ -39,8 +39,7 @@ from ...gpu.bindings import Image, bind
 from ...gpu.render_targets import release_all
 from ...gpu.triangle_input import input_defines, input_split, input_storage
 from ...scene.geometry import InstancedGeometry
-from ...scene.matrix4 import affine_inverses, inverse
-from ...scene.raster_view import gl_matrix
+from ...scene.matrix4 import affine_inverses
 from ...scene.settings import RenderSettings
 from ..frame_context import FrameContext, PassIO
 
@@ -172,8 +171,7 @@ class SurfaceMotionPass:
                        "u_row": targets.row, "u_motion_matrices": self._matrix_texture(matrices)},
              images={"u_previous": Image(self._texture, read=False, write=True),
                      "u_turn": Image(self._turn, read=False, write=True)},
-             uniforms={"u_inv_view_proj": gl_matrix(inverse(view.view_proj)),
-                       "u_size": (view.width, view.height), "u_entries": len(table), "u_use_indices": 0})
+             uniforms={**view.uniforms(), "u_entries": len(table), "u_use_indices": 0})
         program.run(math.ceil(view.width / WORKGROUP), math.ceil(view.height / WORKGROUP), 1)
         if gl_context.debug_checks_enabled():
             gl_context.check_error("surface motion")

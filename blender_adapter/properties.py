@@ -58,6 +58,7 @@ LABELS = {
     "diffuse_bounces": "Diffuse Bounces",
     "diffuse_rays": "Diffuse Rays",
     "lit_cube": "Lit Cube Map",
+    "radiance_cache": "Radiance Cache",
     "near_cube_mode": "Near Cube",
     "frame_budget_ms": "Frame Budget",
     "near_min": "Min Size",

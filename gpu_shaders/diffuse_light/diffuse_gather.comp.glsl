@@ -49,6 +49,21 @@ uniform int u_short_history_paths;
 #include "surface_motion.glsl"
 #endif
 
+#ifdef RADIANCE_CACHE
+// The world-space radiance cache (passes/diffuse_light/radiance_cache.py): where a path
+// bounces diffusely off its first surface, the pixel counts that surface's cell's mean
+// irradiance, once it holds u_radiance_min_deposits paths, instead of the path's own
+// continuation, which the path still traces and leaves in the cell.
+#include "radiance_cache.glsl"
+uniform float u_radiance_min_deposits;
+// Below how many frames of the denoiser's history a pixel's paths count the cells: a longer
+// history already averages that many frames of independent paths, where a cell's mean,
+// which changes slowly, would keep its error over those frames.
+uniform float u_radiance_history_frames;
+// Whether the current pixel's paths count the cells (pixel_paths).
+bool pixel_counts_cache = false;
+#endif
+
 #ifdef DIFFUSE_FEEDBACK
 // Last frame's diffuse light where the camera saw it (DenoisePass.feedback): the temporal
 // blend of the irradiance, the surface point and normal of each texel, that frame's
@@ -85,8 +100,14 @@ bool feedback_texel(vec3 p, vec3 n, out ivec2 q) {
 // point last frame did not see, falling as 1 / (frames + 1) to 1 by the time the temporal
 // blend has a few frames. Only those pixels pay: a camera that moves keeps the history of
 // what it still sees.
-int history_paths(ivec2 pixel, vec3 p, vec3 n) {
+int history_paths(float frames) {
     int most = max(u_short_history_paths, 1);
+    return clamp(int(ceil(float(most) / (frames + 1.0))), 1, most);
+}
+
+// How many frames the denoiser's history holds of the pixel's point p (normal n): 0 where
+// last frame did not see it.
+float history_frames(ivec2 pixel, vec3 p, vec3 n) {
     ivec2 q;
     bool seen = feedback_texel(p, n, q);
 #ifdef SURFACE_MOTION
@@ -94,9 +115,7 @@ int history_paths(ivec2 pixel, vec3 p, vec3 n) {
     // reprojection looks it up when the camera's motion alone finds nothing.
     if (!seen && surface_moved_back(pixel, p, n)) seen = feedback_texel(p, n, q);
 #endif
-    if (!seen) return most;
-    float frames = texelFetch(u_feedback_length, q, 0).x;
-    return clamp(int(ceil(float(most) / (frames + 1.0))), 1, most);
+    return seen ? texelFetch(u_feedback_length, q, 0).x : 0.0;
 }
 
 // Last frame's irradiance at the surface h a path ends on, if last frame's camera saw that
@@ -213,8 +232,52 @@ struct DiffusePath {
     // due), material and index (0 the primary point).
     vec3 nee_point, nee_n, nee_g, nee_weight;
     int nee_material, nee_vertex;
+#ifdef RADIANCE_CACHE
+    vec3 nee_cont_weight;  // nee_weight's share of the continuation (cont_radiance)
+#endif
+#endif
+#ifdef RADIANCE_CACHE
+    // From the diffuse bounce off the path's first surface on (`cached`): what the path
+    // gathers per unit of its throughput along the ray that leaves that surface
+    // (cont_radiance, cont_throughput; both 0 before), that throughput (cache_throughput),
+    // and the surface's cell and its mean as the last frame left it.
+    bool cached;
+    vec3 cont_throughput, cont_radiance, cache_throughput;
+    vec4 cache_mean;
+    uvec2 cache_cell;
 #endif
 };
+
+// What the path gathers: `light` times its throughput.
+void path_gather(inout DiffusePath s, vec3 light) {
+    s.radiance += s.throughput * light;
+#ifdef RADIANCE_CACHE
+    s.cont_radiance += s.cont_throughput * light;
+#endif
+}
+
+// The path's throughput times `f` (a surface's weight, glass's transmission).
+void path_scale(inout DiffusePath s, vec3 f) {
+    s.throughput *= f;
+#ifdef RADIANCE_CACHE
+    s.cont_throughput *= f;
+#endif
+}
+
+// The radiance the ended path s brings back to its pixel: with the cache, where it bounced
+// diffusely off its first surface, it leaves there the irradiance its continuation brought
+// (pi times its radiance: cosine-distributed directions) and counts the cell's mean instead,
+// where the cell holds enough paths.
+vec3 path_result(DiffusePath s) {
+#ifdef RADIANCE_CACHE
+    if (s.cached) {
+        radiance_deposit(s.cache_cell, PI * s.cont_radiance);
+        if (pixel_counts_cache && s.cache_mean.a >= u_radiance_min_deposits)
+            return s.radiance + s.cache_throughput * (s.cache_mean.rgb / PI - s.cont_radiance);
+    }
+#endif
+    return s.radiance;
+}
 
 // A path from the primary point p (facing geometric normal g) along its first direction d,
 // before its first ray. `first_emission`: the first surface's emission counts even with
@@ -243,6 +306,17 @@ DiffusePath diffuse_path_start(vec3 p, vec3 g, vec3 n, vec3 d, int path, bool fi
     s.nee_weight = first_emission ? vec3(0.0) : vec3(1.0 / PI);
     s.nee_material = material;
     s.nee_vertex = 0;
+#ifdef RADIANCE_CACHE
+    s.nee_cont_weight = vec3(0.0);
+#endif
+#endif
+#ifdef RADIANCE_CACHE
+    s.cached = false;
+    s.cont_throughput = vec3(0.0);
+    s.cont_radiance = vec3(0.0);
+    s.cache_throughput = vec3(0.0);
+    s.cache_mean = vec4(0.0);
+    s.cache_cell = uvec2(0u);
 #endif
     return s;
 }
@@ -262,9 +336,12 @@ bool diffuse_path_step(inout DiffusePath s) {
 #if CUBE_FOOTPRINT
         cube_origin_material = s.nee_material;  // the shadow ray leaves that vertex's surface
 #endif
-        s.radiance += s.nee_weight * emitter_irradiance(s.nee_point, s.nee_n, s.nee_g,
-                                                        random3(EMITTER_SALT + 32 * s.path + s.nee_vertex),
-                                                        material_light_set(materials[s.nee_material]), s.nee_vertex);
+        vec3 e = emitter_irradiance(s.nee_point, s.nee_n, s.nee_g, random3(EMITTER_SALT + 32 * s.path + s.nee_vertex),
+                                    material_light_set(materials[s.nee_material]), s.nee_vertex);
+        s.radiance += s.nee_weight * e;
+#ifdef RADIANCE_CACHE
+        s.cont_radiance += s.nee_cont_weight * e;
+#endif
         s.nee_weight = vec3(0.0);
     }
 #endif
@@ -280,7 +357,7 @@ bool diffuse_path_step(inout DiffusePath s) {
     s.material = h.material;
 #endif
     if (h.kind == HIT_SKY) {
-        s.radiance += s.throughput * sky_radiance(d);
+        path_gather(s, sky_radiance(d));
         if (s.vertex == 1) s.sky = s.throughput.g;
         return false;
     }
@@ -295,11 +372,11 @@ bool diffuse_path_step(inout DiffusePath s) {
     // the BVH finds (below), only where the last vertex took no next-event estimate of
     // the emitters.
     if (bounces_left && h.kind == HIT_CUBE) {
-        s.radiance += s.throughput * (cube_stored_radiance(h, 0.0) + path_emission(h, hm, s.emission_counts, s.left));
+        path_gather(s, cube_stored_radiance(h, 0.0) + path_emission(h, hm, s.emission_counts, s.left));
         return false;
     }
 #endif
-    s.radiance += s.throughput * path_emission(h, hm, s.emission_counts, s.left);
+    path_gather(s, path_emission(h, hm, s.emission_counts, s.left));
     float through = material_transmission(hm);
     // The lamps' light off this surface (its emission counted above), where the path goes
     // on from it, or ends on it with last frame's light; the ray stands for a whole
@@ -308,16 +385,16 @@ bool diffuse_path_step(inout DiffusePath s) {
 #ifdef DIFFUSE_FEEDBACK
     bool ends_on_feedback = false;
     if (!bounces_left && hs.diffuse_weight > 0.0 && through <= 0.0) {
-        s.radiance += s.throughput * (hs.diffuse_weight * h_albedo / PI) * feedback_irradiance(h, hs, ends_on_feedback);
+        path_gather(s, (hs.diffuse_weight * h_albedo / PI) * feedback_irradiance(h, hs, ends_on_feedback));
         lamps = ends_on_feedback;
     }
 #endif
-    if (lamps) s.radiance += s.throughput * lamp_light_response(hm, h_albedo, vec3(0.0), h.position, d, hs, 1.0);
+    if (lamps) path_gather(s, lamp_light_response(hm, h_albedo, vec3(0.0), h.position, d, hs, 1.0));
 #ifdef DIFFUSE_FEEDBACK
     if (ends_on_feedback) return false;
 #endif
     if (through > 0.0 && s.crossings < MAX_GLASS_CROSSINGS) {
-        s.throughput *= through;
+        path_scale(s, vec3(through));
         s.o = offset_origin(h.position, -hs.g_facing);
         s.crossings += 1;
         return true;
@@ -337,7 +414,7 @@ bool diffuse_path_step(inout DiffusePath s) {
     float p_specular = dot(specular_w, vec3(1.0));
     if (!(p_diffuse + p_specular > 0.0)) return false;
     if (gather_random(GLOSSY_SALT + 32 * s.path + s.vertex + 16).x * (p_diffuse + p_specular) < p_specular) {
-        s.throughput *= specular_w * ((p_diffuse + p_specular) / p_specular);
+        path_scale(s, specular_w * ((p_diffuse + p_specular) / p_specular));
         if (!(max(max(s.throughput.r, s.throughput.g), s.throughput.b) > 0.0)) return false;
         s.d = gs.reflect_dir;
         s.o = offset_origin(h.position, gs.g_facing);
@@ -347,7 +424,7 @@ bool diffuse_path_step(inout DiffusePath s) {
         return true;
     }
     s.emission_counts = false;
-    s.throughput *= diffuse_w * ((p_diffuse + p_specular) / p_diffuse);
+    path_scale(s, diffuse_w * ((p_diffuse + p_specular) / p_diffuse));
     if (!(max(max(s.throughput.r, s.throughput.g), s.throughput.b) > 0.0)) return false;
 #ifdef EMITTER_LIGHT
     s.nee_point = h.position;
@@ -356,6 +433,21 @@ bool diffuse_path_step(inout DiffusePath s) {
     s.nee_weight = s.throughput / PI;
     s.nee_material = h.material;
     s.nee_vertex = s.vertex;
+#ifdef RADIANCE_CACHE
+    // The first surface's own estimate of the emitters is the pixel's, not the cell's (0:
+    // its continuation starts below).
+    s.nee_cont_weight = s.cont_throughput / PI;
+#endif
+#endif
+#ifdef RADIANCE_CACHE
+    if (s.vertex == 1) {
+        s.cached = true;
+        s.cache_throughput = s.throughput;
+        s.cont_throughput = vec3(1.0);
+        s.cont_radiance = vec3(0.0);
+        s.cache_cell = radiance_cell(h.position, hs.g_facing);
+        s.cache_mean = radiance_lookup(s.cache_cell);
+    }
 #endif
     s.d = cosine_direction(hs.n_facing, hs.g_facing, gather_random(PATH_SALT + 32 * s.path + s.vertex));
     s.o = offset_origin(h.position, hs.g_facing);
@@ -379,7 +471,11 @@ int pixel_paths(ivec2 pixel) {
     vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
     vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
     vec3 g_facing = dot(g, view_dir) < 0.0 ? g : -g;
-    paths *= history_paths(pixel, p, dot(n, g_facing) >= 0.0 ? n : -n);
+    float frames = history_frames(pixel, p, dot(n, g_facing) >= 0.0 ? n : -n);
+    paths *= history_paths(frames);
+#ifdef RADIANCE_CACHE
+    pixel_counts_cache = frames < u_radiance_history_frames;
+#endif
 #elif defined(DIFFUSE_NO_HISTORY)
     paths *= max(u_short_history_paths, 1);
 #endif
@@ -474,7 +570,7 @@ void main() {
         }
         live = diffuse_path_step(s);
         if (!live) {
-            radiance += s.radiance;
+            radiance += path_result(s);
             sky += s.sky;
             i += 1;
             if (i >= paths) store_ambient(pixel, radiance, sky, paths);
@@ -493,7 +589,7 @@ void main() {
     for (int i = 0; i < paths; ++i) {
         DiffusePath s = pixel_path(pixel, i);
         while (diffuse_path_step(s)) {}
-        radiance += s.radiance;
+        radiance += path_result(s);
         sky += s.sky;
     }
     store_ambient(pixel, radiance, sky, paths);

@@ -123,6 +123,9 @@ FIELD_DOCS = {
     "bounce more lights rooms from their walls, at the cost of one more ray",
     "diffuse_rays": "Rays World Light: paths traced from each diffuse pixel per sample: less "
     "noise, proportionally slower",
+    "radiance_cache": "Rays World Light, denoised frames: where a path bounces off its first surface, "
+    "take the light many paths brought back from around that spot over the last frames instead of "
+    "the path's own: much less noise indoors, a slight blur of the bounced light",
     "lit_cube": "Shade the cube map's surfaces once per frame (lamps, World and light bounced between "
     "them, built up over frames) and let reflections read that light, blurred to their roughness, "
     "instead of shading every hit again",
@@ -199,6 +202,7 @@ class RenderSettings:
     diffuse_bounces: int = 4
     diffuse_rays: int = 1
     lit_cube: bool = False
+    radiance_cache: bool = True
     denoise_viewport: bool = True
     denoise_render: bool = True
 

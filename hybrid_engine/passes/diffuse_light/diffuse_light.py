@@ -38,7 +38,9 @@ from ...scene.settings import FIELD_LIMITS, RenderSettings
 from ..frame_context import FrameContext, PassIO
 from ..trace.tracer import (COUNTER_DEPTHS, COUNTER_KINDS, COUNTER_WORDS, HybridTracer, TraceStats,
                             traced_resources)
+from ..denoise.denoise import lamps_key
 from .grazing import GrazingTriangles, grazing_defines
+from .radiance_cache import RadianceCache, radiance_cache_defines
 
 WORKGROUP = 8  # the per-pixel kernel's local size in x and y
 # The persistent kernel (the "gather" kernel's GPU shape, diffuse_gather.comp.glsl
@@ -102,9 +104,12 @@ class DiffuseLightPass:
         self._zero_counters = bytes(self._counters.size)
         self._work = self.ctx.buffer(reserve=4)  # the persistent kernel's next pixel
         self.grazing = GrazingTriangles(self.ctx)
+        # The paths' world-space radiance cache (radiance_cache.py), made on the first
+        # denoised frame that uses it; it lives as long as the denoiser's history.
+        self.cache: RadianceCache | None = None
 
     def io(self, settings: RenderSettings) -> PassIO:
-        return PassIO(reads=("scene", "scene_buffers", "world_triangles", "gbuffer", "lighting", "emitters",
+        return PassIO(reads=("scene", "scene_buffers", "world_triangles", "gbuffer", "lighting", "emitters", "delta",
                              *traced_resources(settings)),
                       writes=("ambient",), optional=("surface_motion",))
 
@@ -145,6 +150,10 @@ class DiffuseLightPass:
         elif frame.denoise:
             # The denoiser's first frame: no pixel has a history (history_paths).
             defines["DIFFUSE_NO_HISTORY"] = 1
+        cache = self._radiance_cache(frame, history is not None)
+        if cache is not None:
+            defines.update(RADIANCE_CACHE=1, **radiance_cache_defines())
+            emitter_parts = (*emitter_parts, cache.bindings(inputs.size[1]))
         width, height = inputs.size
         uniforms = {**inputs.uniforms, "u_diffuse_bounces": int(settings.diffuse_bounces),
                     "u_diffuse_rays": int(settings.diffuse_rays),
@@ -168,12 +177,41 @@ class DiffuseLightPass:
         else:
             prog.run(math.ceil(width / WORKGROUP), math.ceil(height / WORKGROUP), 1)
         storage_barrier(self.ctx)
+        if cache is not None:
+            cache.resolve()
         if gl_context.debug_checks_enabled():
             gl_context.check_error(f"{settings.trace_mode} diffuse light")
         frame.statistics.deposit(self._counters, COUNTER_WORDS, partial(gather_counts, bounces))
         frame.write("ambient", targets.ambient)
 
+    def _radiance_cache(self, frame: FrameContext, has_history: bool) -> RadianceCache | None:
+        """The radiance cache, where this frame uses it: a denoised frame whose paths bounce,
+        with the setting on. The cells start over where the denoiser's history holds nothing
+        (its first frame, or one after a frame without it), and where the light changed (a
+        lamp, the World, an object moved or deformed: the cells would go on giving the old
+        light to the pixels that count them, those whose history is short). Such a frame
+        neither reads nor fills them: its paths are not those of the frames after it (the
+        first frame's find no fed-back light where they end), and while an object moves,
+        every frame would empty what the last one filled."""
+        settings = frame.settings
+        if not (frame.denoise and settings.radiance_cache and settings.diffuse_bounces > 0):
+            if self.cache is not None:
+                self.cache.forget()
+            return None
+        if self.cache is None:
+            self.cache = RadianceCache(self.ctx)
+        cache = self.cache
+        light = (lamps_key(frame.read("scene").lights), frame.read("lighting").sky.updates)
+        changed = not frame.read("delta").unchanged or light != cache.light
+        cache.light = light
+        if changed or not has_history:
+            cache.forget()
+            return None
+        return cache
+
     def release(self) -> None:
+        if self.cache is not None:
+            self.cache.release()
         self._counters.release()
         self._work.release()
         self.grazing.release()

@@ -1,0 +1,126 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The diffuse paths' world-space radiance cache (passes/diffuse_light/radiance_cache.py):
+where a pixel's history is short, its paths count the light many paths left around their
+first bounce instead of their own continuation."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from benchmarks.light_noise import camera_at, room
+from hybrid_engine.passes.diffuse_light import radiance_cache
+from hybrid_engine.scene.data import Lights, SceneData
+from hybrid_engine.scene.settings import RenderSettings
+
+W, H = 64, 48
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def settings(**kw) -> RenderSettings:
+    return RenderSettings(mode="HYBRID", near_size=2.0, shadow_resolution=512, **kw)
+
+
+def start_over(renderer, scene, camera) -> None:
+    """A frame without the denoiser: its history, and the cache with it, start over."""
+    renderer.render(scene, camera, settings(), timing=False)
+
+
+def gathered(renderer, scene, camera, frames: int, **kw) -> list[np.ndarray]:
+    """The diffuse gather's raw irradiance (the G-buffer's ``ambient``, before the denoiser)
+    of ``frames`` consecutive denoised frames of one view, as luminance."""
+    start_over(renderer, scene, camera)
+    out = []
+    for i in range(frames):
+        renderer.render(scene, camera, settings(**kw), sample=i, reuse_world=i > 0, denoise=True, timing=False)
+        ambient = np.frombuffer(renderer.gbuffer.primary.ambient.read(), np.float32).reshape(H, W, 4)
+        out.append(ambient[..., :3] @ LUMINANCE)
+    return out
+
+
+@pytest.fixture(scope="module")
+def bounce_lit():
+    """benchmarks/light_noise.py's room (half of the view lit by the walls alone), its view,
+    and its settled irradiance: the mean of 32 frames of 8 paths a pixel, after 16."""
+    return room(), camera_at(0.0, W, H)
+
+
+@pytest.fixture(scope="module")
+def truth(renderer, bounce_lit):
+    scene, camera = bounce_lit
+    frames = gathered(renderer, scene, camera, 48, diffuse_rays=8, radiance_cache=False)
+    return np.mean(frames[16:], axis=0)
+
+
+def test_a_bounce_lit_rooms_first_frames_gather_closer_to_the_settled_light_with_the_cache(renderer, bounce_lit,
+                                                                                         truth):
+    # Most of the room's light has bounced more than once, and one path of four bounces per
+    # pixel carries the noise of each; a cell's mean of the continuations of many paths
+    # does not. The first frame has nothing to count (and its paths, lacking last frame's
+    # light, leave nothing): the mean of frames 1-7, whose error per pixel also holds the
+    # first bounce's noise (which surface a path meets, and its lamp light), which the cache
+    # leaves as it is.
+    scene, camera = bounce_lit
+    lit = truth > 0.05 * truth.mean()
+    errors = {}
+    for cache in (False, True):
+        frames = gathered(renderer, scene, camera, 8, radiance_cache=cache)
+        mean = np.mean(frames[1:], axis=0)
+        errors[cache] = float(np.sqrt(np.mean(((mean - truth) / truth)[lit] ** 2)))
+    assert errors[True] < 0.9 * errors[False], errors
+
+
+def test_paths_whose_pixels_do_not_count_the_cells_bring_back_exactly_their_own_light(renderer, bounce_lit,
+                                                                                     monkeypatch):
+    # Every path leaves its continuation in a cell; a pixel whose history is long enough
+    # (here: every one) counts its own paths, bit for bit as without the cache.
+    scene, camera = bounce_lit
+    monkeypatch.setattr(radiance_cache, "HISTORY_FRAMES", 0.0)
+    with_cache = gathered(renderer, scene, camera, 4, radiance_cache=True)
+    cells, deposits = renderer.diffuse_light.cache.read()
+    without = gathered(renderer, scene, camera, 4, radiance_cache=False)
+    assert len(cells) > 100 and deposits.sum() > 0
+    for a, b in zip(with_cache, without):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_a_pixel_counts_the_cells_only_while_its_history_is_short(renderer, bounce_lit, monkeypatch):
+    # Past HISTORY_FRAMES the temporal blend averages that many frames of independent paths,
+    # where a cell's slowly changing mean would keep its error: the frames are then the
+    # plain paths' again (the same numbers, the same fed-back light bar the history's).
+    scene, camera = bounce_lit
+    monkeypatch.setattr(radiance_cache, "HISTORY_FRAMES", 4.0)
+    frames = 8
+    on = gathered(renderer, scene, camera, frames, radiance_cache=True)
+    off = gathered(renderer, scene, camera, frames, radiance_cache=False)
+    assert np.abs(on[2] - off[2]).max() > 1e-3  # counted: another estimate
+    late = np.abs(on[-1] - off[-1])
+    # The same paths; only last frame's light where they end differs a little.
+    assert np.median(late) < 1e-3 * np.median(off[-1]) + 1e-7, np.median(late)
+
+
+def test_undenoised_frames_take_no_light_from_the_cells(renderer, bounce_lit):
+    scene, camera = bounce_lit
+    gathered(renderer, scene, camera, 4, radiance_cache=True)  # cells filled
+    plain = [renderer.render(scene, camera, settings(radiance_cache=cache), sample=1, timing=False).image
+             for cache in (True, False)]
+    np.testing.assert_array_equal(plain[0], plain[1])
+
+
+def test_a_lamp_switched_off_empties_the_cells_at_once(renderer, bounce_lit):
+    # The cells would go on giving the lamp's light to the pixels that count them (those
+    # whose history is short: what the camera uncovers) for as many frames as they hold.
+    # The frame of the switch empties them; the next holds its paths alone, which bring
+    # back the light fed back from the last frame (the denoiser's history): it dies away.
+    scene, camera = bounce_lit
+    gathered(renderer, scene, camera, 6, radiance_cache=True)  # five frames fill the cells
+    lit, lit_deposits = renderer.diffuse_light.cache.read()
+    dark_scene = SceneData(scene.geometry, scene.materials, Lights.from_rows([]), scene.sky)
+    dark_frame = lambda i: renderer.render(dark_scene, camera, settings(), sample=i, reuse_world=True,  # noqa: E731
+                                           denoise=True, timing=False)
+    dark_frame(6)
+    assert len(renderer.diffuse_light.cache.read()[0]) == 0
+    dark_frame(7)
+    dark, deposits = renderer.diffuse_light.cache.read()
+    assert lit.max() > 0.1
+    assert 0 < deposits.sum() < 0.3 * lit_deposits.sum(), (deposits.sum(), lit_deposits.sum())
+    assert dark.max() < 0.2 * lit.max(), (dark.max(), lit.max())

@@ -446,7 +446,8 @@ bool diffuse_path_step(inout DiffusePath s) {
         s.cont_throughput = vec3(1.0);
         s.cont_radiance = vec3(0.0);
         s.cache_cell = radiance_cell(h.position, hs.g_facing);
-        s.cache_mean = radiance_lookup(s.cache_cell);
+        // Only a pixel that counts the cells reads one (a long history's fills them alone).
+        s.cache_mean = pixel_counts_cache ? radiance_lookup(s.cache_cell) : vec4(0.0);
     }
 #endif
     s.d = cosine_direction(hs.n_facing, hs.g_facing, gather_random(PATH_SALT + 32 * s.path + s.vertex));

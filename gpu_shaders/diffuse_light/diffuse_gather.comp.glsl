@@ -56,12 +56,14 @@ uniform int u_short_history_paths;
 // continuation, which the path still traces and leaves in the cell.
 #include "radiance_cache.glsl"
 uniform float u_radiance_min_deposits;
-// Below how many frames of the denoiser's history a pixel's paths count the cells: a longer
-// history already averages that many frames of independent paths, where a cell's mean,
-// which changes slowly, would keep its error over those frames.
+// The denoiser's history at which a pixel's paths no longer count the cells: they count
+// them by a weight falling from 1 (no history) to 0 there. A long history already averages
+// that many frames of the pixel's own independent paths, where a cell's mean, which changes
+// slowly, would keep its error over those frames.
 uniform float u_radiance_history_frames;
-// Whether the current pixel's paths count the cells (pixel_paths).
+// Whether the current pixel's paths count the cells, and by what weight (pixel_paths).
 bool pixel_counts_cache = false;
+float pixel_cache_weight = 0.0;
 #endif
 
 #ifdef DIFFUSE_FEEDBACK
@@ -267,13 +269,13 @@ void path_scale(inout DiffusePath s, vec3 f) {
 // The radiance the ended path s brings back to its pixel: with the cache, where it bounced
 // diffusely off its first surface, it leaves there the irradiance its continuation brought
 // (pi times its radiance: cosine-distributed directions) and counts the cell's mean instead,
-// where the cell holds enough paths.
+// where the cell holds enough paths, by the pixel's weight.
 vec3 path_result(DiffusePath s) {
 #ifdef RADIANCE_CACHE
     if (s.cached) {
         radiance_deposit(s.cache_cell, PI * s.cont_radiance);
         if (pixel_counts_cache && s.cache_mean.a >= u_radiance_min_deposits)
-            return s.radiance + s.cache_throughput * (s.cache_mean.rgb / PI - s.cont_radiance);
+            return s.radiance + pixel_cache_weight * s.cache_throughput * (s.cache_mean.rgb / PI - s.cont_radiance);
     }
 #endif
     return s.radiance;
@@ -476,6 +478,7 @@ int pixel_paths(ivec2 pixel) {
     paths *= history_paths(frames);
 #ifdef RADIANCE_CACHE
     pixel_counts_cache = frames < u_radiance_history_frames;
+    pixel_cache_weight = clamp(1.0 - frames / u_radiance_history_frames, 0.0, 1.0);
 #endif
 #elif defined(DIFFUSE_NO_HISTORY)
     paths *= max(u_short_history_paths, 1);

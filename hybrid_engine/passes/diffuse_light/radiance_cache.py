@@ -12,12 +12,13 @@ near-cube BVH or the cube map) it also leaves what the rest of the path brought 
 times pi (an irradiance sample), in the cell of the world it bounced from
 (``gpu_shaders/include/radiance_cache.glsl``). A pixel then counts the cell's mean instead of
 its path's own continuation (the world-space caches of Müller et al. 2021 and NVIDIA's SHaRC,
-here filled by the paths themselves), where the cell holds ``MIN_DEPOSITS`` and the pixel's
-denoiser history fewer than ``HISTORY_FRAMES`` frames: the first frames of a view, what the
-camera uncovers. There the estimate keeps the first bounce's noise (which surface the path
-meets, lit or shadowed) and loses most of the later ones'. A longer history already averages
-that many frames of the pixel's own independent paths, unblurred, where a cell's mean, which
-changes slowly, would keep its error from frame to frame (docs/BENCHMARKS.md, "The radiance
+here filled by the paths themselves), where the cell holds ``MIN_DEPOSITS``, by a weight
+that falls from 1 where the pixel's denoiser history is new (the first frames of a view,
+what the camera uncovers) to 0 where it holds ``HISTORY_FRAMES`` frames. A new history's
+estimate then keeps the first bounce's noise (which surface the path meets, lit or
+shadowed) and loses most of the later ones'. A long history already averages that many
+frames of the pixel's own independent paths, unblurred, where a cell's mean, which changes
+slowly, would keep its error from frame to frame (docs/BENCHMARKS.md, "The radiance
 cache").
 
 The cells are cubes a ``CELL_DIVISIONS``-th of the view's height across at their distance from
@@ -52,7 +53,9 @@ FIXED_BITS = 24  # the deposits' fixed point: fraction bits
 CAP = 64.0  # the deposits a cell's mean holds at most
 MAX_AGE = 32  # frames a cell stays without deposits before its slot is freed
 MIN_DEPOSITS = 2.0  # deposits a cell's mean needs before a pixel counts it
-HISTORY_FRAMES = 16.0  # the denoiser's history below which a pixel counts the cells
+# The denoiser's history at which a pixel no longer counts the cells: by a weight falling
+# from 1 (no history) to 0 there.
+HISTORY_FRAMES = 32.0
 SLOT_BYTES = 64  # radiance_cache.glsl RadianceSlot
 RESOLVE_SHADER = "diffuse_light/radiance_cache_resolve.comp.glsl"
 LOCAL_SIZE = 64

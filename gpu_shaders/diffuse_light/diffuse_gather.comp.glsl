@@ -31,9 +31,12 @@
 //
 // Host defines: those of trace/hybrid_trace.comp.glsl (tracer.HybridTracer.inputs), and
 //   EMITTER_LIGHT (the emissive triangles' table, include/emitter_light.glsl), SURFACE_MOTION
-//   (with DIFFUSE_FEEDBACK: the instances moved since last frame, include/surface_motion.glsl).
+//   (with DIFFUSE_FEEDBACK: the instances moved since last frame, include/surface_motion.glsl),
+//   RADIANCE_CACHE (with DIFFUSE_FEEDBACK: the world-space radiance cache, its defines in
+//   include/radiance_cache.glsl).
 // Storage blocks, uniform blocks, samplers: as trace/hybrid_trace.comp.glsl's contract lists
-//   them; CounterBuffer counts this kernel's rays per path vertex (tracer.COUNTER_KINDS).
+//   them; CounterBuffer counts this kernel's rays per path vertex (tracer.COUNTER_KINDS);
+//   RadianceCache, with RADIANCE_CACHE.
 // Uniforms: trace_ray.glsl's, u_diffuse_bounces, u_diffuse_rays.
 // Workgroup 8x8: neighbouring pixels' first rays start close together.
 #include "trace_ray.glsl"
@@ -53,7 +56,8 @@ uniform int u_short_history_paths;
 // The world-space radiance cache (passes/diffuse_light/radiance_cache.py): where a path
 // bounces diffusely off its first surface, the pixel counts that surface's cell's mean
 // irradiance, once it holds u_radiance_min_deposits paths, instead of the path's own
-// continuation, which the path still traces and leaves in the cell.
+// continuation (by the pixel's weight, below), which the path still traces and leaves in
+// the cell.
 #include "radiance_cache.glsl"
 uniform float u_radiance_min_deposits;
 // The denoiser's history at which a pixel's paths no longer count the cells: they count
@@ -61,8 +65,7 @@ uniform float u_radiance_min_deposits;
 // that many frames of the pixel's own independent paths, where a cell's mean, which changes
 // slowly, would keep its error over those frames.
 uniform float u_radiance_history_frames;
-// Whether the current pixel's paths count the cells, and by what weight (pixel_paths).
-bool pixel_counts_cache = false;
+// By what weight the current pixel's paths count the cells (pixel_paths): 0 not at all.
 float pixel_cache_weight = 0.0;
 #endif
 
@@ -274,7 +277,7 @@ vec3 path_result(DiffusePath s) {
 #ifdef RADIANCE_CACHE
     if (s.cached) {
         radiance_deposit(s.cache_cell, PI * s.cont_radiance);
-        if (pixel_counts_cache && s.cache_mean.a >= u_radiance_min_deposits)
+        if (pixel_cache_weight > 0.0 && s.cache_mean.a >= u_radiance_min_deposits)
             return s.radiance + pixel_cache_weight * s.cache_throughput * (s.cache_mean.rgb / PI - s.cont_radiance);
     }
 #endif
@@ -449,7 +452,7 @@ bool diffuse_path_step(inout DiffusePath s) {
         s.cont_radiance = vec3(0.0);
         s.cache_cell = radiance_cell(h.position, hs.g_facing);
         // Only a pixel that counts the cells reads one (a long history's fills them alone).
-        s.cache_mean = pixel_counts_cache ? radiance_lookup(s.cache_cell) : vec4(0.0);
+        s.cache_mean = pixel_cache_weight > 0.0 ? radiance_lookup(s.cache_cell) : vec4(0.0);
     }
 #endif
     s.d = cosine_direction(hs.n_facing, hs.g_facing, gather_random(PATH_SALT + 32 * s.path + s.vertex));
@@ -477,7 +480,6 @@ int pixel_paths(ivec2 pixel) {
     float frames = history_frames(pixel, p, dot(n, g_facing) >= 0.0 ? n : -n);
     paths *= history_paths(frames);
 #ifdef RADIANCE_CACHE
-    pixel_counts_cache = frames < u_radiance_history_frames;
     pixel_cache_weight = clamp(1.0 - frames / u_radiance_history_frames, 0.0, 1.0);
 #endif
 #elif defined(DIFFUSE_NO_HISTORY)

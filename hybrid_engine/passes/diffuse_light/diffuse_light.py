@@ -35,10 +35,10 @@ from ...gpu import gl_context, shader_loader, variants
 from ...gpu.bindings import Bindings, Image, bind
 from ...gpu.dispatch import storage_barrier
 from ...scene.settings import FIELD_LIMITS, RenderSettings
+from ..denoise.denoise import lamps_key
 from ..frame_context import FrameContext, PassIO
 from ..trace.tracer import (COUNTER_DEPTHS, COUNTER_KINDS, COUNTER_WORDS, HybridTracer, TraceStats,
                             traced_resources)
-from ..denoise.denoise import lamps_key
 from .grazing import GrazingTriangles, grazing_defines
 from .radiance_cache import RadianceCache, radiance_cache_defines
 
@@ -189,7 +189,9 @@ class DiffuseLightPass:
         with the setting on. The cells start over where the denoiser's history holds nothing
         (its first frame, or one after a frame without it), and where the light changed (a
         lamp, the World, an object moved or deformed: the cells would go on giving the old
-        light to the pixels that count them, those whose history is short). Such a frame
+        light to the pixels that count them, those whose history is short), or what a cell
+        is (Diffuse Bounces, which its paths trace; the image's height, which sizes it).
+        Such a frame
         neither reads nor fills them: its paths are not those of the frames after it (the
         first frame's find no fed-back light where they end), and while an object moves,
         every frame would empty what the last one filled."""
@@ -201,9 +203,10 @@ class DiffuseLightPass:
         if self.cache is None:
             self.cache = RadianceCache(self.ctx)
         cache = self.cache
-        light = (lamps_key(frame.read("scene").lights), frame.read("lighting").sky.updates)
-        changed = not frame.read("delta").unchanged or light != cache.light
-        cache.light = light
+        key = (lamps_key(frame.read("scene").lights), frame.read("lighting").sky.updates,
+               settings.diffuse_bounces, frame.view.height)
+        changed = not frame.read("delta").unchanged or key != cache.key
+        cache.key = key
         if changed or not has_history:
             cache.forget()
             return None

@@ -77,8 +77,9 @@ class RadianceCache:
         # Whether a frame has deposited since the table was last cleared (forget clears only
         # then: a scene in motion forgets every frame).
         self.filled = False
-        # The lamps and World the cells' light came from (DiffuseLightPass compares).
-        self.light: tuple | None = None
+        # What the cells' light was gathered for: the lamps, the World, Diffuse Bounces and
+        # the image's height (DiffuseLightPass compares).
+        self.key: tuple | None = None
 
     def bindings(self, height: int) -> Bindings:
         """The table, the cells' size for an image ``height`` pixels high, and when a

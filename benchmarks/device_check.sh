@@ -42,8 +42,12 @@ tail -16 "$out/frame.log" 2>/dev/null
 # The passes that read the G-buffer's rows (moved surfaces, Cryptomatte, Vector) per frame.
 step row_passes 15 python3 -m benchmarks.row_passes_cost --detail 1 --size 1280x720 --json "$out/row_passes.json"
 tail -4 "$out/row_passes.log" 2>/dev/null
+# The diffuse paths' radiance cache on a still view (the frame section's moving pieces leave it idle).
+step radiance_cache 15 python3 -m benchmarks.radiance_cache_cost --detail 1 --size 1280x720 --json "$out/radiance_cache.json"
+tail -4 "$out/radiance_cache.log" 2>/dev/null
 step tests 50 python3 -m pytest -rf -v -n 16 -p no:cacheprovider \
-    tests/test_cube_light.py tests/test_diffuse_light.py tests/test_radiance_cache.py tests/test_emitter_light.py \
+    tests/test_cube_light.py tests/test_diffuse_light.py tests/test_radiance_cache.py tests/test_radiance_cache_cost.py \
+    tests/test_emitter_light.py \
     tests/test_node_light_path.py tests/test_cube_march.py tests/test_node_codegen.py tests/test_denoise.py \
     tests/test_emitter_links.py tests/test_grazing_triangles.py tests/test_surface_motion.py \
     tests/test_cube_map.py tests/test_instance_transform.py tests/test_gbuffer.py tests/test_row_passes_cost.py \

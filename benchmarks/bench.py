@@ -385,6 +385,31 @@ def flip_error(reference_linear: np.ndarray, test_linear: np.ndarray,
     return np.asarray(error_map), float(mean)
 
 
+def chess_cost_main(description: str, measure, format_report, default_size: str,
+                    argv: list[str] | None = None) -> int:
+    """The command line of a per-pass cost benchmark on Chess (row_passes_cost,
+    radiance_cache_cost): ``--quick`` (QUICK_FRAME's sizes, one timed frame), ``--detail``,
+    ``--size``, ``--frames``, ``--json``; ``measure(detail=, size=, frames=[, cube_resolution=])``
+    makes the report, ``format_report`` prints it."""
+    import argparse
+
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--quick", action="store_true", help="tiny sizes (seconds, for tests)")
+    parser.add_argument("--detail", type=float, default=1.0)
+    parser.add_argument("--size", default=default_size)
+    parser.add_argument("--frames", type=int, default=8)
+    parser.add_argument("--json", help="also write the report here")
+    args = parser.parse_args(argv)
+    if args.quick:
+        report = measure(detail=QUICK_FRAME["detail"], size=QUICK_FRAME["resolution"], frames=1,
+                         cube_resolution=QUICK_FRAME["cube_resolution"])
+    else:
+        report = measure(detail=args.detail, size=tuple(int(v) for v in args.size.split("x")), frames=args.frames)
+    print(format_report(report))
+    write_json(report, args.json)
+    return 0
+
+
 def write_json(report: dict, path: str | None) -> None:
     """Write a benchmark's report as indented JSON to ``path`` (nothing without one)."""
     if path:

@@ -22,8 +22,6 @@ llvmpipe the vertex stage of a draw runs there). Compare two trees by running th
 """
 from __future__ import annotations
 
-import argparse
-import json
 import statistics
 import sys
 
@@ -103,24 +101,7 @@ def format_report(report: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="tiny sizes (seconds, for tests)")
-    parser.add_argument("--detail", type=float, default=1.0)
-    parser.add_argument("--size", default="640x360")
-    parser.add_argument("--frames", type=int, default=8)
-    parser.add_argument("--json", help="also write the report here")
-    args = parser.parse_args(argv)
-    size = tuple(int(v) for v in args.size.split("x"))
-    if args.quick:
-        report = measure(detail=bench.QUICK_FRAME["detail"], size=bench.QUICK_FRAME["resolution"], frames=1,
-                         cube_resolution=bench.QUICK_FRAME["cube_resolution"])
-    else:
-        report = measure(detail=args.detail, size=size, frames=args.frames)
-    print(format_report(report))
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(report, f, indent=1)
-    return 0
+    return bench.chess_cost_main(__doc__.splitlines()[0], measure, format_report, "640x360", argv)
 
 
 if __name__ == "__main__":

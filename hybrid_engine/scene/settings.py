@@ -125,7 +125,8 @@ FIELD_DOCS = {
     "noise, proportionally slower",
     "radiance_cache": "Rays World Light, denoised frames: where a path bounces off its first surface, "
     "take the light many paths brought back from around that spot over the last frames instead of "
-    "the path's own: much less noise indoors, a slight blur of the bounced light",
+    "the path's own, where the denoiser has few frames of a pixel (a view's first samples, what the "
+    "camera uncovers): less noise indoors there, a slight blur of the bounced light",
     "lit_cube": "Shade the cube map's surfaces once per frame (lamps, World and light bounced between "
     "them, built up over frames) and let reflections read that light, blurred to their roughness, "
     "instead of shading every hit again",

@@ -32,8 +32,9 @@
 // Host defines: those of trace/hybrid_trace.comp.glsl (tracer.HybridTracer.inputs), and
 //   EMITTER_LIGHT (the emissive triangles' table, include/emitter_light.glsl), SURFACE_MOTION
 //   (with DIFFUSE_FEEDBACK: the instances moved since last frame, include/surface_motion.glsl),
-//   RADIANCE_CACHE (with DIFFUSE_FEEDBACK: the world-space radiance cache, its defines in
-//   include/radiance_cache.glsl).
+//   RADIANCE_CACHE, RADIANCE_CACHE_SLOTS, RADIANCE_PROBES, RADIANCE_FIXED_BITS (with
+//   DIFFUSE_FEEDBACK: the world-space radiance cache, and its table's size, probes and fixed
+//   point, include/radiance_cache.glsl).
 // Storage blocks, uniform blocks, samplers: as trace/hybrid_trace.comp.glsl's contract lists
 //   them; CounterBuffer counts this kernel's rays per path vertex (tracer.COUNTER_KINDS);
 //   RadianceCache, with RADIANCE_CACHE.

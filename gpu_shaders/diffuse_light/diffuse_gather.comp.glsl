@@ -99,8 +99,8 @@ bool feedback_texel(vec3 p, vec3 n, out ivec2 q) {
              || denoise_plane_offset(p, n, surface.xyz, scale) > 0.02);
 }
 
-// How many times u_diffuse_rays paths the primary point p (facing normal n) of `pixel`
-// traces: more where the denoiser's history holds few frames of it. What the camera just
+// How many times u_diffuse_rays paths a primary point traces whose history holds `frames`
+// frames (history_frames): more where the denoiser's history holds few. What the camera just
 // uncovered, or what a moving object uncovers, is otherwise shown from one
 // or two samples, filtered hard and blotchy: u_short_history_paths times the paths for a
 // point last frame did not see, falling as 1 / (frames + 1) to 1 by the time the temporal

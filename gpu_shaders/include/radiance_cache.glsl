@@ -41,9 +41,8 @@ uniform float u_radiance_cell_pixels;
 // The cell of point p (facing geometric normal g): its hash (which slot to start from) and
 // its check hash (never 0).
 uvec2 radiance_cell(vec3 p, vec3 g) {
-    float unit = u_random_unit > 0.0 ? u_random_unit : 1.0;
-    float footprint = (u_key_pixel.x + u_key_pixel.y * distance(p, u_key_eye)) * u_radiance_cell_pixels;
-    float level = footprint > 0.0 ? clamp(floor(log2(footprint / unit)), -100.0, 100.0) : -8.0;
+    float unit, level;
+    level = footprint_level(p, u_radiance_cell_pixels, unit, level) ? clamp(level, -100.0, 100.0) : -8.0;
     vec3 q = p / (unit * exp2(level));
     ivec3 c = ivec3(floor(clamp(q, vec3(-2.0e9), vec3(2.0e9))));
     vec3 a = abs(g);

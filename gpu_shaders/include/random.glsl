@@ -25,6 +25,17 @@ uniform float u_random_unit;
 uniform vec3 u_key_eye;
 uniform vec2 u_key_pixel;
 
+// The power of two of the typical object size (`unit`: u_random_unit, or one scene unit)
+// that `pixels` pixel footprints at p span, floor(log2(...)): the grid level of the world
+// cells keyed by position (position_key, radiance_cache.glsl). False where the program is
+// bound without a pixel.
+bool footprint_level(vec3 p, float pixels, out float unit, out float level) {
+    unit = u_random_unit > 0.0 ? u_random_unit : 1.0;
+    float footprint = (u_key_pixel.x + u_key_pixel.y * distance(p, u_key_eye)) * pixels;
+    level = floor(log2(footprint / unit));
+    return footprint > 0.0;
+}
+
 // A key of a world position: the same surface point seen through a cropped projection (a
 // render region, a viewport border, a sub-pixel sample) draws the same numbers as in the
 // whole frame, where a pixel index would not. The point is quantised to cells of a quarter
@@ -39,9 +50,8 @@ uniform vec2 u_key_pixel;
 // (a floor at z = 0, whose points read back a hair above or below it) lies inside one cell,
 // not on the boundary between two. Without a pixel, cells of 1/4096 of the unit.
 uvec3 position_key(vec3 p) {
-    float unit = u_random_unit > 0.0 ? u_random_unit : 1.0;
-    float footprint = u_key_pixel.x + u_key_pixel.y * distance(p, u_key_eye);
-    float level = footprint > 0.0 ? clamp(floor(log2(footprint / unit)) - 1.0, -100.0, 100.0) : -12.0;
+    float unit, level;
+    level = footprint_level(p, 1.0, unit, level) ? clamp(level - 1.0, -100.0, 100.0) : -12.0;
     vec3 q = p / (unit * exp2(level));
     uvec3 key = uvec3(ivec3(floor(clamp(q, vec3(-2.0e9), vec3(2.0e9)) + 0.5)));
     return key ^ uvec3(0u, 0u, pcg_hash(uint(level + 128.0)));

@@ -150,11 +150,11 @@ class DiffuseLightPass:
         elif frame.denoise:
             # The denoiser's first frame: no pixel has a history (history_paths).
             defines["DIFFUSE_NO_HISTORY"] = 1
-        cache = self._radiance_cache(frame, history is not None)
+        width, height = inputs.size
+        cache = self._radiance_cache(frame, history is not None, height)
         if cache is not None:
             defines.update(RADIANCE_CACHE=1, **radiance_cache_defines())
-            emitter_parts = (*emitter_parts, cache.bindings(inputs.size[1]))
-        width, height = inputs.size
+            emitter_parts = (*emitter_parts, cache.bindings(height))
         uniforms = {**inputs.uniforms, "u_diffuse_bounces": int(settings.diffuse_bounces),
                     "u_diffuse_rays": int(settings.diffuse_rays),
                     "u_short_history_paths": short_history_paths(settings.diffuse_rays)}
@@ -184,7 +184,7 @@ class DiffuseLightPass:
         frame.statistics.deposit(self._counters, COUNTER_WORDS, partial(gather_counts, bounces))
         frame.write("ambient", targets.ambient)
 
-    def _radiance_cache(self, frame: FrameContext, has_history: bool) -> RadianceCache | None:
+    def _radiance_cache(self, frame: FrameContext, has_history: bool, height: int) -> RadianceCache | None:
         """The radiance cache, where this frame uses it: a denoised frame whose paths bounce,
         with the setting on. The cells start over where the denoiser's history holds nothing
         (its first frame, or one after a frame without it), and where the light changed (a
@@ -204,7 +204,7 @@ class DiffuseLightPass:
             self.cache = RadianceCache(self.ctx)
         cache = self.cache
         key = (lamps_key(frame.read("scene").lights), frame.read("lighting").sky.updates,
-               settings.diffuse_bounces, frame.view.height)
+               settings.diffuse_bounces, height)
         changed = not frame.read("delta").unchanged or key != cache.key
         cache.key = key
         if changed or not has_history:

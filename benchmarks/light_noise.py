@@ -24,14 +24,13 @@ against the converged image of its own view:
   meets it, where **still** starts from nothing).
 
 **The converged image** of a view is the renderer's own, through the viewport's path: the
-same passes, the denoiser on, so that the paths that end on a surface the last frame saw take
-its light (the fed-back bounces, ``DIFFUSE_FEEDBACK``), which a renderer without the denoiser
-lacks and is darker by. The denoiser's wavelet filter is off for it (``DenoisePass.levels``
-0): what is averaged is the temporal step's blend, an unbiased estimate once the feedback has
-settled, where the spatial filter would blur the light's true gradients into the reference.
-The view is first rendered ``--settle`` frames (not counted: the fed-back light grows over
-frames and the temporal blend lags it), then ``--reference`` frames are averaged in float64
-on the host. ``--check`` renders the still view's reference at twice as many frames and
+same passes, the denoiser on (with *Bounce Feedback* on, the paths past their last bounce
+take the light the last frame saw, which a renderer without the denoiser lacks). The
+denoiser's wavelet filter is off for it (``DenoisePass.levels`` 0): what is averaged is the
+temporal step's blend, an unbiased estimate, where the spatial filter would blur the light's
+true gradients into the reference. The view is first rendered ``--settle`` frames (not
+counted: any fed-back light grows over frames and the temporal blend lags it), then
+``--reference`` frames are averaged in float64 on the host. ``--check`` renders the still view's reference at twice as many frames and
 reports the FLIP between the two and how much each still figure moves with it: the
 reference is converged when that is below 0.005. ``--reference-rays N`` makes the references
 with *Diffuse Rays* N: N times the paths per frame, the same converged image (the paths are

@@ -59,6 +59,7 @@ LABELS = {
     "diffuse_rays": "Diffuse Rays",
     "lit_cube": "Lit Cube Map",
     "radiance_cache": "Radiance Cache",
+    "bounce_feedback": "Bounce Feedback",
     "near_cube_mode": "Near Cube",
     "frame_budget_ms": "Frame Budget",
     "near_min": "Min Size",

@@ -3,6 +3,8 @@
 bounces that raise what the lamps and the sky do not reach directly."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -142,23 +144,39 @@ def denoised_frames(renderer, scene, camera, settings, frames: int) -> list[floa
             for i in range(frames)]
 
 
-def test_bounces_build_up_over_frames_through_last_frames_light(renderer):
-    # A path that ends on a surface the last frame saw takes that surface's light (the
-    # denoiser's history): every frame adds the bounces its paths trace to those the last
-    # one held, so the shadowed half brightens over frames and settles; an undenoised frame
-    # (no history) stays at the first frame's light. The first denoised frame holds that
-    # light (the filter keeps the energy, below), so the gain is only what the surfaces the
-    # camera sees (the shadowed half, dim) give back. The light without it is the mean of
-    # undenoised frames: the first denoised frame, one estimate of it, traces more paths than
-    # the others (a short history's) and its own noise would move the baseline.
+def test_bounces_build_up_over_frames_through_last_frames_light_with_bounce_feedback(renderer):
+    # With Bounce Feedback, a path past its last bounce that ends on a surface the last frame
+    # saw takes that surface's light (the denoiser's history): every frame adds the bounces
+    # its paths trace to those the last one held, so the shadowed half brightens over frames
+    # and settles; an undenoised frame (no history) stays at the first frame's light. The
+    # first denoised frame holds that light (the filter keeps the energy, below), so the gain
+    # is only what the surfaces the camera sees (the shadowed half, dim) give back. The light
+    # without it is the mean of undenoised frames: the first denoised frame, one estimate of
+    # it, traces more paths than the others (a short history's) and its own noise would move
+    # the baseline.
     scene = closed_room(SHADOWED_LAMP, partition=True)
     camera = Camera(matrix_world=look_at(SHADOWED_CAMERA["eye"], SHADOWED_CAMERA["target"]), width=W, height=H)
-    settings = room_settings("FULL_BVH", diffuse_bounces=1)
+    settings = room_settings("FULL_BVH", diffuse_bounces=1, bounce_feedback=True)
     unfed = float(np.mean([luminance(renderer.render(scene, camera, settings, sample=i).image).mean()
                            for i in range(16)]))
     frames = denoised_frames(renderer, scene, camera, settings, 12)
     assert frames[6] > 1.07 * unfed, (unfed, frames)
     assert abs(frames[11] - frames[9]) < 0.03 * frames[11], frames  # settled: the albedo damps it
+
+
+def test_diffuse_bounces_count_every_bounce_by_default_so_denoised_frames_keep_the_first_frames_light(renderer):
+    # Without Bounce Feedback the paths carry Diffuse Bounces bounces and no more, as Cycles
+    # counts them: a still view's denoised frames hold the undenoised frames' light from the
+    # first on, where the feedback would brighten them frame by frame past Cycles' level (a
+    # final render by its samples, the viewport's first frames darker than its later ones).
+    scene = closed_room(SHADOWED_LAMP, partition=True)
+    camera = Camera(matrix_world=look_at(SHADOWED_CAMERA["eye"], SHADOWED_CAMERA["target"]), width=W, height=H)
+    settings = room_settings("FULL_BVH", diffuse_bounces=1)
+    assert not settings.bounce_feedback
+    plain = float(np.mean([luminance(renderer.render(scene, camera, settings, sample=i).image).mean()
+                           for i in range(16)]))
+    frames = denoised_frames(renderer, scene, camera, settings, 12)
+    assert abs(np.mean(frames[6:]) - plain) < 0.03 * plain, (plain, frames)
 
 
 def test_the_denoiser_keeps_the_bounced_lights_energy(renderer):
@@ -182,7 +200,7 @@ def test_the_denoiser_keeps_the_bounced_lights_energy(renderer):
 
 def test_a_lamp_switched_off_leaves_its_fed_back_light_dying_away(renderer):
     camera = Camera(matrix_world=look_at(SHADOWED_CAMERA["eye"], SHADOWED_CAMERA["target"]), width=W, height=H)
-    settings = room_settings("FULL_BVH", diffuse_bounces=1)
+    settings = room_settings("FULL_BVH", diffuse_bounces=1, bounce_feedback=True)
     # Nothing feeds the fed-back light once the lamp is off: it dies away frame by frame (at
     # the pace of the denoiser's temporal blend, which carries the last frames' light too).
     lit = denoised_frames(renderer, closed_room(SHADOWED_LAMP, partition=True), camera, settings, 8)
@@ -545,11 +563,12 @@ def shadowed_camera(shift: float = 0.0) -> Camera:
 def test_a_denoised_view_traces_more_paths_until_its_history_holds_a_few_frames(renderer):
     # Every pixel sees a wall of the closed room. The denoiser's first frame has no history:
     # SHORT_HISTORY_PATHS times Diffuse Rays paths everywhere, then ceil(that / (frames + 1))
-    # as each pixel's history grows, down to Diffuse Rays.
+    # as each pixel's history grows, down to Diffuse Rays. (The radiance cache's short paths
+    # come on top: tests/test_radiance_cache.py.)
     from hybrid_engine.passes.diffuse_light.diffuse_light import SHORT_HISTORY_PATHS
 
     scene, camera = closed_room(SHADOWED_LAMP, partition=True), shadowed_camera()
-    settings = room_settings("HYBRID", diffuse_rays=2)
+    settings = room_settings("HYBRID", diffuse_rays=2, radiance_cache=False)
     renderer.render(scene, camera, settings)  # an undenoised frame: the history starts over
     counts = [first_paths(renderer, scene, camera, settings, i) for i in range(6)]
     most = SHORT_HISTORY_PATHS
@@ -576,7 +595,7 @@ def test_a_moving_camera_traces_more_paths_only_where_it_uncovers_surfaces(rende
     # start over and trace more paths. Starting the history over traces them everywhere.
     from hybrid_engine.passes.diffuse_light.diffuse_light import SHORT_HISTORY_PATHS
 
-    scene, settings = closed_room(SHADOWED_LAMP, partition=True), room_settings("HYBRID")
+    scene, settings = closed_room(SHADOWED_LAMP, partition=True), room_settings("HYBRID", radiance_cache=False)
     renderer.render(scene, shadowed_camera(), settings)
     for i in range(SHORT_HISTORY_PATHS + 1):
         first_paths(renderer, scene, shadowed_camera(), settings, i)
@@ -718,20 +737,22 @@ def test_the_persistent_gather_kernel_traces_each_pixels_paths_as_the_per_pixel_
     # diffuse_gather.comp.glsl PERSISTENT_PATHS) keys every number by the pixel's surface, so
     # it must give the per-pixel shape's image exactly: several paths per pixel (Diffuse Rays
     # 2, twice that without history), pixels without paths (the background, the mirror),
-    # glass-free rooms lit by a lamp and bounces, and an emitter's next-event estimate.
+    # glass-free rooms lit by a lamp and bounces, an emitter's next-event estimate, the fed-back
+    # light past the last bounce, and the radiance cache's short paths (from the third frame,
+    # the second having filled the cells).
     if lit_by == "lamp":
         scene = closed_room(SHADOWED_LAMP, partition=True, rough_metal=True)
         camera = Camera(matrix_world=look_at(SHADOWED_CAMERA["eye"], SHADOWED_CAMERA["target"]), width=W, height=H)
     else:
         scene = panel_over_floor()
         camera = Camera(matrix_world=look_at((0.0, -4.0, 1.5), (0.0, 0.0, 0.3)), width=W, height=H)
-    settings = room_settings(mode, diffuse_rays=2, diffuse_bounces=3)
+    settings = room_settings(mode, diffuse_rays=2, diffuse_bounces=3, bounce_feedback=True)
     results = {}
     for shape in ("cpu", "gpu"):
         variants.set_override(f"gather={shape}")
         fresh = Renderer(renderer.ctx)  # each shape's own history from its first frame
         try:
-            results[shape] = frames_of(fresh, scene, camera, settings, 3)
+            results[shape] = frames_of(fresh, scene, camera, settings, 4)
         finally:
             fresh.release()
     for per_pixel, persistent in zip(results["cpu"], results["gpu"]):
@@ -754,7 +775,9 @@ def test_a_moved_objects_pixels_trace_more_paths_exactly_where_the_denoiser_star
     from hybrid_engine.passes.diffuse_light.diffuse_light import SHORT_HISTORY_PATHS
     from hybrid_engine.passes.surface_motion import surface_motion
 
-    camera, settings = camera_at(0.0, W, H), _viewport_settings()
+    # The radiance cache's short paths come on top (tests/test_radiance_cache.py); a moving
+    # object's frames take none, but the still frames before it would.
+    camera, settings = camera_at(0.0, W, H), replace(_viewport_settings(), radiance_cache=False)
     started_over = {}
     for follow in (True, False):
         monkeypatch.setattr(surface_motion, "FOLLOW_MOVES", follow)

@@ -4,6 +4,7 @@ the viewport's way, at a size small enough for the test suite."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 
@@ -39,10 +40,10 @@ def test_no_frames_measures_the_still_view_alone(gl):
 
 
 def test_the_reference_is_the_fed_back_light_settled_and_unfiltered(gl):
-    # A renderer without the denoiser has no fed-back bounces and is darker; the reference
-    # (temporal step only, settled) holds them.
+    # With Bounce Feedback, a renderer without the denoiser has no fed-back bounces and is
+    # darker; the reference (temporal step only, settled) holds them.
     scene = light_noise.room()
-    settings = light_noise._viewport_settings()
+    settings = replace(light_noise._viewport_settings(), bounce_feedback=True)
     camera = light_noise.camera_at(0.0, 32, 24)
     maker = light_noise.Reference(scene, settings, settle=12)
     try:

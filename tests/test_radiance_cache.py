@@ -4,6 +4,8 @@ where a pixel's history is short, its paths count the light many paths left arou
 first bounce instead of their own continuation."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -52,13 +54,15 @@ def truth(renderer, bounce_lit):
 
 
 def test_a_bounce_lit_rooms_first_frames_gather_closer_to_the_settled_light_with_the_cache(renderer, bounce_lit,
-                                                                                         truth):
+                                                                                         truth, monkeypatch):
     # Most of the room's light has bounced more than once, and one path of four bounces per
     # pixel carries the noise of each; a cell's mean of the continuations of many paths
-    # does not. The first frame has nothing to count (and its paths, lacking last frame's
-    # light, leave nothing): the mean of frames 1-7, whose error per pixel also holds the
-    # first bounce's noise (which surface a path meets, and its lamp light), which the cache
-    # leaves as it is.
+    # does not. The first frame fills the cells and has nothing to count: the mean of frames
+    # 1-7, whose error per pixel also holds the first bounce's noise (which surface a path
+    # meets, and its lamp light), which the cells leave as it is (the short paths, off here,
+    # sample it more: below).
+    monkeypatch.setattr(radiance_cache, "SHORT_PATHS", 0)
+    monkeypatch.setattr(radiance_cache, "LASTING_SHORT_PATHS", 0)
     scene, camera = bounce_lit
     lit = truth > 0.05 * truth.mean()
     errors = {}
@@ -67,6 +71,53 @@ def test_a_bounce_lit_rooms_first_frames_gather_closer_to_the_settled_light_with
         mean = np.mean(frames[1:], axis=0)
         errors[cache] = float(np.sqrt(np.mean(((mean - truth) / truth)[lit] ** 2)))
     assert errors[True] < 0.9 * errors[False], errors
+
+
+def test_short_paths_sample_the_first_bounce_more_and_count_the_cells_by_the_same_weight(renderer, bounce_lit,
+                                                                                      truth, monkeypatch):
+    # What the cells leave is the first bounce's noise (which surface a path meets). A pixel
+    # that counts them fully traces short paths beside its own, each ending on the cell where
+    # it bounces: several first bounces for the rays of about one whole path. They count the
+    # cells by the pixel's weight as its own paths do (the own paths' continuations stand in
+    # for the rest), so the light they converge to is the same. Frames 2-7 (the first frame
+    # fills the cells, the second is the first to count them).
+    scene, camera = bounce_lit
+    lit = truth > 0.05 * truth.mean()
+    errors, means = {}, {}
+    for short in (False, True):
+        if not short:
+            monkeypatch.setattr(radiance_cache, "SHORT_PATHS", 0)
+            monkeypatch.setattr(radiance_cache, "LASTING_SHORT_PATHS", 0)
+        frames = gathered(renderer, scene, camera, 8, radiance_cache=True)
+        monkeypatch.undo()
+        mean = np.mean(frames[2:], axis=0)
+        errors[short] = float(np.sqrt(np.mean(((mean - truth) / truth)[lit] ** 2)))
+        means[short] = float(mean[lit].mean())
+    assert radiance_cache.SHORT_PATHS > 0 and radiance_cache.LASTING_SHORT_PATHS > 0
+    assert errors[True] < 0.8 * errors[False], errors
+    assert abs(means[True] / means[False] - 1.0) < 0.02, means
+
+
+def test_short_paths_are_most_where_the_history_is_new_and_end_with_the_cells_weight(renderer, bounce_lit):
+    # Every pixel of the room's view sees a wall. The first frame (no history) fills the
+    # cells and traces no short path; the second, with one frame of history, traces
+    # SHORT_PATHS / 2 of them beside its own; they fall with the history to
+    # LASTING_SHORT_PATHS times the weight, and are gone where the weight is (HISTORY_FRAMES).
+    scene, camera = bounce_lit
+    start_over(renderer, scene, camera)
+    counts = []
+    for i in range(int(radiance_cache.HISTORY_FRAMES) + 2):
+        result = renderer.render(scene, camera, settings(), sample=i, reuse_world=i > 0, denoise=True, timing=False)
+        counts.append(int(dict(result.counts)["gather_rays_traced_bounce_1"]) / (W * H))
+    own = 1  # Diffuse Rays; twice in the first frame, as many as the history's extra paths after
+    assert counts[0] == 2 * own
+    assert counts[1] == own + radiance_cache.SHORT_PATHS // 2, counts[:4]
+    assert all(a >= b for a, b in zip(counts[1:], counts[2:])), counts
+    # Twelve frames: 16 / 13 paths is below the floor, which counts by the weight 0.625.
+    weight = 1.0 - 12 / radiance_cache.HISTORY_FRAMES
+    assert radiance_cache.SHORT_PATHS / 13 < radiance_cache.LASTING_SHORT_PATHS
+    assert counts[12] == own + math.ceil(weight * radiance_cache.LASTING_SHORT_PATHS), counts
+    assert counts[-1] == own, counts
 
 
 def test_paths_whose_pixels_do_not_count_the_cells_bring_back_exactly_their_own_light(renderer, bounce_lit,

@@ -154,6 +154,7 @@ class RENDER_PT_hybrid_rt_light_paths(HybridRTPanel, bpy.types.Panel):
         col.prop(settings, "diffuse_bounces", text="Bounces")
         col.prop(settings, "diffuse_rays", text="Rays")
         col.prop(settings, "radiance_cache")
+        col.prop(settings, "bounce_feedback")
         col = layout.column()
         col.active = not rays
         col.prop(settings, "ao_distance")

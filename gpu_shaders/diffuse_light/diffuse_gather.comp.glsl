@@ -32,9 +32,12 @@
 // Host defines: those of trace/hybrid_trace.comp.glsl (tracer.HybridTracer.inputs), and
 //   EMITTER_LIGHT (the emissive triangles' table, include/emitter_light.glsl), SURFACE_MOTION
 //   (with DIFFUSE_FEEDBACK: the instances moved since last frame, include/surface_motion.glsl),
-//   RADIANCE_CACHE, RADIANCE_CACHE_SLOTS, RADIANCE_PROBES, RADIANCE_FIXED_BITS (with
-//   DIFFUSE_FEEDBACK: the world-space radiance cache, and its table's size, probes and fixed
-//   point, include/radiance_cache.glsl).
+//   BOUNCE_FEEDBACK (with DIFFUSE_FEEDBACK: paths past their last bounce take last frame's
+//   light, feedback_irradiance; the setting bounce_feedback), RADIANCE_CACHE,
+//   RADIANCE_CACHE_SLOTS, RADIANCE_PROBES, RADIANCE_FIXED_BITS (the world-space radiance
+//   cache, and its table's size, probes and fixed point,
+//   include/radiance_cache.glsl: with DIFFUSE_FEEDBACK its cells are read and filled, with
+//   DIFFUSE_NO_HISTORY only filled).
 // Storage blocks, uniform blocks, samplers: as trace/hybrid_trace.comp.glsl's contract lists
 //   them; CounterBuffer counts this kernel's rays per path vertex (tracer.COUNTER_KINDS);
 //   RadianceCache, with RADIANCE_CACHE.
@@ -68,6 +71,15 @@ uniform float u_radiance_min_deposits;
 uniform float u_radiance_history_frames;
 // By what weight the current pixel's paths count the cells (pixel_paths): 0 not at all.
 float pixel_cache_weight = 0.0;
+// Short paths a pixel traces beside its own where its history is new, and those it keeps
+// tracing after its first frames, by its weight (pixel_paths); 0 while no frame has filled
+// the cells yet.
+uniform int u_radiance_short_paths;
+uniform int u_radiance_lasting_short_paths;
+// The current pixel's paths of its own (those after them are short: pixel_path), and the
+// frames its history holds.
+int pixel_full_paths = 0;
+float pixel_frames = 0.0;
 #endif
 
 #ifdef DIFFUSE_FEEDBACK
@@ -125,11 +137,13 @@ float history_frames(ivec2 pixel, vec3 p, vec3 n) {
 }
 
 // Last frame's irradiance at the surface h a path ends on, if last frame's camera saw that
-// very point (the texel found: `seen`); else nothing (as without feedback). The path takes
-// it, and the lamps' light there, instead of none: each frame adds the bounces its paths
-// trace to those the last frame held, so bounces build up over frames, and die away as they
-// do in a room (by the albedo, below 1): a light switched off leaves nothing after a few
-// frames.
+// very point (the texel found: `seen`); else nothing (as without feedback). With
+// BOUNCE_FEEDBACK a path past its last bounce takes it, and the lamps' light there, instead
+// of none: each frame adds the bounces its paths trace to those the last frame held, so
+// bounces build up over frames, and die away as they do in a room (by the albedo, below 1):
+// a light switched off leaves nothing after a few frames. It adds bounces past Diffuse
+// Bounces (Cycles' count), and a view's first frame, which has no last frame, lacks them:
+// an option, off by default.
 vec3 feedback_irradiance(Hit h, SpecularSplit hs, out bool seen) {
     ivec2 q;
     seen = feedback_texel(h.position, hs.n_facing, q);
@@ -248,6 +262,10 @@ struct DiffusePath {
     // (cont_radiance, cont_throughput; both 0 before), that throughput (cache_throughput),
     // and the surface's cell and its mean as the last frame left it.
     bool cached;
+    // A short path (pixel_paths): it ends where it bounces off its first surface, once that
+    // surface's own estimates are in, on the cell's mean, where the cell holds enough paths;
+    // elsewhere it goes on as a whole path. `ends_on_cache`: it has reached that end.
+    bool short_path, ends_on_cache;
     vec3 cont_throughput, cont_radiance, cache_throughput;
     vec4 cache_mean;
     uvec2 cache_cell;
@@ -270,16 +288,26 @@ void path_scale(inout DiffusePath s, vec3 f) {
 #endif
 }
 
-// The radiance the ended path s brings back to its pixel: with the cache, where it bounced
-// diffusely off its first surface, it leaves there the irradiance its continuation brought
-// (pi times its radiance: cosine-distributed directions) and counts the cell's mean instead,
-// where the cell holds enough paths, by the pixel's weight.
-vec3 path_result(DiffusePath s) {
+// The radiance the ended path s brings back to its pixel, of which `own` is the part only
+// the pixel's own (not short) paths estimate, averaged over those alone (store_ambient).
+// With the cache, where the path bounced diffusely off its first surface, it leaves there
+// the irradiance its continuation brought (pi times its radiance: cosine-distributed
+// directions); where that cell holds enough paths, the pixel counts the cell's mean by its
+// weight w, and its own continuation by 1 - w. A short path has no continuation of its own:
+// it counts the cell's mean by w, and the own paths' continuations stand in for the rest,
+// so that the cells count by w whatever the mix (pixel_paths).
+vec3 path_result(DiffusePath s, out vec3 own) {
+    own = vec3(0.0);
 #ifdef RADIANCE_CACHE
+    vec3 cell = s.cache_throughput * (s.cache_mean.rgb / PI);
+    if (s.ends_on_cache) return s.radiance + pixel_cache_weight * cell;
     if (s.cached) {
         radiance_deposit(s.cache_cell, PI * s.cont_radiance);
-        if (pixel_cache_weight > 0.0 && s.cache_mean.a >= u_radiance_min_deposits)
-            return s.radiance + pixel_cache_weight * s.cache_throughput * (s.cache_mean.rgb / PI - s.cont_radiance);
+        if (pixel_cache_weight > 0.0 && s.cache_mean.a >= u_radiance_min_deposits) {
+            vec3 continuation = s.cache_throughput * s.cont_radiance;
+            own = (1.0 - pixel_cache_weight) * continuation;
+            return s.radiance - continuation + pixel_cache_weight * cell;
+        }
     }
 #endif
     return s.radiance;
@@ -318,6 +346,8 @@ DiffusePath diffuse_path_start(vec3 p, vec3 g, vec3 n, vec3 d, int path, bool fi
 #endif
 #ifdef RADIANCE_CACHE
     s.cached = false;
+    s.short_path = false;
+    s.ends_on_cache = false;
     s.cont_throughput = vec3(0.0);
     s.cont_radiance = vec3(0.0);
     s.cache_throughput = vec3(0.0);
@@ -350,6 +380,9 @@ bool diffuse_path_step(inout DiffusePath s) {
 #endif
         s.nee_weight = vec3(0.0);
     }
+#endif
+#ifdef RADIANCE_CACHE
+    if (s.ends_on_cache) return false;
 #endif
     if (s.step > MAX_DIFFUSE_BOUNCES + MAX_GLASS_CROSSINGS) return false;
     s.step += 1;
@@ -388,7 +421,7 @@ bool diffuse_path_step(inout DiffusePath s) {
     // on from it, or ends on it with last frame's light; the ray stands for a whole
     // hemisphere, so highlights are filtered as the roughest lobe.
     bool lamps = bounces_left;
-#ifdef DIFFUSE_FEEDBACK
+#if defined(BOUNCE_FEEDBACK) && defined(DIFFUSE_FEEDBACK)
     bool ends_on_feedback = false;
     if (!bounces_left && hs.diffuse_weight > 0.0 && through <= 0.0) {
         path_gather(s, (hs.diffuse_weight * h_albedo / PI) * feedback_irradiance(h, hs, ends_on_feedback));
@@ -396,7 +429,7 @@ bool diffuse_path_step(inout DiffusePath s) {
     }
 #endif
     if (lamps) path_gather(s, lamp_light_response(hm, h_albedo, vec3(0.0), h.position, d, hs, 1.0));
-#ifdef DIFFUSE_FEEDBACK
+#if defined(BOUNCE_FEEDBACK) && defined(DIFFUSE_FEEDBACK)
     if (ends_on_feedback) return false;
 #endif
     if (through > 0.0 && s.crossings < MAX_GLASS_CROSSINGS) {
@@ -454,6 +487,16 @@ bool diffuse_path_step(inout DiffusePath s) {
         s.cache_cell = radiance_cell(h.position, hs.g_facing);
         // Only a pixel that counts the cells reads one (a long history's fills them alone).
         s.cache_mean = pixel_cache_weight > 0.0 ? radiance_lookup(s.cache_cell) : vec4(0.0);
+        if (s.short_path && s.cache_mean.a >= u_radiance_min_deposits) {
+            // The surface's own estimate of the emitters (due at the next step) is still
+            // the path's; then it ends (path_result).
+            s.ends_on_cache = true;
+#ifdef EMITTER_LIGHT
+            return true;
+#else
+            return false;
+#endif
+        }
     }
 #endif
     s.d = cosine_direction(hs.n_facing, hs.g_facing, gather_random(PATH_SALT + 32 * s.path + s.vertex));
@@ -482,9 +525,17 @@ int pixel_paths(ivec2 pixel) {
     paths *= history_paths(frames);
 #ifdef RADIANCE_CACHE
     pixel_cache_weight = clamp(1.0 - frames / u_radiance_history_frames, 0.0, 1.0);
+    pixel_frames = frames;
 #endif
 #elif defined(DIFFUSE_NO_HISTORY)
     paths *= max(u_short_history_paths, 1);
+#endif
+#ifdef RADIANCE_CACHE
+    // The short paths: most where the history is new, falling as its extra paths do
+    // (history_paths) to a floor, and with the weight by which it counts the cells.
+    pixel_full_paths = paths;
+    float short_paths = max(float(u_radiance_short_paths) / (pixel_frames + 1.0), float(u_radiance_lasting_short_paths));
+    paths += int(ceil(pixel_cache_weight * short_paths));
 #endif
     return paths;
 }
@@ -517,12 +568,20 @@ DiffusePath pixel_path(ivec2 pixel, int i) {
     vec3 d = glossy ? specular_split_sampled(m, albedo_g.rgb, view_dir, n, g, xi).reflect_dir
                     : cosine_direction(n_facing, g_facing, xi);
     // With the emitters' next-event estimate of the diffuse layer (cosine-weighted).
-    return diffuse_path_start(p, g_facing, n_facing, d, i, glossy, material);
+    DiffusePath s = diffuse_path_start(p, g_facing, n_facing, d, i, glossy, material);
+#ifdef RADIANCE_CACHE
+    s.short_path = i >= pixel_full_paths;
+#endif
+    return s;
 }
 
-// The pixel's ambient from the sums of its `paths` paths' radiance and sky.
-void store_ambient(ivec2 pixel, vec3 radiance, float sky, int paths) {
+// The pixel's ambient from the sums of its `paths` paths' radiance and sky, and of its own
+// paths' `own` part (path_result).
+void store_ambient(ivec2 pixel, vec3 radiance, vec3 own, float sky, int paths) {
     vec4 ambient = paths > 0 ? vec4(PI * radiance, sky) / float(paths) : vec4(0.0, 0.0, 0.0, 1.0);
+#ifdef RADIANCE_CACHE
+    if (pixel_full_paths > 0) ambient.rgb += PI * own / float(pixel_full_paths);
+#endif
     if (any(isnan(ambient)) || any(isinf(ambient))) ambient = vec4(0.0, 0.0, 0.0, 1.0);
     imageStore(u_ambient, pixel, ambient);
 }
@@ -551,7 +610,7 @@ void main() {
     uint item = gl_GlobalInvocationID.x;
     ivec2 pixel = ivec2(0);
     int paths = 0, i = 0;
-    vec3 radiance = vec3(0.0);
+    vec3 radiance = vec3(0.0), own = vec3(0.0);
     float sky = 0.0;
     bool live = false;
     DiffusePath s;
@@ -566,21 +625,24 @@ void main() {
                     item = atomicAdd(next_item, 1u) + uint(u_invocations);
                     if (any(greaterThanEqual(pixel, u_size))) continue;
                     paths = pixel_paths(pixel);
-                    if (paths == 0) store_ambient(pixel, vec3(0.0), 0.0, 0);
+                    if (paths == 0) store_ambient(pixel, vec3(0.0), vec3(0.0), 0.0, 0);
                 }
                 if (paths == 0) break;
                 i = 0;
                 radiance = vec3(0.0);
+                own = vec3(0.0);
                 sky = 0.0;
             }
             s = pixel_path(pixel, i);
         }
         live = diffuse_path_step(s);
         if (!live) {
-            radiance += path_result(s);
+            vec3 path_own;
+            radiance += path_result(s, path_own);
+            own += path_own;
             sky += s.sky;
             i += 1;
-            if (i >= paths) store_ambient(pixel, radiance, sky, paths);
+            if (i >= paths) store_ambient(pixel, radiance, own, sky, paths);
         }
     }
 }
@@ -591,14 +653,16 @@ void main() {
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(pixel, u_size))) return;
     int paths = pixel_paths(pixel);
-    vec3 radiance = vec3(0.0);
+    vec3 radiance = vec3(0.0), own = vec3(0.0);
     float sky = 0.0;
     for (int i = 0; i < paths; ++i) {
         DiffusePath s = pixel_path(pixel, i);
         while (diffuse_path_step(s)) {}
-        radiance += path_result(s);
+        vec3 path_own;
+        radiance += path_result(s, path_own);
+        own += path_own;
         sky += s.sky;
     }
-    store_ambient(pixel, radiance, sky, paths);
+    store_ambient(pixel, radiance, own, sky, paths);
 }
 #endif

@@ -123,6 +123,10 @@ FIELD_DOCS = {
     "bounce more lights rooms from their walls, at the cost of one more ray",
     "diffuse_rays": "Rays World Light: paths traced from each diffuse pixel per sample: less "
     "noise, proportionally slower",
+    "bounce_feedback": "Rays World Light, denoised frames: a path that has bounced Bounces times and "
+    "ends on a surface the last frame saw takes that surface's light from then, so more bounces build "
+    "up over the frames, for the cost of the bounces traced: brighter rooms than Cycles' count of "
+    "bounces, and the viewport's first frames darker than the later ones",
     "radiance_cache": "Rays World Light, denoised frames: where a path bounces off its first surface, "
     "take the light many paths brought back from around that spot over the last frames instead of "
     "the path's own, where the denoiser has few frames of a pixel (a view's first samples, what the "
@@ -202,6 +206,7 @@ class RenderSettings:
     world_light: str = "RAYS"
     diffuse_bounces: int = 4
     diffuse_rays: int = 1
+    bounce_feedback: bool = False
     lit_cube: bool = False
     radiance_cache: bool = True
     denoise_viewport: bool = True

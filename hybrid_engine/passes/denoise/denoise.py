@@ -149,7 +149,8 @@ class DenoisePass:
             self.forget()
             return
         settings = frame.settings
-        estimate = (settings.traces_diffuse, settings.diffuse_bounces, settings.diffuse_rays, settings.ao_distance)
+        estimate = (settings.traces_diffuse, settings.diffuse_bounces, settings.diffuse_rays, settings.ao_distance,
+                    settings.bounce_feedback)
         if estimate != self._estimate:
             self.forget()
             self._estimate = estimate

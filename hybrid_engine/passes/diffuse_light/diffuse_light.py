@@ -139,6 +139,8 @@ class DiffuseLightPass:
         history = self.feedback() if self.feedback is not None and settings.diffuse_bounces > 0 else None
         if history is not None:
             defines["DIFFUSE_FEEDBACK"] = 1
+            if settings.bounce_feedback:
+                defines["BOUNCE_FEEDBACK"] = 1
             emitter_parts = (*emitter_parts, history)
             # A moved instance's pixels find their history where they stood last frame, as
             # the denoiser finds it (passes/surface_motion/; a denoised frame's).
@@ -187,14 +189,15 @@ class DiffuseLightPass:
     def _radiance_cache(self, frame: FrameContext, has_history: bool, height: int) -> RadianceCache | None:
         """The radiance cache, where this frame uses it: a denoised frame whose paths bounce,
         with the setting on. The cells start over where the denoiser's history holds nothing
-        (its first frame, or one after a frame without it), and where the light changed (a
+        (its first frame, or one after a frame without it): that frame's paths fill them,
+        and the next frame's count them. They also start over where the light changed (a
         lamp, the World, an object moved or deformed: the cells would go on giving the old
         light to the pixels that count them, those whose history is short), or what a cell
         is (Diffuse Bounces, which its paths trace; the image's height, which sizes it).
-        Such a frame
-        neither reads nor fills them: its paths are not those of the frames after it (the
-        first frame's find no fed-back light where they end), and while an object moves,
-        every frame would empty what the last one filled."""
+        Such a frame neither reads nor fills them: while an object moves, every frame would
+        empty what the last one filled. With Bounce Feedback a first frame does not fill
+        them either: its paths find no fed-back light where they end, and the cells would
+        keep that darker light for as many frames as they hold."""
         settings = frame.settings
         if not (frame.denoise and settings.radiance_cache and settings.diffuse_bounces > 0):
             if self.cache is not None:
@@ -207,7 +210,10 @@ class DiffuseLightPass:
                settings.diffuse_bounces, height)
         changed = not frame.read("delta").unchanged or key != cache.key
         cache.key = key
-        if changed or not has_history:
+        if not has_history:
+            cache.forget()
+            return None if settings.bounce_feedback else cache
+        if changed:
             cache.forget()
             return None
         return cache

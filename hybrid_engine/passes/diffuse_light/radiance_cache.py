@@ -21,6 +21,14 @@ frames of the pixel's own independent paths, unblurred, where a cell's mean, whi
 slowly, would keep its error from frame to frame (docs/BENCHMARKS.md, "The radiance
 cache").
 
+What the cells leave, the first bounce's noise, is then most of a new history's: a pixel
+that counts the cells traces up to ``SHORT_PATHS`` short paths beside its own (fewer as its
+history grows), each of which ends where it bounces off its first surface, on that cell,
+once the surface's own light is in: one ray and a lamp's or emitter's estimate instead of a
+whole path. They count the cell by the pixel's weight as its own paths do,
+its own paths' continuations standing in for the rest (``diffuse_gather.comp.glsl``
+``path_result``), so the light the pixel converges to is the same.
+
 The cells are cubes a ``CELL_DIVISIONS``-th of the view's height across at their distance from
 the camera, in powers of two of the scene's typical object size, and split by the surface's
 facing normal: the table holds about as many cells at any resolution, and more pixels leave
@@ -31,8 +39,9 @@ means as they stood after the last frame.
 
 The cache lives as long as the denoiser's history (DiffuseLightPass): it is used in denoised
 frames only and starts over whenever that history does (a frame without the denoiser, a final
-render's first sample, another estimate), so that an undenoised frame stays the plain
-path-traced estimate; and it starts over when a lamp, the World or an object changes.
+render's first sample, another estimate: that frame's paths fill it again), so that an
+undenoised frame stays the plain path-traced estimate; and it starts over when a lamp, the
+World or an object changes.
 """
 from __future__ import annotations
 
@@ -56,6 +65,16 @@ MIN_DEPOSITS = 2.0  # deposits a cell's mean needs before a pixel counts it
 # The denoiser's history at which a pixel no longer counts the cells: by a weight falling
 # from 1 (no history) to 0 there.
 HISTORY_FRAMES = 32.0
+# Short paths a pixel that counts the cells traces beside its own where its history is new,
+# fewer as it grows: SHORT_PATHS over the frames it holds plus one (as the extra paths of a
+# short history fall), but not below LASTING_SHORT_PATHS, times the cells' weight
+# (diffuse_gather.comp.glsl pixel_paths). Each ends on the cell where it bounces off its
+# first surface, one ray and that surface's estimates instead of a whole path, so the first
+# bounce, which the cells cannot stand in for, is sampled several times where the history
+# has few frames to average. The most at first helps the first samples; the floor the
+# samples after (a daylit room's eighth sample: docs/BENCHMARKS.md).
+SHORT_PATHS = 16
+LASTING_SHORT_PATHS = 4
 SLOT_BYTES = 64  # radiance_cache.glsl RadianceSlot
 RESOLVE_SHADER = "diffuse_light/radiance_cache_resolve.comp.glsl"
 LOCAL_SIZE = 64
@@ -82,12 +101,15 @@ class RadianceCache:
         self.key: tuple | None = None
 
     def bindings(self, height: int) -> Bindings:
-        """The table, the cells' size for an image ``height`` pixels high, and when a
-        pixel counts a cell's mean."""
+        """The table, the cells' size for an image ``height`` pixels high, when a pixel
+        counts a cell's mean, and its short paths (none until a frame has filled the cells:
+        they would all go on as whole paths)."""
         return Bindings(storage={"RadianceCache": self.buffer},
                         uniforms={"u_radiance_cell_pixels": max(float(height) / CELL_DIVISIONS, 1.0),
                                   "u_radiance_min_deposits": MIN_DEPOSITS,
-                                  "u_radiance_history_frames": HISTORY_FRAMES})
+                                  "u_radiance_history_frames": HISTORY_FRAMES,
+                                  "u_radiance_short_paths": SHORT_PATHS if self.filled else 0,
+                                  "u_radiance_lasting_short_paths": LASTING_SHORT_PATHS if self.filled else 0})
 
     def resolve(self) -> None:
         """Fold this frame's deposits into the cells' means (after the gather)."""

@@ -71,11 +71,9 @@ uniform float u_radiance_min_deposits;
 uniform float u_radiance_history_frames;
 // By what weight the current pixel's paths count the cells (pixel_paths): 0 not at all.
 float pixel_cache_weight = 0.0;
-// Short paths a pixel traces beside its own where its history is new, and those it keeps
-// tracing after its first frames, by its weight (pixel_paths); 0 while no frame has filled
-// the cells yet.
+// Short paths a pixel traces beside its own where its history is new (pixel_paths); 0
+// while no frame has filled the cells yet.
 uniform int u_radiance_short_paths;
-uniform int u_radiance_lasting_short_paths;
 // The current pixel's paths of its own (those after them are short: pixel_path), and the
 // frames its history holds.
 int pixel_full_paths = 0;
@@ -532,10 +530,10 @@ int pixel_paths(ivec2 pixel) {
 #endif
 #ifdef RADIANCE_CACHE
     // The short paths: most where the history is new, falling as its extra paths do
-    // (history_paths) to a floor, and with the weight by which it counts the cells.
+    // (history_paths) and with the weight by which it counts the cells, rounded to the
+    // nearest: none once they would be fewer than half a path.
     pixel_full_paths = paths;
-    float short_paths = max(float(u_radiance_short_paths) / (pixel_frames + 1.0), float(u_radiance_lasting_short_paths));
-    paths += int(ceil(pixel_cache_weight * short_paths));
+    paths += int(pixel_cache_weight * float(u_radiance_short_paths) / (pixel_frames + 1.0) + 0.5);
 #endif
     return paths;
 }

@@ -74,7 +74,7 @@ float pixel_cache_weight = 0.0;
 // Short paths a pixel traces beside its own where its history is new (pixel_paths); 0
 // while no frame has filled the cells yet.
 uniform int u_radiance_short_paths;
-// The current pixel's paths of its own (those after them are short: pixel_path), and the
+// The current pixel's paths of its own (those after them are short: diffuse_path_step), and the
 // frames its history holds.
 int pixel_full_paths = 0;
 float pixel_frames = 0.0;
@@ -260,10 +260,11 @@ struct DiffusePath {
     // (cont_radiance, cont_throughput; both 0 before), that throughput (cache_throughput),
     // and the surface's cell and its mean as the last frame left it.
     bool cached;
-    // A short path (pixel_paths): it ends where it bounces off its first surface, once that
-    // surface's own estimates are in, on the cell's mean, where the cell holds enough paths;
-    // elsewhere it goes on as a whole path. `ends_on_cache`: it has reached that end.
-    bool short_path, ends_on_cache;
+    // A short path (path >= pixel_full_paths: pixel_paths) ends where it bounces off its
+    // first surface, once that surface's own estimates are in, on the cell's mean, where the
+    // cell holds enough paths; elsewhere it goes on as a whole path. `ends_on_cache`: it has
+    // reached that end.
+    bool ends_on_cache;
     vec3 cont_throughput, cont_radiance, cache_throughput;
     vec4 cache_mean;
     uvec2 cache_cell;
@@ -344,7 +345,6 @@ DiffusePath diffuse_path_start(vec3 p, vec3 g, vec3 n, vec3 d, int path, bool fi
 #endif
 #ifdef RADIANCE_CACHE
     s.cached = false;
-    s.short_path = false;
     s.ends_on_cache = false;
     s.cont_throughput = vec3(0.0);
     s.cont_radiance = vec3(0.0);
@@ -485,7 +485,7 @@ bool diffuse_path_step(inout DiffusePath s) {
         s.cache_cell = radiance_cell(h.position, hs.g_facing);
         // Only a pixel that counts the cells reads one (a long history's fills them alone).
         s.cache_mean = pixel_cache_weight > 0.0 ? radiance_lookup(s.cache_cell) : vec4(0.0);
-        if (s.short_path && s.cache_mean.a >= u_radiance_min_deposits) {
+        if (s.path >= pixel_full_paths && s.cache_mean.a >= u_radiance_min_deposits) {
             // The surface's own estimate of the emitters (due at the next step) is still
             // the path's; then it ends (path_result).
             s.ends_on_cache = true;
@@ -566,11 +566,7 @@ DiffusePath pixel_path(ivec2 pixel, int i) {
     vec3 d = glossy ? specular_split_sampled(m, albedo_g.rgb, view_dir, n, g, xi).reflect_dir
                     : cosine_direction(n_facing, g_facing, xi);
     // With the emitters' next-event estimate of the diffuse layer (cosine-weighted).
-    DiffusePath s = diffuse_path_start(p, g_facing, n_facing, d, i, glossy, material);
-#ifdef RADIANCE_CACHE
-    s.short_path = i >= pixel_full_paths;
-#endif
-    return s;
+    return diffuse_path_start(p, g_facing, n_facing, d, i, glossy, material);
 }
 
 // The pixel's ambient from the sums of its `paths` paths' radiance and sky, and of its own

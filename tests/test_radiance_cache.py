@@ -10,8 +10,11 @@ import numpy as np
 import pytest
 
 from benchmarks.light_noise import camera_at, room
+from hybrid_engine.gpu import shader_loader
 from hybrid_engine.passes.diffuse_light import radiance_cache
-from hybrid_engine.scene.data import Lights, SceneData
+from hybrid_engine.scene.camera import Camera, look_at
+from hybrid_engine.scene.data import Lights, MaterialTable, SceneData, Sky
+from hybrid_engine.scene.geometry import Geometry
 from hybrid_engine.scene.settings import RenderSettings
 
 W, H = 64, 48
@@ -62,6 +65,7 @@ def test_a_bounce_lit_rooms_first_frames_gather_closer_to_the_settled_light_with
     # meets, and its lamp light), which the cells leave as it is (the short paths, off here,
     # sample it more: below).
     monkeypatch.setattr(radiance_cache, "SHORT_PATHS", 0)
+    monkeypatch.setattr(radiance_cache, "SHORT_FLOOR", 0)
     scene, camera = bounce_lit
     lit = truth > 0.05 * truth.mean()
     errors = {}
@@ -86,6 +90,7 @@ def test_short_paths_sample_the_first_bounce_more_and_count_the_cells_by_the_sam
     for short in (False, True):
         if not short:
             monkeypatch.setattr(radiance_cache, "SHORT_PATHS", 0)
+            monkeypatch.setattr(radiance_cache, "SHORT_FLOOR", 0)
         frames = gathered(renderer, scene, camera, 8, radiance_cache=True)
         monkeypatch.undo()
         mean = np.mean(frames[2:], axis=0)
@@ -96,27 +101,97 @@ def test_short_paths_sample_the_first_bounce_more_and_count_the_cells_by_the_sam
     assert abs(means[True] / means[False] - 1.0) < 0.02, means
 
 
-def test_short_paths_are_most_where_the_history_is_new_and_gone_after_a_few_frames(renderer, bounce_lit):
-    # Every pixel of the room's view sees a wall. The first frame (no history) fills the
-    # cells and traces no short path; the second, with one frame of history, traces
-    # SHORT_PATHS / 2 of them beside its own (times the weight 31 / 32, rounded); they fall
-    # as one over the frames plus one, and none is left once they round to nothing.
-    scene, camera = bounce_lit
+def short_paths_of(frames: float, enclosed: float = 1.0) -> float:
+    """The short paths a pixel whose history holds ``frames`` frames traces, of which
+    ``enclosed`` of the first rays do not escape, before rounding (diffuse_gather.comp.glsl
+    pixel_paths)."""
+    weight = max(1.0 - frames / radiance_cache.HISTORY_FRAMES, 0.0)
+    return weight * enclosed * max(radiance_cache.SHORT_PATHS / (frames + 1.0), radiance_cache.SHORT_FLOOR)
+
+
+def first_bounce_rays(renderer, scene, camera, frames: int) -> list[float]:
+    """The diffuse gather's first rays per pixel in each of ``frames`` denoised frames of a
+    still view."""
     start_over(renderer, scene, camera)
     counts = []
-    for i in range(12):
+    for i in range(frames):
         result = renderer.render(scene, camera, settings(), sample=i, reuse_world=i > 0, denoise=True, timing=False)
         counts.append(int(dict(result.counts)["gather_rays_traced_bounce_1"]) / (W * H))
+    return counts
+
+
+def test_short_paths_are_most_where_the_history_is_new_and_gone_once_the_cells_weigh_little(renderer, bounce_lit):
+    # Every pixel of the room's view sees a wall, and its first rays meet the room. The first
+    # frame (no history) fills the cells and traces no short path; the second, with one
+    # frame of history, traces SHORT_PATHS / 2 of them beside its own (times the weight
+    # 31 / 32, rounded); they fall as one over the frames plus one to SHORT_FLOOR, which
+    # the falling weight then takes to nothing.
+    scene, camera = bounce_lit
+    last = next(n for n in range(1, 64) if short_paths_of(n) < 0.5)
+    counts = first_bounce_rays(renderer, scene, camera, last + 2)
     own = 1  # Diffuse Rays; twice in the first frame, as many as the history's extra paths after
-    # The short paths of a history of n frames, before rounding (a rounding at exactly one
-    # half may go either way in float32).
-    short = [(1.0 - n / radiance_cache.HISTORY_FRAMES) * radiance_cache.SHORT_PATHS / (n + 1) for n in range(12)]
-    assert radiance_cache.SHORT_PATHS >= 4 and short[1] >= 2
+    short = [short_paths_of(n) for n in range(last + 2)]
+    assert radiance_cache.SHORT_PATHS >= 8 and radiance_cache.SHORT_FLOOR >= 1 and last > 16
     assert counts[0] == 2 * own
-    assert counts[1] == own + round(short[1]), counts
-    assert all(math.floor(k) <= c - own <= math.ceil(k) for c, k in zip(counts[1:], short[1:])), counts
+    # A few pixels a frame whose first ray found a crack to the sky trace one fewer (a
+    # rounding at exactly one half may go either way in float32).
+    assert abs(counts[1] - own - round(short[1])) < 0.01, counts
+    assert all(math.floor(k) - 0.01 <= c - own <= math.ceil(k) for c, k in zip(counts[1:], short[1:])), counts
     assert all(a >= b for a, b in zip(counts[1:], counts[2:])), counts
-    assert counts[-1] == own, counts
+    assert counts[last - 1] > own + 0.9 and counts[last + 1] == own, counts
+
+
+def open_floor() -> SceneData:
+    """A grey floor under a white sky: every first ray of the gather escapes."""
+    floor = np.array([[(-50, -50, 0), (50, -50, 0), (50, 50, 0)], [(-50, -50, 0), (50, 50, 0), (-50, 50, 0)]],
+                     np.float32)
+    return SceneData(Geometry.from_objects([(floor, None, 0)]),
+                     MaterialTable.from_rows([dict(base_color=(0.5, 0.5, 0.5), specular=0.0, roughness=1.0)]),
+                     Lights.from_rows([]), Sky(color=(1.0, 1.0, 1.0)))
+
+
+def test_a_pixel_traces_short_paths_by_the_share_of_its_first_rays_that_meet_a_surface(renderer, bounce_lit):
+    # Where a first ray escapes, a short path would be a whole path, and the sky's smooth
+    # light leaves little first-bounce noise to sample: an open floor's pixels trace none,
+    # where the room's trace SHORT_PATHS / 2 in the same frame of their history.
+    camera = Camera(matrix_world=look_at(np.array([0.0, -4.0, 3.0]), np.zeros(3)), width=W, height=H)
+    floor = first_bounce_rays(renderer, open_floor(), camera, 3)
+    room_counts = first_bounce_rays(renderer, *bounce_lit, 3)
+    assert round(short_paths_of(1)) >= 4
+    assert floor == [2.0, 1.0, 1.0], floor
+    assert room_counts[1] > 1.0 + round(short_paths_of(1)) - 0.01, room_counts
+
+
+def test_a_frames_short_paths_cover_the_hemisphere_evenly(renderer, bounce_lit, truth, monkeypatch):
+    # Their first directions are consecutive points of a lattice, as the frames of a pixel's
+    # own paths are: which surfaces the first bounce meets is averaged better than by as
+    # many independent directions (SHORT_PATHS_INDEPENDENT, a measurement switch), in one
+    # frame (the second: 16 short paths here) and over frames 2-7 of the raw gather; the
+    # light they converge to is the same.
+    from hybrid_engine.frame.renderer import Renderer
+
+    monkeypatch.setattr(radiance_cache, "SHORT_PATHS", 32)
+    monkeypatch.setattr(radiance_cache, "SHORT_FLOOR", 8)
+    scene, camera = bounce_lit
+    lit = truth > 0.05 * truth.mean()
+
+    def error(gather: np.ndarray) -> float:
+        return float(np.sqrt(np.mean(((gather - truth) / truth)[lit] ** 2)))
+
+    errors, means = {}, {}
+    for independent in (False, True):
+        with shader_loader.compiled_with({"SHORT_PATHS_INDEPENDENT": 1} if independent else {}):
+            variant = Renderer(renderer.ctx)
+            try:
+                frames = gathered(variant, scene, camera, 8, radiance_cache=True)
+            finally:
+                variant.release()
+        mean = np.mean(frames[2:], axis=0)
+        errors[independent] = (error(frames[1]), error(mean))
+        means[independent] = float(mean[lit].mean())
+    assert errors[False][0] < 0.95 * errors[True][0], errors
+    assert errors[False][1] < 0.95 * errors[True][1], errors
+    assert abs(means[False] / means[True] - 1.0) < 0.02, means
 
 
 def test_paths_whose_pixels_do_not_count_the_cells_bring_back_exactly_their_own_light(renderer, bounce_lit,

@@ -71,13 +71,18 @@ uniform float u_radiance_min_deposits;
 uniform float u_radiance_history_frames;
 // By what weight the current pixel's paths count the cells (pixel_paths): 0 not at all.
 float pixel_cache_weight = 0.0;
-// Short paths a pixel traces beside its own where its history is new (pixel_paths); 0
-// while no frame has filled the cells yet.
+// Short paths a pixel traces beside its own where its history is new (pixel_paths): this
+// many over the frames its history holds plus one, and no fewer than u_radiance_short_floor
+// while it counts the cells; 0 while no frame has filled the cells yet.
 uniform int u_radiance_short_paths;
+uniform int u_radiance_short_floor;
 // The current pixel's paths of its own (those after them are short: diffuse_path_step), and the
 // frames its history holds.
 int pixel_full_paths = 0;
 float pixel_frames = 0.0;
+// The share of the pixel's first rays that did not escape to the sky, as its history holds
+// it (1 where it holds none): where they escape a short path costs a whole one.
+float pixel_enclosed = 1.0;
 #endif
 
 #ifdef DIFFUSE_FEEDBACK
@@ -131,6 +136,10 @@ float history_frames(ivec2 pixel, vec3 p, vec3 n) {
     // reprojection looks it up when the camera's motion alone finds nothing.
     if (!seen && surface_moved_back(pixel, p, n)) seen = feedback_texel(p, n, q);
 #endif
+#ifdef RADIANCE_CACHE
+    // Last frame's blend of the share of the first rays that escaped (u_ambient's a).
+    pixel_enclosed = seen ? clamp(1.0 - texelFetch(u_feedback_color, q, 0).a, 0.0, 1.0) : 1.0;
+#endif
     return seen ? texelFetch(u_feedback_length, q, 0).x : 0.0;
 }
 
@@ -164,6 +173,8 @@ uniform int u_diffuse_rays;     // paths per pixel
 #define EMITTER_SALT 0x6ca1
 #define GLOSSY_SALT 0x7ca1       // the specular lobe's direction and the lobe's pick at a path's vertex
 #define EXTRA_FIRST_SALT 0x8ca1  // the first direction of path i >= u_diffuse_rays (history_paths)
+#define SHORT_FIRST_SALT 0x9ca1  // the first directions' lattice shift of the short paths (pixel_path)
+#define MAX_SHORT_PATHS 64       // a pixel's short paths in one frame at most (pixel_paths)
 
 // Whose numbers this frame's paths draw. Without a history, the view's sample (a final
 // render's samples, a still view's redraws). With the denoiser's history, the frame's index
@@ -185,19 +196,23 @@ vec2 gather_random(int salt) {
     return random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), gather_index(), uint(salt)));
 }
 
-// The first direction of path `path`: point gather_index() * paths + path of the R2 sequence
-// (Roberts 2018: the plastic number's Kronecker lattice, in 32-bit fixed point so that the
-// index never loses precision), shifted per surface point by a number of its key alone
-// (Cranley-Patterson rotation). Consecutive frames of one point thus cover the hemisphere
-// evenly where independent numbers clump and leave holes, so the mean of a still view's
-// samples, and the temporal blend, converge faster than one over the square root of the
-// count; the later bounces, whose light is a smaller share, keep independent numbers. The
-// shift draws from the scale-invariant position key (random.glsl), as every other number.
-vec2 first_random(int path, int paths) {
-    uint k = gather_index() * uint(paths) + uint(path);
-    vec2 shift = random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), 0x9e3779b9u, uint(PATH_SALT)));
+// Point k of the R2 sequence (Roberts 2018: the plastic number's Kronecker lattice, in 32-bit
+// fixed point so that the index never loses precision), shifted per surface point by a
+// number of its key and `salt` alone (Cranley-Patterson rotation). The shift draws from the
+// scale-invariant position key (random.glsl), as every other number.
+vec2 lattice_random(uint k, int salt) {
+    vec2 shift = random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), 0x9e3779b9u, uint(salt)));
     uvec2 lattice = uvec2(k * 3242174889u, k * 2447445414u);  // k (1/g, 1/g^2) 2^32, g^3 = g + 1
     return fract(vec2(lattice >> 8u) * (1.0 / 16777216.0) + shift);
+}
+
+// The first direction of path `path`: point gather_index() * paths + path of the lattice.
+// Consecutive frames of one point thus cover the hemisphere evenly where independent numbers
+// clump and leave holes, so the mean of a still view's samples, and the temporal blend,
+// converge faster than one over the square root of the count; the later bounces, whose
+// light is a smaller share, keep independent numbers.
+vec2 first_random(int path, int paths) {
+    return lattice_random(gather_index() * uint(paths) + uint(path), PATH_SALT);
 }
 
 // trace_ray.glsl's spawning is the tracer's: nothing is spawned here.
@@ -530,10 +545,14 @@ int pixel_paths(ivec2 pixel) {
 #endif
 #ifdef RADIANCE_CACHE
     // The short paths: most where the history is new, falling as its extra paths do
-    // (history_paths) and with the weight by which it counts the cells, rounded to the
-    // nearest: none once they would be fewer than half a path.
+    // (history_paths) to a floor, times the weight by which it counts the cells, and times
+    // the share of its first rays that do not escape (where they escape, a short path is a
+    // whole path: outdoors they would double a view's first frames for the first bounce's
+    // noise, which the sky's smooth light keeps small), rounded to the nearest: none once
+    // they would be fewer than half a path.
     pixel_full_paths = paths;
-    paths += int(pixel_cache_weight * float(u_radiance_short_paths) / (pixel_frames + 1.0) + 0.5);
+    float short_paths = max(float(u_radiance_short_paths) / (pixel_frames + 1.0), float(u_radiance_short_floor));
+    paths += min(int(pixel_cache_weight * pixel_enclosed * short_paths + 0.5), MAX_SHORT_PATHS);
 #endif
     return paths;
 }
@@ -561,6 +580,15 @@ DiffusePath pixel_path(ivec2 pixel, int i) {
     // sequence, which a pixel follows for as long as it stays in view, is the same
     // whether or not its first frames traced more.
     vec2 xi = i < rays ? first_random(i, rays) : gather_random(EXTRA_FIRST_SALT + i);
+#if defined(RADIANCE_CACHE) && !defined(SHORT_PATHS_INDEPENDENT)
+    // A pixel's short paths of one frame take consecutive points of a lattice of their own
+    // (lattice_random, MAX_SHORT_PATHS points a frame): a handful of them then cover the
+    // hemisphere evenly, so which surfaces the first bounce meets, the noise they sample,
+    // is averaged better than by as many independent directions. SHORT_PATHS_INDEPENDENT
+    // (a measurement switch, tests/test_radiance_cache.py) draws independent ones.
+    if (i >= pixel_full_paths)
+        xi = lattice_random(gather_index() * uint(MAX_SHORT_PATHS) + uint(i - pixel_full_paths), SHORT_FIRST_SALT);
+#endif
     // The glossy lobe's direction: a visible-normal sample of its GGX lobe, as the
     // tracer samples the traced ones (weight 1: split.glossy_local is the lobe's albedo).
     vec3 d = glossy ? specular_split_sampled(m, albedo_g.rgb, view_dir, n, g, xi).reflect_dir

@@ -23,11 +23,15 @@ cache").
 
 What the cells leave, the first bounce's noise, is then most of a new history's: a pixel
 that counts the cells traces up to ``SHORT_PATHS`` / 2 short paths beside its own (fewer as
-its history grows), each of which ends where it bounces off its first surface, on that cell,
-once the surface's own light is in: one ray and a lamp's or emitter's estimate instead of a
-whole path. They count the cell by the pixel's weight as its own paths do,
-its own paths' continuations standing in for the rest (``diffuse_gather.comp.glsl``
-``path_result``), so the light the pixel converges to is the same.
+its history grows, to ``SHORT_FLOOR``), each of which ends where it bounces off its first
+surface, on that cell, once the surface's own light is in: one ray and a lamp's or emitter's
+estimate instead of a whole path. They count the cell by the pixel's weight as its own paths
+do, its own paths' continuations standing in for the rest (``diffuse_gather.comp.glsl``
+``path_result``), so the light the pixel converges to is the same. Their first directions
+are consecutive points of a lattice, so that a frame's few of them cover the hemisphere
+evenly. Where a pixel's first rays escape to the sky a short path is a whole one, and the
+sky's smooth light leaves little first-bounce noise: a pixel traces them by the share of its
+first rays that did not escape, as its history holds it (none on an open floor).
 
 The cells are cubes a ``CELL_DIVISIONS``-th of the view's height across at their distance from
 the camera, in powers of two of the scene's typical object size, and split by the surface's
@@ -66,15 +70,17 @@ MIN_DEPOSITS = 2.0  # deposits a cell's mean needs before a pixel counts it
 # from 1 (no history) to 0 there.
 HISTORY_FRAMES = 32.0
 # Short paths a pixel that counts the cells traces beside its own where its history is new,
-# fewer as it grows: SHORT_PATHS times the cells' weight over the frames it holds plus one
-# (as the extra paths of a short history fall), to the nearest whole path
-# (diffuse_gather.comp.glsl pixel_paths). Each ends on the cell where it bounces off its
-# first surface, one ray and that surface's estimates instead of a whole path, so the first
-# bounce, which the cells cannot stand in for, is sampled several times where the history
-# has few frames to average. More, or a floor that lasts as long as the weight, are
-# cleaner still but cost a still view's first frames twice as much again where paths are
-# short anyway (outdoors: docs/BENCHMARKS.md, "Short paths").
-SHORT_PATHS = 8
+# fewer as it grows: SHORT_PATHS over the frames it holds plus one (as the extra paths of a
+# short history fall), no fewer than SHORT_FLOOR, times the cells' weight and the share of
+# its first rays that do not escape, to the nearest whole path (diffuse_gather.comp.glsl
+# pixel_paths). Each ends on the cell where it bounces off its first surface, one ray and
+# that surface's estimates instead of a whole path, so the first bounce, which the cells
+# cannot stand in for, is sampled several times where the history has few frames to average.
+# The floor keeps a few while the weight lasts, where the eighth sample of a still view
+# still shows the first bounce's noise; the schedules measured, and what they cost indoors
+# and out, are in docs/BENCHMARKS.md, "Short paths".
+SHORT_PATHS = 12
+SHORT_FLOOR = 2
 SLOT_BYTES = 64  # radiance_cache.glsl RadianceSlot
 RESOLVE_SHADER = "diffuse_light/radiance_cache_resolve.comp.glsl"
 LOCAL_SIZE = 64
@@ -108,7 +114,8 @@ class RadianceCache:
                         uniforms={"u_radiance_cell_pixels": max(float(height) / CELL_DIVISIONS, 1.0),
                                   "u_radiance_min_deposits": MIN_DEPOSITS,
                                   "u_radiance_history_frames": HISTORY_FRAMES,
-                                  "u_radiance_short_paths": SHORT_PATHS if self.filled else 0})
+                                  "u_radiance_short_paths": SHORT_PATHS if self.filled else 0,
+                                  "u_radiance_short_floor": SHORT_FLOOR if self.filled else 0})
 
     def resolve(self) -> None:
         """Fold this frame's deposits into the cells' means (after the gather)."""

@@ -549,9 +549,12 @@ int pixel_paths(ivec2 pixel) {
     // the share of its first rays that do not escape (where they escape, a short path is a
     // whole path: outdoors they would double a view's first frames for the first bounce's
     // noise, which the sky's smooth light keeps small), rounded to the nearest: none once
-    // they would be fewer than half a path.
+    // they would be fewer than half a path. A pixel last frame did not see (what the camera
+    // or an object uncovers) traces as many as one frame of history would: its own paths are
+    // already several (history_paths), and how many of its rays escape is not known.
     pixel_full_paths = paths;
-    float short_paths = max(float(u_radiance_short_paths) / (pixel_frames + 1.0), float(u_radiance_short_floor));
+    float short_paths = max(float(u_radiance_short_paths) / (max(pixel_frames, 1.0) + 1.0),
+                            float(u_radiance_short_floor));
     paths += min(int(pixel_cache_weight * pixel_enclosed * short_paths + 0.5), MAX_SHORT_PATHS);
 #endif
     return paths;

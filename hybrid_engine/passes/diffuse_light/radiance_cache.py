@@ -70,15 +70,15 @@ MIN_DEPOSITS = 2.0  # deposits a cell's mean needs before a pixel counts it
 # from 1 (no history) to 0 there.
 HISTORY_FRAMES = 32.0
 # Short paths a pixel that counts the cells traces beside its own where its history is new,
-# fewer as it grows: SHORT_PATHS over the frames it holds plus one (as the extra paths of a
-# short history fall), no fewer than SHORT_FLOOR, times the cells' weight and the share of
-# its first rays that do not escape, to the nearest whole path (diffuse_gather.comp.glsl
-# pixel_paths). Each ends on the cell where it bounces off its first surface, one ray and
+# fewer as it grows: SHORT_PATHS over the frames it holds (one at least) plus one (as the
+# extra paths of a short history fall), no fewer than SHORT_FLOOR, times the cells' weight
+# and the share of its first rays that do not escape, to the nearest whole path
+# (diffuse_gather.comp.glsl pixel_paths). Each ends on the cell where it bounces off its first surface, one ray and
 # that surface's estimates instead of a whole path, so the first bounce, which the cells
 # cannot stand in for, is sampled several times where the history has few frames to average.
 # The floor keeps a few while the weight lasts, where the eighth sample of a still view
 # still shows the first bounce's noise; the schedules measured, and what they cost indoors
-# and out, are in docs/BENCHMARKS.md, "Short paths".
+# and out, are in docs/BENCHMARKS.md, "Short paths where the first rays meet the scene".
 SHORT_PATHS = 12
 SHORT_FLOOR = 2
 SLOT_BYTES = 64  # radiance_cache.glsl RadianceSlot

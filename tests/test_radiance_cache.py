@@ -249,3 +249,27 @@ def test_a_lamp_switched_off_empties_the_cells_at_once(renderer, bounce_lit):
     assert lit.max() > 0.1
     assert 0 < deposits.sum() < 0.3 * lit_deposits.sum(), (deposits.sum(), lit_deposits.sum())
     assert dark.max() < 0.2 * lit.max(), (dark.max(), lit.max())
+
+
+def test_a_material_edit_empties_the_cells_and_an_unchanged_table_keeps_them(renderer, bounce_lit):
+    # The cells hold light that bounced off the materials as they were: a wall painted
+    # darker would go on lending its old bounce to the pixels that count them. A table
+    # rebuilt with the same values (as Blender's sync rebuilds it) keeps them.
+    scene, camera = bounce_lit
+
+    def frame(materials: MaterialTable, i: int) -> None:
+        renderer.render(SceneData(scene.geometry, materials, scene.lights, scene.sky), camera, settings(),
+                        sample=i, reuse_world=True, denoise=True, timing=False)
+
+    gathered(renderer, scene, camera, 6, radiance_cache=True)  # five frames fill the cells
+    bright, bright_deposits = renderer.diffuse_light.cache.read()
+    frame(MaterialTable.from_rows([dict(base_color=(0.8, 0.8, 0.8), specular=0.0, roughness=1.0)]), 6)
+    kept, kept_deposits = renderer.diffuse_light.cache.read()
+    assert len(kept) >= len(bright) and kept_deposits.sum() > bright_deposits.sum()
+    darker = MaterialTable.from_rows([dict(base_color=(0.2, 0.2, 0.2), specular=0.0, roughness=1.0)])
+    frame(darker, 7)
+    assert len(renderer.diffuse_light.cache.read()[0]) == 0
+    frame(darker, 8)
+    dark, _ = renderer.diffuse_light.cache.read()
+    luminance = lambda cells: float((cells @ LUMINANCE).mean())  # noqa: E731
+    assert luminance(dark) < 0.5 * luminance(bright), (luminance(dark), luminance(bright))

@@ -191,8 +191,8 @@ class DiffuseLightPass:
         with the setting on. The cells start over where the denoiser's history holds nothing
         (its first frame, or one after a frame without it): that frame's paths fill them,
         and the next frame's count them. They also start over where the light changed (a
-        lamp, the World, an object moved or deformed: the cells would go on giving the old
-        light to the pixels that count them, those whose history is short), or what a cell
+        lamp, the World, a material, an object moved or deformed: the cells would go on giving
+        the old light to the pixels that count them, those whose history is short), or what a cell
         is (Diffuse Bounces, which its paths trace; the image's height, which sizes it).
         Such a frame neither reads nor fills them: while an object moves, every frame would
         empty what the last one filled. With Bounce Feedback a first frame does not fill
@@ -207,7 +207,7 @@ class DiffuseLightPass:
             self.cache = RadianceCache(self.ctx)
         cache = self.cache
         key = (lamps_key(frame.read("scene").lights), frame.read("lighting").sky.updates,
-               settings.diffuse_bounces, height)
+               frame.read("scene_buffers").materials_version, settings.diffuse_bounces, height)
         changed = not frame.read("delta").unchanged or key != cache.key
         cache.key = key
         if not has_history:

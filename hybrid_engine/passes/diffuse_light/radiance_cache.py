@@ -45,7 +45,7 @@ The cache lives as long as the denoiser's history (DiffuseLightPass): it is used
 frames only and starts over whenever that history does (a frame without the denoiser, a final
 render's first sample, another estimate: that frame's paths fill it again), so that an
 undenoised frame stays the plain path-traced estimate; and it starts over when a lamp, the
-World or an object changes.
+World, a material or an object changes.
 """
 from __future__ import annotations
 

@@ -68,6 +68,11 @@ class GPUScene:
         self.textures = GPUTextures(ctx)  # re-uploaded only when the scene's images change
         self.node_programs = NodePrograms(ctx)  # the materials' node graphs, as program words
         self.node_attributes = NodeAttributes(ctx)  # the attributes the programs read, if any
+        # Counts the uploads whose materials differ from the last one's (the packed rows, the
+        # node programs' words and values, the images): light that a pass keeps across frames
+        # (the radiance cache's cells) was gathered off the old ones.
+        self.materials_version = 0
+        self._sent_rows, self._sent_word_uploads = b"", -1
 
     @property
     def defines(self) -> dict:
@@ -146,8 +151,13 @@ class GPUScene:
         self.node_programs.update(scene.materials, rows, geometry)
         table = self.node_programs.table
         self.node_attributes.update(table.attributes if table is not None else AttributeRequests(), geometry)
-        self.materials.upload(bytes_of(rows))
-        self.textures.upload(scene.materials.textures)
+        row_bytes = bytes(bytes_of(rows))
+        self.materials.upload(row_bytes)
+        images_changed = self.textures.upload(scene.materials.textures)
+        word_uploads = self.node_programs.word_uploads
+        if row_bytes != self._sent_rows or word_uploads != self._sent_word_uploads or images_changed:
+            self.materials_version += 1
+            self._sent_rows, self._sent_word_uploads = row_bytes, word_uploads
         self.host_ms = (time.perf_counter() - start) * 1e3
         return (scene if geometry is scene.geometry else SceneData(geometry=geometry, materials=scene.materials,
                                                                    lights=scene.lights, sky=scene.sky)), delta

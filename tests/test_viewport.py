@@ -706,14 +706,16 @@ def test_a_shape_key_moving_the_cube_keeps_its_denoiser_history_where_it_moved_o
     assert (lengths[moved] > 1).mean() > 0.8, np.unique(lengths[moved], return_counts=True)
 
 
-def test_still_viewport_redraws_fill_the_radiance_cache_and_a_grabbed_object_empties_it(addon, viewport):
+def test_still_viewport_redraws_fill_the_radiance_cache_and_a_recoloured_or_grabbed_object_empties_it(
+        addon, viewport):
     """The cache (passes/diffuse_light/radiance_cache.py) through the viewport's own path: a
     still view's redraws keep the scene sync's frames unchanged, so its cells fill from the
-    second denoised redraw on; moving an object empties them."""
+    second denoised redraw on; changing a material's colour empties them, and so does
+    moving an object."""
     import bpy
 
     _module, session, _reports = viewport
-    scene, cube, _material = _two_object_scene(bpy)
+    scene, cube, material = _two_object_scene(bpy)
     scene.hybrid_rt.mode = "HYBRID"
     _sync(bpy)
     settings = addon.blender_adapter.properties.settings_from_scene(bpy.context.scene)
@@ -723,6 +725,15 @@ def test_still_viewport_redraws_fill_the_radiance_cache_and_a_grabbed_object_emp
         assert frame.error is None, frame.error
     cells, deposits = session.renderer.diffuse_light.cache.read()
     assert len(cells) > 10 and deposits.sum() > 0
+    material.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.1, 0.9, 0.2, 1)
+    _sync(bpy)
+    frame = session.frame(_region(bpy), settings)
+    assert frame.error is None, frame.error
+    assert len(session.renderer.diffuse_light.cache.read()[0]) == 0
+    for _ in range(2):
+        frame = session.frame(_region(bpy), settings)
+        assert frame.error is None, frame.error
+    assert len(session.renderer.diffuse_light.cache.read()[0]) > 10
     cube.location.x += 0.5
     _sync(bpy)
     frame = session.frame(_region(bpy), settings)

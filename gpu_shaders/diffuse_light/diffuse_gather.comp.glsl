@@ -37,7 +37,8 @@
 //   RADIANCE_CACHE_SLOTS, RADIANCE_PROBES, RADIANCE_FIXED_BITS (the world-space radiance
 //   cache, and its table's size, probes and fixed point,
 //   include/radiance_cache.glsl: with DIFFUSE_FEEDBACK its cells are read and filled, with
-//   DIFFUSE_NO_HISTORY only filled).
+//   DIFFUSE_NO_HISTORY only filled), SHORT_PATHS_INDEPENDENT (a measurement switch: the short
+//   paths' first directions independent, pixel_path).
 // Storage blocks, uniform blocks, samplers: as trace/hybrid_trace.comp.glsl's contract lists
 //   them; CounterBuffer counts this kernel's rays per path vertex (tracer.COUNTER_KINDS);
 //   RadianceCache, with RADIANCE_CACHE.
@@ -72,8 +73,8 @@ uniform float u_radiance_history_frames;
 // By what weight the current pixel's paths count the cells (pixel_paths): 0 not at all.
 float pixel_cache_weight = 0.0;
 // Short paths a pixel traces beside its own where its history is new (pixel_paths): this
-// many over the frames its history holds plus one, and no fewer than u_radiance_short_floor
-// while it counts the cells; 0 while no frame has filled the cells yet.
+// many over the frames its history holds (one at least) plus one, no fewer than
+// u_radiance_short_floor while it counts the cells; 0 while no frame has filled the cells yet.
 uniform int u_radiance_short_paths;
 uniform int u_radiance_short_floor;
 // The current pixel's paths of its own (those after them are short: diffuse_path_step), and the

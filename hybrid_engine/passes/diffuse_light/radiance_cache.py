@@ -73,9 +73,10 @@ HISTORY_FRAMES = 32.0
 # fewer as it grows: SHORT_PATHS over the frames it holds (one at least) plus one (as the
 # extra paths of a short history fall), no fewer than SHORT_FLOOR, times the cells' weight
 # and the share of its first rays that do not escape, to the nearest whole path
-# (diffuse_gather.comp.glsl pixel_paths). Each ends on the cell where it bounces off its first surface, one ray and
-# that surface's estimates instead of a whole path, so the first bounce, which the cells
-# cannot stand in for, is sampled several times where the history has few frames to average.
+# (diffuse_gather.comp.glsl pixel_paths). Each ends on the cell where it bounces off its
+# first surface, one ray and that surface's estimates instead of a whole path, so the first
+# bounce, which the cells cannot stand in for, is sampled several times where the history
+# has few frames to average.
 # The floor keeps a few while the weight lasts, where the eighth sample of a still view
 # still shows the first bounce's noise; the schedules measured, and what they cost indoors
 # and out, are in docs/BENCHMARKS.md, "Short paths where the first rays meet the scene".

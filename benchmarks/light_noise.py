@@ -30,13 +30,14 @@ denoiser's wavelet filter is off for it (``DenoisePass.levels`` 0): what is aver
 temporal step's blend, an unbiased estimate, where the spatial filter would blur the light's
 true gradients into the reference. The view is first rendered ``--settle`` frames (not
 counted: any fed-back light grows over frames and the temporal blend lags it), then
-``--reference`` frames are averaged in float64 on the host. ``--check`` renders the still view's reference at twice as many frames and
-reports the FLIP between the two and how much each still figure moves with it: the
-reference is converged when that is below 0.005. ``--reference-rays N`` makes the references
-with *Diffuse Rays* N: N times the paths per frame, the same converged image (the paths are
-the same estimate, averaged N at a time), so that a reference of a few hundred frames holds
-thousands of paths per pixel. A 2048-frame reference of one path per frame still carries
-grain of about 2 % per pixel, which alone scores FLIP 0.015-0.02 against a perfect image.
+``--reference`` frames are averaged in float64 on the host. ``--check`` renders the still
+view's reference at twice as many frames and reports the FLIP between the two and how much
+each still figure moves with it: the reference is converged when that is below 0.005.
+``--reference-rays N`` makes the references with *Diffuse Rays* N: N times the paths per
+frame, the same converged image (the paths are the same estimate, averaged N at a time), so
+that a reference of a few hundred frames holds thousands of paths per pixel. A 2048-frame
+reference of one path per frame still carries grain of about 2 % per pixel, which alone
+scores FLIP 0.015-0.02 against a perfect image.
 ``--cache`` keeps the references in an npz file (keyed by size, rays and sample counts), so
 that two versions of the renderer are measured against the very same images.
 

@@ -128,8 +128,9 @@ int history_paths(float frames) {
 }
 
 // How many frames the denoiser's history holds of the pixel's point p (normal n): 0 where
-// last frame did not see it.
-float history_frames(ivec2 pixel, vec3 p, vec3 n) {
+// last frame did not see it; `escaped` the history's blend of the share of the point's first
+// rays that escaped (u_ambient's a), 0 where it holds none.
+float history_frames(ivec2 pixel, vec3 p, vec3 n, out float escaped) {
     ivec2 q;
     bool seen = feedback_texel(p, n, q);
 #ifdef SURFACE_MOTION
@@ -137,10 +138,7 @@ float history_frames(ivec2 pixel, vec3 p, vec3 n) {
     // reprojection looks it up when the camera's motion alone finds nothing.
     if (!seen && surface_moved_back(pixel, p, n)) seen = feedback_texel(p, n, q);
 #endif
-#ifdef RADIANCE_CACHE
-    // Last frame's blend of the share of the first rays that escaped (u_ambient's a).
-    pixel_enclosed = seen ? clamp(1.0 - texelFetch(u_feedback_color, q, 0).a, 0.0, 1.0) : 1.0;
-#endif
+    escaped = seen ? clamp(texelFetch(u_feedback_color, q, 0).a, 0.0, 1.0) : 0.0;
     return seen ? texelFetch(u_feedback_length, q, 0).x : 0.0;
 }
 
@@ -535,11 +533,13 @@ int pixel_paths(ivec2 pixel) {
     vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
     vec3 g = gbuffer_geometric(albedo_g.a, texelFetch(u_emission_scale, pixel, 0).a, n);
     vec3 g_facing = dot(g, view_dir) < 0.0 ? g : -g;
-    float frames = history_frames(pixel, p, dot(n, g_facing) >= 0.0 ? n : -n);
+    float escaped;
+    float frames = history_frames(pixel, p, dot(n, g_facing) >= 0.0 ? n : -n, escaped);
     paths *= history_paths(frames);
 #ifdef RADIANCE_CACHE
     pixel_cache_weight = clamp(1.0 - frames / u_radiance_history_frames, 0.0, 1.0);
     pixel_frames = frames;
+    pixel_enclosed = 1.0 - escaped;
 #endif
 #elif defined(DIFFUSE_NO_HISTORY)
     paths *= max(u_short_history_paths, 1);

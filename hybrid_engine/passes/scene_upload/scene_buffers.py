@@ -152,10 +152,12 @@ class GPUScene:
         table = self.node_programs.table
         self.node_attributes.update(table.attributes if table is not None else AttributeRequests(), geometry)
         row_bytes = bytes(bytes_of(rows))
-        self.materials.upload(row_bytes)
+        rows_changed = row_bytes != self._sent_rows
+        if rows_changed:
+            self.materials.upload(row_bytes)
         images_changed = self.textures.upload(scene.materials.textures)
         word_uploads = self.node_programs.word_uploads
-        if row_bytes != self._sent_rows or word_uploads != self._sent_word_uploads or images_changed:
+        if rows_changed or word_uploads != self._sent_word_uploads or images_changed:
             self.materials_version += 1
             self._sent_rows, self._sent_word_uploads = row_bytes, word_uploads
         self.host_ms = (time.perf_counter() - start) * 1e3

@@ -378,12 +378,10 @@ def test_the_filter_removes_the_irradiances_noise_and_keeps_a_textures_edges(ren
     assert residual(denoised) < residual(noisy) / 20, (residual(denoised), residual(noisy))
 
 
-def test_the_coarsest_level_keeps_a_gradient_of_light_where_an_edge_cuts_its_kernel_off(renderer, probe, monkeypatch):
-    """Light that rises steadily across a floor, up to a step to a raised floor: beside the
-    step the plane stop cuts the kernel off on one side, and the mean of the taps left is the
-    (dimmer) light of a place farther from it, which the pixels beside the step take: a dark
-    band as wide as the kernel. The coarsest level's plane through its taps, taken at the
-    pixel itself, keeps the ramp there."""
+def step_floor(renderer, probe):
+    """A floor whose light rises steadily across it (the probe's ramp), up to a step to a
+    raised floor, seen from above; returns the scene, the camera, the clean image and the
+    pixels of the floor beside the step (8 columns)."""
     floor = quad((-0.75, 0, 0), (2.25, 0, 0), (0, 3, 0))  # x from -3 to 1.5
     step = quad((2.25, 0, 0.5), (0.75, 0, 0), (0, 3, 0))  # a raised floor beyond x = 1.5
     scene = SceneData(Geometry.from_objects([(floor, None, 0), (step, None, 0)]), grey(), Lights.empty(),
@@ -394,20 +392,53 @@ def test_the_coarsest_level_keeps_a_gradient_of_light_where_an_edge_cuts_its_ker
     probe(pattern=3, level=0.5, noise=0.0)
     clean = renderer.render(scene, camera, RASTER).image[..., 0]
     xs = (np.arange(size) + 0.5) / size * 4.0 - 2.0
-    beside = (slice(size // 4, 3 * size // 4), (xs > 1.1) & (xs < 1.45))  # 8 columns of the floor
+    beside = (slice(size // 4, 3 * size // 4), (xs > 1.1) & (xs < 1.45))
+    return scene, camera, clean, beside
+
+
+def bias_beside_the_step(renderer, scene, camera, clean, beside, frames: int = 8) -> float:
+    """The mean relative error of the pixels ``beside`` the step after ``frames`` denoised
+    frames of a history that starts over (their noise averages out over the 8 x 48 pixels)."""
+    renderer.render(scene, camera, RASTER)  # undenoised: the history starts over
+    for k in range(frames):  # a history past MIN_LENGTH: the planes are fitted
+        image = renderer.render(scene, camera, RASTER, sample=k, denoise=True).image[..., 0]
+    return float((image - clean)[beside[0]][:, beside[1]].mean() / clean[beside[0]][:, beside[1]].mean())
+
+
+def test_the_coarsest_level_keeps_a_gradient_of_light_where_an_edge_cuts_its_kernel_off(renderer, probe, monkeypatch):
+    """Light that rises steadily across a floor, up to a step to a raised floor: beside the
+    step the plane stop cuts the kernel off on one side, and the mean of the taps left is the
+    (dimmer) light of a place farther from it, which the pixels beside the step take: a dark
+    band as wide as the kernel. The coarsest level's plane through its taps, taken at the
+    pixel itself, keeps the ramp there."""
+    scene, camera, clean, beside = step_floor(renderer, probe)
     probe(pattern=3, level=0.5, noise=0.4)
+    monkeypatch.setattr("hybrid_engine.passes.denoise.denoise.LINEAR_LEVELS", 1)
 
-    def bias_beside_the_step(linear: bool) -> float:
-        """The mean relative error of the pixels beside the step (their noise averages out)."""
+    def bias(linear: bool) -> float:
         monkeypatch.setattr("hybrid_engine.passes.denoise.denoise.LINEAR_FIT", linear)
-        renderer.render(scene, camera, RASTER)  # undenoised: the history starts over
-        for k in range(8):  # a history past MIN_LENGTH: the plane is fitted
-            image = renderer.render(scene, camera, RASTER, sample=k, denoise=True).image[..., 0]
-        return float((image - clean)[beside[0]][:, beside[1]].mean() / clean[beside[0]][:, beside[1]].mean())
+        return bias_beside_the_step(renderer, scene, camera, clean, beside)
 
-    with_plane, with_mean = bias_beside_the_step(True), bias_beside_the_step(False)
+    with_plane, with_mean = bias(True), bias(False)
     assert with_mean < -0.0015, with_mean  # darker: the taps left lie down the ramp
     assert abs(with_plane) < abs(with_mean) / 4, (with_plane, with_mean)
+
+
+def test_planes_at_the_coarser_levels_keep_the_ramp_beside_an_edge_closer_than_one_at_the_coarsest(
+        renderer, probe, monkeypatch):
+    """The finer levels' means are cut off at the step too, each a little down the ramp, and
+    a plane at the coarsest level alone fits what they left: a plane at each of the default
+    ``LINEAR_LEVELS`` takes that level's value at the pixel itself."""
+    from hybrid_engine.passes.denoise import denoise
+
+    assert denoise.LINEAR_LEVELS > 1
+    scene, camera, clean, beside = step_floor(renderer, probe)
+    probe(pattern=3, level=0.5, noise=0.4)
+    found = {}
+    for levels in (1, denoise.LINEAR_LEVELS):
+        monkeypatch.setattr("hybrid_engine.passes.denoise.denoise.LINEAR_LEVELS", levels)
+        found[levels] = bias_beside_the_step(renderer, scene, camera, clean, beside, frames=16)
+    assert abs(found[denoise.LINEAR_LEVELS]) < abs(found[1]) / 2, found
 
 
 # -- end to end ------------------------------------------------------------------------------

@@ -20,14 +20,15 @@
 // and glass are not in it at all (the tracer adds them to the colour).
 // The variance is filtered with the squared weights, as the variance of a weighted mean.
 //
-// With u_linear (the coarsest level, where the taps lie 8 pixels apart) the pixel takes the
-// value at its own place of the weighted least-squares plane through its taps, instead of
-// their weighted mean: local linear regression (as kernel regression corrects a kernel's
-// bias at a boundary; the first-order case of Koskela et al. 2019's blockwise regression).
-// Where the stops cut the kernel off on one side (a wall beside a partition, the image's
-// border, a shadow's gradient the guides have found), the mean of the taps that remain lies
-// off the pixel, and on a gradient of the light it is the light of another place: a band of
-// too bright or too dark pixels along every edge, as wide as the kernel. The plane's slope
+// With u_linear (the two coarsest levels, whose taps lie 4 and 8 pixels apart;
+// hybrid_engine/passes/denoise/denoise.py, LINEAR_LEVELS) the pixel takes the value at its
+// own place of the weighted least-squares plane through its taps, instead of their weighted
+// mean: local linear regression (as kernel regression corrects a kernel's bias at a
+// boundary; the first-order case of Koskela et al. 2019's blockwise regression). Where the stops cut the kernel off on one side (a
+// wall beside a partition, a room's corner, the image's border, a shadow's gradient the
+// guides have found), the mean of the taps that remain lies off the pixel, and on a gradient
+// of the light it is the light of another place: a band of too bright or too dark pixels
+// along every edge, as wide as the kernel, and the levels' shifts add up. The plane's slope
 // is itself an estimate; it is taken by its Wiener gain, slope^2 / (slope^2 + its variance),
 // from the propagated variances, so that where the taps are noisy (a short history, a dim
 // wall) the level stays the plain mean and adds no noise. The result is held within the

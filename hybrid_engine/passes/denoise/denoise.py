@@ -17,9 +17,10 @@ the GPU (gpu_shaders/denoise/):
 2. ``variance``: how noisy each pixel is, from the temporal moments, or from its
    neighbours' where its history is short.
 3. ``atrous`` (``ITERATIONS`` levels): an edge-avoiding wavelet filter guided by depth,
-   normal and that variance; its coarsest level fits a plane through its taps
-   (``LINEAR_FIT``), so that where the edges cut its kernel off on one side the light's
-   gradient is not shifted by the kernel's width. Blurring irradiance rather than colour
+   normal and that variance; its two coarsest levels fit a plane through their taps
+   (``LINEAR_FIT``, ``LINEAR_LEVELS``), so that where the edges cut a kernel off on one side
+   (a corner, a partition, the image's border) the light's gradient is not shifted by the
+   kernel's width. Blurring irradiance rather than colour
    keeps textures sharp (the albedo multiplies after), and reflections and refractions,
    which the tracer adds to the colour, are never touched.
 
@@ -99,10 +100,15 @@ HISTORY_FILTER = "catmull_rom"
 # geometry's stops (plane, normal) and to the albedo, which the filter never sees.
 PLANE_SIGMA = 0.01
 SIGMA_GUIDE = 16.0
-# The coarsest level fits a plane through its taps instead of taking their mean
-# (atrous.comp.glsl): its kernel reaches farthest, and where the stops cut it off on one
-# side, the mean is the light of a place up to 16 pixels away. A switch for benchmarks.
+# The coarsest levels fit a plane through their taps instead of taking their mean
+# (atrous.comp.glsl): where the stops cut a kernel off on one side, its mean is the light of a
+# place up to twice its step away, and the levels' shifts add up along every corner.
+# LINEAR_LEVELS counts the levels that fit one, from the coarsest. Two: the finest levels'
+# few taps fit slopes of the paths' noise, which the Wiener gain lets through in part, and
+# with a plane at every level a bounce-lit room's blocks of pixels stray further from its
+# converged light (docs/BENCHMARKS.md). LINEAR_FIT is a switch for benchmarks.
 LINEAR_FIT = True
+LINEAR_LEVELS = 2
 # The film's samples of a still view during which the temporal blend is their plain mean
 # (1 / n >= ALPHA_COLOR): the pass writes its share of the film's mean (module docstring).
 FILM_SHARE_SAMPLES = round(1.0 / ALPHA_COLOR)
@@ -214,7 +220,7 @@ class DenoisePass:
                          "u_variance_out": Image(target_variance, read=False, write=True)},
                  uniforms={**camera, "u_step": 1 << level, "u_plane_sigma": PLANE_SIGMA,
                            "u_sigma_guide": SIGMA_GUIDE, "u_min_length": MIN_LENGTH,
-                           "u_linear": int(LINEAR_FIT and level == self.levels - 1)})
+                           "u_linear": int(LINEAR_FIT and level >= self.levels - LINEAR_LEVELS)})
             self._run(self.atrous, groups)
             source, source_variance = target, target_variance
         source = self._film_share(source, work[self.levels % 2], view, groups, film_sample)

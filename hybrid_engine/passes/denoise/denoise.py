@@ -20,9 +20,9 @@ the GPU (gpu_shaders/denoise/):
    normal and that variance; its two coarsest levels fit a plane through their taps
    (``LINEAR_FIT``, ``LINEAR_LEVELS``), so that where the edges cut a kernel off on one side
    (a corner, a partition, the image's border) the light's gradient is not shifted by the
-   kernel's width. Blurring irradiance rather than colour
-   keeps textures sharp (the albedo multiplies after), and reflections and refractions,
-   which the tracer adds to the colour, are never touched.
+   kernel's width. Blurring irradiance rather than colour keeps textures sharp (the albedo
+   multiplies after), and reflections and refractions, which the tracer adds to the colour,
+   are never touched.
 
 What the next frame reprojects is the temporal blend, not a filtered level as in SVGF (whose
 history, filtered again every frame, keeps blurring a still view); instead the variance that

@@ -57,3 +57,20 @@ def test_more_shadow_maps_than_the_slot_table_holds_fail_naming_cast_shadow(ctx)
             atlas.layout([view] * (MAX_SHADOW_SLOTS + 1), 1)
     finally:
         atlas.release()
+
+
+def test_the_lamp_updates_count_a_frame_only_when_a_lamp_changed(ctx):
+    # The denoiser and the radiance cache drop the light they keep across frames when this
+    # count moves, so an unchanged lamp must not move it, and any changed number must.
+    resources, atlas = FrameResources(ctx), ShadowAtlas(ctx)
+    shadows = ShadowMaps(atlas, [(-1, 0)], rendered=False, static_rendered=False, submitted=0)
+    lamp = {"kind": "POINT", "cast_shadow": False, "color": (1.0, 1.0, 1.0)}
+    try:
+        counts = []
+        for row in (lamp, dict(lamp), {**lamp, "color": (1.0, 0.5, 1.0)}, {**lamp, "color": (1.0, 0.5, 1.0)}):
+            resources.update_lights(Lights.from_rows([row]), shadows, RenderSettings())
+            counts.append(resources.lamp_updates)
+        assert counts == [1, 1, 2, 2]
+    finally:
+        resources.release()
+        atlas.release()

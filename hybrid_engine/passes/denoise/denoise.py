@@ -44,7 +44,6 @@ which the deferred shading then takes as it is, without its own 3x3 smoothing.
 from __future__ import annotations
 
 import math
-from dataclasses import fields
 
 import moderngl
 import numpy as np
@@ -52,7 +51,6 @@ import numpy as np
 from ...gpu import shader_loader
 from ...gpu.bindings import Bindings
 from ...gpu.bindings import Image, bind
-from ...scene.data import Lights
 from ...scene.raster_view import RasterView
 from ...scene.settings import RenderSettings
 from ..frame_context import FrameContext, PassIO
@@ -114,12 +112,6 @@ LINEAR_LEVELS = 2
 FILM_SHARE_SAMPLES = round(1.0 / ALPHA_COLOR)
 
 
-def lamps_key(lights: Lights) -> bytes:
-    """The lamps as bytes, compared from frame to frame (a few dozen numbers per lamp)."""
-    return b"".join(np.ascontiguousarray(getattr(lights, f.name)).tobytes() for f in fields(lights)
-                    if isinstance(getattr(lights, f.name), np.ndarray))
-
-
 class DenoisePass:
     """Filters the frame's ``ambient`` (module docstring); keeps its history across frames."""
 
@@ -147,7 +139,7 @@ class DenoisePass:
         self._film_next: int | None = None
 
     def io(self, settings: RenderSettings) -> PassIO:
-        return PassIO(reads=("scene", "gbuffer", "ambient", "lighting", "surface_motion"), writes=("ambient",))
+        return PassIO(reads=("gbuffer", "ambient", "lighting", "surface_motion"), writes=("ambient",))
 
     def run(self, frame: FrameContext) -> None:
         if not frame.read("lighting").occludes:
@@ -161,7 +153,8 @@ class DenoisePass:
             self.forget()
             self._estimate = estimate
         # The lamps, and the World's light (how often the lighting recomputed it).
-        lamps = (lamps_key(frame.read("scene").lights), frame.read("lighting").sky.updates)
+        lighting = frame.read("lighting")
+        lamps = (lighting.lamp_updates, lighting.sky.updates)
         lamps_changed = self._lamps is not None and lamps != self._lamps
         self._lamps = lamps
         targets = frame.read("gbuffer")

@@ -35,7 +35,6 @@ from ...gpu import gl_context, shader_loader, variants
 from ...gpu.bindings import Bindings, Image, bind
 from ...gpu.dispatch import storage_barrier
 from ...scene.settings import FIELD_LIMITS, RenderSettings
-from ..denoise.denoise import lamps_key
 from ..frame_context import FrameContext, PassIO
 from ..trace.tracer import (COUNTER_DEPTHS, COUNTER_KINDS, COUNTER_WORDS, HybridTracer, TraceStats,
                             traced_resources)
@@ -206,7 +205,8 @@ class DiffuseLightPass:
         if self.cache is None:
             self.cache = RadianceCache(self.ctx)
         cache = self.cache
-        key = (lamps_key(frame.read("scene").lights), frame.read("lighting").sky.updates,
+        lighting = frame.read("lighting")
+        key = (lighting.lamp_updates, lighting.sky.updates,
                frame.read("scene_buffers").materials_version, settings.diffuse_bounces, height)
         changed = not frame.read("delta").unchanged or key != cache.key
         cache.key = key

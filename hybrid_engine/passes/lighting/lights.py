@@ -3,6 +3,8 @@
 the shadow-map slots the shadow pass gave it (paper §3.5: deferred lighting from every lamp)."""
 from __future__ import annotations
 
+from dataclasses import fields
+
 import numpy as np
 
 from ...scene.data import LIGHT_AREA, LIGHT_SPOT, Lights, area_basis
@@ -43,3 +45,9 @@ def pack_lights(lights: Lights, shadow_slots: list[tuple[int, int]] | None = Non
     out["info"][:count, 1] = [s[0] for s in slots]
     out["info"][:count, 2] = [s[1] for s in slots]
     return out
+
+
+def lamps_key(lights: Lights) -> bytes:
+    """The lamps as bytes, compared from frame to frame (a few dozen numbers per lamp)."""
+    return b"".join(np.ascontiguousarray(getattr(lights, f.name)).tobytes() for f in fields(lights)
+                    if isinstance(getattr(lights, f.name), np.ndarray))

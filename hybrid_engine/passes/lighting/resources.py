@@ -22,7 +22,7 @@ from ..frame_context import FrameContext, PassIO
 from ..emitters.emitter_links import EmitterLinks
 from ..shadow_maps.shadow_atlas import ShadowAtlas
 from ..shadow_maps.shadow_depth import ShadowMaps
-from .lights import LIGHT_DTYPE, pack_lights
+from .lights import LIGHT_DTYPE, lamps_key, pack_lights
 from .sky_light import SkyLight
 
 # Rows of the LightBuffer uniform block (include/lighting.glsl): 64 KiB of 64-byte lights.
@@ -40,6 +40,10 @@ class FrameResources:
         self.shadows: ShadowAtlas | None = None  # the shadow maps' atlas of this frame
         self.sky = SkyLight(ctx)
         self.light_count = 0
+        # How often the lamps changed (the passes that keep light across frames compare it
+        # with sky.updates, the World's count), and the lamps they were last.
+        self.lamp_updates = 0
+        self._lamps: bytes | None = None
         self.shadow_bias = 0.0
         self.shadow_bias_texels = 0.0
         self.shadow_normal_offset = 0.0
@@ -67,6 +71,10 @@ class FrameResources:
             raise SceneLimitError(f"the scene has {len(lights)} lamps; Hybrid RT renders at most {MAX_LIGHTS}: "
                                   "hide some, or light with emissive meshes or the World")
         self.lights.upload(bytes_of(pack_lights(lights, shadows.per_light)))
+        lamps = lamps_key(lights)
+        if lamps != self._lamps:
+            self._lamps = lamps
+            self.lamp_updates += 1
         self.linked = linked
         if linked:
             if self._links is None:

@@ -141,6 +141,45 @@ def test_short_paths_are_most_where_the_history_is_new_and_gone_once_the_cells_w
     assert counts[last - 1] > own + 0.9 and counts[last + 1] == own, counts
 
 
+def rays_at_rest(renderer, scene, slide: int, rest: int, step: float = 0.02) -> list[float]:
+    """The diffuse gather's first rays per pixel in each of ``rest`` samples of a still view
+    that a camera comes to after ``slide`` redraws sliding sideways by ``step`` (each
+    redraw of a moving view is its film's first sample, as the viewport's are)."""
+    start_over(renderer, scene, camera_at(0.0, W, H))
+    for f in range(slide):
+        renderer.render(scene, camera_at(f * step, W, H), settings(), sample=0, accumulate=True, denoise=True,
+                        timing=False)
+    camera, counts = camera_at((slide - 1) * step, W, H), []
+    for i in range(rest):
+        result = renderer.render(scene, camera, settings(), sample=i, reuse_world=i > 0, accumulate=True,
+                                 denoise=True, timing=False)
+        counts.append(int(dict(result.counts)["gather_rays_traced_bounce_1"]) / (W * H))
+    return counts
+
+
+def test_a_view_that_comes_to_rest_after_a_slide_traces_short_paths_as_a_new_history_does(renderer, bounce_lit,
+                                                                                       monkeypatch):
+    # A slide long enough that the pixels' histories outgrow the cells' weight: its last
+    # frames trace Diffuse Rays alone. At rest, the history counts REST_FRAMES frames from
+    # the film's second sample on (passes/denoise/denoise.py), so the gather, which reads
+    # the length the frame before left, traces the short paths of that history again from
+    # the third; counted at its length, it traces none.
+    from hybrid_engine.passes.denoise import denoise
+
+    scene, _ = bounce_lit
+    slide = int(radiance_cache.HISTORY_FRAMES) + 4
+    own = 1  # Diffuse Rays
+    extra = round(short_paths_of(denoise.REST_FRAMES + 1))
+    assert extra >= 1
+    resting = rays_at_rest(renderer, scene, slide, 4)
+    monkeypatch.setattr(denoise, "REST_FRAMES", int(denoise.MAX_LENGTH))
+    counted_whole = rays_at_rest(renderer, scene, slide, 4)
+    # A few pixels enter the view at its edge each redraw of the slide and start over.
+    assert resting[0] < own + 0.2 and resting[1] < own + 0.2, resting
+    assert resting[2] > own + extra - 0.1 and resting[3] > own + extra - 0.1, resting
+    assert max(counted_whole) < own + 0.2, counted_whole
+
+
 def open_floor() -> SceneData:
     """A grey floor under a white sky: every first ray of the gather escapes."""
     floor = np.array([[(-50, -50, 0), (50, -50, 0), (50, 50, 0)], [(-50, -50, 0), (50, 50, 0), (-50, 50, 0)]],

@@ -56,7 +56,7 @@ uniform float u_alpha_color;
 uniform float u_alpha_moments;
 uniform float u_plane_tolerance;
 uniform float u_normal_cos;
-uniform float u_max_length;
+uniform float u_max_length;  // the longest history counted (denoise.py max_length: shorter at a rest)
 uniform int u_history_filter;  // 0: bilinear fetch of the history; 1: Catmull-Rom, clamped
 uniform int u_moving;  // 0: no instance moved since last frame (surface_motion.glsl's images are not read)
 

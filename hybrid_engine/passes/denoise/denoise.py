@@ -37,9 +37,20 @@ temporal blend is the plain mean of a still view's frames (its first ``FILM_SHAR
 most filtered frames most; the pass writes instead its share of the film's mean
 (gpu_shaders/denoise/film_share.comp.glsl), so that the film shows the latest filtered
 estimate itself. After that the film averages the frames as they come: their blends no
-longer narrow (the exponential average's floor), and the film's mean goes on converging. The pass writes the filtered estimate as the frame's
-``ambient`` (a texture of its own; the G-buffer's stays as it came),
-which the deferred shading then takes as it is, without its own 3x3 smoothing.
+longer narrow (the exponential average's floor), and the film's mean goes on converging. The
+pass writes the filtered estimate as the frame's ``ambient`` (a texture of its own; the
+G-buffer's stays as it came), which the deferred shading then takes as it is, without its
+own 3x3 smoothing.
+
+A view that comes to rest (the film's second sample of one view, after the camera moved or
+the scene changed) brings the history of its motion: many frames, each resampled from the
+last and lagging the light. Counted at its length, that history keeps the diffuse gather,
+which traces short paths and reads the radiance cache only where a history is short
+(passes/diffuse_light/radiance_cache.py), from treating the resting view's pixels as new,
+and a view stopped after a slide converged more slowly than one that starts from nothing
+(docs/BENCHMARKS.md, "A view that comes to rest"). Its length is cut to ``REST_FRAMES``
+then: the gather treats the pixels as new ones for the frames a new history gets, and the
+blend takes the rest's frames as a mean with those (to the exponential average's floor).
 """
 from __future__ import annotations
 
@@ -78,6 +89,11 @@ CHANGE_FRAMES = 8
 ALPHA_MOMENTS = 0.2
 # A history longer than this counts as this long (alpha is at its floor long before).
 MAX_LENGTH = 64.0
+# The frames that the history a view brings to its rest counts as, at most (module
+# docstring, "A view that comes to rest"). Eight measured best after 8 and 16 samples of a
+# view stopped after a slide, in the bounce-lit room and the daylit one; four or fewer left
+# its first samples noisier, twelve kept the slide's light longer (docs/BENCHMARKS.md).
+REST_FRAMES = 8
 # Below this history length the variance is estimated from the neighbours (SVGF: 4).
 MIN_LENGTH = 4.0
 # Reprojection: last frame's point must lie within this share of the camera distance of
@@ -193,7 +209,7 @@ class DenoisePass:
                         for name in ("moments", "surface", "length")}},
              uniforms={**camera, **history.previous_uniforms(), "u_alpha_color": alpha,
                        "u_alpha_moments": ALPHA_MOMENTS, "u_plane_tolerance": PLANE_TOLERANCE,
-                       "u_normal_cos": NORMAL_COS, "u_max_length": MAX_LENGTH,
+                       "u_normal_cos": NORMAL_COS, "u_max_length": self.max_length(film_sample),
                        "u_history_filter": int(HISTORY_FILTER == "catmull_rom"), "u_moving": int(moving)})
         self._run(self.reproject, groups)
         surface = {"u_surface": history.current("surface")}
@@ -219,6 +235,13 @@ class DenoisePass:
         source = self._film_share(source, work[self.levels % 2], view, groups, film_sample)
         history.advance(np.asarray(view.view_proj, np.float64))
         return source
+
+    @staticmethod
+    def max_length(film_sample: int | None) -> float:
+        """The longest history this frame's blend may count (module docstring, "A view that
+        comes to rest"): REST_FRAMES plus this frame in a film's second sample, whose first
+        was the same view's, else MAX_LENGTH."""
+        return REST_FRAMES + 1.0 if film_sample == 1 else MAX_LENGTH
 
     def _film_share(self, estimate, out, view: RasterView, groups: tuple[int, int, int],
                     film_sample: int | None):

@@ -41,6 +41,12 @@ scores FLIP 0.015-0.02 against a perfect image.
 ``--cache`` keeps the references in an npz file (keyed by size, rays and sample counts), so
 that two versions of the renderer are measured against the very same images.
 
+Beside each denoised still and stopped figure, ``*_blocks`` reports the RMS of the relative
+error of 4x4-pixel blocks' mean luminance (``block_error``): the reference's grain, which is
+independent from pixel to pixel, is a quarter as large in a block's mean, so where FLIP is
+mostly the reference's grain (a 4,096-path reference still carries about 3 % a pixel), the
+block figure shows what the view itself keeps: its filter's bias and its blotches.
+
 FLIP is the LDR one of docs/PICTURES.md (benchmarks/bench.py ``flip_mean``). Seeds are fixed: a
 sample's numbers depend on its index and the pixel's surface point only.
 """
@@ -62,6 +68,8 @@ from hybrid_engine.scene.settings import RenderSettings
 
 ROOM_HALF = 3.0
 STILL_SAMPLES = (1, 2, 4, 8, 16)
+BLOCK = 4  # pixels across the blocks of block_error
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 SLIDE_PER_FRAME = 0.05  # scene units the camera moves between redraws
 
 
@@ -149,6 +157,12 @@ class Reference:
             result = self.renderer.render(self.scene, camera, self.settings, sample=first + i, reuse_world=i > 0,
                                           denoise=True)
             self.renderer.denoiser.levels = 0  # the filter of the frames that count: none
+            history = self.renderer.denoiser.history
+            if history.frames < first:
+                # With the denoiser's history the gather draws its numbers by the history's
+                # frames, not the sample (diffuse_gather.comp.glsl gather_index): a new
+                # renderer would draw the numbers of the first reference again.
+                history.frames = first
             if i >= settle:
                 total += result.image[..., :3]
         self.settled = True
@@ -179,15 +193,31 @@ class ReferenceCache:
         return self.images[key]
 
 
+def block_error(truth: np.ndarray, image: np.ndarray, block: int = BLOCK) -> float:
+    """The RMS over ``block`` x ``block`` pixel blocks of the relative error of the block's
+    mean luminance against ``truth``'s (module docstring): an error the references' grain,
+    independent from pixel to pixel, reaches only by its sixteenth, where FLIP, per pixel,
+    takes it whole."""
+    height, width = (truth.shape[0] // block) * block, (truth.shape[1] // block) * block
+
+    def means(a: np.ndarray) -> np.ndarray:
+        lum = a[:height, :width, :3].astype(np.float64) @ LUMINANCE
+        return lum.reshape(height // block, block, width // block, block).mean(axis=(1, 3))
+
+    expected = means(truth)
+    return float(np.sqrt(np.mean(((means(image) - expected) / np.maximum(expected, 1e-3)) ** 2)))
+
+
 def still_figures(width: int, height: int, truth: np.ndarray, scene: SceneData,
-                  settings: RenderSettings, scene_name: str = "room") -> tuple[dict, dict, "object"]:
-    """FLIP of the still view's viewport mean (denoised, and not) at STILL_SAMPLES; returns
-    the denoised viewport's renderer, its history warm, for the moving run."""
+                  settings: RenderSettings, scene_name: str = "room") -> tuple[dict, dict, dict, "object"]:
+    """FLIP of the still view's viewport mean (denoised, and not) at STILL_SAMPLES, and the
+    denoised mean's block_error; returns the denoised viewport's renderer, its history warm,
+    for the moving run."""
     from hybrid_engine.frame.renderer import Renderer
 
     camera = camera_at(0.0, width, height, scene_name)
     viewport, plain = Renderer(), Renderer()
-    still, undenoised = {}, {}
+    still, undenoised, blocks = {}, {}, {}
     try:
         for i in range(max(STILL_SAMPLES)):
             image = viewport.render(scene, camera, settings, sample=i, reuse_world=i > 0, accumulate=True,
@@ -196,9 +226,10 @@ def still_figures(width: int, height: int, truth: np.ndarray, scene: SceneData,
             if i + 1 in STILL_SAMPLES:
                 still[i + 1] = round(flip_mean(truth, image[..., :3]), 4)
                 undenoised[i + 1] = round(flip_mean(truth, raw[..., :3]), 4)
+                blocks[i + 1] = round(block_error(truth, image), 4)
     finally:
         plain.release()
-    return still, undenoised, viewport
+    return still, undenoised, blocks, viewport
 
 
 def measure(width: int, height: int, reference: int, frames: int, settle: int = 48, check: bool = False,
@@ -228,14 +259,14 @@ def measure(width: int, height: int, reference: int, frames: int, settle: int = 
                         for f in range(min(5, frames), frames)] if frames > 0 else []
     finally:
         maker.release()
-    still, undenoised, viewport = still_figures(width, height, truth, scene, settings, scene_name)
+    still, undenoised, blocks, viewport = still_figures(width, height, truth, scene, settings, scene_name)
     report = {"scene": scene_name, "size": f"{width}x{height}", "reference_samples": reference,
               "reference_rays": reference_rays, "settle_frames": settle,
-              "still_denoised": still, "still_undenoised": undenoised}
+              "still_denoised": still, "still_undenoised": undenoised, "still_denoised_blocks": blocks}
     try:
         if doubled is not None:
             report["reference_check"] = {"flip_reference_to_doubled": round(flip_mean(doubled, truth), 4)}
-            again, _, other = still_figures(width, height, doubled, scene, settings, scene_name)
+            again, _, _, other = still_figures(width, height, doubled, scene, settings, scene_name)
             other.release()
             report["reference_check"]["still_denoised_against_doubled"] = again
         moving: list[float] = []
@@ -244,18 +275,20 @@ def measure(width: int, height: int, reference: int, frames: int, settle: int = 
             image = viewport.render(scene, camera, settings, sample=0, accumulate=True, denoise=True).image
             if f >= 5:
                 moving.append(round(flip_mean(moving_truth[f - 5], image[..., :3]), 4))
-        stopped = {}
+        stopped, stopped_blocks = {}, {}
         if moving:  # the camera stops at the last view: its samples accumulate on a warm history
             for i in range(max(STILL_SAMPLES)):
                 image = viewport.render(scene, camera, settings, sample=i, reuse_world=i > 0, accumulate=True,
                                         denoise=True).image
                 if i + 1 in STILL_SAMPLES:
                     stopped[i + 1] = round(flip_mean(moving_truth[-1], image[..., :3]), 4)
+                    stopped_blocks[i + 1] = round(block_error(moving_truth[-1], image), 4)
     finally:
         viewport.release()
     report["moving_denoised_after_five"] = moving
     report["moving_after_five_max"] = max(moving) if moving else None
     report["stopped_denoised"] = stopped
+    report["stopped_denoised_blocks"] = stopped_blocks
     return report
 
 

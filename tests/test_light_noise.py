@@ -24,6 +24,8 @@ def test_a_small_run_reports_still_moving_and_stopped_flip_and_denoising_lowers_
     report = light_noise.main(args)
     assert json.loads(out.read_text()) == json.loads(json.dumps(report))
     assert set(report["still_denoised"]) == set(light_noise.STILL_SAMPLES) == set(report["stopped_denoised"])
+    blocks = (report["still_denoised_blocks"], report["stopped_denoised_blocks"])
+    assert all(set(figures) == set(light_noise.STILL_SAMPLES) for figures in blocks)
     assert len(report["moving_denoised_after_five"]) == 2
     assert report["moving_after_five_max"] == max(report["moving_denoised_after_five"])
     assert report["still_denoised"][1] < report["still_undenoised"][1]
@@ -73,3 +75,36 @@ def test_references_of_more_diffuse_rays_are_kept_apart_and_reported(gl, tmp_pat
         # Four paths a frame: a reference of as many frames is less grainy than one path's.
         grain = lambda image: float(np.abs(np.diff(image[..., 1], axis=1)).mean())  # noqa: E731
         assert grain(kept["still_32x24_rays4_2_2"]) < 0.8 * grain(kept["still_32x24_2_2"])
+
+
+def test_the_block_error_takes_a_shift_of_light_whole_and_per_pixel_grain_by_a_quarter():
+    # The reference's grain is independent from pixel to pixel: a 4x4 block's mean holds a
+    # quarter of it, where a bias over the block (a filter's shift, a blotch) stays whole.
+    rng = np.random.default_rng(3)
+    y, x = np.mgrid[0:48, 0:64]
+    truth = np.repeat((0.2 + 0.6 * x / 63.0 + 0.1 * y / 47.0)[..., None], 3, axis=2).astype(np.float32)
+    assert abs(light_noise.block_error(truth, 1.02 * truth) - 0.02) < 1e-6
+    grain = truth * (1.0 + 0.04 * rng.standard_normal(truth.shape[:2]))[..., None]
+    per_pixel = float(np.sqrt(np.mean((grain[..., 1] / truth[..., 1] - 1.0) ** 2)))
+    assert abs(per_pixel - 0.04) < 0.004
+    assert abs(light_noise.block_error(truth, grain) - 0.01) < 0.002
+
+
+def test_a_reference_from_other_sample_numbers_draws_other_paths_also_from_a_new_renderer(gl):
+    # The gather draws by the denoiser history's frames where a history is kept: two new
+    # makers asked for other numbers must not make the same image, and asked for the same,
+    # must. Forty settling frames leave the first frame, which draws by its sample, about a
+    # hundredth of the blend: the numbers of the frames that count make the difference.
+    scene, settings = light_noise.room(), light_noise._viewport_settings()
+    camera = light_noise.camera_at(0.0, 32, 24)
+
+    def reference(first: int) -> np.ndarray:
+        maker = light_noise.Reference(scene, settings, settle=40)
+        try:
+            return maker.image(camera, 2, first=first)
+        finally:
+            maker.release()
+
+    again, same, other = reference(0), reference(0), reference(1000)
+    np.testing.assert_array_equal(again, same)
+    assert np.abs(other - again).mean() > 0.1 * again.mean()

@@ -43,9 +43,9 @@ that two versions of the renderer are measured against the very same images.
 
 Beside each denoised still and stopped figure, ``*_blocks`` reports the RMS of the relative
 error of 4x4-pixel blocks' mean luminance (``block_error``): the reference's grain, which is
-independent from pixel to pixel, is a quarter as large in a block's mean, so where FLIP is
-mostly the reference's grain (a 4,096-path reference still carries about 3 % a pixel), the
-block figure shows what the view itself keeps: its filter's bias and its blotches.
+independent from pixel to pixel, is a quarter as large in a block's mean (a 4,096-path
+reference still carries about 3 % a pixel), so the block figure shows what the view itself
+keeps: its filter's bias and its blotches.
 
 FLIP is the LDR one of docs/PICTURES.md (benchmarks/bench.py ``flip_mean``). Seeds are fixed: a
 sample's numbers depend on its index and the pixel's surface point only.

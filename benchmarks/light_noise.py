@@ -2,7 +2,7 @@
 """How quickly the traced diffuse light becomes clean, still and moving, in the viewport's way.
 
 ``python -m benchmarks.light_noise [--size 96x72] [--reference 256] [--reference-rays 1]
-[--frames 10] [--settle 48] [--check] [--cache PATH] [--json PATH]``
+[--frames 10] [--settle 48] [--check] [--realizations 1] [--cache PATH] [--json PATH]``
 
 ``--frames 0`` measures the still view alone (a reference of many frames, ``--reference 2048``,
 then costs one view's frames only). ``--scene window_room`` measures a daylit interior instead
@@ -38,6 +38,10 @@ frame, the same converged image (the paths are the same estimate, averaged N at 
 that a reference of a few hundred frames holds thousands of paths per pixel. A 2048-frame
 reference of one path per frame still carries grain of about 2 % per pixel, which alone
 scores FLIP 0.015-0.02 against a perfect image.
+``--realizations N`` averages the still figures over N sets of the diffuse gather's numbers
+(its GATHER_SEED measurement switch, 0 to N - 1; ``still_denoised_each`` lists each): one
+set's figure after 8 samples strays by some 0.002 from another's, as much as many a change
+to the light's sampling moves it.
 ``--cache`` keeps the references in an npz file (keyed by size, rays and sample counts), so
 that two versions of the renderer are measured against the very same images.
 
@@ -209,33 +213,43 @@ def block_error(truth: np.ndarray, image: np.ndarray, block: int = BLOCK) -> flo
 
 
 def still_figures(width: int, height: int, truth: np.ndarray, scene: SceneData,
-                  settings: RenderSettings, scene_name: str = "room") -> tuple[dict, dict, dict, "object"]:
+                  settings: RenderSettings, scene_name: str = "room", seed: int = 0) -> tuple[dict, dict, dict, "object"]:
     """FLIP of the still view's viewport mean (denoised, and not) at STILL_SAMPLES, and the
     denoised mean's block_error; returns the denoised viewport's renderer, its history warm,
-    for the moving run."""
+    for the moving run. ``seed``: the diffuse gather's numbers (its GATHER_SEED measurement
+    switch; 0 the product's)."""
     from hybrid_engine.frame.renderer import Renderer
+    from hybrid_engine.gpu import shader_loader
 
     camera = camera_at(0.0, width, height, scene_name)
-    viewport, plain = Renderer(), Renderer()
     still, undenoised, blocks = {}, {}, {}
-    try:
-        for i in range(max(STILL_SAMPLES)):
-            image = viewport.render(scene, camera, settings, sample=i, reuse_world=i > 0, accumulate=True,
-                                    denoise=True).image
-            raw = plain.render(scene, camera, settings, sample=i, reuse_world=i > 0, accumulate=True).image
-            if i + 1 in STILL_SAMPLES:
-                still[i + 1] = round(flip_mean(truth, image[..., :3]), 4)
-                undenoised[i + 1] = round(flip_mean(truth, raw[..., :3]), 4)
-                blocks[i + 1] = round(block_error(truth, image), 4)
-    finally:
-        plain.release()
+    with shader_loader.compiled_with({"GATHER_SEED": int(seed)} if seed else {}):
+        viewport, plain = Renderer(), Renderer()
+        try:
+            for i in range(max(STILL_SAMPLES)):
+                image = viewport.render(scene, camera, settings, sample=i, reuse_world=i > 0, accumulate=True,
+                                        denoise=True).image
+                raw = plain.render(scene, camera, settings, sample=i, reuse_world=i > 0, accumulate=True).image
+                if i + 1 in STILL_SAMPLES:
+                    still[i + 1] = round(flip_mean(truth, image[..., :3]), 4)
+                    undenoised[i + 1] = round(flip_mean(truth, raw[..., :3]), 4)
+                    blocks[i + 1] = round(block_error(truth, image), 4)
+        finally:
+            plain.release()
     return still, undenoised, blocks, viewport
 
 
+def mean_figures(runs: list[dict]) -> dict:
+    """Each sample count's figure averaged over ``runs`` (one dict per realization)."""
+    return {key: round(float(np.mean([run[key] for run in runs])), 4) for key in runs[0]}
+
+
 def measure(width: int, height: int, reference: int, frames: int, settle: int = 48, check: bool = False,
-            cache: str | None = None, scene_name: str = "room", reference_rays: int = 1) -> dict:
+            cache: str | None = None, scene_name: str = "room", reference_rays: int = 1,
+            realizations: int = 1) -> dict:
     """Every figure of the module docstring; ``frames`` 0 measures the still view alone;
-    ``reference_rays``: the references' Diffuse Rays."""
+    ``reference_rays``: the references' Diffuse Rays; ``realizations``: the still figures'
+    mean over that many sets of the gather's numbers (module docstring)."""
     scene = SCENES[scene_name]()
     settings = _viewport_settings()
     references = ReferenceCache(cache)
@@ -263,6 +277,16 @@ def measure(width: int, height: int, reference: int, frames: int, settle: int = 
     report = {"scene": scene_name, "size": f"{width}x{height}", "reference_samples": reference,
               "reference_rays": reference_rays, "settle_frames": settle,
               "still_denoised": still, "still_undenoised": undenoised, "still_denoised_blocks": blocks}
+    if realizations > 1:
+        runs = [(still, undenoised, blocks)]
+        for seed in range(1, int(realizations)):
+            *figures, other = still_figures(width, height, truth, scene, settings, scene_name, seed)
+            other.release()
+            runs.append(tuple(figures))
+        report["realizations"] = int(realizations)
+        report["still_denoised_each"] = [run[0] for run in runs]
+        for i, key in enumerate(("still_denoised", "still_undenoised", "still_denoised_blocks")):
+            report[key] = mean_figures([run[i] for run in runs])
     try:
         if doubled is not None:
             report["reference_check"] = {"flip_reference_to_doubled": round(flip_mean(doubled, truth), 4)}
@@ -303,10 +327,13 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--cache")
     parser.add_argument("--json")
     parser.add_argument("--scene", choices=sorted(SCENES), default="room")
+    parser.add_argument("--realizations", type=int, default=1)
     args = parser.parse_args(argv)
+    if args.realizations < 1:
+        parser.error("--realizations must be at least 1")
     width, height = (int(v) for v in args.size.split("x"))
     report = measure(width, height, args.reference, args.frames, args.settle, args.check, args.cache, args.scene,
-                     args.reference_rays)
+                     args.reference_rays, args.realizations)
     print(json.dumps(report, indent=2))
     bench.write_json(report, args.json)
     return report

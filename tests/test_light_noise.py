@@ -7,6 +7,7 @@ import json
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 from benchmarks import light_noise
 
@@ -39,6 +40,19 @@ def test_no_frames_measures_the_still_view_alone(gl):
     assert set(report["still_denoised"]) == set(light_noise.STILL_SAMPLES)
     assert report["moving_denoised_after_five"] == [] and report["stopped_denoised"] == {}
     assert report["moving_after_five_max"] is None
+
+
+def test_realizations_average_the_still_figures_over_other_sets_of_the_gathers_numbers(gl, tmp_path):
+    cache = tmp_path / "references.npz"
+    args = ["--size", "32x24", "--reference", "4", "--settle", "2", "--frames", "0", "--cache", str(cache)]
+    one = light_noise.main(args)
+    two = light_noise.main([*args, "--realizations", "2"])
+    first, second = two["still_denoised_each"]
+    assert two["realizations"] == 2 and "realizations" not in one
+    assert first == one["still_denoised"]  # the first set is the product's numbers
+    assert first != second  # the second draws other paths
+    for samples in light_noise.STILL_SAMPLES:
+        assert two["still_denoised"][samples] == pytest.approx((first[samples] + second[samples]) / 2, abs=1e-4)
 
 
 def test_the_reference_is_the_fed_back_light_settled_and_unfiltered(gl):

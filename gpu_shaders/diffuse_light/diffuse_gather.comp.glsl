@@ -38,7 +38,9 @@
 //   cache, and its table's size, probes and fixed point,
 //   include/radiance_cache.glsl: with DIFFUSE_FEEDBACK its cells are read and filled, with
 //   DIFFUSE_NO_HISTORY only filled), SHORT_PATHS_INDEPENDENT (a measurement switch: the short
-//   paths' first directions independent, pixel_path).
+//   paths' first directions independent, pixel_path), GATHER_SEED (a measurement switch: a
+//   whole number that makes every number of the paths another, gather_random and
+//   lattice_random; benchmarks/light_noise.py averages its figures over several).
 // Storage blocks, uniform blocks, samplers: as trace/hybrid_trace.comp.glsl's contract lists
 //   them; CounterBuffer counts this kernel's rays per path vertex (tracer.COUNTER_KINDS);
 //   RadianceCache, with RADIANCE_CACHE.
@@ -190,9 +192,14 @@ uint gather_index() {
 #endif
 }
 
+#ifndef GATHER_SEED
+#define GATHER_SEED 0
+#endif
+
 // Two uniform numbers for `salt` of this pixel's paths (lobe_random's, at gather_index()).
 vec2 gather_random(int salt) {
-    return random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), gather_index(), uint(salt)));
+    return random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), gather_index(),
+                         uint(salt) ^ (uint(GATHER_SEED) << 20u)));
 }
 
 // Point k of the R2 sequence (Roberts 2018: the plastic number's Kronecker lattice, in 32-bit
@@ -200,7 +207,8 @@ vec2 gather_random(int salt) {
 // number of its key and `salt` alone (Cranley-Patterson rotation). The shift draws from the
 // scale-invariant position key (random.glsl), as every other number.
 vec2 lattice_random(uint k, int salt) {
-    vec2 shift = random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), 0x9e3779b9u, uint(salt)));
+    vec2 shift = random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), 0x9e3779b9u,
+                               uint(salt) ^ (uint(GATHER_SEED) << 20u)));
     uvec2 lattice = uvec2(k * 3242174889u, k * 2447445414u);  // k (1/g, 1/g^2) 2^32, g^3 = g + 1
     return fract(vec2(lattice >> 8u) * (1.0 / 16777216.0) + shift);
 }

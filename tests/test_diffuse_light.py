@@ -153,15 +153,17 @@ def test_bounces_build_up_over_frames_through_last_frames_light_with_bounce_feed
     # is only what the surfaces the camera sees (the shadowed half, dim) give back. The light
     # without it is the mean of undenoised frames: the first denoised frame, one estimate of
     # it, traces more paths than the others (a short history's) and its own noise would move
-    # the baseline.
+    # the baseline. The first frame has no history to take light from, and a still view's
+    # blend is the plain mean of its first 1 / ALPHA_COLOR frames: that frame's share of the
+    # mean fades only over them, so the gain is read after they have passed.
     scene = closed_room(SHADOWED_LAMP, partition=True)
     camera = Camera(matrix_world=look_at(SHADOWED_CAMERA["eye"], SHADOWED_CAMERA["target"]), width=W, height=H)
     settings = room_settings("FULL_BVH", diffuse_bounces=1, bounce_feedback=True)
     unfed = float(np.mean([luminance(renderer.render(scene, camera, settings, sample=i).image).mean()
                            for i in range(16)]))
-    frames = denoised_frames(renderer, scene, camera, settings, 12)
-    assert frames[6] > 1.07 * unfed, (unfed, frames)
-    assert abs(frames[11] - frames[9]) < 0.03 * frames[11], frames  # settled: the albedo damps it
+    frames = denoised_frames(renderer, scene, camera, settings, 18)
+    assert np.mean(frames[14:]) > 1.05 * unfed, (unfed, frames)
+    assert abs(frames[17] - frames[14]) < 0.03 * frames[17], frames  # settled: the albedo damps it
 
 
 def test_diffuse_bounces_count_every_bounce_by_default_so_denoised_frames_keep_the_first_frames_light(renderer):
@@ -378,6 +380,50 @@ def test_a_wall_beside_a_floor_gains_the_floors_bounce_as_a_path_tracer_does(ren
     assert measured[1] > 1.1 * measured[0], measured
     for bounces, value in enumerate(measured):
         assert value == pytest.approx(reference_wall_radiance(bounces), rel=0.04), (bounces, measured)
+
+
+def test_neighbouring_pixels_interleave_their_first_directions_so_a_few_pixels_average_to_the_light(renderer):
+    # The wall beside the floor sees the sky over half its hemisphere at every height: one
+    # path a pixel without bounces sees the sky or the dark floor. Interleaved over the
+    # screen (diffuse_gather.comp.glsl lattice_random), the first directions of 3x3 pixels
+    # sample the hemisphere evenly between them, so their mean is nearer the half than that
+    # of as many pixels each shifted by numbers of its own (PIXEL_SHIFTS_INDEPENDENT, a
+    # measurement switch), in one sample and in the mean of four; each pixel converges to
+    # the same light either way.
+    from hybrid_engine.frame.renderer import Renderer
+    from hybrid_engine.gpu import shader_loader
+
+    scene = wall_and_floor()
+    camera = Camera(matrix_world=look_at((0.0, -4.0, 0.8), (0.0, 0.0, 0.8)), width=W, height=H)
+    origins, dirs = camera.pixel_rays()
+    hit = origins + dirs * (-origins[..., 1:2] / dirs[..., 1:2])
+    band = (hit[..., 2] > WALL_BAND[0]) & (hit[..., 2] < WALL_BAND[1]) & (np.abs(hit[..., 0]) < 1.0)
+    rows, cols = np.nonzero(band)
+    r0, c0 = rows.min(), cols.min()
+    blocks_down, blocks_across = (rows.max() + 1 - r0) // 3, (cols.max() + 1 - c0) // 3
+    assert blocks_down * blocks_across >= 30
+    settings = RenderSettings(mode="FULL_BVH", shadow_resolution=256, diffuse_bounces=0, diffuse_rays=1)
+
+    def block_error(image: np.ndarray, truth: float) -> float:
+        patch = luminance(image)[r0:r0 + 3 * blocks_down, c0:c0 + 3 * blocks_across]
+        means = patch.reshape(blocks_down, 3, blocks_across, 3).mean(axis=(1, 3))
+        return float(np.sqrt(np.mean((means / truth - 1.0) ** 2)))
+
+    errors, means = {}, {}
+    for independent in (False, True):
+        with shader_loader.compiled_with({"PIXEL_SHIFTS_INDEPENDENT": 1} if independent else {}):
+            variant = Renderer(renderer.ctx)
+            try:
+                frames = [variant.render(scene, camera, settings, sample=i, timing=False).image[..., :3]
+                          for i in range(16)]
+            finally:
+                variant.release()
+        truth = float(luminance(np.mean(frames, axis=0))[band].mean())
+        errors[independent] = (block_error(frames[0], truth), block_error(np.mean(frames[:4], axis=0), truth))
+        means[independent] = truth
+    assert errors[False][0] < 0.7 * errors[True][0], errors
+    assert errors[False][1] < 0.6 * errors[True][1], errors
+    assert abs(means[False] / means[True] - 1.0) < 0.02, means
 
 
 def tiled_island_floor(albedo: float, tiles: int = 24) -> tuple[SceneData, SceneData]:

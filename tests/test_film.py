@@ -155,10 +155,11 @@ def test_region_camera_renders_exactly_the_regions_pixels_of_the_whole_frame(ren
 
 def test_a_region_draws_the_whole_frames_numbers_for_its_traced_diffuse_light(renderer):
     """One sample of traced diffuse light, not denoised: its noise is keyed by the surface
-    points (random.glsl's position keys), in cells sized by the whole view's pixel, so a
-    render region shows the same noise as the frame. Only the points whose read-back
-    position crosses a cell's boundary draw other numbers (with cells of 1/4096 m, a tenth
-    of the pixels and more did)."""
+    points (random.glsl's position keys), in cells sized by the whole view's pixel, and its
+    first directions by the whole frame's pixel (Camera.pixel_origin), so a render region
+    shows the same noise as the frame. Only the points whose read-back position crosses a
+    cell's boundary draw other numbers (with cells of 1/4096 m, a tenth of the pixels and
+    more did)."""
     scene, camera = built(1.0)
     whole = renderer.render(scene, camera, DEFAULTS).image[..., :3]
     for rect in ((60, 30, 96, 64), (0, 0, 40, 30), (20, 10, 70, 50)):

@@ -206,7 +206,8 @@ def test_a_frames_short_paths_cover_the_hemisphere_evenly(renderer, bounce_lit, 
     # own paths are: which surfaces the first bounce meets is averaged better than by as
     # many independent directions (SHORT_PATHS_INDEPENDENT, a measurement switch), in one
     # frame (the second: 16 short paths here) and over frames 2-7 of the raw gather; the
-    # light they converge to is the same.
+    # light they converge to is the same. Each error is the mean over four sets of the
+    # gather's numbers (GATHER_SEED): one set's ratio strays by some 0.02 from another's.
     from hybrid_engine.frame.renderer import Renderer
 
     monkeypatch.setattr(radiance_cache, "SHORT_PATHS", 32)
@@ -219,15 +220,19 @@ def test_a_frames_short_paths_cover_the_hemisphere_evenly(renderer, bounce_lit, 
 
     errors, means = {}, {}
     for independent in (False, True):
-        with shader_loader.compiled_with({"SHORT_PATHS_INDEPENDENT": 1} if independent else {}):
-            variant = Renderer(renderer.ctx)
-            try:
-                frames = gathered(variant, scene, camera, 8, radiance_cache=True)
-            finally:
-                variant.release()
-        mean = np.mean(frames[2:], axis=0)
-        errors[independent] = (error(frames[1]), error(mean))
-        means[independent] = float(mean[lit].mean())
+        runs = []
+        for seed in range(4):
+            switches = {"GATHER_SEED": seed, **({"SHORT_PATHS_INDEPENDENT": 1} if independent else {})}
+            with shader_loader.compiled_with(switches):
+                variant = Renderer(renderer.ctx)
+                try:
+                    frames = gathered(variant, scene, camera, 8, radiance_cache=True)
+                finally:
+                    variant.release()
+            mean = np.mean(frames[2:], axis=0)
+            runs.append((error(frames[1]), error(mean), float(mean[lit].mean())))
+        errors[independent] = tuple(float(np.mean([run[i] for run in runs])) for i in (0, 1))
+        means[independent] = float(np.mean([run[2] for run in runs]))
     assert errors[False][0] < 0.95 * errors[True][0], errors
     assert errors[False][1] < 0.95 * errors[True][1], errors
     assert abs(means[False] / means[True] - 1.0) < 0.02, means

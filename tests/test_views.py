@@ -149,6 +149,26 @@ def test_crop_projection_maps_the_rectangle_onto_ndc():
     np.testing.assert_allclose((crop_ndc + 1) / 2 * [50, 20], pixel - [25, 10], atol=1e-9)
 
 
+def test_a_crop_knows_where_its_first_pixel_lies_in_the_whole_frame():
+    """What the screen keys (the traced light's interleaved first directions) follows the
+    whole frame's pixels: a render region, a crop of a crop, a sub-pixel sample (its pixel
+    the nearest one) and a scaled view each carry their first pixel's place in it."""
+    from hybrid_engine.frame.views import cropped_camera, region_camera
+    from hybrid_engine.scene.camera import CameraError
+
+    camera = Camera(matrix_world=look_at(EYE, TARGET), width=100, height=50)
+    assert camera.pixel_origin == (0, 0)
+    region = region_camera(camera, (25, 10, 75, 30))
+    assert region.pixel_origin == (25, 10)
+    assert region_camera(region, (5, 2, 20, 12)).pixel_origin == (30, 12)
+    assert cropped_camera(region, (0.6, -0.3, 50.6, 19.7), 50, 20).pixel_origin == (26, 10)
+    view = ViewportView.from_matrices(camera.view_matrix(), camera.projection_matrix(), 100, 50)
+    assert view.cropped((8, 6, 40, 30)).pixel_origin == (8, 6)
+    assert view.cropped((8, 6, 40, 30)).resized(16, 12).pixel_origin == (4, 3)
+    with pytest.raises(CameraError, match="pixel origin"):
+        Camera(pixel_origin=(1.5, 0))
+
+
 def test_render_size_applies_the_viewport_scale():
     assert render_size(800, 600, 1.0) == (800, 600)
     assert render_size(800, 600, 0.25) == (200, 150)

@@ -38,13 +38,15 @@
 //   cache, and its table's size, probes and fixed point,
 //   include/radiance_cache.glsl: with DIFFUSE_FEEDBACK its cells are read and filled, with
 //   DIFFUSE_NO_HISTORY only filled), SHORT_PATHS_INDEPENDENT (a measurement switch: the short
-//   paths' first directions independent, pixel_path), GATHER_SEED (a measurement switch: a
+//   paths' first directions independent, pixel_path), PIXEL_SHIFTS_INDEPENDENT (a
+//   measurement switch: each pixel's first directions shifted by numbers of its own, not
+//   interleaved with its neighbours', lattice_random), GATHER_SEED (a measurement switch: a
 //   whole number that makes every number of the paths another, gather_random and
 //   lattice_random; benchmarks/light_noise.py averages its figures over several).
 // Storage blocks, uniform blocks, samplers: as trace/hybrid_trace.comp.glsl's contract lists
 //   them; CounterBuffer counts this kernel's rays per path vertex (tracer.COUNTER_KINDS);
 //   RadianceCache, with RADIANCE_CACHE.
-// Uniforms: trace_ray.glsl's, u_diffuse_bounces, u_diffuse_rays.
+// Uniforms: trace_ray.glsl's, u_diffuse_bounces, u_diffuse_rays, u_pixel_origin.
 // Workgroup 8x8: neighbouring pixels' first rays start close together.
 #include "trace_ray.glsl"
 // Compiled only with EMITTER_LIGHT (some triangles emit).
@@ -196,19 +198,57 @@ uint gather_index() {
 #define GATHER_SEED 0
 #endif
 
+// The last word of the key of `salt`'s numbers: another set of every number for each GATHER_SEED.
+uint gather_salt(int salt) {
+    return uint(salt) ^ (uint(GATHER_SEED) << 20u);
+}
+
 // Two uniform numbers for `salt` of this pixel's paths (lobe_random's, at gather_index()).
 vec2 gather_random(int salt) {
     return random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), gather_index(),
-                         uint(salt) ^ (uint(GATHER_SEED) << 20u)));
+                         gather_salt(salt)));
+}
+
+// Interleaved first directions (Keller & Heidrich 2001, interleaved sampling). Each pixel
+// shifts its lattice of first directions (lattice_random) by a point of a second lattice,
+// over the screen: pixel (x, y) of the whole frame (u_pixel_origin: a render region's or a
+// sub-pixel sample's first pixel) takes x PIXEL_LATTICE_X + y PIXEL_LATTICE_Y, modulo 1. A
+// few neighbouring pixels then sample the hemisphere evenly between them, where shifts of
+// their own (PIXEL_SHIFTS_INDEPENDENT) clump and leave holes: what a handful of pixels
+// average, as the denoiser's wavelet filter does, is nearer the light, and their error,
+// moved from the blotches the filter leaves to the pixel scale it removes, is smaller after
+// it. The two vectors are those among which the light's slowest variations over the
+// hemisphere (its Fourier modes up to 2 either way) vary fastest over the screen: the
+// pattern is close to a 3x3 tile of strata, which drifts so that no two pixels nearby take
+// the same. Each pixel still follows its own lattice over the frames; what it converges to
+// is unchanged. The short paths take the lattice transposed (pixel_short_shift): otherwise
+// a pixel's short and own paths would keep one offset between them over the whole screen.
+// In 32-bit fixed point, as the lattice: the wrap of the products is the modulo.
+uniform ivec2 u_pixel_origin;
+const uvec2 PIXEL_LATTICE_X = uvec2(4091825466u, 1462072640u);
+const uvec2 PIXEL_LATTICE_Y = uvec2(2842969710u, 4054245591u);
+uvec2 pixel_own_shift = uvec2(0u);    // the pixel's own paths' shift (set by pixel_paths)
+uvec2 pixel_short_shift = uvec2(0u);  // its short paths'
+
+void set_pixel_shifts(ivec2 pixel) {
+    uvec2 whole = uvec2(pixel + u_pixel_origin);
+    pixel_own_shift = whole.x * PIXEL_LATTICE_X + whole.y * PIXEL_LATTICE_Y;
+    pixel_short_shift = whole.x * PIXEL_LATTICE_Y + whole.y * PIXEL_LATTICE_X;
 }
 
 // Point k of the R2 sequence (Roberts 2018: the plastic number's Kronecker lattice, in 32-bit
-// fixed point so that the index never loses precision), shifted per surface point by a
-// number of its key and `salt` alone (Cranley-Patterson rotation). The shift draws from the
-// scale-invariant position key (random.glsl), as every other number.
-vec2 lattice_random(uint k, int salt) {
+// fixed point so that the index never loses precision), shifted by `salt`'s number, the same
+// everywhere, and the pixel's `pixel_shift` (Cranley-Patterson rotation; above). With
+// PIXEL_SHIFTS_INDEPENDENT the shift is a number of the pixel's surface point's key and
+// `salt` alone, drawn from the scale-invariant position key (random.glsl) as every other one.
+vec2 lattice_random(uint k, int salt, uvec2 pixel_shift) {
+#ifdef PIXEL_SHIFTS_INDEPENDENT
     vec2 shift = random2(uvec4(pixel_key.x, pixel_key.y ^ pcg_hash(pixel_key.z), 0x9e3779b9u,
-                               uint(salt) ^ (uint(GATHER_SEED) << 20u)));
+                               gather_salt(salt)));
+#else
+    vec2 shift = random2(uvec4(0u, 0u, 0x9e3779b9u, gather_salt(salt)))
+                 + vec2(pixel_shift >> 8u) * (1.0 / 16777216.0);
+#endif
     uvec2 lattice = uvec2(k * 3242174889u, k * 2447445414u);  // k (1/g, 1/g^2) 2^32, g^3 = g + 1
     return fract(vec2(lattice >> 8u) * (1.0 / 16777216.0) + shift);
 }
@@ -219,7 +259,7 @@ vec2 lattice_random(uint k, int salt) {
 // converge faster than one over the square root of the count; the later bounces, whose
 // light is a smaller share, keep independent numbers.
 vec2 first_random(int path, int paths) {
-    return lattice_random(gather_index() * uint(paths) + uint(path), PATH_SALT);
+    return lattice_random(gather_index() * uint(paths) + uint(path), PATH_SALT, pixel_own_shift);
 }
 
 // trace_ray.glsl's spawning is the tracer's: nothing is spawned here.
@@ -536,6 +576,7 @@ int pixel_paths(ivec2 pixel) {
     vec3 p, view_dir, n;
     primary_surface(pixel, nm, p, view_dir, n);
     pixel_key = position_key(p);
+    set_pixel_shifts(pixel);
     int paths = max(u_diffuse_rays, 1);
 #ifdef DIFFUSE_FEEDBACK
     vec4 albedo_g = texelFetch(u_albedo, pixel, 0);
@@ -599,7 +640,8 @@ DiffusePath pixel_path(ivec2 pixel, int i) {
     // is averaged better than by as many independent directions. SHORT_PATHS_INDEPENDENT
     // (a measurement switch, tests/test_radiance_cache.py) draws independent ones.
     if (i >= pixel_full_paths)
-        xi = lattice_random(gather_index() * uint(MAX_SHORT_PATHS) + uint(i - pixel_full_paths), SHORT_FIRST_SALT);
+        xi = lattice_random(gather_index() * uint(MAX_SHORT_PATHS) + uint(i - pixel_full_paths), SHORT_FIRST_SALT,
+                            pixel_short_shift);
 #endif
     // The glossy lobe's direction: a visible-normal sample of its GGX lobe, as the
     // tracer samples the traced ones (weight 1: split.glossy_local is the lobe's albedo).

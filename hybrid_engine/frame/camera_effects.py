@@ -91,7 +91,7 @@ def lens_camera(camera: Camera, lens: ThinLens, point: tuple[float, float]) -> C
     view = move @ camera.view_matrix()
     window = camera.projection_matrix() @ shear
     return LensView(world_to_view=view, window=window, width=int(camera.width), height=int(camera.height),
-                    lens_center=np.asarray(camera.center, np.float64))
+                    pixel_origin=camera.pixel_origin, lens_center=np.asarray(camera.center, np.float64))
 
 
 def moved_camera(camera: Camera, matrix_world: np.ndarray) -> Camera:
@@ -101,7 +101,8 @@ def moved_camera(camera: Camera, matrix_world: np.ndarray) -> Camera:
     view = view_from_world(matrix_world)
     if np.array_equal(view, current):
         return camera
-    return ViewportView.from_matrices(view, camera.projection_matrix(), camera.width, camera.height)
+    return ViewportView.from_matrices(view, camera.projection_matrix(), camera.width, camera.height,
+                                      camera.pixel_origin)
 
 
 @dataclass(frozen=True)

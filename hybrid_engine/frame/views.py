@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..scene import matrix4
-from ..scene.camera import Camera
+from ..scene.camera import Camera, checked_pixel_origin
 from .film import FilmError
 
 # window_matrix[3, 3] is 1 for an orthographic projection and 0 for a perspective one; Blender
@@ -97,12 +97,16 @@ class ViewportView(Camera):
         object.__setattr__(self, "clip_end", float(far))
         object.__setattr__(self, "width", int(self.width))
         object.__setattr__(self, "height", int(self.height))
+        object.__setattr__(self, "pixel_origin", checked_pixel_origin(self.pixel_origin))
 
     @classmethod
-    def from_matrices(cls, view_matrix, window_matrix, width: int, height: int) -> "ViewportView":
+    def from_matrices(cls, view_matrix, window_matrix, width: int, height: int,
+                      pixel_origin: tuple[int, int] = (0, 0)) -> "ViewportView":
         """The region's view: ``view_matrix``/``window_matrix`` as numpy or mathutils matrices,
-        ``width`` x ``height`` the pixels to render."""
-        return cls(world_to_view=view_matrix, window=window_matrix, width=int(width), height=int(height))
+        ``width`` x ``height`` the pixels to render; ``pixel_origin``: where its pixel (0, 0)
+        lies in the whole view's pixels (``Camera.pixel_origin``)."""
+        return cls(world_to_view=view_matrix, window=window_matrix, width=int(width), height=int(height),
+                   pixel_origin=pixel_origin)
 
     # -- Camera interface ------------------------------------------------------------------
     def view_matrix(self) -> np.ndarray:
@@ -124,8 +128,11 @@ class ViewportView(Camera):
 
     # -- derived views ---------------------------------------------------------------------
     def resized(self, width: int, height: int) -> "ViewportView":
-        """The same projection rendered at another pixel size (NDC does not depend on it)."""
-        return ViewportView.from_matrices(self.world_to_view, self.window, width, height)
+        """The same projection rendered at another pixel size (NDC does not depend on it); its
+        pixel origin scales with the width and height."""
+        x0, y0 = self.pixel_origin
+        origin = (round(x0 * int(width) / self.width), round(y0 * int(height) / self.height))
+        return ViewportView.from_matrices(self.world_to_view, self.window, width, height, origin)
 
     def scaled(self, scale: float) -> "ViewportView":
         """The view at ``viewport_scale`` of its resolution (see ``render_size``)."""
@@ -139,7 +146,8 @@ class ViewportView(Camera):
         if not (0 <= x0 < x1 <= self.width and 0 <= y0 < y1 <= self.height):
             raise ViewportError(f"crop {rect} lies outside the {self.width}x{self.height} view")
         return ViewportView.from_matrices(
-            self.world_to_view, crop_projection(self.window, rect, self.width, self.height), x1 - x0, y1 - y0)
+            self.world_to_view, crop_projection(self.window, rect, self.width, self.height), x1 - x0, y1 - y0,
+            (self.pixel_origin[0] + x0, self.pixel_origin[1] + y0))
 
 
 def render_size(width: int, height: int, scale: float) -> tuple[int, int]:
@@ -229,7 +237,10 @@ def cropped_camera(camera: Camera, rect: tuple[float, float, float, float], widt
     projection cropped (``crop_projection``). A render region and a sub-pixel
     sample (antialias.py) are both such crops."""
     window = crop_projection(camera.projection_matrix(), rect, camera.width, camera.height)
-    return ViewportView.from_matrices(camera.view_matrix(), window, width, height)
+    # The whole frame's pixel nearest the crop's first: a sub-pixel sample keeps its pixel.
+    x0, y0 = (math.floor(float(v) + 0.5) for v in rect[:2])
+    origin = (camera.pixel_origin[0] + x0, camera.pixel_origin[1] + y0)
+    return ViewportView.from_matrices(camera.view_matrix(), window, width, height, origin)
 
 
 def region_camera(camera: Camera, rect: tuple[int, int, int, int]) -> Camera:

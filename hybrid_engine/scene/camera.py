@@ -22,6 +22,18 @@ def _identity() -> np.ndarray:
     return np.eye(4, dtype=np.float64)
 
 
+def checked_pixel_origin(value) -> tuple[int, int]:
+    """A ``Camera.pixel_origin`` as two ints; CameraError for anything else."""
+    try:
+        x, y = value
+        origin = (int(x), int(y))
+    except (TypeError, ValueError) as error:
+        raise CameraError(f"pixel origin must be two whole numbers, got {value!r}") from error
+    if origin != (x, y):
+        raise CameraError(f"pixel origin must be two whole numbers, got {value!r}")
+    return origin
+
+
 @dataclass(frozen=True)
 class Camera:
     """A Blender camera reduced to plain numbers (see module docstring)."""
@@ -41,6 +53,11 @@ class Camera:
     ortho_scale: float = 6.0
     pixel_aspect_x: float = 1.0
     pixel_aspect_y: float = 1.0
+    # Where this image's pixel (0, 0) lies among the whole frame's pixels: (0, 0) for a whole
+    # frame; a render region's or a sub-pixel sample's corner (frame/views.py
+    # cropped_camera). What is keyed by the screen (the traced diffuse light's interleaved
+    # first directions, diffuse_gather.comp.glsl) is then the same in a region as in the frame.
+    pixel_origin: tuple[int, int] = (0, 0)
 
     def __post_init__(self) -> None:
         m = np.asarray(self.matrix_world, np.float64)
@@ -59,6 +76,7 @@ class Camera:
             raise CameraError(f"focal length must be positive, got {self.lens}")
         if self.sensor_fit not in ("AUTO", "HORIZONTAL", "VERTICAL"):
             raise CameraError(f"unknown sensor fit {self.sensor_fit!r}")
+        object.__setattr__(self, "pixel_origin", checked_pixel_origin(self.pixel_origin))
 
     # -- world placement -------------------------------------------------------------------
     @property

@@ -51,12 +51,15 @@ class RasterView:
     # World to camera space as Cycles' Texture Coordinate Camera output gives it (+Z in front
     # of the camera); None for views that are no camera (the cube-map faces).
     world_to_camera: np.ndarray | None = None
+    # Where pixel (0, 0) lies in the whole frame's pixels (Camera.pixel_origin).
+    pixel_origin: tuple[int, int] = (0, 0)
 
     @classmethod
     def from_camera(cls, camera: Camera) -> "RasterView":
         to_camera = np.diag([1.0, 1.0, -1.0, 1.0]) @ camera.view_matrix()
         return cls(camera.view_projection(), camera.position, camera.forward,
-                   camera.projection == "ORTHO", int(camera.width), int(camera.height), to_camera)
+                   camera.projection == "ORTHO", int(camera.width), int(camera.height), to_camera,
+                   tuple(camera.pixel_origin))
 
     def view_proj_bytes(self) -> bytes:
         """The view-projection as a GLSL mat4 (passes that project points into the view)."""
@@ -71,6 +74,7 @@ class RasterView:
             "u_camera_forward": tuple(np.asarray(self.forward, float)),
             "u_orthographic": int(self.orthographic),
             "u_size": (self.width, self.height),
+            "u_pixel_origin": tuple(int(v) for v in self.pixel_origin),
             # random.glsl's position keys: cells a fraction of this view's pixel.
             "u_key_eye": tuple(np.asarray(self.position, float)),
             "u_key_pixel": axis_pixel(self.view_proj, self.height, self.orthographic),

@@ -39,7 +39,7 @@ that a reference of a few hundred frames holds thousands of paths per pixel. A 2
 reference of one path per frame still carries grain of about 2 % per pixel, which alone
 scores FLIP 0.015-0.02 against a perfect image.
 ``--realizations N`` averages the still figures over N sets of the diffuse gather's numbers
-(its GATHER_SEED measurement switch, 0 to N - 1; ``still_denoised_each`` lists each): one
+(the diffuse light pass's ``gather_seed``, 0 to N - 1; ``still_denoised_each`` lists each): one
 set's figure after 8 samples strays by some 0.002 from another's, as much as many a change
 to the light's sampling moves it.
 ``--cache`` keeps the references in an npz file (keyed by size, rays and sample counts), so
@@ -216,26 +216,24 @@ def still_figures(width: int, height: int, truth: np.ndarray, scene: SceneData,
                   settings: RenderSettings, scene_name: str = "room", seed: int = 0) -> tuple[dict, dict, dict, "object"]:
     """FLIP of the still view's viewport mean (denoised, and not) at STILL_SAMPLES, and the
     denoised mean's block_error; returns the denoised viewport's renderer, its history warm,
-    for the moving run. ``seed``: the diffuse gather's numbers (its GATHER_SEED measurement
-    switch; 0 the product's)."""
+    for the moving run. ``seed``: the diffuse gather's numbers (the diffuse light pass's
+    ``gather_seed``; 0 the product's)."""
     from hybrid_engine.frame.renderer import Renderer
-    from hybrid_engine.gpu import shader_loader
 
     camera = camera_at(0.0, width, height, scene_name)
     still, undenoised, blocks = {}, {}, {}
-    with shader_loader.compiled_with({"GATHER_SEED": int(seed)} if seed else {}):
-        viewport, plain = Renderer(), Renderer()
-        try:
-            for i in range(max(STILL_SAMPLES)):
-                image = viewport.render(scene, camera, settings, sample=i, reuse_world=i > 0, accumulate=True,
-                                        denoise=True).image
-                raw = plain.render(scene, camera, settings, sample=i, reuse_world=i > 0, accumulate=True).image
-                if i + 1 in STILL_SAMPLES:
-                    still[i + 1] = round(flip_mean(truth, image[..., :3]), 4)
-                    undenoised[i + 1] = round(flip_mean(truth, raw[..., :3]), 4)
-                    blocks[i + 1] = round(block_error(truth, image), 4)
-        finally:
-            plain.release()
+    viewport, plain = Renderer(gather_seed=seed), Renderer(gather_seed=seed)
+    try:
+        for i in range(max(STILL_SAMPLES)):
+            image = viewport.render(scene, camera, settings, sample=i, reuse_world=i > 0, accumulate=True,
+                                    denoise=True).image
+            raw = plain.render(scene, camera, settings, sample=i, reuse_world=i > 0, accumulate=True).image
+            if i + 1 in STILL_SAMPLES:
+                still[i + 1] = round(flip_mean(truth, image[..., :3]), 4)
+                undenoised[i + 1] = round(flip_mean(truth, raw[..., :3]), 4)
+                blocks[i + 1] = round(block_error(truth, image), 4)
+    finally:
+        plain.release()
     return still, undenoised, blocks, viewport
 
 

@@ -207,7 +207,7 @@ def test_a_frames_short_paths_cover_the_hemisphere_evenly(renderer, bounce_lit, 
     # many independent directions (SHORT_PATHS_INDEPENDENT, a measurement switch), in one
     # frame (the second: 16 short paths here) and over frames 2-7 of the raw gather; the
     # light they converge to is the same. Each error is the mean over four sets of the
-    # gather's numbers (GATHER_SEED): one set's ratio strays by some 0.02 from another's.
+    # gather's numbers (gather_seed): one set's ratio strays by some 0.02 from another's.
     from hybrid_engine.frame.renderer import Renderer
 
     monkeypatch.setattr(radiance_cache, "SHORT_PATHS", 32)
@@ -222,9 +222,8 @@ def test_a_frames_short_paths_cover_the_hemisphere_evenly(renderer, bounce_lit, 
     for independent in (False, True):
         runs = []
         for seed in range(4):
-            switches = {"GATHER_SEED": seed, **({"SHORT_PATHS_INDEPENDENT": 1} if independent else {})}
-            with shader_loader.compiled_with(switches):
-                variant = Renderer(renderer.ctx)
+            with shader_loader.compiled_with({"SHORT_PATHS_INDEPENDENT": 1} if independent else {}):
+                variant = Renderer(renderer.ctx, gather_seed=seed)
                 try:
                     frames = gathered(variant, scene, camera, 8, radiance_cache=True)
                 finally:

@@ -40,13 +40,11 @@
 //   DIFFUSE_NO_HISTORY only filled), SHORT_PATHS_INDEPENDENT (a measurement switch: the short
 //   paths' first directions independent, pixel_path), PIXEL_SHIFTS_INDEPENDENT (a
 //   measurement switch: each pixel's first directions shifted by numbers of its own, not
-//   interleaved with its neighbours', lattice_random), GATHER_SEED (a measurement switch: a
-//   whole number that makes every number of the paths another, gather_random and
-//   lattice_random; benchmarks/light_noise.py averages its figures over several).
+//   interleaved with its neighbours', lattice_random).
 // Storage blocks, uniform blocks, samplers: as trace/hybrid_trace.comp.glsl's contract lists
 //   them; CounterBuffer counts this kernel's rays per path vertex (tracer.COUNTER_KINDS);
 //   RadianceCache, with RADIANCE_CACHE.
-// Uniforms: trace_ray.glsl's, u_diffuse_bounces, u_diffuse_rays, u_pixel_origin.
+// Uniforms: trace_ray.glsl's, u_diffuse_bounces, u_diffuse_rays, u_pixel_origin, u_gather_seed.
 // Workgroup 8x8: neighbouring pixels' first rays start close together.
 #include "trace_ray.glsl"
 // Compiled only with EMITTER_LIGHT (some triangles emit).
@@ -194,13 +192,15 @@ uint gather_index() {
 #endif
 }
 
-#ifndef GATHER_SEED
-#define GATHER_SEED 0
-#endif
+// Which set of numbers the paths draw: 0 the product's; another whole number makes every
+// number of the paths another (gather_random, lattice_random), so that a measurement can
+// average its figures over several sets (benchmarks/light_noise.py --realizations). A
+// uniform, not a compile-time switch: every set runs the one compiled kernel.
+uniform int u_gather_seed;
 
-// The last word of the key of `salt`'s numbers: another set of every number for each GATHER_SEED.
+// The last word of the key of `salt`'s numbers: another set of every number for each seed.
 uint gather_salt(int salt) {
-    return uint(salt) ^ (uint(GATHER_SEED) << 20u);
+    return uint(salt) ^ (uint(u_gather_seed) << 20u);
 }
 
 // Two uniform numbers for `salt` of this pixel's paths (lobe_random's, at gather_index()).

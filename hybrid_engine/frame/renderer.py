@@ -170,7 +170,9 @@ class FrameResult:
 class Renderer:
     """The passes of a frame on the shared context; create once, call ``render`` every frame."""
 
-    def __init__(self, ctx=None) -> None:
+    def __init__(self, ctx=None, gather_seed: int = 0) -> None:
+        # gather_seed: which set of numbers the diffuse light's paths draw, 0 the product's
+        # (passes/diffuse_light/; a measurement averages its figures over several).
         self.ctx = ctx if ctx is not None else gl_context.get_context()
         self.gpu_scene = GPUScene(self.ctx)
         # The G-buffer and shadow passes draw the scene through one drawer (view_cull/draw.py).
@@ -200,6 +202,7 @@ class Renderer:
         self.lbvh: LBVHBuildPass | None = None
         self.tracer: HybridTracer | None = None
         self.diffuse_light: DiffuseLightPass | None = None
+        self.gather_seed = int(gather_seed)
         self.emitters: EmitterTablePass | None = None  # the emissive triangles as lights
         # What the last frame's cube map, cull and BVH were built for, and them
         # (render(reuse_world=True)).
@@ -273,7 +276,8 @@ class Renderer:
             self.culler = NearCubeCuller(self.ctx)
             self.lbvh = LBVHBuildPass(LBVHBuilder(self.ctx))
             self.tracer = HybridTracer(self.ctx)
-            self.diffuse_light = DiffuseLightPass(self.tracer, feedback=self._diffuse_feedback)
+            self.diffuse_light = DiffuseLightPass(self.tracer, feedback=self._diffuse_feedback,
+                                                  gather_seed=self.gather_seed)
             self.emitters = EmitterTablePass(self.ctx)
 
     def _diffuse_feedback(self):

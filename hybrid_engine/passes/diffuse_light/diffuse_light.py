@@ -92,7 +92,8 @@ class DiffuseLightPass:
 
     name = "shade"
 
-    def __init__(self, tracer: HybridTracer, feedback: Callable[[], Bindings | None] | None = None) -> None:
+    def __init__(self, tracer: HybridTracer, feedback: Callable[[], Bindings | None] | None = None,
+                 gather_seed: int = 0) -> None:
         self.tracer = tracer
         # Last frame's diffuse light where the camera saw it (the denoiser's history,
         # DenoisePass.feedback), or None: paths that end on such a surface take its light
@@ -106,6 +107,9 @@ class DiffuseLightPass:
         # The paths' world-space radiance cache (radiance_cache.py), made on the first
         # denoised frame that uses it; it lives as long as the denoiser's history.
         self.cache: RadianceCache | None = None
+        # Which set of numbers the paths draw (diffuse_gather.comp.glsl u_gather_seed): 0 the
+        # product's; a measurement takes others to average its figures over several.
+        self.gather_seed = int(gather_seed)
 
     def io(self, settings: RenderSettings) -> PassIO:
         return PassIO(reads=("scene", "scene_buffers", "world_triangles", "gbuffer", "lighting", "emitters", "delta",
@@ -158,7 +162,8 @@ class DiffuseLightPass:
             emitter_parts = (*emitter_parts, cache.bindings(height))
         uniforms = {**inputs.uniforms, "u_diffuse_bounces": int(settings.diffuse_bounces),
                     "u_diffuse_rays": int(settings.diffuse_rays),
-                    "u_short_history_paths": short_history_paths(settings.diffuse_rays)}
+                    "u_short_history_paths": short_history_paths(settings.diffuse_rays),
+                    "u_gather_seed": int(self.gather_seed)}
         persistent = variants.choose("gather", renderer=str(self.ctx.info.get("GL_RENDERER", ""))) == "gpu"
         if persistent:
             groups = persistent_groups(width, height)
